@@ -1,0 +1,1 @@
+//! Placeholder for the bonfiglioli tables and profile (filled in by the bonfiglioli work).

@@ -1,0 +1,34 @@
+//! Drive profiles for the drivebus workspace.
+//!
+//! * Parameter metadata generated from the vendor manuals ([`sew`], [`nord`], [`bonfiglioli`]),
+//!   with lookups by bus index, by menu/parameter number and by name, none of which allocate.
+//! * Scaling between raw bus values and physical values ([`scaling`], and per family: PNO
+//!   size/conversion index for SEW, resolution for NORD, decimals for Bonfiglioli).
+//! * Control and status words as typed bit sets and DRIVECOM-style state machines per family
+//!   ([`state`]).
+//!
+//! The crate is `no_std` without its default `std` feature.
+//!
+//! ```
+//! use drive_profile::scaling::{percent_from_word, percent_to_word};
+//! assert_eq!(percent_to_word(-100.0), Ok(0xC000));
+//! assert_eq!(percent_from_word(0x4000), 100.0);
+//! ```
+#![cfg_attr(not(feature = "std"), no_std)]
+#![warn(missing_docs)]
+#![cfg_attr(
+    not(test),
+    warn(clippy::unwrap_used, clippy::expect_used, clippy::indexing_slicing, clippy::panic)
+)]
+
+pub mod bonfiglioli;
+#[allow(missing_docs, clippy::all)]
+#[rustfmt::skip]
+pub mod generated;
+pub mod nord;
+pub mod param;
+pub mod scaling;
+pub mod sew;
+pub mod state;
+
+pub use param::{Access, Family, ParamMeta, ValueName};

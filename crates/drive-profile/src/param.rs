@@ -1,0 +1,322 @@
+//! Family-independent parameter metadata: access flags, value lists and the [`ParamMeta`] view
+//! that `drivectl`, the simulated drives and the write guard use for every family.
+
+use core::fmt;
+
+/// The drive families drivebus knows.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[non_exhaustive]
+pub enum Family {
+    /// SEW MOVIDRIVE (MOVILINK, SBus).
+    Movidrive,
+    /// NORD NORDAC LINK (CTT2 over AS-i, USS).
+    Nord,
+    /// Bonfiglioli ACTIVE / ACTIVE Cube (Modbus).
+    Bonfiglioli,
+}
+
+impl Family {
+    /// Every family, in a stable order.
+    pub const ALL: [Family; 3] = [Family::Movidrive, Family::Nord, Family::Bonfiglioli];
+
+    /// The lowercase name used on the command line.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Family::Movidrive => "movidrive",
+            Family::Nord => "nord",
+            Family::Bonfiglioli => "bonfiglioli",
+        }
+    }
+
+    /// Parse a command-line name (case-insensitive; `sew` is accepted for MOVIDRIVE).
+    pub fn parse(s: &str) -> Option<Family> {
+        let eq = |a: &str| s.eq_ignore_ascii_case(a);
+        if eq("movidrive") || eq("sew") {
+            Some(Family::Movidrive)
+        } else if eq("nord") {
+            Some(Family::Nord)
+        } else if eq("bonfiglioli") || eq("act") || eq("acu") {
+            Some(Family::Bonfiglioli)
+        } else {
+            None
+        }
+    }
+}
+
+impl fmt::Display for Family {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// Access attributes of a parameter, as flags.
+///
+/// SEW's table prints them as `S`, `RO`, `R`, `RW`, `N` joined by `/`; the other families map
+/// their own attributes onto the same flags.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub struct Access(u8);
+
+impl Access {
+    /// No flag.
+    pub const NONE: Access = Access(0);
+    /// `S`: may be stored even while the parameter lock is active.
+    pub const STORE_LOCKED: Access = Access(1 << 0);
+    /// `RO`: read-only.
+    pub const READ_ONLY: Access = Access(1 << 1);
+    /// `R`: writing needs controller inhibit (drive not enabled).
+    pub const NEEDS_INHIBIT: Access = Access(1 << 2);
+    /// `RW`: read/write.
+    pub const READ_WRITE: Access = Access(1 << 3);
+    /// `N`: the value is copied from EEPROM into RAM at restart (non-volatile).
+    pub const NON_VOLATILE: Access = Access(1 << 4);
+    /// Bonfiglioli: not writable while the drive is running.
+    pub const NOT_IN_OPERATION: Access = Access(1 << 5);
+    /// Bonfiglioli: exists once per data set (1…4).
+    pub const DATA_SET: Access = Access(1 << 6);
+
+    const NAMES: [(Access, &'static str); 7] = [
+        (Access::NON_VOLATILE, "N"),
+        (Access::STORE_LOCKED, "S"),
+        (Access::NEEDS_INHIBIT, "R"),
+        (Access::READ_ONLY, "RO"),
+        (Access::READ_WRITE, "RW"),
+        (Access::NOT_IN_OPERATION, "NOP"),
+        (Access::DATA_SET, "DS"),
+    ];
+
+    /// The raw bits.
+    pub const fn bits(self) -> u8 {
+        self.0
+    }
+
+    /// Build from raw bits (unknown bits are dropped).
+    pub const fn from_bits_truncate(bits: u8) -> Access {
+        Access(bits & 0x7f)
+    }
+
+    /// Both flag sets combined.
+    #[must_use]
+    pub const fn union(self, other: Access) -> Access {
+        Access(self.0 | other.0)
+    }
+
+    /// Whether every flag of `other` is set.
+    pub const fn contains(self, other: Access) -> bool {
+        self.0 & other.0 == other.0
+    }
+
+    /// Whether the parameter can be written at all.
+    pub const fn is_writable(self) -> bool {
+        self.contains(Access::READ_WRITE) && !self.contains(Access::READ_ONLY)
+    }
+
+    /// Parse SEW's notation, e.g. `N/R/RW` (also `NOP` and `DS` for the other families).
+    pub fn parse(s: &str) -> Option<Access> {
+        let mut acc = Access::NONE;
+        for part in s.split('/') {
+            let part = part.trim();
+            let flag = Access::NAMES.iter().find(|(_, n)| *n == part)?.0;
+            acc = acc.union(flag);
+        }
+        Some(acc)
+    }
+}
+
+impl fmt::Debug for Access {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "Access({self})")
+    }
+}
+
+impl fmt::Display for Access {
+    /// SEW notation, e.g. `N/R/RW`.
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let mut first = true;
+        for (flag, name) in Access::NAMES {
+            if self.contains(flag) {
+                if !first {
+                    f.write_str("/")?;
+                }
+                f.write_str(name)?;
+                first = false;
+            }
+        }
+        Ok(())
+    }
+}
+
+/// One entry of a parameter's value list (e.g. P870 `9 = STEUERWORT 1` / control word 1).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ValueName {
+    /// The raw value.
+    pub value: i64,
+    /// The manual's German text.
+    pub de: &'static str,
+    /// The English text.
+    pub en: &'static str,
+}
+
+/// A family-independent view of one parameter's metadata.
+///
+/// Implemented by each family's generated parameter type. All methods are cheap and do not
+/// allocate; `to_physical` / `from_physical` apply the family's scaling.
+pub trait ParamMeta {
+    /// The family this parameter belongs to.
+    fn family(&self) -> Family;
+    /// The number shown to users: SEW menu number (`P813` → 813), NORD `P102` → 102,
+    /// Bonfiglioli parameter number. `None` for SEW rows without a menu number.
+    fn number(&self) -> Option<u16>;
+    /// The address used on the bus: SEW index, NORD PNU, Bonfiglioli parameter number.
+    fn bus_index(&self) -> u16;
+    /// Array / sub-index, where the family has one (NORD arrays, Bonfiglioli data set 0).
+    fn sub_index(&self) -> Option<u16> {
+        None
+    }
+    /// German name as printed in the manual.
+    fn name_de(&self) -> &'static str;
+    /// English name.
+    fn name_en(&self) -> &'static str;
+    /// Unit the physical value is shown in (may be empty).
+    fn unit(&self) -> &'static str;
+    /// Access flags.
+    fn access(&self) -> Access;
+    /// Default (factory setting) as a raw value, where the manual gives one.
+    fn default_raw(&self) -> Option<i64>;
+    /// Smallest and largest raw value, where the manual gives a range.
+    fn raw_range(&self) -> Option<(i64, i64)>;
+    /// Range / meaning text as printed (German).
+    fn range_de(&self) -> &'static str;
+    /// Range / meaning text in English.
+    fn range_en(&self) -> &'static str;
+    /// Value list, where the manual gives one (empty otherwise).
+    fn values(&self) -> &'static [ValueName] {
+        &[]
+    }
+    /// Decimal places worth showing for the physical value.
+    fn decimals(&self) -> u8;
+    /// Raw bus value → physical value in [`ParamMeta::unit`].
+    fn to_physical(&self, raw: i64) -> f64;
+    /// Physical value in [`ParamMeta::unit`] → raw bus value (rounded to the nearest step).
+    fn from_physical(&self, value: f64) -> Result<i64, crate::scaling::ScaleError>;
+
+    /// Write a one-line, family-specific description of the scaling, e.g.
+    /// `size index 11 (speed), conversion index 66 (A = 1.667e-5, B = 0)` or
+    /// `resolution 0.01 s` or `2 decimals, Int`.
+    fn describe_scaling(&self, f: &mut dyn fmt::Write) -> fmt::Result {
+        let _ = f;
+        Ok(())
+    }
+
+    /// Whether `raw` lies within [`ParamMeta::raw_range`] (true when no range is known).
+    fn in_range(&self, raw: i64) -> bool {
+        self.raw_range().is_none_or(|(lo, hi)| raw >= lo && raw <= hi)
+    }
+
+    /// Whether `term` occurs in the German or English name, ignoring case.
+    fn name_matches(&self, term: &str) -> bool {
+        contains_ignore_case(self.name_de(), term) || contains_ignore_case(self.name_en(), term)
+    }
+
+    /// The value list entry for `raw`, if any.
+    fn value_name(&self, raw: i64) -> Option<&'static ValueName> {
+        self.values().iter().find(|v| v.value == raw)
+    }
+}
+
+/// Case-insensitive substring search without allocation (Unicode simple lowercase).
+pub fn contains_ignore_case(haystack: &str, needle: &str) -> bool {
+    if needle.is_empty() {
+        return true;
+    }
+    let mut starts = haystack.char_indices().map(|(i, _)| i);
+    starts.any(|i| {
+        let rest = haystack.get(i..).unwrap_or("");
+        let mut h = rest.chars().flat_map(char::to_lowercase);
+        needle.chars().flat_map(char::to_lowercase).all(|n| h.next() == Some(n))
+    })
+}
+
+/// A fixed-capacity label such as `P813` or `P080.3`, built without allocation.
+#[derive(Clone, Copy, PartialEq, Eq)]
+pub struct Label {
+    buf: [u8; 16],
+    len: u8,
+}
+
+impl Label {
+    /// Format `args` into a label (truncated at 16 bytes, on a character boundary).
+    pub fn new(args: fmt::Arguments<'_>) -> Label {
+        let mut l = Label { buf: [0; 16], len: 0 };
+        let _ = fmt::write(&mut l, args);
+        l
+    }
+
+    /// The label text.
+    pub fn as_str(&self) -> &str {
+        let bytes = self.buf.get(..usize::from(self.len)).unwrap_or(&[]);
+        core::str::from_utf8(bytes).unwrap_or("")
+    }
+}
+
+impl fmt::Write for Label {
+    fn write_str(&mut self, s: &str) -> fmt::Result {
+        for c in s.chars() {
+            let mut tmp = [0u8; 4];
+            let enc = c.encode_utf8(&mut tmp).as_bytes();
+            let start = usize::from(self.len);
+            let end = start + enc.len();
+            match self.buf.get_mut(start..end) {
+                Some(dst) => {
+                    dst.copy_from_slice(enc);
+                    self.len = end as u8;
+                }
+                None => return Err(fmt::Error),
+            }
+        }
+        Ok(())
+    }
+}
+
+impl fmt::Display for Label {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
+impl fmt::Debug for Label {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{:?}", self.as_str())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn access_round_trips_sew_notation() {
+        for s in ["RO", "N/RO", "N/R/RW", "N/S/RW", "RW", "R/RW"] {
+            let a = Access::parse(s).unwrap();
+            assert_eq!(a.to_string(), s);
+        }
+        assert!(Access::parse("XX").is_none());
+        assert!(Access::parse("N/RW").unwrap().is_writable());
+        assert!(!Access::parse("N/RO").unwrap().is_writable());
+    }
+
+    #[test]
+    fn search_ignores_case_beyond_ascii() {
+        assert!(contains_ignore_case("Kühlkörpertemperatur", "KÜHL"));
+        assert!(contains_ignore_case("SBus Adresse", "bus adr"));
+        assert!(!contains_ignore_case("Drehzahl", "zahlen"));
+        assert!(contains_ignore_case("x", ""));
+    }
+
+    #[test]
+    fn labels_format_without_allocation() {
+        let l = Label::new(format_args!("P{:03}", 13));
+        assert_eq!(l.as_str(), "P013");
+        let long = Label::new(format_args!("{}", "abcdefghijklmnopqrstuvwxyz"));
+        assert_eq!(long.as_str(), "abcdefghijklmnop");
+    }
+}

@@ -1,0 +1,1 @@
+//! Placeholder for the sew tables and profile (filled in by the sew work).

@@ -1,0 +1,1 @@
+//! Simulated drives (filled in by the drive-sim work).

@@ -1,0 +1,1 @@
+//! Transports (filled in by the drive-transport work).

@@ -1,0 +1,35 @@
+//! `cargo xtask`: workspace automation.
+//!
+//! * `cargo xtask codegen` validates every CSV under `crates/drive-profile/data/` and writes
+//!   the Rust tables to `crates/drive-profile/src/generated/`.
+//! * `cargo xtask codegen --check` does the same in memory and fails when the committed
+//!   output differs (CI runs it; a `#[test]` in this crate runs it too).
+
+use std::process::ExitCode;
+
+fn main() -> ExitCode {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
+    match args.as_slice() {
+        ["codegen"] => run(false),
+        ["codegen", "--check"] => run(true),
+        _ => {
+            eprintln!("usage: cargo xtask codegen [--check]");
+            ExitCode::from(2)
+        }
+    }
+}
+
+fn run(check: bool) -> ExitCode {
+    let root = xtask::workspace_root();
+    match xtask::codegen(&root, check) {
+        Ok(report) => {
+            println!("{report}");
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
