@@ -1,0 +1,43 @@
+//! The command-line error: one line for the user, and an exit code.
+
+use std::fmt;
+
+/// What went wrong, phrased for the user: what failed and what to try.
+#[derive(Debug)]
+pub struct CliError {
+    message: String,
+    code: u8,
+}
+
+impl CliError {
+    /// A usage error (bad argument, unknown family or parameter): exit code 2.
+    pub fn usage(message: impl Into<String>) -> Self {
+        CliError { message: message.into(), code: 2 }
+    }
+
+    /// A failure while doing the work (I/O, device, timeout): exit code 1.
+    pub fn failed(message: impl Into<String>) -> Self {
+        CliError { message: message.into(), code: 1 }
+    }
+
+    /// The process exit code.
+    pub fn exit_code(&self) -> u8 {
+        self.code
+    }
+}
+
+impl fmt::Display for CliError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        // Keep it to one line whatever the source said.
+        f.write_str(&self.message.replace('\n', " "))
+    }
+}
+
+impl From<std::io::Error> for CliError {
+    fn from(e: std::io::Error) -> Self {
+        CliError::failed(format!("i/o error: {e}"))
+    }
+}
+
+/// Result alias of the command-line tool.
+pub type Result<T> = std::result::Result<T, CliError>;

@@ -1,0 +1,255 @@
+//! `drivectl params <family> [--search TERM] [--json]` and `params <family> show <P|index>`.
+
+use crate::error::{CliError, Result};
+use clap::{Args, Subcommand};
+use drive_profile::{bonfiglioli, nord, sew, Family, ParamMeta};
+use serde_json::{json, Value};
+use std::fmt::Write as _;
+
+/// Arguments of `drivectl params`.
+#[derive(Debug, Args)]
+pub struct ParamsArgs {
+    /// Drive family: movidrive (sew), nord or bonfiglioli.
+    family: String,
+    /// Only parameters whose German or English name contains TERM (case-insensitive).
+    #[arg(long, value_name = "TERM")]
+    search: Option<String>,
+    /// One JSON object per parameter instead of a table.
+    #[arg(long, global = true)]
+    json: bool,
+    #[command(subcommand)]
+    action: Option<ParamsAction>,
+}
+
+#[derive(Debug, Subcommand)]
+enum ParamsAction {
+    /// Show one parameter in full: P-number (P813, 813) or bus index (8600, 0x2198).
+    Show {
+        /// P-number or bus index.
+        param: String,
+    },
+}
+
+/// Parse a family name as given on the command line.
+pub fn parse_family(s: &str) -> Result<Family> {
+    Family::parse(s).ok_or_else(|| {
+        CliError::usage(format!(
+            "unknown drive family `{s}`; use one of: movidrive (or sew), nord, bonfiglioli"
+        ))
+    })
+}
+
+/// Every parameter of `family`, in table order.
+pub fn all(family: Family) -> Vec<&'static dyn ParamMeta> {
+    match family {
+        Family::Movidrive => sew::params().iter().map(|p| p as &dyn ParamMeta).collect(),
+        Family::Nord => nord::params().iter().map(|p| p as &dyn ParamMeta).collect(),
+        Family::Bonfiglioli => bonfiglioli::params().iter().map(|p| p as &dyn ParamMeta).collect(),
+        _ => Vec::new(),
+    }
+}
+
+/// Look up one parameter by P-number or bus index.
+pub fn lookup(family: Family, key: &str) -> Result<&'static dyn ParamMeta> {
+    let found: Option<&'static dyn ParamMeta> = match family {
+        Family::Movidrive => sew::lookup(key).map(|p| p as &dyn ParamMeta),
+        Family::Nord => nord::lookup(key).map(|p| p as &dyn ParamMeta),
+        Family::Bonfiglioli => bonfiglioli::lookup(key).map(|p| p as &dyn ParamMeta),
+        _ => None,
+    };
+    found.ok_or_else(|| {
+        CliError::usage(format!(
+            "no {family} parameter `{key}`; try `drivectl params {family} --search NAME` to find it"
+        ))
+    })
+}
+
+/// The label users know a parameter by: `P813`, `P700[-02]`, `1376`.
+pub fn label(p: &dyn ParamMeta) -> String {
+    let number = match (p.family(), p.number()) {
+        (Family::Movidrive, Some(n)) => format!("P{n:03}"),
+        (Family::Movidrive, None) => "-".to_owned(),
+        (Family::Nord, Some(n)) => format!("P{n}"),
+        (_, Some(n)) => n.to_string(),
+        (_, None) => "-".to_owned(),
+    };
+    match (p.family(), p.sub_index()) {
+        (Family::Nord, Some(s)) => format!("{number}[-{s:02}]"),
+        _ => number,
+    }
+}
+
+/// Format a physical value with the parameter's decimals and unit.
+pub fn physical_text(p: &dyn ParamMeta, raw: i64) -> String {
+    let v = p.to_physical(raw);
+    let d = usize::from(p.decimals());
+    let mut s = format!("{v:.d$}");
+    if !p.unit().is_empty() {
+        s.push(' ');
+        s.push_str(p.unit());
+    }
+    if let Some(name) = p.value_name(raw) {
+        let _ = write!(s, " ({})", name.en);
+    }
+    s
+}
+
+fn scaling_text(p: &dyn ParamMeta) -> String {
+    let mut s = String::new();
+    let _ = p.describe_scaling(&mut s);
+    s
+}
+
+/// The JSON object describing a parameter.
+pub fn to_json(p: &dyn ParamMeta) -> Value {
+    let range = p.raw_range().map(|(lo, hi)| {
+        json!({
+            "min": lo, "max": hi,
+            "min_value": p.to_physical(lo), "max_value": p.to_physical(hi),
+        })
+    });
+    let values: Vec<Value> = p
+        .values()
+        .iter()
+        .map(|v| json!({"value": v.value, "de": v.de, "en": v.en}))
+        .collect();
+    json!({
+        "family": p.family().name(),
+        "number": label(p),
+        "index": p.bus_index(),
+        "sub_index": p.sub_index(),
+        "name_de": p.name_de(),
+        "name_en": p.name_en(),
+        "unit": p.unit(),
+        "access": p.access().to_string(),
+        "default": p.default_raw(),
+        "default_value": p.default_raw().map(|d| p.to_physical(d)),
+        "range": range,
+        "range_de": p.range_de(),
+        "range_en": p.range_en(),
+        "scaling": scaling_text(p),
+        "values": values,
+    })
+}
+
+/// Run `drivectl params`.
+pub fn run(args: &ParamsArgs) -> Result<()> {
+    let family = parse_family(&args.family)?;
+    match &args.action {
+        Some(ParamsAction::Show { param }) => show(family, param, args.json),
+        None => list(family, args.search.as_deref(), args.json),
+    }
+}
+
+fn list(family: Family, search: Option<&str>, json: bool) -> Result<()> {
+    let params: Vec<_> = all(family)
+        .into_iter()
+        .filter(|p| search.is_none_or(|t| p.name_matches(t)))
+        .collect();
+    if params.is_empty() {
+        if let Some(t) = search {
+            return Err(CliError::usage(format!(
+                "no {family} parameter name contains `{t}` (German or English); try a shorter term"
+            )));
+        }
+    }
+    let mut out = String::new();
+    if json {
+        for p in &params {
+            let _ = writeln!(out, "{}", to_json(*p));
+        }
+    } else {
+        let _ = writeln!(
+            out,
+            "{:<10} {:>6}  {:<34} {:<34} {:<7} {:<8} {:>10}  range",
+            "number", "index", "name (de)", "name (en)", "unit", "access", "default"
+        );
+        for p in &params {
+            let default = p.default_raw().map(|d| trim_float(p.to_physical(d), p.decimals()));
+            let range = p.raw_range().map(|(lo, hi)| {
+                format!(
+                    "{} … {}",
+                    trim_float(p.to_physical(lo), p.decimals()),
+                    trim_float(p.to_physical(hi), p.decimals())
+                )
+            });
+            let _ = writeln!(
+                out,
+                "{:<10} {:>6}  {:<34} {:<34} {:<7} {:<8} {:>10}  {}",
+                label(*p),
+                p.bus_index(),
+                clip(p.name_de(), 34),
+                clip(p.name_en(), 34),
+                p.unit(),
+                p.access().to_string(),
+                default.unwrap_or_default(),
+                range.unwrap_or_else(|| clip(p.range_en(), 40)),
+            );
+        }
+        let _ = writeln!(out, "{} parameters", params.len());
+    }
+    print!("{out}");
+    Ok(())
+}
+
+fn show(family: Family, key: &str, json: bool) -> Result<()> {
+    let p = lookup(family, key)?;
+    if json {
+        println!("{}", to_json(p));
+        return Ok(());
+    }
+    let mut out = String::new();
+    let _ = writeln!(out, "{} {} / {}", label(p), p.name_de(), p.name_en());
+    let _ = writeln!(out, "  family     {}", p.family());
+    let _ = writeln!(out, "  index      {} (0x{:04X})", p.bus_index(), p.bus_index());
+    if let Some(s) = p.sub_index() {
+        let _ = writeln!(out, "  sub-index  {s}");
+    }
+    let _ = writeln!(out, "  unit       {}", if p.unit().is_empty() { "-" } else { p.unit() });
+    let _ = writeln!(out, "  scaling    {}", scaling_text(p));
+    let _ = writeln!(out, "  access     {}", p.access());
+    if let Some(d) = p.default_raw() {
+        let _ = writeln!(out, "  default    {} (raw {d})", physical_text(p, d));
+    }
+    if let Some((lo, hi)) = p.raw_range() {
+        let _ = writeln!(
+            out,
+            "  range      {} … {} (raw {lo} … {hi})",
+            physical_text(p, lo),
+            physical_text(p, hi)
+        );
+    }
+    if !p.range_de().is_empty() {
+        let _ = writeln!(out, "  meaning    {}", p.range_en());
+        let _ = writeln!(out, "  (de)       {}", p.range_de());
+    }
+    if !p.values().is_empty() {
+        let _ = writeln!(out, "  values");
+        for v in p.values() {
+            let _ = writeln!(out, "    {:>6} = {} ({})", v.value, v.en, v.de);
+        }
+    }
+    print!("{out}");
+    Ok(())
+}
+
+/// A float with at most `decimals` places and no trailing zeros.
+pub fn trim_float(v: f64, decimals: u8) -> String {
+    let d = usize::from(decimals);
+    let s = format!("{v:.d$}");
+    if s.contains('.') {
+        s.trim_end_matches('0').trim_end_matches('.').to_owned()
+    } else {
+        s
+    }
+}
+
+fn clip(s: &str, n: usize) -> String {
+    if s.chars().count() <= n {
+        s.to_owned()
+    } else {
+        let mut t: String = s.chars().take(n.saturating_sub(1)).collect();
+        t.push('…');
+        t
+    }
+}
