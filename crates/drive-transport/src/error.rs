@@ -1,0 +1,122 @@
+//! The error type of every fallible operation in this crate.
+
+use std::io;
+
+/// Why opening or configuring a transport failed.
+///
+/// Every variant that concerns a device names its path, and where the user can do something
+/// about it, a `hint` says what to try. Messages are lowercase and carry no full stop so that
+/// they compose with context added by callers.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum TransportError {
+    /// The device path does not exist.
+    #[error(
+        "serial port {path} not found (check the device name, e.g. /dev/ttyUSB0, and that the adapter is plugged in)"
+    )]
+    NotFound {
+        /// The path that was tried.
+        path: String,
+    },
+
+    /// The process may not open the device.
+    #[error("permission denied opening {path}: {hint}")]
+    PermissionDenied {
+        /// The path that was tried.
+        path: String,
+        /// What to do about it.
+        hint: String,
+    },
+
+    /// The device is already opened exclusively by another program.
+    #[error("{path} is busy: {hint}")]
+    Busy {
+        /// The path that was tried.
+        path: String,
+        /// What to do about it.
+        hint: String,
+    },
+
+    /// The device refused a setting, or accepted it but did not apply it.
+    #[error("{path} does not support {setting}: {hint}")]
+    Unsupported {
+        /// The refused setting, e.g. `"parity even"`, `"baud 250000"`, `"RS-485 mode"`.
+        setting: String,
+        /// The device path.
+        path: String,
+        /// What to try instead.
+        hint: String,
+    },
+
+    /// A configuration value is out of range before any device was touched.
+    #[error("invalid {setting}: {reason}")]
+    InvalidConfig {
+        /// The setting, e.g. `"data bits"`.
+        setting: String,
+        /// Why the value is invalid and which values are allowed.
+        reason: String,
+    },
+
+    /// Applying a setting failed for a reason other than the device refusing it.
+    #[error("failed to apply {setting} on {path}: {source}")]
+    Setting {
+        /// The setting being applied.
+        setting: String,
+        /// The device path.
+        path: String,
+        /// The underlying operating-system error.
+        #[source]
+        source: io::Error,
+    },
+
+    /// Opening the device failed for a reason not covered by a more specific variant.
+    #[error("cannot open {path}: {source}")]
+    Open {
+        /// The device path.
+        path: String,
+        /// The underlying error.
+        #[source]
+        source: io::Error,
+    },
+
+    /// Creating or configuring a pseudo-terminal failed.
+    #[error("pseudo-terminal: {operation} failed: {source}")]
+    Pty {
+        /// The operation that failed, e.g. `"posix_openpt"`.
+        operation: &'static str,
+        /// The underlying operating-system error.
+        #[source]
+        source: io::Error,
+    },
+
+    /// An I/O error that fits no other variant.
+    #[error("i/o error: {0}")]
+    Io(#[from] io::Error),
+}
+
+impl TransportError {
+    /// The [`io::ErrorKind`] that best describes this error, for callers that must return
+    /// `std::io::Error`.
+    pub fn io_kind(&self) -> io::ErrorKind {
+        match self {
+            TransportError::NotFound { .. } => io::ErrorKind::NotFound,
+            TransportError::PermissionDenied { .. } => io::ErrorKind::PermissionDenied,
+            TransportError::Busy { .. } => io::ErrorKind::ResourceBusy,
+            TransportError::Unsupported { .. } => io::ErrorKind::Unsupported,
+            TransportError::InvalidConfig { .. } => io::ErrorKind::InvalidInput,
+            TransportError::Setting { source, .. }
+            | TransportError::Open { source, .. }
+            | TransportError::Pty { source, .. }
+            | TransportError::Io(source) => source.kind(),
+        }
+    }
+}
+
+impl From<TransportError> for io::Error {
+    fn from(err: TransportError) -> io::Error {
+        match err {
+            TransportError::Io(inner) => inner,
+            other => io::Error::new(other.io_kind(), other),
+        }
+    }
+}

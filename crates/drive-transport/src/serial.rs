@@ -1,0 +1,687 @@
+//! Serial ports: configuration, opening with per-setting diagnostics, character timing.
+//!
+//! [`open`] opens the device at a neutral 9600 8N1 first and then applies baud rate, data bits,
+//! parity and stop bits one at a time, reading each back. A setting the device refuses (an
+//! error) or silently ignores (the read-back differs) becomes
+//! [`TransportError::Unsupported`] naming exactly that setting, with a hint.
+
+use std::fmt;
+use std::io;
+use std::pin::Pin;
+use std::str::FromStr;
+use std::task::{Context, Poll};
+use std::time::Duration;
+
+use tokio::io::{AsyncRead, AsyncWrite, ReadBuf};
+use tokio_serial::SerialPort as _;
+
+use crate::TransportError;
+
+/// Character parity.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Parity {
+    /// No parity bit.
+    None,
+    /// Even parity: the parity bit makes the number of ones in data + parity even.
+    Even,
+    /// Odd parity: the parity bit makes the number of ones in data + parity odd.
+    Odd,
+}
+
+impl Parity {
+    /// Number of parity bits on the wire (0 or 1).
+    pub const fn bits(self) -> u32 {
+        match self {
+            Parity::None => 0,
+            Parity::Even | Parity::Odd => 1,
+        }
+    }
+
+    /// The parity bit a transmitter sends for `data`, or `None` without parity.
+    pub const fn parity_bit(self, data: u8) -> Option<bool> {
+        let odd_ones = data.count_ones() % 2 == 1;
+        match self {
+            Parity::None => None,
+            Parity::Even => Some(odd_ones),
+            Parity::Odd => Some(!odd_ones),
+        }
+    }
+
+    /// The letter used in `8E1`-style notation (`N`, `E`, `O`).
+    pub const fn letter(self) -> char {
+        match self {
+            Parity::None => 'N',
+            Parity::Even => 'E',
+            Parity::Odd => 'O',
+        }
+    }
+}
+
+impl fmt::Display for Parity {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Parity::None => "none",
+            Parity::Even => "even",
+            Parity::Odd => "odd",
+        })
+    }
+}
+
+impl FromStr for Parity {
+    type Err = ParseSettingError;
+
+    /// Accepts `none`, `even`, `odd` (any case) and the letters `n`, `e`, `o`.
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s.to_ascii_lowercase().as_str() {
+            "none" | "n" => Ok(Parity::None),
+            "even" | "e" => Ok(Parity::Even),
+            "odd" | "o" => Ok(Parity::Odd),
+            _ => Err(ParseSettingError {
+                setting: "parity",
+                value: s.to_owned(),
+                expected: "even, odd or none",
+            }),
+        }
+    }
+}
+
+/// Number of stop bits.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum StopBits {
+    /// One stop bit.
+    One,
+    /// Two stop bits.
+    Two,
+}
+
+impl StopBits {
+    /// Number of stop bits on the wire.
+    pub const fn bits(self) -> u32 {
+        match self {
+            StopBits::One => 1,
+            StopBits::Two => 2,
+        }
+    }
+}
+
+impl fmt::Display for StopBits {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            StopBits::One => "1",
+            StopBits::Two => "2",
+        })
+    }
+}
+
+impl FromStr for StopBits {
+    type Err = ParseSettingError;
+
+    /// Accepts `1` and `2`.
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s.trim() {
+            "1" => Ok(StopBits::One),
+            "2" => Ok(StopBits::Two),
+            _ => Err(ParseSettingError {
+                setting: "stop bits",
+                value: s.to_owned(),
+                expected: "1 or 2",
+            }),
+        }
+    }
+}
+
+/// A [`Parity`] or [`StopBits`] string could not be parsed.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("invalid {setting} `{value}`: expected {expected}")]
+pub struct ParseSettingError {
+    setting: &'static str,
+    value: String,
+    expected: &'static str,
+}
+
+/// Linux kernel RS-485 mode (`TIOCSRS485`): the UART driver switches the transceiver's driver
+/// enable through RTS around each transmission.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct Rs485Config {
+    /// RTS level while sending (`SER_RS485_RTS_ON_SEND`); most transceivers need `true`.
+    pub rts_on_send: bool,
+    /// RTS level after sending (`SER_RS485_RTS_AFTER_SEND`); most transceivers need `false`.
+    pub rts_after_send: bool,
+    /// Delay between raising RTS and the first bit, in milliseconds.
+    pub delay_rts_before_send_ms: u32,
+    /// Delay between the last bit and dropping RTS, in milliseconds.
+    pub delay_rts_after_send_ms: u32,
+    /// Keep the receiver enabled while sending (`SER_RS485_RX_DURING_TX`): the port then reads
+    /// back its own telegrams (an echo).
+    pub rx_during_tx: bool,
+}
+
+impl Default for Rs485Config {
+    /// RTS high while sending, low afterwards, no delays, receiver off while sending.
+    fn default() -> Self {
+        Rs485Config {
+            rts_on_send: true,
+            rts_after_send: false,
+            delay_rts_before_send_ms: 0,
+            delay_rts_after_send_ms: 0,
+            rx_during_tx: false,
+        }
+    }
+}
+
+/// Everything needed to open and configure a serial port.
+#[derive(Debug, Clone, PartialEq, Eq, Hash)]
+pub struct SerialConfig {
+    /// Device path, e.g. `/dev/ttyUSB0` or a pty slave `/dev/pts/3`.
+    pub path: String,
+    /// Baud rate in bit/s.
+    pub baud: u32,
+    /// Data bits per character, 5 to 8.
+    pub data_bits: u8,
+    /// Parity.
+    pub parity: Parity,
+    /// Stop bits.
+    pub stop_bits: StopBits,
+    /// Linux RS-485 mode, or `None` to leave the port's RS-485 setting untouched.
+    pub rs485: Option<Rs485Config>,
+}
+
+impl SerialConfig {
+    /// A configuration with 8 data bits, even parity, 1 stop bit (8E1, the default of
+    /// MOVILINK, Modbus RTU and USS) and no RS-485 mode.
+    pub fn new(path: impl Into<String>, baud: u32) -> Self {
+        SerialConfig {
+            path: path.into(),
+            baud,
+            data_bits: 8,
+            parity: Parity::Even,
+            stop_bits: StopBits::One,
+            rs485: None,
+        }
+    }
+
+    /// Bits per character on the wire: start + data + parity + stop.
+    pub fn bits_per_char(&self) -> u32 {
+        bits_per_char(self.data_bits, self.parity, self.stop_bits)
+    }
+
+    /// Time one character occupies the wire at this configuration.
+    pub fn char_time(&self) -> Duration {
+        char_time(self.baud, self.bits_per_char())
+    }
+}
+
+impl fmt::Display for SerialConfig {
+    /// `/dev/ttyUSB0 9600 8E1`, followed by ` rs485` when RS-485 mode is requested.
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "{} {} {}{}{}",
+            self.path,
+            self.baud,
+            self.data_bits,
+            self.parity.letter(),
+            self.stop_bits
+        )?;
+        if self.rs485.is_some() {
+            f.write_str(" rs485")?;
+        }
+        Ok(())
+    }
+}
+
+/// Bits per character on the wire: 1 start bit + `data_bits` + parity (0 or 1) + stop bits.
+///
+/// ```
+/// use drive_transport::serial::{bits_per_char, Parity, StopBits};
+/// assert_eq!(bits_per_char(8, Parity::Even, StopBits::One), 11);
+/// assert_eq!(bits_per_char(8, Parity::None, StopBits::One), 10);
+/// ```
+pub const fn bits_per_char(data_bits: u8, parity: Parity, stop_bits: StopBits) -> u32 {
+    1 + data_bits as u32 + parity.bits() + stop_bits.bits()
+}
+
+/// Time `bits_per_char` bits take at `baud` bit/s, rounded to the nearest nanosecond.
+/// Returns [`Duration::ZERO`] for `baud == 0`.
+///
+/// ```
+/// use std::time::Duration;
+/// use drive_transport::serial::char_time;
+/// // 8E1 at 9600 baud: 11 / 9600 s
+/// assert_eq!(char_time(9600, 11), Duration::from_nanos(1_145_833));
+/// ```
+pub const fn char_time(baud: u32, bits_per_char: u32) -> Duration {
+    if baud == 0 {
+        return Duration::ZERO;
+    }
+    let nanos = (bits_per_char as u64 * 1_000_000_000 + baud as u64 / 2) / baud as u64;
+    Duration::from_nanos(nanos)
+}
+
+/// An open, configured serial port; implements tokio's [`AsyncRead`] and [`AsyncWrite`].
+///
+/// Dropping it closes the device.
+#[derive(Debug)]
+pub struct SerialPort {
+    stream: tokio_serial::SerialStream,
+    config: SerialConfig,
+}
+
+impl SerialPort {
+    /// The configuration the port was opened with (all of it verified by read-back).
+    pub fn config(&self) -> &SerialConfig {
+        &self.config
+    }
+
+    /// Time one character occupies the wire.
+    pub fn char_time(&self) -> Duration {
+        self.config.char_time()
+    }
+
+    /// Discards bytes received but not yet read and bytes written but not yet sent
+    /// (`tcflush(TCIOFLUSH)`), e.g. after a timeout before retrying.
+    pub fn discard_buffers(&self) -> io::Result<()> {
+        self.stream
+            .clear(tokio_serial::ClearBuffer::All)
+            .map_err(io::Error::from)
+    }
+}
+
+impl AsyncRead for SerialPort {
+    fn poll_read(
+        mut self: Pin<&mut Self>,
+        cx: &mut Context<'_>,
+        buf: &mut ReadBuf<'_>,
+    ) -> Poll<io::Result<()>> {
+        Pin::new(&mut self.stream).poll_read(cx, buf)
+    }
+}
+
+impl AsyncWrite for SerialPort {
+    fn poll_write(
+        mut self: Pin<&mut Self>,
+        cx: &mut Context<'_>,
+        buf: &[u8],
+    ) -> Poll<io::Result<usize>> {
+        Pin::new(&mut self.stream).poll_write(cx, buf)
+    }
+
+    fn poll_flush(mut self: Pin<&mut Self>, cx: &mut Context<'_>) -> Poll<io::Result<()>> {
+        Pin::new(&mut self.stream).poll_flush(cx)
+    }
+
+    fn poll_shutdown(mut self: Pin<&mut Self>, cx: &mut Context<'_>) -> Poll<io::Result<()>> {
+        Pin::new(&mut self.stream).poll_shutdown(cx)
+    }
+}
+
+const DIALOUT_HINT: &str = "add your user to the dialout group (sudo usermod -aG dialout $USER, \
+     then log in again) or check the device's permissions";
+const BUSY_HINT: &str = "another program has the port open; close it (terminal programs, \
+     ModemManager, another drivectl) and try again";
+
+/// Opens and configures a serial port.
+///
+/// Must be called from within a tokio runtime with I/O enabled.
+///
+/// # Errors
+///
+/// - [`TransportError::InvalidConfig`] for data bits outside 5–8 or a zero baud rate;
+/// - [`TransportError::NotFound`], [`TransportError::PermissionDenied`],
+///   [`TransportError::Busy`] or [`TransportError::Open`] when the device cannot be opened;
+/// - [`TransportError::Unsupported`] naming the setting (`"baud 250000"`, `"7 data bits"`,
+///   `"parity even"`, `"2 stop bits"`, `"RS-485 mode"`) the device refuses or ignores —
+///   pseudo-terminals, for example, refuse parity;
+/// - [`TransportError::Setting`] when applying a setting fails for another reason.
+pub fn open(config: &SerialConfig) -> Result<SerialPort, TransportError> {
+    if !(5..=8).contains(&config.data_bits) {
+        return Err(TransportError::InvalidConfig {
+            setting: "data bits".into(),
+            reason: format!("{} is not in 5..=8", config.data_bits),
+        });
+    }
+    if config.baud == 0 {
+        return Err(TransportError::InvalidConfig {
+            setting: "baud".into(),
+            reason: "the baud rate must be greater than zero".into(),
+        });
+    }
+    if tokio::runtime::Handle::try_current().is_err() {
+        return Err(TransportError::Io(io::Error::other(
+            "serial::open must be called from within a tokio runtime with i/o enabled",
+        )));
+    }
+
+    let path = config.path.as_str();
+    let builder = tokio_serial::new(path, 9600)
+        .data_bits(tokio_serial::DataBits::Eight)
+        .parity(tokio_serial::Parity::None)
+        .stop_bits(tokio_serial::StopBits::One)
+        .flow_control(tokio_serial::FlowControl::None);
+    let mut stream =
+        tokio_serial::SerialStream::open(&builder).map_err(|e| classify_open_error(path, e))?;
+
+    apply_baud(&mut stream, path, config.baud)?;
+    apply_data_bits(&mut stream, path, config.data_bits)?;
+    apply_parity(&mut stream, path, config.parity)?;
+    apply_stop_bits(&mut stream, path, config.stop_bits)?;
+    if let Some(rs485) = &config.rs485 {
+        apply_rs485(&stream, path, rs485)?;
+    }
+
+    Ok(SerialPort {
+        stream,
+        config: config.clone(),
+    })
+}
+
+fn classify_open_error(path: &str, err: tokio_serial::Error) -> TransportError {
+    use tokio_serial::ErrorKind;
+    let busy = || TransportError::Busy {
+        path: path.into(),
+        hint: BUSY_HINT.into(),
+    };
+    match err.kind {
+        ErrorKind::Io(io::ErrorKind::NotFound) => {
+            return TransportError::NotFound { path: path.into() };
+        }
+        ErrorKind::Io(io::ErrorKind::PermissionDenied) => {
+            return TransportError::PermissionDenied {
+                path: path.into(),
+                hint: DIALOUT_HINT.into(),
+            };
+        }
+        // serialport reports EBUSY from `TIOCEXCL` and a held `flock` as `NoDevice`; an
+        // absent device is `NotFound` (ENOENT), checked again below.
+        ErrorKind::NoDevice | ErrorKind::Io(io::ErrorKind::WouldBlock)
+            if std::fs::metadata(path).is_ok() =>
+        {
+            return busy();
+        }
+        _ => {}
+    }
+    if err.description.contains("busy") {
+        return busy();
+    }
+    match std::fs::metadata(path) {
+        Err(e) if e.kind() == io::ErrorKind::NotFound => {
+            return TransportError::NotFound { path: path.into() };
+        }
+        #[cfg(unix)]
+        Ok(meta) => {
+            use std::os::unix::fs::FileTypeExt as _;
+            if !meta.file_type().is_char_device() {
+                return TransportError::Unsupported {
+                    setting: "serial port access".into(),
+                    path: path.into(),
+                    hint: "this is not a character device; give a serial port such as \
+                           /dev/ttyUSB0, /dev/ttyS0 or a pty slave /dev/pts/N"
+                        .into(),
+                };
+            }
+        }
+        _ => {}
+    }
+    TransportError::Open {
+        path: path.into(),
+        source: io::Error::from(err),
+    }
+}
+
+/// Whether a serialport error means "the device refuses this value" (EINVAL, ENOTTY) rather
+/// than a failure of the device itself.
+fn is_refusal(err: &tokio_serial::Error) -> bool {
+    matches!(err.kind, tokio_serial::ErrorKind::InvalidInput)
+        || err.description == "Invalid argument"
+        || err.description == "Inappropriate ioctl for device"
+        || err.description == "Operation not supported"
+}
+
+fn setting_error(
+    path: &str,
+    setting: String,
+    hint: String,
+    err: tokio_serial::Error,
+) -> TransportError {
+    if is_refusal(&err) {
+        TransportError::Unsupported {
+            setting,
+            path: path.into(),
+            hint,
+        }
+    } else {
+        TransportError::Setting {
+            setting,
+            path: path.into(),
+            source: io::Error::from(err),
+        }
+    }
+}
+
+fn apply_baud(
+    stream: &mut tokio_serial::SerialStream,
+    path: &str,
+    baud: u32,
+) -> Result<(), TransportError> {
+    let setting = format!("baud {baud}");
+    let hint = format!(
+        "this device refuses {baud} baud; try a standard rate such as 9600, 19200, 38400, \
+         57600 or 115200 and set the drive to match"
+    );
+    stream
+        .set_baud_rate(baud)
+        .map_err(|e| setting_error(path, setting.clone(), hint.clone(), e))?;
+    // Drivers may round to the nearest rate they can generate; a UART tolerates about 3 %.
+    match stream.baud_rate() {
+        Ok(actual) if actual.abs_diff(baud) as u64 * 100 > baud as u64 * 3 => {
+            Err(TransportError::Unsupported {
+                setting,
+                path: path.into(),
+                hint: format!("{hint} (the device runs at {actual} baud instead)"),
+            })
+        }
+        // Some drivers cannot report the rate; accept what was set without error.
+        _ => Ok(()),
+    }
+}
+
+fn apply_data_bits(
+    stream: &mut tokio_serial::SerialStream,
+    path: &str,
+    data_bits: u8,
+) -> Result<(), TransportError> {
+    use tokio_serial::DataBits;
+    let wanted = match data_bits {
+        5 => DataBits::Five,
+        6 => DataBits::Six,
+        7 => DataBits::Seven,
+        _ => DataBits::Eight,
+    };
+    let setting = format!("{data_bits} data bits");
+    let hint = format!(
+        "this device refuses {data_bits} data bits; inverters normally use 8 data bits \
+         (pseudo-terminals support only 8)"
+    );
+    stream
+        .set_data_bits(wanted)
+        .map_err(|e| setting_error(path, setting.clone(), hint.clone(), e))?;
+    verify(stream.data_bits(), wanted, path, setting, hint)
+}
+
+fn apply_parity(
+    stream: &mut tokio_serial::SerialStream,
+    path: &str,
+    parity: Parity,
+) -> Result<(), TransportError> {
+    let wanted = match parity {
+        Parity::None => tokio_serial::Parity::None,
+        Parity::Even => tokio_serial::Parity::Even,
+        Parity::Odd => tokio_serial::Parity::Odd,
+    };
+    let setting = format!("parity {parity}");
+    let hint = "this device refuses parity; pseudo-terminals need --parity none".to_owned();
+    stream
+        .set_parity(wanted)
+        .map_err(|e| setting_error(path, setting.clone(), hint.clone(), e))?;
+    verify(stream.parity(), wanted, path, setting, hint)
+}
+
+fn apply_stop_bits(
+    stream: &mut tokio_serial::SerialStream,
+    path: &str,
+    stop_bits: StopBits,
+) -> Result<(), TransportError> {
+    let wanted = match stop_bits {
+        StopBits::One => tokio_serial::StopBits::One,
+        StopBits::Two => tokio_serial::StopBits::Two,
+    };
+    let setting = format!("{stop_bits} stop bits");
+    let hint = format!(
+        "this device refuses {stop_bits} stop bits; try --stop-bits {}",
+        match stop_bits {
+            StopBits::One => 2,
+            StopBits::Two => 1,
+        }
+    );
+    stream
+        .set_stop_bits(wanted)
+        .map_err(|e| setting_error(path, setting.clone(), hint.clone(), e))?;
+    verify(stream.stop_bits(), wanted, path, setting, hint)
+}
+
+/// Compares a read-back value with the requested one: a device that accepts a setting but
+/// does not apply it (Linux ptys silently clear `PARENB`, for example) is as unsupported as one
+/// that refuses it.
+fn verify<T: PartialEq>(
+    actual: tokio_serial::Result<T>,
+    wanted: T,
+    path: &str,
+    setting: String,
+    hint: String,
+) -> Result<(), TransportError> {
+    match actual {
+        Ok(actual) if actual != wanted => Err(TransportError::Unsupported {
+            setting,
+            path: path.into(),
+            hint,
+        }),
+        Ok(_) => Ok(()),
+        Err(err) => Err(TransportError::Setting {
+            setting,
+            path: path.into(),
+            source: io::Error::from(err),
+        }),
+    }
+}
+
+const RS485_SETTING: &str = "RS-485 mode";
+
+#[cfg(target_os = "linux")]
+fn apply_rs485(
+    stream: &tokio_serial::SerialStream,
+    path: &str,
+    rs485: &Rs485Config,
+) -> Result<(), TransportError> {
+    use crate::sys;
+
+    let mut flags = sys::SER_RS485_ENABLED;
+    if rs485.rts_on_send {
+        flags |= sys::SER_RS485_RTS_ON_SEND;
+    }
+    if rs485.rts_after_send {
+        flags |= sys::SER_RS485_RTS_AFTER_SEND;
+    }
+    if rs485.rx_during_tx {
+        flags |= sys::SER_RS485_RX_DURING_TX;
+    }
+    let result = sys::set_rs485(
+        stream,
+        flags,
+        rs485.delay_rts_before_send_ms,
+        rs485.delay_rts_after_send_ms,
+    );
+    match result {
+        Ok(()) => Ok(()),
+        Err(err)
+            if matches!(
+                err.raw_os_error(),
+                Some(libc::ENOTTY | libc::EINVAL | libc::EOPNOTSUPP)
+            ) =>
+        {
+            Err(TransportError::Unsupported {
+                setting: RS485_SETTING.into(),
+                path: path.into(),
+                hint: format!(
+                    "the driver of this device has no kernel RS-485 support ({err}); use an \
+                     adapter with automatic direction control and leave RS-485 mode off"
+                ),
+            })
+        }
+        Err(source) => Err(TransportError::Setting {
+            setting: RS485_SETTING.into(),
+            path: path.into(),
+            source,
+        }),
+    }
+}
+
+/// RS-485 mode through `TIOCSRS485` exists only on Linux; elsewhere this is decided at compile
+/// time and always reports the setting as unsupported.
+#[cfg(not(target_os = "linux"))]
+fn apply_rs485(
+    _stream: &tokio_serial::SerialStream,
+    path: &str,
+    _rs485: &Rs485Config,
+) -> Result<(), TransportError> {
+    Err(TransportError::Unsupported {
+        setting: RS485_SETTING.into(),
+        path: path.into(),
+        hint: "kernel RS-485 mode (TIOCSRS485) is available only on Linux; use an adapter with \
+               automatic direction control and leave RS-485 mode off"
+            .into(),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parse_and_display_round_trip() {
+        for p in [Parity::None, Parity::Even, Parity::Odd] {
+            assert_eq!(p.to_string().parse::<Parity>(), Ok(p));
+        }
+        assert_eq!("EVEN".parse::<Parity>(), Ok(Parity::Even));
+        assert_eq!("e".parse::<Parity>(), Ok(Parity::Even));
+        for s in [StopBits::One, StopBits::Two] {
+            assert_eq!(s.to_string().parse::<StopBits>(), Ok(s));
+        }
+        let err = "mark".parse::<Parity>().unwrap_err();
+        assert_eq!(
+            err.to_string(),
+            "invalid parity `mark`: expected even, odd or none"
+        );
+        assert!("3".parse::<StopBits>().is_err());
+    }
+
+    #[test]
+    fn bits_and_char_time() {
+        assert_eq!(bits_per_char(8, Parity::Even, StopBits::One), 11);
+        assert_eq!(bits_per_char(8, Parity::None, StopBits::Two), 11);
+        assert_eq!(bits_per_char(7, Parity::Even, StopBits::One), 10);
+        assert_eq!(char_time(9600, 11), Duration::from_nanos(1_145_833));
+        assert_eq!(char_time(19200, 10), Duration::from_nanos(520_833));
+        assert_eq!(char_time(0, 11), Duration::ZERO);
+        let cfg = SerialConfig::new("/dev/ttyUSB0", 9600);
+        assert_eq!(cfg.bits_per_char(), 11);
+        assert_eq!(cfg.to_string(), "/dev/ttyUSB0 9600 8E1");
+    }
+
+    #[test]
+    fn parity_bit() {
+        assert_eq!(Parity::Even.parity_bit(0x00), Some(false));
+        assert_eq!(Parity::Even.parity_bit(0x01), Some(true));
+        assert_eq!(Parity::Odd.parity_bit(0x01), Some(false));
+        assert_eq!(Parity::None.parity_bit(0xFF), None);
+    }
+}

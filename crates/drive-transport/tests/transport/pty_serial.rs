@@ -1,0 +1,179 @@
+//! Pseudo-terminals and serial ports (real file descriptors, no hardware).
+
+use std::time::Duration;
+
+use drive_transport::TransportError;
+use drive_transport::pty::PtyPair;
+use drive_transport::serial::{self, Parity, Rs485Config, SerialConfig};
+use tokio::io::{AsyncRead, AsyncReadExt, AsyncWrite, AsyncWriteExt};
+use tokio::time::timeout;
+
+const LIMIT: Duration = Duration::from_secs(5);
+
+async fn send_and_receive(
+    tx: &mut (impl AsyncWrite + Unpin),
+    rx: &mut (impl AsyncRead + Unpin),
+    data: &[u8],
+) -> Vec<u8> {
+    let mut got = vec![0u8; data.len()];
+    let (w, r) = tokio::join!(tx.write_all(data), rx.read_exact(&mut got));
+    w.unwrap();
+    r.unwrap();
+    got
+}
+
+fn all_bytes() -> Vec<u8> {
+    (0..=255u8).chain((0..=255u8).rev()).collect()
+}
+
+#[tokio::test]
+async fn all_byte_values_pass_through_serial_open_on_a_pty() {
+    let mut pty = PtyPair::open().unwrap();
+    assert!(pty.slave_path().starts_with("/dev/pts/"));
+    let mut port = serial::open(&pty.slave_config(9600)).unwrap();
+    assert_eq!(port.config().parity, Parity::None);
+    let data = all_bytes();
+    timeout(LIMIT, async {
+        assert_eq!(send_and_receive(&mut pty, &mut port, &data).await, data);
+        assert_eq!(send_and_receive(&mut port, &mut pty, &data).await, data);
+    })
+    .await
+    .expect("pty round trip timed out");
+}
+
+#[tokio::test]
+async fn both_stream_ends_are_transparent() {
+    let (mut master, mut slave) = PtyPair::open_streams().unwrap();
+    let data = all_bytes();
+    timeout(LIMIT, async {
+        assert_eq!(send_and_receive(&mut master, &mut slave, &data).await, data);
+        assert_eq!(send_and_receive(&mut slave, &mut master, &data).await, data);
+        // Closing one side is end of file on the other.
+        drop(slave);
+        let mut rest = Vec::new();
+        master.read_to_end(&mut rest).await.unwrap();
+        assert!(rest.is_empty());
+    })
+    .await
+    .expect("pty streams timed out");
+}
+
+#[tokio::test]
+async fn pty_refuses_parity_even_naming_the_setting() {
+    let pty = PtyPair::open().unwrap();
+    let path = pty.slave_path().to_string_lossy().into_owned();
+    for (parity, name) in [(Parity::Even, "parity even"), (Parity::Odd, "parity odd")] {
+        let cfg = SerialConfig {
+            parity,
+            ..pty.slave_config(9600)
+        };
+        match serial::open(&cfg) {
+            Err(TransportError::Unsupported {
+                setting,
+                path: p,
+                hint,
+            }) => {
+                assert_eq!(setting, name);
+                assert_eq!(p, path);
+                assert!(hint.contains("--parity none"), "{hint}");
+            }
+            other => panic!("expected Unsupported, got {other:?}"),
+        }
+    }
+    let err = serial::open(&SerialConfig::new(path.clone(), 9600)).unwrap_err();
+    let msg = err.to_string();
+    assert!(msg.contains("parity even") && msg.contains(&path), "{msg}");
+    assert_eq!(err.io_kind(), std::io::ErrorKind::Unsupported);
+}
+
+#[tokio::test]
+async fn rs485_mode_on_a_pty_is_a_clear_error() {
+    let pty = PtyPair::open().unwrap();
+    let cfg = SerialConfig {
+        rs485: Some(Rs485Config::default()),
+        ..pty.slave_config(9600)
+    };
+    match serial::open(&cfg) {
+        Err(err @ TransportError::Unsupported { .. }) => {
+            let msg = err.to_string();
+            assert!(msg.contains("RS-485 mode"), "{msg}");
+            if let TransportError::Unsupported { setting, hint, .. } = err {
+                assert_eq!(setting, "RS-485 mode");
+                assert!(hint.contains("automatic direction control"), "{hint}");
+            }
+        }
+        other => panic!("expected Unsupported, got {other:?}"),
+    }
+}
+
+#[tokio::test]
+async fn opening_a_nonexistent_port_names_the_path() {
+    let path = "/dev/ttyDRIVEBUS-does-not-exist";
+    let err = serial::open(&SerialConfig::new(path, 9600)).unwrap_err();
+    match &err {
+        TransportError::NotFound { path: p } => assert_eq!(p, path),
+        other => panic!("expected NotFound, got {other:?}"),
+    }
+    assert!(err.to_string().contains(path));
+    assert_eq!(
+        std::io::Error::from(err).kind(),
+        std::io::ErrorKind::NotFound
+    );
+}
+
+#[tokio::test]
+async fn opening_a_regular_file_says_it_is_not_a_serial_device() {
+    let dir = std::env::temp_dir().join(format!("drive-transport-test-{}", std::process::id()));
+    std::fs::write(&dir, b"").unwrap();
+    let path = dir.to_string_lossy().into_owned();
+    let result = serial::open(&SerialConfig::new(path.clone(), 9600));
+    std::fs::remove_file(&dir).unwrap();
+    match result {
+        Err(TransportError::Unsupported {
+            setting,
+            path: p,
+            hint,
+        }) => {
+            assert_eq!(setting, "serial port access");
+            assert_eq!(p, path);
+            assert!(hint.contains("not a character device"), "{hint}");
+        }
+        other => panic!("expected Unsupported, got {other:?}"),
+    }
+}
+
+#[tokio::test]
+async fn invalid_settings_are_rejected_before_opening() {
+    let cfg = SerialConfig {
+        data_bits: 9,
+        ..SerialConfig::new("/dev/null", 9600)
+    };
+    assert!(matches!(
+        serial::open(&cfg),
+        Err(TransportError::InvalidConfig { .. })
+    ));
+    assert!(matches!(
+        serial::open(&SerialConfig::new("/dev/null", 0)),
+        Err(TransportError::InvalidConfig { .. })
+    ));
+}
+
+#[test]
+fn outside_a_runtime_open_fails_instead_of_panicking() {
+    let err = serial::open(&SerialConfig::new("/dev/null", 9600)).unwrap_err();
+    assert!(err.to_string().contains("tokio runtime"), "{err}");
+    assert!(PtyPair::open().is_err());
+}
+
+#[tokio::test]
+async fn a_port_opened_twice_is_busy() {
+    let pty = PtyPair::open().unwrap();
+    let first = serial::open(&pty.slave_config(9600)).unwrap();
+    match serial::open(&pty.slave_config(9600)) {
+        Err(TransportError::Busy { path, hint }) => {
+            assert_eq!(path, first.config().path);
+            assert!(hint.contains("another program"), "{hint}");
+        }
+        other => panic!("expected Busy, got {other:?}"),
+    }
+}
