@@ -197,6 +197,7 @@ pub trait ParamMeta {
     /// Raw bus value → physical value in [`ParamMeta::unit`].
     fn to_physical(&self, raw: i64) -> f64;
     /// Physical value in [`ParamMeta::unit`] → raw bus value (rounded to the nearest step).
+    #[allow(clippy::wrong_self_convention)]
     fn from_physical(&self, value: f64) -> Result<i64, crate::scaling::ScaleError>;
 
     /// Write a one-line, family-specific description of the scaling, e.g.

@@ -30,7 +30,7 @@ pub enum ScaleError {
 /// Round half away from zero without `std` (`f64::round` needs `std`).
 pub fn round(x: f64) -> f64 {
     // Values beyond 2^52 are already integers.
-    if !(x.abs() < 4_503_599_627_370_496.0) {
+    if x.is_nan() || x.abs() >= 4_503_599_627_370_496.0 {
         return x;
     }
     let t = x as i64 as f64; // truncation toward zero

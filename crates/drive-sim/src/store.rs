@@ -1,0 +1,506 @@
+//! The parameter store: RAM and EEPROM values, access checks, write counters.
+//!
+//! # Model
+//!
+//! * Every parameter is stored in **cells** keyed by `(bus_index, sub_index)`; a table row
+//!   without a sub-index uses sub-index 0. Several rows with the same key (SEW P010…P013 all
+//!   live at index 8310) share one cell; the first row in table order supplies the metadata, the
+//!   first row that has a default / range supplies those.
+//! * Rows flagged [`Access::DATA_SET`] (Bonfiglioli) get one cell per data set, sub-indices
+//!   `1..=data_sets`. Sub-index 0 addresses all data sets: a write sets all of them, a read
+//!   succeeds only while all hold the same value ([`SimError::DataSetsDiffer`] otherwise), as the
+//!   Bonfiglioli manual describes.
+//! * Each cell holds a RAM value (what reads return and what the drive uses) and an EEPROM
+//!   value, both initialised from [`ParamMeta::default_raw`] (0 where the table has none).
+//! * A cell **has EEPROM backing** when its row carries the `N` flag
+//!   ([`Access::NON_VOLATILE`]), or, with [`StoreOptions::eeprom_for_unflagged`], when it is
+//!   writable (for families whose drives store every parameter, such as NORD and Bonfiglioli).
+//! * [`Persistence::Volatile`] writes change RAM only. [`Persistence::NonVolatile`] writes change
+//!   RAM and, for cells with EEPROM backing, the EEPROM value too, incrementing that cell's
+//!   non-volatile write counter and recording the time. A non-volatile write to a cell without
+//!   EEPROM backing (SEW's command parameters such as P802 factory setting) changes RAM only and
+//!   is not counted.
+//! * [`ParamStore::restart`] (power cycle) copies EEPROM into RAM for every cell. For cells with
+//!   EEPROM backing this restores the last non-volatile value and drops volatile writes; cells
+//!   without backing never change their EEPROM value, so they return to their default — the
+//!   manual's "N = at restart the value is copied from EEPROM into RAM", and values of other
+//!   parameters are lost.
+//!
+//! # Write checks, in order
+//!
+//! unknown index / sub-index → read-only (`RO`, or no `RW`) → parameter lock (unless `S`) →
+//! needs controller inhibit (`R`) → not in operation → range (`raw_range`) → value list (only
+//! where the list is exhaustive, see [`StoreOptions::value_lists_exhaustive`]) → EEPROM
+//! endurance. A refused write changes nothing.
+
+use std::collections::BTreeMap;
+
+use drive_profile::{Access, ParamMeta};
+
+use crate::error::SimError;
+use crate::time::SimTime;
+
+/// A parameter row as the store keeps it: any family's metadata, shareable across threads.
+pub type Meta = &'static (dyn ParamMeta + Sync);
+
+/// Where a write goes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Persistence {
+    /// RAM only; lost at restart (MOVILINK "write volatile", USS "without EEPROM",
+    /// Bonfiglioli data set + 5).
+    Volatile,
+    /// RAM and, where the parameter has EEPROM backing, EEPROM (counted as EEPROM wear).
+    NonVolatile,
+}
+
+/// Store-wide options; [`StoreOptions::default`] suits SEW MOVIDRIVE.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct StoreOptions {
+    /// Give every writable parameter EEPROM backing, not only those flagged `N`.
+    pub eeprom_for_unflagged: bool,
+    /// Treat every non-empty value list as exhaustive, so that values outside it are refused
+    /// with [`SimError::ValueNotAllowed`]. Per-parameter overrides:
+    /// [`ParamStore::set_value_list_exhaustive`].
+    pub value_lists_exhaustive: bool,
+    /// Bus index of the parameter-lock parameter (SEW P803, index 8595): while its value is
+    /// non-zero, only `S`-flagged parameters can be written. See also
+    /// [`ParamStore::set_param_lock`].
+    pub lock_index: Option<u16>,
+    /// Non-volatile writes a cell survives; further ones fail with [`SimError::EepromWornOut`].
+    /// `None`: unlimited.
+    pub eeprom_endurance: Option<u64>,
+    /// Number of data sets for [`Access::DATA_SET`] parameters (Bonfiglioli: 4).
+    pub data_sets: u16,
+}
+
+impl Default for StoreOptions {
+    fn default() -> StoreOptions {
+        StoreOptions {
+            eeprom_for_unflagged: false,
+            value_lists_exhaustive: false,
+            lock_index: None,
+            eeprom_endurance: None,
+            data_sets: 4,
+        }
+    }
+}
+
+/// The drive's operating condition, which the `R` and not-in-operation checks consult.
+///
+/// [`crate::SimDrive`] keeps it up to date; a bare [`ParamStore`] starts inhibited and stopped.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct OperatingCondition {
+    /// Controller inhibit is active (writes of `R` parameters allowed).
+    pub controller_inhibited: bool,
+    /// The output stage is on or the motor still turns (writes of not-in-operation parameters
+    /// refused).
+    pub in_operation: bool,
+}
+
+impl Default for OperatingCondition {
+    fn default() -> OperatingCondition {
+        OperatingCondition {
+            controller_inhibited: true,
+            in_operation: false,
+        }
+    }
+}
+
+#[derive(Clone, Copy)]
+struct Cell {
+    meta: Meta,
+    default: Option<i64>,
+    range: Option<(i64, i64)>,
+    ram: i64,
+    eeprom: i64,
+    nv_writes: u64,
+    last_nv_write: Option<SimTime>,
+}
+
+impl Cell {
+    fn new(meta: Meta) -> Cell {
+        let default = meta.default_raw();
+        let initial = default.unwrap_or(0);
+        Cell {
+            meta,
+            default,
+            range: meta.raw_range(),
+            ram: initial,
+            eeprom: initial,
+            nv_writes: 0,
+            last_nv_write: None,
+        }
+    }
+
+    /// A later row with the same key fills in what the first row lacks.
+    fn merge(&mut self, meta: Meta) {
+        if self.default.is_none() {
+            self.default = meta.default_raw();
+            if let Some(d) = self.default {
+                self.ram = d;
+                self.eeprom = d;
+            }
+        }
+        if self.range.is_none() {
+            self.range = meta.raw_range();
+        }
+    }
+}
+
+struct Entry {
+    data_set: bool,
+    cells: BTreeMap<u16, Cell>,
+}
+
+/// Simulated parameter memory of one drive.
+pub struct ParamStore {
+    entries: BTreeMap<u16, Entry>,
+    options: StoreOptions,
+    exhaustive: BTreeMap<u16, bool>,
+    manual_lock: bool,
+    condition: OperatingCondition,
+}
+
+impl core::fmt::Debug for ParamStore {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.debug_struct("ParamStore")
+            .field("indices", &self.entries.len())
+            .field("cells", &self.len())
+            .field("options", &self.options)
+            .field("manual_lock", &self.manual_lock)
+            .field("condition", &self.condition)
+            .finish_non_exhaustive()
+    }
+}
+
+impl ParamStore {
+    /// A store holding every row of a family table, with default options.
+    pub fn new<P: ParamMeta + Sync + 'static>(table: &'static [P]) -> ParamStore {
+        ParamStore::with_options(table, StoreOptions::default())
+    }
+
+    /// A store holding every row of a family table.
+    pub fn with_options<P: ParamMeta + Sync + 'static>(
+        table: &'static [P],
+        options: StoreOptions,
+    ) -> ParamStore {
+        ParamStore::from_rows(table.iter().map(|p| p as Meta), options)
+    }
+
+    /// A store from arbitrary rows (for example several tables chained).
+    pub fn from_rows<I: IntoIterator<Item = Meta>>(rows: I, options: StoreOptions) -> ParamStore {
+        let mut entries: BTreeMap<u16, Entry> = BTreeMap::new();
+        for meta in rows {
+            let data_set = meta.access().contains(Access::DATA_SET);
+            let entry = entries.entry(meta.bus_index()).or_insert_with(|| Entry {
+                data_set,
+                cells: BTreeMap::new(),
+            });
+            let subs: Vec<u16> = if entry.data_set {
+                (1..=options.data_sets.max(1)).collect()
+            } else {
+                vec![meta.sub_index().unwrap_or(0)]
+            };
+            for sub in subs {
+                entry
+                    .cells
+                    .entry(sub)
+                    .and_modify(|c| c.merge(meta))
+                    .or_insert_with(|| Cell::new(meta));
+            }
+        }
+        ParamStore {
+            entries,
+            options,
+            exhaustive: BTreeMap::new(),
+            manual_lock: false,
+            condition: OperatingCondition::default(),
+        }
+    }
+
+    /// The options the store was built with.
+    pub fn options(&self) -> &StoreOptions {
+        &self.options
+    }
+
+    /// Number of cells (a data-set parameter counts once per data set).
+    pub fn len(&self) -> usize {
+        self.entries.values().map(|e| e.cells.len()).sum()
+    }
+
+    /// Whether the store holds no parameter.
+    pub fn is_empty(&self) -> bool {
+        self.entries.is_empty()
+    }
+
+    /// Whether a parameter with this bus index exists.
+    pub fn contains(&self, index: u16) -> bool {
+        self.entries.contains_key(&index)
+    }
+
+    /// Every `(bus_index, sub_index)` cell, in ascending order.
+    pub fn keys(&self) -> impl Iterator<Item = (u16, u16)> + '_ {
+        self.entries
+            .iter()
+            .flat_map(|(i, e)| e.cells.keys().map(move |s| (*i, *s)))
+    }
+
+    /// The metadata of the cell (for a data-set parameter, sub-index 0 is accepted).
+    pub fn meta(&self, index: u16, sub: u16) -> Result<Meta, SimError> {
+        self.cell(index, sub).map(|c| c.meta)
+    }
+
+    /// The current (RAM) value.
+    pub fn read(&self, index: u16, sub: u16) -> Result<i64, SimError> {
+        let entry = self.entry(index)?;
+        if entry.data_set && sub == 0 {
+            let mut values = entry.cells.values().map(|c| c.ram);
+            let first = values
+                .next()
+                .ok_or(SimError::UnknownSubIndex { index, sub })?;
+            if values.all(|v| v == first) {
+                Ok(first)
+            } else {
+                Err(SimError::DataSetsDiffer { index })
+            }
+        } else {
+            self.cell(index, sub).map(|c| c.ram)
+        }
+    }
+
+    /// The value held in EEPROM (what a restart restores).
+    pub fn read_eeprom(&self, index: u16, sub: u16) -> Result<i64, SimError> {
+        self.cell(index, sub).map(|c| c.eeprom)
+    }
+
+    /// Smallest raw value (`None` where the table gives no range).
+    pub fn min_raw(&self, index: u16, sub: u16) -> Result<Option<i64>, SimError> {
+        self.cell(index, sub).map(|c| c.range.map(|r| r.0))
+    }
+
+    /// Largest raw value (`None` where the table gives no range).
+    pub fn max_raw(&self, index: u16, sub: u16) -> Result<Option<i64>, SimError> {
+        self.cell(index, sub).map(|c| c.range.map(|r| r.1))
+    }
+
+    /// Default (factory setting) raw value; 0 where the table gives none.
+    pub fn default_raw(&self, index: u16, sub: u16) -> Result<i64, SimError> {
+        self.cell(index, sub).map(|c| c.default.unwrap_or(0))
+    }
+
+    /// Whether the cell has EEPROM backing (see the module docs).
+    pub fn has_eeprom(&self, index: u16, sub: u16) -> Result<bool, SimError> {
+        self.cell(index, sub).map(|c| self.backed(c))
+    }
+
+    /// Non-volatile writes the cell has received (EEPROM wear).
+    pub fn nv_writes(&self, index: u16, sub: u16) -> Result<u64, SimError> {
+        self.cell(index, sub).map(|c| c.nv_writes)
+    }
+
+    /// Time of the cell's last non-volatile write.
+    pub fn last_nv_write(&self, index: u16, sub: u16) -> Result<Option<SimTime>, SimError> {
+        self.cell(index, sub).map(|c| c.last_nv_write)
+    }
+
+    /// Non-volatile writes across all cells.
+    pub fn total_nv_writes(&self) -> u64 {
+        self.entries
+            .values()
+            .flat_map(|e| e.cells.values())
+            .map(|c| c.nv_writes)
+            .sum()
+    }
+
+    /// Switch the manual parameter lock on or off (in addition to
+    /// [`StoreOptions::lock_index`]).
+    pub fn set_param_lock(&mut self, on: bool) {
+        self.manual_lock = on;
+    }
+
+    /// Whether the parameter lock is active (manual switch, or lock parameter non-zero).
+    pub fn is_locked(&self) -> bool {
+        self.manual_lock
+            || self
+                .options
+                .lock_index
+                .is_some_and(|i| self.read(i, 0).is_ok_and(|v| v != 0))
+    }
+
+    /// Override [`StoreOptions::value_lists_exhaustive`] for one parameter.
+    pub fn set_value_list_exhaustive(&mut self, index: u16, exhaustive: bool) {
+        self.exhaustive.insert(index, exhaustive);
+    }
+
+    /// The operating condition the access checks use.
+    pub fn condition(&self) -> OperatingCondition {
+        self.condition
+    }
+
+    /// Set the operating condition (done by [`crate::SimDrive`] on every state change).
+    pub fn set_condition(&mut self, condition: OperatingCondition) {
+        self.condition = condition;
+    }
+
+    /// Write a value as a bus master would, with every access check (see the module docs).
+    pub fn write(
+        &mut self,
+        index: u16,
+        sub: u16,
+        raw: i64,
+        persistence: Persistence,
+        now: SimTime,
+    ) -> Result<(), SimError> {
+        let locked = self.is_locked();
+        let exhaustive = self
+            .exhaustive
+            .get(&index)
+            .copied()
+            .unwrap_or(self.options.value_lists_exhaustive);
+        let condition = self.condition;
+        let first = *self.cell(index, sub)?;
+        let access = first.meta.access();
+
+        if !access.is_writable() {
+            return Err(SimError::ReadOnly { index });
+        }
+        if locked && !access.contains(Access::STORE_LOCKED) {
+            return Err(SimError::Locked { index });
+        }
+        if access.contains(Access::NEEDS_INHIBIT) && !condition.controller_inhibited {
+            return Err(SimError::NeedsInhibit { index });
+        }
+        if access.contains(Access::NOT_IN_OPERATION) && condition.in_operation {
+            return Err(SimError::NotInOperation { index });
+        }
+        if let Some((min, max)) = first.range {
+            if raw > max {
+                return Err(SimError::TooLarge { index, max });
+            }
+            if raw < min {
+                return Err(SimError::TooSmall { index, min });
+            }
+        }
+        let values = first.meta.values();
+        if exhaustive && !values.is_empty() && !values.iter().any(|v| v.value == raw) {
+            return Err(SimError::ValueNotAllowed { index, value: raw });
+        }
+
+        let to_eeprom = persistence == Persistence::NonVolatile;
+        let endurance = self.options.eeprom_endurance;
+        let eeprom_for_unflagged = self.options.eeprom_for_unflagged;
+        let backed = |c: &Cell| backed(eeprom_for_unflagged, c);
+        let entry = self
+            .entries
+            .get_mut(&index)
+            .ok_or(SimError::UnknownIndex { index })?;
+        let all = entry.data_set && sub == 0;
+        let mut targets: Vec<&mut Cell> = entry
+            .cells
+            .iter_mut()
+            .filter(|(s, _)| all || **s == sub)
+            .map(|(_, c)| c)
+            .collect();
+        if to_eeprom {
+            if let Some(limit) = endurance {
+                if let Some(worn) = targets.iter().find(|c| backed(c) && c.nv_writes >= limit) {
+                    return Err(SimError::EepromWornOut {
+                        index,
+                        writes: worn.nv_writes,
+                    });
+                }
+            }
+        }
+        for cell in &mut targets {
+            cell.ram = raw;
+            if to_eeprom && backed(cell) {
+                cell.eeprom = raw;
+                cell.nv_writes = cell.nv_writes.saturating_add(1);
+                cell.last_nv_write = Some(now);
+            }
+        }
+        Ok(())
+    }
+
+    /// Set a value the drive itself produces (actual speed, status, fault memory), bypassing
+    /// every access check. Writes sub-index 0 (all data sets for a data-set parameter).
+    ///
+    /// The EEPROM value follows only for `N`-flagged parameters (the drive keeps those across a
+    /// restart, e.g. its fault memory); no write is counted.
+    pub fn set_internal(&mut self, index: u16, raw: i64) -> Result<(), SimError> {
+        self.set_internal_sub(index, 0, raw)
+    }
+
+    /// [`ParamStore::set_internal`] for one sub-index.
+    pub fn set_internal_sub(&mut self, index: u16, sub: u16, raw: i64) -> Result<(), SimError> {
+        self.cell(index, sub)?;
+        let entry = self
+            .entries
+            .get_mut(&index)
+            .ok_or(SimError::UnknownIndex { index })?;
+        let all = entry.data_set && sub == 0;
+        for (_, cell) in entry.cells.iter_mut().filter(|(s, _)| all || **s == sub) {
+            cell.ram = raw;
+            if cell.meta.access().contains(Access::NON_VOLATILE) {
+                cell.eeprom = raw;
+            }
+        }
+        Ok(())
+    }
+
+    /// Factory setting: every writable cell's RAM value returns to its default; with
+    /// [`Persistence::NonVolatile`] the EEPROM value of cells with EEPROM backing too (counted
+    /// as one non-volatile write per cell whose EEPROM value changes). Read-only values (produced
+    /// by the drive) are left alone; no access check applies.
+    pub fn reset_to_defaults(&mut self, persistence: Persistence, now: SimTime) {
+        let eeprom_for_unflagged = self.options.eeprom_for_unflagged;
+        for cell in self.entries.values_mut().flat_map(|e| e.cells.values_mut()) {
+            if !cell.meta.access().is_writable() {
+                continue;
+            }
+            let default = cell.default.unwrap_or(0);
+            cell.ram = default;
+            if persistence == Persistence::NonVolatile
+                && backed(eeprom_for_unflagged, cell)
+                && cell.eeprom != default
+            {
+                cell.eeprom = default;
+                cell.nv_writes = cell.nv_writes.saturating_add(1);
+                cell.last_nv_write = Some(now);
+            }
+        }
+    }
+
+    /// Restart (power cycle): RAM ← EEPROM for every cell. Write counters are kept.
+    pub fn restart(&mut self) {
+        for cell in self.entries.values_mut().flat_map(|e| e.cells.values_mut()) {
+            cell.ram = cell.eeprom;
+        }
+    }
+
+    fn entry(&self, index: u16) -> Result<&Entry, SimError> {
+        self.entries
+            .get(&index)
+            .ok_or(SimError::UnknownIndex { index })
+    }
+
+    /// The addressed cell; data set 0 resolves to the first data set.
+    fn cell(&self, index: u16, sub: u16) -> Result<&Cell, SimError> {
+        let entry = self.entry(index)?;
+        let found = if entry.data_set && sub == 0 {
+            entry.cells.values().next()
+        } else {
+            entry.cells.get(&sub)
+        };
+        found.ok_or(SimError::UnknownSubIndex { index, sub })
+    }
+
+    fn backed(&self, cell: &Cell) -> bool {
+        backed(self.options.eeprom_for_unflagged, cell)
+    }
+}
+
+fn backed(eeprom_for_unflagged: bool, cell: &Cell) -> bool {
+    let access = cell.meta.access();
+    access.contains(Access::NON_VOLATILE) || (eeprom_for_unflagged && access.is_writable())
+}
