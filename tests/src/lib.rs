@@ -1,1 +1,27 @@
-//! Shared helpers of the workspace integration tests.
+//! Shared helpers of the workspace integration tests: simulated drives built from each family's
+//! generated table, and iteration over every parameter of every family.
+
+use drive_profile::{Family, ParamMeta, bonfiglioli, nord, sew};
+use drive_sim::{ParamStore, SimDrive, StoreOptions};
+
+/// Every parameter of `family` as a trait object.
+pub fn params(family: Family) -> Vec<&'static (dyn ParamMeta + Sync)> {
+    match family {
+        Family::Movidrive => sew::params().iter().map(|p| p as _).collect(),
+        Family::Nord => nord::params().iter().map(|p| p as _).collect(),
+        Family::Bonfiglioli => bonfiglioli::params().iter().map(|p| p as _).collect(),
+        _ => Vec::new(),
+    }
+}
+
+/// A simulated drive of `family` whose parameter store is built from the generated table.
+pub fn sim_drive(family: Family) -> SimDrive {
+    let options = match family {
+        Family::Movidrive => StoreOptions::default(),
+        _ => StoreOptions {
+            eeprom_for_unflagged: true,
+            ..StoreOptions::default()
+        },
+    };
+    SimDrive::new(ParamStore::from_rows(params(family), options))
+}

@@ -1,1 +1,3 @@
-//! The one integration-test binary of the workspace.
+//! The one workspace-level integration-test binary: checks that cross crate boundaries.
+
+mod tables_and_sim;

@@ -210,7 +210,8 @@ pub trait ParamMeta {
 
     /// Whether `raw` lies within [`ParamMeta::raw_range`] (true when no range is known).
     fn in_range(&self, raw: i64) -> bool {
-        self.raw_range().is_none_or(|(lo, hi)| raw >= lo && raw <= hi)
+        self.raw_range()
+            .is_none_or(|(lo, hi)| raw >= lo && raw <= hi)
     }
 
     /// Whether `term` occurs in the German or English name, ignoring case.
@@ -233,7 +234,10 @@ pub fn contains_ignore_case(haystack: &str, needle: &str) -> bool {
     starts.any(|i| {
         let rest = haystack.get(i..).unwrap_or("");
         let mut h = rest.chars().flat_map(char::to_lowercase);
-        needle.chars().flat_map(char::to_lowercase).all(|n| h.next() == Some(n))
+        needle
+            .chars()
+            .flat_map(char::to_lowercase)
+            .all(|n| h.next() == Some(n))
     })
 }
 
@@ -247,7 +251,10 @@ pub struct Label {
 impl Label {
     /// Format `args` into a label (truncated at 16 bytes, on a character boundary).
     pub fn new(args: fmt::Arguments<'_>) -> Label {
-        let mut l = Label { buf: [0; 16], len: 0 };
+        let mut l = Label {
+            buf: [0; 16],
+            len: 0,
+        };
         let _ = fmt::write(&mut l, args);
         l
     }

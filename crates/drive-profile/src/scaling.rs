@@ -100,7 +100,12 @@ pub fn percent_from_word(word: u16) -> f64 {
 
 /// Percent → percent word, for −200 % ≤ value < +200 % (0x8000…0x7FFF).
 pub fn percent_to_word(percent: f64) -> Result<u16, ScaleError> {
-    let raw = to_steps(percent, 100.0 / f64::from(PERCENT_100), i64::from(i16::MIN), i64::from(i16::MAX))?;
+    let raw = to_steps(
+        percent,
+        100.0 / f64::from(PERCENT_100),
+        i64::from(i16::MIN),
+        i64::from(i16::MAX),
+    )?;
     Ok(raw as i16 as u16)
 }
 
@@ -161,7 +166,10 @@ impl Linear {
     /// The scaling that expresses the value of `self` in the unit of `display` instead of the
     /// base unit: `(raw × A + B − B_d) / A_d`.
     pub fn rebase(self, display: Linear) -> Linear {
-        Linear { a: self.a / display.a, b: (self.b - display.b) / display.a }
+        Linear {
+            a: self.a / display.a,
+            b: (self.b - display.b) / display.a,
+        }
     }
 }
 
@@ -193,7 +201,10 @@ mod tests {
 
     #[test]
     fn out_of_range_and_nan_are_errors() {
-        assert!(matches!(to_decimals(6553.6, 1, 0, 65535), Err(ScaleError::OutOfRange { .. })));
+        assert!(matches!(
+            to_decimals(6553.6, 1, 0, 65535),
+            Err(ScaleError::OutOfRange { .. })
+        ));
         assert_eq!(to_steps(f64::NAN, 0.01, 0, 10), Err(ScaleError::NotFinite));
         assert!(percent_to_word(200.0).is_err());
         assert_eq!(percent_to_word(-200.0), Ok(0x8000));

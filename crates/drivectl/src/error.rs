@@ -12,12 +12,18 @@ pub struct CliError {
 impl CliError {
     /// A usage error (bad argument, unknown family or parameter): exit code 2.
     pub fn usage(message: impl Into<String>) -> Self {
-        CliError { message: message.into(), code: 2 }
+        CliError {
+            message: message.into(),
+            code: 2,
+        }
     }
 
     /// A failure while doing the work (I/O, device, timeout): exit code 1.
     pub fn failed(message: impl Into<String>) -> Self {
-        CliError { message: message.into(), code: 1 }
+        CliError {
+            message: message.into(),
+            code: 1,
+        }
     }
 
     /// The process exit code.

@@ -2,8 +2,8 @@
 
 use crate::error::{CliError, Result};
 use clap::{Args, Subcommand};
-use drive_profile::{bonfiglioli, nord, sew, Family, ParamMeta};
-use serde_json::{json, Value};
+use drive_profile::{Family, ParamMeta, bonfiglioli, nord, sew};
+use serde_json::{Value, json};
 use std::fmt::Write as _;
 
 /// Arguments of `drivectl params`.
@@ -44,7 +44,10 @@ pub fn all(family: Family) -> Vec<&'static dyn ParamMeta> {
     match family {
         Family::Movidrive => sew::params().iter().map(|p| p as &dyn ParamMeta).collect(),
         Family::Nord => nord::params().iter().map(|p| p as &dyn ParamMeta).collect(),
-        Family::Bonfiglioli => bonfiglioli::params().iter().map(|p| p as &dyn ParamMeta).collect(),
+        Family::Bonfiglioli => bonfiglioli::params()
+            .iter()
+            .map(|p| p as &dyn ParamMeta)
+            .collect(),
         _ => Vec::new(),
     }
 }
@@ -165,7 +168,9 @@ fn list(family: Family, search: Option<&str>, json: bool) -> Result<()> {
             "number", "index", "name (de)", "name (en)", "unit", "access", "default"
         );
         for p in &params {
-            let default = p.default_raw().map(|d| trim_float(p.to_physical(d), p.decimals()));
+            let default = p
+                .default_raw()
+                .map(|d| trim_float(p.to_physical(d), p.decimals()));
             let range = p.raw_range().map(|(lo, hi)| {
                 format!(
                     "{} … {}",
@@ -201,11 +206,20 @@ fn show(family: Family, key: &str, json: bool) -> Result<()> {
     let mut out = String::new();
     let _ = writeln!(out, "{} {} / {}", label(p), p.name_de(), p.name_en());
     let _ = writeln!(out, "  family     {}", p.family());
-    let _ = writeln!(out, "  index      {} (0x{:04X})", p.bus_index(), p.bus_index());
+    let _ = writeln!(
+        out,
+        "  index      {} (0x{:04X})",
+        p.bus_index(),
+        p.bus_index()
+    );
     if let Some(s) = p.sub_index() {
         let _ = writeln!(out, "  sub-index  {s}");
     }
-    let _ = writeln!(out, "  unit       {}", if p.unit().is_empty() { "-" } else { p.unit() });
+    let _ = writeln!(
+        out,
+        "  unit       {}",
+        if p.unit().is_empty() { "-" } else { p.unit() }
+    );
     let _ = writeln!(out, "  scaling    {}", scaling_text(p));
     let _ = writeln!(out, "  access     {}", p.access());
     if let Some(d) = p.default_raw() {

@@ -36,7 +36,7 @@ use core::fmt;
 
 pub use state::{
     ActStateMachine, AcuPositioningStateMachine, AcuStateMachine, ControlSequencer, State,
-    Transition5,
+    Transition5, act_transitions,
 };
 pub use words::{
     ActControlWord, ActStatusWord, AcuControlWord, AcuStatusWord, ContactState, RemoteContacts,

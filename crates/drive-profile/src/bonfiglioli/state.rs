@@ -77,6 +77,29 @@ pub enum State {
     Unknown,
 }
 
+impl State {
+    /// The English state name (DRIVECOM terms of the glossary).
+    pub const fn name_en(self) -> &'static str {
+        match self {
+            State::NotReadyToSwitchOn => "not ready to switch on",
+            State::SwitchOnDisabled => "switch-on disabled",
+            State::ReadyToSwitchOn => "ready to switch on",
+            State::SwitchedOn => "switched on",
+            State::OperationEnabled => "operation enabled",
+            State::QuickStopActive => "quick stop active",
+            State::FaultReactionActive => "fault reaction active",
+            State::Fault => "fault",
+            State::Unknown => "unknown state",
+        }
+    }
+}
+
+impl core::fmt::Display for State {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(self.name_en())
+    }
+}
+
 /// One row of a status word table: the state shows when `word & mask == value`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Pattern {
@@ -259,6 +282,12 @@ fn transitions(shortcut: bool) -> impl Iterator<Item = &'static Transition> {
         .enumerate()
         .filter(move |(i, _)| shortcut || *i + 1 < COMMON.len())
         .map(|(_, t)| t)
+}
+
+/// The commanded transitions of the ACT state machine (ch. 9.1.2), shortcut transition 4 included:
+/// what a drive does when it receives a control word in a state.
+pub fn act_transitions() -> impl Iterator<Item = &'static Transition> {
+    transitions(true)
 }
 
 /// First control word of a shortest commanded path from `current` to `target`
