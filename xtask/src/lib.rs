@@ -39,7 +39,9 @@ pub struct Output {
 /// The workspace root (the parent of this crate's manifest directory).
 pub fn workspace_root() -> PathBuf {
     let here = Path::new(env!("CARGO_MANIFEST_DIR"));
-    here.parent().map(Path::to_path_buf).unwrap_or_else(|| here.to_path_buf())
+    here.parent()
+        .map(Path::to_path_buf)
+        .unwrap_or_else(|| here.to_path_buf())
 }
 
 /// The folder holding the CSV inputs.
@@ -66,7 +68,10 @@ pub fn generate_all(root: &Path) -> Result<Vec<Output>> {
         let m = n.trim_end_matches(".rs");
         modrs.push_str(&format!("pub mod {m};\n"));
     }
-    out.push(Output { name: "mod.rs".into(), text: modrs });
+    out.push(Output {
+        name: "mod.rs".into(),
+        text: modrs,
+    });
     Ok(out)
 }
 
@@ -110,7 +115,12 @@ pub fn codegen(root: &Path, check: bool) -> Result<String> {
     Ok(if stale.is_empty() {
         format!("{} generated files up to date", outputs.len())
     } else {
-        format!("wrote {} of {} generated files: {}", stale.len(), outputs.len(), stale.join(", "))
+        format!(
+            "wrote {} of {} generated files: {}",
+            stale.len(),
+            outputs.len(),
+            stale.join(", ")
+        )
     })
 }
 

@@ -73,7 +73,11 @@ impl Table {
         if rows.is_empty() {
             return Err(Error(format!("{file}: no data rows")));
         }
-        Ok(Table { path: path.to_path_buf(), header, rows })
+        Ok(Table {
+            path: path.to_path_buf(),
+            header,
+            rows,
+        })
     }
 
     /// The data rows in file order.
@@ -129,7 +133,8 @@ impl Row {
         T::Err: std::fmt::Display,
     {
         let s = self.req(col)?;
-        s.parse::<T>().map_err(|e| self.err(format!("column `{col}`: `{s}`: {e}")))
+        s.parse::<T>()
+            .map_err(|e| self.err(format!("column `{col}`: `{s}`: {e}")))
     }
 
     /// Column `col` parsed as `T`, or `None` when empty.
@@ -141,7 +146,9 @@ impl Row {
         if s.is_empty() {
             return Ok(None);
         }
-        s.parse::<T>().map(Some).map_err(|e| self.err(format!("column `{col}`: `{s}`: {e}")))
+        s.parse::<T>()
+            .map(Some)
+            .map_err(|e| self.err(format!("column `{col}`: `{s}`: {e}")))
     }
 
     /// Column `col` as a boolean flag written `0` or `1` (empty = 0).
@@ -188,5 +195,8 @@ pub fn parse_int(s: &str) -> Option<i64> {
 fn display_path(path: &Path) -> String {
     // Paths relative to the workspace root read best in error messages.
     let root = crate::workspace_root();
-    path.strip_prefix(&root).unwrap_or(path).display().to_string()
+    path.strip_prefix(&root)
+        .unwrap_or(path)
+        .display()
+        .to_string()
 }
