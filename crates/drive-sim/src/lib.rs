@@ -92,6 +92,7 @@
 mod drive;
 mod error;
 pub mod inject;
+pub mod movidrive;
 pub mod ramp;
 pub mod state;
 pub mod store;

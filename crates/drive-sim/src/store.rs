@@ -422,6 +422,46 @@ impl ParamStore {
         Ok(())
     }
 
+    /// Add a cell at `(index, 0)` that shares `meta`'s access flags, range and value list but has
+    /// its own value, initialised to `default` (0 when `None`): the second index of a two-word
+    /// parameter such as SEW P852 "user unit" (indices 8772 and 8773).
+    ///
+    /// Fails with [`SimError::ValueNotAllowed`] (value `index`) if `index` is already in use;
+    /// the store is then unchanged.
+    pub fn add_second_index(
+        &mut self,
+        index: u16,
+        meta: Meta,
+        default: Option<i64>,
+    ) -> Result<(), SimError> {
+        if self.entries.contains_key(&index) {
+            return Err(SimError::ValueNotAllowed {
+                index,
+                value: i64::from(index),
+            });
+        }
+        let initial = default.unwrap_or(0);
+        let cell = Cell {
+            meta,
+            default,
+            range: meta.raw_range(),
+            ram: initial,
+            eeprom: initial,
+            nv_writes: 0,
+            last_nv_write: None,
+        };
+        let mut cells = BTreeMap::new();
+        cells.insert(0, cell);
+        self.entries.insert(
+            index,
+            Entry {
+                data_set: false,
+                cells,
+            },
+        );
+        Ok(())
+    }
+
     /// Set a value the drive itself produces (actual speed, status, fault memory), bypassing
     /// every access check. Writes sub-index 0 (all data sets for a data-set parameter).
     ///

@@ -2,6 +2,7 @@
 
 mod drive;
 mod inject;
+mod movidrive;
 mod props;
 mod ramp;
 mod sew;
