@@ -1,5 +1,67 @@
-//! `movilink`: placeholder crate of the drivebus workspace; its protocol arrives in a later issue.
+//! `movilink`: the SEW MOVILINK protocol (RS-485/RS-232, 9600 8E1) for MOVIDRIVE and
+//! MOVIMOT drives, sans-IO.
 //!
-//! The crate is sans-IO and `no_std` like every protocol crate of drivebus.
+//! Layers, bottom up:
+//!
+//! * [`frame`]: plain data types: [`Address`], [`PduType`], [`ParamChannel`] (with
+//!   [`Management`], [`Service`]) and [`Telegram`];
+//! * [`codec`]: [`encode`] / [`decode`] of whole telegrams
+//!   (`SD ADR TYP PDU BCC`) into and from byte slices, without allocation;
+//! * [`timing`]: the protocol times as constants and state ([`TxGate`]); time is always an
+//!   argument ([`Instant`]), the crate never reads a clock;
+//! * [`receiver`]: character-level framing with start pause detection and every receive error
+//!   of the manual as a [`RejectReason`];
+//! * [`master`] and [`slave`]: state machines in the quinn-proto style (`send`/`handle_char`/
+//!   `handle_timeout` in, `poll_transmit`/`poll_timeout`/`poll_event` out).
+//!
+//! Device errors (a drive's negative answer, [`ReturnCode`]) are separate from transport errors
+//! ([`DecodeError`], [`RejectReason`], [`MasterEvent::Timeout`]).
+//!
+//! The crate is `no_std` without its default `std` feature, and nothing allocates.
+//!
+//! ```
+//! use movilink::{codec, Address, ParamChannel, PduType, Telegram};
+//!
+//! // Read P131 "ramp t11 down CW" (index 8471 = 0x2117) from drive 1 with an acyclic PARAM + 0PD telegram.
+//! let req = Telegram::request(Address::new(1).unwrap(), PduType::PARAM_0PD_ACYCLIC)
+//!     .with_param(ParamChannel::read(8471));
+//! let mut buf = [0u8; movilink::MAX_TELEGRAM_LEN];
+//! let n = codec::encode(&req, &mut buf).unwrap();
+//! assert_eq!(&buf[..n], &[0x02, 0x01, 0x86, 0x31, 0x00, 0x21, 0x17, 0, 0, 0, 0, 0x82]);
+//!
+//! // The drive's answer: value 3000 (3 s).
+//! let answer = [0x1D, 0x01, 0x86, 0x31, 0x00, 0x21, 0x17, 0x00, 0x00, 0x0B, 0xB8, 0x2E];
+//! let (resp, _) = codec::decode(&answer).unwrap();
+//! assert_eq!(resp.param().unwrap().result(), Ok(3000));
+//! ```
 #![cfg_attr(not(feature = "std"), no_std)]
 #![warn(missing_docs)]
+#![cfg_attr(
+    not(test),
+    warn(
+        clippy::unwrap_used,
+        clippy::expect_used,
+        clippy::indexing_slicing,
+        clippy::panic
+    )
+)]
+
+pub mod codec;
+pub mod error;
+pub mod frame;
+pub mod master;
+mod queue;
+pub mod receiver;
+pub mod slave;
+pub mod timing;
+
+pub use codec::{decode, encode};
+pub use error::{CharError, DecodeError, EncodeError, ErrorClass, RejectReason, ReturnCode};
+pub use frame::{
+    Address, AddressKind, AttributeInfo, DataLength, Direction, MAX_TELEGRAM_LEN, MIN_TELEGRAM_LEN,
+    Management, ParamChannel, PduType, SD1, SD2, ScaleInfo, Service, Telegram,
+};
+pub use master::{Master, MasterConfig, MasterEvent, SendError};
+pub use receiver::{AddressFilter, Receiver, RxChar, RxEvent};
+pub use slave::{Backend, Slave, SlaveConfig, SlaveEvent};
+pub use timing::{Instant, LineTiming, TxGate};

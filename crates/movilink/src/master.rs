@@ -1,0 +1,495 @@
+//! The master (controller) state machine, sans-IO.
+//!
+//! One request is in flight at a time. The driver around it:
+//!
+//! 1. calls [`Master::send`] with a request telegram,
+//! 2. writes what [`Master::poll_transmit`] returns to the port (the bytes are assumed to start
+//!    on the wire at the latest time given to the master),
+//! 3. feeds received characters to [`Master::handle_char`] / [`Master::handle_rx`],
+//! 4. calls [`Master::handle_timeout`] when the time of [`Master::poll_timeout`] is reached,
+//! 5. drains [`Master::poll_event`] after each call.
+//!
+//! What it enforces:
+//!
+//! * a start pause after the last bus activity before each request ([`TxGate`]),
+//! * the response timeout (default 50 ms, the manual's maximum response delay) from the end of
+//!   the request's BCC to the start of the response's SD2,
+//! * acceptance of a response only with SD2, the request's address (for a point-to-point
+//!   request to 254 also any unicast address), the request's PDU type and a correct BCC,
+//! * retries after a timeout or a rejected response, up to [`MasterConfig::retries`], each at
+//!   least two start pauses after the last bus activity,
+//! * no response for group and broadcast requests ([`MasterEvent::Sent`]) and
+//!   [`BROADCAST_SPACING`](crate::timing::BROADCAST_SPACING) after them,
+//! * the cyclic handshake: a new parameter service in a cyclic PDU type toggles the handshake
+//!   bit relative to the drive's last echo; the request is repeated until the drive echoes the
+//!   sent bit (service executed) or [`MasterConfig::max_handshake_cycles`] is reached. If the
+//!   drive's handshake state is not known yet, one exchange with "no service" learns it first.
+//!   Acyclic PDU types are always executed: their first valid response completes the service.
+
+use core::time::Duration;
+
+use crate::codec;
+use crate::error::{RejectReason, ReturnCode};
+use crate::frame::{Address, Direction, ParamChannel, Telegram};
+use crate::queue::Queue;
+use crate::receiver::{AddressFilter, Receiver, RxChar, RxEvent};
+use crate::timing::{DEFAULT_RESPONSE_TIMEOUT, Instant, LineTiming, TxGate, duration_micros};
+
+/// Configuration of a [`Master`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct MasterConfig {
+    /// Response timeout: from the end of the request to the start of the response. The manual
+    /// allows a drive at most 50 ms ([`DEFAULT_RESPONSE_TIMEOUT`]); a longer value only slows
+    /// down error detection (use it for converters with latency, e.g. USB adapters), a shorter
+    /// one risks timeouts on answers that are in time.
+    pub response_timeout: Duration,
+    /// Retransmissions after a timeout or rejected response (0 = one attempt only).
+    pub retries: u8,
+    /// Cyclic PDU types: how many exchanges to wait for the handshake echo of a parameter
+    /// service before reporting [`MasterEvent::ParamNotExecuted`].
+    pub max_handshake_cycles: u16,
+    /// Character time and start pause.
+    pub timing: LineTiming,
+}
+
+impl Default for MasterConfig {
+    fn default() -> Self {
+        Self {
+            response_timeout: DEFAULT_RESPONSE_TIMEOUT,
+            retries: 2,
+            max_handshake_cycles: 20,
+            timing: LineTiming::MOVILINK,
+        }
+    }
+}
+
+/// What happened; drained with [`Master::poll_event`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum MasterEvent {
+    /// A valid response to the current request (one per exchange, so a cyclic parameter
+    /// service waiting for its handshake reports several; each carries fresh process data).
+    Response {
+        /// The response.
+        telegram: Telegram,
+    },
+    /// The parameter service of the request completed: the data, or the drive's return code.
+    ParamDone(Result<u32, ReturnCode>),
+    /// A request without response (group, broadcast) was handed to the port; it is complete.
+    Sent {
+        /// Its address.
+        address: Address,
+    },
+    /// No valid response after `attempts` transmissions (each timed out or was rejected; the
+    /// rejections were reported as [`MasterEvent::Rejected`] before). The request is dropped.
+    Timeout {
+        /// Transmissions made.
+        attempts: u8,
+    },
+    /// Received characters were dropped, or a response did not match the request.
+    Rejected(RejectReason),
+    /// Cyclic PDU type: the drive did not echo the handshake bit within
+    /// [`MasterConfig::max_handshake_cycles`] exchanges. The request is dropped.
+    ParamNotExecuted {
+        /// Exchanges made.
+        cycles: u16,
+    },
+}
+
+/// Why [`Master::send`] refused a telegram.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, thiserror::Error)]
+#[non_exhaustive]
+pub enum SendError {
+    /// A request is still in flight; wait for its completion event.
+    #[error("a request is already in flight")]
+    Busy,
+    /// The telegram is a response (SD2), not a request.
+    #[error("telegram is not a request")]
+    NotARequest,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Phase {
+    /// Waiting for the bus to allow the (re)transmission.
+    Queued,
+    /// Transmitted; give up at `give_up` unless a response is being received.
+    Waiting { give_up: Instant },
+}
+
+#[derive(Debug, Clone, Copy)]
+struct Job {
+    /// The request as transmitted (handshake bit applied).
+    request: Telegram,
+    /// The user's parameter channel while a "no service" exchange learns the drive's handshake.
+    deferred: Option<ParamChannel>,
+    /// Completion waits for a parameter answer (a service in a telegram that gets a response).
+    param_job: bool,
+    /// Transmissions of the current exchange.
+    attempts: u8,
+    /// Exchanges of a cyclic parameter service.
+    cycles: u16,
+    phase: Phase,
+}
+
+/// One bit per address byte value.
+#[derive(Debug, Clone, Copy, Default)]
+struct Bits([u128; 2]);
+
+impl Bits {
+    fn get(&self, a: Address) -> bool {
+        let i = a.get();
+        self.0
+            .get(usize::from(i >> 7))
+            .is_some_and(|w| w >> (i & 127) & 1 == 1)
+    }
+
+    fn set(&mut self, a: Address, on: bool) {
+        let i = a.get();
+        if let Some(w) = self.0.get_mut(usize::from(i >> 7)) {
+            let m = 1u128 << (i & 127);
+            if on { *w |= m } else { *w &= !m }
+        }
+    }
+}
+
+/// The master state machine; see the [module docs](self).
+///
+/// ```
+/// use movilink::master::{Master, MasterConfig, MasterEvent};
+/// use movilink::receiver::RxChar;
+/// use movilink::timing::Instant;
+/// use movilink::{codec, Address, ParamChannel, PduType, Telegram};
+///
+/// let mut m = Master::new(MasterConfig::default());
+/// let drive = Address::new(1).unwrap();
+/// let req = Telegram::request(drive, PduType::PARAM_0PD_ACYCLIC).with_param(ParamChannel::read(8318));
+/// m.send(req, Instant::ZERO).unwrap();
+/// let mut buf = [0u8; 18];
+/// let n = m.poll_transmit(&mut buf).unwrap();
+/// assert_eq!(n, 12);
+/// // The drive answers 5 ms after the request's end (12 characters × 1146 µs).
+/// let answer = Telegram::response(drive, PduType::PARAM_0PD_ACYCLIC)
+///     .with_param(ParamChannel::read(8318).answer(Ok(1500)));
+/// let n = codec::encode(&answer, &mut buf).unwrap();
+/// let t0 = 12 * 1146 + 5000;
+/// for (i, b) in buf[..n].iter().enumerate() {
+///     m.handle_char(RxChar::new(*b, Instant::from_micros(t0 + 1146 * (i as u64 + 1))));
+/// }
+/// assert!(matches!(m.poll_event(), Some(MasterEvent::Response { .. })));
+/// assert_eq!(m.poll_event(), Some(MasterEvent::ParamDone(Ok(1500))));
+/// assert!(m.is_idle());
+/// ```
+#[derive(Debug, Clone)]
+pub struct Master {
+    config: MasterConfig,
+    receiver: Receiver,
+    gate: TxGate,
+    now: Instant,
+    job: Option<Job>,
+    /// Drive handshake bit known (from a response).
+    hs_known: Bits,
+    /// Drive handshake bit (unicast) or last sent bit (group, broadcast).
+    hs_value: Bits,
+    events: Queue<MasterEvent, 8>,
+    char_us: u64,
+    pause_us: u64,
+    timeout_us: u64,
+}
+
+impl Master {
+    /// A master with `config`; the bus is assumed idle.
+    pub fn new(config: MasterConfig) -> Self {
+        let (char_us, pause_us) = config.timing.micros();
+        Self {
+            receiver: Receiver::new(
+                Direction::Response,
+                AddressFilter::Master {
+                    expected: Address::POINT_TO_POINT,
+                },
+                config.timing,
+            ),
+            gate: TxGate::new(config.timing),
+            now: Instant::ZERO,
+            job: None,
+            hs_known: Bits::default(),
+            hs_value: Bits::default(),
+            events: Queue::new(),
+            char_us,
+            pause_us,
+            timeout_us: duration_micros(config.response_timeout),
+            config,
+        }
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &MasterConfig {
+        &self.config
+    }
+
+    /// Whether no request is in flight (a new one may be sent).
+    pub fn is_idle(&self) -> bool {
+        self.job.is_none()
+    }
+
+    /// The bus gate (earliest start of the next telegram).
+    pub fn gate(&self) -> &TxGate {
+        &self.gate
+    }
+
+    /// Start a request at `now`. See the [module docs](self) for the handshake handling of
+    /// cyclic PDU types (the handshake bit of `request` is replaced).
+    pub fn send(&mut self, request: Telegram, now: Instant) -> Result<(), SendError> {
+        if self.job.is_some() {
+            return Err(SendError::Busy);
+        }
+        if request.direction() != Direction::Request {
+            return Err(SendError::NotARequest);
+        }
+        self.advance(now);
+        let mut request = request;
+        let address = request.address();
+        let cyclic = request.pdu_type().is_cyclic();
+        let answered = address.expects_response();
+        let known = self.hs_known.get(address);
+        let value = self.hs_value.get(address);
+        let mut deferred = None;
+        let mut param_job = false;
+        if let Some(p) = request.param_mut() {
+            let is_service = p.management.service_code() != 0;
+            param_job = is_service && answered;
+            if cyclic {
+                if !is_service {
+                    // No new service: keep the drive's bit, nothing toggles.
+                    *p = p.with_handshake(value);
+                } else if !answered {
+                    // Nobody echoes: toggle what we sent last time.
+                    *p = p.with_handshake(!value);
+                    self.hs_value.set(address, !value);
+                } else if known {
+                    *p = p.with_handshake(!value);
+                } else {
+                    deferred = Some(*p);
+                    *p = ParamChannel::no_service();
+                }
+            }
+        }
+        self.job = Some(Job {
+            request,
+            deferred,
+            param_job,
+            attempts: 0,
+            cycles: 0,
+            phase: Phase::Queued,
+        });
+        Ok(())
+    }
+
+    /// Replace the process data of the request in flight (used by its next transmission,
+    /// e.g. the next cycle of a cyclic parameter service). False if no request is in flight.
+    pub fn set_process_data(&mut self, words: &[u16]) -> bool {
+        match &mut self.job {
+            Some(job) => {
+                job.request.set_process_data(words);
+                true
+            }
+            None => false,
+        }
+    }
+
+    /// The driver could not finish writing the request at `now` (the telegram on the wire is
+    /// broken): the request is dropped and the next one waits two start pauses.
+    pub fn abort(&mut self, now: Instant) {
+        self.advance(now);
+        self.job = None;
+        self.receiver.reset();
+        self.gate.on_aborted(self.now);
+    }
+
+    /// The next request telegram, if one is due at the latest time given (`buf` must hold
+    /// [`MAX_TELEGRAM_LEN`](crate::MAX_TELEGRAM_LEN) bytes; a smaller buffer gets nothing).
+    /// Returns the number of bytes written.
+    pub fn poll_transmit(&mut self, buf: &mut [u8]) -> Option<usize> {
+        let job = self.job.as_mut()?;
+        if job.phase != Phase::Queued || !self.gate.may_start(self.now) {
+            return None;
+        }
+        let n = codec::encode(&job.request, buf).ok()?;
+        let end = self.now.plus_micros(self.char_us.saturating_mul(n as u64));
+        let address = job.request.address();
+        job.attempts = job.attempts.saturating_add(1);
+        self.gate.on_request_sent(end, address);
+        if address.expects_response() {
+            job.phase = Phase::Waiting {
+                give_up: end.plus_micros(self.timeout_us + self.char_us),
+            };
+            self.receiver
+                .set_filter(AddressFilter::Master { expected: address });
+            self.receiver.reset();
+        } else {
+            self.job = None;
+            self.events.push(MasterEvent::Sent { address });
+        }
+        Some(n)
+    }
+
+    /// When [`Master::handle_timeout`] (or [`Master::poll_transmit`]) has work to do.
+    pub fn poll_timeout(&self) -> Option<Instant> {
+        let job = self.job.as_ref()?;
+        Some(match job.phase {
+            Phase::Queued => self.gate.earliest_start().max(self.now),
+            Phase::Waiting { give_up } => self.receiver.poll_timeout().unwrap_or(give_up),
+        })
+    }
+
+    /// The next event.
+    pub fn poll_event(&mut self) -> Option<MasterEvent> {
+        self.events.pop()
+    }
+
+    /// Feed characters received from the bus.
+    pub fn handle_rx(&mut self, chars: &[RxChar]) {
+        for c in chars {
+            self.handle_char(*c);
+        }
+    }
+
+    /// Feed one character received from the bus.
+    pub fn handle_char(&mut self, c: RxChar) {
+        self.advance(c.time);
+        self.gate.on_activity(c.time);
+        let Some(Job {
+            phase: Phase::Waiting { give_up },
+            ..
+        }) = self.job
+        else {
+            return;
+        };
+        if !self.receiver.is_receiving() && c.time > give_up {
+            // The response did not start in time: this character is too late.
+            self.fail_attempt();
+            return;
+        }
+        match self.receiver.handle_char(c) {
+            None => {}
+            Some(RxEvent::Rejected(r)) => {
+                self.events.push(MasterEvent::Rejected(r));
+                self.fail_attempt();
+            }
+            Some(RxEvent::Telegram(t)) => self.on_response(t),
+        }
+    }
+
+    /// Advance the time to `now`: transmissions may become due, a response may time out.
+    pub fn handle_timeout(&mut self, now: Instant) {
+        self.advance(now);
+        let Some(Job {
+            phase: Phase::Waiting { give_up },
+            ..
+        }) = self.job
+        else {
+            return;
+        };
+        if let Some(RxEvent::Rejected(r)) = self.receiver.handle_timeout(self.now) {
+            self.events.push(MasterEvent::Rejected(r));
+            self.fail_attempt();
+        } else if !self.receiver.is_receiving() && self.now >= give_up {
+            self.fail_attempt();
+        }
+    }
+
+    fn advance(&mut self, now: Instant) {
+        if now > self.now {
+            self.now = now;
+        }
+    }
+
+    /// The current exchange failed: retry or give up.
+    fn fail_attempt(&mut self) {
+        let Some(job) = self.job.as_mut() else { return };
+        if job.attempts <= self.config.retries {
+            job.phase = Phase::Queued;
+            let last = self.gate.last_activity().unwrap_or(self.now);
+            self.gate
+                .hold_until(last.plus_micros(self.pause_us.saturating_mul(2)));
+        } else {
+            self.events.push(MasterEvent::Timeout {
+                attempts: job.attempts,
+            });
+            self.job = None;
+        }
+    }
+
+    fn on_response(&mut self, response: Telegram) {
+        let Some(mut job) = self.job else { return };
+        let sent_type = job.request.pdu_type();
+        if response.pdu_type() != sent_type {
+            self.events
+                .push(MasterEvent::Rejected(RejectReason::PduTypeMismatch {
+                    expected: sent_type.raw(),
+                    got: response.pdu_type().raw(),
+                }));
+            self.fail_attempt();
+            return;
+        }
+        let (Some(sent), Some(got)) = (job.request.param(), response.param()) else {
+            self.events
+                .push(MasterEvent::Response { telegram: response });
+            self.job = None;
+            return;
+        };
+        if !sent_type.is_cyclic() {
+            if job.param_job && !sent.is_answered_by(&got) {
+                self.events
+                    .push(MasterEvent::Rejected(RejectReason::ParamMismatch));
+                self.fail_attempt();
+                return;
+            }
+            self.events
+                .push(MasterEvent::Response { telegram: response });
+            if job.param_job {
+                self.events.push(MasterEvent::ParamDone(got.result()));
+            }
+            self.job = None;
+            return;
+        }
+        // Cyclic: learn the drive's handshake bit.
+        let address = job.request.address();
+        self.hs_known.set(address, true);
+        self.hs_value.set(address, got.management.handshake());
+        self.events
+            .push(MasterEvent::Response { telegram: response });
+        if let Some(real) = job.deferred.take() {
+            if let Some(p) = job.request.param_mut() {
+                *p = real.with_handshake(!got.management.handshake());
+            }
+            self.requeue(job);
+        } else if !job.param_job {
+            self.job = None;
+        } else if got.management.handshake() == sent.management.handshake()
+            && sent.is_answered_by(&got)
+        {
+            self.events.push(MasterEvent::ParamDone(got.result()));
+            self.job = None;
+        } else {
+            if got.management.handshake() == sent.management.handshake() {
+                self.events
+                    .push(MasterEvent::Rejected(RejectReason::ParamMismatch));
+            }
+            job.cycles = job.cycles.saturating_add(1);
+            if job.cycles >= self.config.max_handshake_cycles {
+                self.events
+                    .push(MasterEvent::ParamNotExecuted { cycles: job.cycles });
+                self.job = None;
+            } else {
+                self.requeue(job);
+            }
+        }
+    }
+
+    /// Next exchange of the same job (handshake cycle): a fresh set of attempts.
+    fn requeue(&mut self, mut job: Job) {
+        job.attempts = 0;
+        job.phase = Phase::Queued;
+        self.job = Some(job);
+    }
+}

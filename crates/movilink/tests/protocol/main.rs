@@ -1,0 +1,8 @@
+//! Protocol tests of the movilink crate (one test binary).
+
+mod bus;
+mod master_slave;
+mod props;
+mod receiver;
+mod timing;
+mod vectors;

@@ -1,0 +1,232 @@
+//! Timing with explicit times: start pause, restart after abort, broadcast spacing, response
+//! timeout, P812 timeout, response delay of the drive.
+
+use core::time::Duration;
+
+use movilink::timing::{BROADCAST_SPACING, Instant, RESTART_PAUSE, START_PAUSE};
+use movilink::{
+    Address, LineTiming, Master, MasterConfig, MasterEvent, ParamChannel, PduType, RxChar, Slave,
+    SlaveConfig, SlaveEvent, Telegram, TxGate, encode,
+};
+
+use super::bus::TestDrive;
+
+const CT: u64 = 1146;
+
+fn us(t: u64) -> Instant {
+    Instant::from_micros(t)
+}
+
+fn drive1() -> Address {
+    Address::new(1).unwrap()
+}
+
+#[test]
+fn gate_start_pause_restart_and_broadcast_spacing() {
+    let mut g = TxGate::new(LineTiming::MOVILINK);
+    assert!(g.may_start(Instant::ZERO));
+    g.on_activity(us(10_000));
+    assert_eq!(g.earliest_start(), us(13_440));
+    // Activity in the past does not move it back.
+    g.on_activity(us(9_000));
+    assert_eq!(g.earliest_start(), us(13_440));
+    g.on_aborted(us(20_000));
+    assert_eq!(g.earliest_start(), us(20_000) + RESTART_PAUSE);
+    assert_eq!(g.earliest_start(), us(26_880));
+    g.on_request_sent(us(30_000), drive1());
+    assert_eq!(g.earliest_start(), us(33_440));
+    g.on_request_sent(us(40_000), Address::BROADCAST);
+    assert_eq!(g.earliest_start(), us(40_000) + BROADCAST_SPACING);
+    g.on_request_sent(us(100_000), Address::group(120).unwrap());
+    assert_eq!(g.earliest_start(), us(125_000));
+}
+
+#[test]
+fn master_waits_start_pause_after_bus_activity() {
+    let mut m = Master::new(MasterConfig::default());
+    // Traffic on the bus: a character ended at 5 ms.
+    m.handle_char(RxChar::new(0x55, us(5_000)));
+    m.send(Telegram::request(drive1(), PduType::PD1_ACYCLIC), us(6_000))
+        .unwrap();
+    let mut buf = [0u8; 18];
+    assert_eq!(m.poll_transmit(&mut buf), None);
+    assert_eq!(m.poll_timeout(), Some(us(5_000) + START_PAUSE));
+    m.handle_timeout(us(8_439));
+    assert_eq!(m.poll_transmit(&mut buf), None);
+    m.handle_timeout(us(8_440));
+    assert_eq!(m.poll_transmit(&mut buf), Some(6));
+}
+
+#[test]
+fn master_abort_requires_two_start_pauses() {
+    let mut m = Master::new(MasterConfig::default());
+    m.send(Telegram::request(drive1(), PduType::PD1_ACYCLIC), us(0))
+        .unwrap();
+    let mut buf = [0u8; 18];
+    assert!(m.poll_transmit(&mut buf).is_some());
+    m.abort(us(2_000));
+    assert!(m.is_idle());
+    m.send(Telegram::request(drive1(), PduType::PD1_ACYCLIC), us(2_000))
+        .unwrap();
+    m.handle_timeout(us(2_000 + 6_879));
+    assert_eq!(m.poll_transmit(&mut buf), None);
+    m.handle_timeout(us(2_000 + 6_880));
+    assert!(m.poll_transmit(&mut buf).is_some());
+}
+
+#[test]
+fn master_broadcast_spacing() {
+    let mut m = Master::new(MasterConfig::default());
+    let bc = Telegram::request(Address::BROADCAST, PduType::PD3).with_process_data(&[6, 0x2000, 0]);
+    m.send(bc, us(0)).unwrap();
+    let mut buf = [0u8; 18];
+    assert_eq!(m.poll_transmit(&mut buf), Some(10));
+    assert_eq!(
+        m.poll_event(),
+        Some(MasterEvent::Sent {
+            address: Address::BROADCAST
+        })
+    );
+    assert!(m.is_idle());
+    // The BCC ends at 10 characters; the next SD1 may start 25 ms later.
+    let end = 10 * CT;
+    m.send(bc, us(end)).unwrap();
+    assert_eq!(m.poll_timeout(), Some(us(end + 25_000)));
+    m.handle_timeout(us(end + 24_999));
+    assert_eq!(m.poll_transmit(&mut buf), None);
+    m.handle_timeout(us(end + 25_000));
+    assert_eq!(m.poll_transmit(&mut buf), Some(10));
+}
+
+#[test]
+fn master_response_timeout_default_50ms_and_configurable() {
+    for (timeout, retries) in [
+        (Duration::from_millis(50), 0u8),
+        (Duration::from_millis(20), 1),
+    ] {
+        let cfg = MasterConfig {
+            response_timeout: timeout,
+            retries,
+            ..MasterConfig::default()
+        };
+        let mut m = Master::new(cfg);
+        m.send(Telegram::request(drive1(), PduType::PD1_ACYCLIC), us(0))
+            .unwrap();
+        let mut buf = [0u8; 18];
+        assert_eq!(m.poll_transmit(&mut buf), Some(6));
+        let end = 6 * CT;
+        // Give up when an SD2 starting at the deadline would have been complete.
+        let give_up = end + timeout.as_micros() as u64 + CT;
+        assert_eq!(m.poll_timeout(), Some(us(give_up)));
+        m.handle_timeout(us(give_up - 1));
+        assert_eq!(m.poll_event(), None);
+        m.handle_timeout(us(give_up));
+        if retries == 0 {
+            assert_eq!(m.poll_event(), Some(MasterEvent::Timeout { attempts: 1 }));
+            assert!(m.is_idle());
+        } else {
+            // Retransmission.
+            assert_eq!(m.poll_transmit(&mut buf), Some(6));
+            let end2 = give_up + 6 * CT;
+            m.handle_timeout(us(end2 + timeout.as_micros() as u64 + CT));
+            assert_eq!(m.poll_event(), Some(MasterEvent::Timeout { attempts: 2 }));
+        }
+    }
+}
+
+#[test]
+fn late_response_start_is_a_timeout() {
+    let cfg = MasterConfig {
+        retries: 0,
+        ..MasterConfig::default()
+    };
+    let mut m = Master::new(cfg);
+    m.send(Telegram::request(drive1(), PduType::PD1_ACYCLIC), us(0))
+        .unwrap();
+    let mut buf = [0u8; 18];
+    m.poll_transmit(&mut buf).unwrap();
+    let resp = Telegram::response(drive1(), PduType::PD1_ACYCLIC);
+    let n = encode(&resp, &mut buf).unwrap();
+    // SD2 completes later than deadline + one character: too late.
+    let t0 = 6 * CT + 50_000 + 1;
+    for (i, b) in buf[..n].iter().enumerate() {
+        m.handle_char(RxChar::new(*b, us(t0 + CT * (i as u64 + 1))));
+    }
+    assert_eq!(m.poll_event(), Some(MasterEvent::Timeout { attempts: 1 }));
+    assert_eq!(m.poll_event(), None);
+}
+
+#[test]
+fn slave_answers_one_start_pause_after_the_request() {
+    let mut s = Slave::new(SlaveConfig::new(drive1()), TestDrive::default());
+    let req = Telegram::request(drive1(), PduType::PARAM_0PD_ACYCLIC)
+        .with_param(ParamChannel::read(8318));
+    let mut buf = [0u8; 18];
+    let n = encode(&req, &mut buf).unwrap();
+    for (i, b) in buf[..n].iter().enumerate() {
+        s.handle_char(RxChar::new(*b, us(CT * (i as u64 + 1))));
+    }
+    let end = CT * n as u64;
+    assert_eq!(s.poll_timeout(), Some(us(end + 3_440)));
+    s.handle_timeout(us(end + 3_439));
+    assert_eq!(s.poll_transmit(&mut buf), None);
+    s.handle_timeout(us(end + 3_440));
+    assert_eq!(s.poll_transmit(&mut buf), Some(12));
+    assert_eq!(&buf[..3], &[0x1D, 0x01, 0x86]);
+}
+
+fn send_cyclic(s: &mut Slave<TestDrive>, t0: u64, pdu: PduType) -> u64 {
+    let req = Telegram::request(drive1(), pdu).with_process_data(&[6, 0x1000, 0]);
+    let mut buf = [0u8; 18];
+    let n = encode(&req, &mut buf).unwrap();
+    for (i, b) in buf[..n].iter().enumerate() {
+        s.handle_char(RxChar::new(*b, us(t0 + CT * (i as u64 + 1))));
+    }
+    let mut out = [0u8; 18];
+    s.handle_timeout(us(t0 + CT * n as u64 + 3_440));
+    let _ = s.poll_transmit(&mut out);
+    t0 + CT * n as u64
+}
+
+#[test]
+fn p812_timeout_fires_once_and_rearms() {
+    let cfg = SlaveConfig {
+        rs485_timeout: Duration::from_millis(100),
+        ..SlaveConfig::new(drive1())
+    };
+    let mut s = Slave::new(cfg, TestDrive::default());
+    // Not armed before the first cyclic request; acyclic requests do not arm it.
+    s.handle_timeout(us(1_000_000));
+    let end = send_cyclic(&mut s, 1_000_000, PduType::PD3_ACYCLIC);
+    assert_eq!(s.poll_timeout(), None);
+    let end = send_cyclic(&mut s, end + 10_000, PduType::PD3);
+    while s.poll_event().is_some() {}
+    assert_eq!(s.poll_timeout(), Some(us(end + 100_000)));
+    // Retriggered by the next cyclic request.
+    let end = send_cyclic(&mut s, end + 50_000, PduType::PD3);
+    while s.poll_event().is_some() {}
+    s.handle_timeout(us(end + 99_999));
+    assert_eq!(s.poll_event(), None);
+    s.handle_timeout(us(end + 100_000));
+    assert_eq!(s.poll_event(), Some(SlaveEvent::Timeout));
+    assert_eq!(s.backend().timeouts, 1);
+    s.handle_timeout(us(end + 500_000));
+    assert_eq!(s.poll_event(), None);
+    assert_eq!(s.poll_timeout(), None);
+    // Communication resumes: armed again.
+    let end = send_cyclic(&mut s, end + 600_000, PduType::PD3);
+    while s.poll_event().is_some() {}
+    s.handle_timeout(us(end + 100_000));
+    assert_eq!(s.poll_event(), Some(SlaveEvent::Timeout));
+    assert_eq!(s.backend().timeouts, 2);
+}
+
+#[test]
+fn p812_zero_is_off() {
+    let mut s = Slave::new(SlaveConfig::new(drive1()), TestDrive::default());
+    let end = send_cyclic(&mut s, 0, PduType::PD3);
+    s.handle_timeout(us(end + 100_000_000));
+    while let Some(e) = s.poll_event() {
+        assert_ne!(e, SlaveEvent::Timeout);
+    }
+}
