@@ -22,6 +22,7 @@ pub fn run(_args: &DemoArgs) -> Result<()> {
     tables()?;
     nord_walk()?;
     bonfiglioli_walk()?;
+    crate::movilink::runtime()?.block_on(movilink_session())?;
     Ok(())
 }
 
@@ -130,6 +131,111 @@ fn bonfiglioli_walk() -> Result<()> {
         if state != target {
             return Err(CliError::failed(format!("ACT walk stuck in {state}")));
         }
+    }
+    println!();
+    Ok(())
+}
+
+/// A MOVILINK session against two simulated MOVIDRIVEs over an in-memory RS-485 link with
+/// 9600-baud wire timing: scan, identify, read and write parameters, enable, watch the speed
+/// ramp, stop.
+async fn movilink_session() -> Result<()> {
+    use crate::movilink::{driver_error, firmware_text, print_value, resolve};
+    use drive_transport::link::{LinkConfig, pair};
+    use movilink::driver::{DriverConfig, MasterDriver};
+    use movilink::sim::SimulatedBus;
+    use movilink::{Address, PduType, Telegram};
+    use std::time::Duration;
+
+    println!(
+        "== MOVILINK session: master ↔ simulated MOVIDRIVEs at 1 and 5, 9600 baud 8E1 wire model"
+    );
+    let (master_end, drive_end) = pair(LinkConfig::new(9600));
+    let sim = tokio::spawn(async move {
+        let mut bus = SimulatedBus::new(&[1, 5]);
+        bus.serve(drive_end).await
+    });
+    let mut m = MasterDriver::new(master_end, DriverConfig::default());
+    let started = tokio::time::Instant::now();
+
+    println!("  scan 0…9:");
+    let mut found = Vec::new();
+    for a in 0..=9u8 {
+        let addr = Address::new(a).ok_or_else(|| CliError::failed("bad address"))?;
+        if let Some(device_type) = m
+            .probe(addr, Duration::from_millis(20))
+            .await
+            .map_err(driver_error)?
+        {
+            let fw = m.read(addr, 8300).await.map_err(driver_error)?;
+            println!(
+                "    address {a}: device type {device_type}, firmware {}",
+                firmware_text(fw)
+            );
+            found.push(addr);
+        }
+    }
+    let drive = *found
+        .first()
+        .ok_or_else(|| CliError::failed("the simulated drives did not answer the scan"))?;
+
+    println!("  parameters of drive {}:", drive.get());
+    for key in ["P000", "P130", "P812"] {
+        let t = resolve(key)?;
+        let raw = m.read(drive, t.index).await.map_err(driver_error)?;
+        print!("    ");
+        print_value(t, raw, false);
+    }
+    let p130 = resolve("P130")?;
+    println!("    write P130 = 0.5 s (volatile: RAM only, no EEPROM wear)");
+    m.write_volatile(drive, p130.index, 500)
+        .await
+        .map_err(driver_error)?;
+    let raw = m.read(drive, p130.index).await.map_err(driver_error)?;
+    print!("    ");
+    print_value(p130, raw, false);
+
+    println!(
+        "  enable: PO1 = 0x0006 (control word 1: enable), PO2 = 5000 (1000 1/min), type 0x05 cyclic"
+    );
+    let mut last_speed = 0.0;
+    for (phase, control, target) in [("ramp up", 0x0006u16, 1000.0), ("stop", 0x0002, 0.0)] {
+        if phase == "stop" {
+            println!("  stop: PO1 = 0x0002 (control word 1: stop on the ramp)");
+        }
+        for _ in 0..40 {
+            let request =
+                Telegram::request(drive, PduType::PD3).with_process_data(&[control, 5000, 0]);
+            let response = m.exchange(request).await.map_err(driver_error)?;
+            let pi = response.process_data();
+            let status = pi.first().copied().unwrap_or(0);
+            let speed = f64::from(pi.get(1).copied().unwrap_or(0) as i16) * 0.2;
+            println!(
+                "    t = {:>5.0} ms  PI1 0x{status:04X} ({})  speed {speed:>6.1} 1/min",
+                started.elapsed().as_secs_f64() * 1000.0,
+                crate::movilink::decode::status_summary(status)
+            );
+            last_speed = speed;
+            if (speed - target).abs() < 0.5 {
+                break;
+            }
+            tokio::time::sleep(Duration::from_millis(60)).await;
+        }
+    }
+    let stats = m.stats();
+    println!(
+        "  {} transactions, {} retries, {} timeouts in {:.2} s",
+        stats.transactions,
+        stats.retries,
+        stats.timeouts,
+        started.elapsed().as_secs_f64()
+    );
+    drop(m);
+    sim.abort();
+    if last_speed.abs() >= 0.5 {
+        return Err(CliError::failed(format!(
+            "the simulated drive did not stop (speed {last_speed} 1/min)"
+        )));
     }
     println!();
     Ok(())

@@ -5,6 +5,7 @@
 
 mod demo;
 mod error;
+mod movilink;
 mod params;
 
 use clap::{Parser, Subcommand};
@@ -22,14 +23,44 @@ struct Cli {
 enum Command {
     /// Browse the parameter tables of a drive family (movidrive, nord, bonfiglioli).
     Params(params::ParamsArgs),
+    /// Talk to a SEW MOVIDRIVE over MOVILINK (RS-485 / RS-232).
+    Movilink(movilink::MovilinkArgs),
+    /// Run simulated drives on a serial port or a new pseudo-terminal.
+    #[command(subcommand)]
+    Sim(SimCommand),
+    /// Explain captured telegrams field by field.
+    #[command(subcommand)]
+    Decode(DecodeCommand),
     /// Run the built-in demonstration (tables, state machines, simulated sessions).
     Demo(demo::DemoArgs),
+}
+
+#[derive(Debug, Subcommand)]
+enum SimCommand {
+    /// Simulated MOVIDRIVE(s) answering MOVILINK.
+    Movilink(movilink::sim::SimArgs),
+}
+
+#[derive(Debug, Subcommand)]
+enum DecodeCommand {
+    /// A MOVILINK capture: hex bytes, e.g. `02 01 85 00 06 20 00 0B B8 13`.
+    Movilink {
+        /// The bytes (spaces, commas or none between them).
+        #[arg(required = true, num_args = 1..)]
+        hex: Vec<String>,
+        /// One JSON object per telegram.
+        #[arg(long)]
+        json: bool,
+    },
 }
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Params(args) => params::run(&args),
+        Command::Movilink(args) => movilink::run(&args),
+        Command::Sim(SimCommand::Movilink(args)) => movilink::sim::run(&args),
+        Command::Decode(DecodeCommand::Movilink { hex, json }) => movilink::decode::run(&hex, json),
         Command::Demo(args) => demo::run(&args),
     };
     match result {

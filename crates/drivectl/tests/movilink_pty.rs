@@ -1,0 +1,237 @@
+//! End to end over a real pseudo-terminal: `drivectl sim movilink --pty` on one side,
+//! `drivectl movilink --port <pty>` on the other, as separate processes.
+
+use std::io::{BufRead, BufReader};
+use std::process::{Child, Command, Output, Stdio};
+
+struct Sim {
+    child: Child,
+    path: String,
+}
+
+impl Sim {
+    fn start(addrs: &[u8]) -> Sim {
+        let mut cmd = Command::new(env!("CARGO_BIN_EXE_drivectl"));
+        cmd.args(["sim", "movilink", "--pty", "--parity", "none"]);
+        for a in addrs {
+            cmd.args(["--addr", &a.to_string()]);
+        }
+        let mut child = cmd
+            .stdout(Stdio::piped())
+            .stderr(Stdio::null())
+            .spawn()
+            .expect("sim starts");
+        let stdout = child.stdout.take().expect("stdout");
+        let mut line = String::new();
+        BufReader::new(stdout)
+            .read_line(&mut line)
+            .expect("sim prints its pty path");
+        let path = line.trim().to_owned();
+        assert!(
+            path.starts_with("/dev/"),
+            "first line is the pty path: {path:?}"
+        );
+        Sim { child, path }
+    }
+
+    fn run(&self, addr: u8, args: &[&str]) -> Output {
+        let a = addr.to_string();
+        let mut all = vec![
+            "movilink", "--port", &self.path, "--parity", "none", "--addr", &a,
+        ];
+        all.extend_from_slice(args);
+        Command::new(env!("CARGO_BIN_EXE_drivectl"))
+            .args(&all)
+            .output()
+            .expect("drivectl runs")
+    }
+}
+
+impl Drop for Sim {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+fn ok_json(o: &Output) -> Vec<serde_json::Value> {
+    assert!(
+        o.status.success(),
+        "stderr: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    String::from_utf8_lossy(&o.stdout)
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap_or_else(|e| panic!("not JSON: {l}: {e}")))
+        .collect()
+}
+
+#[test]
+fn read_write_info_over_a_pty() {
+    let sim = Sim::start(&[1]);
+    // P130 ramp up: default 2 s (raw 2000 ms).
+    let v = ok_json(&sim.run(1, &["--json", "read", "P130"]));
+    assert_eq!(v[0]["index"], 8470);
+    assert_eq!(v[0]["raw"], 2000);
+    assert_eq!(v[0]["value"], 2.0);
+    assert_eq!(v[0]["unit"], "s");
+
+    // Physical value in, raw value back.
+    let v = ok_json(&sim.run(1, &["--json", "write", "P130", "1.5", "--volatile"]));
+    assert_eq!(v[0]["raw"], 1500);
+    let v = ok_json(&sim.run(1, &["--json", "write", "8470", "700", "--raw"]));
+    assert_eq!(v[0]["raw"], 700);
+    let v = ok_json(&sim.run(1, &["--json", "read", "0x2116"]));
+    assert_eq!(v[0]["raw"], 700);
+
+    let v = ok_json(&sim.run(1, &["--json", "info", "P000"]));
+    assert_eq!(v[0]["size_index"], 11);
+    assert_eq!(v[0]["conversion_index"], 66);
+    assert_eq!(v[0]["access"], "RO");
+}
+
+#[test]
+fn guard_and_device_errors_are_one_clear_line() {
+    let sim = Sim::start(&[1]);
+    // Read-only in the table: refused before anything is sent.
+    let o = sim.run(1, &["write", "P000", "100"]);
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+    assert!(err.to_lowercase().contains("read-only"), "{err}");
+    // Out of range in the table: refused with the limits.
+    let o = sim.run(1, &["write", "P813", "64"]);
+    assert_eq!(
+        o.status.code(),
+        Some(2),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    // --force sends it; the drive answers "value too large" (0x0015).
+    let o = sim.run(1, &["write", "P813", "64", "--raw", "--force"]);
+    assert_eq!(o.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&o.stderr).to_lowercase();
+    assert!(err.contains("too large"), "{err}");
+    // Nobody at address 7: a timeout that says what to check.
+    let o = sim.run(7, &["read", "P000"]);
+    assert_eq!(o.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&o.stderr).to_lowercase();
+    assert!(err.contains("address") && err.contains("baud"), "{err}");
+}
+
+#[test]
+fn scan_finds_exactly_the_simulated_drives() {
+    let sim = Sim::start(&[1, 3]);
+    let v = ok_json(&sim.run(
+        0,
+        &[
+            "--json",
+            "--timeout",
+            "20",
+            "scan",
+            "--from",
+            "0",
+            "--to",
+            "5",
+        ],
+    ));
+    let found: Vec<u64> = v.iter().filter_map(|o| o["address"].as_u64()).collect();
+    assert_eq!(found, vec![1, 3]);
+    assert!(v.iter().all(|o| o["firmware"].as_u64().unwrap_or(0) > 0));
+}
+
+#[test]
+fn process_data_enable_moves_the_drive() {
+    let sim = Sim::start(&[1]);
+    // 3PD acyclic: control word 1 = enable, speed 5000 = 1000 1/min.
+    let v = ok_json(&sim.run(
+        1,
+        &[
+            "--json",
+            "pd",
+            "--type",
+            "0x85",
+            "--out",
+            "0x0006,5000,0",
+            "--count",
+            "3",
+            "--interval",
+            "200",
+        ],
+    ));
+    assert_eq!(v.len(), 3);
+    let status = v[2]["in"][0].as_u64().unwrap();
+    assert_eq!(status & 0x0001, 1, "output stage enabled: 0x{status:04X}");
+    let speed = v[2]["in"][1].as_i64().unwrap();
+    assert!(speed > 0, "the drive ramps up: {speed}");
+}
+
+#[test]
+fn backup_and_restore_round_trip() {
+    let sim = Sim::start(&[1]);
+    let dir = std::env::temp_dir().join(format!("drivectl-backup-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("drive1.json");
+    let f = file.to_str().unwrap();
+    // Change two parameters, back up, change them again, restore, and read them back.
+    ok_json(&sim.run(1, &["--json", "write", "P130", "1.2", "--volatile"]));
+    ok_json(&sim.run(1, &["--json", "write", "P131", "3", "--volatile"]));
+    let v = ok_json(&sim.run(1, &["--json", "backup", "--out", f]));
+    assert!(v[0]["parameters"].as_u64().unwrap() > 200, "{v:?}");
+    let text = std::fs::read_to_string(&file).unwrap();
+    assert!(text.contains("drivebus-movilink-backup"));
+    ok_json(&sim.run(1, &["--json", "write", "P130", "0.1", "--volatile"]));
+    ok_json(&sim.run(1, &["--json", "write", "P131", "0.1", "--volatile"]));
+    let v = ok_json(&sim.run(1, &["--json", "restore", f]));
+    assert_eq!(v.last().unwrap()["mismatches"], 0);
+    assert_eq!(
+        ok_json(&sim.run(1, &["--json", "read", "P130"]))[0]["raw"],
+        1200
+    );
+    assert_eq!(
+        ok_json(&sim.run(1, &["--json", "read", "P131"]))[0]["raw"],
+        3000
+    );
+    // A corrupt file is refused before anything is written.
+    std::fs::write(&file, text.replace("\"raw\": 1200", "\"raw\": 99999999")).unwrap();
+    let o = sim.run(1, &["restore", f]);
+    assert_eq!(
+        o.status.code(),
+        Some(2),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert_eq!(
+        ok_json(&sim.run(1, &["--json", "read", "P130"]))[0]["raw"],
+        1200
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn decode_explains_the_manual_example() {
+    // Ch. 4.3 application example, acyclic 3PD (see docs/errata.md about "type 5").
+    let o = Command::new(env!("CARGO_BIN_EXE_drivectl"))
+        .args([
+            "decode",
+            "movilink",
+            "02 01 85 00 06 20 00 0B B8 13",
+            "--json",
+        ])
+        .output()
+        .unwrap();
+    let v = ok_json(&o);
+    assert_eq!(v[0]["valid"], true);
+    assert_eq!(v[0]["direction"], "request");
+    let fields = v[0]["fields"].as_array().unwrap();
+    assert_eq!(fields.len(), 7);
+    assert_eq!(fields[3]["field"], "PO1");
+    assert!(fields[3]["meaning"].as_str().unwrap().contains("enable"));
+    // Bild 20: BCC 0x57 of 02 01 05 0006 3A98 01F4; a wrong BCC is named with the right one.
+    let o = Command::new(env!("CARGO_BIN_EXE_drivectl"))
+        .args(["decode", "movilink", "020105 0006 3A98 01F4 58"])
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&o.stdout).contains("expected 0x57"));
+}
