@@ -1,6 +1,8 @@
 //! Shared helpers of the workspace integration tests: simulated drives built from each family's
 //! generated table, and iteration over every parameter of every family.
 
+pub mod movilink_bus;
+
 use drive_profile::{Family, ParamMeta, bonfiglioli, nord, sew};
 use drive_sim::{ParamStore, SimDrive, StoreOptions};
 

@@ -112,6 +112,14 @@ pub enum RejectReason {
         /// The BCC received.
         got: u8,
     },
+    /// A character followed the telegram's last character (its BCC) without an idle gap: the
+    /// telegram on the wire is longer than its PDU type says (e.g. noise inserted a character,
+    /// which shifts the real BCC out of the telegram).
+    #[error("character {byte:#04x} after the end of the telegram without an idle gap")]
+    TrailingCharacter {
+        /// The first character after the telegram.
+        byte: u8,
+    },
     /// After a start pause came a character that starts no telegram (neither SD1 nor SD2).
     #[error("bad start character {byte:#04x}")]
     BadStartCharacter {

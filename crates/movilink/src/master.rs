@@ -15,7 +15,9 @@
 //! * the response timeout (default 50 ms, the manual's maximum response delay) from the end of
 //!   the request's BCC to the start of the response's SD2,
 //! * acceptance of a response only with SD2, the request's address (for a point-to-point
-//!   request to 254 also any unicast address), the request's PDU type and a correct BCC,
+//!   request to 254 also any unicast address), the request's PDU type and a correct BCC, and
+//!   only once the quiet line after its BCC confirmed its end (see [`Receiver`]; reported by
+//!   [`Master::handle_timeout`] at the time of [`Master::poll_timeout`]),
 //! * retries after a timeout or a rejected response, up to [`MasterConfig::retries`], each at
 //!   least two start pauses after the last bus activity,
 //! * no response for group and broadcast requests ([`MasterEvent::Sent`]) and
@@ -24,6 +26,9 @@
 //!   bit relative to the drive's last echo; the request is repeated until the drive echoes the
 //!   sent bit (service executed) or [`MasterConfig::max_handshake_cycles`] is reached. If the
 //!   drive's handshake state is not known yet, one exchange with "no service" learns it first.
+//!   If the drive echoes the sent bit with the answer of another service (its bit was not the
+//!   one the master remembered, e.g. after a request whose responses were all lost), the
+//!   master reports [`RejectReason::ParamMismatch`] and toggles the bit again.
 //!   Acyclic PDU types are always executed: their first valid response completes the service.
 
 use core::time::Duration;
@@ -175,6 +180,11 @@ impl Bits {
 /// for (i, b) in buf[..n].iter().enumerate() {
 ///     m.handle_char(RxChar::new(*b, Instant::from_micros(t0 + 1146 * (i as u64 + 1))));
 /// }
+/// // The response is accepted once the line stayed quiet for a start pause after its BCC.
+/// assert_eq!(m.poll_event(), None);
+/// let confirm = m.poll_timeout().unwrap();
+/// assert_eq!(confirm.as_micros(), t0 + 12 * 1146 + 3440);
+/// m.handle_timeout(confirm);
 /// assert!(matches!(m.poll_event(), Some(MasterEvent::Response { .. })));
 /// assert_eq!(m.poll_event(), Some(MasterEvent::ParamDone(Ok(1500))));
 /// assert!(m.is_idle());
@@ -229,6 +239,30 @@ impl Master {
     /// Whether no request is in flight (a new one may be sent).
     pub fn is_idle(&self) -> bool {
         self.job.is_none()
+    }
+
+    /// Change the response timeout; applies from the next transmission on (e.g. a short one
+    /// for an address scan).
+    pub fn set_response_timeout(&mut self, timeout: Duration) {
+        self.config.response_timeout = timeout;
+        self.timeout_us = duration_micros(timeout);
+    }
+
+    /// Change the number of retransmissions; applies to the request in flight too.
+    pub fn set_retries(&mut self, retries: u8) {
+        self.config.retries = retries;
+    }
+
+    /// Whether a request was transmitted and its response is awaited (as opposed to a request
+    /// waiting for the bus, or no request).
+    pub fn is_awaiting_response(&self) -> bool {
+        matches!(
+            self.job,
+            Some(Job {
+                phase: Phase::Waiting { .. },
+                ..
+            })
+        )
     }
 
     /// The bus gate (earliest start of the next telegram).
@@ -389,11 +423,15 @@ impl Master {
         else {
             return;
         };
-        if let Some(RxEvent::Rejected(r)) = self.receiver.handle_timeout(self.now) {
-            self.events.push(MasterEvent::Rejected(r));
-            self.fail_attempt();
-        } else if !self.receiver.is_receiving() && self.now >= give_up {
-            self.fail_attempt();
+        match self.receiver.handle_timeout(self.now) {
+            Some(RxEvent::Rejected(r)) => {
+                self.events.push(MasterEvent::Rejected(r));
+                self.fail_attempt();
+            }
+            // The response's end was confirmed by the quiet line after it.
+            Some(RxEvent::Telegram(t)) => self.on_response(t),
+            None if !self.receiver.is_receiving() && self.now >= give_up => self.fail_attempt(),
+            None => {}
         }
     }
 
@@ -472,8 +510,15 @@ impl Master {
             self.job = None;
         } else {
             if got.management.handshake() == sent.management.handshake() {
+                // The drive already holds the sent bit from an earlier service (our record of
+                // its bit was stale, e.g. after a request whose responses were all lost): it
+                // repeats that service's answer and will not execute ours until the bit
+                // toggles again.
                 self.events
                     .push(MasterEvent::Rejected(RejectReason::ParamMismatch));
+                if let Some(p) = job.request.param_mut() {
+                    *p = p.with_handshake(!got.management.handshake());
+                }
             }
             job.cycles = job.cycles.saturating_add(1);
             if job.cycles >= self.config.max_handshake_cycles {

@@ -7,6 +7,17 @@
 //! type and a wrong BCC. After a rejection (or a complete telegram) the receiver ignores
 //! characters until the next idle gap, then resynchronises on the next start character.
 //!
+//! A telegram is accepted only once its end is confirmed: after its last character (the BCC)
+//! the line must stay quiet until a start pause after that character's end, i.e. no further
+//! character may have started within start pause − one character time (two character times at
+//! MOVILINK timing). A character arriving earlier rejects the telegram with
+//! [`RejectReason::TrailingCharacter`]: the telegram on the wire was longer than its PDU type
+//! says, which is how a character inserted by noise is caught (without this check, an inserted
+//! character inside a telegram shifts the real BCC out of it and the XOR check passes with
+//! probability 1/256). Confirmation is reported by [`Receiver::handle_timeout`] at the time of
+//! [`Receiver::poll_timeout`], which is when a response or the next request may start anyway,
+//! so the check does not lengthen an exchange.
+//!
 //! Memory is one 18-byte buffer; no input makes it panic.
 
 use crate::codec;
@@ -101,6 +112,8 @@ enum State {
     Idle,
     /// Collecting a telegram: `len` bytes so far, `expected` total once the type is known.
     Receiving { len: u8, expected: u8 },
+    /// All characters of a valid telegram arrived; waiting for the quiet line after its BCC.
+    Complete { telegram: Telegram },
 }
 
 /// The framing state machine; see the [module docs](self).
@@ -111,11 +124,15 @@ enum State {
 /// use movilink::Address;
 /// let mut rx = Receiver::for_slave(Address::new(1).unwrap(), Address::NO_GROUP);
 /// let bytes = [0x02, 0x01, 0x05, 0x00, 0x06, 0x3A, 0x98, 0x01, 0xF4, 0x57];
-/// let mut last = None;
 /// for (i, b) in bytes.iter().enumerate() {
-///     last = rx.handle_char(RxChar::new(*b, Instant::from_micros(1146 * (i as u64 + 1))));
+///     let ev = rx.handle_char(RxChar::new(*b, Instant::from_micros(1146 * (i as u64 + 1))));
+///     assert_eq!(ev, None);
 /// }
-/// assert!(matches!(last, Some(RxEvent::Telegram(t)) if t.process_data() == [6, 0x3A98, 0x01F4]));
+/// // The telegram is complete; it is accepted once the line stayed quiet after its BCC.
+/// let confirm = rx.poll_timeout().unwrap();
+/// assert_eq!(confirm, Instant::from_micros(1146 * 10 + 3440));
+/// let ev = rx.handle_timeout(confirm);
+/// assert!(matches!(ev, Some(RxEvent::Telegram(t)) if t.process_data() == [6, 0x3A98, 0x01F4]));
 /// ```
 #[derive(Debug, Clone)]
 pub struct Receiver {
@@ -179,9 +196,10 @@ impl Receiver {
         self.last = None;
     }
 
-    /// Whether a telegram is being received.
+    /// Whether a telegram is being received (including a complete one whose end is not yet
+    /// confirmed by the quiet line after it).
     pub fn is_receiving(&self) -> bool {
-        matches!(self.state, State::Receiving { .. })
+        matches!(self.state, State::Receiving { .. } | State::Complete { .. })
     }
 
     /// Time of the last character seen.
@@ -209,6 +227,20 @@ impl Receiver {
                 }))
             }
             State::Receiving { len, expected } => self.continue_with(c, len, expected),
+            State::Complete { telegram } if idle => {
+                // The confirmation was not polled in time, but the line was quiet long enough:
+                // the telegram stands, and this character may start the next one.
+                self.state = State::Idle;
+                let _ = self.start(c);
+                Some(RxEvent::Telegram(telegram))
+            }
+            State::Complete { .. } => {
+                // A character right after the BCC: the telegram was longer than its type says.
+                self.state = State::Idle;
+                Some(RxEvent::Rejected(RejectReason::TrailingCharacter {
+                    byte: c.byte,
+                }))
+            }
             State::Idle if idle => self.start(c),
             State::Idle => None,
         }
@@ -223,10 +255,19 @@ impl Receiver {
         }
     }
 
-    /// Tell the receiver the time is `now` without a new character: a partial telegram whose
-    /// inter-character gap reached a start pause is rejected.
+    /// Tell the receiver the time is `now` without a new character: a complete telegram
+    /// followed by a quiet line until a start pause after its last character is accepted; a
+    /// partial telegram whose inter-character gap reached a start pause is rejected.
     pub fn handle_timeout(&mut self, now: Instant) -> Option<RxEvent> {
-        let (State::Receiving { len, .. }, Some(last)) = (self.state, self.last) else {
+        let last = self.last?;
+        if let State::Complete { telegram } = self.state {
+            if now.as_micros().saturating_sub(last.as_micros()) >= self.pause_us {
+                self.state = State::Idle;
+                return Some(RxEvent::Telegram(telegram));
+            }
+            return None;
+        }
+        let State::Receiving { len, .. } = self.state else {
             return None;
         };
         if self.gap_us(last, now) >= self.pause_us {
@@ -239,12 +280,14 @@ impl Receiver {
         }
     }
 
-    /// When [`Receiver::handle_timeout`] will reject the partial telegram, if one is in progress.
+    /// When [`Receiver::handle_timeout`] will accept the complete telegram or reject the
+    /// partial one, if one is in progress.
     pub fn poll_timeout(&self) -> Option<Instant> {
         match (self.state, self.last) {
             (State::Receiving { .. }, Some(last)) => {
                 Some(last.plus_micros(self.char_us + self.pause_us))
             }
+            (State::Complete { .. }, Some(last)) => Some(last.plus_micros(self.pause_us)),
             _ => None,
         }
     }
@@ -308,12 +351,17 @@ impl Receiver {
             _ => {}
         }
         if len == expected {
-            self.state = State::Idle;
             let frame = self.buf.get(..usize::from(len)).unwrap_or(&[]);
-            return Some(match codec::decode(frame) {
-                Ok((t, _)) => RxEvent::Telegram(t),
-                Err(e) => RxEvent::Rejected(e.into()),
-            });
+            return match codec::decode(frame) {
+                Ok((telegram, _)) => {
+                    self.state = State::Complete { telegram };
+                    None
+                }
+                Err(e) => {
+                    self.state = State::Idle;
+                    Some(RxEvent::Rejected(e.into()))
+                }
+            };
         }
         self.state = State::Receiving { len, expected };
         None

@@ -16,8 +16,11 @@
 //!   previous answer is sent again unchanged. Acyclic types always run the service.
 //! * An undefined service code is answered with [`ReturnCode::ILLEGAL_SERVICE_CODING`];
 //!   "no service" is echoed without calling the backend.
-//! * The response is due a start pause after the request's BCC; if other characters appear on
-//!   the bus before it was taken with [`Slave::poll_transmit`], it is dropped.
+//! * A request is accepted once the quiet line after its BCC confirmed its end (a character
+//!   right after the BCC rejects it, see [`Receiver`](crate::Receiver)); this happens in
+//!   [`Slave::handle_timeout`] at the time of [`Slave::poll_timeout`], a start pause after
+//!   the request's BCC, which is when the response is due. If other characters appear on the
+//!   bus before the response was taken with [`Slave::poll_transmit`], it is dropped.
 //! * P812: when the timeout is not zero, it is armed by each accepted cyclic request and fires
 //!   [`SlaveEvent::Timeout`] (and [`Backend::on_timeout`]) once when no accepted cyclic request
 //!   followed within it. Acyclic requests neither arm nor retrigger it (the manual: in acyclic
@@ -182,20 +185,27 @@ impl<B: Backend> Slave<B> {
     /// Feed one character received from the bus.
     pub fn handle_char(&mut self, c: RxChar) {
         self.advance(c.time);
-        // Someone else is talking: a response not yet sent would collide.
-        self.tx = None;
+        let end = self.receiver.last_char_time();
         match self.receiver.handle_char(c) {
             None => {}
             Some(RxEvent::Rejected(r)) => self.events.push(SlaveEvent::Rejected(r)),
-            Some(RxEvent::Telegram(t)) => self.on_request(t, c.time),
+            // The request's end was confirmed by this character after an idle gap (the
+            // confirmation time was not polled): execute it, but do not answer below.
+            Some(RxEvent::Telegram(t)) => self.on_request(t, end.unwrap_or(c.time)),
         }
+        // Someone else is talking: a response not yet sent would collide.
+        self.tx = None;
     }
 
     /// Advance the time to `now`: the response may become due, P812 may expire.
     pub fn handle_timeout(&mut self, now: Instant) {
         self.advance(now);
-        if let Some(RxEvent::Rejected(r)) = self.receiver.handle_timeout(self.now) {
-            self.events.push(SlaveEvent::Rejected(r));
+        let end = self.receiver.last_char_time();
+        match self.receiver.handle_timeout(self.now) {
+            Some(RxEvent::Rejected(r)) => self.events.push(SlaveEvent::Rejected(r)),
+            // The quiet line after the BCC confirmed the request's end.
+            Some(RxEvent::Telegram(t)) => self.on_request(t, end.unwrap_or(self.now)),
+            None => {}
         }
         if self
             .p812_deadline()

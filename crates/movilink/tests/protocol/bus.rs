@@ -2,7 +2,7 @@
 //! timing (one character = 1146 µs), optional faults, and a simple parameter store.
 #![allow(dead_code)]
 
-use movilink::timing::{CHAR_TIME, Instant};
+use movilink::timing::{CHAR_TIME, Instant, START_PAUSE};
 use movilink::{
     AttributeInfo, Backend, Master, MasterEvent, ParamChannel, ReturnCode, RxChar, ScaleInfo,
     Service, Slave,
@@ -161,6 +161,12 @@ impl<B: Backend> Bus<B> {
                 continue;
             }
             if self.master.is_idle() {
+                // A request without response (group, broadcast) is executed once the quiet
+                // line after it confirmed its end, a start pause after its last character.
+                let settle = self.now.plus(START_PAUSE.as_micros() as u64);
+                if self.slave.poll_timeout().is_some_and(|t| t <= settle) {
+                    self.slave.handle_timeout(settle);
+                }
                 return;
             }
             if let Some(n) = self.slave.poll_transmit(&mut buf) {

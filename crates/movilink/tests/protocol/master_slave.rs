@@ -381,6 +381,8 @@ fn response_with_other_pdu_type_is_rejected() {
             Instant::from_micros(20_000 + 1146 * i as u64),
         ));
     }
+    // The response is judged once the quiet line after it confirmed its end.
+    m.handle_timeout(m.poll_timeout().unwrap());
     assert_eq!(
         m.poll_event(),
         Some(MasterEvent::Rejected(RejectReason::PduTypeMismatch {
@@ -412,6 +414,8 @@ fn acyclic_answer_to_other_index_is_rejected() {
             Instant::from_micros(20_000 + 1146 * i as u64),
         ));
     }
+    // The response is judged once the quiet line after it confirmed its end.
+    m.handle_timeout(m.poll_timeout().unwrap());
     assert_eq!(
         m.poll_event(),
         Some(MasterEvent::Rejected(RejectReason::ParamMismatch))

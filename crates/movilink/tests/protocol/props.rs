@@ -124,6 +124,10 @@ proptest! {
                 found = Some(e);
             }
         }
+        // Accepted once the line stayed quiet after the BCC.
+        prop_assert_eq!(found, None);
+        prop_assert_eq!(rx.poll_timeout(), Some(Instant::from_micros(time + 3440)));
+        found = rx.handle_timeout(Instant::from_micros(time + 3440));
         prop_assert_eq!(found, Some(RxEvent::Telegram(t)));
     }
 

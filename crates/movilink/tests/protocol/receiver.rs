@@ -13,7 +13,9 @@ fn slave_rx() -> Receiver {
     Receiver::for_slave(Address::new(1).unwrap(), Address::group(150).unwrap())
 }
 
-/// Feed `bytes` back to back starting at `t0` (first character complete at t0 + CT).
+/// Feed `bytes` back to back starting at `t0` (first character complete at t0 + CT); if they
+/// completed a telegram, let the line stay quiet until its end is confirmed (a start pause
+/// after the last character). Returns the events and the time of the last character.
 fn feed(rx: &mut Receiver, bytes: &[u8], t0: u64) -> (Vec<RxEvent>, u64) {
     let mut events = Vec::new();
     let mut t = t0;
@@ -22,6 +24,10 @@ fn feed(rx: &mut Receiver, bytes: &[u8], t0: u64) -> (Vec<RxEvent>, u64) {
         if let Some(e) = rx.handle_char(RxChar::new(*b, Instant::from_micros(t))) {
             events.push(e);
         }
+    }
+    let confirm = Instant::from_micros(t + PAUSE);
+    if rx.poll_timeout() == Some(confirm) {
+        events.extend(rx.handle_timeout(confirm));
     }
     (events, t)
 }
@@ -229,10 +235,19 @@ fn start_characters() {
 }
 
 #[test]
-fn trailing_characters_are_ignored_until_idle() {
+fn trailing_characters_reject_and_are_ignored_until_idle() {
     let mut rx = slave_rx();
     let mut stream = REQ.to_vec();
     stream.extend_from_slice(&REQ);
-    let (ev, _) = feed(&mut rx, &stream, 0);
-    assert_eq!(ev.len(), 1);
+    // A second telegram right after the first (no idle gap) makes the first one too long:
+    // one rejection, and the rest is ignored until the line was idle for a start pause.
+    let (ev, t) = feed(&mut rx, &stream, 0);
+    assert_eq!(
+        ev,
+        vec![RxEvent::Rejected(RejectReason::TrailingCharacter {
+            byte: 0x02
+        })]
+    );
+    let (ev, _) = feed(&mut rx, &REQ, t + PAUSE);
+    assert!(matches!(ev.as_slice(), [RxEvent::Telegram(_)]));
 }
