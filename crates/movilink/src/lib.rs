@@ -19,6 +19,13 @@
 //!
 //! The crate is `no_std` without its default `std` feature, and nothing allocates.
 //!
+//! Optional layers on top:
+//!
+//! * `std` (default): `guard`, the write guard (access, range, EEPROM wear) for tools;
+//! * `tokio`: `driver`, the async master (`MasterDriver`) over any `CharIo` (the in-memory
+//!   wire model of `drive-transport`, serial ports, ptys);
+//! * `sim`: `sim`, simulated MOVIDRIVE drives answering on a `CharIo`.
+//!
 //! ```
 //! use movilink::{codec, Address, ParamChannel, PduType, Telegram};
 //!
@@ -47,11 +54,17 @@
 )]
 
 pub mod codec;
+#[cfg(feature = "tokio")]
+pub mod driver;
 pub mod error;
 pub mod frame;
+#[cfg(feature = "std")]
+pub mod guard;
 pub mod master;
 mod queue;
 pub mod receiver;
+#[cfg(feature = "sim")]
+pub mod sim;
 pub mod slave;
 pub mod timing;
 

@@ -1,0 +1,10 @@
+//! Tests of the async master driver, the simulated drives and the write guard (feature `sim`).
+//! Everything runs on tokio's paused clock over the 9600-baud 8E1 wire model of
+//! `drive-transport`, so times are exact and the tests deterministic.
+
+mod common;
+mod guard;
+mod retries;
+mod scan;
+mod services;
+mod timing;
