@@ -502,32 +502,42 @@ async fn pd<IO: CharIo>(
             words.len()
         )));
     }
-    for i in 0..count {
-        if i > 0 {
-            tokio::time::sleep(Duration::from_millis(interval)).await;
+    // Cyclic types run as a cyclic session (one telegram every --interval, which keeps the
+    // drive's RS-485 timeout P812 fed); acyclic ones are single exchanges --interval apart.
+    let period = Duration::from_millis(interval.max(1));
+    if pdu.is_cyclic() {
+        let mut session = m.cyclic(addr, pdu, period).map_err(driver_error)?;
+        session.set_output(&words);
+        for _ in 0..count {
+            let response = session.cycle().await.map_err(driver_error)?;
+            print_pd(addr, pdu, &words, response.process_data(), json);
         }
-        let request = Telegram::request(addr, pdu).with_process_data(&words);
-        let response = m.exchange(request).await.map_err(driver_error)?;
-        let pi = response.process_data();
-        if json {
-            println!(
-                "{}",
-                json!({"address": addr.get(), "type": pdu.raw(), "out": words, "in": pi,
-                       "status": pi.first().map(|s| decode::status_summary(*s))})
-            );
-        } else {
-            let words_text: Vec<String> = pi.iter().map(|w| format!("0x{w:04X}")).collect();
-            let status = pi
-                .first()
-                .map_or_else(String::new, |s| decode::status_summary(*s));
-            let speed = pi.get(1).map_or_else(String::new, |w| {
-                format!(
-                    ", speed {} 1/min",
-                    trim_float(f64::from(*w as i16) * 0.2, 1)
-                )
-            });
-            println!("PI {}: {status}{speed}", words_text.join(" "));
+    } else {
+        for i in 0..count {
+            if i > 0 {
+                tokio::time::sleep(period).await;
+            }
+            let request = Telegram::request(addr, pdu).with_process_data(&words);
+            let response = m.exchange(request).await.map_err(driver_error)?;
+            print_pd(addr, pdu, &words, response.process_data(), json);
         }
     }
     Ok(())
+}
+
+fn print_pd(addr: Address, pdu: PduType, out: &[u16], pi: &[u16], json: bool) {
+    if json {
+        println!(
+            "{}",
+            json!({"address": addr.get(), "type": pdu.raw(), "out": out, "in": pi,
+                   "status": pi.first().map(|s| decode::status_summary(*s))})
+        );
+    } else {
+        let words_text: Vec<String> = pi.iter().map(|w| format!("0x{w:04X}")).collect();
+        let status = pi.first().map_or_else(String::new, |s| decode::status_summary(*s));
+        let speed = pi.get(1).map_or_else(String::new, |w| {
+            format!(", speed {} 1/min", trim_float(f64::from(*w as i16) * 0.2, 1))
+        });
+        println!("PI {}: {status}{speed}", words_text.join(" "));
+    }
 }

@@ -19,7 +19,10 @@
 //!
 //! An example with a simulated drive is in the docs of the `sim` module.
 
+mod cyclic;
 pub(crate) mod io;
+
+pub use self::cyclic::CyclicSession;
 
 use std::pin::Pin;
 use std::time::Duration;
@@ -481,6 +484,15 @@ impl<IO: CharIo> MasterDriver<IO> {
             .get(usize::from(address.get()))
             .copied()
             .unwrap_or_default()
+    }
+
+    /// Set the process output words remembered for `address` (used by cyclic sessions).
+    fn set_po(&mut self, address: Address, words: &[u16]) {
+        if let Some(slot) = self.po.get_mut(usize::from(address.get())) {
+            for (dst, src) in slot.iter_mut().zip(words) {
+                *dst = *src;
+            }
+        }
     }
 
     fn remember_po(&mut self, request: &Telegram) {

@@ -3,6 +3,7 @@
 //! `drive-transport`, so times are exact and the tests deterministic.
 
 mod common;
+mod cyclic;
 mod guard;
 mod retries;
 mod scan;
