@@ -314,8 +314,8 @@ pub enum ParamService {
     ReadDefault,
     /// `0111` read size index (byte 6) and conversion index (byte 7).
     ReadScale,
-    /// `1000` read the next available index (bytes 4–6) and the access attributes (byte 7,
-    /// see [`attribute_byte`]).
+    /// `1000` read the next available index (bytes 4–5) and the access attributes (bytes 6–7,
+    /// byte 6 zero, see [`attribute_byte`]); the layout of `movilink::AttributeInfo`.
     ReadAttribute,
 }
 
@@ -732,7 +732,7 @@ impl Movidrive {
             }
             ParamService::ReadAttribute => {
                 let next = store.keys().map(|k| k.0).find(|&i| i > index).unwrap_or(0);
-                Ok(u32::from(next) << 8 | u32::from(attribute_byte(meta.access())))
+                Ok(u32::from(next) << 16 | u32::from(attribute_byte(meta.access())))
             }
         }
     }

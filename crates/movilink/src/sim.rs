@@ -42,13 +42,13 @@ use std::pin::Pin;
 use std::time::Duration;
 
 use drive_sim::SimTime;
-use drive_sim::movidrive::{BusSource, Movidrive, ParamService};
+use drive_sim::movidrive::{BusSource, Movidrive};
 use tokio::time::{Instant as TokioInstant, Sleep};
 
 use crate::driver::io::{Woken, read_or_sleep, write_all};
 use crate::driver::{CharIo, ReceivedChar};
 use crate::error::ReturnCode;
-use crate::frame::{Address, AttributeInfo, Direction, MAX_TELEGRAM_LEN, ParamChannel};
+use crate::frame::{Address, Direction, MAX_TELEGRAM_LEN, ParamChannel};
 use crate::receiver::{AddressFilter, Receiver, RxChar, RxEvent};
 use crate::slave::{Backend, Slave, SlaveConfig, SlaveEvent};
 use crate::timing::{Instant, LineTiming};
@@ -74,22 +74,11 @@ fn return_code(rc: drive_sim::movidrive::ReturnCode) -> ReturnCode {
 impl Backend for DriveBackend {
     fn param(&mut self, request: &ParamChannel) -> Result<u32, ReturnCode> {
         let service = request.management.service_code();
+        // drive-sim answers Read Attribute in MOVILINK's layout (`AttributeInfo`) already.
         let data = self
             .drive
             .param_request(service, request.index, request.data, self.now)
             .map_err(return_code)?;
-        if service == ParamService::ReadAttribute.id() {
-            // drive-sim puts the next index in bytes 4–6 and the attribute byte in byte 7;
-            // MOVILINK's layout (crate::AttributeInfo) is next index in bytes 4–5 and the
-            // attributes in bytes 6–7.
-            let next_index = u16::try_from(data >> 8).unwrap_or(0);
-            let attributes = (data & 0xff) as u16;
-            return Ok(AttributeInfo {
-                next_index,
-                attributes,
-            }
-            .to_data());
-        }
         Ok(data)
     }
 

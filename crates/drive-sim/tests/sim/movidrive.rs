@@ -196,20 +196,20 @@ fn read_attribute_gives_next_index_and_access_byte() {
     let t = SimTime::ZERO;
     let attr = |d: &mut Movidrive, i| d.param_service(ParamService::ReadAttribute, i, 0, t);
     // P130 N/RW → N (0x10) | RW (0x08); next index 8471
-    assert_eq!(attr(&mut d, 8470), Ok(8471 << 8 | 0x18));
+    assert_eq!(attr(&mut d, 8470), Ok(8471 << 16 | 0x18));
     // P000 RO (0x02); next 8319
-    assert_eq!(attr(&mut d, 8318), Ok(8319 << 8 | 0x02));
+    assert_eq!(attr(&mut d, 8318), Ok(8319 << 16 | 0x02));
     // P803 N/S/RW
-    assert_eq!(attr(&mut d, 8595), Ok(8596 << 8 | 0x19));
+    assert_eq!(attr(&mut d, 8595), Ok(8596 << 16 | 0x19));
     // P802 R/RW
-    assert_eq!(attr(&mut d, 8594), Ok(8595 << 8 | 0x0c));
+    assert_eq!(attr(&mut d, 8594), Ok(8595 << 16 | 0x0c));
     // P852: its second index is the next one
-    assert_eq!(attr(&mut d, 8772).map(|v| v >> 8), Ok(8773));
+    assert_eq!(attr(&mut d, 8772).map(|v| v >> 16), Ok(8773));
     // walking the chain from the first index visits every parameter and ends with 0
     let mut index = d.drive().store().keys().next().unwrap().0;
     let mut visited = 1;
     loop {
-        let next = (attr(&mut d, index).unwrap() >> 8) as u16;
+        let next = (attr(&mut d, index).unwrap() >> 16) as u16;
         if next == 0 {
             break;
         }

@@ -534,9 +534,14 @@ fn print_pd(addr: Address, pdu: PduType, out: &[u16], pi: &[u16], json: bool) {
         );
     } else {
         let words_text: Vec<String> = pi.iter().map(|w| format!("0x{w:04X}")).collect();
-        let status = pi.first().map_or_else(String::new, |s| decode::status_summary(*s));
+        let status = pi
+            .first()
+            .map_or_else(String::new, |s| decode::status_summary(*s));
         let speed = pi.get(1).map_or_else(String::new, |w| {
-            format!(", speed {} 1/min", trim_float(f64::from(*w as i16) * 0.2, 1))
+            format!(
+                ", speed {} 1/min",
+                trim_float(f64::from(*w as i16) * 0.2, 1)
+            )
         });
         println!("PI {}: {status}{speed}", words_text.join(" "));
     }

@@ -47,10 +47,19 @@ impl<IO: CharIo> MasterDriver<IO> {
             ));
         }
         if period.is_zero() {
-            return Err(DriverError::InvalidRequest("the cycle period must not be zero"));
+            return Err(DriverError::InvalidRequest(
+                "the cycle period must not be zero",
+            ));
         }
         let output = self.po_of(address);
-        Ok(CyclicSession { driver: self, address, pdu, period, next: None, output })
+        Ok(CyclicSession {
+            driver: self,
+            address,
+            pdu,
+            period,
+            next: None,
+            output,
+        })
     }
 }
 
@@ -97,7 +106,8 @@ impl<IO: CharIo> CyclicSession<'_, IO> {
     /// PARAM type, an empty parameter channel), return the drive's response.
     pub async fn cycle(&mut self) -> Result<Telegram, DriverError> {
         self.wait_turn().await;
-        let mut request = Telegram::request(self.address, self.pdu).with_process_data(self.output());
+        let mut request =
+            Telegram::request(self.address, self.pdu).with_process_data(self.output());
         if self.pdu.has_param() {
             request = request.with_param(ParamChannel::no_service());
         }

@@ -19,7 +19,9 @@ async fn a_cyclic_session_keeps_the_drive_fed_and_runs_parameter_services() {
         let mut m = MasterDriver::new(port, DriverConfig::default());
         // P812 RS-485 timeout = 200 ms (raw ms, volatile).
         m.write_volatile(addr(1), 8599, 200).await.unwrap();
-        let mut s = m.cyclic(addr(1), PduType::PARAM_3PD, Duration::from_millis(50)).unwrap();
+        let mut s = m
+            .cyclic(addr(1), PduType::PARAM_3PD, Duration::from_millis(50))
+            .unwrap();
         s.set_output(&[0x0006, 5000, 0]);
         let start = Instant::now();
         let mut cycles = 0u32;
@@ -37,12 +39,18 @@ async fn a_cyclic_session_keeps_the_drive_fed_and_runs_parameter_services() {
         assert!(speed > 900_000, "speed {speed}");
         assert_eq!(last_speed_word, 5000, "PI2 reports 1000 1/min as 5000");
         // A volatile write in the cyclic stream, read back acyclically.
-        s.param(ParamChannel::write_volatile(8470, 700)).await.unwrap();
+        s.param(ParamChannel::write_volatile(8470, 700))
+            .await
+            .unwrap();
         assert_eq!(m.read(addr(1), 8470).await.unwrap(), 700);
     };
     let (served, ()) = tokio::join!(sim.serve(wire), client);
     served.unwrap();
-    assert_eq!(sim.movidrive().timeout_warning(), None, "the session kept the drive fed");
+    assert_eq!(
+        sim.movidrive().timeout_warning(),
+        None,
+        "the session kept the drive fed"
+    );
 
     // Nothing cyclic any more: after P812 the drive reacts (P833 default: rapid stop, warning).
     let (port, wire) = link::pair(LinkConfig::new(9600));
@@ -53,7 +61,10 @@ async fn a_cyclic_session_keeps_the_drive_fed_and_runs_parameter_services() {
     };
     let (served, ()) = tokio::join!(sim.serve(wire), client);
     served.unwrap();
-    assert!(sim.movidrive().timeout_warning().is_some(), "P812 fired without cyclic telegrams");
+    assert!(
+        sim.movidrive().timeout_warning().is_some(),
+        "P812 fired without cyclic telegrams"
+    );
 }
 
 #[tokio::test(start_paused = true)]
@@ -64,9 +75,15 @@ async fn cyclic_sessions_refuse_what_cannot_work() {
     assert!(matches!(acyclic, Err(DriverError::InvalidRequest(_))));
     let zero = m.cyclic(addr(1), PduType::PD3, Duration::ZERO);
     assert!(matches!(zero, Err(DriverError::InvalidRequest(_))));
-    let broadcast = m.cyclic(movilink::Address::BROADCAST, PduType::PD3, Duration::from_millis(50));
+    let broadcast = m.cyclic(
+        movilink::Address::BROADCAST,
+        PduType::PD3,
+        Duration::from_millis(50),
+    );
     assert!(matches!(broadcast, Err(DriverError::InvalidRequest(_))));
-    let mut s = m.cyclic(addr(1), PduType::PD3, Duration::from_millis(50)).unwrap();
+    let mut s = m
+        .cyclic(addr(1), PduType::PD3, Duration::from_millis(50))
+        .unwrap();
     let no_param = s.param(ParamChannel::read(8318)).await;
     assert!(matches!(no_param, Err(DriverError::InvalidRequest(_))));
 }
