@@ -312,36 +312,6 @@ impl ReturnCode {
             self.additional_code,
         )
     }
-
-    /// English meaning of the codes named in the MOVIDRIVE manual (ch. 5.2, 6.2), `None` for
-    /// other codes.
-    pub const fn description(self) -> Option<&'static str> {
-        Some(
-            match (self.error_class, self.error_code, self.additional_code) {
-                (8, 0, 0x00) => "no error",
-                (8, 0, 0x10) => "illegal parameter index",
-                (8, 0, 0x11) => "function/parameter not implemented",
-                (8, 0, 0x12) => "read access only",
-                (8, 0, 0x13) => "parameter lock is active",
-                (8, 0, 0x14) => "factory setting is active",
-                (8, 0, 0x15) => "value for parameter too large",
-                (8, 0, 0x16) => "value for parameter too small",
-                (8, 0, 0x17) => "option card required for this function/parameter is missing",
-                (8, 0, 0x18) => "error in system software",
-                (8, 0, 0x19) => "parameter access only via RS-485 process interface on X13",
-                (8, 0, 0x1A) => "parameter access only via RS-485 diagnostic interface",
-                (8, 0, 0x1B) => "parameter is access-protected",
-                (8, 0, 0x1C) => "controller inhibit required",
-                (8, 0, 0x1D) => "invalid value for parameter",
-                (8, 0, 0x1E) => "factory setting was activated",
-                (8, 0, 0x1F) => "parameter was not saved in EEPROM",
-                (8, 0, 0x20) => "parameter cannot be changed with output stage enabled",
-                (6, 2, 0x00) => "internal communication error (hardware fault); repeat the service",
-                (5, 5, 0x00) => "illegal value (wrong coding of the management byte)",
-                _ => return None,
-            },
-        )
-    }
 }
 
 #[cfg(test)]
@@ -354,11 +324,14 @@ mod tests {
         assert_eq!(rc, ReturnCode::VALUE_TOO_LARGE);
         assert_eq!(rc.to_data(), 0x0800_0015);
         assert_eq!(rc.class(), Some(ErrorClass::Other));
-        assert_eq!(rc.description(), Some("value for parameter too large"));
-        assert_eq!(ReturnCode::new(9, 9, 9).description(), None);
+        assert_eq!(
+            rc.meaning().map(|m| m.en),
+            Some("value for parameter too large")
+        );
+        assert!(ReturnCode::new(9, 9, 9).meaning().is_none());
         assert_eq!(ReturnCode::new(9, 0, 0).class(), None);
         for c in 0x10..=0x20u16 {
-            assert!(ReturnCode::drive(c).description().is_some(), "{c:#x}");
+            assert!(ReturnCode::drive(c).meaning().is_some(), "{c:#x}");
         }
         assert_eq!(
             ReturnCode::INTERNAL_COMMUNICATION_ERROR.class(),

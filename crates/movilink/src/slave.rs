@@ -17,7 +17,7 @@
 //! * An undefined service code is answered with [`ReturnCode::ILLEGAL_SERVICE_CODING`];
 //!   "no service" is echoed without calling the backend.
 //! * A request is accepted once the quiet line after its BCC confirmed its end (a character
-//!   right after the BCC rejects it, see [`Receiver`](crate::Receiver)); this happens in
+//!   right after the BCC rejects it, see [`Receiver`]); this happens in
 //!   [`Slave::handle_timeout`] at the time of [`Slave::poll_timeout`], a start pause after
 //!   the request's BCC, which is when the response is due. If other characters appear on the
 //!   bus before the response was taken with [`Slave::poll_transmit`], it is dropped.

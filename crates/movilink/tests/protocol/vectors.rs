@@ -190,7 +190,7 @@ fn ch_4_3_read_write_and_error_answer() {
     assert_eq!(p.service(), Some(Service::Write));
     assert_eq!(p.result(), Err(ReturnCode::VALUE_TOO_LARGE));
     assert_eq!(
-        p.result().unwrap_err().description(),
+        p.result().unwrap_err().meaning().map(|m| m.en),
         Some("value for parameter too large")
     );
 }
