@@ -7,6 +7,7 @@ use std::process::{Child, Command, Output, Stdio};
 struct Sim {
     child: Child,
     path: String,
+    state: std::path::PathBuf,
 }
 
 impl Sim {
@@ -31,7 +32,10 @@ impl Sim {
             path.starts_with("/dev/"),
             "first line is the pty path: {path:?}"
         );
-        Sim { child, path }
+        // Each simulated drive gets its own EEPROM-write log.
+        let state = std::env::temp_dir().join(format!("drivectl-state-{}", path.replace('/', "_")));
+        let _ = std::fs::remove_dir_all(&state);
+        Sim { child, path, state }
     }
 
     fn run(&self, addr: u8, args: &[&str]) -> Output {
@@ -42,6 +46,7 @@ impl Sim {
         all.extend_from_slice(args);
         Command::new(env!("CARGO_BIN_EXE_drivectl"))
             .args(&all)
+            .env("DRIVECTL_STATE_DIR", &self.state)
             .output()
             .expect("drivectl runs")
     }
@@ -51,6 +56,7 @@ impl Drop for Sim {
     fn drop(&mut self) {
         let _ = self.child.kill();
         let _ = self.child.wait();
+        let _ = std::fs::remove_dir_all(&self.state);
     }
 }
 
@@ -234,4 +240,23 @@ fn decode_explains_the_manual_example() {
         .unwrap();
     assert_eq!(o.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&o.stdout).contains("expected 0x57"));
+}
+
+#[test]
+fn eeprom_writes_in_quick_succession_are_refused_across_runs() {
+    let sim = Sim::start(&[1]);
+    ok_json(&sim.run(1, &["--json", "write", "P131", "1.0"]));
+    // A second non-volatile write of the same parameter within a second, from a new process.
+    let o = sim.run(1, &["write", "P131", "1.1"]);
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("EEPROM") && err.contains("--volatile"),
+        "{err}"
+    );
+    // The volatile service is never rate-limited, and the refused value was not written.
+    let v = ok_json(&sim.run(1, &["--json", "write", "P131", "1.2", "--volatile"]));
+    assert_eq!(v[0]["raw"], 1200);
+    // Another parameter is not affected.
+    ok_json(&sim.run(1, &["--json", "write", "P130", "1.0"]));
 }

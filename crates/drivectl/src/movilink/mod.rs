@@ -6,6 +6,7 @@
 pub mod backup;
 pub mod decode;
 pub mod sim;
+mod wear;
 
 use crate::error::{CliError, Result};
 use crate::params::{label, physical_text, trim_float};
@@ -243,13 +244,14 @@ async fn execute<IO: CharIo>(m: &mut MasterDriver<IO>, args: &MovilinkArgs) -> R
         } => {
             let t = resolve(param)?;
             let raw_value = to_raw(t, value, *raw)?;
+            let addr = address(args.addr)?;
             if !force {
                 let mut guard = WriteGuard::new();
+                wear::prime(&mut guard, &args.port, addr.get(), t.index);
                 guard
                     .check(t.index, raw_value, *volatile, std::time::Instant::now())
                     .map_err(|e| CliError::usage(format!("{e}")))?;
             }
-            let addr = address(args.addr)?;
             let word = raw_value as i32 as u32;
             if *volatile {
                 m.write_volatile(addr, t.index, word).await
@@ -257,6 +259,9 @@ async fn execute<IO: CharIo>(m: &mut MasterDriver<IO>, args: &MovilinkArgs) -> R
                 m.write(addr, t.index, word).await
             }
             .map_err(driver_error)?;
+            if !volatile {
+                wear::record(&args.port, addr.get(), t.index);
+            }
             let back = m.read(addr, t.index).await.map_err(driver_error)?;
             print_value(t, back, json);
             Ok(())
