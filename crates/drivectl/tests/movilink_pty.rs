@@ -260,3 +260,31 @@ fn eeprom_writes_in_quick_succession_are_refused_across_runs() {
     // Another parameter is not affected.
     ok_json(&sim.run(1, &["--json", "write", "P130", "1.0"]));
 }
+
+#[test]
+fn group_and_broadcast_writes_reach_every_drive_unanswered() {
+    let sim = Sim::start(&[1, 3]);
+    // Put both drives into group 101 (P811, RAM only).
+    for a in [1, 3] {
+        ok_json(&sim.run(a, &["--json", "write", "P811", "101", "--volatile"]));
+    }
+    let v = ok_json(&sim.run(101, &["--json", "write", "P130", "0.8", "--volatile"]));
+    assert_eq!(v[0]["answered"], false);
+    let v = ok_json(&sim.run(255, &["--json", "write", "P131", "0.9", "--volatile"]));
+    assert_eq!(v[0]["answered"], false);
+    for a in [1, 3] {
+        assert_eq!(
+            ok_json(&sim.run(a, &["--json", "read", "P130"]))[0]["raw"],
+            800,
+            "drive {a}"
+        );
+        assert_eq!(
+            ok_json(&sim.run(a, &["--json", "read", "P131"]))[0]["raw"],
+            900,
+            "drive {a}"
+        );
+    }
+    // Reading from a group cannot work: nobody answers by design.
+    let o = sim.run(101, &["read", "P130"]);
+    assert_eq!(o.status.code(), Some(2));
+}

@@ -15,7 +15,7 @@ use drive_profile::{Access, ParamMeta, sew};
 use drive_transport::serial::{self, Parity, SerialConfig, StopBits};
 use movilink::driver::{CharIo, DriverConfig, DriverError, MasterDriver, Stream};
 use movilink::guard::WriteGuard;
-use movilink::{Address, PduType, Telegram};
+use movilink::{Address, ParamChannel, PduType, Telegram};
 use serde_json::json;
 use std::path::PathBuf;
 use std::time::Duration;
@@ -194,6 +194,16 @@ fn address(a: u8) -> Result<Address> {
         })
 }
 
+/// An address for a write: a single drive, 254, a group (101–199) or broadcast (255).
+fn any_address(a: u8) -> Result<Address> {
+    match Address::new(a) {
+        Some(addr) if a != 100 && a != 253 => Ok(addr),
+        _ => Err(CliError::usage(format!(
+            "address {a} cannot be written to; use 0–99, 254, a group 101–199 or 255 (broadcast)"
+        ))),
+    }
+}
+
 /// Turn a driver error into a one-line CLI error.
 pub fn driver_error(e: DriverError) -> CliError {
     CliError::failed(e.to_string())
@@ -244,7 +254,7 @@ async fn execute<IO: CharIo>(m: &mut MasterDriver<IO>, args: &MovilinkArgs) -> R
         } => {
             let t = resolve(param)?;
             let raw_value = to_raw(t, value, *raw)?;
-            let addr = address(args.addr)?;
+            let addr = any_address(args.addr)?;
             if !force {
                 let mut guard = WriteGuard::new();
                 wear::prime(&mut guard, &args.port, addr.get(), t.index);
@@ -253,6 +263,43 @@ async fn execute<IO: CharIo>(m: &mut MasterDriver<IO>, args: &MovilinkArgs) -> R
                     .map_err(|e| CliError::usage(format!("{e}")))?;
             }
             let word = raw_value as i32 as u32;
+            if !addr.expects_response() {
+                // Group (101–199) or broadcast (255): every drive addressed executes the
+                // write, none answers, so there is nothing to read back.
+                let channel = if *volatile {
+                    ParamChannel::write_volatile(t.index, word)
+                } else {
+                    ParamChannel::write(t.index, word)
+                };
+                let request =
+                    Telegram::request(addr, PduType::PARAM_0PD_ACYCLIC).with_param(channel);
+                m.send_unanswered(request).await.map_err(driver_error)?;
+                // Keep the line idle for the broadcast spacing before this process lets go of
+                // the port, so the next telegram (perhaps from the next drivectl run) cannot
+                // follow sooner than the 25 ms the drives need.
+                tokio::time::sleep(movilink::timing::BROADCAST_SPACING).await;
+                if !volatile {
+                    wear::record(&args.port, addr.get(), t.index);
+                }
+                if json {
+                    println!(
+                        "{}",
+                        json!({"index": t.index, "raw": raw_value, "address": addr.get(), "answered": false})
+                    );
+                } else {
+                    println!(
+                        "sent index {} = raw {raw_value} to {} {} (never answered by design)",
+                        t.index,
+                        if addr.is_broadcast() {
+                            "broadcast"
+                        } else {
+                            "group"
+                        },
+                        addr.get()
+                    );
+                }
+                return Ok(());
+            }
             if *volatile {
                 m.write_volatile(addr, t.index, word).await
             } else {
