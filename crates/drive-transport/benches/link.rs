@@ -4,12 +4,13 @@
 //! Run with `cargo bench -p drive-transport`.
 
 use std::hint::black_box;
-use std::time::{Duration, Instant};
+
+use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 
 use drive_transport::link::{self, FaultConfig, LinkConfig, WireChar};
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
 
-const TOTAL: usize = 4 << 20;
+const TOTAL: usize = 256 << 10;
 const CHUNK: usize = 256;
 
 async fn transfer(config: LinkConfig, chars: bool) -> usize {
@@ -39,16 +40,16 @@ async fn transfer(config: LinkConfig, chars: bool) -> usize {
     received
 }
 
-fn main() {
+fn link(c: &mut Criterion) {
     let rt = tokio::runtime::Builder::new_current_thread()
         .enable_time()
         .build()
         .expect("runtime");
     let cases = [
-        ("untimed, AsyncRead", LinkConfig::untimed(), false),
-        ("untimed, read_chars", LinkConfig::untimed(), true),
+        ("untimed_async_read", LinkConfig::untimed(), false),
+        ("untimed_read_chars", LinkConfig::untimed(), true),
         (
-            "untimed, 1 % drop/insert/flip",
+            "untimed_1pct_drop_insert_flip",
             LinkConfig::untimed().with_faults(FaultConfig {
                 drop: 0.01,
                 insert: 0.01,
@@ -58,17 +59,19 @@ fn main() {
             true,
         ),
     ];
-    println!("link group: {} MiB per case, best of 5", TOTAL >> 20);
+    let mut g = c.benchmark_group("link");
+    g.throughput(Throughput::Bytes(TOTAL as u64));
     for (name, config, chars) in cases {
-        let mut best = Duration::MAX;
-        for _ in 0..5 {
-            let start = Instant::now();
-            let n = rt.block_on(transfer(config, chars));
-            best = best.min(start.elapsed());
-            assert!(n > TOTAL / 2);
-        }
-        let ns_per_byte = best.as_nanos() as f64 / TOTAL as f64;
-        let mib_s = TOTAL as f64 / best.as_secs_f64() / (1 << 20) as f64;
-        println!("  {name:<32} {ns_per_byte:>7.2} ns/byte {mib_s:>9.1} MiB/s");
+        g.bench_function(name, |b| {
+            b.iter(|| {
+                let n = rt.block_on(transfer(config, chars));
+                assert!(n > TOTAL / 2);
+                n
+            })
+        });
     }
+    g.finish();
 }
+
+criterion_group!(benches, link);
+criterion_main!(benches);
