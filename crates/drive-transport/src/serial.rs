@@ -422,6 +422,18 @@ fn classify_open_error(path: &str, err: tokio_serial::Error) -> TransportError {
         }
         _ => {}
     }
+    // ENOTTY: a character device that is no terminal (e.g. /dev/null).
+    if err.description.contains("Not a typewriter")
+        || err.description.contains("Inappropriate ioctl")
+    {
+        return TransportError::Unsupported {
+            setting: "serial port access".into(),
+            path: path.into(),
+            hint: "this device is not a serial port (no terminal settings); give a serial port \
+                   such as /dev/ttyUSB0, /dev/ttyS0 or a pty slave /dev/pts/N"
+                .into(),
+        };
+    }
     TransportError::Open {
         path: path.into(),
         source: io::Error::from(err),

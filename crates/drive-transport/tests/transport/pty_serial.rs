@@ -177,3 +177,21 @@ async fn a_port_opened_twice_is_busy() {
         other => panic!("expected Busy, got {other:?}"),
     }
 }
+
+#[tokio::test]
+async fn opening_a_character_device_without_a_terminal_says_it_is_not_a_serial_port() {
+    // /dev/null is a character device but has no terminal settings (ENOTTY).
+    let err = serial::open(&SerialConfig::new("/dev/null", 9600)).unwrap_err();
+    match &err {
+        TransportError::Unsupported {
+            setting,
+            path,
+            hint,
+        } => {
+            assert_eq!(setting, "serial port access");
+            assert_eq!(path, "/dev/null");
+            assert!(hint.contains("not a serial port"), "{hint}");
+        }
+        other => panic!("expected Unsupported, got {other:?}"),
+    }
+}
