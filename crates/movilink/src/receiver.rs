@@ -140,6 +140,8 @@ pub struct Receiver {
     filter: AddressFilter,
     char_us: u64,
     pause_us: u64,
+    /// Longest accepted gap inside a telegram (≥ `pause_us`).
+    max_gap_us: u64,
     state: State,
     last: Option<Instant>,
     buf: [u8; MAX_TELEGRAM_LEN],
@@ -155,6 +157,7 @@ impl Receiver {
             filter,
             char_us,
             pause_us,
+            max_gap_us: timing.max_gap_micros(),
             state: State::Idle,
             last: None,
             buf: [0; MAX_TELEGRAM_LEN],
@@ -209,16 +212,16 @@ impl Receiver {
 
     /// Feed one character; returns a completed or rejected telegram.
     pub fn handle_char(&mut self, c: RxChar) -> Option<RxEvent> {
-        let idle = match self.last {
-            None => true,
-            Some(prev) => self.gap_us(prev, c.time) >= self.pause_us,
-        };
+        let gap = self.last.map(|prev| self.gap_us(prev, c.time));
+        let idle = gap.is_none_or(|g| g >= self.pause_us);
+        // Inside a telegram the gap limit may be wider than the start pause (LineTiming::max_gap).
+        let broke_off = gap.is_none_or(|g| g >= self.max_gap_us);
         self.last = Some(match self.last {
             Some(prev) if prev > c.time => prev,
             _ => c.time,
         });
         match self.state {
-            State::Receiving { len, .. } if idle => {
+            State::Receiving { len, .. } if broke_off => {
                 // The telegram broke off; this character may start the next one.
                 self.state = State::Idle;
                 let _ = self.start(c);
@@ -257,7 +260,8 @@ impl Receiver {
 
     /// Tell the receiver the time is `now` without a new character: a complete telegram
     /// followed by a quiet line until a start pause after its last character is accepted; a
-    /// partial telegram whose inter-character gap reached a start pause is rejected.
+    /// partial telegram whose inter-character gap reached [`LineTiming::max_gap`] (a start
+    /// pause by default) is rejected.
     pub fn handle_timeout(&mut self, now: Instant) -> Option<RxEvent> {
         let last = self.last?;
         if let State::Complete { telegram } = self.state {
@@ -270,7 +274,7 @@ impl Receiver {
         let State::Receiving { len, .. } = self.state else {
             return None;
         };
-        if self.gap_us(last, now) >= self.pause_us {
+        if self.gap_us(last, now) >= self.max_gap_us {
             self.state = State::Idle;
             Some(RxEvent::Rejected(RejectReason::InterCharacterGap {
                 received: len,
@@ -285,7 +289,7 @@ impl Receiver {
     pub fn poll_timeout(&self) -> Option<Instant> {
         match (self.state, self.last) {
             (State::Receiving { .. }, Some(last)) => {
-                Some(last.plus_micros(self.char_us + self.pause_us))
+                Some(last.plus_micros(self.char_us + self.max_gap_us))
             }
             (State::Complete { .. }, Some(last)) => Some(last.plus_micros(self.pause_us)),
             _ => None,

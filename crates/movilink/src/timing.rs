@@ -120,8 +120,13 @@ pub const fn char_time(baud: u32) -> Duration {
 pub struct LineTiming {
     /// Time of one character on the wire.
     pub char_time: Duration,
-    /// Minimum idle time before a start character; also the limit of the inter-character gap.
+    /// Minimum idle time before a start character.
     pub start_pause: Duration,
+    /// Longest idle time accepted between two characters of one received telegram; a longer
+    /// gap rejects the telegram. The manual's rule is "shorter than the start pause" (the
+    /// default). A master whose characters are timestamped when the operating system hands
+    /// them over (USB serial adapters deliver in bursts, e.g. every 16 ms) needs more.
+    pub max_gap: Duration,
 }
 
 impl LineTiming {
@@ -129,7 +134,17 @@ impl LineTiming {
     pub const MOVILINK: Self = Self {
         char_time: CHAR_TIME,
         start_pause: START_PAUSE,
+        max_gap: START_PAUSE,
     };
+
+    /// The same timing, accepting gaps up to `max_gap` inside a received telegram (never
+    /// less than the start pause).
+    pub fn with_max_gap(self, max_gap: Duration) -> Self {
+        Self {
+            max_gap: max_gap.max(self.start_pause),
+            ..self
+        }
+    }
 
     /// Wire time of `chars` characters.
     pub fn wire_time(&self, chars: usize) -> Duration {
@@ -142,6 +157,10 @@ impl LineTiming {
             duration_micros(self.char_time),
             duration_micros(self.start_pause),
         )
+    }
+
+    pub(crate) fn max_gap_micros(&self) -> u64 {
+        duration_micros(self.max_gap.max(self.start_pause))
     }
 }
 

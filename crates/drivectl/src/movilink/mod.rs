@@ -61,6 +61,11 @@ pub struct MovilinkArgs {
     /// Retries after a timeout or a corrupt answer.
     #[arg(long, default_value_t = 2)]
     retries: u8,
+    /// Longest gap in ms accepted between the characters of an answer. USB serial adapters
+    /// hand characters over in bursts (FTDI: every 16 ms); 0 applies the manual's rule
+    /// (less than the 3.44 ms start pause). BCC, length and parity checks always apply.
+    #[arg(long, default_value_t = 20)]
+    char_gap: u64,
     /// One JSON object per result.
     #[arg(long, global = true)]
     json: bool,
@@ -226,6 +231,7 @@ pub fn run(args: &MovilinkArgs) -> Result<()> {
         let config = DriverConfig {
             response_timeout: Duration::from_millis(args.timeout),
             retries: args.retries,
+            max_char_gap: (args.char_gap > 0).then(|| Duration::from_millis(args.char_gap)),
             ..DriverConfig::default()
         };
         let mut master = MasterDriver::new(Stream(port), config);

@@ -136,7 +136,9 @@ impl CharIo for LinkEnd {
 /// ([`Instant::now`]) and no error flag (serial ports, ptys, [`tokio::io::duplex`]).
 ///
 /// A USB serial adapter that delivers characters in bursts makes the gaps between bursts look
-/// like inter-character gaps; use a native UART or the adapter's low-latency mode.
+/// like inter-character gaps: widen the accepted gap with
+/// [`DriverConfig::max_char_gap`](super::DriverConfig::max_char_gap) (drivectl uses 20 ms), or
+/// use a native UART or the adapter's low-latency mode.
 #[derive(Debug)]
 pub struct Stream<T>(pub T);
 

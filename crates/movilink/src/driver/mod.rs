@@ -59,6 +59,12 @@ pub struct DriverConfig {
     pub timing: bool,
     /// Baud rate for the character time and the gap and timeout rules; default 9600.
     pub baud: u32,
+    /// Longest gap accepted between the characters of a response; `None` (default): the
+    /// manual's rule, less than a start pause. Real serial ports are timestamped when the
+    /// operating system hands the characters over, and USB adapters deliver them in bursts
+    /// (an FTDI chip every 16 ms by default): give such ports e.g. 20 ms, or the responses
+    /// look broken off. The BCC, length and trailing-character checks stay in force.
+    pub max_char_gap: Option<Duration>,
 }
 
 impl Default for DriverConfig {
@@ -68,6 +74,7 @@ impl Default for DriverConfig {
             retries: 2,
             timing: true,
             baud: timing::BAUD_RATE,
+            max_char_gap: None,
         }
     }
 }
@@ -76,14 +83,20 @@ impl DriverConfig {
     /// Character time and start pause at [`DriverConfig::baud`]: the manual's 3.44 ms at
     /// 9600 baud, three character times at other rates.
     pub fn line_timing(&self) -> LineTiming {
-        if self.baud == timing::BAUD_RATE {
+        let line = if self.baud == timing::BAUD_RATE {
             LineTiming::MOVILINK
         } else {
             let char_time = timing::char_time(self.baud);
+            let start_pause = char_time.saturating_mul(3);
             LineTiming {
                 char_time,
-                start_pause: char_time.saturating_mul(3),
+                start_pause,
+                max_gap: start_pause,
             }
+        };
+        match self.max_char_gap {
+            Some(gap) => line.with_max_gap(gap),
+            None => line,
         }
     }
 

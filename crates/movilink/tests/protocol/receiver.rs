@@ -251,3 +251,60 @@ fn trailing_characters_reject_and_are_ignored_until_idle() {
     let (ev, _) = feed(&mut rx, &REQ, t + PAUSE);
     assert!(matches!(ev.as_slice(), [RxEvent::Telegram(_)]));
 }
+
+/// A response delivered in two bursts 10 ms apart (as a USB serial adapter hands characters
+/// over): rejected under the manual's gap rule, accepted with a wider `LineTiming::max_gap`,
+/// and a gap beyond that wider limit still breaks the telegram off.
+#[test]
+fn bursty_delivery_needs_a_wider_gap_limit() {
+    use movilink::{Direction, LineTiming};
+    use std::time::Duration;
+    let mut resp = REQ.to_vec();
+    resp[0] = 0x1D;
+    resp[9] = movilink::codec::bcc(&resp[..9]);
+    let burst = |rx: &mut Receiver, split_gap: u64| {
+        let mut events = Vec::new();
+        let mut t = 100_000;
+        for (i, b) in resp.iter().enumerate() {
+            t += if i == 5 { split_gap } else { 0 };
+            events.extend(rx.handle_char(RxChar::new(*b, Instant::from_micros(t))));
+        }
+        let confirm = Instant::from_micros(t + 20_000 + PAUSE);
+        events.extend(rx.handle_timeout(confirm));
+        events
+    };
+    let strict = LineTiming::MOVILINK;
+    let lenient = LineTiming::MOVILINK.with_max_gap(Duration::from_millis(20));
+    assert_eq!(lenient.max_gap, Duration::from_millis(20));
+    // Never narrower than the start pause.
+    assert_eq!(
+        LineTiming::MOVILINK.with_max_gap(Duration::ZERO).max_gap,
+        strict.start_pause
+    );
+
+    let mut rx = Receiver::new(Direction::Response, AddressFilter::Any, strict);
+    let ev = burst(&mut rx, 10_000);
+    assert!(
+        matches!(
+            ev.first(),
+            Some(RxEvent::Rejected(RejectReason::InterCharacterGap {
+                received: 5
+            }))
+        ),
+        "{ev:?}"
+    );
+
+    let mut rx = Receiver::new(Direction::Response, AddressFilter::Any, lenient);
+    let ev = burst(&mut rx, 10_000);
+    assert!(matches!(ev.as_slice(), [RxEvent::Telegram(_)]), "{ev:?}");
+
+    let mut rx = Receiver::new(Direction::Response, AddressFilter::Any, lenient);
+    let ev = burst(&mut rx, 25_000);
+    assert!(
+        matches!(
+            ev.first(),
+            Some(RxEvent::Rejected(RejectReason::InterCharacterGap { .. }))
+        ),
+        "{ev:?}"
+    );
+}
