@@ -66,7 +66,7 @@ const MAX_STEPS: usize = 8;
 fn nord_walk() -> Result<()> {
     use nord::State;
     println!("== NORD state machine (control word → status word)");
-    let status_of = |s: State| s.info().map_or(0, |i| i.value);
+    let status_of = |s: State| nord::state_info(s).map_or(0, |i| i.value);
     let mut state = State::SwitchOnDisabled;
     let mut last = 0u16;
     for target in [State::OperationEnabled, State::SwitchOnDisabled] {

@@ -54,51 +54,9 @@ pub mod command {
     pub const FAULT_RESET: u16 = 0x80;
 }
 
-/// A state of the drive's state machine.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum State {
-    /// "Nicht einschaltbereit" 0x00 (ACT only; the ACU table does not list it).
-    NotReadyToSwitchOn,
-    /// "Einschaltsperre" / "Einschalten gesperrt" 0x40: the state after power-on.
-    SwitchOnDisabled,
-    /// "Einschaltbereit" 0x21.
-    ReadyToSwitchOn,
-    /// "Eingeschaltet" 0x23: output stage disabled.
-    SwitchedOn,
-    /// "Betrieb freigegeben" 0x27: output stage enabled, the drive runs.
-    OperationEnabled,
-    /// "Schnellhalt (aktiv)" 0x07: stopping on the emergency ramps P424 / P425.
-    QuickStopActive,
-    /// "Störungsreaktion aktiv" / "Fehlerreaktion aktiv" 0x0F.
-    FaultReactionActive,
-    /// "Störung" / "Fehler" 0x08: read the cause from P260.
-    Fault,
-    /// A status word that matches no state of the manual's table.
-    Unknown,
-}
-
-impl State {
-    /// The English state name (DRIVECOM terms of the glossary).
-    pub const fn name_en(self) -> &'static str {
-        match self {
-            State::NotReadyToSwitchOn => "not ready to switch on",
-            State::SwitchOnDisabled => "switch-on disabled",
-            State::ReadyToSwitchOn => "ready to switch on",
-            State::SwitchedOn => "switched on",
-            State::OperationEnabled => "operation enabled",
-            State::QuickStopActive => "quick stop active",
-            State::FaultReactionActive => "fault reaction active",
-            State::Fault => "fault",
-            State::Unknown => "unknown state",
-        }
-    }
-}
-
-impl core::fmt::Display for State {
-    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        f.write_str(self.name_en())
-    }
-}
+/// A state of the drive's state machine: the shared DRIVECOM states. The ACT table has all of
+/// them; the ACU table has no "not ready to switch on".
+pub use crate::state::DriveState as State;
 
 /// One row of a status word table: the state shows when `word & mask == value`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

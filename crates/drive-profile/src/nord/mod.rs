@@ -29,7 +29,7 @@ mod words;
 mod tests;
 
 pub use param::{ArrayElement, Param, ParamElement, Resolution};
-pub use state::{NordStateMachine, State, command};
+pub use state::{NordStateMachine, State, command, state_info};
 pub use tables::{
     AkInfo, AkRequest, AkRequestKind, AkResponseKind, BitInfo, Ctt2Error, Ctt2Index, Ctt2Message,
     Ctt2MessageType, Ctt2ObjectByte, Ctt2Role, PweError, StateInfo, Transition, Trigger, Width,

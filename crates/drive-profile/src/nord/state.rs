@@ -1,83 +1,33 @@
 //! The NORD drive state machine (BU 0255 section 4.5.3).
 
-use core::fmt;
-
 use crate::generated::nord_states::{STATES, TRANSITIONS};
 use crate::state::StateMachine;
 
 use super::{ControlWord, StateInfo, Transition};
 
-/// A NORD drive state, decoded from status-word bits 0..6.
+/// A NORD drive state, decoded from status-word bits 0..6: the shared DRIVECOM states.
 ///
 /// The manual's letters: A not ready to switch on, B switch-on disabled, C ready to switch on,
 /// D switched on, E operation enabled, F quick stop active, G fault reaction active
-/// (`Störung aktiv`), H fault.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum State {
-    /// A `Nicht einschaltbereit`: first state after power-up.
-    NotReadyToSwitchOn,
-    /// B `Einschaltsperre`: left only by the command shutdown.
-    SwitchOnDisabled,
-    /// C `Einschaltbereit`: initialisation finished, output voltage off.
-    ReadyToSwitchOn,
-    /// D `Eingeschaltet`: ready for operation.
-    SwitchedOn,
-    /// E `Betrieb freigegeben`: the drive follows setpoints.
-    OperationEnabled,
-    /// F `Schnellhalt aktiv`: quick stop running; ends in switch-on disabled.
-    QuickStopActive,
-    /// G `Störung aktiv`: fault reaction running.
-    FaultReactionActive,
-    /// H `Störung`: left only by a fault reset (rising edge of control bit 7).
-    Fault,
-    /// The status word matches no state of the manual's table.
-    Unknown,
+/// (`Störung aktiv`), H fault. The manual's own names and status patterns are in
+/// [`state_info`].
+pub use crate::state::DriveState as State;
+
+/// The NORD table entry of `state` (letter, status pattern, German and English names and
+/// descriptions); `None` for [`State::Unknown`].
+pub fn state_info(state: State) -> Option<&'static StateInfo> {
+    STATES.iter().find(|s| s.state == state)
 }
 
-impl State {
-    /// Every state of the manual (without [`State::Unknown`]).
-    pub const ALL: [State; 8] = [
-        State::NotReadyToSwitchOn,
-        State::SwitchOnDisabled,
-        State::ReadyToSwitchOn,
-        State::SwitchedOn,
-        State::OperationEnabled,
-        State::QuickStopActive,
-        State::FaultReactionActive,
-        State::Fault,
-    ];
-
-    /// The table entry (status pattern, names); `None` for [`State::Unknown`].
-    pub fn info(self) -> Option<&'static StateInfo> {
-        STATES.iter().find(|s| s.state == self)
-    }
-
-    /// English name, e.g. `switch-on disabled`.
-    pub fn name_en(self) -> &'static str {
-        self.info().map_or("unknown state", |i| i.name_en)
-    }
-
-    /// German name, e.g. `Einschaltsperre`.
-    pub fn name_de(self) -> &'static str {
-        self.info().map_or("unbekannter Zustand", |i| i.name_de)
-    }
-
-    /// Position on the way from switch-on disabled to operation enabled, for the states a
-    /// control word can lead to.
-    const fn rank(self) -> Option<u8> {
-        match self {
-            State::SwitchOnDisabled => Some(0),
-            State::ReadyToSwitchOn => Some(1),
-            State::SwitchedOn => Some(2),
-            State::OperationEnabled => Some(3),
-            _ => None,
-        }
-    }
-}
-
-impl fmt::Display for State {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(self.name_en())
+/// Position on the way from switch-on disabled to operation enabled, for the states a control
+/// word can lead to.
+const fn rank(state: State) -> Option<u8> {
+    match state {
+        State::SwitchOnDisabled => Some(0),
+        State::ReadyToSwitchOn => Some(1),
+        State::SwitchedOn => Some(2),
+        State::OperationEnabled => Some(3),
+        _ => None,
     }
 }
 
@@ -181,7 +131,7 @@ impl StateMachine for NordStateMachine {
     ///   again before the next 0480h — [`NordStateMachine::next_control`] does this for you.
     fn control_toward(current: State, target: State) -> Option<u16> {
         use command::*;
-        let goal = target.rank()?;
+        let goal = rank(target)?;
         if current == target {
             return None;
         }

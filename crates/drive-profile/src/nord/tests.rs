@@ -46,7 +46,7 @@ fn every_state_is_in_the_table_once() {
     for s in State::ALL {
         assert_eq!(states().iter().filter(|i| i.state == s).count(), 1, "{s:?}");
     }
-    assert!(State::Unknown.info().is_none());
+    assert!(crate::nord::state_info(State::Unknown).is_none());
     // E12: the manual prints "Einschaltsperr"; the table uses the correct spelling.
     assert_eq!(State::SwitchOnDisabled.name_de(), "Einschaltsperre");
     assert_eq!(
@@ -109,7 +109,7 @@ fn status_patterns_reproduce_the_manual_table() {
         (State::QuickStopActive, "0010111"),
     ];
     for (s, p) in printed {
-        let info = s.info().unwrap();
+        let info = crate::nord::state_info(s).unwrap();
         let mut text = String::new();
         for bit in (0..7).rev() {
             let m = 1u16 << bit;
@@ -665,7 +665,7 @@ fn model_step(current: State, previous: u16, word: u16) -> State {
 
 /// A status word the model drive reports for `state`: the pattern plus bit 9 (bus control).
 fn status_of(state: State) -> u16 {
-    state.info().map_or(0xFFFF, |i| i.value | 0x0200)
+    crate::nord::state_info(state).map_or(0xFFFF, |i| i.value | 0x0200)
 }
 
 /// Drive from `start` to `target`, returning the number of control words sent.
