@@ -3,17 +3,12 @@
 
 pub mod movilink_bus;
 
-use drive_profile::{Family, ParamMeta, bonfiglioli, nord, sew};
+use drive_profile::{Family, ParamMeta};
 use drive_sim::{ParamStore, SimDrive, StoreOptions};
 
 /// Every parameter of `family` as a trait object.
 pub fn params(family: Family) -> Vec<&'static (dyn ParamMeta + Sync)> {
-    match family {
-        Family::Movidrive => sew::params().iter().map(|p| p as _).collect(),
-        Family::Nord => nord::params().iter().map(|p| p as _).collect(),
-        Family::Bonfiglioli => bonfiglioli::params().iter().map(|p| p as _).collect(),
-        _ => Vec::new(),
-    }
+    drive_profile::family::params(family).collect()
 }
 
 /// A simulated drive of `family` whose parameter store is built from the generated table.

@@ -27,6 +27,7 @@
 )]
 
 pub mod bonfiglioli;
+pub mod family;
 #[allow(missing_docs, clippy::all)]
 #[rustfmt::skip]
 pub mod generated;

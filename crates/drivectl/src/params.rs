@@ -2,7 +2,7 @@
 
 use crate::error::{CliError, Result};
 use clap::{Args, Subcommand};
-use drive_profile::{Family, ParamMeta, bonfiglioli, nord, sew};
+use drive_profile::{Family, ParamMeta};
 use serde_json::{Value, json};
 use std::fmt::Write as _;
 
@@ -41,30 +41,20 @@ pub fn parse_family(s: &str) -> Result<Family> {
 
 /// Every parameter of `family`, in table order.
 pub fn all(family: Family) -> Vec<&'static dyn ParamMeta> {
-    match family {
-        Family::Movidrive => sew::params().iter().map(|p| p as &dyn ParamMeta).collect(),
-        Family::Nord => nord::params().iter().map(|p| p as &dyn ParamMeta).collect(),
-        Family::Bonfiglioli => bonfiglioli::params()
-            .iter()
-            .map(|p| p as &dyn ParamMeta)
-            .collect(),
-        _ => Vec::new(),
-    }
+    drive_profile::family::params(family)
+        .map(|p| p as &dyn ParamMeta)
+        .collect()
 }
 
 /// Look up one parameter by P-number or bus index.
 pub fn lookup(family: Family, key: &str) -> Result<&'static dyn ParamMeta> {
-    let found: Option<&'static dyn ParamMeta> = match family {
-        Family::Movidrive => sew::lookup(key).map(|p| p as &dyn ParamMeta),
-        Family::Nord => nord::lookup(key).map(|p| p as &dyn ParamMeta),
-        Family::Bonfiglioli => bonfiglioli::lookup(key).map(|p| p as &dyn ParamMeta),
-        _ => None,
-    };
-    found.ok_or_else(|| {
-        CliError::usage(format!(
-            "no {family} parameter `{key}`; try `drivectl params {family} --search NAME` to find it"
-        ))
-    })
+    drive_profile::family::lookup(family, key)
+        .map(|p| p as &dyn ParamMeta)
+        .ok_or_else(|| {
+            CliError::usage(format!(
+                "no {family} parameter `{key}`; try `drivectl params {family} --search NAME` to find it"
+            ))
+        })
 }
 
 /// The label users know a parameter by: `P813`, `P700[-02]`, `1376`.
