@@ -551,7 +551,7 @@ enum QuickRamp {
 
 const PO_WORDS: usize = 3;
 /// Speed process data: 0.2 1/min per digit.
-const RPM_PER_DIGIT: f64 = 0.2;
+const RPM_PER_DIGIT: f64 = drive_profile::sew::SPEED_RPM_PER_DIGIT;
 /// Relative speed: 0x4000 = 100 %.
 const PERCENT_100: f64 = 16384.0;
 /// Increments per motor revolution.

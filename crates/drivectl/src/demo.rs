@@ -209,7 +209,7 @@ async fn movilink_session() -> Result<()> {
             let response = m.exchange(request).await.map_err(driver_error)?;
             let pi = response.process_data();
             let status = pi.first().copied().unwrap_or(0);
-            let speed = f64::from(pi.get(1).copied().unwrap_or(0) as i16) * 0.2;
+            let speed = drive_profile::sew::speed_from_word(pi.get(1).copied().unwrap_or(0));
             println!(
                 "    t = {:>5.0} ms  PI1 0x{status:04X} ({})  speed {speed:>6.1} 1/min",
                 started.elapsed().as_secs_f64() * 1000.0,

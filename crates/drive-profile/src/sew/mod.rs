@@ -576,3 +576,12 @@ impl fmt::Display for DecodedReturnCode {
 
 #[cfg(test)]
 mod tests;
+
+/// Speed in process data (MOVIDRIVE fieldbus profile): signed, 0.2 1/min per digit, so
+/// 5000 = 1000 1/min. Sources in `docs/protocols/movidrive-profile.md`.
+pub const SPEED_RPM_PER_DIGIT: f64 = 0.2;
+
+/// A speed process-data word (setpoint or actual value) in 1/min.
+pub fn speed_from_word(word: u16) -> f64 {
+    f64::from(word as i16) * SPEED_RPM_PER_DIGIT
+}

@@ -522,3 +522,11 @@ fn every_ranged_parameter_round_trips_its_bounds_and_default() {
         }
     }
 }
+
+#[test]
+fn speed_process_data_is_0_2_rpm_per_digit() {
+    // The manual's profile example: setpoint 5000 = 1000 1/min; negative speeds are signed.
+    assert_eq!(super::speed_from_word(5000), 1000.0);
+    assert_eq!(super::speed_from_word((-5000i16) as u16), -1000.0);
+    assert!((super::speed_from_word(0x7FFF) - 6553.4).abs() < 1e-9);
+}

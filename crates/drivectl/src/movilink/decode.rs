@@ -268,13 +268,13 @@ fn pd_hint(request: bool, word: usize, v: u16) -> String {
         (true, 0) => format!("control word 1 by default (P870){}", control_word_hint(v)),
         (true, 1) => format!(
             "speed setpoint by default (P871): {} 1/min",
-            trim_float(f64::from(v as i16) * 0.2, 1)
+            trim_float(sew::speed_from_word(v), 1)
         ),
         (true, 2) => "no function by default (P872)".to_owned(),
         (false, 0) => format!("status word 1 by default (P873){}", status_word_hint(v)),
         (false, 1) => format!(
             "actual speed by default (P874): {} 1/min",
-            trim_float(f64::from(v as i16) * 0.2, 1)
+            trim_float(sew::speed_from_word(v), 1)
         ),
         (false, 2) => format!(
             "output current by default (P875): {} % In",

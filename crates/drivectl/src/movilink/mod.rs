@@ -596,10 +596,7 @@ fn print_pd(addr: Address, pdu: PduType, out: &[u16], pi: &[u16], json: bool) {
             .first()
             .map_or_else(String::new, |s| decode::status_summary(*s));
         let speed = pi.get(1).map_or_else(String::new, |w| {
-            format!(
-                ", speed {} 1/min",
-                trim_float(f64::from(*w as i16) * 0.2, 1)
-            )
+            format!(", speed {} 1/min", trim_float(sew::speed_from_word(*w), 1))
         });
         println!("PI {}: {status}{speed}", words_text.join(" "));
     }
