@@ -1,0 +1,33 @@
+//! The interface between a sans-IO state machine and whatever drives it (the runtime layer's
+//! [`Port`](crate::rt::Port) and serve loop, a test pump, an embedded main loop).
+
+use crate::char::RxChar;
+use crate::time::Instant;
+
+/// A sans-IO bus participant (a master or a slave of any protocol), in the quinn-proto style:
+/// characters and the passing of time go in, frames to send and deadlines come out. Time is
+/// always an argument.
+pub trait Endpoint {
+    /// Feed one character received from the bus.
+    fn handle_char(&mut self, c: RxChar);
+
+    /// Advance the time to `now` (at or after [`Endpoint::poll_timeout`]).
+    fn handle_timeout(&mut self, now: Instant);
+
+    /// The next frame to send, if one is due at `now`; its bytes start on the wire at `now`.
+    /// Returns the number of bytes written to `buf`.
+    fn poll_transmit(&mut self, now: Instant, buf: &mut [u8]) -> Option<usize>;
+
+    /// When [`Endpoint::handle_timeout`] (or [`Endpoint::poll_transmit`]) has work to do.
+    fn poll_timeout(&self) -> Option<Instant>;
+
+    /// The next deadline that only needs a quiet line: a complete frame's end confirmation, a
+    /// transmission falling due after a pause. A virtual clock (which does not wait for real
+    /// time) may jump to it; it must not jump to the other deadlines (a gap limit while a frame
+    /// is arriving, a response timeout, a device's own timers), because characters may still
+    /// come.
+    fn poll_quiet_timeout(&self) -> Option<Instant>;
+
+    /// The longest frame [`Endpoint::poll_transmit`] writes.
+    fn max_frame_len(&self) -> usize;
+}

@@ -1,0 +1,342 @@
+//! The master's transaction skeleton: one request in flight, its attempts, retries, give-up and
+//! the bus timing around it, for any [`Framing`].
+//!
+//! A protocol's master keeps what is specific to it (building the request, matching an answer
+//! to it, handshakes) and leaves the rest to an [`Exchange`]:
+//!
+//! 1. [`Exchange::begin`] starts a request;
+//! 2. when [`Exchange::may_transmit`] says so, the protocol encodes the request and reports it
+//!    with [`Exchange::transmitted`] (the gate then knows the bus is busy until its end);
+//! 3. received characters go to [`Exchange::handle_char`], the passing of time to
+//!    [`Exchange::handle_timeout`] at [`Exchange::poll_timeout`];
+//! 4. each call may return an [`ExchangeEvent`]: a confirmed frame for the protocol to judge
+//!    ([`Exchange::complete`] it, [`Exchange::requeue`] the next exchange of the same job, or
+//!    [`Exchange::fail`] the attempt), a rejection, or no answer in time.
+//!
+//! What it enforces:
+//!
+//! * the idle gap before every transmission, `retry_pause` after a failed attempt or an abort,
+//!   `unanswered_hold` after a request that gets no response ([`TxGate`]);
+//! * the response timeout, from the request's end to the start of the answer's first
+//!   character (the answer's first character may complete up to one character time later);
+//! * at most `retries` retransmissions: after `retries + 1` failed attempts the request is
+//!   given up ([`Verdict::GiveUp`]), whatever `retries` is (255 means 256 attempts, not
+//!   forever);
+//! * late answers are never matched to a later request: a character that starts after the
+//!   give-up time fails the attempt, the receiver forgets everything when the next request is
+//!   transmitted, characters arriving while no request waits are only bus activity (they delay
+//!   the next transmission until the line was quiet for the idle gap), and the protocol checks
+//!   that a frame answers *its* request before completing it.
+
+use core::time::Duration;
+
+use crate::char::RxChar;
+use crate::framing::{Framing, Receiver, RxEvent};
+use crate::gate::TxGate;
+use crate::time::Instant;
+
+/// The times and limits of an [`Exchange`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct ExchangeConfig {
+    /// From the end of a request to the start of its answer.
+    pub response_timeout: Duration,
+    /// Retransmissions after a failed attempt (0: one attempt only).
+    pub retries: u8,
+    /// Silence the bus needs after a failed attempt or an aborted request before the next
+    /// transmission (MOVILINK: two start pauses).
+    pub retry_pause: Duration,
+    /// How long a request that gets no response (group, broadcast) holds the bus after its end.
+    pub unanswered_hold: Duration,
+}
+
+/// What happens after a failed attempt.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Verdict {
+    /// The request is transmitted again when the bus allows.
+    Retry,
+    /// The request is dropped after this many transmissions.
+    GiveUp {
+        /// Transmissions made.
+        attempts: u16,
+    },
+}
+
+/// What a character or a timeout meant for the request in flight.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum ExchangeEvent<Fr, E> {
+    /// A confirmed frame arrived while the answer was awaited; the protocol decides whether it
+    /// answers the request ([`Exchange::complete`], [`Exchange::requeue`]) or not
+    /// ([`Exchange::fail`]).
+    Frame(Fr),
+    /// The receiver dropped characters of the answer; the attempt failed.
+    Rejected(E, Verdict),
+    /// Nothing started in time; the attempt failed.
+    NoAnswer(Verdict),
+}
+
+/// [`Exchange::begin`] while a request is in flight.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, thiserror::Error)]
+#[error("a request is already in flight")]
+pub struct Busy;
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Phase {
+    /// Waiting for the bus to allow the (re)transmission.
+    Queued,
+    /// Transmitted; give up at `give_up` unless an answer is being received.
+    Waiting { give_up: Instant },
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct Job {
+    attempts: u16,
+    phase: Phase,
+}
+
+/// The transaction skeleton; see the [module docs](self).
+#[derive(Debug, Clone)]
+pub struct Exchange<F: Framing, const N: usize> {
+    config: ExchangeConfig,
+    receiver: Receiver<F, N>,
+    gate: TxGate,
+    now: Instant,
+    job: Option<Job>,
+}
+
+impl<F: Framing, const N: usize> Exchange<F, N> {
+    /// An exchange receiving answers with `framing`; the bus is assumed idle.
+    pub fn new(framing: F, config: ExchangeConfig) -> Self {
+        let receiver = Receiver::new(framing);
+        let gate = TxGate::new(receiver.timing().start_gap);
+        Self {
+            config,
+            receiver,
+            gate,
+            now: Instant::ZERO,
+            job: None,
+        }
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &ExchangeConfig {
+        &self.config
+    }
+
+    /// Change the response timeout; applies from the next transmission on.
+    pub fn set_response_timeout(&mut self, timeout: Duration) {
+        self.config.response_timeout = timeout;
+    }
+
+    /// Change the number of retransmissions; applies to the request in flight too.
+    pub fn set_retries(&mut self, retries: u8) {
+        self.config.retries = retries;
+    }
+
+    /// The answer receiver (e.g. to set the address a master expects).
+    pub fn receiver(&self) -> &Receiver<F, N> {
+        &self.receiver
+    }
+
+    /// The answer receiver, for changing.
+    pub fn receiver_mut(&mut self) -> &mut Receiver<F, N> {
+        &mut self.receiver
+    }
+
+    /// The bus gate.
+    pub fn gate(&self) -> &TxGate {
+        &self.gate
+    }
+
+    /// The latest time seen.
+    pub fn now(&self) -> Instant {
+        self.now
+    }
+
+    /// Whether no request is in flight.
+    pub fn is_idle(&self) -> bool {
+        self.job.is_none()
+    }
+
+    /// Whether a request was transmitted and its answer is awaited.
+    pub fn is_awaiting_response(&self) -> bool {
+        matches!(
+            self.job,
+            Some(Job {
+                phase: Phase::Waiting { .. },
+                ..
+            })
+        )
+    }
+
+    /// Transmissions of the current exchange so far.
+    pub fn attempts(&self) -> u16 {
+        self.job.map_or(0, |j| j.attempts)
+    }
+
+    /// Start a request at `now`.
+    pub fn begin(&mut self, now: Instant) -> Result<(), Busy> {
+        if self.job.is_some() {
+            return Err(Busy);
+        }
+        self.advance(now);
+        self.job = Some(Job {
+            attempts: 0,
+            phase: Phase::Queued,
+        });
+        Ok(())
+    }
+
+    /// Whether the request should be transmitted now (it is queued and the bus allows it).
+    pub fn may_transmit(&mut self, now: Instant) -> bool {
+        self.advance(now);
+        matches!(
+            self.job,
+            Some(Job {
+                phase: Phase::Queued,
+                ..
+            })
+        ) && self.gate.may_start(self.now)
+    }
+
+    /// The request was handed to the port at the latest time given, `chars` characters long;
+    /// `answered`: whether a response is expected. Returns the end of its last character. A
+    /// request without response is complete with this.
+    pub fn transmitted(&mut self, chars: usize, answered: bool) -> Instant {
+        let timing = *self.receiver.timing();
+        let n = u32::try_from(chars).unwrap_or(u32::MAX);
+        let end = self.now + timing.char_time.saturating_mul(n);
+        self.gate
+            .on_request_sent(end, answered, self.config.unanswered_hold);
+        let Some(job) = self.job.as_mut() else {
+            return end;
+        };
+        job.attempts = job.attempts.saturating_add(1);
+        if answered {
+            job.phase = Phase::Waiting {
+                give_up: end + self.config.response_timeout + timing.char_time,
+            };
+            self.receiver.reset();
+        } else {
+            self.job = None;
+        }
+        end
+    }
+
+    /// The protocol refused a frame (or the attempt failed otherwise): retry or give up.
+    pub fn fail(&mut self) -> Verdict {
+        let Some(job) = self.job.as_mut() else {
+            return Verdict::GiveUp { attempts: 0 };
+        };
+        if job.attempts <= u16::from(self.config.retries) {
+            job.phase = Phase::Queued;
+            let last = self.gate.last_activity().unwrap_or(self.now);
+            self.gate.hold_until(last + self.config.retry_pause);
+            Verdict::Retry
+        } else {
+            let attempts = job.attempts;
+            self.job = None;
+            Verdict::GiveUp { attempts }
+        }
+    }
+
+    /// The request is done (its answer was accepted).
+    pub fn complete(&mut self) {
+        self.job = None;
+    }
+
+    /// The same job needs another exchange (e.g. a handshake cycle): queued again with a fresh
+    /// set of attempts.
+    pub fn requeue(&mut self) {
+        if let Some(job) = self.job.as_mut() {
+            job.attempts = 0;
+            job.phase = Phase::Queued;
+        }
+    }
+
+    /// The request could not be written completely at `now` (the frame on the wire is broken):
+    /// it is dropped and the next transmission waits `retry_pause`.
+    pub fn abort(&mut self, now: Instant) {
+        self.advance(now);
+        self.job = None;
+        self.receiver.reset();
+        self.gate.on_aborted(self.now, self.config.retry_pause);
+    }
+
+    /// When [`Exchange::handle_timeout`] (or a transmission) has work to do.
+    pub fn poll_timeout(&self) -> Option<Instant> {
+        let job = self.job.as_ref()?;
+        Some(match job.phase {
+            Phase::Queued => self.gate.earliest_start().later(self.now),
+            Phase::Waiting { give_up } => self.receiver.poll_timeout().unwrap_or(give_up),
+        })
+    }
+
+    /// The next deadline that needs only a quiet line: the transmission falling due, or the
+    /// confirmation of a complete answer (see [`crate::Endpoint::poll_quiet_timeout`]).
+    pub fn poll_quiet_timeout(&self) -> Option<Instant> {
+        let job = self.job.as_ref()?;
+        match job.phase {
+            Phase::Queued => Some(self.gate.earliest_start().later(self.now)),
+            Phase::Waiting { .. } => self.receiver.pending_confirmation(),
+        }
+    }
+
+    /// The give-up time while an answer is awaited and none is being received: the deadline a
+    /// virtual clock must not jump to (a real answer may still come).
+    pub fn response_deadline(&self) -> Option<Instant> {
+        match self.job {
+            Some(Job {
+                phase: Phase::Waiting { give_up },
+                ..
+            }) if !self.receiver.is_receiving() => Some(give_up),
+            _ => None,
+        }
+    }
+
+    /// Feed one character received from the bus.
+    pub fn handle_char(&mut self, c: RxChar) -> Option<ExchangeEvent<F::Frame, F::Error>> {
+        self.advance(c.time);
+        self.gate.on_activity(c.time);
+        let give_up = self.give_up()?;
+        if !self.receiver.is_receiving() && c.time > give_up {
+            // The answer did not start in time: this character is too late.
+            return Some(ExchangeEvent::NoAnswer(self.fail()));
+        }
+        match self.receiver.handle_char(c)? {
+            RxEvent::Rejected(e) => Some(ExchangeEvent::Rejected(e, self.fail())),
+            RxEvent::Frame(f) => Some(ExchangeEvent::Frame(f)),
+        }
+    }
+
+    /// Advance the time to `now`: a transmission may become due, an answer may be confirmed or
+    /// time out.
+    pub fn handle_timeout(&mut self, now: Instant) -> Option<ExchangeEvent<F::Frame, F::Error>> {
+        self.advance(now);
+        let give_up = self.give_up()?;
+        match self.receiver.handle_timeout(self.now) {
+            Some(RxEvent::Rejected(e)) => Some(ExchangeEvent::Rejected(e, self.fail())),
+            Some(RxEvent::Frame(f)) => Some(ExchangeEvent::Frame(f)),
+            None if !self.receiver.is_receiving() && self.now >= give_up => {
+                Some(ExchangeEvent::NoAnswer(self.fail()))
+            }
+            None => None,
+        }
+    }
+
+    fn give_up(&self) -> Option<Instant> {
+        match self.job {
+            Some(Job {
+                phase: Phase::Waiting { give_up },
+                ..
+            }) => Some(give_up),
+            _ => None,
+        }
+    }
+
+    fn advance(&mut self, now: Instant) {
+        self.now = self.now.later(now);
+    }
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,46 @@
+//! `drive-core`: the sans-IO core that every drivebus protocol crate shares.
+//!
+//! A protocol crate (MOVILINK, SBus, CTT2/USS, Bonfiglioli Modbus) is only its frame types, its
+//! codec, a framing description and its semantics. Everything else is here, once:
+//!
+//! * [`time`]: [`Instant`], the one notion of time (nanoseconds since an epoch the caller
+//!   picks); nothing in the sans-IO layers reads a clock;
+//! * [`line`]: [`LineSettings`] (baud, data bits, parity, stop bits) and the one
+//!   [`char_time`](line::char_time) function every pause is computed from;
+//! * [`char`](mod@char): [`RxChar`], a received character with its time and UART error flag;
+//! * [`framing`]: the [`Framing`] description and the generic [`Receiver`] (idle gap starts a
+//!   frame, gap limit inside a frame, end confirmed by silence, resynchronisation);
+//! * [`Endpoint`]: the interface of every sans-IO master and slave to what drives it;
+//! * [`gate`]: [`TxGate`], when the next frame may start on a half-duplex bus;
+//! * [`exchange`]: [`Exchange`], the master's transaction skeleton (attempts, retries, give-up,
+//!   late answers);
+//! * [`Queue`]: the small event queue of the state machines; [`SplitMix64`]: the one seeded
+//!   random generator for fault injection and simulators;
+//! * `rt` (feature `tokio`): the runtime layer: `CharIo`, the byte-stream adapter, the clock
+//!   choice and the serve loop of simulated devices.
+//!
+//! The crate is `no_std` without its default `std` feature, and nothing in it allocates.
+#![cfg_attr(not(feature = "std"), no_std)]
+#![warn(missing_docs)]
+
+pub mod char;
+pub mod endpoint;
+pub mod exchange;
+pub mod framing;
+pub mod gate;
+pub mod line;
+mod queue;
+pub mod rng;
+#[cfg(feature = "tokio")]
+pub mod rt;
+pub mod time;
+
+pub use char::{CharError, RxChar};
+pub use endpoint::Endpoint;
+pub use exchange::{Exchange, ExchangeConfig, ExchangeEvent, Verdict};
+pub use framing::{FrameTiming, Framing, LineError, Progress, Receiver, RxEvent, Start};
+pub use gate::TxGate;
+pub use line::{LineSettings, Parity, StopBits};
+pub use queue::Queue;
+pub use rng::SplitMix64;
+pub use time::Instant;

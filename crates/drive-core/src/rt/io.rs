@@ -1,0 +1,179 @@
+//! Character-level I/O: [`CharIo`], implemented for any tokio byte stream through [`Stream`]
+//! (and, in `drive-transport`, for the in-memory wire model with exact arrival times and
+//! parity flags).
+
+use std::future::{Future as _, poll_fn};
+use std::io;
+use std::pin::Pin;
+use std::task::{Context, Poll};
+
+use tokio::io::{AsyncRead, AsyncWrite, ReadBuf};
+use tokio::time::Instant as TokioInstant;
+
+use crate::char::CharError;
+
+/// One received character with its arrival time on tokio's clock and the UART's error flag.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct ReceivedChar {
+    /// The data byte.
+    pub byte: u8,
+    /// When its last bit arrived (exact on the wire model; the time of the read otherwise).
+    pub at: TokioInstant,
+    /// A parity or framing error flagged by the UART.
+    pub error: Option<CharError>,
+}
+
+impl ReceivedChar {
+    /// A character received without error at `at`.
+    pub const fn new(byte: u8, at: TokioInstant) -> Self {
+        Self {
+            byte,
+            at,
+            error: None,
+        }
+    }
+}
+
+/// A byte stream whose received characters carry their arrival time and UART error flag.
+///
+/// Implemented for any tokio byte stream through [`Stream`] (serial ports, ptys,
+/// [`tokio::io::duplex`]: arrival time = time of the read, no error flags), for `&mut T` and
+/// `Box<T>`; `drive-transport` implements it for its in-memory wire model.
+pub trait CharIo: Send {
+    /// Poll for received characters; `Ready(Ok(0))` means end of file (for a non-empty `buf`).
+    fn poll_read_chars(
+        &mut self,
+        cx: &mut Context<'_>,
+        buf: &mut [ReceivedChar],
+    ) -> Poll<io::Result<usize>>;
+
+    /// Poll to write some of `buf`; returns the number of bytes taken.
+    fn poll_write(&mut self, cx: &mut Context<'_>, buf: &[u8]) -> Poll<io::Result<usize>>;
+
+    /// Poll until everything written has been handed on (on the wire model: has left the line).
+    fn poll_flush(&mut self, cx: &mut Context<'_>) -> Poll<io::Result<()>>;
+}
+
+impl<T: CharIo + ?Sized> CharIo for &mut T {
+    fn poll_read_chars(
+        &mut self,
+        cx: &mut Context<'_>,
+        buf: &mut [ReceivedChar],
+    ) -> Poll<io::Result<usize>> {
+        (**self).poll_read_chars(cx, buf)
+    }
+
+    fn poll_write(&mut self, cx: &mut Context<'_>, buf: &[u8]) -> Poll<io::Result<usize>> {
+        (**self).poll_write(cx, buf)
+    }
+
+    fn poll_flush(&mut self, cx: &mut Context<'_>) -> Poll<io::Result<()>> {
+        (**self).poll_flush(cx)
+    }
+}
+
+impl<T: CharIo + ?Sized> CharIo for Box<T> {
+    fn poll_read_chars(
+        &mut self,
+        cx: &mut Context<'_>,
+        buf: &mut [ReceivedChar],
+    ) -> Poll<io::Result<usize>> {
+        (**self).poll_read_chars(cx, buf)
+    }
+
+    fn poll_write(&mut self, cx: &mut Context<'_>, buf: &[u8]) -> Poll<io::Result<usize>> {
+        (**self).poll_write(cx, buf)
+    }
+
+    fn poll_flush(&mut self, cx: &mut Context<'_>) -> Poll<io::Result<()>> {
+        (**self).poll_flush(cx)
+    }
+}
+
+/// Characters read per call into a stack buffer.
+pub const CHUNK: usize = 64;
+
+/// Any tokio byte stream as a [`CharIo`]: every character of a read gets the time of the read
+/// ([`TokioInstant::now`]) and no error flag (serial ports, ptys, [`tokio::io::duplex`]).
+///
+/// A USB serial adapter that delivers characters in bursts makes the gaps between bursts look
+/// like inter-character gaps: a master on such a port needs a wider gap limit (drivectl's
+/// `--char-gap`), or the adapter's low-latency mode.
+#[derive(Debug)]
+pub struct Stream<T>(pub T);
+
+impl<T: AsyncRead + AsyncWrite + Unpin + Send> CharIo for Stream<T> {
+    fn poll_read_chars(
+        &mut self,
+        cx: &mut Context<'_>,
+        buf: &mut [ReceivedChar],
+    ) -> Poll<io::Result<usize>> {
+        let mut bytes = [0u8; CHUNK];
+        let want = buf.len().min(CHUNK);
+        let mut rb = ReadBuf::new(bytes.get_mut(..want).unwrap_or(&mut []));
+        match Pin::new(&mut self.0).poll_read(cx, &mut rb) {
+            Poll::Ready(Ok(())) => {}
+            Poll::Ready(Err(e)) => return Poll::Ready(Err(e)),
+            Poll::Pending => return Poll::Pending,
+        }
+        let filled = rb.filled();
+        let at = TokioInstant::now();
+        for (dst, &byte) in buf.iter_mut().zip(filled) {
+            *dst = ReceivedChar::new(byte, at);
+        }
+        Poll::Ready(Ok(filled.len()))
+    }
+
+    fn poll_write(&mut self, cx: &mut Context<'_>, buf: &[u8]) -> Poll<io::Result<usize>> {
+        Pin::new(&mut self.0).poll_write(cx, buf)
+    }
+
+    fn poll_flush(&mut self, cx: &mut Context<'_>) -> Poll<io::Result<()>> {
+        Pin::new(&mut self.0).poll_flush(cx)
+    }
+}
+
+/// Write all of `bytes`, then flush.
+pub async fn write_all<IO: CharIo + ?Sized>(io: &mut IO, bytes: &[u8]) -> io::Result<()> {
+    let mut rest = bytes;
+    while !rest.is_empty() {
+        let n = poll_fn(|cx| io.poll_write(cx, rest)).await?;
+        if n == 0 {
+            return Err(io::Error::new(
+                io::ErrorKind::WriteZero,
+                "the port accepted no bytes",
+            ));
+        }
+        rest = rest.get(n..).unwrap_or(&[]);
+    }
+    poll_fn(|cx| io.poll_flush(cx)).await
+}
+
+/// What a wait for characters or a timer ended with.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Woken {
+    /// This many characters were read (0: end of file).
+    Read(usize),
+    /// The timer expired.
+    Timer,
+}
+
+/// Wait for received characters or, if given, the timer; characters win when both are ready.
+pub async fn read_or_sleep<IO: CharIo + ?Sized>(
+    io: &mut IO,
+    buf: &mut [ReceivedChar],
+    mut sleep: Option<Pin<&mut tokio::time::Sleep>>,
+) -> io::Result<Woken> {
+    poll_fn(|cx| {
+        if let Poll::Ready(r) = io.poll_read_chars(cx, buf) {
+            return Poll::Ready(r.map(Woken::Read));
+        }
+        if let Some(s) = sleep.as_mut() {
+            if s.as_mut().poll(cx).is_ready() {
+                return Poll::Ready(Ok(Woken::Timer));
+            }
+        }
+        Poll::Pending
+    })
+    .await
+}

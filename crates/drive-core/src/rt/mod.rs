@@ -1,0 +1,25 @@
+//! The runtime layer (feature `tokio`): what every protocol's async master and simulated
+//! devices share.
+//!
+//! * [`CharIo`]: characters with arrival times and UART flags, for any tokio byte stream
+//!   ([`Stream`]); `drive-transport` implements it for its in-memory wire model;
+//! * [`Clock`] and [`Timebase`]: tokio's (real or paused) clock, or a virtual clock for
+//!   benchmarks of software overhead;
+//! * [`Port`]: a master's side of a line: transmit what a sans-IO [`Endpoint`] hands out, wait
+//!   for its deadlines or for characters and feed them;
+//! * [`serve`]: the serve loop of simulated devices ([`Endpoint`]s) on one line.
+//!
+//! Serial ports are opened by `drive-transport`; this layer needs nothing but tokio, so a
+//! protocol crate's `tokio` feature does not pull in serial-port or libc dependencies.
+//!
+//! [`Endpoint`]: crate::Endpoint
+
+mod clock;
+mod io;
+mod port;
+mod serve;
+
+pub use clock::{Clock, Timebase};
+pub use io::{CHUNK, CharIo, ReceivedChar, Stream, Woken, read_or_sleep, write_all};
+pub use port::Port;
+pub use serve::serve;

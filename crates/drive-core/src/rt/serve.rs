@@ -1,0 +1,90 @@
+//! The serve loop of simulated devices: every [`Endpoint`] on one line hears every character
+//! and answers when its protocol says so.
+
+use std::io;
+
+use tokio::time::Instant as TokioInstant;
+
+use super::clock::{Clock, Timebase};
+use super::io::{CHUNK, CharIo, ReceivedChar, Woken, read_or_sleep, write_all};
+use crate::char::RxChar;
+use crate::endpoint::Endpoint;
+
+/// Serve `stations` (simulated slaves sharing one line) on `io` until it closes (`Ok`) or
+/// fails.
+///
+/// On [`Clock::Real`] every deadline of every station is waited for (frame confirmation,
+/// response due, the devices' own timers). On [`Clock::Virtual`] the loop waits for nothing: it
+/// jumps to deadlines that need only a quiet line (a request's end confirmation, its response
+/// falling due), so a benchmark measures software only; the stations' other timers do not fire.
+pub async fn serve<S: Endpoint, IO: CharIo>(
+    stations: &mut [S],
+    time: &mut Timebase,
+    mut io: IO,
+) -> io::Result<()> {
+    let max = stations
+        .iter()
+        .map(Endpoint::max_frame_len)
+        .max()
+        .unwrap_or(0);
+    let mut buf = vec![0u8; max];
+    let mut rx = vec![ReceivedChar::new(0, time.epoch()); CHUNK];
+    let mut sleep = Box::pin(tokio::time::sleep_until(time.epoch()));
+    let mut last_jump = None;
+    loop {
+        let now = time.now();
+        for s in stations.iter_mut() {
+            while let Some(n) = s.poll_transmit(now, &mut buf) {
+                write_all(&mut io, buf.get(..n).unwrap_or(&[])).await?;
+            }
+        }
+        let armed = match time.clock() {
+            Clock::Real => match stations.iter().filter_map(|s| s.poll_timeout()).min() {
+                Some(deadline) => {
+                    let at = time.to_tokio(deadline);
+                    if at <= TokioInstant::now() {
+                        timeouts(stations, time.now());
+                        continue;
+                    }
+                    sleep.as_mut().reset(at);
+                    Some(sleep.as_mut())
+                }
+                None => None,
+            },
+            Clock::Virtual => {
+                let quiet = stations.iter().filter_map(|s| s.poll_quiet_timeout()).min();
+                if quiet.is_some() && quiet != last_jump {
+                    last_jump = quiet;
+                    if let Some(q) = quiet {
+                        time.jump_to(q);
+                    }
+                    timeouts(stations, time.now());
+                    continue;
+                }
+                None
+            }
+        };
+        match read_or_sleep(&mut io, &mut rx, armed).await? {
+            Woken::Read(0) => return Ok(()),
+            Woken::Read(n) => {
+                for c in rx.iter().take(n) {
+                    let c = RxChar {
+                        byte: c.byte,
+                        time: time.arrival(c.at),
+                        error: c.error,
+                    };
+                    for s in stations.iter_mut() {
+                        s.handle_char(c);
+                    }
+                }
+            }
+            Woken::Timer => timeouts(stations, time.now()),
+        }
+    }
+}
+
+fn timeouts<S: Endpoint>(stations: &mut [S], now: crate::time::Instant) {
+    for s in stations.iter_mut() {
+        s.handle_timeout(now);
+    }
+}
