@@ -1051,14 +1051,14 @@ fn render_return_codes(classes: &[Class], codes: &[Code]) -> String {
     let mut s = header(
         "MOVILINK return codes, sew/movilink_error_classes.csv and movilink_return_codes.csv",
     );
-    s.push_str("use crate::sew::{ErrorClass, ReturnCode};\n\n");
+    s.push_str("use crate::sew::{ErrorClassInfo, ReturnCodeInfo};\n\n");
     s.push_str(
-        "/// The error classes (EN 50170), sorted.\npub static ERROR_CLASSES: &[ErrorClass] = &[\n",
+        "/// The error classes (EN 50170), sorted.\npub static ERROR_CLASSES: &[ErrorClassInfo] = &[\n",
     );
     for c in classes {
         let _ = writeln!(
             s,
-            "    ErrorClass {{ class: {}, name: {}, de: {}, en: {} }},",
+            "    ErrorClassInfo {{ class: {}, name: {}, de: {}, en: {} }},",
             c.class,
             lit(&c.name),
             lit(&c.de),
@@ -1066,11 +1066,11 @@ fn render_return_codes(classes: &[Class], codes: &[Code]) -> String {
         );
     }
     s.push_str("];\n\n");
-    s.push_str("/// The return codes with a meaning, sorted by (class, code, additional code).\npub static RETURN_CODES: &[ReturnCode] = &[\n");
+    s.push_str("/// The return codes with a meaning, sorted by (class, code, additional code).\npub static RETURN_CODES: &[ReturnCodeInfo] = &[\n");
     for c in codes {
         let _ = writeln!(
             s,
-            "    ReturnCode {{ class: {}, code: {}, additional: 0x{:04X}, de: {}, en: {}, section: {}, retry: {} }},",
+            "    ReturnCodeInfo {{ class: {}, code: {}, additional: 0x{:04X}, de: {}, en: {}, section: {}, retry: {} }},",
             c.class,
             c.code,
             c.add,

@@ -36,5 +36,6 @@ pub mod param;
 pub mod scaling;
 pub mod sew;
 pub mod state;
+mod words;
 
 pub use param::{Access, Family, ParamMeta, ValueName};

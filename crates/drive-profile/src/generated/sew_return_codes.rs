@@ -2,40 +2,40 @@
 // Source: crates/drive-profile/data/ (MOVILINK return codes, sew/movilink_error_classes.csv and movilink_return_codes.csv).
 // Change the CSV input, then run `cargo xtask codegen`.
 
-use crate::sew::{ErrorClass, ReturnCode};
+use crate::sew::{ErrorClassInfo, ReturnCodeInfo};
 
 /// The error classes (EN 50170), sorted.
-pub static ERROR_CLASSES: &[ErrorClass] = &[
-    ErrorClass { class: 1, name: "vfd-state", de: "Statusfehler des virtuellen Feldgerätes", en: "status error of the virtual field device" },
-    ErrorClass { class: 2, name: "application-reference", de: "Fehler in Anwendungsprogramm", en: "error in application program" },
-    ErrorClass { class: 3, name: "definition", de: "Definitionsfehler", en: "definition error" },
-    ErrorClass { class: 4, name: "resource", de: "Resource-Fehler", en: "resource error" },
-    ErrorClass { class: 5, name: "service", de: "Fehler bei Dienstausführung", en: "error during service execution" },
-    ErrorClass { class: 6, name: "access", de: "Zugriffsfehler", en: "access error" },
-    ErrorClass { class: 7, name: "ov", de: "Fehler im Objektverzeichnis", en: "error in the object dictionary" },
-    ErrorClass { class: 8, name: "other", de: "Anderer Fehler (siehe Additional-Code)", en: "other error (see additional code)" },
+pub static ERROR_CLASSES: &[ErrorClassInfo] = &[
+    ErrorClassInfo { class: 1, name: "vfd-state", de: "Statusfehler des virtuellen Feldgerätes", en: "status error of the virtual field device" },
+    ErrorClassInfo { class: 2, name: "application-reference", de: "Fehler in Anwendungsprogramm", en: "error in application program" },
+    ErrorClassInfo { class: 3, name: "definition", de: "Definitionsfehler", en: "definition error" },
+    ErrorClassInfo { class: 4, name: "resource", de: "Resource-Fehler", en: "resource error" },
+    ErrorClassInfo { class: 5, name: "service", de: "Fehler bei Dienstausführung", en: "error during service execution" },
+    ErrorClassInfo { class: 6, name: "access", de: "Zugriffsfehler", en: "access error" },
+    ErrorClassInfo { class: 7, name: "ov", de: "Fehler im Objektverzeichnis", en: "error in the object dictionary" },
+    ErrorClassInfo { class: 8, name: "other", de: "Anderer Fehler (siehe Additional-Code)", en: "other error (see additional code)" },
 ];
 
 /// The return codes with a meaning, sorted by (class, code, additional code).
-pub static RETURN_CODES: &[ReturnCode] = &[
-    ReturnCode { class: 5, code: 5, additional: 0x0000, de: "Parametrierungsfehler (Unerlaubter Wert)", en: "parameter setting error: illegal value (wrong coding of the management byte)", section: "5.2", retry: false },
-    ReturnCode { class: 6, code: 2, additional: 0x0000, de: "Innerer Kommunikationsfehler (Hardware Fault)", en: "internal communication error (hardware fault) between option card and drive", section: "6.2", retry: true },
-    ReturnCode { class: 8, code: 0, additional: 0x0000, de: "Kein Fehler", en: "no error", section: "6.2", retry: false },
-    ReturnCode { class: 8, code: 0, additional: 0x0010, de: "Unerlaubter Parameter-Index", en: "illegal parameter index", section: "6.2", retry: false },
-    ReturnCode { class: 8, code: 0, additional: 0x0011, de: "Funktion/Parameter nicht implementiert", en: "function/parameter not implemented", section: "6.2", retry: false },
-    ReturnCode { class: 8, code: 0, additional: 0x0012, de: "Nur Lesezugriff erlaubt", en: "read access only", section: "6.2", retry: false },
-    ReturnCode { class: 8, code: 0, additional: 0x0013, de: "Parametersperre ist aktiv", en: "parameter lock is active", section: "6.2", retry: false },
-    ReturnCode { class: 8, code: 0, additional: 0x0014, de: "Werkseinstellung ist aktiv", en: "factory setting is active", section: "6.2", retry: false },
-    ReturnCode { class: 8, code: 0, additional: 0x0015, de: "Wert für Parameter zu groß", en: "value for parameter too large", section: "6.2", retry: false },
-    ReturnCode { class: 8, code: 0, additional: 0x0016, de: "Wert für Parameter zu klein", en: "value for parameter too small", section: "6.2", retry: false },
-    ReturnCode { class: 8, code: 0, additional: 0x0017, de: "Für diese Funktion/Parameter fehlt die notwendige Optionskarte", en: "the option card required for this function/parameter is missing", section: "6.2", retry: false },
-    ReturnCode { class: 8, code: 0, additional: 0x0018, de: "Fehler in System-Software", en: "error in system software", section: "6.2", retry: false },
-    ReturnCode { class: 8, code: 0, additional: 0x0019, de: "Parameterzugriff nur über RS-485-Prozess-Schnittstelle auf X13", en: "parameter access only via the RS-485 process interface on X13", section: "6.2", retry: false },
-    ReturnCode { class: 8, code: 0, additional: 0x001A, de: "Parameterzugriff nur über RS-485-Diagnose-Schnittstelle", en: "parameter access only via the RS-485 diagnostic interface", section: "6.2", retry: false },
-    ReturnCode { class: 8, code: 0, additional: 0x001B, de: "Parameter ist zugriffsgeschützt", en: "parameter is access-protected", section: "6.2", retry: false },
-    ReturnCode { class: 8, code: 0, additional: 0x001C, de: "Reglersperre notwendig", en: "controller inhibit required", section: "6.2", retry: false },
-    ReturnCode { class: 8, code: 0, additional: 0x001D, de: "Unzulässiger Wert für Parameter", en: "invalid value for parameter", section: "6.2", retry: false },
-    ReturnCode { class: 8, code: 0, additional: 0x001E, de: "Werkseinstellung wurde aktiviert", en: "factory setting was activated", section: "6.2", retry: false },
-    ReturnCode { class: 8, code: 0, additional: 0x001F, de: "Parameter wurde nicht im EEPROM gespeichert", en: "parameter was not saved in EEPROM", section: "6.2", retry: false },
-    ReturnCode { class: 8, code: 0, additional: 0x0020, de: "Parameter kann nicht bei freigegebener Endstufe geändert werden", en: "parameter cannot be changed while the output stage is enabled", section: "6.2", retry: false },
+pub static RETURN_CODES: &[ReturnCodeInfo] = &[
+    ReturnCodeInfo { class: 5, code: 5, additional: 0x0000, de: "Parametrierungsfehler (Unerlaubter Wert)", en: "parameter setting error: illegal value (wrong coding of the management byte)", section: "5.2", retry: false },
+    ReturnCodeInfo { class: 6, code: 2, additional: 0x0000, de: "Innerer Kommunikationsfehler (Hardware Fault)", en: "internal communication error (hardware fault) between option card and drive", section: "6.2", retry: true },
+    ReturnCodeInfo { class: 8, code: 0, additional: 0x0000, de: "Kein Fehler", en: "no error", section: "6.2", retry: false },
+    ReturnCodeInfo { class: 8, code: 0, additional: 0x0010, de: "Unerlaubter Parameter-Index", en: "illegal parameter index", section: "6.2", retry: false },
+    ReturnCodeInfo { class: 8, code: 0, additional: 0x0011, de: "Funktion/Parameter nicht implementiert", en: "function/parameter not implemented", section: "6.2", retry: false },
+    ReturnCodeInfo { class: 8, code: 0, additional: 0x0012, de: "Nur Lesezugriff erlaubt", en: "read access only", section: "6.2", retry: false },
+    ReturnCodeInfo { class: 8, code: 0, additional: 0x0013, de: "Parametersperre ist aktiv", en: "parameter lock is active", section: "6.2", retry: false },
+    ReturnCodeInfo { class: 8, code: 0, additional: 0x0014, de: "Werkseinstellung ist aktiv", en: "factory setting is active", section: "6.2", retry: false },
+    ReturnCodeInfo { class: 8, code: 0, additional: 0x0015, de: "Wert für Parameter zu groß", en: "value for parameter too large", section: "6.2", retry: false },
+    ReturnCodeInfo { class: 8, code: 0, additional: 0x0016, de: "Wert für Parameter zu klein", en: "value for parameter too small", section: "6.2", retry: false },
+    ReturnCodeInfo { class: 8, code: 0, additional: 0x0017, de: "Für diese Funktion/Parameter fehlt die notwendige Optionskarte", en: "the option card required for this function/parameter is missing", section: "6.2", retry: false },
+    ReturnCodeInfo { class: 8, code: 0, additional: 0x0018, de: "Fehler in System-Software", en: "error in system software", section: "6.2", retry: false },
+    ReturnCodeInfo { class: 8, code: 0, additional: 0x0019, de: "Parameterzugriff nur über RS-485-Prozess-Schnittstelle auf X13", en: "parameter access only via the RS-485 process interface on X13", section: "6.2", retry: false },
+    ReturnCodeInfo { class: 8, code: 0, additional: 0x001A, de: "Parameterzugriff nur über RS-485-Diagnose-Schnittstelle", en: "parameter access only via the RS-485 diagnostic interface", section: "6.2", retry: false },
+    ReturnCodeInfo { class: 8, code: 0, additional: 0x001B, de: "Parameter ist zugriffsgeschützt", en: "parameter is access-protected", section: "6.2", retry: false },
+    ReturnCodeInfo { class: 8, code: 0, additional: 0x001C, de: "Reglersperre notwendig", en: "controller inhibit required", section: "6.2", retry: false },
+    ReturnCodeInfo { class: 8, code: 0, additional: 0x001D, de: "Unzulässiger Wert für Parameter", en: "invalid value for parameter", section: "6.2", retry: false },
+    ReturnCodeInfo { class: 8, code: 0, additional: 0x001E, de: "Werkseinstellung wurde aktiviert", en: "factory setting was activated", section: "6.2", retry: false },
+    ReturnCodeInfo { class: 8, code: 0, additional: 0x001F, de: "Parameter wurde nicht im EEPROM gespeichert", en: "parameter was not saved in EEPROM", section: "6.2", retry: false },
+    ReturnCodeInfo { class: 8, code: 0, additional: 0x0020, de: "Parameter kann nicht bei freigegebener Endstufe geändert werden", en: "parameter cannot be changed while the output stage is enabled", section: "6.2", retry: false },
 ];

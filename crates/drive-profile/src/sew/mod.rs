@@ -32,8 +32,20 @@
 //!
 //! # Return codes
 //!
-//! [`return_code`] decodes the error class / error code / additional code of a negative
-//! MOVILINK answer; [`describe_return_code`] also covers codes the manual does not list.
+//! [`ReturnCode`] is a negative answer of the parameter channel ([`channel`]); [`return_code_info`]
+//! finds its row in the manual's table, [`describe_return_code`] also covers codes the manual
+//! does not list.
+
+pub mod channel;
+mod handshake;
+pub mod index;
+mod words;
+
+pub use channel::{
+    AttributeInfo, DataLength, ErrorClass, Management, ParamChannel, ReturnCode, ScaleInfo, Service,
+};
+pub use handshake::{MasterHandshake, Prepared, SlaveHandshake, Verdict};
+pub use words::{BasicCommand, ControlWord1, StatusWord1, UnitStatus};
 
 use crate::param::{Access, Family, Label, ParamMeta, ValueName};
 use crate::scaling::{Linear, ScaleError, pow10};
@@ -463,9 +475,9 @@ pub fn unit_by_symbol(size: u8, symbol: &str) -> Option<&'static SizeUnit> {
 // ---------------------------------------------------------------------------------------------
 // MOVILINK return codes
 
-/// An error class of the MOVILINK return code (EN 50170).
+/// An error class of the return codes (EN 50170), as the manual's table gives it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct ErrorClass {
+pub struct ErrorClassInfo {
     /// Error class number.
     pub class: u8,
     /// EN 50170 name, e.g. `access`.
@@ -476,9 +488,10 @@ pub struct ErrorClass {
     pub en: &'static str,
 }
 
-/// A MOVILINK return code with a meaning given in the manual.
+/// A return code with a meaning given in the manual (a row of its table; the code itself is
+/// [`ReturnCode`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct ReturnCode {
+pub struct ReturnCodeInfo {
     /// Error class (byte 4 of the parameter channel).
     pub class: u8,
     /// Error code (byte 5).
@@ -495,14 +508,14 @@ pub struct ReturnCode {
     pub retry: bool,
 }
 
-impl ReturnCode {
+impl ReturnCodeInfo {
     /// The error class entry.
-    pub fn error_class(&self) -> Option<&'static ErrorClass> {
-        error_class(self.class)
+    pub fn error_class(&self) -> Option<&'static ErrorClassInfo> {
+        error_class_info(self.class)
     }
 }
 
-impl fmt::Display for ReturnCode {
+impl fmt::Display for ReturnCodeInfo {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(
             f,
@@ -513,12 +526,12 @@ impl fmt::Display for ReturnCode {
 }
 
 /// The error class `class`.
-pub fn error_class(class: u8) -> Option<&'static ErrorClass> {
+pub fn error_class_info(class: u8) -> Option<&'static ErrorClassInfo> {
     ERROR_CLASSES.iter().find(|c| c.class == class)
 }
 
 /// The return code for error class, error code and additional code, if the manual lists it.
-pub fn return_code(class: u8, code: u8, additional: u16) -> Option<&'static ReturnCode> {
+pub fn return_code_info(class: u8, code: u8, additional: u16) -> Option<&'static ReturnCodeInfo> {
     let key = (class, code, additional);
     let pos = RETURN_CODES
         .binary_search_by_key(&key, |r| (r.class, r.code, r.additional))
@@ -527,7 +540,7 @@ pub fn return_code(class: u8, code: u8, additional: u16) -> Option<&'static Retu
 }
 
 /// Every return code the manual lists.
-pub fn return_codes() -> &'static [ReturnCode] {
+pub fn return_codes() -> &'static [ReturnCodeInfo] {
     RETURN_CODES
 }
 
@@ -541,9 +554,9 @@ pub struct DecodedReturnCode {
     /// Additional code as received.
     pub additional: u16,
     /// The manual's entry, when it lists this combination.
-    pub known: Option<&'static ReturnCode>,
+    pub known: Option<&'static ReturnCodeInfo>,
     /// The error class entry, when the class is known.
-    pub error_class: Option<&'static ErrorClass>,
+    pub error_class: Option<&'static ErrorClassInfo>,
 }
 
 /// Decode the four return-code bytes (bytes 4 … 7 of an error answer).
@@ -552,8 +565,8 @@ pub fn describe_return_code(class: u8, code: u8, additional: u16) -> DecodedRetu
         class,
         code,
         additional,
-        known: return_code(class, code, additional),
-        error_class: error_class(class),
+        known: return_code_info(class, code, additional),
+        error_class: error_class_info(class),
     }
 }
 

@@ -366,7 +366,7 @@ fn display_units_scale_as_printed() {
 
 #[test]
 fn return_codes_decode() {
-    let r = return_code(8, 0, 0x0010).unwrap();
+    let r = return_code_info(8, 0, 0x0010).unwrap();
     assert_eq!(r.de, "Unerlaubter Parameter-Index");
     assert_eq!(r.en, "illegal parameter index");
     assert_eq!(r.error_class().map(|c| c.name), Some("other"));
@@ -377,18 +377,18 @@ fn return_codes_decode() {
         "illegal parameter index (error class 8, error code 0, additional code 0x0010)"
     );
     assert_eq!(
-        return_code(8, 0, 0x001C).map(|r| r.en),
+        return_code_info(8, 0, 0x001C).map(|r| r.en),
         Some("controller inhibit required")
     );
     assert_eq!(
-        return_code(8, 0, 0x0020).map(|r| r.de),
+        return_code_info(8, 0, 0x0020).map(|r| r.de),
         Some("Parameter kann nicht bei freigegebener Endstufe geändert werden")
     );
-    assert!(return_code(8, 0, 0x0021).is_none());
-    assert!(return_code(6, 2, 0).unwrap().retry);
-    assert_eq!(return_code(5, 5, 0).map(|r| r.section), Some("5.2"));
+    assert!(return_code_info(8, 0, 0x0021).is_none());
+    assert!(return_code_info(6, 2, 0).unwrap().retry);
+    assert_eq!(return_code_info(5, 5, 0).map(|r| r.section), Some("5.2"));
     assert_eq!(
-        error_class(7).map(|c| c.en),
+        error_class_info(7).map(|c| c.en),
         Some("error in the object dictionary")
     );
     let d = describe_return_code(5, 3, 0);
@@ -461,7 +461,7 @@ fn lookups_do_not_allocate() {
         let _ = p.to_physical(1000);
         let _ = p.from_physical(3.0);
         let _ = p.menu_label();
-        let _ = return_code(8, 0, 0x11);
+        let _ = return_code_info(8, 0, 0x11);
         let mut out = FixedString::default();
         let _ = p.describe_scaling(&mut out);
         let _ = fmt::write(&mut out, format_args!("{}", describe_return_code(1, 2, 3)));
