@@ -1,22 +1,12 @@
-//! Generator for the SEW MOVIDRIVE tables.
-//!
-//! Inputs (in `crates/drive-profile/data/sew/`), all extracted from the SEW manuals:
-//!
-//! * `movidrive_parameters.csv`: the parameter list (serial communication manual ch. 7.2), one
-//!   row per printed table row, in manual order;
-//! * `movidrive_groups.csv`: the section headings of the parameter list;
-//! * `movidrive_pno_units.csv` and `movidrive_pno_conversions.csv`: PNO size and conversion
-//!   indices (ch. 7.3);
-//! * `movilink_error_classes.csv` and `movilink_return_codes.csv`: MOVILINK return codes
-//!   (ch. 6.2 and 5.2).
-//!
-//! Every row is validated; a bad row fails with `file:line: reason`. Outputs:
-//! `sew_parameters.rs`, `sew_pno.rs` and `sew_return_codes.rs`.
+//! The parameter list (manual ch. 7.2): `movidrive_parameters.csv`, rendered into
+//! `sew_parameters.rs`.
 
+use super::check_errata;
+use super::groups::{self, Group};
+use super::pno::{Conversions, Unit};
+use crate::Result;
 use crate::render::{header, lit};
 use crate::table::{Row, Table, parse_int};
-use crate::{Output, Result};
-use std::collections::{BTreeMap, BTreeSet};
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -47,364 +37,14 @@ pub const PARAM_COLUMNS: &[&str] = &[
     "values_ref",
     "errata",
 ];
-/// Columns of `movidrive_groups.csv`.
-pub const GROUP_COLUMNS: &[&str] = &["group", "name_de", "name_en"];
-/// Columns of `movidrive_pno_units.csv`.
-pub const UNIT_COLUMNS: &[&str] = &[
-    "quantity_de",
-    "quantity_en",
-    "size_index",
-    "unit_de",
-    "unit_en",
-    "symbol",
-    "aliases",
-    "conversion_index",
-    "errata",
-];
-/// Columns of `movidrive_pno_conversions.csv`.
-pub const CONVERSION_COLUMNS: &[&str] = &[
-    "conversion_index",
-    "kind",
-    "a_expr",
-    "a_printed",
-    "inv_a_printed",
-    "b",
-    "errata",
-];
-/// Columns of `movilink_error_classes.csv`.
-pub const CLASS_COLUMNS: &[&str] = &["class", "name", "meaning_de", "meaning_en"];
-/// Columns of `movilink_return_codes.csv`.
-pub const RETURN_CODE_COLUMNS: &[&str] = &[
-    "class", "code", "add_high", "add_low", "name_de", "name_en", "source", "retry",
-];
-
 /// MOVILINK parameter indices lie in 2000h…5FFFh (manual ch. 7.2, "MOVILINK-Parameter").
 const INDEX_MIN: i64 = 0x2000;
 const INDEX_MAX: i64 = 0x5FFF;
 /// Parameters are 32-bit values; signed or unsigned, a raw value lies in this span.
 const RAW_MIN: i64 = i32::MIN as i64;
 const RAW_MAX: i64 = u32::MAX as i64;
-/// Conversion indices from -64 to +64 follow the decimal rule A = 10^n (manual ch. 7.3).
-const DECIMAL_RULE: i64 = 64;
 
-/// Validate the CSV files in `dir` and render the generated Rust files.
-pub fn generate(dir: &Path) -> Result<Vec<Output>> {
-    let conversions = read_conversions(dir)?;
-    let units = read_units(dir, &conversions)?;
-    let groups = read_groups(dir)?;
-    let params = read_params(dir, &units, &conversions, &groups)?;
-    let (classes, codes) = read_return_codes(dir)?;
-    Ok(vec![
-        Output {
-            name: "sew_parameters.rs".into(),
-            text: render_params(&params, &groups),
-        },
-        Output {
-            name: "sew_pno.rs".into(),
-            text: render_pno(&units, &conversions),
-        },
-        Output {
-            name: "sew_return_codes.rs".into(),
-            text: render_return_codes(&classes, &codes),
-        },
-    ])
-}
-
-/// Every errata id (`SEW-Enn`) used by the CSV files in `dir`, for the cross-check with
-/// `docs/errata-sew.md`.
-pub fn errata_ids(dir: &Path) -> Result<BTreeSet<String>> {
-    let mut ids = BTreeSet::new();
-    for (file, cols) in [
-        ("movidrive_parameters.csv", PARAM_COLUMNS),
-        ("movidrive_pno_units.csv", UNIT_COLUMNS),
-        ("movidrive_pno_conversions.csv", CONVERSION_COLUMNS),
-    ] {
-        let t = Table::read(&dir.join(file), cols)?;
-        for row in t.rows() {
-            for id in row.str("errata")?.split_whitespace() {
-                ids.insert(id.to_owned());
-            }
-        }
-    }
-    Ok(ids)
-}
-
-// ---------------------------------------------------------------------------------------------
-// PNO conversion and size indices
-
-/// One row of the conversion table.
-#[derive(Debug, Clone)]
-pub struct Conversion {
-    /// Conversion index.
-    pub index: i64,
-    /// `decimal`, `special` or `reserved`.
-    pub kind: String,
-    /// Factor A (`None` for reserved indices).
-    pub a: Option<f64>,
-    /// Offset B.
-    pub b: f64,
-}
-
-/// All conversion indices: the printed rows.
-#[derive(Debug, Default)]
-pub struct Conversions {
-    rows: BTreeMap<i64, Conversion>,
-}
-
-impl Conversions {
-    /// The scaling (A, B) of conversion index `i`, applying the decimal rule for -64…64.
-    pub fn get(&self, i: i64) -> Option<(f64, f64)> {
-        if (-DECIMAL_RULE..=DECIMAL_RULE).contains(&i) {
-            return Some((decimal(i), 0.0));
-        }
-        let c = self.rows.get(&i)?;
-        Some((c.a?, c.b))
-    }
-}
-
-/// `10^n` computed the way the library does (exact for |n| ≤ 22).
-fn decimal(n: i64) -> f64 {
-    let mut p = 1.0_f64;
-    for _ in 0..n.unsigned_abs() {
-        p *= 10.0;
-    }
-    if n < 0 { 1.0 / p } else { p }
-}
-
-/// Evaluate a factor expression: numbers and `pi` joined by `*` and `/`, left to right.
-pub fn eval_expr(s: &str) -> Option<f64> {
-    let mut acc: Option<f64> = None;
-    let mut op = '*';
-    let mut tok = String::new();
-    let apply = |acc: Option<f64>, op: char, tok: &str| -> Option<f64> {
-        let t = tok.trim();
-        let v = if t == "pi" {
-            std::f64::consts::PI
-        } else {
-            t.parse::<f64>().ok()?
-        };
-        if !v.is_finite() {
-            return None;
-        }
-        Some(match (acc, op) {
-            (None, _) => v,
-            (Some(a), '*') => a * v,
-            (Some(a), _) => {
-                if v == 0.0 {
-                    return None;
-                }
-                a / v
-            }
-        })
-    };
-    for ch in s.chars() {
-        if ch == '*' || ch == '/' {
-            acc = Some(apply(acc, op, &tok)?);
-            tok.clear();
-            op = ch;
-        } else {
-            tok.push(ch);
-        }
-    }
-    apply(acc, op, &tok)
-}
-
-/// A printed number like `1.667E-5` and half a unit in its last printed digit.
-pub fn printed_value(s: &str) -> Option<(f64, f64)> {
-    let s: String = s.chars().filter(|c| !c.is_whitespace()).collect();
-    let (mant, exp) = match s.find(['E', 'e']) {
-        Some(p) => (&s[..p], s[p + 1..].parse::<i32>().ok()?),
-        None => (s.as_str(), 0),
-    };
-    let v: f64 = mant.parse().ok()?;
-    let digits = mant.split_once('.').map_or(0, |(_, f)| f.len()) as i32;
-    let half_ulp = 0.5 * 10f64.powi(exp - digits);
-    Some((v * 10f64.powi(exp), half_ulp))
-}
-
-fn close(value: f64, printed: f64, tol: f64) -> bool {
-    (value - printed).abs() <= tol * (1.0 + 1e-9) + printed.abs() * 1e-12
-}
-
-fn read_conversions(dir: &Path) -> Result<Conversions> {
-    let t = Table::read(
-        &dir.join("movidrive_pno_conversions.csv"),
-        CONVERSION_COLUMNS,
-    )?;
-    let mut out = Conversions::default();
-    for row in t.rows() {
-        let index = row.int("conversion_index")?;
-        if !(-128..=127).contains(&index) {
-            return Err(row.err(format!("conversion index {index} is not a signed byte")));
-        }
-        let kind = row.req("kind")?.to_owned();
-        check_errata(row)?;
-        let b: f64 = row.parse("b")?;
-        let a = match kind.as_str() {
-            "reserved" => {
-                for col in ["a_expr", "a_printed", "inv_a_printed"] {
-                    if !row.str(col)?.is_empty() {
-                        return Err(
-                            row.err(format!("reserved index {index}: `{col}` must be empty"))
-                        );
-                    }
-                }
-                None
-            }
-            "decimal" | "special" => {
-                let expr = row.req("a_expr")?;
-                let a = eval_expr(expr).filter(|a| *a != 0.0).ok_or_else(|| {
-                    row.err(format!("`a_expr` `{expr}` is not a factor expression"))
-                })?;
-                if kind == "decimal" {
-                    if !(-DECIMAL_RULE..=DECIMAL_RULE).contains(&index) {
-                        return Err(row.err(format!("decimal index {index} is outside -64…64")));
-                    }
-                    let rule = decimal(index);
-                    if ((a - rule) / rule).abs() > 1e-12 {
-                        return Err(row.err(format!("A = {a} breaks the rule 10^{index} = {rule}")));
-                    }
-                } else if (-DECIMAL_RULE..=DECIMAL_RULE).contains(&index) {
-                    return Err(row.err(format!("index {index} falls under the decimal rule")));
-                }
-                let (pa, tol) = printed_value(row.req("a_printed")?)
-                    .ok_or_else(|| row.err("`a_printed` is not a number"))?;
-                if !close(a, pa, tol) {
-                    return Err(row.err(format!("A = {a} does not round to the printed {pa}")));
-                }
-                let (pinv, tol) = printed_value(row.req("inv_a_printed")?)
-                    .ok_or_else(|| row.err("`inv_a_printed` is not a number"))?;
-                if !close(1.0 / a, pinv, tol) {
-                    return Err(row.err(format!(
-                        "1/A = {} does not round to the printed {pinv} (A = {a})",
-                        1.0 / a
-                    )));
-                }
-                Some(a)
-            }
-            other => {
-                return Err(row.err(format!(
-                    "kind `{other}` is not decimal, special or reserved"
-                )));
-            }
-        };
-        let c = Conversion { index, kind, a, b };
-        if out.rows.insert(index, c).is_some() {
-            return Err(row.err(format!("duplicate conversion index {index}")));
-        }
-    }
-    Ok(out)
-}
-
-/// One unit of a size index.
-#[derive(Debug, Clone)]
-pub struct Unit {
-    quantity_de: String,
-    quantity_en: String,
-    size: i64,
-    unit_de: String,
-    unit_en: String,
-    symbol: String,
-    aliases: Vec<String>,
-    conversion: i64,
-}
-
-fn read_units(dir: &Path, conv: &Conversions) -> Result<Vec<Unit>> {
-    let t = Table::read(&dir.join("movidrive_pno_units.csv"), UNIT_COLUMNS)?;
-    let mut out: Vec<Unit> = Vec::new();
-    for row in t.rows() {
-        check_errata(row)?;
-        let size = row.int("size_index")?;
-        if !(0..=255).contains(&size) {
-            return Err(row.err(format!("size index {size} is not a byte")));
-        }
-        let conversion = row.int("conversion_index")?;
-        if conv.get(conversion).is_none() {
-            return Err(row.err(format!("unknown or reserved conversion index {conversion}")));
-        }
-        let u = Unit {
-            quantity_de: row.req("quantity_de")?.to_owned(),
-            quantity_en: row.req("quantity_en")?.to_owned(),
-            size,
-            unit_de: row.req("unit_de")?.to_owned(),
-            unit_en: row.req("unit_en")?.to_owned(),
-            symbol: row.str("symbol")?.to_owned(),
-            aliases: row
-                .str("aliases")?
-                .split('|')
-                .filter(|s| !s.is_empty())
-                .map(str::to_owned)
-                .collect(),
-            conversion,
-        };
-        if u.symbol.is_empty() && size != 0 {
-            return Err(row.err("`symbol` must not be empty (only size index 0 is unitless)"));
-        }
-        if let Some(prev) = out.iter().rev().find(|p| p.size == size) {
-            if prev.quantity_de != u.quantity_de || prev.quantity_en != u.quantity_en {
-                return Err(row.err(format!(
-                    "size index {size} is `{}` above but `{}` here",
-                    prev.quantity_de, u.quantity_de
-                )));
-            }
-            if let Some(last) = out.last() {
-                if last.size != size {
-                    return Err(row.err(format!("rows of size index {size} must be contiguous")));
-                }
-            }
-        } else if out.last().is_some_and(|l| l.size > size) {
-            return Err(row.err(format!("size index {size} out of ascending order")));
-        }
-        if out.iter().any(|p| p.size == size && p.symbol == u.symbol) {
-            return Err(row.err(format!(
-                "duplicate unit `{}` in size index {size}",
-                u.symbol
-            )));
-        }
-        out.push(u);
-    }
-    Ok(out)
-}
-
-// ---------------------------------------------------------------------------------------------
-// Groups
-
-#[derive(Debug, Clone)]
-struct Group {
-    code: String,
-    name_de: String,
-    name_en: String,
-}
-
-fn read_groups(dir: &Path) -> Result<Vec<Group>> {
-    let t = Table::read(&dir.join("movidrive_groups.csv"), GROUP_COLUMNS)?;
-    let mut out: Vec<Group> = Vec::new();
-    for row in t.rows() {
-        let code = row.req("group")?;
-        let b = code.as_bytes();
-        let ok = match b {
-            [d, b'.', b'.'] => d.is_ascii_digit(),
-            [d, e, b'.'] => d.is_ascii_digit() && e.is_ascii_digit(),
-            _ => false,
-        };
-        if !ok {
-            return Err(row.err(format!("group `{code}` is not `N..` or `NN.`")));
-        }
-        if out.iter().any(|g| g.code == code) {
-            return Err(row.err(format!("duplicate group `{code}`")));
-        }
-        out.push(Group {
-            code: code.to_owned(),
-            name_de: row.req("name_de")?.to_owned(),
-            name_en: row.req("name_en")?.to_owned(),
-        });
-    }
-    Ok(out)
-}
-
-// ---------------------------------------------------------------------------------------------
-// Parameters
-
+/// One `min..max/step` segment of a printed range.
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct Segment {
     min: i64,
@@ -412,8 +52,9 @@ struct Segment {
     step: i64,
 }
 
+/// One validated row of the parameter list.
 #[derive(Debug, Clone)]
-struct Param {
+pub(super) struct Param {
     line: u64,
     menu: Option<i64>,
     parent: Option<i64>,
@@ -531,18 +172,7 @@ fn parse_values(row: &Row, s: &str) -> Result<Vec<(i64, String, String)>> {
     Ok(out)
 }
 
-fn check_errata(row: &Row) -> Result<()> {
-    for id in row.str("errata")?.split_whitespace() {
-        let ok = id
-            .strip_prefix("SEW-E")
-            .is_some_and(|n| n.len() == 2 && n.bytes().all(|b| b.is_ascii_digit()));
-        if !ok {
-            return Err(row.err(format!("errata id `{id}` is not `SEW-Enn`")));
-        }
-    }
-    Ok(())
-}
-
+/// Column `col` as an optional three-digit menu number (`000`…`999`).
 fn opt_menu(row: &Row, col: &str) -> Result<Option<i64>> {
     let s = row.str(col)?;
     if s.is_empty() {
@@ -556,7 +186,8 @@ fn opt_menu(row: &Row, col: &str) -> Result<Option<i64>> {
     Ok(s.parse::<i64>().ok())
 }
 
-fn read_params(
+/// Read the parameter list and check every row against the units, conversions and groups.
+pub(super) fn read_params(
     dir: &Path,
     units: &[Unit],
     conv: &Conversions,
@@ -777,7 +408,8 @@ fn read_params(
     Ok(out)
 }
 
-fn render_params(params: &[Param], groups: &[Group]) -> String {
+/// Render `sew_parameters.rs`: value lists, section headings, parameters and lookup tables.
+pub(super) fn render_params(params: &[Param], groups: &[Group]) -> String {
     let mut s = header(
         "SEW MOVIDRIVE parameter list, sew/movidrive_parameters.csv and movidrive_groups.csv",
     );
@@ -802,17 +434,7 @@ fn render_params(params: &[Param], groups: &[Group]) -> String {
     }
     s.push('\n');
     // Section headings.
-    s.push_str("/// The section headings of the parameter list, in manual order.\npub static GROUPS: &[Group] = &[\n");
-    for g in groups {
-        let _ = writeln!(
-            s,
-            "    Group {{ code: {}, name_de: {}, name_en: {} }},",
-            lit(&g.code),
-            lit(&g.name_de),
-            lit(&g.name_en)
-        );
-    }
-    s.push_str("];\n\n");
+    groups::render(&mut s, groups);
     // Parameters.
     s.push_str(
         "/// Every row of the parameter list, in manual order.\npub static PARAMS: &[Param] = &[\n",
@@ -915,205 +537,15 @@ fn render_params(params: &[Param], groups: &[Group]) -> String {
     s
 }
 
+/// `Some(n)` / `None` for an optional number.
 fn opt_num(v: Option<i64>) -> String {
     crate::render::opt(v, |x| x.to_string())
 }
 
-fn render_pno(units: &[Unit], conv: &Conversions) -> String {
-    let mut s = header(
-        "PNO size and conversion indices, sew/movidrive_pno_units.csv and movidrive_pno_conversions.csv",
-    );
-    s.push_str("use crate::sew::{Conversion, ConversionKind, SizeUnit};\n\n");
-    s.push_str("/// The units of every size index, sorted by size index (manual order within one).\npub static UNITS: &[SizeUnit] = &[\n");
-    for u in units {
-        let aliases: Vec<String> = u.aliases.iter().map(|a| lit(a)).collect();
-        let _ = writeln!(
-            s,
-            "    SizeUnit {{ size_index: {}, quantity_de: {}, quantity_en: {}, unit_de: {}, unit_en: {}, symbol: {}, aliases: &[{}], conversion_index: {} }},",
-            u.size,
-            lit(&u.quantity_de),
-            lit(&u.quantity_en),
-            lit(&u.unit_de),
-            lit(&u.unit_en),
-            lit(&u.symbol),
-            aliases.join(", "),
-            u.conversion
-        );
-    }
-    s.push_str("];\n\n");
-    s.push_str("/// The printed conversion indices, sorted (decimal ones follow the rule 10^n).\npub static CONVERSIONS: &[Conversion] = &[\n");
-    for c in conv.rows.values() {
-        let kind = match c.kind.as_str() {
-            "decimal" => "Decimal",
-            "special" => "Special",
-            _ => "Reserved",
-        };
-        let _ = writeln!(
-            s,
-            "    Conversion {{ index: {}, kind: ConversionKind::{kind}, a: {}, b: {:?} }},",
-            c.index,
-            crate::render::opt(c.a, |a| format!("{a:?}")),
-            c.b
-        );
-    }
-    s.push_str("];\n");
-    s
-}
-
-// ---------------------------------------------------------------------------------------------
-// Return codes
-
-#[derive(Debug, Clone)]
-struct Class {
-    class: i64,
-    name: String,
-    de: String,
-    en: String,
-}
-
-#[derive(Debug, Clone)]
-struct Code {
-    class: i64,
-    code: i64,
-    add: i64,
-    de: String,
-    en: String,
-    source: String,
-    retry: bool,
-}
-
-fn hex_byte(row: &Row, col: &str) -> Result<i64> {
-    let s = row.req(col)?;
-    match u8::from_str_radix(s, 16) {
-        Ok(v) if s.len() == 2 => Ok(i64::from(v)),
-        _ => Err(row.err(format!("column `{col}`: `{s}` is not two hex digits"))),
-    }
-}
-
-fn read_return_codes(dir: &Path) -> Result<(Vec<Class>, Vec<Code>)> {
-    let t = Table::read(&dir.join("movilink_error_classes.csv"), CLASS_COLUMNS)?;
-    let mut classes: Vec<Class> = Vec::new();
-    for row in t.rows() {
-        let class = row.int("class")?;
-        if !(0..=255).contains(&class) {
-            return Err(row.err(format!("error class {class} is not a byte")));
-        }
-        if classes.iter().any(|c| c.class == class) {
-            return Err(row.err(format!("duplicate error class {class}")));
-        }
-        classes.push(Class {
-            class,
-            name: row.req("name")?.to_owned(),
-            de: row.req("meaning_de")?.to_owned(),
-            en: row.req("meaning_en")?.to_owned(),
-        });
-    }
-    let t = Table::read(&dir.join("movilink_return_codes.csv"), RETURN_CODE_COLUMNS)?;
-    let mut codes: Vec<Code> = Vec::new();
-    for row in t.rows() {
-        let class = row.int("class")?;
-        if !classes.iter().any(|c| c.class == class) {
-            return Err(row.err(format!("unknown error class {class}")));
-        }
-        let code = row.int("code")?;
-        if !(0..=255).contains(&code) {
-            return Err(row.err(format!("error code {code} is not a byte")));
-        }
-        let add = (hex_byte(row, "add_high")? << 8) | hex_byte(row, "add_low")?;
-        if codes
-            .iter()
-            .any(|c| (c.class, c.code, c.add) == (class, code, add))
-        {
-            return Err(row.err(format!("duplicate return code {class}/{code}/{add:04X}")));
-        }
-        let source = row.req("source")?.to_owned();
-        if !["5.2", "6.2"].contains(&source.as_str()) {
-            return Err(row.err(format!(
-                "source `{source}` is not a manual section (5.2 or 6.2)"
-            )));
-        }
-        codes.push(Code {
-            class,
-            code,
-            add,
-            de: row.req("name_de")?.to_owned(),
-            en: row.req("name_en")?.to_owned(),
-            source,
-            retry: row.flag("retry")?,
-        });
-    }
-    classes.sort_by_key(|c| c.class);
-    codes.sort_by_key(|c| (c.class, c.code, c.add));
-    Ok((classes, codes))
-}
-
-fn render_return_codes(classes: &[Class], codes: &[Code]) -> String {
-    let mut s = header(
-        "MOVILINK return codes, sew/movilink_error_classes.csv and movilink_return_codes.csv",
-    );
-    s.push_str("use crate::sew::{ErrorClass, ReturnCode};\n\n");
-    s.push_str(
-        "/// The error classes (EN 50170), sorted.\npub static ERROR_CLASSES: &[ErrorClass] = &[\n",
-    );
-    for c in classes {
-        let _ = writeln!(
-            s,
-            "    ErrorClass {{ class: {}, name: {}, de: {}, en: {} }},",
-            c.class,
-            lit(&c.name),
-            lit(&c.de),
-            lit(&c.en)
-        );
-    }
-    s.push_str("];\n\n");
-    s.push_str("/// The return codes with a meaning, sorted by (class, code, additional code).\npub static RETURN_CODES: &[ReturnCode] = &[\n");
-    for c in codes {
-        let _ = writeln!(
-            s,
-            "    ReturnCode {{ class: {}, code: {}, additional: 0x{:04X}, de: {}, en: {}, section: {}, retry: {} }},",
-            c.class,
-            c.code,
-            c.add,
-            lit(&c.de),
-            lit(&c.en),
-            lit(&c.source),
-            c.retry
-        );
-    }
-    s.push_str("];\n");
-    s
-}
-
 #[cfg(test)]
 mod tests {
+    use super::super::tests::{data, err_of, with_edit};
     use super::*;
-    use std::path::PathBuf;
-
-    fn data() -> PathBuf {
-        crate::data_dir(&crate::workspace_root()).join("sew")
-    }
-
-    /// A copy of the real data folder with `file` edited by `edit`.
-    fn with_edit(name: &str, file: &str, edit: impl Fn(&str) -> String) -> PathBuf {
-        let dir = std::env::temp_dir().join(format!("drivebus-sew-{}-{name}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        for e in std::fs::read_dir(data()).unwrap() {
-            let e = e.unwrap();
-            std::fs::copy(e.path(), dir.join(e.file_name())).unwrap();
-        }
-        let p = dir.join(file);
-        let text = std::fs::read_to_string(&p).unwrap();
-        let edited = edit(&text);
-        assert_ne!(text, edited, "edit changed nothing");
-        std::fs::write(&p, edited).unwrap();
-        dir
-    }
-
-    fn err_of(dir: &Path) -> String {
-        let e = generate(dir).expect_err("must fail").0;
-        let _ = std::fs::remove_dir_all(dir);
-        e
-    }
 
     /// Replace one field of the parameter row with menu number `menu`.
     fn edit_param(text: &str, menu: &str, col: &str, value: &str) -> String {
@@ -1144,13 +576,6 @@ mod tests {
             .position(|l| l.starts_with(&format!("{menu},")))
             .unwrap()
             + 1
-    }
-
-    #[test]
-    fn real_tables_validate() {
-        let out = generate(&data()).unwrap();
-        assert_eq!(out.len(), 3);
-        assert!(out.iter().all(|o| o.text.starts_with("// @generated")));
     }
 
     #[test]
@@ -1276,54 +701,6 @@ mod tests {
             edit_param(t, "814", "menu", "813")
         });
         assert!(err_of(&dir).contains("duplicate menu number 813"));
-    }
-
-    #[test]
-    fn conversion_table_checks_reciprocal() {
-        let dir = with_edit("inv", "movidrive_pno_conversions.csv", |t| {
-            t.replace(
-                "66,special,1/1000/60,1.667E-5,6.000E+4",
-                "66,special,1/1000/60,1.667E-5,6.100E+4",
-            )
-        });
-        let e = err_of(&dir);
-        assert!(e.contains("movidrive_pno_conversions.csv:"), "{e}");
-        assert!(e.contains("1/A"), "{e}");
-        let dir = with_edit("rule", "movidrive_pno_conversions.csv", |t| {
-            t.replace("2,decimal,100,1.E+2,1.E-2", "2,decimal,1000,1.E+3,1.E-3")
-        });
-        assert!(err_of(&dir).contains("10^2"));
-    }
-
-    #[test]
-    fn printed_precision() {
-        assert_eq!(printed_value("1.667E-5").map(|p| p.0), Some(1.667e-5));
-        let (v, tol) = printed_value("3.6 E+6").unwrap();
-        assert_eq!(v, 3.6e6);
-        assert!((tol - 0.05e6).abs() < 1e-6);
-        assert!(close(
-            1.0 / (1e-3 / 60.0),
-            6.000e4,
-            printed_value("6.000E+4").unwrap().1
-        ));
-        assert_eq!(eval_expr("pi/180"), Some(std::f64::consts::PI / 180.0));
-        assert_eq!(eval_expr("3600*1000"), Some(3.6e6));
-        assert_eq!(eval_expr("1/0"), None);
-        assert_eq!(eval_expr("x"), None);
-    }
-
-    #[test]
-    fn every_errata_id_is_documented() {
-        let ids = errata_ids(&data()).unwrap();
-        let doc =
-            std::fs::read_to_string(crate::workspace_root().join("docs/errata-sew.md")).unwrap();
-        for id in &ids {
-            assert!(
-                doc.contains(&format!("## {id}")),
-                "{id} is used in the CSV files but has no section in docs/errata-sew.md"
-            );
-        }
-        assert!(ids.len() >= 10);
     }
 
     #[test]
