@@ -6,11 +6,10 @@
 
 pub mod bonfiglioli;
 pub mod codegen;
-pub mod nord;
 pub mod render;
 pub mod table;
 
-use codegen::sew;
+use codegen::{nord, sew};
 
 use std::fmt;
 use std::path::{Path, PathBuf};

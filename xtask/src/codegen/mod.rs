@@ -4,4 +4,5 @@
 //! validate and render one group of CSV files (usually one generated file). The CSV reader
 //! ([`crate::table`]) and the rendering helpers ([`crate::render`]) are shared.
 
+pub mod nord;
 pub mod sew;
