@@ -4,12 +4,11 @@
 //! Each drive family has its own folder under [`codegen`](mod@codegen) that validates its files
 //! and renders Rust source.
 
-pub mod bonfiglioli;
 pub mod codegen;
 pub mod render;
 pub mod table;
 
-use codegen::{nord, sew};
+use codegen::{bonfiglioli, nord, sew};
 
 use std::fmt;
 use std::path::{Path, PathBuf};

@@ -4,5 +4,6 @@
 //! validate and render one group of CSV files (usually one generated file). The CSV reader
 //! ([`crate::table`]) and the rendering helpers ([`crate::render`]) are shared.
 
+pub mod bonfiglioli;
 pub mod nord;
 pub mod sew;
