@@ -7,3 +7,6 @@
 pub mod bonfiglioli;
 pub mod nord;
 pub mod sew;
+
+#[cfg(test)]
+mod test_util;

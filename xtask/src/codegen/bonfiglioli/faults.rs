@@ -105,11 +105,7 @@ mod tests {
     fn fault_key_must_match_value() {
         let line = line_of("faults.csv", "0x2010,");
         let out = with_edit("fault", "faults.csv", |t| {
-            replace_line(
-                &t,
-                "0x2010,",
-                "0x2010,F2016,Kommunikation,Communication,x,y",
-            )
+            replace_line(t, "0x2010,", "0x2010,F2016,Kommunikation,Communication,x,y")
         });
         expect_err(out, "faults.csv", line, "give `F2010`");
     }

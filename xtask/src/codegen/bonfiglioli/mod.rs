@@ -79,89 +79,27 @@ fn check_in(row: &Row, what: &str, v: i64, lo: i64, hi: i64) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use std::path::PathBuf;
+    use crate::codegen::test_util::{self, EditedData};
 
-    const FILES: &[&str] = &[
-        "parameters.csv",
-        "values.csv",
-        "warnings.csv",
-        "faults.csv",
-        "vabus_errors.csv",
-        "exceptions.csv",
-    ];
+    pub(super) use crate::codegen::test_util::{expect_err, replace_line};
 
-    /// The real Bonfiglioli data folder.
-    pub(super) fn real_dir() -> PathBuf {
-        crate::data_dir(&crate::workspace_root()).join("bonfiglioli")
-    }
-
-    /// A copy of the real inputs in a fresh temporary folder, with `file` edited by `edit`.
+    /// The generator's result on a copy of the real inputs with `file` edited by `edit`.
     pub(super) fn with_edit(
         name: &str,
         file: &str,
-        edit: impl FnOnce(String) -> String,
+        edit: impl FnOnce(&str) -> String,
     ) -> Result<Vec<Output>> {
-        let dir = std::env::temp_dir().join(format!(
-            "drivebus-bonfiglioli-{}-{name}",
-            std::process::id()
-        ));
-        let _ = std::fs::remove_dir_all(&dir);
-        std::fs::create_dir_all(&dir).unwrap();
-        let mut edit = Some(edit);
-        for f in FILES {
-            let text = std::fs::read_to_string(real_dir().join(f)).unwrap();
-            let text = match edit.take() {
-                Some(e) if *f == file => e(text),
-                other => {
-                    edit = other;
-                    text
-                }
-            };
-            std::fs::write(dir.join(f), text).unwrap();
-        }
-        let out = generate(&dir);
-        let _ = std::fs::remove_dir_all(&dir);
-        out
+        generate(EditedData::new("bonfiglioli", name, file, edit).dir())
     }
 
-    /// Replace the line starting with `prefix` by `line`.
-    pub(super) fn replace_line(text: &str, prefix: &str, line: &str) -> String {
-        let mut found = false;
-        let out: Vec<String> = text
-            .lines()
-            .map(|l| {
-                if !found && l.starts_with(prefix) {
-                    found = true;
-                    line.to_owned()
-                } else {
-                    l.to_owned()
-                }
-            })
-            .collect();
-        assert!(found, "no line starts with {prefix:?}");
-        out.join("\n") + "\n"
-    }
-
-    /// The 1-based line number of the line starting with `prefix` in the real file.
+    /// The 1-based number of the first line of the real `file` starting with `prefix`.
     pub(super) fn line_of(file: &str, prefix: &str) -> usize {
-        let text = std::fs::read_to_string(real_dir().join(file)).unwrap();
-        text.lines().position(|l| l.starts_with(prefix)).unwrap() + 1
-    }
-
-    /// `out` must be an error naming `file:line:` and mentioning `needle`.
-    pub(super) fn expect_err(out: Result<Vec<Output>>, file: &str, line: usize, needle: &str) {
-        let e = out.expect_err("the edit must be rejected").0;
-        let loc = format!("{file}:{line}:");
-        assert!(e.contains(&loc), "error `{e}` does not name {loc}");
-        assert!(
-            e.contains(needle),
-            "error `{e}` does not mention `{needle}`"
-        );
+        test_util::line_of("bonfiglioli", file, prefix)
     }
 
     #[test]
     fn real_tables_generate() {
-        let out = generate(&real_dir()).unwrap();
+        let out = generate(&test_util::data("bonfiglioli")).unwrap();
         assert_eq!(out.len(), 5);
         let params = &out[0].text;
         assert!(params.contains("number: 1376,"));

@@ -472,7 +472,7 @@ mod tests {
     fn value_list_outside_range_is_rejected() {
         let line = line_of("values.csv", "10,6,");
         let out = with_edit("values", "values.csv", |t| {
-            replace_line(&t, "10,6,", "10,7,230400 Baud,230400 baud")
+            replace_line(t, "10,6,", "10,7,230400 Baud,230400 baud")
         });
         expect_err(out, "values.csv", line, "outside the range of P10");
     }

@@ -64,7 +64,7 @@ mod tests {
     fn duplicate_vabus_error_is_rejected() {
         let line = line_of("vabus_errors.csv", "15,");
         let out = with_edit("vabus", "vabus_errors.csv", |t| {
-            replace_line(&t, "15,", "14,Unbekannter Fehler,Unknown error")
+            replace_line(t, "15,", "14,Unbekannter Fehler,Unknown error")
         });
         expect_err(
             out,

@@ -111,11 +111,7 @@ mod tests {
     fn warning_code_must_be_its_bit() {
         let line = line_of("warnings.csv", "5,");
         let out = with_edit("warn", "warnings.csv", |t| {
-            replace_line(
-                &t,
-                "5,",
-                "5,0x0040,Warnung I-Limit,Warning current limit,,,",
-            )
+            replace_line(t, "5,", "5,0x0040,Warnung I-Limit,Warning current limit,,,")
         });
         expect_err(out, "warnings.csv", line, "must be 0x0020");
     }
@@ -124,11 +120,7 @@ mod tests {
     fn duplicate_warning_bit_is_rejected() {
         let line = line_of("warnings.csv", "15,");
         let out = with_edit("warndup", "warnings.csv", |t| {
-            replace_line(
-                &t,
-                "15,",
-                "14,0x4000,Warnung Udc,Warning DC link voltage,,,",
-            )
+            replace_line(t, "15,", "14,0x4000,Warnung Udc,Warning DC link voltage,,,")
         });
         expect_err(out, "warnings.csv", line, "duplicate warning bit 14");
     }

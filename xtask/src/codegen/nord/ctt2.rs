@@ -362,7 +362,7 @@ pub(super) fn render_ctt2(
 
 #[cfg(test)]
 mod tests {
-    use super::super::tests::{edited, expect_err, line_of, scratch};
+    use super::super::tests::{edited, expect_err, line_of};
     use super::*;
 
     #[test]
@@ -370,12 +370,13 @@ mod tests {
         let f = "nord_ctt2_messages.csv";
         let n = line_of(f, "157,");
         // What the manual prints in section 4.3.4.
-        let text = edited(
+        let d = edited(
+            "ctt2code",
             f,
-            n,
+            "157,",
             "177,nord_write_read,error,Schreib-/Leseantwort nicht OK,x,Fehlercode,error code,",
         );
-        let r = read_ctt2_messages(&scratch("ctt2code", f, &text));
+        let r = read_ctt2_messages(&d.file(f));
         expect_err(r, f, n, "must be request 29 + 0x80 = 157");
     }
 }

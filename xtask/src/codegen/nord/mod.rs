@@ -79,44 +79,25 @@ fn pair(row: &Row, de_col: &str, de: &str, en_col: &str, en: &str) -> Result<()>
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::codegen::test_util::{self, EditedData, replace_line};
     use std::path::PathBuf;
 
-    /// A scratch folder with one CSV file; returns the file's path.
-    pub(super) fn scratch(test: &str, file: &str, text: &str) -> PathBuf {
-        let dir = std::env::temp_dir().join(format!("xtask-nord-{}-{test}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        let path = dir.join(file);
-        std::fs::write(&path, text).unwrap();
-        path
-    }
+    pub(super) use crate::codegen::test_util::expect_err;
 
     /// The real file `file` of the NORD data folder.
     pub(super) fn real(file: &str) -> PathBuf {
-        crate::data_dir(&crate::workspace_root())
-            .join("nord")
-            .join(file)
+        test_util::data("nord").join(file)
     }
 
-    /// The real file with line `line` (1-based) replaced by `new`.
-    pub(super) fn edited(file: &str, line: usize, new: &str) -> String {
-        let text = std::fs::read_to_string(real(file)).unwrap();
-        let mut lines: Vec<&str> = text.lines().collect();
-        lines[line - 1] = new;
-        lines.join("\n") + "\n"
+    /// A copy of the real data folder in which the line of `file` starting with `prefix` is
+    /// replaced by `line`.
+    pub(super) fn edited(test: &str, file: &str, prefix: &str, line: &str) -> EditedData {
+        EditedData::new("nord", test, file, |t| replace_line(t, prefix, line))
     }
 
-    /// The 1-based number of the first line of the real `file` starting with `starts`.
-    pub(super) fn line_of(file: &str, starts: &str) -> usize {
-        let text = std::fs::read_to_string(real(file)).unwrap();
-        text.lines().position(|l| l.starts_with(starts)).unwrap() + 1
-    }
-
-    /// `r` must be an error naming `file:line:` and saying `what`.
-    pub(super) fn expect_err(r: Result<impl std::fmt::Debug>, file: &str, line: usize, what: &str) {
-        let e = r.expect_err("must fail").0;
-        let at = format!("{file}:{line}:");
-        assert!(e.contains(&at), "`{e}` does not name {at}");
-        assert!(e.contains(what), "`{e}` does not say `{what}`");
+    /// The 1-based number of the first line of the real `file` starting with `prefix`.
+    pub(super) fn line_of(file: &str, prefix: &str) -> usize {
+        test_util::line_of("nord", file, prefix)
     }
 
     #[test]

@@ -374,20 +374,21 @@ pub(super) fn render_params(params: &[ParamRow]) -> String {
 
 #[cfg(test)]
 mod tests {
-    use super::super::tests::{edited, expect_err, line_of, real, scratch};
+    use super::super::tests::{edited, expect_err, line_of, real};
     use super::*;
 
     #[test]
     fn pnu_must_equal_the_number() {
         let f = "nord_parameters.csv";
         let n = line_of(f, "102,");
-        let text = edited(
+        let d = edited(
+            "pnu",
             f,
-            n,
+            "102,",
             "102,0x67,Hochlaufzeit,acc,s,0.01,0,320.00,,RW,1,,d,d,s",
         );
         expect_err(
-            read_params(&scratch("pnu", f, &text)),
+            read_params(&d.file(f)),
             f,
             n,
             "differs from the parameter number",
@@ -398,23 +399,20 @@ mod tests {
     fn values_must_be_multiples_of_the_resolution() {
         let f = "nord_parameters.csv";
         let n = line_of(f, "102,");
-        let text = edited(
+        let d = edited(
+            "res",
             f,
-            n,
+            "102,",
             "102,0x66,Hochlaufzeit,acc,s,0.01,0,320.005,,RW,1,,d,d,s",
         );
-        expect_err(
-            read_params(&scratch("res", f, &text)),
+        expect_err(read_params(&d.file(f)), f, n, "whole multiple");
+        let d = edited(
+            "word",
             f,
-            n,
-            "whole multiple",
-        );
-        let text = edited(
-            f,
-            n,
+            "102,",
             "102,0x66,Hochlaufzeit,acc,s,0.01,0,700.00,,RW,1,,d,d,s",
         );
-        expect_err(read_params(&scratch("word", f, &text)), f, n, "16-bit word");
+        expect_err(read_params(&d.file(f)), f, n, "16-bit word");
     }
 
     #[test]
@@ -422,8 +420,8 @@ mod tests {
         let mut params = read_params(&real("nord_parameters.csv")).unwrap();
         let f = "nord_param_arrays.csv";
         let n = line_of(f, "700,3,");
-        let text = edited(f, n, "700,4,x,x,manual");
-        let r = read_param_arrays(&scratch("elem", f, &text), &mut params);
+        let d = edited("elem", f, "700,3,", "700,4,x,x,manual");
+        let r = read_param_arrays(&d.file(f), &mut params);
         expect_err(r, f, n, "outside [-01]..[-03]");
     }
 

@@ -302,7 +302,7 @@ pub(super) fn render_states(states: &[StateRow], transitions: &[TransitionRow]) 
 
 #[cfg(test)]
 mod tests {
-    use super::super::tests::{edited, expect_err, line_of, real, scratch};
+    use super::super::tests::{edited, expect_err, line_of, real};
     use super::*;
 
     #[test]
@@ -310,26 +310,26 @@ mod tests {
         let f = "nord_states.csv";
         let n = line_of(f, "D,");
         // Switched on with bit 1 as X would also match ready to switch on.
-        let text = edited(f, n, "D,SwitchedOn,Eingeschaltet,switched on,01100X1,x,x");
-        expect_err(
-            read_states(&scratch("overlap", f, &text)),
+        let d = edited(
+            "overlap",
             f,
-            n,
-            "overlaps `ReadyToSwitchOn`",
+            "D,",
+            "D,SwitchedOn,Eingeschaltet,switched on,01100X1,x,x",
         );
+        expect_err(read_states(&d.file(f)), f, n, "overlaps `ReadyToSwitchOn`");
     }
 
     #[test]
     fn bad_pattern_character_is_rejected() {
         let f = "nord_states.csv";
         let n = line_of(f, "C,");
-        let text = edited(f, n, "C,ReadyToSwitchOn,Einschaltbereit,ready,01100?1,x,x");
-        expect_err(
-            read_states(&scratch("badchar", f, &text)),
+        let d = edited(
+            "badchar",
             f,
-            n,
-            "not 0, 1 or X",
+            "C,",
+            "C,ReadyToSwitchOn,Einschaltbereit,ready,01100?1,x,x",
         );
+        expect_err(read_states(&d.file(f)), f, n, "not 0, 1 or X");
     }
 
     #[test]
@@ -337,14 +337,24 @@ mod tests {
         let states = read_states(&real("nord_states.csv")).unwrap();
         let f = "nord_transitions.csv";
         let n = line_of(f, "3,");
-        let text = edited(f, n, "3,ReadyToSwitchOn,Running,command,E,e,XXXXX111,,s");
-        let r = read_transitions(&scratch("unknownstate", f, &text), &states);
+        let d = edited(
+            "unknownstate",
+            f,
+            "3,",
+            "3,ReadyToSwitchOn,Running,command,E,e,XXXXX111,,s",
+        );
+        let r = read_transitions(&d.file(f), &states);
         expect_err(r, f, n, "unknown state `Running`");
         // Shutdown (110) out of ready to switch on toward switched on clashes with nothing,
         // but 1X1 clashes with 7a (X0X) toward switch-on disabled.
-        let text = edited(f, n, "3,ReadyToSwitchOn,SwitchedOn,command,E,e,XXXXX1X1,,s");
         let n7a = line_of(f, "7a,");
-        let r = read_transitions(&scratch("clash", f, &text), &states);
+        let d = edited(
+            "clash",
+            f,
+            "3,",
+            "3,ReadyToSwitchOn,SwitchedOn,command,E,e,XXXXX1X1,,s",
+        );
+        let r = read_transitions(&d.file(f), &states);
         expect_err(r, f, n7a, "overlaps transition `3`");
     }
 }

@@ -280,20 +280,15 @@ pub(super) fn render_uss(
 
 #[cfg(test)]
 mod tests {
-    use super::super::tests::{edited, expect_err, line_of, real, scratch};
+    use super::super::tests::{edited, expect_err, line_of, real};
     use super::*;
 
     #[test]
     fn duplicate_ak_is_rejected() {
         let f = "nord_ak_responses.csv";
         let n = line_of(f, "2,");
-        let text = edited(f, n, "1,x,x,value,dword");
-        expect_err(
-            read_ak_responses(&scratch("dupak", f, &text)),
-            f,
-            n,
-            "AK 1 appears twice",
-        );
+        let d = edited("dupak", f, "2,", "1,x,x,value,dword");
+        expect_err(read_ak_responses(&d.file(f)), f, n, "AK 1 appears twice");
     }
 
     #[test]
@@ -302,8 +297,8 @@ mod tests {
         let f = "nord_ak_requests.csv";
         let n = line_of(f, "7,");
         // A word array write answered with a double-word response.
-        let text = edited(f, n, "7,x,x,write,word,1,1,5");
-        let r = read_ak_requests(&scratch("akmismatch", f, &text), &responses);
+        let d = edited("akmismatch", f, "7,", "7,x,x,write,word,1,1,5");
+        let r = read_ak_requests(&d.file(f), &responses);
         expect_err(r, f, n, "response AK 5");
     }
 }

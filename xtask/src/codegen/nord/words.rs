@@ -174,15 +174,15 @@ pub(super) fn render_words(cw: &[Bit], sw: &[Bit]) -> String {
 
 #[cfg(test)]
 mod tests {
-    use super::super::tests::{edited, expect_err, line_of, scratch};
+    use super::super::tests::{edited, expect_err, line_of};
     use super::*;
 
     #[test]
     fn duplicate_bit_names_file_and_line() {
         let f = "nord_control_word.csv";
         let n = line_of(f, "5,");
-        let text = edited(f, n, "4,enable_x,A,a,,,,,,");
-        let r = read_bits(&scratch("dupbit", f, &text), true);
+        let d = edited("dupbit", f, "5,", "4,enable_x,A,a,,,,,,");
+        let r = read_bits(&d.file(f), true);
         expect_err(r, f, n, "bit 4 appears twice");
     }
 
@@ -190,23 +190,15 @@ mod tests {
     fn bit_outside_word_is_rejected() {
         let f = "nord_status_word.csv";
         let n = line_of(f, "15,");
-        let text = edited(f, n, "16,parameter_set_bit1,A,a,,,,");
-        expect_err(
-            read_bits(&scratch("bit16", f, &text), false),
-            f,
-            n,
-            "outside 0..15",
-        );
+        let d = edited("bit16", f, "15,", "16,parameter_set_bit1,A,a,,,,");
+        expect_err(read_bits(&d.file(f), false), f, n, "outside 0..15");
     }
 
     #[test]
     fn missing_bit_is_reported() {
         let f = "nord_status_word.csv";
-        let n = line_of(f, "15,");
-        let text = edited(f, n, "# removed");
-        let e = read_bits(&scratch("missing", f, &text), false)
-            .unwrap_err()
-            .0;
+        let d = edited("missing", f, "15,", "# removed");
+        let e = read_bits(&d.file(f), false).unwrap_err().0;
         assert!(e.contains("missing 15"), "{e}");
         assert!(e.contains(&format!("{f}:")), "{e}");
     }

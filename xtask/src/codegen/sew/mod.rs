@@ -86,34 +86,26 @@ fn check_errata(row: &Row) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::codegen::test_util::{self, EditedData};
     use std::path::PathBuf;
 
     /// The real SEW data folder.
     pub(super) fn data() -> PathBuf {
-        crate::data_dir(&crate::workspace_root()).join("sew")
+        test_util::data("sew")
     }
 
     /// A copy of the real data folder with `file` edited by `edit`.
-    pub(super) fn with_edit(name: &str, file: &str, edit: impl Fn(&str) -> String) -> PathBuf {
-        let dir = std::env::temp_dir().join(format!("drivebus-sew-{}-{name}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        for e in std::fs::read_dir(data()).unwrap() {
-            let e = e.unwrap();
-            std::fs::copy(e.path(), dir.join(e.file_name())).unwrap();
-        }
-        let p = dir.join(file);
-        let text = std::fs::read_to_string(&p).unwrap();
-        let edited = edit(&text);
-        assert_ne!(text, edited, "edit changed nothing");
-        std::fs::write(&p, edited).unwrap();
-        dir
+    pub(super) fn with_edit(
+        name: &str,
+        file: &str,
+        edit: impl FnOnce(&str) -> String,
+    ) -> EditedData {
+        EditedData::new("sew", name, file, edit)
     }
 
-    /// The error of generating from `dir`, which must fail; removes `dir`.
-    pub(super) fn err_of(dir: &Path) -> String {
-        let e = generate(dir).expect_err("must fail").0;
-        let _ = std::fs::remove_dir_all(dir);
-        e
+    /// The error of generating from the edited copy `d`, which must fail.
+    pub(super) fn err_of(d: &EditedData) -> String {
+        generate(d.dir()).expect_err("must fail").0
     }
 
     #[test]
