@@ -1,9 +1,9 @@
 //! The warning bits of P270: `warnings.csv`, rendered into `bonfiglioli_warnings.rs`.
 
 use super::check_in;
+use crate::Result;
 use crate::render::{header, lit, opt};
 use crate::table::Table;
-use crate::{Error, Result};
 use std::collections::BTreeSet;
 use std::fmt::Write as _;
 use std::path::Path;
@@ -68,11 +68,7 @@ pub(super) fn read_warnings(path: &Path) -> Result<Vec<Warning>> {
             .filter(|b| !have.contains(b))
             .map(|b| b.to_string())
             .collect();
-        return Err(Error(format!(
-            "{}: warning bits missing: {}",
-            path.display(),
-            missing.join(", ")
-        )));
+        return Err(table.err(format!("warning bits missing: {}", missing.join(", "))));
     }
     Ok(out)
 }

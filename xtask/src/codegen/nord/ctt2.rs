@@ -1,10 +1,9 @@
 //! CTT2 (BU 0255 sections 4.3.1 to 4.3.5): message codes, indices, error codes and object
 //! layouts from `nord_ctt2_*.csv`, rendered into `nord_ctt2.rs`.
 
-use super::pair;
+use crate::Result;
 use crate::render::{header, lit, opt};
-use crate::table::{Row, Table};
-use crate::{Error, Result};
+use crate::table::Table;
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -19,11 +18,6 @@ pub struct MessageRow {
     contents_de: String,
     contents_en: String,
     printed: Option<u8>,
-}
-
-fn byte(row: &Row, col: &str) -> Result<u8> {
-    let v = row.int(col)?;
-    u8::try_from(v).map_err(|_| row.err(format!("column `{col}`: {v} is not a byte (0..255)")))
 }
 
 /// Read the CTT2 message codes: unique; per message type one request, one OK and one not-OK
@@ -44,7 +38,7 @@ pub fn read_ctt2_messages(path: &Path) -> Result<Vec<MessageRow>> {
     )?;
     let mut out: Vec<MessageRow> = Vec::new();
     for row in table.rows() {
-        let code = byte(row, "code")?;
+        let code = row.byte("code")?;
         if out.iter().any(|m| m.code == code) {
             return Err(row.err(format!("code {code} appears twice")));
         }
@@ -76,8 +70,7 @@ pub fn read_ctt2_messages(path: &Path) -> Result<Vec<MessageRow>> {
                     .ok_or_else(|| row.err("printed must be a byte that differs from code"))?,
             ),
         };
-        let (contents_de, contents_en) = (row.str("contents_de")?, row.str("contents_en")?);
-        pair(row, "contents_de", contents_de, "contents_en", contents_en)?;
+        let (contents_de, contents_en) = row.text_pair("contents_de", "contents_en")?;
         out.push(MessageRow {
             code,
             message_type,
@@ -114,10 +107,7 @@ pub fn read_ctt2_messages(path: &Path) -> Result<Vec<MessageRow>> {
     for t in ["StandardRead", "NordRead", "NordWrite", "NordWriteRead"] {
         for r in ["Request", "ResponseOk", "ResponseError"] {
             if !out.iter().any(|m| m.message_type == t && m.role == r) {
-                return Err(Error(format!(
-                    "{}: message type {t} has no {r} code",
-                    table.path().display()
-                )));
+                return Err(table.err(format!("message type {t} has no {r} code")));
             }
         }
     }
@@ -152,7 +142,7 @@ pub fn read_ctt2_indices(path: &Path) -> Result<Vec<IndexRow>> {
     )?;
     let mut out: Vec<IndexRow> = Vec::new();
     for row in table.rows() {
-        let index = byte(row, "index")?;
+        let index = row.byte("index")?;
         if out.iter().any(|i| i.index == index) {
             return Err(row.err(format!("index {index} appears twice")));
         }
@@ -161,24 +151,13 @@ pub fn read_ctt2_indices(path: &Path) -> Result<Vec<IndexRow>> {
             "nord" => false,
             other => return Err(row.err(format!("scope `{other}` is not standard or nord"))),
         };
-        let max_len = byte(row, "max_len")?;
+        let max_len = row.byte("max_len")?;
         if max_len == 0 {
             return Err(row.err("max_len must be at least 1"));
         }
-        let mut write_lengths = Vec::new();
-        for part in row
-            .str("write_lengths")?
-            .split('|')
-            .map(str::trim)
-            .filter(|s| !s.is_empty())
-        {
-            let n: u8 = part
-                .parse()
-                .map_err(|_| row.err(format!("write_lengths: `{part}` is not a number")))?;
-            if n == 0 || n > max_len {
-                return Err(row.err(format!("write length {n} is outside 1..{max_len}")));
-            }
-            write_lengths.push(n);
+        let write_lengths: Vec<u8> = row.list("write_lengths")?;
+        if let Some(n) = write_lengths.iter().find(|&&n| n == 0 || n > max_len) {
+            return Err(row.err(format!("write length {n} is outside 1..{max_len}")));
         }
         if standard && !write_lengths.is_empty() {
             return Err(row.err("standard-read objects cannot be written"));
@@ -209,7 +188,7 @@ pub fn read_ctt2_errors(path: &Path) -> Result<Vec<Ctt2ErrorRow>> {
     let table = Table::read(path, &["code", "meaning_de", "meaning_en"])?;
     let mut out: Vec<Ctt2ErrorRow> = Vec::new();
     for row in table.rows() {
-        let code = byte(row, "code")?;
+        let code = row.byte("code")?;
         if code == 0 || out.iter().any(|e| e.code == code) {
             return Err(row.err(format!("error code {code} is zero or appears twice")));
         }
@@ -236,12 +215,12 @@ pub fn read_ctt2_objects(path: &Path, indices: &[IndexRow]) -> Result<Vec<Object
     let table = Table::read(path, &["index", "byte", "name_de", "name_en"])?;
     let mut out: Vec<ObjectByteRow> = Vec::new();
     for row in table.rows() {
-        let index = byte(row, "index")?;
+        let index = row.byte("index")?;
         let ix = indices
             .iter()
             .find(|i| i.index == index && i.standard)
             .ok_or_else(|| row.err(format!("index {index} is not a standard-read object")))?;
-        let b = byte(row, "byte")?;
+        let b = row.byte("byte")?;
         if b == 0 || b > ix.max_len {
             return Err(row.err(format!("byte {b} is outside 1..{}", ix.max_len)));
         }
@@ -261,11 +240,9 @@ pub fn read_ctt2_objects(path: &Path, indices: &[IndexRow]) -> Result<Vec<Object
     {
         let n = out.iter().filter(|o| o.index == ix.index).count();
         if n != usize::from(ix.max_len) {
-            return Err(Error(format!(
-                "{}: index {} describes {n} of its {} bytes",
-                table.path().display(),
-                ix.index,
-                ix.max_len
+            return Err(table.err(format!(
+                "index {} describes {n} of its {} bytes",
+                ix.index, ix.max_len
             )));
         }
     }

@@ -12,7 +12,7 @@
 //!
 //! Each submodule reads, validates and renders one generated file: [`words`], [`states`],
 //! [`uss`], [`ctt2`] and [`params`]. Every check reports `file:line: reason` through
-//! [`Row::err`].
+//! [`Row::err`](crate::table::Row::err).
 
 pub mod ctt2;
 pub mod params;
@@ -20,7 +20,6 @@ pub mod states;
 pub mod uss;
 pub mod words;
 
-use crate::table::Row;
 use crate::{Output, Result};
 use std::path::Path;
 
@@ -63,17 +62,6 @@ pub fn generate(dir: &Path) -> Result<Vec<Output>> {
             text: params::render_params(&params),
         },
     ])
-}
-
-/// A German text needs its English translation and vice versa.
-fn pair(row: &Row, de_col: &str, de: &str, en_col: &str, en: &str) -> Result<()> {
-    if de.is_empty() != en.is_empty() {
-        Err(row.err(format!(
-            "`{de_col}` and `{en_col}` must both be given or both be empty"
-        )))
-    } else {
-        Ok(())
-    }
 }
 
 #[cfg(test)]

@@ -1,7 +1,6 @@
 //! Parameters: `nord_parameters.csv`, `nord_param_arrays.csv` and
 //! `nord_param_values.csv`, rendered into `nord_params.rs`.
 
-use super::pair;
 use crate::Result;
 use crate::render::{header, lit, opt};
 use crate::table::{Row, Table};
@@ -122,34 +121,29 @@ pub fn read_params(path: &Path) -> Result<Vec<ParamRow>> {
         if out.iter().any(|p| p.number == number) {
             return Err(row.err(format!("P{number} appears twice")));
         }
-        let resolution = match row.str("resolution")? {
-            "" => None,
-            s => {
-                let d = decimal(s).filter(|d| d.0 > 0).ok_or_else(|| {
-                    row.err(format!("resolution `{s}` is not a positive decimal"))
-                })?;
-                Some((s.to_owned(), d))
-            }
-        };
-        let step = resolution.as_ref().map_or((1, 0), |r| r.1);
-        let raw = |col: &str| -> Result<Option<i64>> {
-            let s = row.str(col)?;
-            if s.is_empty() {
-                return Ok(None);
-            }
+        let resolution = row.opt_with("resolution", |s| {
             let d = decimal(s)
-                .ok_or_else(|| row.err(format!("column `{col}`: `{s}` is not a decimal")))?;
-            let r = steps(d, step).ok_or_else(|| {
-                row.err(format!(
-                    "column `{col}`: {s} is not a whole multiple of the resolution"
-                ))
-            })?;
-            if !(-32768..=65535).contains(&r) {
-                return Err(row.err(format!(
-                    "column `{col}`: raw value {r} does not fit a 16-bit word (section 6)"
-                )));
-            }
-            Ok(Some(r))
+                .filter(|d| d.0 > 0)
+                .ok_or_else(|| row.err(format!("resolution `{s}` is not a positive decimal")))?;
+            Ok((s.to_owned(), d))
+        })?;
+        let step = resolution.as_ref().map_or((1, 0), |r| r.1);
+        let raw = |col: &str| {
+            row.opt_with(col, |s| {
+                let d = decimal(s)
+                    .ok_or_else(|| row.err(format!("column `{col}`: `{s}` is not a decimal")))?;
+                let r = steps(d, step).ok_or_else(|| {
+                    row.err(format!(
+                        "column `{col}`: {s} is not a whole multiple of the resolution"
+                    ))
+                })?;
+                if !(-32768..=65535).contains(&r) {
+                    return Err(row.err(format!(
+                        "column `{col}`: raw value {r} does not fit a 16-bit word (section 6)"
+                    )));
+                }
+                Ok(r)
+            })
         };
         let (min, max, default) = (raw("min")?, raw("max")?, raw("default")?);
         let raw_range = match (min, max) {
@@ -249,8 +243,7 @@ pub fn read_param_arrays(path: &Path, params: &mut [ParamRow]) -> Result<()> {
         if p.elements.iter().any(|x| x.0 == e) {
             return Err(row.err(format!("P{} [-{e:02}] appears twice", p.number)));
         }
-        let (de, en) = (row.str("name_de")?, row.str("name_en")?);
-        pair(row, "name_de", de, "name_en", en)?;
+        let (de, en) = row.text_pair("name_de", "name_en")?;
         row.req("source")?;
         p.elements.push((e, de.to_owned(), en.to_owned()));
     }

@@ -2,10 +2,9 @@
 //! from `nord_ak_requests.csv`, `nord_ak_responses.csv` and `nord_pwe_errors.csv`, rendered
 //! into `nord_uss.rs`.
 
-use super::pair;
+use crate::Result;
 use crate::render::{header, lit, opt};
 use crate::table::{Row, Table};
-use crate::{Error, Result};
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -70,10 +69,7 @@ pub fn read_ak_responses(path: &Path) -> Result<Vec<AkResponseRow>> {
         });
     }
     if !out.iter().any(|r| r.kind == "Error") {
-        return Err(Error(format!(
-            "{}: no error response ID (kind error)",
-            table.path().display()
-        )));
+        return Err(table.err("no error response ID (kind error)"));
     }
     Ok(out)
 }
@@ -130,16 +126,8 @@ pub fn read_ak_requests(path: &Path, responses: &[AkResponseRow]) -> Result<Vec<
         if eeprom && kind != "Write" {
             return Err(row.err("only a write order can write to EEPROM"));
         }
-        let mut list = Vec::new();
-        for part in row
-            .str("responses")?
-            .split('|')
-            .map(str::trim)
-            .filter(|s| !s.is_empty())
-        {
-            let n: u8 = part
-                .parse()
-                .map_err(|_| row.err(format!("responses: `{part}` is not a number")))?;
+        let list: Vec<u8> = row.list("responses")?;
+        for &n in &list {
             let resp = responses
                 .iter()
                 .find(|r| r.ak == n)
@@ -161,7 +149,6 @@ pub fn read_ak_requests(path: &Path, responses: &[AkResponseRow]) -> Result<Vec<
                     resp.meaning_en
                 )));
             }
-            list.push(n);
         }
         if (kind == "Reserved") != list.is_empty() {
             return Err(row.err("reserved orders, and only they, have no positive response"));
@@ -199,8 +186,7 @@ pub fn read_pwe_errors(path: &Path) -> Result<Vec<PweRow>> {
         if out.iter().any(|r| r.number == number) {
             return Err(row.err(format!("error number {number} appears twice")));
         }
-        let (de, en) = (row.str("meaning_de")?, row.str("meaning_en")?);
-        pair(row, "meaning_de", de, "meaning_en", en)?;
+        let (de, en) = row.text_pair("meaning_de", "meaning_en")?;
         out.push(PweRow {
             number,
             meaning_de: de.to_owned(),

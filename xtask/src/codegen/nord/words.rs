@@ -1,10 +1,9 @@
 //! Control and status word bits (BU 0255 section 4.5): `nord_control_word.csv` and
 //! `nord_status_word.csv`, rendered into `nord_words.rs`.
 
-use super::pair;
+use crate::Result;
 use crate::render::{header, lit, opt};
 use crate::table::{Row, Table};
-use crate::{Error, Result};
 use std::collections::{BTreeMap, BTreeSet};
 use std::fmt::Write as _;
 use std::path::Path;
@@ -44,7 +43,6 @@ pub fn read_bits(path: &Path, with_priority: bool) -> Result<Vec<Bit>> {
     let table = Table::read(path, &cols)?;
     let mut out: Vec<Bit> = Vec::new();
     let mut keys = BTreeSet::new();
-    let mut last: Option<&Row> = None;
     for row in table.rows() {
         let bit = row.int("bit")?;
         if !(0..=15).contains(&bit) {
@@ -64,43 +62,30 @@ pub fn read_bits(path: &Path, with_priority: bool) -> Result<Vec<Bit>> {
         } else {
             (None, None)
         };
-        let b = Bit {
+        let name_de = row.req("name_de")?.to_owned();
+        let name_en = row.req("name_en")?.to_owned();
+        let (meaning0_de, meaning0_en) = row.text_pair("meaning0_de", "meaning0_en")?;
+        let (meaning1_de, meaning1_en) = row.text_pair("meaning1_de", "meaning1_en")?;
+        out.push(Bit {
             bit,
             key: key.to_owned(),
-            name_de: row.req("name_de")?.to_owned(),
-            name_en: row.req("name_en")?.to_owned(),
-            meaning0_de: row.str("meaning0_de")?.to_owned(),
-            meaning0_en: row.str("meaning0_en")?.to_owned(),
-            meaning1_de: row.str("meaning1_de")?.to_owned(),
-            meaning1_en: row.str("meaning1_en")?.to_owned(),
+            name_de,
+            name_en,
+            meaning0_de: meaning0_de.to_owned(),
+            meaning0_en: meaning0_en.to_owned(),
+            meaning1_de: meaning1_de.to_owned(),
+            meaning1_en: meaning1_en.to_owned(),
             priority0,
             priority1,
-        };
-        pair(
-            row,
-            "meaning0_de",
-            &b.meaning0_de,
-            "meaning0_en",
-            &b.meaning0_en,
-        )?;
-        pair(
-            row,
-            "meaning1_de",
-            &b.meaning1_de,
-            "meaning1_en",
-            &b.meaning1_en,
-        )?;
-        out.push(b);
-        last = Some(row);
+        });
     }
     if out.len() != 16 {
         let missing: Vec<String> = (0..16u8)
             .filter(|i| !out.iter().any(|b| b.bit == *i))
             .map(|i| i.to_string())
             .collect();
-        let at = last.map(|r| r.err("")).map(|e| e.0).unwrap_or_default();
-        return Err(Error(format!(
-            "{at}the word needs all 16 bits; missing {}",
+        return Err(table.err(format!(
+            "the word needs all 16 bits; missing {}",
             missing.join(", ")
         )));
     }

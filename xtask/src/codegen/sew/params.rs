@@ -174,16 +174,16 @@ fn parse_values(row: &Row, s: &str) -> Result<Vec<(i64, String, String)>> {
 
 /// Column `col` as an optional three-digit menu number (`000`…`999`).
 fn opt_menu(row: &Row, col: &str) -> Result<Option<i64>> {
-    let s = row.str(col)?;
-    if s.is_empty() {
-        return Ok(None);
-    }
-    if s.len() != 3 || !s.bytes().all(|b| b.is_ascii_digit()) {
-        return Err(row.err(format!(
-            "column `{col}`: `{s}` is not a three-digit menu number"
-        )));
-    }
-    Ok(s.parse::<i64>().ok())
+    row.opt_with(col, |s| {
+        s.parse::<i64>()
+            .ok()
+            .filter(|_| s.len() == 3 && s.bytes().all(|b| b.is_ascii_digit()))
+            .ok_or_else(|| {
+                row.err(format!(
+                    "column `{col}`: `{s}` is not a three-digit menu number"
+                ))
+            })
+    })
 }
 
 /// Read the parameter list and check every row against the units, conversions and groups.
@@ -235,12 +235,8 @@ pub(super) fn read_params(
         if !(INDEX_MIN..=INDEX_MAX).contains(&index) {
             return Err(row.err(format!("index {index} is outside 8192…24575 (2000h…5FFFh)")));
         }
+        let hex = row.hex("index_hex", 4)?;
         let index_hex = row.req("index_hex")?.to_owned();
-        let hex = i64::from_str_radix(&index_hex, 16).map_err(|_| {
-            row.err(format!(
-                "column `index_hex`: `{index_hex}` is not hexadecimal"
-            ))
-        })?;
         if hex != index {
             return Err(row.err(format!(
                 "index {index} is {index:04X}h, but `index_hex` says {index_hex}h (= {hex})"
@@ -326,11 +322,7 @@ pub(super) fn read_params(
                 return Err(row.err(format!("range_de must reference `{expect}`")));
             }
         }
-        let range_de = row.str("range_de")?.to_owned();
-        let range_en = row.str("range_en")?.to_owned();
-        if range_de.is_empty() != range_en.is_empty() {
-            return Err(row.err("`range_de` and `range_en` must both be given or both be empty"));
-        }
+        let (range_de, range_en) = row.text_pair("range_de", "range_en")?;
         if !ranges.is_empty() && !range_de.contains("...") {
             return Err(row.err("`ranges` given but `range_de` prints no range"));
         }
@@ -395,8 +387,8 @@ pub(super) fn read_params(
             default,
             default2,
             default_outside_range,
-            range_de,
-            range_en,
+            range_de: range_de.to_owned(),
+            range_en: range_en.to_owned(),
             ranges,
             values,
             values_ref,

@@ -220,10 +220,7 @@ pub(super) fn read_units(dir: &Path, conv: &Conversions) -> Result<Vec<Unit>> {
     let mut out: Vec<Unit> = Vec::new();
     for row in t.rows() {
         check_errata(row)?;
-        let size = row.int("size_index")?;
-        if !(0..=255).contains(&size) {
-            return Err(row.err(format!("size index {size} is not a byte")));
-        }
+        let size = i64::from(row.byte("size_index")?);
         let conversion = row.int("conversion_index")?;
         if conv.get(conversion).is_none() {
             return Err(row.err(format!("unknown or reserved conversion index {conversion}")));
@@ -235,12 +232,7 @@ pub(super) fn read_units(dir: &Path, conv: &Conversions) -> Result<Vec<Unit>> {
             unit_de: row.req("unit_de")?.to_owned(),
             unit_en: row.req("unit_en")?.to_owned(),
             symbol: row.str("symbol")?.to_owned(),
-            aliases: row
-                .str("aliases")?
-                .split('|')
-                .filter(|s| !s.is_empty())
-                .map(str::to_owned)
-                .collect(),
+            aliases: row.list("aliases")?,
             conversion,
         };
         if u.symbol.is_empty() && size != 0 {

@@ -3,7 +3,7 @@
 
 use crate::Result;
 use crate::render::{header, lit};
-use crate::table::{Row, Table};
+use crate::table::Table;
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -35,23 +35,12 @@ pub(super) struct Code {
     retry: bool,
 }
 
-fn hex_byte(row: &Row, col: &str) -> Result<i64> {
-    let s = row.req(col)?;
-    match u8::from_str_radix(s, 16) {
-        Ok(v) if s.len() == 2 => Ok(i64::from(v)),
-        _ => Err(row.err(format!("column `{col}`: `{s}` is not two hex digits"))),
-    }
-}
-
 /// Read the error classes and the return codes: bytes, each once, of a known class.
 pub(super) fn read_return_codes(dir: &Path) -> Result<(Vec<Class>, Vec<Code>)> {
     let t = Table::read(&dir.join("movilink_error_classes.csv"), CLASS_COLUMNS)?;
     let mut classes: Vec<Class> = Vec::new();
     for row in t.rows() {
-        let class = row.int("class")?;
-        if !(0..=255).contains(&class) {
-            return Err(row.err(format!("error class {class} is not a byte")));
-        }
+        let class = i64::from(row.byte("class")?);
         if classes.iter().any(|c| c.class == class) {
             return Err(row.err(format!("duplicate error class {class}")));
         }
@@ -69,11 +58,8 @@ pub(super) fn read_return_codes(dir: &Path) -> Result<(Vec<Class>, Vec<Code>)> {
         if !classes.iter().any(|c| c.class == class) {
             return Err(row.err(format!("unknown error class {class}")));
         }
-        let code = row.int("code")?;
-        if !(0..=255).contains(&code) {
-            return Err(row.err(format!("error code {code} is not a byte")));
-        }
-        let add = (hex_byte(row, "add_high")? << 8) | hex_byte(row, "add_low")?;
+        let code = i64::from(row.byte("code")?);
+        let add = (row.hex("add_high", 2)? << 8) | row.hex("add_low", 2)?;
         if codes
             .iter()
             .any(|c| (c.class, c.code, c.add) == (class, code, add))
