@@ -3,7 +3,7 @@
 
 use super::{VABUS_PARAM, Value, check_in};
 use crate::Result;
-use crate::render::{header, lit, opt};
+use crate::render::{header, lit, opt_display, value_name};
 use crate::table::{Row, Table};
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -348,14 +348,10 @@ pub(super) fn render_params(params: &[Param], values: &BTreeMap<u16, Vec<Value>>
         let _ = writeln!(s, "        type_source: {},", p.type_source);
         let _ = writeln!(s, "        decimals: {},", p.decimals);
         let _ = writeln!(s, "        unit: {},", lit(&p.unit));
-        let _ = writeln!(s, "        min: {},", opt(p.min, |v| v.to_string()));
-        let _ = writeln!(s, "        max: {},", opt(p.max, |v| v.to_string()));
-        let _ = writeln!(s, "        default: {},", opt(p.default, |v| v.to_string()));
-        let _ = writeln!(
-            s,
-            "        data_set: {},",
-            opt(p.data_set, |v| v.to_string())
-        );
+        let _ = writeln!(s, "        min: {},", opt_display(p.min));
+        let _ = writeln!(s, "        max: {},", opt_display(p.max));
+        let _ = writeln!(s, "        default: {},", opt_display(p.default));
+        let _ = writeln!(s, "        data_set: {},", opt_display(p.data_set));
         let _ = writeln!(s, "        not_in_operation: {},", p.not_in_operation);
         let _ = writeln!(s, "        setup: {},", p.setup);
         let _ = writeln!(s, "        bus_only: {},", p.bus_only);
@@ -369,10 +365,8 @@ pub(super) fn render_params(params: &[Param], values: &BTreeMap<u16, Vec<Value>>
                 for v in list {
                     let _ = writeln!(
                         s,
-                        "            ValueName {{ value: {}, de: {}, en: {} }},",
-                        v.value,
-                        lit(&v.name_de),
-                        lit(&v.name_en)
+                        "            {},",
+                        value_name(v.value, &v.name_de, &v.name_en)
                     );
                 }
                 let _ = writeln!(s, "        ],");

@@ -2,7 +2,7 @@
 
 use super::check_in;
 use crate::Result;
-use crate::render::{header, lit, opt};
+use crate::render::{header, lit, opt_display};
 use crate::table::Table;
 use std::collections::BTreeSet;
 use std::fmt::Write as _;
@@ -90,7 +90,7 @@ pub(super) fn render_warnings(warnings: &[Warning]) -> String {
             1u16 << w.bit,
             lit(&w.name_de),
             lit(&w.name_en),
-            opt(w.implies, |b| b.to_string()),
+            opt_display(w.implies),
             lit(&w.note_de),
             lit(&w.note_en)
         );

@@ -2,7 +2,7 @@
 //! layouts from `nord_ctt2_*.csv`, rendered into `nord_ctt2.rs`.
 
 use crate::Result;
-use crate::render::{header, lit, opt};
+use crate::render::{header, lit, opt_display};
 use crate::table::Table;
 use std::fmt::Write as _;
 use std::path::Path;
@@ -283,7 +283,7 @@ pub(super) fn render_ctt2(
             lit(&m.name_en),
             lit(&m.contents_de),
             lit(&m.contents_en),
-            opt(m.printed, |p| p.to_string()),
+            opt_display(m.printed),
         );
     }
     s.push_str("];\n\n");

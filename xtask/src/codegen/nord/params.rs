@@ -2,7 +2,7 @@
 //! `nord_param_values.csv`, rendered into `nord_params.rs`.
 
 use crate::Result;
-use crate::render::{header, lit, opt};
+use crate::render::{header, lit, opt, opt_display, value_name};
 use crate::table::{Row, Table};
 use std::fmt::Write as _;
 use std::path::Path;
@@ -312,13 +312,7 @@ pub(super) fn render_params(params: &[ParamRow]) -> String {
         let values: Vec<String> = p
             .values
             .iter()
-            .map(|(v, de, en)| {
-                format!(
-                    "ValueName {{ value: {v}, de: {}, en: {} }}",
-                    lit(de),
-                    lit(en)
-                )
-            })
+            .map(|(v, de, en)| value_name(*v, de, en))
             .collect();
         let _ = writeln!(s, "    Param {{");
         let _ = writeln!(s, "        number: {},", p.number);
@@ -332,11 +326,7 @@ pub(super) fn render_params(params: &[ParamRow]) -> String {
             "        raw_range: {},",
             opt(p.raw_range, |(a, b)| format!("({a}, {b})"))
         );
-        let _ = writeln!(
-            s,
-            "        default_raw: {},",
-            opt(p.default_raw, |d| d.to_string())
-        );
+        let _ = writeln!(s, "        default_raw: {},", opt_display(p.default_raw));
         let _ = writeln!(s, "        range_de: {},", lit(&p.range_de));
         let _ = writeln!(s, "        range_en: {},", lit(&p.range_en));
         let _ = writeln!(
@@ -349,11 +339,7 @@ pub(super) fn render_params(params: &[ParamRow]) -> String {
             }
         );
         let _ = writeln!(s, "        parameter_set: {},", p.param_set);
-        let _ = writeln!(
-            s,
-            "        array_len: {},",
-            opt(p.array_len, |n| n.to_string())
-        );
+        let _ = writeln!(s, "        array_len: {},", opt_display(p.array_len));
         let _ = writeln!(s, "        elements: &[{}],", elements.join(", "));
         let _ = writeln!(s, "        values: &[{}],", values.join(", "));
         let _ = writeln!(s, "        description_de: {},", lit(&p.description_de));

@@ -2,7 +2,7 @@
 //! `nord_status_word.csv`, rendered into `nord_words.rs`.
 
 use crate::Result;
-use crate::render::{header, lit, opt};
+use crate::render::{header, lit, opt_display};
 use crate::table::{Row, Table};
 use std::collections::{BTreeMap, BTreeSet};
 use std::fmt::Write as _;
@@ -148,8 +148,8 @@ pub(super) fn render_words(cw: &[Bit], sw: &[Bit]) -> String {
                 lit(&b.meaning0_en),
                 lit(&b.meaning1_de),
                 lit(&b.meaning1_en),
-                opt(b.priority0, |p| p.to_string()),
-                opt(b.priority1, |p| p.to_string()),
+                opt_display(b.priority0),
+                opt_display(b.priority1),
             );
         }
         s.push_str("];\n\n");

@@ -5,7 +5,7 @@ use super::check_errata;
 use super::groups::{self, Group};
 use super::pno::{Conversions, Unit};
 use crate::Result;
-use crate::render::{header, lit};
+use crate::render::{header, lit, opt_display, value_name};
 use crate::table::{Row, Table, parse_int};
 use std::fmt::Write as _;
 use std::path::Path;
@@ -415,12 +415,7 @@ pub(super) fn render_params(params: &[Param], groups: &[Group]) -> String {
         }
         let _ = writeln!(s, "static VALUES_{i}: &[ValueName] = &[");
         for (v, de, en) in &p.values {
-            let _ = writeln!(
-                s,
-                "    ValueName {{ value: {v}, de: {}, en: {} }},",
-                lit(de),
-                lit(en)
-            );
+            let _ = writeln!(s, "    {},", value_name(*v, de, en));
         }
         s.push_str("];\n");
     }
@@ -460,8 +455,8 @@ pub(super) fn render_params(params: &[Param], groups: &[Group]) -> String {
         };
         let _ = writeln!(s, "    // csv line {}", p.line);
         s.push_str("    Param {\n");
-        let _ = writeln!(s, "        menu: {},", opt_num(p.menu));
-        let _ = writeln!(s, "        parent: {},", opt_num(p.parent));
+        let _ = writeln!(s, "        menu: {},", opt_display(p.menu));
+        let _ = writeln!(s, "        parent: {},", opt_display(p.parent));
         let _ = writeln!(s, "        sub: {},", p.sub);
         let _ = writeln!(s, "        group: {},", lit(&p.group));
         let _ = writeln!(s, "        md60a_only: {},", p.md60a_only);
@@ -469,7 +464,7 @@ pub(super) fn render_params(params: &[Param], groups: &[Group]) -> String {
         let _ = writeln!(s, "        name_en: {},", lit(&p.name_en));
         let _ = writeln!(s, "        index: {},", p.index);
         let _ = writeln!(s, "        index_hex: {},", lit(&p.index_hex));
-        let _ = writeln!(s, "        index2: {},", opt_num(p.index2));
+        let _ = writeln!(s, "        index2: {},", opt_display(p.index2));
         let _ = writeln!(s, "        pno_unit: {},", lit(&p.unit));
         let _ = writeln!(s, "        display_unit: {},", lit(&p.display_unit));
         let _ = writeln!(s, "        size_index: {},", p.size);
@@ -477,11 +472,11 @@ pub(super) fn render_params(params: &[Param], groups: &[Group]) -> String {
         let _ = writeln!(
             s,
             "        display_conversion_index: {},",
-            opt_num(p.display_conversion)
+            opt_display(p.display_conversion)
         );
         let _ = writeln!(s, "        access: {access},");
-        let _ = writeln!(s, "        default: {},", opt_num(p.default));
-        let _ = writeln!(s, "        default2: {},", opt_num(p.default2));
+        let _ = writeln!(s, "        default: {},", opt_display(p.default));
+        let _ = writeln!(s, "        default2: {},", opt_display(p.default2));
         let _ = writeln!(
             s,
             "        default_outside_range: {},",
@@ -491,7 +486,7 @@ pub(super) fn render_params(params: &[Param], groups: &[Group]) -> String {
         let _ = writeln!(s, "        range_en: {},", lit(&p.range_en));
         let _ = writeln!(s, "        ranges: {ranges},");
         let _ = writeln!(s, "        values: {values},");
-        let _ = writeln!(s, "        values_ref: {},", opt_num(p.values_ref));
+        let _ = writeln!(s, "        values_ref: {},", opt_display(p.values_ref));
         let _ = writeln!(s, "        decimals: {},", p.decimals);
         let _ = writeln!(s, "        errata: {},", lit(&p.errata));
         s.push_str("    },\n");
@@ -527,11 +522,6 @@ pub(super) fn render_params(params: &[Param], groups: &[Group]) -> String {
     }
     s.push_str("];\n");
     s
-}
-
-/// `Some(n)` / `None` for an optional number.
-fn opt_num(v: Option<i64>) -> String {
-    crate::render::opt(v, |x| x.to_string())
 }
 
 #[cfg(test)]
