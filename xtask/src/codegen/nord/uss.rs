@@ -18,6 +18,7 @@ pub struct AkResponseRow {
     width: Option<&'static str>,
 }
 
+/// Column `width`: `word`, `dword` or empty.
 fn width(row: &Row) -> Result<Option<&'static str>> {
     match row.str("width")? {
         "" => Ok(None),
@@ -27,13 +28,17 @@ fn width(row: &Row) -> Result<Option<&'static str>> {
     }
 }
 
-fn ak(row: &Row) -> Result<u8> {
+/// Column `ak`: an ID in PKE bits 12..15 (0..15) that none of the rows `above` has.
+fn ak(row: &Row, above: impl IntoIterator<Item = u8>) -> Result<u8> {
     let v = row.int("ak")?;
-    if (0..=15).contains(&v) {
-        Ok(v as u8)
-    } else {
-        Err(row.err(format!("AK {v} does not fit PKE bits 12..15 (0..15)")))
+    if !(0..=15).contains(&v) {
+        return Err(row.err(format!("AK {v} does not fit PKE bits 12..15 (0..15)")));
     }
+    let code = v as u8;
+    if above.into_iter().any(|a| a == code) {
+        return Err(row.err(format!("AK {code} appears twice")));
+    }
+    Ok(code)
 }
 
 /// Read the response IDs: unique, 0..15, exactly one error response.
@@ -41,10 +46,7 @@ pub fn read_ak_responses(path: &Path) -> Result<Vec<AkResponseRow>> {
     let table = Table::read(path, &["ak", "meaning_de", "meaning_en", "kind", "width"])?;
     let mut out: Vec<AkResponseRow> = Vec::new();
     for row in table.rows() {
-        let code = ak(row)?;
-        if out.iter().any(|r| r.ak == code) {
-            return Err(row.err(format!("AK {code} appears twice")));
-        }
+        let code = ak(row, out.iter().map(|r| r.ak))?;
         let kind = match row.req("kind")? {
             "none" => "None",
             "value" => "Value",
@@ -105,10 +107,7 @@ pub fn read_ak_requests(path: &Path, responses: &[AkResponseRow]) -> Result<Vec<
     )?;
     let mut out: Vec<AkRequestRow> = Vec::new();
     for row in table.rows() {
-        let code = ak(row)?;
-        if out.iter().any(|r| r.ak == code) {
-            return Err(row.err(format!("AK {code} appears twice")));
-        }
+        let code = ak(row, out.iter().map(|r| r.ak))?;
         let kind = match row.req("kind")? {
             "none" => "None",
             "read" => "Read",
