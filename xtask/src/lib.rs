@@ -1,13 +1,14 @@
 //! Code generation from the tables extracted from the vendor manuals.
 //!
 //! Every CSV file is read with [`table::Table`], which names `file:line` in every error.
-//! Each drive family has its own module that validates its files and renders Rust source.
+//! Each drive family has its own folder under [`codegen`](mod@codegen) that validates its files
+//! and renders Rust source.
 
-pub mod bonfiglioli;
-pub mod nord;
+pub mod codegen;
 pub mod render;
-pub mod sew;
 pub mod table;
+
+use codegen::{bonfiglioli, nord, sew};
 
 use std::fmt;
 use std::path::{Path, PathBuf};

@@ -21,3 +21,17 @@ pub fn opt<T>(v: Option<T>, f: impl FnOnce(T) -> String) -> String {
         None => "None".to_owned(),
     }
 }
+
+/// `Some(x)` / `None` for an optional value written with its `Display` (numbers, flags).
+pub fn opt_display<T: std::fmt::Display>(v: Option<T>) -> String {
+    opt(v, |x| x.to_string())
+}
+
+/// A `ValueName { value, de, en }` literal: one named value of a parameter's value list.
+pub fn value_name(value: i64, de: &str, en: &str) -> String {
+    format!(
+        "ValueName {{ value: {value}, de: {}, en: {} }}",
+        lit(de),
+        lit(en)
+    )
+}

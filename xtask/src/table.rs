@@ -11,6 +11,7 @@ use std::str::FromStr;
 #[derive(Debug)]
 pub struct Table {
     path: PathBuf,
+    file: String,
     header: Vec<String>,
     rows: Vec<Row>,
 }
@@ -75,6 +76,7 @@ impl Table {
         }
         Ok(Table {
             path: path.to_path_buf(),
+            file,
             header,
             rows,
         })
@@ -93,6 +95,11 @@ impl Table {
     /// The column names.
     pub fn header(&self) -> &[String] {
         &self.header
+    }
+
+    /// An error about the file as a whole, not one row: `file: reason`.
+    pub fn err(&self, reason: impl std::fmt::Display) -> Error {
+        Error(format!("{}: {reason}", self.file))
     }
 }
 
@@ -127,14 +134,20 @@ impl Row {
         }
     }
 
+    /// Column `col` turned into a value by `f`, or `None` when empty.
+    pub fn opt_with<T>(&self, col: &str, f: impl FnOnce(&str) -> Result<T>) -> Result<Option<T>> {
+        match self.str(col)? {
+            "" => Ok(None),
+            s => f(s).map(Some),
+        }
+    }
+
     /// Column `col` parsed as `T`; must not be empty.
     pub fn parse<T: FromStr>(&self, col: &str) -> Result<T>
     where
         T::Err: std::fmt::Display,
     {
-        let s = self.req(col)?;
-        s.parse::<T>()
-            .map_err(|e| self.err(format!("column `{col}`: `{s}`: {e}")))
+        self.parse_text(col, self.req(col)?)
     }
 
     /// Column `col` parsed as `T`, or `None` when empty.
@@ -142,12 +155,28 @@ impl Row {
     where
         T::Err: std::fmt::Display,
     {
-        let s = self.str(col)?;
-        if s.is_empty() {
-            return Ok(None);
-        }
+        self.opt_with(col, |s| self.parse_text(col, s))
+    }
+
+    /// Column `col` as a `|`-separated list of `T` (items trimmed, empty items skipped).
+    pub fn list<T: FromStr>(&self, col: &str) -> Result<Vec<T>>
+    where
+        T::Err: std::fmt::Display,
+    {
+        self.str(col)?
+            .split('|')
+            .map(str::trim)
+            .filter(|s| !s.is_empty())
+            .map(|s| self.parse_text(col, s))
+            .collect()
+    }
+
+    /// `s`, the text of column `col`, parsed as `T`.
+    fn parse_text<T: FromStr>(&self, col: &str, s: &str) -> Result<T>
+    where
+        T::Err: std::fmt::Display,
+    {
         s.parse::<T>()
-            .map(Some)
             .map_err(|e| self.err(format!("column `{col}`: `{s}`: {e}")))
     }
 
@@ -162,19 +191,44 @@ impl Row {
 
     /// Column `col` as an integer written decimal or `0x`-prefixed hexadecimal.
     pub fn int(&self, col: &str) -> Result<i64> {
-        let s = self.req(col)?;
-        parse_int(s).ok_or_else(|| self.err(format!("column `{col}`: `{s}` is not an integer")))
+        self.int_text(col, self.req(col)?)
     }
 
     /// Like [`Row::int`] but `None` when empty.
     pub fn opt_int(&self, col: &str) -> Result<Option<i64>> {
-        let s = self.str(col)?;
-        if s.is_empty() {
-            return Ok(None);
+        self.opt_with(col, |s| self.int_text(col, s))
+    }
+
+    /// `s`, the text of column `col`, parsed with [`parse_int`].
+    fn int_text(&self, col: &str, s: &str) -> Result<i64> {
+        parse_int(s).ok_or_else(|| self.err(format!("column `{col}`: `{s}` is not an integer")))
+    }
+
+    /// Column `col` as an integer ([`Row::int`]) that fits a byte, 0..255.
+    pub fn byte(&self, col: &str) -> Result<u8> {
+        let v = self.int(col)?;
+        u8::try_from(v).map_err(|_| self.err(format!("column `{col}`: {v} is not a byte (0..255)")))
+    }
+
+    /// Column `col` as exactly `digits` hexadecimal digits without prefix, e.g. `2199` or `0A`.
+    pub fn hex(&self, col: &str, digits: usize) -> Result<i64> {
+        let s = self.req(col)?;
+        i64::from_str_radix(s, 16)
+            .ok()
+            .filter(|_| s.len() == digits && s.bytes().all(|b| b.is_ascii_hexdigit()))
+            .ok_or_else(|| self.err(format!("column `{col}`: `{s}` is not {digits} hex digits")))
+    }
+
+    /// The German and English texts of columns `de_col` and `en_col`, which must both be given
+    /// or both be empty: a German text needs its English translation and vice versa.
+    pub fn text_pair(&self, de_col: &str, en_col: &str) -> Result<(&str, &str)> {
+        let (de, en) = (self.str(de_col)?, self.str(en_col)?);
+        if de.is_empty() != en.is_empty() {
+            return Err(self.err(format!(
+                "`{de_col}` and `{en_col}` must both be given or both be empty"
+            )));
         }
-        parse_int(s)
-            .map(Some)
-            .ok_or_else(|| self.err(format!("column `{col}`: `{s}` is not an integer")))
+        Ok((de, en))
     }
 }
 
@@ -199,4 +253,66 @@ fn display_path(path: &Path) -> String {
         .unwrap_or(path)
         .display()
         .to_string()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The one data row of a CSV file with `header` and `row`, written to a scratch file.
+    fn row(test: &str, header: &str, row: &str) -> Row {
+        let dir = std::env::temp_dir().join(format!(
+            "drivebus-xtask-table-{}-{test}",
+            std::process::id()
+        ));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("t.csv");
+        std::fs::write(&path, format!("{header}\n{row}\n")).unwrap();
+        let cols: Vec<&str> = header.split(',').collect();
+        let t = Table::read(&path, &cols).unwrap();
+        let _ = std::fs::remove_dir_all(&dir);
+        t.rows()[0].clone()
+    }
+
+    #[test]
+    fn hex_needs_exactly_the_digits() {
+        let r = row("hex", "a,b,c,d", "2199,0A,+F,20G7");
+        assert_eq!(r.hex("a", 4).unwrap(), 0x2199);
+        assert_eq!(r.hex("b", 2).unwrap(), 0x0A);
+        assert!(
+            r.hex("a", 2)
+                .unwrap_err()
+                .0
+                .contains("`2199` is not 2 hex digits")
+        );
+        assert!(r.hex("c", 2).is_err(), "a sign is not a hex digit");
+        assert!(r.hex("d", 4).unwrap_err().0.contains("t.csv:2: column `d`"));
+    }
+
+    #[test]
+    fn byte_list_and_optional_columns() {
+        let r = row("list", "a,b,c,d,e", "255,256,1| 2 ||3,,x|1");
+        assert_eq!(r.byte("a").unwrap(), 255);
+        assert!(r.byte("b").unwrap_err().0.contains("256 is not a byte"));
+        assert_eq!(r.list::<u8>("c").unwrap(), vec![1, 2, 3]);
+        assert!(r.list::<u8>("d").unwrap().is_empty());
+        assert!(r.list::<u8>("e").unwrap_err().0.contains("column `e`: `x`"));
+        assert_eq!(r.opt_int("d").unwrap(), None);
+        assert_eq!(r.opt_int("a").unwrap(), Some(255));
+        assert_eq!(r.opt::<u8>("a").unwrap(), Some(255));
+        assert!(r.opt::<u8>("b").is_err());
+        assert_eq!(r.opt_with("d", |_| Ok(1)).unwrap(), None);
+        assert_eq!(r.opt_with("a", |s| Ok(s.len())).unwrap(), Some(3));
+    }
+
+    #[test]
+    fn text_pair_needs_both_languages_or_neither() {
+        let r = row("pair", "a_de,a_en,b_de,b_en", "Ja,yes,,no");
+        assert_eq!(r.text_pair("a_de", "a_en").unwrap(), ("Ja", "yes"));
+        let e = r.text_pair("b_de", "b_en").unwrap_err().0;
+        assert!(
+            e.contains("`b_de` and `b_en` must both be given or both be empty"),
+            "{e}"
+        );
+    }
 }

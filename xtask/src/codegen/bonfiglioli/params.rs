@@ -1,23 +1,15 @@
-//! Generator for the Bonfiglioli ACTIVE (ACT) / ACTIVE Cube (ACU) tables.
-//!
-//! Inputs (in `crates/drive-profile/data/bonfiglioli/`):
-//!
-//! * `parameters.csv`: one row per parameter, raw ranges, data type and its source, flags;
-//! * `values.csv`: value lists of parameters (P11 takes its values from `vabus_errors.csv`);
-//! * `warnings.csv`: the bits of P270;
-//! * `faults.csv`: the fault keys of P260 (`FXXYY`, group in the high byte);
-//! * `vabus_errors.csv`: the VABus SST error register P11;
-//! * `exceptions.csv`: the Modbus exception codes of ch. 6.6.
-//!
-//! Every rule is checked before anything is rendered; every error names `file:line`.
+//! Parameters: `parameters.csv` and the value lists in `values.csv` (P11 takes its values from
+//! `vabus_errors.csv`), rendered into `bonfiglioli_params.rs`.
 
-use crate::render::{header, lit, opt};
+use super::{VABUS_PARAM, Value, check_in};
+use crate::Result;
+use crate::render::{header, lit, opt_display, value_name};
 use crate::table::{Row, Table};
-use crate::{Error, Output, Result};
-use std::collections::{BTreeMap, BTreeSet};
+use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::Path;
 
+/// Columns of `parameters.csv`.
 const PARAM_COLUMNS: &[&str] = &[
     "number",
     "name_de",
@@ -42,27 +34,13 @@ const PARAM_COLUMNS: &[&str] = &[
     "chapters",
     "notes",
 ];
+/// Columns of `values.csv`.
 const VALUE_COLUMNS: &[&str] = &["number", "value", "name_de", "name_en"];
-const WARNING_COLUMNS: &[&str] = &[
-    "bit", "code", "name_de", "name_en", "implies", "note_de", "note_en",
-];
-const FAULT_COLUMNS: &[&str] = &["value", "key", "group_de", "group_en", "text_de", "text_en"];
-const VABUS_COLUMNS: &[&str] = &["value", "name_de", "name_en"];
-const EXCEPTION_COLUMNS: &[&str] = &[
-    "code",
-    "modbus_name",
-    "name_de",
-    "name_en",
-    "cause_de",
-    "cause_en",
-];
 
 /// The highest parameter number the 12-bit field of the start address carries (ch. 6.4.1).
 const MAX_NUMBER: u16 = 1599;
 /// Decimal places the manual knows: values are multiplied by 10, 100 or 1000 (ch. 6.4.1).
 const MAX_DECIMALS: u8 = 3;
-/// The parameter whose value list is the VABus error register.
-const VABUS_PARAM: u16 = 11;
 
 /// Data type of a parameter on the bus.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -103,6 +81,7 @@ impl DataType {
     }
 }
 
+/// The `type_source` column: CSV word and the `TypeSource` it renders to.
 const TYPE_SOURCES: &[(&str, &str)] = &[
     ("stated", "TypeSource::Stated"),
     ("example", "TypeSource::Example"),
@@ -114,8 +93,8 @@ const TYPE_SOURCES: &[(&str, &str)] = &[
 
 /// One validated parameter row.
 #[derive(Debug)]
-struct Param {
-    number: u16,
+pub(super) struct Param {
+    pub(super) number: u16,
     name_de: String,
     name_en: String,
     aliases_de: String,
@@ -126,8 +105,8 @@ struct Param {
     type_source: &'static str,
     decimals: u8,
     unit: String,
-    min: Option<i64>,
-    max: Option<i64>,
+    pub(super) min: Option<i64>,
+    pub(super) max: Option<i64>,
     default: Option<i64>,
     data_set: Option<bool>,
     not_in_operation: bool,
@@ -139,46 +118,7 @@ struct Param {
     notes: String,
 }
 
-#[derive(Debug, Clone)]
-struct Value {
-    value: i64,
-    name_de: String,
-    name_en: String,
-}
-
-/// Validate the CSV files in `dir` and render the generated Rust files.
-pub fn generate(dir: &Path) -> Result<Vec<Output>> {
-    let params = read_params(&dir.join("parameters.csv"))?;
-    let vabus = read_vabus(&dir.join("vabus_errors.csv"), &params)?;
-    let mut values = read_values(&dir.join("values.csv"), &params)?;
-    values.insert(VABUS_PARAM, vabus.clone());
-    let warnings = read_warnings(&dir.join("warnings.csv"))?;
-    let faults = read_faults(&dir.join("faults.csv"))?;
-    let exceptions = read_exceptions(&dir.join("exceptions.csv"))?;
-    Ok(vec![
-        Output {
-            name: "bonfiglioli_params.rs".into(),
-            text: render_params(&params, &values),
-        },
-        Output {
-            name: "bonfiglioli_warnings.rs".into(),
-            text: render_warnings(&warnings),
-        },
-        Output {
-            name: "bonfiglioli_faults.rs".into(),
-            text: render_faults(&faults),
-        },
-        Output {
-            name: "bonfiglioli_vabus_errors.rs".into(),
-            text: render_vabus(&vabus),
-        },
-        Output {
-            name: "bonfiglioli_exceptions.rs".into(),
-            text: render_exceptions(&exceptions),
-        },
-    ])
-}
-
+/// Column `col` as an optional flag: `0`, `1` or empty.
 fn bool_opt(row: &Row, col: &str) -> Result<Option<bool>> {
     match row.str(col)? {
         "" => Ok(None),
@@ -188,14 +128,9 @@ fn bool_opt(row: &Row, col: &str) -> Result<Option<bool>> {
     }
 }
 
-fn check_in(row: &Row, what: &str, v: i64, lo: i64, hi: i64) -> Result<()> {
-    if v < lo || v > hi {
-        return Err(row.err(format!("{what} {v} is outside {lo}…{hi}")));
-    }
-    Ok(())
-}
-
-fn read_params(path: &Path) -> Result<Vec<Param>> {
+/// Read the parameters: sorted, unique numbers that fit the start address; data type, raw
+/// range, default and flags that agree with each other.
+pub(super) fn read_params(path: &Path) -> Result<Vec<Param>> {
     let table = Table::read(path, PARAM_COLUMNS)?;
     let mut out: Vec<Param> = Vec::new();
     for row in table.rows() {
@@ -322,7 +257,8 @@ fn read_params(path: &Path) -> Result<Vec<Param>> {
     Ok(out)
 }
 
-fn read_values(path: &Path, params: &[Param]) -> Result<BTreeMap<u16, Vec<Value>>> {
+/// Read the value lists: of a known parameter (not P11), once per value, inside its range.
+pub(super) fn read_values(path: &Path, params: &[Param]) -> Result<BTreeMap<u16, Vec<Value>>> {
     let table = Table::read(path, VALUE_COLUMNS)?;
     let mut out: BTreeMap<u16, Vec<Value>> = BTreeMap::new();
     for row in table.rows() {
@@ -351,183 +287,6 @@ fn read_values(path: &Path, params: &[Param]) -> Result<BTreeMap<u16, Vec<Value>
             name_en: row.req("name_en")?.to_owned(),
         });
     }
-    Ok(out)
-}
-
-fn read_vabus(path: &Path, params: &[Param]) -> Result<Vec<Value>> {
-    let table = Table::read(path, VABUS_COLUMNS)?;
-    let p11 = params.iter().find(|p| p.number == VABUS_PARAM);
-    let mut out: Vec<Value> = Vec::new();
-    for row in table.rows() {
-        let value = row.int("value")?;
-        let (lo, hi) = p11.map_or((0, 255), |p| (p.min.unwrap_or(0), p.max.unwrap_or(255)));
-        check_in(row, "VABus error number", value, lo, hi)?;
-        if out.iter().any(|v| v.value == value) {
-            return Err(row.err(format!("duplicate VABus error number {value}")));
-        }
-        out.push(Value {
-            value,
-            name_de: row.req("name_de")?.to_owned(),
-            name_en: row.req("name_en")?.to_owned(),
-        });
-    }
-    out.sort_by_key(|v| v.value);
-    Ok(out)
-}
-
-#[derive(Debug)]
-struct Warning {
-    bit: u8,
-    name_de: String,
-    name_en: String,
-    implies: Option<u8>,
-    note_de: String,
-    note_en: String,
-}
-
-fn read_warnings(path: &Path) -> Result<Vec<Warning>> {
-    let table = Table::read(path, WARNING_COLUMNS)?;
-    let mut out: Vec<Warning> = Vec::new();
-    for row in table.rows() {
-        let bit = row.int("bit")?;
-        check_in(row, "warning bit", bit, 0, 15)?;
-        let bit = bit as u8;
-        if out.iter().any(|w| w.bit == bit) {
-            return Err(row.err(format!("duplicate warning bit {bit}")));
-        }
-        let code = row.int("code")?;
-        if code != 1i64 << bit {
-            return Err(row.err(format!(
-                "warning code {code:#06X} of bit {bit} must be {:#06X} (1 << bit)",
-                1u32 << bit
-            )));
-        }
-        let implies = match row.opt_int("implies")? {
-            None => None,
-            Some(b) => {
-                check_in(row, "implied bit", b, 0, 15)?;
-                if b == i64::from(bit) {
-                    return Err(row.err("a warning bit cannot imply itself"));
-                }
-                Some(b as u8)
-            }
-        };
-        out.push(Warning {
-            bit,
-            name_de: row.req("name_de")?.to_owned(),
-            name_en: row.req("name_en")?.to_owned(),
-            implies,
-            note_de: row.str("note_de")?.to_owned(),
-            note_en: row.str("note_en")?.to_owned(),
-        });
-    }
-    out.sort_by_key(|w| w.bit);
-    if out.len() != 16 {
-        let have: BTreeSet<u8> = out.iter().map(|w| w.bit).collect();
-        let missing: Vec<String> = (0..16u8)
-            .filter(|b| !have.contains(b))
-            .map(|b| b.to_string())
-            .collect();
-        return Err(Error(format!(
-            "{}: warning bits missing: {}",
-            path.display(),
-            missing.join(", ")
-        )));
-    }
-    Ok(out)
-}
-
-#[derive(Debug)]
-struct Fault {
-    value: u16,
-    key: String,
-    group_de: String,
-    group_en: String,
-    text_de: String,
-    text_en: String,
-}
-
-fn read_faults(path: &Path) -> Result<Vec<Fault>> {
-    let table = Table::read(path, FAULT_COLUMNS)?;
-    let mut out: Vec<Fault> = Vec::new();
-    let mut groups: BTreeMap<u8, (String, u64)> = BTreeMap::new();
-    for row in table.rows() {
-        let value = row.int("value")?;
-        check_in(row, "fault value", value, 0, i64::from(u16::MAX))?;
-        let value = value as u16;
-        let key = row.req("key")?;
-        let expected = format!("F{value:04X}");
-        if key != expected {
-            return Err(row.err(format!(
-                "fault key `{key}` does not match value {value:#06X}: group {:02X} in the high \
-                 byte and code {:02X} in the low byte give `{expected}`",
-                value >> 8,
-                value & 0xFF
-            )));
-        }
-        if let Some(prev) = out.last()
-            && prev.value >= value
-        {
-            return Err(row.err(format!(
-                "fault {key} duplicate or out of order (after {}); keep the file sorted",
-                prev.key
-            )));
-        }
-        let group_de = row.req("group_de")?.to_owned();
-        let group_en = row.req("group_en")?.to_owned();
-        let group = (value >> 8) as u8;
-        if let Some((name, line)) = groups.get(&group)
-            && *name != group_en
-        {
-            return Err(row.err(format!(
-                "group F{group:02X} is named `{group_en}` here but `{name}` on line {line}"
-            )));
-        }
-        groups
-            .entry(group)
-            .or_insert((group_en.clone(), row.line()));
-        out.push(Fault {
-            value,
-            key: key.to_owned(),
-            group_de,
-            group_en,
-            text_de: row.req("text_de")?.to_owned(),
-            text_en: row.req("text_en")?.to_owned(),
-        });
-    }
-    Ok(out)
-}
-
-#[derive(Debug)]
-struct Exception {
-    code: u8,
-    modbus_name: String,
-    name_de: String,
-    name_en: String,
-    cause_de: String,
-    cause_en: String,
-}
-
-fn read_exceptions(path: &Path) -> Result<Vec<Exception>> {
-    let table = Table::read(path, EXCEPTION_COLUMNS)?;
-    let mut out: Vec<Exception> = Vec::new();
-    for row in table.rows() {
-        let code = row.int("code")?;
-        check_in(row, "exception code", code, 1, 127)?;
-        let code = code as u8;
-        if out.iter().any(|e| e.code == code) {
-            return Err(row.err(format!("duplicate exception code {code}")));
-        }
-        out.push(Exception {
-            code,
-            modbus_name: row.req("modbus_name")?.to_owned(),
-            name_de: row.req("name_de")?.to_owned(),
-            name_en: row.req("name_en")?.to_owned(),
-            cause_de: row.req("cause_de")?.to_owned(),
-            cause_en: row.req("cause_en")?.to_owned(),
-        });
-    }
-    out.sort_by_key(|e| e.code);
     Ok(out)
 }
 
@@ -562,7 +321,8 @@ fn range_text(p: &Param, german: bool) -> String {
     }
 }
 
-fn render_params(params: &[Param], values: &BTreeMap<u16, Vec<Value>>) -> String {
+/// Render `bonfiglioli_params.rs`.
+pub(super) fn render_params(params: &[Param], values: &BTreeMap<u16, Vec<Value>>) -> String {
     let mut s = header("bonfiglioli/parameters.csv, values.csv, vabus_errors.csv");
     s.push_str(
         "use crate::bonfiglioli::{DataType, Menu, Param, ParamAccess, TypeSource};\n\
@@ -588,14 +348,10 @@ fn render_params(params: &[Param], values: &BTreeMap<u16, Vec<Value>>) -> String
         let _ = writeln!(s, "        type_source: {},", p.type_source);
         let _ = writeln!(s, "        decimals: {},", p.decimals);
         let _ = writeln!(s, "        unit: {},", lit(&p.unit));
-        let _ = writeln!(s, "        min: {},", opt(p.min, |v| v.to_string()));
-        let _ = writeln!(s, "        max: {},", opt(p.max, |v| v.to_string()));
-        let _ = writeln!(s, "        default: {},", opt(p.default, |v| v.to_string()));
-        let _ = writeln!(
-            s,
-            "        data_set: {},",
-            opt(p.data_set, |v| v.to_string())
-        );
+        let _ = writeln!(s, "        min: {},", opt_display(p.min));
+        let _ = writeln!(s, "        max: {},", opt_display(p.max));
+        let _ = writeln!(s, "        default: {},", opt_display(p.default));
+        let _ = writeln!(s, "        data_set: {},", opt_display(p.data_set));
         let _ = writeln!(s, "        not_in_operation: {},", p.not_in_operation);
         let _ = writeln!(s, "        setup: {},", p.setup);
         let _ = writeln!(s, "        bus_only: {},", p.bus_only);
@@ -609,10 +365,8 @@ fn render_params(params: &[Param], values: &BTreeMap<u16, Vec<Value>>) -> String
                 for v in list {
                     let _ = writeln!(
                         s,
-                        "            ValueName {{ value: {}, de: {}, en: {} }},",
-                        v.value,
-                        lit(&v.name_de),
-                        lit(&v.name_en)
+                        "            {},",
+                        value_name(v.value, &v.name_de, &v.name_en)
                     );
                 }
                 let _ = writeln!(s, "        ],");
@@ -629,185 +383,10 @@ fn render_params(params: &[Param], values: &BTreeMap<u16, Vec<Value>>) -> String
     s
 }
 
-fn render_warnings(warnings: &[Warning]) -> String {
-    let mut s = header("bonfiglioli/warnings.csv");
-    s.push_str("use crate::bonfiglioli::Warning;\n\n");
-    let _ = writeln!(
-        s,
-        "/// The warning bits of parameter 270, indexed by bit number."
-    );
-    let _ = writeln!(s, "pub static WARNINGS: [Warning; 16] = [");
-    for w in warnings {
-        let _ = writeln!(
-            s,
-            "    Warning {{ bit: {}, code: {:#06X}, name_de: {}, name_en: {}, implies: {}, note_de: {}, note_en: {} }},",
-            w.bit,
-            1u16 << w.bit,
-            lit(&w.name_de),
-            lit(&w.name_en),
-            opt(w.implies, |b| b.to_string()),
-            lit(&w.note_de),
-            lit(&w.note_en)
-        );
-    }
-    s.push_str("];\n");
-    s
-}
-
-fn render_faults(faults: &[Fault]) -> String {
-    let mut s = header("bonfiglioli/faults.csv");
-    s.push_str("use crate::bonfiglioli::Fault;\n\n");
-    let _ = writeln!(s, "/// The fault keys of parameter 260, sorted by value.");
-    let _ = writeln!(s, "pub static FAULTS: &[Fault] = &[");
-    for f in faults {
-        let _ = writeln!(
-            s,
-            "    Fault {{ value: {:#06X}, key: {}, group_de: {}, group_en: {}, text_de: {}, text_en: {} }},",
-            f.value,
-            lit(&f.key),
-            lit(&f.group_de),
-            lit(&f.group_en),
-            lit(&f.text_de),
-            lit(&f.text_en)
-        );
-    }
-    s.push_str("];\n");
-    s
-}
-
-fn render_vabus(errors: &[Value]) -> String {
-    let mut s = header("bonfiglioli/vabus_errors.csv");
-    s.push_str("use crate::bonfiglioli::VabusError;\n\n");
-    let _ = writeln!(
-        s,
-        "/// The values of the VABus SST error register (parameter 11), sorted."
-    );
-    let _ = writeln!(s, "pub static VABUS_ERRORS: &[VabusError] = &[");
-    for e in errors {
-        let _ = writeln!(
-            s,
-            "    VabusError {{ value: {}, name_de: {}, name_en: {} }},",
-            e.value,
-            lit(&e.name_de),
-            lit(&e.name_en)
-        );
-    }
-    s.push_str("];\n");
-    s
-}
-
-fn render_exceptions(exceptions: &[Exception]) -> String {
-    let mut s = header("bonfiglioli/exceptions.csv");
-    s.push_str("use crate::bonfiglioli::ModbusException;\n\n");
-    let _ = writeln!(
-        s,
-        "/// The Modbus exception codes the drive sends (ch. 6.6), sorted."
-    );
-    let _ = writeln!(s, "pub static EXCEPTIONS: &[ModbusException] = &[");
-    for e in exceptions {
-        let _ = writeln!(
-            s,
-            "    ModbusException {{ code: {}, modbus_name: {}, name_de: {}, name_en: {}, cause_de: {}, cause_en: {} }},",
-            e.code,
-            lit(&e.modbus_name),
-            lit(&e.name_de),
-            lit(&e.name_en),
-            lit(&e.cause_de),
-            lit(&e.cause_en)
-        );
-    }
-    s.push_str("];\n");
-    s
-}
-
 #[cfg(test)]
 mod tests {
+    use super::super::tests::{expect_err, line_of, replace_line, with_edit};
     use super::*;
-    use std::path::PathBuf;
-
-    const FILES: &[&str] = &[
-        "parameters.csv",
-        "values.csv",
-        "warnings.csv",
-        "faults.csv",
-        "vabus_errors.csv",
-        "exceptions.csv",
-    ];
-
-    fn real_dir() -> PathBuf {
-        crate::data_dir(&crate::workspace_root()).join("bonfiglioli")
-    }
-
-    /// A copy of the real inputs in a fresh temporary folder, with `file` edited by `edit`.
-    fn with_edit(
-        name: &str,
-        file: &str,
-        edit: impl FnOnce(String) -> String,
-    ) -> Result<Vec<Output>> {
-        let dir = std::env::temp_dir().join(format!(
-            "drivebus-bonfiglioli-{}-{name}",
-            std::process::id()
-        ));
-        let _ = std::fs::remove_dir_all(&dir);
-        std::fs::create_dir_all(&dir).unwrap();
-        let mut edit = Some(edit);
-        for f in FILES {
-            let text = std::fs::read_to_string(real_dir().join(f)).unwrap();
-            let text = match edit.take() {
-                Some(e) if *f == file => e(text),
-                other => {
-                    edit = other;
-                    text
-                }
-            };
-            std::fs::write(dir.join(f), text).unwrap();
-        }
-        let out = generate(&dir);
-        let _ = std::fs::remove_dir_all(&dir);
-        out
-    }
-
-    /// Replace the line starting with `prefix` by `line`.
-    fn replace_line(text: &str, prefix: &str, line: &str) -> String {
-        let mut found = false;
-        let out: Vec<String> = text
-            .lines()
-            .map(|l| {
-                if !found && l.starts_with(prefix) {
-                    found = true;
-                    line.to_owned()
-                } else {
-                    l.to_owned()
-                }
-            })
-            .collect();
-        assert!(found, "no line starts with {prefix:?}");
-        out.join("\n") + "\n"
-    }
-
-    /// The 1-based line number of the line starting with `prefix` in the real file.
-    fn line_of(file: &str, prefix: &str) -> usize {
-        let text = std::fs::read_to_string(real_dir().join(file)).unwrap();
-        text.lines().position(|l| l.starts_with(prefix)).unwrap() + 1
-    }
-
-    fn expect_err(out: Result<Vec<Output>>, file: &str, line: usize, needle: &str) {
-        let e = out.expect_err("the edit must be rejected").0;
-        let loc = format!("{file}:{line}:");
-        assert!(e.contains(&loc), "error `{e}` does not name {loc}");
-        assert!(
-            e.contains(needle),
-            "error `{e}` does not mention `{needle}`"
-        );
-    }
-
-    #[test]
-    fn real_tables_generate() {
-        let out = generate(&real_dir()).unwrap();
-        assert_eq!(out.len(), 5);
-        let params = &out[0].text;
-        assert!(params.contains("number: 1376,"));
-    }
 
     #[test]
     fn unknown_data_type_is_rejected() {
@@ -887,62 +466,9 @@ mod tests {
     fn value_list_outside_range_is_rejected() {
         let line = line_of("values.csv", "10,6,");
         let out = with_edit("values", "values.csv", |t| {
-            replace_line(&t, "10,6,", "10,7,230400 Baud,230400 baud")
+            replace_line(t, "10,6,", "10,7,230400 Baud,230400 baud")
         });
         expect_err(out, "values.csv", line, "outside the range of P10");
-    }
-
-    #[test]
-    fn warning_code_must_be_its_bit() {
-        let line = line_of("warnings.csv", "5,");
-        let out = with_edit("warn", "warnings.csv", |t| {
-            replace_line(
-                &t,
-                "5,",
-                "5,0x0040,Warnung I-Limit,Warning current limit,,,",
-            )
-        });
-        expect_err(out, "warnings.csv", line, "must be 0x0020");
-    }
-
-    #[test]
-    fn duplicate_warning_bit_is_rejected() {
-        let line = line_of("warnings.csv", "15,");
-        let out = with_edit("warndup", "warnings.csv", |t| {
-            replace_line(
-                &t,
-                "15,",
-                "14,0x4000,Warnung Udc,Warning DC link voltage,,,",
-            )
-        });
-        expect_err(out, "warnings.csv", line, "duplicate warning bit 14");
-    }
-
-    #[test]
-    fn fault_key_must_match_value() {
-        let line = line_of("faults.csv", "0x2010,");
-        let out = with_edit("fault", "faults.csv", |t| {
-            replace_line(
-                &t,
-                "0x2010,",
-                "0x2010,F2016,Kommunikation,Communication,x,y",
-            )
-        });
-        expect_err(out, "faults.csv", line, "give `F2010`");
-    }
-
-    #[test]
-    fn duplicate_vabus_error_is_rejected() {
-        let line = line_of("vabus_errors.csv", "15,");
-        let out = with_edit("vabus", "vabus_errors.csv", |t| {
-            replace_line(&t, "15,", "14,Unbekannter Fehler,Unknown error")
-        });
-        expect_err(
-            out,
-            "vabus_errors.csv",
-            line,
-            "duplicate VABus error number 14",
-        );
     }
 
     #[test]

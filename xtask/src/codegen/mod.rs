@@ -1,0 +1,12 @@
+//! The generators of the drive families, one folder each.
+//!
+//! Each family's `mod.rs` has the `generate(dir)` entry point; its submodules each read,
+//! validate and render one group of CSV files (usually one generated file). The CSV reader
+//! ([`crate::table`]) and the rendering helpers ([`crate::render`]) are shared.
+
+pub mod bonfiglioli;
+pub mod nord;
+pub mod sew;
+
+#[cfg(test)]
+mod test_util;
