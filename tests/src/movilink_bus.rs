@@ -3,10 +3,10 @@
 //!
 //! This is a minimal pump written for the tests, independent of the crate's async driver: the
 //! sans-IO [`Master`] and [`Slave`] run on tokio's paused clock, which the pump moves exactly
-//! (`tokio::time::advance`, microsecond steps) from one event to the next: a state machine's
+//! (`tokio::time::advance`) from one event to the next: a state machine's
 //! [`poll_timeout`](Master::poll_timeout) or the end of a burst of characters on the line.
 //! Each received [`TimedChar`] becomes an [`RxChar`] stamped with its exact arrival time
-//! (microseconds since the pump's epoch); a character the UART flagged (`parity_ok == false`:
+//! (the time since the pump's epoch); a character the UART flagged (`parity_ok == false`:
 //! parity or framing error) arrives with [`CharError::Parity`].
 //!
 //! The pump records every telegram each side puts on the wire and what the other side made of
@@ -25,45 +25,15 @@ use std::time::Duration;
 use drive_transport::link::{self, Fault, FaultConfig, FaultStats, LinkConfig, LinkEnd, TimedChar};
 use movilink::{
     Address, Backend, CharError, Master, MasterConfig, MasterEvent, ParamChannel, RejectReason,
-    ReturnCode, RxChar, Service, Slave, SlaveConfig, SlaveEvent, Telegram,
+    RequestContext, ReturnCode, RxChar, Service, Slave, SlaveConfig, SlaveEvent, Telegram,
 };
 use tokio::io::AsyncWrite;
 use tokio::time::Instant as TokioInstant;
 
-/// SplitMix64's output function: a good 64-bit mixer.
-pub fn mix64(x: u64) -> u64 {
-    let mut z = x.wrapping_add(0x9E37_79B9_7F4A_7C15);
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^ (z >> 31)
-}
+pub use drive_core::rng::mix64;
 
-/// A small seeded random generator (SplitMix64) for the campaigns.
-#[derive(Debug, Clone)]
-pub struct Rng(u64);
-
-impl Rng {
-    /// A generator with `seed`.
-    pub fn new(seed: u64) -> Self {
-        Self(seed)
-    }
-
-    /// The next 64 random bits.
-    pub fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        mix64(self.0.wrapping_sub(0x9E37_79B9_7F4A_7C15))
-    }
-
-    /// Uniform in `0..n` (`n > 0`).
-    pub fn below(&mut self, n: u64) -> u64 {
-        ((u128::from(self.next_u64()) * u128::from(n)) >> 64) as u64
-    }
-
-    /// `true` with probability `p`.
-    pub fn chance(&mut self, p: f64) -> bool {
-        ((self.next_u64() >> 11) as f64) * (1.0 / (1u64 << 53) as f64) < p
-    }
-}
+/// The campaigns' seeded random generator: drivebus's one generator.
+pub type Rng = drive_core::SplitMix64;
 
 /// The value the test drive answers to a read of `index`/`subindex`.
 pub fn read_value(index: u16, subindex: u8) -> u32 {
@@ -105,7 +75,7 @@ pub struct TestBackend {
 }
 
 impl Backend for TestBackend {
-    fn param(&mut self, request: &ParamChannel) -> Result<u32, ReturnCode> {
+    fn param(&mut self, _ctx: &RequestContext, request: &ParamChannel) -> Result<u32, ReturnCode> {
         match request.service() {
             Some(Service::Read) => {
                 self.reads += 1;
@@ -122,14 +92,12 @@ impl Backend for TestBackend {
         }
     }
 
-    fn process_data(&mut self, output: &[u16], input: &mut [u16]) {
+    fn process_data(&mut self, _ctx: &RequestContext, output: &[u16], input: &mut [u16]) {
         self.pd_exchanges += 1;
         for (j, w) in input.iter_mut().enumerate() {
             *w = input_word(output, j);
         }
     }
-
-    fn on_timeout(&mut self) {}
 }
 
 /// Which side put a telegram on the wire.
@@ -301,17 +269,17 @@ impl LinkBus {
         self.drive_end.set_faults(faults);
     }
 
-    /// Microseconds since the epoch as a protocol instant.
+    /// The time since the epoch as a protocol instant.
     pub fn now(&self) -> movilink::Instant {
         self.to_protocol(TokioInstant::now())
     }
 
     fn to_protocol(&self, t: TokioInstant) -> movilink::Instant {
-        movilink::Instant::from_micros(t.saturating_duration_since(self.epoch).as_micros() as u64)
+        movilink::Instant::from_duration(t.saturating_duration_since(self.epoch))
     }
 
     fn to_tokio(&self, t: movilink::Instant) -> TokioInstant {
-        self.epoch + Duration::from_micros(t.as_micros())
+        self.epoch + t.as_duration()
     }
 
     /// Send `request` and run until the master is idle again; the master's events are in
@@ -365,7 +333,7 @@ impl LinkBus {
                 self.master.handle_timeout(due);
                 self.slave.handle_timeout(due);
                 self.collect();
-                self.transmit(true).await;
+                self.transmit(due, true).await;
                 if self.next_deadline() == Some(due) {
                     break;
                 }
@@ -385,7 +353,7 @@ impl LinkBus {
         self.master.handle_timeout(now);
         self.slave.handle_timeout(now);
         self.collect();
-        self.transmit(false).await;
+        self.transmit(now, false).await;
         self.collect();
     }
 
@@ -396,13 +364,13 @@ impl LinkBus {
             .min()
     }
 
-    async fn transmit(&mut self, late: bool) {
+    async fn transmit(&mut self, now: movilink::Instant, late: bool) {
         let mut buf = [0u8; movilink::MAX_TELEGRAM_LEN];
-        if let Some(n) = self.master.poll_transmit(&mut buf) {
+        if let Some(n) = self.master.poll_transmit(now, &mut buf) {
             self.late_transmissions += u64::from(late);
             self.write(Side::Master, &buf[..n]).await;
         }
-        if let Some(n) = self.slave.poll_transmit(&mut buf) {
+        if let Some(n) = self.slave.poll_transmit(now, &mut buf) {
             self.late_transmissions += u64::from(late);
             self.write(Side::Drive, &buf[..n]).await;
         }

@@ -25,7 +25,7 @@ use drivebus_tests::movilink_bus::{
 };
 use movilink::{
     Address, AddressFilter, Direction, LineTiming, MasterEvent, ParamChannel, PduType, Receiver,
-    RxChar, RxEvent, Telegram, codec,
+    RxChar, RxEvent, Telegram, TelegramFraming, codec,
 };
 
 /// Transactions of a campaign, scaled by `MOVILINK_FAULT_SCALE` (default 1).
@@ -531,7 +531,11 @@ fn simulate(bytes: &[u8], direction: Direction, m: &Model, rng: &mut Rng) -> boo
             expected: drive_address(),
         },
     };
-    let mut rx = Receiver::new(direction, filter, LineTiming::MOVILINK);
+    let mut rx = Receiver::new(TelegramFraming::new(
+        direction,
+        filter,
+        LineTiming::MOVILINK,
+    ));
     let sent = codec::decode(bytes).map(|(t, _)| t).ok();
     let mut t = 3440;
     let mut accepted = None;
@@ -543,7 +547,7 @@ fn simulate(bytes: &[u8], direction: Direction, m: &Model, rng: &mut Rng) -> boo
         } else {
             RxChar::with_error(byte, time, movilink::CharError::Parity)
         };
-        if let Some(RxEvent::Telegram(tg)) = rx.handle_char(c) {
+        if let Some(RxEvent::Frame(tg)) = rx.handle_char(c) {
             accepted = Some(tg);
         }
     };
@@ -564,8 +568,7 @@ fn simulate(bytes: &[u8], direction: Direction, m: &Model, rng: &mut Rng) -> boo
             deliver(&mut rx, frame(rng.next_u64() as u8), t);
         }
     }
-    if let Some(RxEvent::Telegram(tg)) = rx.handle_timeout(movilink::Instant::from_micros(t + 3440))
-    {
+    if let Some(RxEvent::Frame(tg)) = rx.handle_timeout(movilink::Instant::from_micros(t + 3440)) {
         accepted = Some(tg);
     }
     accepted.is_some() && accepted != sent

@@ -1,7 +1,7 @@
 //! The generated tables of every family drive the simulated drive core consistently.
 
 use drive_profile::{Access, Family, ParamMeta};
-use drive_sim::{Persistence, SimError, SimTime};
+use drive_sim::{Instant, Persistence, SimError};
 use drivebus_tests::{params, sim_drive};
 
 /// Every parameter with a range and a default: the simulated drive starts at that default.
@@ -45,7 +45,7 @@ fn simulated_drives_start_at_the_table_defaults() {
 /// Writing one past a writable parameter's range is refused and changes nothing.
 #[test]
 fn out_of_range_writes_are_refused_for_every_family() {
-    let now = SimTime::from_millis(1);
+    let now = Instant::from_millis(1);
     for family in Family::ALL {
         let mut drive = sim_drive(family);
         let mut refused = 0;
@@ -90,7 +90,7 @@ fn out_of_range_writes_are_refused_for_every_family() {
 /// Read-only parameters cannot be written through the simulated drive.
 #[test]
 fn read_only_parameters_stay_read_only() {
-    let now = SimTime::from_millis(1);
+    let now = Instant::from_millis(1);
     let mut drive = sim_drive(Family::Movidrive);
     // P000 speed, index 8318, is RO in the manual's table.
     let r = drive.write(8318, 0, 1000, Persistence::Volatile, now);

@@ -5,7 +5,7 @@
 //!
 //! * [`time`]: [`Instant`], the one notion of time (nanoseconds since an epoch the caller
 //!   picks); nothing in the sans-IO layers reads a clock;
-//! * [`line`]: [`LineSettings`] (baud, data bits, parity, stop bits) and the one
+//! * [`line`](mod@line): [`LineSettings`] (baud, data bits, parity, stop bits) and the one
 //!   [`char_time`](line::char_time) function every pause is computed from;
 //! * [`char`](mod@char): [`RxChar`], a received character with its time and UART error flag;
 //! * [`framing`]: the [`Framing`] description and the generic [`Receiver`] (idle gap starts a

@@ -100,6 +100,8 @@ mod tests {
             assert!((0.0..1.0).contains(&x));
         }
         assert_eq!(r.below(0), 0);
+        let hits = (0..100_000).filter(|_| r.chance(0.25)).count();
+        assert!((24_000..26_000).contains(&hits), "{hits}");
         let before = r.clone();
         assert!(!r.chance(0.0) && !r.chance(f64::NAN) && r.chance(1.0));
         assert_eq!(r, before, "certain outcomes draw nothing");

@@ -7,7 +7,7 @@ use crate::inject::{FaultInjector, Response};
 use crate::ramp::{Ramp, RampConfig, RampMode};
 use crate::state::{Command, DriveState, DriveStateMachine, FaultReaction};
 use crate::store::{OperatingCondition, ParamStore, Persistence};
-use crate::time::SimTime;
+use drive_core::Instant;
 
 /// Where the actual speed is mirrored into the parameter store on every update.
 #[derive(Debug, Clone, Copy)]
@@ -23,7 +23,7 @@ pub struct SpeedMapping {
 /// A family front-end's per-tick hook: runs at the end of [`SimDrive::tick`], after the ramp
 /// and the speed mapping, with full access to the drive (e.g. to build a status word into a
 /// parameter, or to take ramp times from P130/P131).
-pub type TickHook = Box<dyn FnMut(&mut SimDrive, SimTime) + Send>;
+pub type TickHook = Box<dyn FnMut(&mut SimDrive, Instant) + Send>;
 
 /// One simulated drive.
 ///
@@ -94,7 +94,7 @@ impl SimDrive {
         sub: u16,
         raw: i64,
         persistence: Persistence,
-        now: SimTime,
+        now: Instant,
     ) -> Result<(), SimError> {
         self.advance(now);
         self.store.write(index, sub, raw, persistence, now)
@@ -144,7 +144,7 @@ impl SimDrive {
     }
 
     /// Apply a command at `now` (see [`crate::state`] for the transitions).
-    pub fn command(&mut self, command: Command, now: SimTime) -> Result<DriveState, SimError> {
+    pub fn command(&mut self, command: Command, now: Instant) -> Result<DriveState, SimError> {
         self.advance(now);
         let result = self.machine.apply(command);
         self.sync();
@@ -152,33 +152,33 @@ impl SimDrive {
     }
 
     /// [`Command::Enable`].
-    pub fn enable(&mut self, now: SimTime) -> Result<DriveState, SimError> {
+    pub fn enable(&mut self, now: Instant) -> Result<DriveState, SimError> {
         self.command(Command::Enable, now)
     }
 
     /// [`Command::Inhibit`].
-    pub fn inhibit(&mut self, now: SimTime) -> Result<DriveState, SimError> {
+    pub fn inhibit(&mut self, now: Instant) -> Result<DriveState, SimError> {
         self.command(Command::Inhibit, now)
     }
 
     /// [`Command::Stop`].
-    pub fn stop(&mut self, now: SimTime) -> Result<DriveState, SimError> {
+    pub fn stop(&mut self, now: Instant) -> Result<DriveState, SimError> {
         self.command(Command::Stop, now)
     }
 
     /// [`Command::QuickStop`].
-    pub fn quick_stop(&mut self, now: SimTime) -> Result<DriveState, SimError> {
+    pub fn quick_stop(&mut self, now: Instant) -> Result<DriveState, SimError> {
         self.command(Command::QuickStop, now)
     }
 
     /// [`Command::FaultReset`].
-    pub fn fault_reset(&mut self, now: SimTime) -> Result<DriveState, SimError> {
+    pub fn fault_reset(&mut self, now: Instant) -> Result<DriveState, SimError> {
         self.command(Command::FaultReset, now)
     }
 
     /// Raise a drive fault at `now`: the state becomes [`DriveState::Fault`] and the motor
     /// stops per the fault reaction.
-    pub fn raise_fault(&mut self, code: u16, now: SimTime) -> DriveState {
+    pub fn raise_fault(&mut self, code: u16, now: Instant) -> DriveState {
         self.advance(now);
         let state = self.machine.raise_fault(code);
         self.sync();
@@ -187,7 +187,7 @@ impl SimDrive {
 
     /// Restart (power cycle) at `now`: RAM ← EEPROM ([`ParamStore::restart`]), state
     /// [`DriveState::Inhibited`], standstill, setpoint 0. Injected communication faults stay.
-    pub fn restart(&mut self, now: SimTime) {
+    pub fn restart(&mut self, now: Instant) {
         self.store.restart();
         self.machine.restart();
         self.ramp.reset(now);
@@ -202,7 +202,7 @@ impl SimDrive {
     }
 
     /// Change the ramps at `now` (motion up to `now` used the old ones).
-    pub fn set_ramp_config(&mut self, config: RampConfig, now: SimTime) {
+    pub fn set_ramp_config(&mut self, config: RampConfig, now: Instant) {
         self.advance(now);
         self.ramp.set_config(config);
     }
@@ -214,7 +214,7 @@ impl SimDrive {
 
     /// Set the speed setpoint in 1/min at `now` (clamped to the speed limit; followed only
     /// while [`DriveState::Enabled`]).
-    pub fn set_setpoint(&mut self, rpm: f64, now: SimTime) -> Result<(), SimError> {
+    pub fn set_setpoint(&mut self, rpm: f64, now: Instant) -> Result<(), SimError> {
         self.advance(now);
         self.ramp.set_setpoint(rpm)
     }
@@ -242,7 +242,7 @@ impl SimDrive {
 
     /// Advance the model to `now`: ramp, operating condition, actual-speed mapping, then the
     /// tick hook.
-    pub fn tick(&mut self, now: SimTime) {
+    pub fn tick(&mut self, now: Instant) {
         self.advance(now);
         if let Some(mut hook) = self.hook.take() {
             hook(self, now);
@@ -287,7 +287,7 @@ impl SimDrive {
 
     /// Whether and when to answer a request received at `now`
     /// ([`FaultInjector::should_respond`]).
-    pub fn should_respond(&mut self, now: SimTime) -> Response {
+    pub fn should_respond(&mut self, now: Instant) -> Response {
         self.injector.should_respond(now)
     }
 
@@ -306,7 +306,7 @@ impl SimDrive {
         }
     }
 
-    fn advance(&mut self, now: SimTime) {
+    fn advance(&mut self, now: Instant) {
         let mode = self.ramp_mode();
         self.ramp.advance(now, mode);
         self.sync();

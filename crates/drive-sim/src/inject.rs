@@ -1,40 +1,12 @@
 //! Communication fault injection: delayed and dropped answers, with a seeded RNG.
 //!
 //! Protocol front-ends ask [`FaultInjector::should_respond`] once per request they would answer
-//! and honour the result, so that masters can be tested against slow and silent drives.
+//! and honour the result, so that masters can be tested against slow and silent drives. The
+//! random draws come from drivebus's one seeded generator, [`drive_core::SplitMix64`].
 
 use std::time::Duration;
 
-use crate::time::SimTime;
-
-/// A tiny deterministic pseudo-random generator (SplitMix64, Steele/Lea/Flood 2014).
-///
-/// Not for cryptography; the same seed always yields the same sequence.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct SplitMix64 {
-    state: u64,
-}
-
-impl SplitMix64 {
-    /// A generator seeded with `seed`.
-    pub const fn new(seed: u64) -> SplitMix64 {
-        SplitMix64 { state: seed }
-    }
-
-    /// The next 64 random bits.
-    pub fn next_u64(&mut self) -> u64 {
-        self.state = self.state.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.state;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-
-    /// A uniformly distributed value in `[0, 1)` (53 bits of precision).
-    pub fn next_f64(&mut self) -> f64 {
-        (self.next_u64() >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
-    }
-}
+use drive_core::{Instant, SplitMix64};
 
 /// What a front-end should do with a request it would answer.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -61,7 +33,7 @@ pub struct FaultInjector {
     delay: Duration,
     drop_probability: f64,
     drop_next: u32,
-    offline_until: Option<SimTime>,
+    offline_until: Option<Instant>,
 }
 
 impl Default for FaultInjector {
@@ -118,7 +90,7 @@ impl FaultInjector {
     }
 
     /// Drop every answer until `until` (exclusive); `None` ends an offline window.
-    pub fn set_offline_until(&mut self, until: Option<SimTime>) {
+    pub fn set_offline_until(&mut self, until: Option<Instant>) {
         self.offline_until = until;
     }
 
@@ -131,7 +103,7 @@ impl FaultInjector {
     }
 
     /// Decide about one answer at time `now`.
-    pub fn should_respond(&mut self, now: SimTime) -> Response {
+    pub fn should_respond(&mut self, now: Instant) -> Response {
         if self.drop_next > 0 {
             self.drop_next -= 1;
             return Response::Drop;

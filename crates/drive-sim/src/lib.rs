@@ -8,12 +8,14 @@
 //!   stop and fault reset, with a configurable [`FaultReaction`].
 //! * [`Ramp`]: setpoint and actual speed in 1/min with SEW-style ramp times (per
 //!   [`RampConfig::reference_speed`], 3000 1/min by default).
-//! * [`FaultInjector`]: delayed and dropped answers, driven by a seeded [`SplitMix64`].
+//! * [`FaultInjector`]: delayed and dropped answers, driven by the seeded
+//!   [`drive_core::SplitMix64`].
 //! * [`SimDrive`]: all of the above, advanced with [`SimDrive::tick`].
 //!
 //! # Time
 //!
-//! The crate never reads a clock and does no I/O. Time is a [`SimTime`] argument: microseconds
+//! The crate never reads a clock and does no I/O. Time is an [`Instant`] argument (drivebus's
+//! one time type, from `drive-core`): nanoseconds
 //! since an epoch the caller picks. Tests step it by hand; a front-end on tokio converts its
 //! (possibly paused) clock.
 //!
@@ -27,7 +29,7 @@
 //! use std::time::Duration;
 //! use drive_profile::{Access, Family, ParamMeta};
 //! use drive_profile::scaling::ScaleError;
-//! use drive_sim::{DriveState, ParamStore, Persistence, SimDrive, SimError, SimTime, SpeedMapping};
+//! use drive_sim::{DriveState, Instant, ParamStore, Persistence, SimDrive, SimError, SpeedMapping};
 //!
 //! // A two-parameter table; real front-ends use `drive_profile::sew::params()` and friends.
 //! struct Row { index: u16, access: Access, default: i64, range: Option<(i64, i64)> }
@@ -66,7 +68,7 @@
 //!     to_raw: |rpm| (rpm * 1000.0).round() as i64,
 //! }))?;
 //!
-//! let t0 = SimTime::ZERO;
+//! let t0 = Instant::ZERO;
 //! assert_eq!(drive.write(8318, 0, 5, Persistence::Volatile, t0), Err(SimError::ReadOnly { index: 8318 }));
 //! drive.write(8470, 0, 1000, Persistence::NonVolatile, t0)?;
 //! assert_eq!(drive.store().nv_writes(8470, 0)?, 1);
@@ -96,12 +98,11 @@ pub mod movidrive;
 pub mod ramp;
 pub mod state;
 pub mod store;
-mod time;
 
 pub use drive::{SimDrive, SpeedMapping, TickHook};
+pub use drive_core::Instant;
 pub use error::SimError;
-pub use inject::{FaultInjector, Response, SplitMix64};
+pub use inject::{FaultInjector, Response};
 pub use ramp::{Ramp, RampConfig, RampMode};
 pub use state::{Command, DriveState, DriveStateMachine, FaultReaction};
 pub use store::{Meta, OperatingCondition, ParamStore, Persistence, StoreOptions};
-pub use time::SimTime;

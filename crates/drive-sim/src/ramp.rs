@@ -16,7 +16,7 @@
 use std::time::Duration;
 
 use crate::error::SimError;
-use crate::time::SimTime;
+use drive_core::Instant;
 
 /// Ramp times and limits.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -71,7 +71,7 @@ pub struct Ramp {
     config: RampConfig,
     setpoint: f64,
     actual: f64,
-    last: Option<SimTime>,
+    last: Option<Instant>,
 }
 
 impl Default for Ramp {
@@ -122,7 +122,7 @@ impl Ramp {
     }
 
     /// The time of the last [`Ramp::advance`], if any.
-    pub const fn last_update(&self) -> Option<SimTime> {
+    pub const fn last_update(&self) -> Option<Instant> {
         self.last
     }
 
@@ -137,9 +137,9 @@ impl Ramp {
     /// Move the actual speed toward the target of `mode` by the time elapsed since the last
     /// call (the first call only sets the time base; time going backwards counts as none).
     /// Returns the new actual speed.
-    pub fn advance(&mut self, now: SimTime, mode: RampMode) -> f64 {
+    pub fn advance(&mut self, now: Instant, mode: RampMode) -> f64 {
         let elapsed = match self.last {
-            Some(last) => now.saturating_since(last),
+            Some(last) => now.saturating_duration_since(last),
             None => Duration::ZERO,
         };
         self.last = Some(self.last.map_or(now, |last| last.max(now)));
@@ -162,7 +162,7 @@ impl Ramp {
     }
 
     /// Standstill, setpoint 0, time base `now`.
-    pub fn reset(&mut self, now: SimTime) {
+    pub fn reset(&mut self, now: Instant) {
         self.setpoint = 0.0;
         self.actual = 0.0;
         self.last = Some(now);

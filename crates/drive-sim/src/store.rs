@@ -38,7 +38,7 @@ use std::collections::BTreeMap;
 use drive_profile::{Access, ParamMeta};
 
 use crate::error::SimError;
-use crate::time::SimTime;
+use drive_core::Instant;
 
 /// A parameter row as the store keeps it: any family's metadata, shareable across threads.
 pub type Meta = &'static (dyn ParamMeta + Sync);
@@ -114,7 +114,7 @@ struct Cell {
     ram: i64,
     eeprom: i64,
     nv_writes: u64,
-    last_nv_write: Option<SimTime>,
+    last_nv_write: Option<Instant>,
 }
 
 impl Cell {
@@ -299,7 +299,7 @@ impl ParamStore {
     }
 
     /// Time of the cell's last non-volatile write.
-    pub fn last_nv_write(&self, index: u16, sub: u16) -> Result<Option<SimTime>, SimError> {
+    pub fn last_nv_write(&self, index: u16, sub: u16) -> Result<Option<Instant>, SimError> {
         self.cell(index, sub).map(|c| c.last_nv_write)
     }
 
@@ -349,7 +349,7 @@ impl ParamStore {
         sub: u16,
         raw: i64,
         persistence: Persistence,
-        now: SimTime,
+        now: Instant,
     ) -> Result<(), SimError> {
         let locked = self.is_locked();
         let exhaustive = self
@@ -492,7 +492,7 @@ impl ParamStore {
     /// [`Persistence::NonVolatile`] the EEPROM value of cells with EEPROM backing too (counted
     /// as one non-volatile write per cell whose EEPROM value changes). Read-only values (produced
     /// by the drive) are left alone; no access check applies.
-    pub fn reset_to_defaults(&mut self, persistence: Persistence, now: SimTime) {
+    pub fn reset_to_defaults(&mut self, persistence: Persistence, now: Instant) {
         let eeprom_for_unflagged = self.options.eeprom_for_unflagged;
         for cell in self.entries.values_mut().flat_map(|e| e.cells.values_mut()) {
             if !cell.meta.access().is_writable() {

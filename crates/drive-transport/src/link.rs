@@ -63,9 +63,11 @@
 //!
 //! A dropped character is not also flipped. [`FaultStats`] counts what was injected.
 //!
-//! The random generator is a SplitMix64 written here (no `rand` dependency: a few lines give
-//! a deterministic, seedable stream, and the exact sequence must not change with a dependency
-//! update). The two directions of a link use independent streams derived from the seed.
+//! The random draws come from drivebus's one seeded generator, [`drive_core::SplitMix64`]; the
+//! two directions of a link use independent streams derived from the seed.
+//!
+//! [`LinkEnd`] is also a [`drive_core::rt::CharIo`]: protocol drivers and simulated
+//! devices read its characters with their exact arrival times and parity flags.
 
 use std::collections::VecDeque;
 use std::future::{Future as _, poll_fn};
@@ -78,7 +80,9 @@ use std::time::Duration;
 use tokio::io::{AsyncRead, AsyncWrite, ReadBuf};
 use tokio::time::{Instant, Sleep};
 
-use crate::serial::{self, Parity, SerialConfig};
+use drive_core::line::{LineSettings, Parity};
+use drive_core::rt::{CharIo, ReceivedChar};
+use drive_core::{CharError, SplitMix64};
 
 /// One character as a UART receives it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -207,12 +211,9 @@ pub struct FaultStats {
 /// Configuration of an in-memory link (both directions).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LinkConfig {
-    /// Baud rate in bit/s (used with timing on).
-    pub baud: u32,
-    /// Bits per character on the wire, start and stop bits included (11 for 8E1).
-    pub bits_per_char: u32,
-    /// Parity of the characters, for the parity flag of [`WireChar`].
-    pub parity: Parity,
+    /// Baud rate, data bits, parity and stop bits: the character time and the parity flag of
+    /// [`WireChar`].
+    pub line: LineSettings,
     /// Model wire time (`true`) or deliver immediately (`false`).
     pub timing: bool,
     /// Random faults, applied to both directions with independent random streams.
@@ -224,23 +225,23 @@ pub struct LinkConfig {
 impl Default for LinkConfig {
     /// 9600 baud, 8E1 (11 bits per character), timing on, no faults, capacity 4096.
     fn default() -> Self {
-        LinkConfig {
-            baud: 9600,
-            bits_per_char: 11,
-            parity: Parity::Even,
-            timing: true,
-            faults: FaultConfig::none(),
-            capacity: 4096,
-        }
+        LinkConfig::from_line(LineSettings::new(9600))
     }
 }
 
 impl LinkConfig {
     /// 8E1 at `baud` with timing on and no faults.
     pub fn new(baud: u32) -> Self {
+        LinkConfig::from_line(LineSettings::new(baud))
+    }
+
+    /// A line with `line`'s settings, timing on, no faults.
+    pub fn from_line(line: LineSettings) -> Self {
         LinkConfig {
-            baud,
-            ..LinkConfig::default()
+            line,
+            timing: true,
+            faults: FaultConfig::none(),
+            capacity: 4096,
         }
     }
 
@@ -252,28 +253,21 @@ impl LinkConfig {
         }
     }
 
-    /// Baud rate, parity and bits per character of a serial configuration, timing on.
-    pub fn from_serial(config: &SerialConfig) -> Self {
-        LinkConfig {
-            baud: config.baud,
-            bits_per_char: config.bits_per_char(),
-            parity: config.parity,
-            ..LinkConfig::default()
-        }
-    }
-
     /// The same configuration with these random faults.
     pub fn with_faults(self, faults: FaultConfig) -> Self {
         LinkConfig { faults, ..self }
     }
 
-    /// Wire time of one character (`bits_per_char / baud`), whether or not timing is on.
+    /// Wire time of one character, whether or not timing is on.
     pub fn char_time(&self) -> Duration {
-        serial::char_time(self.baud, self.bits_per_char)
+        self.line.char_time()
     }
 
     fn frame_len(&self) -> u32 {
-        self.bits_per_char.max(10 + self.parity.bits()).min(16)
+        self.line
+            .bits_per_char()
+            .max(10 + self.line.parity.bits())
+            .min(16)
     }
 }
 
@@ -290,37 +284,6 @@ pub fn pair(config: LinkConfig) -> (LinkEnd, LinkEnd) {
     let a = LinkEnd::new(a_to_b.clone(), b_to_a.clone());
     let b = LinkEnd::new(b_to_a, a_to_b);
     (a, b)
-}
-
-/// SplitMix64 (Steele, Lea, Flood 2014): tiny, fast, good enough for fault injection.
-#[derive(Debug, Clone)]
-struct SplitMix64(u64);
-
-impl SplitMix64 {
-    fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-
-    /// `true` with probability `p`; draws nothing for `p <= 0` (or NaN).
-    fn chance(&mut self, p: f64) -> bool {
-        if p.is_nan() || p <= 0.0 {
-            return false;
-        }
-        if p >= 1.0 {
-            return true;
-        }
-        // 53 random bits as a uniform f64 in [0, 1).
-        ((self.next_u64() >> 11) as f64) * (1.0 / (1u64 << 53) as f64) < p
-    }
-
-    /// Uniform in `0..n` (`n > 0`).
-    fn below(&mut self, n: u32) -> u32 {
-        (((self.next_u64() >> 32) * u64::from(n)) >> 32) as u32
-    }
 }
 
 #[derive(Debug, Clone, Copy)]
@@ -371,12 +334,12 @@ impl Pipe {
                 Duration::ZERO
             },
             timing: config.timing,
-            parity: config.parity,
+            parity: config.line.parity,
             frame_len: config.frame_len(),
             capacity: config.capacity.max(1),
             faults: config.faults,
             faults_active: config.faults.is_active(),
-            rng: SplitMix64(seed),
+            rng: SplitMix64::new(seed),
             pending: VecDeque::new(),
             stats: FaultStats::default(),
             rx_waker: None,
@@ -429,7 +392,7 @@ impl Pipe {
         if self.rng.chance(cfg.flip) && !f.drop {
             let k = cfg.flip_bits.clamp(1, self.frame_len);
             while f.flip_mask.count_ones() < k {
-                f.flip_mask |= 1 << self.rng.below(self.frame_len);
+                f.flip_mask |= 1 << self.rng.below(u64::from(self.frame_len));
             }
         }
         if self.rng.chance(cfg.insert) {
@@ -765,6 +728,49 @@ impl Drop for LinkEnd {
     }
 }
 
+/// Characters read per call into a stack buffer by the [`CharIo`] implementation.
+const CHAR_CHUNK: usize = 64;
+
+impl CharIo for LinkEnd {
+    fn poll_read_chars(
+        &mut self,
+        cx: &mut Context<'_>,
+        buf: &mut [ReceivedChar],
+    ) -> Poll<io::Result<usize>> {
+        let Some(first) = buf.first() else {
+            return Poll::Ready(Ok(0));
+        };
+        let filler = TimedChar {
+            ch: WireChar::new(0),
+            at: first.at,
+        };
+        let mut scratch = [filler; CHAR_CHUNK];
+        let want = buf.len().min(CHAR_CHUNK);
+        let scratch = scratch.get_mut(..want).unwrap_or(&mut []);
+        let n = match self.poll_read_timed(cx, scratch) {
+            Poll::Ready(Ok(n)) => n,
+            other => return other,
+        };
+        for (dst, src) in buf.iter_mut().zip(scratch.iter().take(n)) {
+            *dst = ReceivedChar {
+                byte: src.ch.byte,
+                at: src.at,
+                // The link (like Linux) reports parity and framing errors alike.
+                error: (!src.ch.parity_ok).then_some(CharError::Parity),
+            };
+        }
+        Poll::Ready(Ok(n))
+    }
+
+    fn poll_write(&mut self, cx: &mut Context<'_>, buf: &[u8]) -> Poll<io::Result<usize>> {
+        AsyncWrite::poll_write(Pin::new(self), cx, buf)
+    }
+
+    fn poll_flush(&mut self, cx: &mut Context<'_>) -> Poll<io::Result<()>> {
+        AsyncWrite::poll_flush(Pin::new(self), cx)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -792,24 +798,5 @@ mod tests {
         // Without parity, data flips go unnoticed; bit 9 is the stop bit.
         assert!(apply_flip(0x12, 1 << 1, Parity::None, 10).parity_ok);
         assert!(!apply_flip(0x12, 1 << 9, Parity::None, 10).parity_ok);
-    }
-
-    #[test]
-    fn splitmix_is_deterministic_and_uniform() {
-        let mut a = SplitMix64(1);
-        let mut b = SplitMix64(1);
-        for _ in 0..100 {
-            assert_eq!(a.next_u64(), b.next_u64());
-        }
-        let mut hits = 0;
-        for _ in 0..100_000 {
-            if a.chance(0.25) {
-                hits += 1;
-            }
-        }
-        assert!((24_000..26_000).contains(&hits), "{hits}");
-        for _ in 0..1000 {
-            assert!(a.below(11) < 11);
-        }
     }
 }

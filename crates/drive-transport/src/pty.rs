@@ -22,7 +22,7 @@ use tokio::io::unix::AsyncFd;
 use tokio::io::{AsyncRead, AsyncWrite, ReadBuf};
 
 use crate::TransportError;
-use crate::serial::{Parity, SerialConfig, StopBits};
+use crate::serial::{LineSettings, Parity, SerialConfig};
 use crate::sys;
 
 /// One side of a pseudo-terminal, usable from tokio.
@@ -173,14 +173,10 @@ impl PtyPair {
     /// A [`SerialConfig`] that opens the slave: 8 data bits, no parity, 1 stop bit (ptys
     /// refuse parity), the given nominal baud rate.
     pub fn slave_config(&self, baud: u32) -> SerialConfig {
-        SerialConfig {
-            path: self.slave_path.to_string_lossy().into_owned(),
-            baud,
-            data_bits: 8,
-            parity: Parity::None,
-            stop_bits: StopBits::One,
-            rs485: None,
-        }
+        SerialConfig::with_line(
+            self.slave_path.to_string_lossy().into_owned(),
+            LineSettings::new(baud).with_parity(Parity::None),
+        )
     }
 
     /// The master side as a stream (the pair itself also implements the I/O traits).

@@ -8,7 +8,6 @@
 use std::fmt;
 use std::io;
 use std::pin::Pin;
-use std::str::FromStr;
 use std::task::{Context, Poll};
 use std::time::Duration;
 
@@ -17,127 +16,9 @@ use tokio_serial::SerialPort as _;
 
 use crate::TransportError;
 
-/// Character parity.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum Parity {
-    /// No parity bit.
-    None,
-    /// Even parity: the parity bit makes the number of ones in data + parity even.
-    Even,
-    /// Odd parity: the parity bit makes the number of ones in data + parity odd.
-    Odd,
-}
-
-impl Parity {
-    /// Number of parity bits on the wire (0 or 1).
-    pub const fn bits(self) -> u32 {
-        match self {
-            Parity::None => 0,
-            Parity::Even | Parity::Odd => 1,
-        }
-    }
-
-    /// The parity bit a transmitter sends for `data`, or `None` without parity.
-    pub const fn parity_bit(self, data: u8) -> Option<bool> {
-        let odd_ones = data.count_ones() % 2 == 1;
-        match self {
-            Parity::None => None,
-            Parity::Even => Some(odd_ones),
-            Parity::Odd => Some(!odd_ones),
-        }
-    }
-
-    /// The letter used in `8E1`-style notation (`N`, `E`, `O`).
-    pub const fn letter(self) -> char {
-        match self {
-            Parity::None => 'N',
-            Parity::Even => 'E',
-            Parity::Odd => 'O',
-        }
-    }
-}
-
-impl fmt::Display for Parity {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(match self {
-            Parity::None => "none",
-            Parity::Even => "even",
-            Parity::Odd => "odd",
-        })
-    }
-}
-
-impl FromStr for Parity {
-    type Err = ParseSettingError;
-
-    /// Accepts `none`, `even`, `odd` (any case) and the letters `n`, `e`, `o`.
-    fn from_str(s: &str) -> Result<Self, Self::Err> {
-        match s.to_ascii_lowercase().as_str() {
-            "none" | "n" => Ok(Parity::None),
-            "even" | "e" => Ok(Parity::Even),
-            "odd" | "o" => Ok(Parity::Odd),
-            _ => Err(ParseSettingError {
-                setting: "parity",
-                value: s.to_owned(),
-                expected: "even, odd or none",
-            }),
-        }
-    }
-}
-
-/// Number of stop bits.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum StopBits {
-    /// One stop bit.
-    One,
-    /// Two stop bits.
-    Two,
-}
-
-impl StopBits {
-    /// Number of stop bits on the wire.
-    pub const fn bits(self) -> u32 {
-        match self {
-            StopBits::One => 1,
-            StopBits::Two => 2,
-        }
-    }
-}
-
-impl fmt::Display for StopBits {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(match self {
-            StopBits::One => "1",
-            StopBits::Two => "2",
-        })
-    }
-}
-
-impl FromStr for StopBits {
-    type Err = ParseSettingError;
-
-    /// Accepts `1` and `2`.
-    fn from_str(s: &str) -> Result<Self, Self::Err> {
-        match s.trim() {
-            "1" => Ok(StopBits::One),
-            "2" => Ok(StopBits::Two),
-            _ => Err(ParseSettingError {
-                setting: "stop bits",
-                value: s.to_owned(),
-                expected: "1 or 2",
-            }),
-        }
-    }
-}
-
-/// A [`Parity`] or [`StopBits`] string could not be parsed.
-#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-#[error("invalid {setting} `{value}`: expected {expected}")]
-pub struct ParseSettingError {
-    setting: &'static str,
-    value: String,
-    expected: &'static str,
-}
+pub use drive_core::line::{
+    LineSettings, Parity, ParseSettingError, StopBits, bits_per_char, char_time,
+};
 
 /// Linux kernel RS-485 mode (`TIOCSRS485`): the UART driver switches the transceiver's driver
 /// enable through RTS around each transmission.
@@ -174,88 +55,48 @@ impl Default for Rs485Config {
 pub struct SerialConfig {
     /// Device path, e.g. `/dev/ttyUSB0` or a pty slave `/dev/pts/3`.
     pub path: String,
-    /// Baud rate in bit/s.
-    pub baud: u32,
-    /// Data bits per character, 5 to 8.
-    pub data_bits: u8,
-    /// Parity.
-    pub parity: Parity,
-    /// Stop bits.
-    pub stop_bits: StopBits,
+    /// Baud rate, data bits (5 to 8), parity and stop bits.
+    pub line: LineSettings,
     /// Linux RS-485 mode, or `None` to leave the port's RS-485 setting untouched.
     pub rs485: Option<Rs485Config>,
 }
 
 impl SerialConfig {
-    /// A configuration with 8 data bits, even parity, 1 stop bit (8E1, the default of
-    /// MOVILINK, Modbus RTU and USS) and no RS-485 mode.
+    /// 8 data bits, even parity, 1 stop bit (8E1, the default of MOVILINK, Modbus RTU and
+    /// USS) at `baud`, no RS-485 mode.
     pub fn new(path: impl Into<String>, baud: u32) -> Self {
+        Self::with_line(path, LineSettings::new(baud))
+    }
+
+    /// The port at `path` with `line`, no RS-485 mode.
+    pub fn with_line(path: impl Into<String>, line: LineSettings) -> Self {
         SerialConfig {
             path: path.into(),
-            baud,
-            data_bits: 8,
-            parity: Parity::Even,
-            stop_bits: StopBits::One,
+            line,
             rs485: None,
         }
     }
 
     /// Bits per character on the wire: start + data + parity + stop.
     pub fn bits_per_char(&self) -> u32 {
-        bits_per_char(self.data_bits, self.parity, self.stop_bits)
+        self.line.bits_per_char()
     }
 
     /// Time one character occupies the wire at this configuration.
     pub fn char_time(&self) -> Duration {
-        char_time(self.baud, self.bits_per_char())
+        self.line.char_time()
     }
 }
 
 impl fmt::Display for SerialConfig {
     /// `/dev/ttyUSB0 9600 8E1`, followed by ` rs485` when RS-485 mode is requested.
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(
-            f,
-            "{} {} {}{}{}",
-            self.path,
-            self.baud,
-            self.data_bits,
-            self.parity.letter(),
-            self.stop_bits
-        )?;
+        write!(f, "{} {}", self.path, self.line)?;
         if self.rs485.is_some() {
             f.write_str(" rs485")?;
         }
         Ok(())
     }
-}
-
-/// Bits per character on the wire: 1 start bit + `data_bits` + parity (0 or 1) + stop bits.
-///
-/// ```
-/// use drive_transport::serial::{bits_per_char, Parity, StopBits};
-/// assert_eq!(bits_per_char(8, Parity::Even, StopBits::One), 11);
-/// assert_eq!(bits_per_char(8, Parity::None, StopBits::One), 10);
-/// ```
-pub const fn bits_per_char(data_bits: u8, parity: Parity, stop_bits: StopBits) -> u32 {
-    1 + data_bits as u32 + parity.bits() + stop_bits.bits()
-}
-
-/// Time `bits_per_char` bits take at `baud` bit/s, rounded to the nearest nanosecond.
-/// Returns [`Duration::ZERO`] for `baud == 0`.
-///
-/// ```
-/// use std::time::Duration;
-/// use drive_transport::serial::char_time;
-/// // 8E1 at 9600 baud: 11 / 9600 s
-/// assert_eq!(char_time(9600, 11), Duration::from_nanos(1_145_833));
-/// ```
-pub const fn char_time(baud: u32, bits_per_char: u32) -> Duration {
-    if baud == 0 {
-        return Duration::ZERO;
-    }
-    let nanos = (bits_per_char as u64 * 1_000_000_000 + baud as u64 / 2) / baud as u64;
-    Duration::from_nanos(nanos)
 }
 
 /// An open, configured serial port; implements tokio's [`AsyncRead`] and [`AsyncWrite`].
@@ -334,13 +175,13 @@ const BUSY_HINT: &str = "another program has the port open; close it (terminal p
 ///   pseudo-terminals, for example, refuse parity;
 /// - [`TransportError::Setting`] when applying a setting fails for another reason.
 pub fn open(config: &SerialConfig) -> Result<SerialPort, TransportError> {
-    if !(5..=8).contains(&config.data_bits) {
+    if !(5..=8).contains(&config.line.data_bits) {
         return Err(TransportError::InvalidConfig {
             setting: "data bits".into(),
-            reason: format!("{} is not in 5..=8", config.data_bits),
+            reason: format!("{} is not in 5..=8", config.line.data_bits),
         });
     }
-    if config.baud == 0 {
+    if config.line.baud == 0 {
         return Err(TransportError::InvalidConfig {
             setting: "baud".into(),
             reason: "the baud rate must be greater than zero".into(),
@@ -361,10 +202,10 @@ pub fn open(config: &SerialConfig) -> Result<SerialPort, TransportError> {
     let mut stream =
         tokio_serial::SerialStream::open(&builder).map_err(|e| classify_open_error(path, e))?;
 
-    apply_baud(&mut stream, path, config.baud)?;
-    apply_data_bits(&mut stream, path, config.data_bits)?;
-    apply_parity(&mut stream, path, config.parity)?;
-    apply_stop_bits(&mut stream, path, config.stop_bits)?;
+    apply_baud(&mut stream, path, config.line.baud)?;
+    apply_data_bits(&mut stream, path, config.line.data_bits)?;
+    apply_parity(&mut stream, path, config.line.parity)?;
+    apply_stop_bits(&mut stream, path, config.line.stop_bits)?;
     if let Some(rs485) = &config.rs485 {
         apply_rs485(&stream, path, rs485)?;
     }
@@ -659,41 +500,16 @@ mod tests {
     use super::*;
 
     #[test]
-    fn parse_and_display_round_trip() {
-        for p in [Parity::None, Parity::Even, Parity::Odd] {
-            assert_eq!(p.to_string().parse::<Parity>(), Ok(p));
-        }
-        assert_eq!("EVEN".parse::<Parity>(), Ok(Parity::Even));
-        assert_eq!("e".parse::<Parity>(), Ok(Parity::Even));
-        for s in [StopBits::One, StopBits::Two] {
-            assert_eq!(s.to_string().parse::<StopBits>(), Ok(s));
-        }
-        let err = "mark".parse::<Parity>().unwrap_err();
-        assert_eq!(
-            err.to_string(),
-            "invalid parity `mark`: expected even, odd or none"
-        );
-        assert!("3".parse::<StopBits>().is_err());
-    }
-
-    #[test]
-    fn bits_and_char_time() {
-        assert_eq!(bits_per_char(8, Parity::Even, StopBits::One), 11);
-        assert_eq!(bits_per_char(8, Parity::None, StopBits::Two), 11);
-        assert_eq!(bits_per_char(7, Parity::Even, StopBits::One), 10);
-        assert_eq!(char_time(9600, 11), Duration::from_nanos(1_145_833));
-        assert_eq!(char_time(19200, 10), Duration::from_nanos(520_833));
-        assert_eq!(char_time(0, 11), Duration::ZERO);
+    fn config_shows_its_line() {
         let cfg = SerialConfig::new("/dev/ttyUSB0", 9600);
         assert_eq!(cfg.bits_per_char(), 11);
+        assert_eq!(cfg.char_time(), Duration::from_nanos(1_145_833));
         assert_eq!(cfg.to_string(), "/dev/ttyUSB0 9600 8E1");
-    }
-
-    #[test]
-    fn parity_bit() {
-        assert_eq!(Parity::Even.parity_bit(0x00), Some(false));
-        assert_eq!(Parity::Even.parity_bit(0x01), Some(true));
-        assert_eq!(Parity::Odd.parity_bit(0x01), Some(false));
-        assert_eq!(Parity::None.parity_bit(0xFF), None);
+        let pty = SerialConfig::with_line(
+            "/dev/pts/3",
+            LineSettings::new(19200).with_parity(Parity::None),
+        );
+        assert_eq!(pty.char_time(), Duration::from_nanos(520_833));
+        assert_eq!(pty.to_string(), "/dev/pts/3 19200 8N1");
     }
 }

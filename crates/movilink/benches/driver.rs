@@ -1,11 +1,11 @@
 //! Benchmarks of the async master driver with a simulated drive on the other end.
 //!
 //! 1. `driver/read_untimed_duplex`: parameter reads through the tokio driver over an in-memory
-//!    `tokio::io::duplex` (wrapped in `Stream`), `timing: false`: software overhead only
+//!    `tokio::io::duplex` (wrapped in `Stream`), `Clock::Virtual`: software overhead only
 //!    (driver, sans-IO master and slave, simulated drive, two tokio tasks). Throughput in
 //!    reads/s = 1 / median.
 //! 2. `driver/cyclic_param_3pd_9600_virtual`: one cyclic PARAM+3PD exchange on the 9600-baud
-//!    wire model on tokio's paused clock, `timing: true`. `iter_custom` returns *virtual*
+//!    wire model on tokio's paused clock, `Clock::Real`. `iter_custom` returns *virtual*
 //!    durations: the leading start pause + request start → response end (exact wire times),
 //!    to compare with the bound (18 + 18) × 11 / 9600 s + 2 × 3.44 ms = 48.13 ms.
 
@@ -13,7 +13,7 @@ use std::time::{Duration, Instant};
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use drive_transport::link::{self, LinkConfig};
-use movilink::driver::{DriverConfig, MasterDriver, Stream};
+use movilink::driver::{Clock, DriverConfig, MasterDriver, Stream};
 use movilink::sim::SimulatedMovidrive;
 use movilink::{Address, ParamChannel, PduType, Telegram};
 
@@ -26,10 +26,10 @@ fn untimed_reads(c: &mut Criterion) {
     };
     let (a, b) = tokio::io::duplex(4096);
     let mut sim = SimulatedMovidrive::new(1);
-    sim.set_timing(false);
+    sim.set_clock(Clock::Virtual);
     rt.spawn(async move { sim.serve(Stream(b)).await });
     let config = DriverConfig {
-        timing: false,
+        clock: Clock::Virtual,
         ..DriverConfig::default()
     };
     let mut driver = MasterDriver::new(Stream(a), config);

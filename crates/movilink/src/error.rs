@@ -1,7 +1,8 @@
 //! Error types.
 //!
 //! Transport errors ([`DecodeError`], [`RejectReason`], timeouts in the master's events) are
-//! separate from device errors: a drive's negative answer is a [`ReturnCode`].
+//! separate from device errors: a drive's negative answer is a [`ReturnCode`] (SEW's, shared
+//! with SBus and the simulated drive, from [`drive_profile::sew`]).
 
 /// Why a byte slice is not a valid telegram.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, thiserror::Error)]
@@ -57,20 +58,7 @@ pub enum EncodeError {
     },
 }
 
-/// An error the UART reported for one received character.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, thiserror::Error)]
-#[non_exhaustive]
-pub enum CharError {
-    /// Even parity violated.
-    #[error("parity error")]
-    Parity,
-    /// Stop bit missing.
-    #[error("framing error")]
-    Framing,
-    /// The UART lost characters before this one.
-    #[error("receiver overrun")]
-    Overrun,
-}
+pub use drive_core::CharError;
 
 /// Why a receiver or state machine dropped received characters (manual ch. 4.2, "Verarbeitung
 /// der Request-/Response-Telegramme"). Rejected telegrams are never answered.
@@ -137,6 +125,28 @@ pub enum RejectReason {
     /// Master: the response's parameter channel answers another service or index.
     #[error("parameter channel of the response does not answer the request")]
     ParamMismatch,
+    /// More characters than the longest telegram without a break (cannot happen with the
+    /// MOVILINK framing, which ends every telegram at its length; kept for completeness).
+    #[error("telegram longer than {capacity} bytes")]
+    TooLong {
+        /// The receive buffer's size.
+        capacity: u16,
+    },
+}
+
+impl From<drive_core::LineError> for RejectReason {
+    fn from(e: drive_core::LineError) -> Self {
+        use drive_core::LineError;
+        match e {
+            LineError::Char(c) => c.into(),
+            LineError::InterCharacterGap { received } => Self::InterCharacterGap {
+                received: u8::try_from(received).unwrap_or(u8::MAX),
+            },
+            LineError::TrailingCharacter { byte } => Self::TrailingCharacter { byte },
+            LineError::TooLong { capacity } => Self::TooLong { capacity },
+            _ => Self::Overrun,
+        }
+    }
 }
 
 impl From<CharError> for RejectReason {
@@ -144,7 +154,7 @@ impl From<CharError> for RejectReason {
         match e {
             CharError::Parity => Self::Parity,
             CharError::Framing => Self::Framing,
-            CharError::Overrun => Self::Overrun,
+            _ => Self::Overrun,
         }
     }
 }
@@ -164,212 +174,4 @@ impl From<DecodeError> for RejectReason {
     }
 }
 
-/// Error class of a [`ReturnCode`] (EN 50170, manual ch. 6.2).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-#[non_exhaustive]
-#[repr(u8)]
-pub enum ErrorClass {
-    /// 1: vfd-state, status error of the virtual field device.
-    VfdState = 1,
-    /// 2: application-reference, error in the application program.
-    ApplicationReference = 2,
-    /// 3: definition error.
-    Definition = 3,
-    /// 4: resource error.
-    Resource = 4,
-    /// 5: service, error executing the service.
-    Service = 5,
-    /// 6: access error.
-    Access = 6,
-    /// 7: ov, error in the object dictionary.
-    ObjectDictionary = 7,
-    /// 8: other; the drive's own return codes, detailed by the additional code.
-    Other = 8,
-}
-
-impl ErrorClass {
-    /// The class of byte `class`, `None` for undefined values.
-    pub const fn from_u8(class: u8) -> Option<Self> {
-        Some(match class {
-            1 => Self::VfdState,
-            2 => Self::ApplicationReference,
-            3 => Self::Definition,
-            4 => Self::Resource,
-            5 => Self::Service,
-            6 => Self::Access,
-            7 => Self::ObjectDictionary,
-            8 => Self::Other,
-            _ => return None,
-        })
-    }
-}
-
-/// A drive's negative answer to a parameter service: bytes 4–7 of the parameter channel when
-/// the status bit is set (byte 4 error class, byte 5 error code, bytes 6–7 additional code).
-///
-/// The drive's own codes use error class 8, error code 0 and an additional code; the named
-/// constants are the complete list of the MOVIDRIVE manual, ch. 6.2, plus its two special cases.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, thiserror::Error)]
-#[error(
-    "drive return code: error class {error_class}, error code {error_code}, additional code {additional_code:#06x}"
-)]
-pub struct ReturnCode {
-    /// Byte 4.
-    pub error_class: u8,
-    /// Byte 5.
-    pub error_code: u8,
-    /// Bytes 6–7.
-    pub additional_code: u16,
-}
-
-impl ReturnCode {
-    /// A return code from its three parts.
-    pub const fn new(error_class: u8, error_code: u8, additional_code: u16) -> Self {
-        Self {
-            error_class,
-            error_code,
-            additional_code,
-        }
-    }
-
-    /// A drive-specific code: error class 8 ("other"), error code 0, `additional_code`.
-    pub const fn drive(additional_code: u16) -> Self {
-        Self::new(8, 0, additional_code)
-    }
-
-    /// 8/0/0x0000: no error.
-    pub const NO_ERROR: Self = Self::drive(0x0000);
-    /// 8/0/0x0010: illegal parameter index.
-    pub const ILLEGAL_INDEX: Self = Self::drive(0x0010);
-    /// 8/0/0x0011: function/parameter not implemented.
-    pub const NOT_IMPLEMENTED: Self = Self::drive(0x0011);
-    /// 8/0/0x0012: read access only.
-    pub const READ_ONLY: Self = Self::drive(0x0012);
-    /// 8/0/0x0013: parameter lock active.
-    pub const PARAMETER_LOCK: Self = Self::drive(0x0013);
-    /// 8/0/0x0014: factory setting active.
-    pub const FACTORY_SETTING_ACTIVE: Self = Self::drive(0x0014);
-    /// 8/0/0x0015: value too large.
-    pub const VALUE_TOO_LARGE: Self = Self::drive(0x0015);
-    /// 8/0/0x0016: value too small.
-    pub const VALUE_TOO_SMALL: Self = Self::drive(0x0016);
-    /// 8/0/0x0017: the option card this function/parameter needs is missing.
-    pub const OPTION_CARD_MISSING: Self = Self::drive(0x0017);
-    /// 8/0/0x0018: error in system software.
-    pub const SYSTEM_SOFTWARE_ERROR: Self = Self::drive(0x0018);
-    /// 8/0/0x0019: parameter access only via the RS-485 process interface on X13.
-    pub const ONLY_VIA_RS485_PROCESS_INTERFACE: Self = Self::drive(0x0019);
-    /// 8/0/0x001A: parameter access only via the RS-485 diagnostic interface.
-    pub const ONLY_VIA_RS485_DIAGNOSTIC_INTERFACE: Self = Self::drive(0x001A);
-    /// 8/0/0x001B: parameter is access-protected.
-    pub const ACCESS_PROTECTED: Self = Self::drive(0x001B);
-    /// 8/0/0x001C: controller inhibit required.
-    pub const CONTROLLER_INHIBIT_REQUIRED: Self = Self::drive(0x001C);
-    /// 8/0/0x001D: invalid value for the parameter.
-    pub const INVALID_VALUE: Self = Self::drive(0x001D);
-    /// 8/0/0x001E: factory setting was activated.
-    pub const FACTORY_SETTING_ACTIVATED: Self = Self::drive(0x001E);
-    /// 8/0/0x001F: parameter was not stored in EEPROM.
-    pub const NOT_STORED_IN_EEPROM: Self = Self::drive(0x001F);
-    /// 8/0/0x0020: parameter cannot be changed with the output stage enabled.
-    pub const OUTPUT_STAGE_ENABLED: Self = Self::drive(0x0020);
-    /// 6/2/0x0000: internal communication error between option card and drive ("hardware
-    /// fault"); repeat the service.
-    pub const INTERNAL_COMMUNICATION_ERROR: Self = Self::new(6, 2, 0x0000);
-    /// 5/5/0x0000: wrong coding in the management byte ("illegal value", ch. 5.2 special case).
-    pub const ILLEGAL_SERVICE_CODING: Self = Self::new(5, 5, 0x0000);
-
-    /// Decode from the 4 data bytes.
-    pub const fn from_data(data: u32) -> Self {
-        let [class, code, hi, lo] = data.to_be_bytes();
-        Self::new(class, code, u16::from_be_bytes([hi, lo]))
-    }
-
-    /// Encode into the 4 data bytes.
-    pub const fn to_data(self) -> u32 {
-        let [hi, lo] = self.additional_code.to_be_bytes();
-        u32::from_be_bytes([self.error_class, self.error_code, hi, lo])
-    }
-
-    /// The error class, if defined.
-    pub const fn class(self) -> Option<ErrorClass> {
-        ErrorClass::from_u8(self.error_class)
-    }
-
-    /// The manual's entry for this code (German and English meaning, section, whether to
-    /// repeat the service) from the generated table of `drive_profile::sew`; `None` if the
-    /// manual does not list the combination.
-    pub fn meaning(self) -> Option<&'static drive_profile::sew::ReturnCode> {
-        drive_profile::sew::return_code(self.error_class, self.error_code, self.additional_code)
-    }
-
-    /// This code decoded against the manual's tables; its `Display` is an English description
-    /// for known and unknown codes alike.
-    pub fn describe(self) -> drive_profile::sew::DecodedReturnCode {
-        drive_profile::sew::describe_return_code(
-            self.error_class,
-            self.error_code,
-            self.additional_code,
-        )
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn return_code_round_trip_and_names() {
-        let rc = ReturnCode::from_data(0x0800_0015);
-        assert_eq!(rc, ReturnCode::VALUE_TOO_LARGE);
-        assert_eq!(rc.to_data(), 0x0800_0015);
-        assert_eq!(rc.class(), Some(ErrorClass::Other));
-        assert_eq!(
-            rc.meaning().map(|m| m.en),
-            Some("value for parameter too large")
-        );
-        assert!(ReturnCode::new(9, 9, 9).meaning().is_none());
-        assert_eq!(ReturnCode::new(9, 0, 0).class(), None);
-        for c in 0x10..=0x20u16 {
-            assert!(ReturnCode::drive(c).meaning().is_some(), "{c:#x}");
-        }
-        assert_eq!(
-            ReturnCode::INTERNAL_COMMUNICATION_ERROR.class(),
-            Some(ErrorClass::Access)
-        );
-        assert_eq!(
-            ReturnCode::ILLEGAL_SERVICE_CODING.class(),
-            Some(ErrorClass::Service)
-        );
-    }
-
-    #[test]
-    fn every_named_code_has_a_generated_meaning() {
-        let named = [
-            ReturnCode::NO_ERROR,
-            ReturnCode::INTERNAL_COMMUNICATION_ERROR,
-            ReturnCode::ILLEGAL_SERVICE_CODING,
-        ];
-        let drive = (0x10..=0x20u16).map(ReturnCode::drive);
-        for rc in named.into_iter().chain(drive) {
-            let m = rc.meaning();
-            assert!(m.is_some(), "{rc:?} missing in drive_profile::sew");
-            if let Some(m) = m {
-                assert_eq!(
-                    (m.class, m.code, m.additional),
-                    (rc.error_class, rc.error_code, rc.additional_code)
-                );
-            }
-        }
-        assert_eq!(
-            ReturnCode::VALUE_TOO_LARGE.meaning().map(|m| m.en),
-            Some("value for parameter too large")
-        );
-        assert!(
-            ReturnCode::INTERNAL_COMMUNICATION_ERROR
-                .meaning()
-                .is_some_and(|m| m.retry)
-        );
-        assert_eq!(ReturnCode::new(9, 9, 9).meaning(), None);
-    }
-}
+pub use drive_profile::sew::{ErrorClass, ReturnCode};

@@ -7,12 +7,18 @@
 //!   [`Management`], [`Service`]) and [`Telegram`];
 //! * [`codec`]: [`encode`] / [`decode`] of whole telegrams
 //!   (`SD ADR TYP PDU BCC`) into and from byte slices, without allocation;
-//! * [`timing`]: the protocol times as constants and state ([`TxGate`]); time is always an
-//!   argument ([`Instant`]), the crate never reads a clock;
-//! * [`receiver`]: character-level framing with start pause detection and every receive error
-//!   of the manual as a [`RejectReason`];
+//! * [`timing`]: the protocol times, computed from the real line settings ([`LineTiming`]);
+//!   time is always an argument ([`Instant`], drivebus's one time type), the crate never reads
+//!   a clock;
+//! * [`receiver`]: MOVILINK's framing description ([`TelegramFraming`]) on the shared character
+//!   receiver of `drive-core`, every receive error of the manual as a [`RejectReason`];
 //! * [`master`] and [`slave`]: state machines in the quinn-proto style (`send`/`handle_char`/
-//!   `handle_timeout` in, `poll_transmit`/`poll_timeout`/`poll_event` out).
+//!   `handle_timeout` in, `poll_transmit(now, …)`/`poll_timeout`/`poll_event` out); the master
+//!   runs on `drive-core`'s transaction skeleton ([`drive_core::Exchange`]), both are
+//!   [`drive_core::Endpoint`]s.
+//!
+//! The parameter channel, its services and return codes are SEW's, shared with SBus and the
+//! simulated drive: they live in [`drive_profile::sew`] and are re-exported here.
 //!
 //! Device errors (a drive's negative answer, [`ReturnCode`]) are separate from transport errors
 //! ([`DecodeError`], [`RejectReason`], [`MasterEvent::Timeout`]).
@@ -22,8 +28,8 @@
 //! Optional layers on top:
 //!
 //! * `std` (default): `guard`, the write guard (access, range, EEPROM wear) for tools;
-//! * `tokio`: `driver`, the async master (`MasterDriver`) over any `CharIo` (the in-memory
-//!   wire model of `drive-transport`, serial ports, ptys);
+//! * `tokio`: `driver`, the async master (`MasterDriver`) over any `CharIo` of the runtime
+//!   layer (the in-memory wire model of `drive-transport`, serial ports, ptys);
 //! * `sim`: `sim`, simulated MOVIDRIVE drives answering on a `CharIo`.
 //!
 //! ```
@@ -61,7 +67,6 @@ pub mod frame;
 #[cfg(feature = "std")]
 pub mod guard;
 pub mod master;
-mod queue;
 pub mod receiver;
 #[cfg(feature = "sim")]
 pub mod sim;
@@ -75,6 +80,6 @@ pub use frame::{
     Management, ParamChannel, PduType, SD1, SD2, ScaleInfo, Service, Telegram,
 };
 pub use master::{Master, MasterConfig, MasterEvent, SendError};
-pub use receiver::{AddressFilter, Receiver, RxChar, RxEvent};
-pub use slave::{Backend, Slave, SlaveConfig, SlaveEvent};
+pub use receiver::{AddressFilter, Receiver, RxChar, RxEvent, TelegramFraming};
+pub use slave::{Backend, RequestContext, Slave, SlaveConfig, SlaveEvent};
 pub use timing::{Instant, LineTiming, TxGate};

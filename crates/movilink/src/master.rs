@@ -3,25 +3,28 @@
 //! One request is in flight at a time. The driver around it:
 //!
 //! 1. calls [`Master::send`] with a request telegram,
-//! 2. writes what [`Master::poll_transmit`] returns to the port (the bytes are assumed to start
-//!    on the wire at the latest time given to the master),
+//! 2. writes what [`Master::poll_transmit`] returns to the port (the bytes start on the wire at
+//!    the time given to it),
 //! 3. feeds received characters to [`Master::handle_char`] / [`Master::handle_rx`],
 //! 4. calls [`Master::handle_timeout`] when the time of [`Master::poll_timeout`] is reached,
 //! 5. drains [`Master::poll_event`] after each call.
 //!
-//! What it enforces:
+//! The transaction skeleton (gate, response timeout, retries, give-up, late answers) is
+//! [`drive_core::Exchange`], shared with every protocol; this module adds MOVILINK's checks and
+//! its cyclic handshake. What it enforces:
 //!
 //! * a start pause after the last bus activity before each request ([`TxGate`]),
 //! * the response timeout (default 50 ms, the manual's maximum response delay) from the end of
 //!   the request's BCC to the start of the response's SD2,
 //! * acceptance of a response only with SD2, the request's address (for a point-to-point
 //!   request to 254 also any unicast address), the request's PDU type and a correct BCC, and
-//!   only once the quiet line after its BCC confirmed its end (see [`Receiver`]; reported by
+//!   only once the quiet line after its BCC confirmed its end (see [`Receiver`](crate::receiver::Receiver); reported by
 //!   [`Master::handle_timeout`] at the time of [`Master::poll_timeout`]),
-//! * retries after a timeout or a rejected response, up to [`MasterConfig::retries`], each at
-//!   least two start pauses after the last bus activity,
+//! * retries after a timeout or a rejected response, up to [`MasterConfig::retries`] (then
+//!   [`MasterEvent::Timeout`], also with 255 retries), each at least two start pauses after the
+//!   last bus activity,
 //! * no response for group and broadcast requests ([`MasterEvent::Sent`]) and
-//!   [`BROADCAST_SPACING`](crate::timing::BROADCAST_SPACING) after them,
+//!   [`BROADCAST_SPACING`] after them,
 //! * the cyclic handshake: a new parameter service in a cyclic PDU type toggles the handshake
 //!   bit relative to the drive's last echo; the request is repeated until the drive echoes the
 //!   sent bit (service executed) or [`MasterConfig::max_handshake_cycles`] is reached. If the
@@ -33,12 +36,14 @@
 
 use core::time::Duration;
 
+use drive_core::{Endpoint, Exchange, ExchangeConfig, ExchangeEvent, Queue, Verdict};
+use drive_profile::sew::{Echo, MasterHandshake, Prepared};
+
 use crate::codec;
 use crate::error::{RejectReason, ReturnCode};
-use crate::frame::{Address, Direction, ParamChannel, Telegram};
-use crate::queue::Queue;
-use crate::receiver::{AddressFilter, Receiver, RxChar, RxEvent};
-use crate::timing::{DEFAULT_RESPONSE_TIMEOUT, Instant, LineTiming, TxGate, duration_micros};
+use crate::frame::{Address, Direction, MAX_TELEGRAM_LEN, ParamChannel, Telegram};
+use crate::receiver::{AddressFilter, RxChar, TelegramFraming};
+use crate::timing::{BROADCAST_SPACING, DEFAULT_RESPONSE_TIMEOUT, Instant, LineTiming, TxGate};
 
 /// Configuration of a [`Master`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -68,6 +73,17 @@ impl Default for MasterConfig {
     }
 }
 
+impl MasterConfig {
+    fn exchange(&self) -> ExchangeConfig {
+        ExchangeConfig {
+            response_timeout: self.response_timeout,
+            retries: self.retries,
+            retry_pause: self.timing.restart_pause(),
+            unanswered_hold: BROADCAST_SPACING,
+        }
+    }
+}
+
 /// What happened; drained with [`Master::poll_event`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[non_exhaustive]
@@ -88,8 +104,8 @@ pub enum MasterEvent {
     /// No valid response after `attempts` transmissions (each timed out or was rejected; the
     /// rejections were reported as [`MasterEvent::Rejected`] before). The request is dropped.
     Timeout {
-        /// Transmissions made.
-        attempts: u8,
+        /// Transmissions made (up to 256 with 255 retries).
+        attempts: u16,
     },
     /// Received characters were dropped, or a response did not match the request.
     Rejected(RejectReason),
@@ -113,14 +129,6 @@ pub enum SendError {
     NotARequest,
 }
 
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Phase {
-    /// Waiting for the bus to allow the (re)transmission.
-    Queued,
-    /// Transmitted; give up at `give_up` unless a response is being received.
-    Waiting { give_up: Instant },
-}
-
 #[derive(Debug, Clone, Copy)]
 struct Job {
     /// The request as transmitted (handshake bit applied).
@@ -129,32 +137,8 @@ struct Job {
     deferred: Option<ParamChannel>,
     /// Completion waits for a parameter answer (a service in a telegram that gets a response).
     param_job: bool,
-    /// Transmissions of the current exchange.
-    attempts: u8,
     /// Exchanges of a cyclic parameter service.
     cycles: u16,
-    phase: Phase,
-}
-
-/// One bit per address byte value.
-#[derive(Debug, Clone, Copy, Default)]
-struct Bits([u128; 2]);
-
-impl Bits {
-    fn get(&self, a: Address) -> bool {
-        let i = a.get();
-        self.0
-            .get(usize::from(i >> 7))
-            .is_some_and(|w| w >> (i & 127) & 1 == 1)
-    }
-
-    fn set(&mut self, a: Address, on: bool) {
-        let i = a.get();
-        if let Some(w) = self.0.get_mut(usize::from(i >> 7)) {
-            let m = 1u128 << (i & 127);
-            if on { *w |= m } else { *w &= !m }
-        }
-    }
 }
 
 /// The master state machine; see the [module docs](self).
@@ -170,7 +154,7 @@ impl Bits {
 /// let req = Telegram::request(drive, PduType::PARAM_0PD_ACYCLIC).with_param(ParamChannel::read(8318));
 /// m.send(req, Instant::ZERO).unwrap();
 /// let mut buf = [0u8; 18];
-/// let n = m.poll_transmit(&mut buf).unwrap();
+/// let n = m.poll_transmit(Instant::ZERO, &mut buf).unwrap();
 /// assert_eq!(n, 12);
 /// // The drive answers 5 ms after the request's end (12 characters × 1146 µs).
 /// let answer = Telegram::response(drive, PduType::PARAM_0PD_ACYCLIC)
@@ -192,41 +176,28 @@ impl Bits {
 #[derive(Debug, Clone)]
 pub struct Master {
     config: MasterConfig,
-    receiver: Receiver,
-    gate: TxGate,
-    now: Instant,
+    exchange: Exchange<TelegramFraming, MAX_TELEGRAM_LEN>,
     job: Option<Job>,
-    /// Drive handshake bit known (from a response).
-    hs_known: Bits,
-    /// Drive handshake bit (unicast) or last sent bit (group, broadcast).
-    hs_value: Bits,
+    /// Every drive's handshake bit (cyclic PDU types).
+    handshake: MasterHandshake,
     events: Queue<MasterEvent, 8>,
-    char_us: u64,
-    pause_us: u64,
-    timeout_us: u64,
 }
 
 impl Master {
     /// A master with `config`; the bus is assumed idle.
     pub fn new(config: MasterConfig) -> Self {
-        let (char_us, pause_us) = config.timing.micros();
+        let framing = TelegramFraming::new(
+            Direction::Response,
+            AddressFilter::Master {
+                expected: Address::POINT_TO_POINT,
+            },
+            config.timing,
+        );
         Self {
-            receiver: Receiver::new(
-                Direction::Response,
-                AddressFilter::Master {
-                    expected: Address::POINT_TO_POINT,
-                },
-                config.timing,
-            ),
-            gate: TxGate::new(config.timing),
-            now: Instant::ZERO,
+            exchange: Exchange::new(framing, config.exchange()),
             job: None,
-            hs_known: Bits::default(),
-            hs_value: Bits::default(),
+            handshake: MasterHandshake::new(),
             events: Queue::new(),
-            char_us,
-            pause_us,
-            timeout_us: duration_micros(config.response_timeout),
             config,
         }
     }
@@ -245,29 +216,24 @@ impl Master {
     /// for an address scan).
     pub fn set_response_timeout(&mut self, timeout: Duration) {
         self.config.response_timeout = timeout;
-        self.timeout_us = duration_micros(timeout);
+        self.exchange.set_response_timeout(timeout);
     }
 
     /// Change the number of retransmissions; applies to the request in flight too.
     pub fn set_retries(&mut self, retries: u8) {
         self.config.retries = retries;
+        self.exchange.set_retries(retries);
     }
 
     /// Whether a request was transmitted and its response is awaited (as opposed to a request
     /// waiting for the bus, or no request).
     pub fn is_awaiting_response(&self) -> bool {
-        matches!(
-            self.job,
-            Some(Job {
-                phase: Phase::Waiting { .. },
-                ..
-            })
-        )
+        self.exchange.is_awaiting_response()
     }
 
     /// The bus gate (earliest start of the next telegram).
     pub fn gate(&self) -> &TxGate {
-        &self.gate
+        self.exchange.gate()
     }
 
     /// Start a request at `now`. See the [module docs](self) for the handshake handling of
@@ -279,31 +245,22 @@ impl Master {
         if request.direction() != Direction::Request {
             return Err(SendError::NotARequest);
         }
-        self.advance(now);
+        self.exchange.begin(now).map_err(|_| SendError::Busy)?;
         let mut request = request;
         let address = request.address();
         let cyclic = request.pdu_type().is_cyclic();
         let answered = address.expects_response();
-        let known = self.hs_known.get(address);
-        let value = self.hs_value.get(address);
         let mut deferred = None;
         let mut param_job = false;
         if let Some(p) = request.param_mut() {
-            let is_service = p.management.service_code() != 0;
-            param_job = is_service && answered;
+            param_job = p.management.service_code() != 0 && answered;
             if cyclic {
-                if !is_service {
-                    // No new service: keep the drive's bit, nothing toggles.
-                    *p = p.with_handshake(value);
-                } else if !answered {
-                    // Nobody echoes: toggle what we sent last time.
-                    *p = p.with_handshake(!value);
-                    self.hs_value.set(address, !value);
-                } else if known {
-                    *p = p.with_handshake(!value);
-                } else {
-                    deferred = Some(*p);
-                    *p = ParamChannel::no_service();
+                match self.handshake.prepare(address.get(), answered, *p) {
+                    Prepared::Send(with_bit) => *p = with_bit,
+                    Prepared::LearnFirst => {
+                        deferred = Some(*p);
+                        *p = ParamChannel::no_service();
+                    }
                 }
             }
         }
@@ -311,9 +268,7 @@ impl Master {
             request,
             deferred,
             param_job,
-            attempts: 0,
             cycles: 0,
-            phase: Phase::Queued,
         });
         Ok(())
     }
@@ -333,33 +288,27 @@ impl Master {
     /// The driver could not finish writing the request at `now` (the telegram on the wire is
     /// broken): the request is dropped and the next one waits two start pauses.
     pub fn abort(&mut self, now: Instant) {
-        self.advance(now);
         self.job = None;
-        self.receiver.reset();
-        self.gate.on_aborted(self.now);
+        self.exchange.abort(now);
     }
 
-    /// The next request telegram, if one is due at the latest time given (`buf` must hold
-    /// [`MAX_TELEGRAM_LEN`](crate::MAX_TELEGRAM_LEN) bytes; a smaller buffer gets nothing).
-    /// Returns the number of bytes written.
-    pub fn poll_transmit(&mut self, buf: &mut [u8]) -> Option<usize> {
-        let job = self.job.as_mut()?;
-        if job.phase != Phase::Queued || !self.gate.may_start(self.now) {
+    /// The next request telegram, if one is due at `now` (`buf` must hold
+    /// [`MAX_TELEGRAM_LEN`] bytes; a smaller buffer gets nothing). Returns the number of
+    /// bytes written; they start on the wire at `now`.
+    pub fn poll_transmit(&mut self, now: Instant, buf: &mut [u8]) -> Option<usize> {
+        let request = self.job.as_ref()?.request;
+        if !self.exchange.may_transmit(now) {
             return None;
         }
-        let n = codec::encode(&job.request, buf).ok()?;
-        let end = self.now.plus_micros(self.char_us.saturating_mul(n as u64));
-        let address = job.request.address();
-        job.attempts = job.attempts.saturating_add(1);
-        self.gate.on_request_sent(end, address);
-        if address.expects_response() {
-            job.phase = Phase::Waiting {
-                give_up: end.plus_micros(self.timeout_us + self.char_us),
-            };
-            self.receiver
-                .set_filter(AddressFilter::Master { expected: address });
-            self.receiver.reset();
-        } else {
+        let n = codec::encode(&request, buf).ok()?;
+        let address = request.address();
+        let answered = address.expects_response();
+        if answered {
+            self.exchange.receiver_mut().framing_mut().filter =
+                AddressFilter::Master { expected: address };
+        }
+        self.exchange.transmitted(n, answered);
+        if !answered {
             self.job = None;
             self.events.push(MasterEvent::Sent { address });
         }
@@ -368,11 +317,8 @@ impl Master {
 
     /// When [`Master::handle_timeout`] (or [`Master::poll_transmit`]) has work to do.
     pub fn poll_timeout(&self) -> Option<Instant> {
-        let job = self.job.as_ref()?;
-        Some(match job.phase {
-            Phase::Queued => self.gate.earliest_start().max(self.now),
-            Phase::Waiting { give_up } => self.receiver.poll_timeout().unwrap_or(give_up),
-        })
+        self.job.as_ref()?;
+        self.exchange.poll_timeout()
     }
 
     /// The next event.
@@ -389,72 +335,45 @@ impl Master {
 
     /// Feed one character received from the bus.
     pub fn handle_char(&mut self, c: RxChar) {
-        self.advance(c.time);
-        self.gate.on_activity(c.time);
-        let Some(Job {
-            phase: Phase::Waiting { give_up },
-            ..
-        }) = self.job
-        else {
-            return;
-        };
-        if !self.receiver.is_receiving() && c.time > give_up {
-            // The response did not start in time: this character is too late.
-            self.fail_attempt();
-            return;
-        }
-        match self.receiver.handle_char(c) {
-            None => {}
-            Some(RxEvent::Rejected(r)) => {
-                self.events.push(MasterEvent::Rejected(r));
-                self.fail_attempt();
-            }
-            Some(RxEvent::Telegram(t)) => self.on_response(t),
+        if let Some(ev) = self.exchange.handle_char(c) {
+            self.on_exchange(ev);
         }
     }
 
     /// Advance the time to `now`: transmissions may become due, a response may time out.
     pub fn handle_timeout(&mut self, now: Instant) {
-        self.advance(now);
-        let Some(Job {
-            phase: Phase::Waiting { give_up },
-            ..
-        }) = self.job
-        else {
-            return;
-        };
-        match self.receiver.handle_timeout(self.now) {
-            Some(RxEvent::Rejected(r)) => {
-                self.events.push(MasterEvent::Rejected(r));
-                self.fail_attempt();
-            }
-            // The response's end was confirmed by the quiet line after it.
-            Some(RxEvent::Telegram(t)) => self.on_response(t),
-            None if !self.receiver.is_receiving() && self.now >= give_up => self.fail_attempt(),
-            None => {}
+        if let Some(ev) = self.exchange.handle_timeout(now) {
+            self.on_exchange(ev);
         }
     }
 
-    fn advance(&mut self, now: Instant) {
-        if now > self.now {
-            self.now = now;
+    fn on_exchange(&mut self, ev: ExchangeEvent<Telegram, RejectReason>) {
+        match ev {
+            ExchangeEvent::Frame(t) => self.on_response(t),
+            ExchangeEvent::Rejected(r, verdict) => {
+                self.events.push(MasterEvent::Rejected(r));
+                self.on_verdict(verdict);
+            }
+            ExchangeEvent::NoAnswer(verdict) => self.on_verdict(verdict),
+        }
+    }
+
+    fn on_verdict(&mut self, verdict: Verdict) {
+        if let Verdict::GiveUp { attempts } = verdict {
+            self.events.push(MasterEvent::Timeout { attempts });
+            self.job = None;
         }
     }
 
     /// The current exchange failed: retry or give up.
     fn fail_attempt(&mut self) {
-        let Some(job) = self.job.as_mut() else { return };
-        if job.attempts <= self.config.retries {
-            job.phase = Phase::Queued;
-            let last = self.gate.last_activity().unwrap_or(self.now);
-            self.gate
-                .hold_until(last.plus_micros(self.pause_us.saturating_mul(2)));
-        } else {
-            self.events.push(MasterEvent::Timeout {
-                attempts: job.attempts,
-            });
-            self.job = None;
-        }
+        let verdict = self.exchange.fail();
+        self.on_verdict(verdict);
+    }
+
+    fn done(&mut self) {
+        self.exchange.complete();
+        self.job = None;
     }
 
     fn on_response(&mut self, response: Telegram) {
@@ -472,7 +391,7 @@ impl Master {
         let (Some(sent), Some(got)) = (job.request.param(), response.param()) else {
             self.events
                 .push(MasterEvent::Response { telegram: response });
-            self.job = None;
+            self.done();
             return;
         };
         if !sent_type.is_cyclic() {
@@ -487,13 +406,13 @@ impl Master {
             if job.param_job {
                 self.events.push(MasterEvent::ParamDone(got.result()));
             }
-            self.job = None;
+            self.done();
             return;
         }
         // Cyclic: learn the drive's handshake bit.
         let address = job.request.address();
-        self.hs_known.set(address, true);
-        self.hs_value.set(address, got.management.handshake());
+        self.handshake
+            .learn(address.get(), got.management.handshake());
         self.events
             .push(MasterEvent::Response { telegram: response });
         if let Some(real) = job.deferred.take() {
@@ -502,14 +421,12 @@ impl Master {
             }
             self.requeue(job);
         } else if !job.param_job {
-            self.job = None;
-        } else if got.management.handshake() == sent.management.handshake()
-            && sent.is_answered_by(&got)
-        {
+            self.done();
+        } else if MasterHandshake::echo(&sent, &got) == Echo::Done {
             self.events.push(MasterEvent::ParamDone(got.result()));
-            self.job = None;
+            self.done();
         } else {
-            if got.management.handshake() == sent.management.handshake() {
+            if MasterHandshake::echo(&sent, &got) == Echo::Stale {
                 // The drive already holds the sent bit from an earlier service (our record of
                 // its bit was stale, e.g. after a request whose responses were all lost): it
                 // repeats that service's answer and will not execute ours until the bit
@@ -524,7 +441,7 @@ impl Master {
             if job.cycles >= self.config.max_handshake_cycles {
                 self.events
                     .push(MasterEvent::ParamNotExecuted { cycles: job.cycles });
-                self.job = None;
+                self.done();
             } else {
                 self.requeue(job);
             }
@@ -532,9 +449,35 @@ impl Master {
     }
 
     /// Next exchange of the same job (handshake cycle): a fresh set of attempts.
-    fn requeue(&mut self, mut job: Job) {
-        job.attempts = 0;
-        job.phase = Phase::Queued;
+    fn requeue(&mut self, job: Job) {
         self.job = Some(job);
+        self.exchange.requeue();
+    }
+}
+
+impl Endpoint for Master {
+    fn handle_char(&mut self, c: RxChar) {
+        Master::handle_char(self, c);
+    }
+
+    fn handle_timeout(&mut self, now: Instant) {
+        Master::handle_timeout(self, now);
+    }
+
+    fn poll_transmit(&mut self, now: Instant, buf: &mut [u8]) -> Option<usize> {
+        Master::poll_transmit(self, now, buf)
+    }
+
+    fn poll_timeout(&self) -> Option<Instant> {
+        Master::poll_timeout(self)
+    }
+
+    fn poll_quiet_timeout(&self) -> Option<Instant> {
+        self.job.as_ref()?;
+        self.exchange.poll_quiet_timeout()
+    }
+
+    fn max_frame_len(&self) -> usize {
+        MAX_TELEGRAM_LEN
     }
 }

@@ -1,8 +1,8 @@
 //! The drive (slave) protocol state machine, sans-IO.
 //!
 //! It frames requests, decides whether to answer, runs the cyclic handshake, delegates the
-//! parameter services and process data to a [`Backend`] (the simulated drive), builds the
-//! response and monitors the link (P812).
+//! parameter services and process data to a [`Backend`] (the simulated drive) and builds the
+//! response.
 //!
 //! * Addresses: its own address (P810) and 254 (point-to-point) are answered; its group (P811,
 //!   100 = no group) and 255 (broadcast) are executed without an answer.
@@ -21,33 +21,63 @@
 //!   [`Slave::handle_timeout`] at the time of [`Slave::poll_timeout`], a start pause after
 //!   the request's BCC, which is when the response is due. If other characters appear on the
 //!   bus before the response was taken with [`Slave::poll_transmit`], it is dropped.
-//! * P812: when the timeout is not zero, it is armed by each accepted cyclic request and fires
-//!   [`SlaveEvent::Timeout`] (and [`Backend::on_timeout`]) once when no accepted cyclic request
-//!   followed within it. Acyclic requests neither arm nor retrigger it (the manual: in acyclic
-//!   operation the drive does not monitor the link).
+//! * The backend learns every accepted request with its [`RequestContext`] (its end, whether
+//!   it is cyclic, its address) before its parameter service and process data, so a drive
+//!   model can monitor the link itself (P812: the time between cyclic requests). Its own
+//!   deadlines ([`Backend::poll_timeout`]) are part of [`Slave::poll_timeout`] and reach it
+//!   through [`Backend::handle_timeout`]; the slave has no timer of its own beyond framing and
+//!   the response.
 
-use core::time::Duration;
+use drive_core::{Endpoint, Queue};
+use drive_profile::sew::SlaveHandshake;
 
 use crate::codec;
 use crate::error::{RejectReason, ReturnCode};
 use crate::frame::{Address, Direction, MAX_TELEGRAM_LEN, ParamChannel, Service, Telegram};
-use crate::queue::Queue;
-use crate::receiver::{AddressFilter, Receiver, RxChar, RxEvent};
+use crate::receiver::{AddressFilter, Receiver, RxChar, RxEvent, TelegramFraming};
 use crate::timing::{Instant, LineTiming};
+
+/// What the drive learns about an accepted request besides its contents.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct RequestContext {
+    /// End of the request's last character (its BCC).
+    pub end: Instant,
+    /// A cyclic PDU type: the master promises to repeat it, the drive monitors the link
+    /// (P812).
+    pub cyclic: bool,
+    /// The address the request was sent to (own, group, 254 or 255).
+    pub address: Address,
+    /// Whether a response goes back (own address and 254).
+    pub answered: bool,
+}
 
 /// The drive behind the protocol; the simulated drive implements it.
 pub trait Backend {
+    /// An accepted request: called once per request, before its parameter service and its
+    /// process data (a cyclic request without process data, PARAM + 0PD, comes only here).
+    fn on_request(&mut self, ctx: &RequestContext) {
+        let _ = ctx;
+    }
+
     /// Execute the parameter service `request` (a defined service other than "no service").
     /// Return the answer's data or the return code.
-    fn param(&mut self, request: &ParamChannel) -> Result<u32, ReturnCode>;
+    fn param(&mut self, ctx: &RequestContext, request: &ParamChannel) -> Result<u32, ReturnCode>;
 
     /// Process data of an accepted request: `output` are the master's process output words
     /// (PO), `input` receives the drive's process input words (PI) for the response (same
     /// length; ignored for group and broadcast requests).
-    fn process_data(&mut self, output: &[u16], input: &mut [u16]);
+    fn process_data(&mut self, ctx: &RequestContext, output: &[u16], input: &mut [u16]);
 
-    /// The RS-485 timeout (P812) expired.
-    fn on_timeout(&mut self);
+    /// The backend's next own deadline (e.g. the drive's RS-485 timeout), if any.
+    fn poll_timeout(&self) -> Option<Instant> {
+        None
+    }
+
+    /// Time advanced to `now` (at least to the deadline of [`Backend::poll_timeout`], or
+    /// further).
+    fn handle_timeout(&mut self, now: Instant) {
+        let _ = now;
+    }
 }
 
 /// Configuration of a [`Slave`].
@@ -57,8 +87,6 @@ pub struct SlaveConfig {
     pub address: Address,
     /// Group address (P811), 100–199; [`Address::NO_GROUP`] (100) for none.
     pub group: Address,
-    /// RS-485 timeout (P812); zero switches the monitoring off.
-    pub rs485_timeout: Duration,
     /// Answer point-to-point requests (254) with the own address instead of 254.
     pub reply_p2p_with_own_address: bool,
     /// Character time and start pause.
@@ -66,12 +94,11 @@ pub struct SlaveConfig {
 }
 
 impl SlaveConfig {
-    /// Address `address`, no group, no timeout, MOVILINK timing.
+    /// Address `address`, no group, MOVILINK timing (9600 8E1).
     pub const fn new(address: Address) -> Self {
         Self {
             address,
             group: Address::NO_GROUP,
-            rs485_timeout: Duration::ZERO,
             reply_p2p_with_own_address: false,
             timing: LineTiming::MOVILINK,
         }
@@ -92,8 +119,6 @@ pub enum SlaveEvent {
     /// Received characters were dropped. On a multi-drop bus, requests for other drives show
     /// up here as [`RejectReason::WrongAddress`].
     Rejected(RejectReason),
-    /// The RS-485 timeout (P812) expired.
-    Timeout,
 }
 
 #[derive(Debug, Clone, Copy)]
@@ -111,37 +136,28 @@ pub struct Slave<B> {
     receiver: Receiver,
     now: Instant,
     tx: Option<Pending>,
-    last_handshake: bool,
-    last_answer: ParamChannel,
-    last_cyclic: Option<Instant>,
-    timed_out: bool,
+    handshake: SlaveHandshake,
     events: Queue<SlaveEvent, 4>,
-    pause_us: u64,
 }
 
 impl<B: Backend> Slave<B> {
     /// A drive with `config` executing on `backend`.
     pub fn new(config: SlaveConfig, backend: B) -> Self {
-        let (_, pause_us) = config.timing.micros();
         Self {
-            receiver: Receiver::new(
+            receiver: Receiver::new(TelegramFraming::new(
                 Direction::Request,
                 AddressFilter::Slave {
                     own: config.address,
                     group: config.group,
                 },
                 config.timing,
-            ),
+            )),
             config,
             backend,
             now: Instant::ZERO,
             tx: None,
-            last_handshake: false,
-            last_answer: ParamChannel::default(),
-            last_cyclic: None,
-            timed_out: false,
+            handshake: SlaveHandshake::new(),
             events: Queue::new(),
-            pause_us,
         }
     }
 
@@ -150,14 +166,14 @@ impl<B: Backend> Slave<B> {
         &self.config
     }
 
-    /// Change the configuration (e.g. after P810/P811/P812 were written); the timing is kept.
+    /// Change the configuration (e.g. after P810/P811 were written); the timing is kept.
     pub fn set_config(&mut self, config: SlaveConfig) {
         let timing = self.config.timing;
         self.config = SlaveConfig { timing, ..config };
-        self.receiver.set_filter(AddressFilter::Slave {
+        self.receiver.framing_mut().filter = AddressFilter::Slave {
             own: config.address,
             group: config.group,
-        });
+        };
     }
 
     /// The backend.
@@ -191,35 +207,35 @@ impl<B: Backend> Slave<B> {
             Some(RxEvent::Rejected(r)) => self.events.push(SlaveEvent::Rejected(r)),
             // The request's end was confirmed by this character after an idle gap (the
             // confirmation time was not polled): execute it, but do not answer below.
-            Some(RxEvent::Telegram(t)) => self.on_request(t, end.unwrap_or(c.time)),
+            Some(RxEvent::Frame(t)) => self.on_request(t, end.unwrap_or(c.time)),
         }
         // Someone else is talking: a response not yet sent would collide.
         self.tx = None;
     }
 
-    /// Advance the time to `now`: the response may become due, P812 may expire.
+    /// Advance the time to `now`: the response may become due, the backend's deadline may pass.
     pub fn handle_timeout(&mut self, now: Instant) {
         self.advance(now);
         let end = self.receiver.last_char_time();
         match self.receiver.handle_timeout(self.now) {
             Some(RxEvent::Rejected(r)) => self.events.push(SlaveEvent::Rejected(r)),
             // The quiet line after the BCC confirmed the request's end.
-            Some(RxEvent::Telegram(t)) => self.on_request(t, end.unwrap_or(self.now)),
+            Some(RxEvent::Frame(t)) => self.on_request(t, end.unwrap_or(self.now)),
             None => {}
         }
         if self
-            .p812_deadline()
+            .backend
+            .poll_timeout()
             .is_some_and(|deadline| self.now >= deadline)
         {
-            self.timed_out = true;
-            self.backend.on_timeout();
-            self.events.push(SlaveEvent::Timeout);
+            self.backend.handle_timeout(self.now);
         }
     }
 
-    /// The response, if one is due at the latest time given. Returns the number of bytes
-    /// written to `buf` (which must hold [`MAX_TELEGRAM_LEN`] bytes).
-    pub fn poll_transmit(&mut self, buf: &mut [u8]) -> Option<usize> {
+    /// The response, if one is due at `now`. Returns the number of bytes written to `buf`
+    /// (which must hold [`MAX_TELEGRAM_LEN`] bytes); they start on the wire at `now`.
+    pub fn poll_transmit(&mut self, now: Instant, buf: &mut [u8]) -> Option<usize> {
+        self.advance(now);
         let p = self.tx.as_ref()?;
         if self.now < p.not_before {
             return None;
@@ -231,12 +247,13 @@ impl<B: Backend> Slave<B> {
         Some(n)
     }
 
-    /// When [`Slave::handle_timeout`] has work to do.
+    /// When [`Slave::handle_timeout`] has work to do: a request's end confirmation, a gap
+    /// limit, the response falling due, or the backend's own deadline.
     pub fn poll_timeout(&self) -> Option<Instant> {
         [
             self.tx.map(|p| p.not_before),
-            self.p812_deadline(),
             self.receiver.poll_timeout(),
+            self.backend.poll_timeout(),
         ]
         .into_iter()
         .flatten()
@@ -249,54 +266,47 @@ impl<B: Backend> Slave<B> {
     }
 
     fn advance(&mut self, now: Instant) {
-        if now > self.now {
-            self.now = now;
-        }
+        self.now = self.now.later(now);
     }
 
-    fn p812_deadline(&self) -> Option<Instant> {
-        if self.timed_out || self.config.rs485_timeout.is_zero() {
-            return None;
-        }
-        self.last_cyclic.map(|t| t + self.config.rs485_timeout)
-    }
-
-    fn execute(&mut self, p: &ParamChannel) -> ParamChannel {
+    fn execute(&mut self, ctx: &RequestContext, p: &ParamChannel) -> ParamChannel {
         match p.service() {
             None => p.answer(Err(ReturnCode::ILLEGAL_SERVICE_CODING)),
             Some(Service::NoService) => *p,
-            Some(_) => p.answer(self.backend.param(p)),
+            Some(_) => p.answer(self.backend.param(ctx, p)),
         }
     }
 
     fn on_request(&mut self, request: Telegram, end: Instant) {
         let pdu_type = request.pdu_type();
         let cyclic = pdu_type.is_cyclic();
-        if cyclic {
-            self.last_cyclic = Some(end);
-            self.timed_out = false;
-        }
+        let address = request.address();
+        let answered = address.expects_response();
+        let ctx = RequestContext {
+            end,
+            cyclic,
+            address,
+            answered,
+        };
+        self.backend.on_request(&ctx);
         let answer = request.param().map(|p| {
-            if !cyclic {
-                self.execute(&p)
-            } else if p.management.handshake() != self.last_handshake {
-                let a = self.execute(&p);
-                self.last_handshake = p.management.handshake();
-                self.last_answer = a;
+            if cyclic {
+                let mut handshake = self.handshake;
+                let a = handshake.handle(&p, |p| self.execute(&ctx, p));
+                self.handshake = handshake;
                 a
             } else {
-                self.last_answer
+                self.execute(&ctx, &p)
             }
         });
         let mut input = [0u16; 3];
         let words = pdu_type.pd_words();
         if words > 0 {
             if let Some(input) = input.get_mut(..words) {
-                self.backend.process_data(request.process_data(), input);
+                self.backend
+                    .process_data(&ctx, request.process_data(), input);
             }
         }
-        let address = request.address();
-        let answered = address.expects_response();
         if answered {
             let reply_address =
                 if address.is_point_to_point() && self.config.reply_p2p_with_own_address {
@@ -314,7 +324,7 @@ impl<B: Backend> Slave<B> {
                 self.tx = Some(Pending {
                     bytes,
                     len,
-                    not_before: end.plus_micros(self.pause_us),
+                    not_before: end + self.config.timing.start_pause,
                 });
             }
         }
@@ -322,5 +332,37 @@ impl<B: Backend> Slave<B> {
             telegram: request,
             answered,
         });
+    }
+}
+
+impl<B: Backend> Endpoint for Slave<B> {
+    fn handle_char(&mut self, c: RxChar) {
+        Slave::handle_char(self, c);
+    }
+
+    fn handle_timeout(&mut self, now: Instant) {
+        Slave::handle_timeout(self, now);
+    }
+
+    fn poll_transmit(&mut self, now: Instant, buf: &mut [u8]) -> Option<usize> {
+        Slave::poll_transmit(self, now, buf)
+    }
+
+    fn poll_timeout(&self) -> Option<Instant> {
+        Slave::poll_timeout(self)
+    }
+
+    fn poll_quiet_timeout(&self) -> Option<Instant> {
+        [
+            self.tx.map(|p| p.not_before),
+            self.receiver.pending_confirmation(),
+        ]
+        .into_iter()
+        .flatten()
+        .min()
+    }
+
+    fn max_frame_len(&self) -> usize {
+        MAX_TELEGRAM_LEN
     }
 }

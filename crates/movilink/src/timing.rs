@@ -1,103 +1,39 @@
-//! Bus timing of MOVILINK as plain state: no sleeps, no clock reads.
+//! MOVILINK's bus times, computed from the real line settings.
 //!
-//! Every time value is passed in by the caller as an [`Instant`], a microsecond count since an
-//! arbitrary epoch chosen by the caller (an async driver typically uses the time its port was
-//! opened). The constants below come from chapter 4.1/4.2 of the MOVIDRIVE serial communication
-//! manual:
+//! Time is [`Instant`] (nanoseconds since an epoch the caller picks), shared with every
+//! drivebus crate; nothing here reads a clock. The times of chapter 4.1/4.2 of the MOVIDRIVE
+//! serial communication manual:
 //!
-//! | constant | value | manual |
+//! | time | at 9600 8E1 | rule |
 //! |---|---|---|
-//! | [`CHAR_TIME`] | 1146 µs | 11 bits (start, 8 data, even parity, stop) at 9600 baud = 1145.8 µs, rounded up |
-//! | [`START_PAUSE`] | 3.44 ms | idle time before SD1/SD2; = 3 character times (3 × 1.1458 ms = 3.4375 ms, rounded up to 3.44 ms) |
-//! | [`RESTART_PAUSE`] | 6.88 ms | after the master aborted a request: two start pauses |
-//! | [`BROADCAST_SPACING`] | 25 ms | from the BCC of a broadcast request to the next SD1 |
+//! | character time | 1145.833 µs | 11 bits (start, 8 data, even parity, stop) / 9600 baud: [`LineSettings::char_time`] |
+//! | [start pause](LineTiming::start_pause) | 3.44 ms | idle time before SD1/SD2: three character times (3.4375 ms), rounded up to 10 µs as the manual prints it |
+//! | restart pause | 6.88 ms | after an aborted or failed request: two start pauses |
+//! | [`BROADCAST_SPACING`] | 25 ms | from the BCC of a broadcast (or group) request to the next SD1 |
 //! | [`MAX_RESPONSE_DELAY`] | 50 ms | from the request's BCC to the response's SD2, at most |
+//!
+//! MOVILINK runs at 9600 baud, but the times follow whatever line a port is opened with (a
+//! pseudo-terminal without parity has 10-bit characters, a test line may run at 19200 baud):
+//! [`LineTiming::new`] computes them from [`LineSettings`].
 //!
 //! The inter-character gap inside a telegram must stay below the start pause; a receiver that
 //! sees a gap of a start pause or more treats the telegram as broken (and the character after
 //! the gap as a possible new start).
 //!
-//! Character times: an [`RxChar`](crate::receiver::RxChar)'s time is the moment the character
-//! was *completely* received (end of its stop bit). The idle gap before a character is therefore
-//! `time - previous.time - char_time`.
+//! A character's time is the moment it was *completely* received (end of its stop bit). The
+//! idle gap before a character is therefore `time - previous.time - char_time`.
 
-use core::ops::Add;
 use core::time::Duration;
 
-/// A point in time: microseconds since an epoch chosen by the caller.
-///
-/// This is the only notion of time of the crate; it is never read from a clock.
-/// Arithmetic saturates instead of overflowing.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default)]
-pub struct Instant(u64);
+pub use drive_core::{Instant, LineSettings, TxGate};
 
-impl Instant {
-    /// The epoch.
-    pub const ZERO: Self = Self(0);
-
-    /// An instant `micros` microseconds after the epoch.
-    pub const fn from_micros(micros: u64) -> Self {
-        Self(micros)
-    }
-
-    /// An instant `millis` milliseconds after the epoch (saturating).
-    pub const fn from_millis(millis: u64) -> Self {
-        Self(millis.saturating_mul(1000))
-    }
-
-    /// An instant `since_epoch` after the epoch (saturating at `u64::MAX` microseconds).
-    pub fn from_duration(since_epoch: Duration) -> Self {
-        Self(duration_micros(since_epoch))
-    }
-
-    /// Microseconds since the epoch.
-    pub const fn as_micros(self) -> u64 {
-        self.0
-    }
-
-    /// Time since the epoch.
-    pub const fn as_duration(self) -> Duration {
-        Duration::from_micros(self.0)
-    }
-
-    /// Time from `earlier` to `self`, zero if `earlier` is later.
-    pub const fn saturating_duration_since(self, earlier: Instant) -> Duration {
-        Duration::from_micros(self.0.saturating_sub(earlier.0))
-    }
-
-    /// `self + d`, saturating.
-    pub fn saturating_add(self, d: Duration) -> Self {
-        Self(self.0.saturating_add(duration_micros(d)))
-    }
-
-    pub(crate) const fn plus_micros(self, us: u64) -> Self {
-        Self(self.0.saturating_add(us))
-    }
-}
-
-impl Add<Duration> for Instant {
-    type Output = Instant;
-
-    /// Saturating addition.
-    fn add(self, rhs: Duration) -> Instant {
-        self.saturating_add(rhs)
-    }
-}
-
-/// Whole microseconds of `d`, saturating at `u64::MAX`.
-pub(crate) fn duration_micros(d: Duration) -> u64 {
-    u64::try_from(d.as_micros()).unwrap_or(u64::MAX)
-}
-
-/// The fixed baud rate of MOVILINK over RS-485/RS-232.
-pub const BAUD_RATE: u32 = 9600;
-/// Bits per character: 1 start, 8 data, 1 even parity, 1 stop.
-pub const BITS_PER_CHAR: u32 = 11;
-/// Time of one character at 9600 baud (11 bits = 1145.8 µs, rounded up to whole microseconds).
-pub const CHAR_TIME: Duration = char_time(BAUD_RATE);
-/// Minimum idle time before a start character (3 character times, 3.44 ms as the manual says).
-pub const START_PAUSE: Duration = Duration::from_micros(3440);
-/// Minimum idle time before a new request after the master aborted a request (2 start pauses).
+/// The line MOVILINK specifies: 9600 baud, 8 data bits, even parity, 1 stop bit.
+pub const LINE: LineSettings = LineSettings::new(9600);
+/// Time of one character at 9600 8E1 (11 bits, 1 145 833 ns).
+pub const CHAR_TIME: Duration = LINE.char_time();
+/// The start pause at 9600 8E1, 3.44 ms as the manual says.
+pub const START_PAUSE: Duration = start_pause(&LINE);
+/// The restart pause at 9600 8E1: two start pauses.
 pub const RESTART_PAUSE: Duration = Duration::from_micros(2 * 3440);
 /// Minimum time from the BCC of a broadcast (or group) request to the next SD1.
 pub const BROADCAST_SPACING: Duration = Duration::from_millis(25);
@@ -106,18 +42,18 @@ pub const MAX_RESPONSE_DELAY: Duration = Duration::from_millis(50);
 /// The master's default response timeout: the manual's maximum response delay.
 pub const DEFAULT_RESPONSE_TIMEOUT: Duration = MAX_RESPONSE_DELAY;
 
-/// Time of one 11-bit character at `baud` (rounded up to whole microseconds; `baud` 0 → 0).
-pub const fn char_time(baud: u32) -> Duration {
-    if baud == 0 {
-        return Duration::ZERO;
-    }
-    let bits_us = BITS_PER_CHAR as u64 * 1_000_000;
-    Duration::from_micros(bits_us.div_ceil(baud as u64))
+/// The start pause of `line`: three character times, rounded up to whole 10 µs (the manual's
+/// 3.44 ms at 9600 8E1 is 3 × 1.1458 ms = 3.4375 ms rounded the same way).
+pub const fn start_pause(line: &LineSettings) -> Duration {
+    let three = drive_core::time::duration_nanos(line.char_times(3, 1));
+    Duration::from_nanos(three.div_ceil(10_000).saturating_mul(10_000))
 }
 
-/// Line timing shared by the receiver and the state machines.
+/// The timing of one MOVILINK line, shared by the receiver and the state machines.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub struct LineTiming {
+    /// The line settings the times come from.
+    pub line: LineSettings,
     /// Time of one character on the wire.
     pub char_time: Duration,
     /// Minimum idle time before a start character.
@@ -130,15 +66,23 @@ pub struct LineTiming {
 }
 
 impl LineTiming {
-    /// MOVILINK at 9600 baud: [`CHAR_TIME`] and [`START_PAUSE`].
-    pub const MOVILINK: Self = Self {
-        char_time: CHAR_TIME,
-        start_pause: START_PAUSE,
-        max_gap: START_PAUSE,
-    };
+    /// MOVILINK at 9600 8E1: [`CHAR_TIME`] and [`START_PAUSE`].
+    pub const MOVILINK: Self = Self::new(LINE);
+
+    /// The times of `line`.
+    pub const fn new(line: LineSettings) -> Self {
+        let pause = start_pause(&line);
+        Self {
+            line,
+            char_time: line.char_time(),
+            start_pause: pause,
+            max_gap: pause,
+        }
+    }
 
     /// The same timing, accepting gaps up to `max_gap` inside a received telegram (never
     /// less than the start pause).
+    #[must_use]
     pub fn with_max_gap(self, max_gap: Duration) -> Self {
         Self {
             max_gap: max_gap.max(self.start_pause),
@@ -146,21 +90,23 @@ impl LineTiming {
         }
     }
 
+    /// Two start pauses: the silence after an aborted or failed request.
+    pub const fn restart_pause(&self) -> Duration {
+        self.start_pause.saturating_mul(2)
+    }
+
     /// Wire time of `chars` characters.
-    pub fn wire_time(&self, chars: usize) -> Duration {
-        let n = u32::try_from(chars).unwrap_or(u32::MAX);
-        self.char_time.saturating_mul(n)
+    pub const fn wire_time(&self, chars: usize) -> Duration {
+        self.line.wire_time(chars)
     }
 
-    pub(crate) fn micros(&self) -> (u64, u64) {
-        (
-            duration_micros(self.char_time),
-            duration_micros(self.start_pause),
-        )
-    }
-
-    pub(crate) fn max_gap_micros(&self) -> u64 {
-        duration_micros(self.max_gap.max(self.start_pause))
+    /// The receiver's times: a telegram starts after a start pause, breaks off at
+    /// [`LineTiming::max_gap`] and is confirmed by a start pause of silence.
+    pub fn frame_timing(&self) -> drive_core::FrameTiming {
+        drive_core::FrameTiming {
+            max_gap: self.max_gap.max(self.start_pause),
+            ..drive_core::FrameTiming::uniform(self.char_time, self.start_pause)
+        }
     }
 }
 
@@ -170,112 +116,40 @@ impl Default for LineTiming {
     }
 }
 
-/// Decides when the next telegram may start on the bus.
-///
-/// Feed it every bus activity (characters sent or received, with the time their last bit
-/// ended); it answers the earliest start of the next telegram:
-///
-/// * a start pause after the last activity,
-/// * [`RESTART_PAUSE`] after an aborted request ([`TxGate::on_aborted`]),
-/// * [`BROADCAST_SPACING`] after a request that expects no response ([`TxGate::on_request_sent`]).
-///
-/// ```
-/// use movilink::timing::{Instant, TxGate, LineTiming};
-/// let mut gate = TxGate::new(LineTiming::MOVILINK);
-/// gate.on_activity(Instant::from_micros(10_000));
-/// assert_eq!(gate.earliest_start(), Instant::from_micros(13_440));
-/// assert!(!gate.may_start(Instant::from_micros(13_439)));
-/// ```
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct TxGate {
-    start_pause_us: u64,
-    last_activity: Option<Instant>,
-    not_before: Instant,
-}
-
-impl TxGate {
-    /// A gate for a bus with `timing`, with no activity seen yet (the bus is assumed idle; call
-    /// [`TxGate::on_activity`] with the opening time of a port to require a first start pause).
-    pub fn new(timing: LineTiming) -> Self {
-        Self {
-            start_pause_us: duration_micros(timing.start_pause),
-            last_activity: None,
-            not_before: Instant::ZERO,
-        }
-    }
-
-    /// A character ended on the bus at `end` (sent or received).
-    pub fn on_activity(&mut self, end: Instant) {
-        self.last_activity = Some(match self.last_activity {
-            Some(last) if last > end => last,
-            _ => end,
-        });
-    }
-
-    /// No telegram may start before `t`.
-    pub fn hold_until(&mut self, t: Instant) {
-        if t > self.not_before {
-            self.not_before = t;
-        }
-    }
-
-    /// A complete request to `address` ended at `end`; requests without a response (group,
-    /// broadcast) hold the bus for [`BROADCAST_SPACING`].
-    pub fn on_request_sent(&mut self, end: Instant, address: crate::Address) {
-        self.on_activity(end);
-        if !address.expects_response() {
-            self.hold_until(end + BROADCAST_SPACING);
-        }
-    }
-
-    /// The master aborted a request at `at` (the line is quiet from `at` on, even if the
-    /// whole telegram had been announced with [`TxGate::on_request_sent`]): the next request
-    /// waits two start pauses from `at`.
-    pub fn on_aborted(&mut self, at: Instant) {
-        self.last_activity = Some(at);
-        self.hold_until(at.plus_micros(self.start_pause_us.saturating_mul(2)));
-    }
-
-    /// The last activity seen, if any.
-    pub fn last_activity(&self) -> Option<Instant> {
-        self.last_activity
-    }
-
-    /// Earliest start of the next telegram's start character.
-    pub fn earliest_start(&self) -> Instant {
-        let after_pause = match self.last_activity {
-            Some(last) => last.plus_micros(self.start_pause_us),
-            None => Instant::ZERO,
-        };
-        after_pause.max(self.not_before)
-    }
-
-    /// Whether a telegram may start at `now`.
-    pub fn may_start(&self, now: Instant) -> bool {
-        now >= self.earliest_start()
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use drive_core::Parity;
 
     #[test]
-    fn char_time_is_11_bits_at_9600() {
-        assert_eq!(CHAR_TIME, Duration::from_micros(1146));
-        // 3 character times ≈ the manual's 3.44 ms start pause.
-        let three = 3.0 * 11.0 / 9600.0;
-        assert!((three - 0.00344_f64).abs() < 0.000_01);
+    fn times_of_the_manual_at_9600_8e1() {
+        assert_eq!(CHAR_TIME, Duration::from_nanos(1_145_833));
+        assert_eq!(START_PAUSE, Duration::from_micros(3440));
         assert_eq!(RESTART_PAUSE, START_PAUSE * 2);
-        assert_eq!(char_time(0), Duration::ZERO);
+        assert_eq!(LineTiming::MOVILINK.restart_pause(), RESTART_PAUSE);
+        assert_eq!(
+            LineTiming::MOVILINK.wire_time(18),
+            Duration::from_micros(20_625)
+        );
     }
 
     #[test]
-    fn instant_saturates() {
-        let max = Instant::from_micros(u64::MAX);
-        assert_eq!(max + Duration::from_secs(1), max);
-        assert_eq!(Instant::ZERO.saturating_duration_since(max), Duration::ZERO);
-        assert_eq!(Instant::from_duration(Duration::MAX), max);
-        assert_eq!(Instant::from_millis(3).as_micros(), 3000);
+    fn times_follow_the_line() {
+        let fast = LineTiming::new(LineSettings::new(19200));
+        assert_eq!(fast.char_time, Duration::from_nanos(572_917));
+        assert_eq!(fast.start_pause, Duration::from_micros(1720));
+        let pty = LineTiming::new(LINE.with_parity(Parity::None));
+        assert_eq!(pty.char_time, Duration::from_nanos(1_041_667));
+        assert_eq!(pty.start_pause, Duration::from_micros(3130));
+        assert_eq!(
+            LineTiming::MOVILINK
+                .with_max_gap(Duration::from_millis(20))
+                .max_gap,
+            Duration::from_millis(20)
+        );
+        assert_eq!(
+            LineTiming::MOVILINK.with_max_gap(Duration::ZERO).max_gap,
+            START_PAUSE
+        );
     }
 }

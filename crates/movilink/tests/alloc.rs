@@ -7,8 +7,8 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 
 use movilink::timing::Instant;
 use movilink::{
-    Address, Master, MasterConfig, MasterEvent, ParamChannel, PduType, Receiver, ReturnCode,
-    RxChar, Slave, SlaveConfig, Telegram, decode, encode,
+    Address, Master, MasterConfig, MasterEvent, ParamChannel, PduType, Receiver, RequestContext,
+    ReturnCode, RxChar, Slave, SlaveConfig, Telegram, decode, encode,
 };
 
 struct Counting;
@@ -34,14 +34,13 @@ static GLOBAL: Counting = Counting;
 struct Drive(u32);
 
 impl movilink::Backend for Drive {
-    fn param(&mut self, req: &ParamChannel) -> Result<u32, ReturnCode> {
+    fn param(&mut self, _ctx: &RequestContext, req: &ParamChannel) -> Result<u32, ReturnCode> {
         self.0 = self.0.wrapping_add(req.data);
         Ok(self.0)
     }
-    fn process_data(&mut self, _output: &[u16], input: &mut [u16]) {
+    fn process_data(&mut self, _ctx: &RequestContext, _output: &[u16], input: &mut [u16]) {
         input.fill(7);
     }
-    fn on_timeout(&mut self) {}
 }
 
 #[test]
@@ -49,7 +48,7 @@ fn nothing_allocates() {
     let a = Address::new(1).unwrap();
     let mut master = Master::new(MasterConfig::default());
     let mut slave = Slave::new(SlaveConfig::new(a), Drive(0));
-    let mut rx = Receiver::for_slave(a, Address::NO_GROUP);
+    let mut rx = Receiver::new(movilink::TelegramFraming::slave(a, Address::NO_GROUP));
     let before = ALLOCATIONS.load(Ordering::SeqCst);
 
     let mut sum = 0usize;
@@ -77,7 +76,7 @@ fn nothing_allocates() {
     let mut done = None;
     let mut buf = [0u8; 18];
     for _ in 0..100 {
-        if let Some(n) = master.poll_transmit(&mut buf) {
+        if let Some(n) = master.poll_transmit(Instant::from_micros(now), &mut buf) {
             for b in &buf[..n] {
                 now += 1146;
                 slave.handle_char(RxChar::new(*b, Instant::from_micros(now)));
@@ -85,7 +84,7 @@ fn nothing_allocates() {
         }
         now += 3440;
         slave.handle_timeout(Instant::from_micros(now));
-        if let Some(n) = slave.poll_transmit(&mut buf) {
+        if let Some(n) = slave.poll_transmit(Instant::from_micros(now), &mut buf) {
             for b in &buf[..n] {
                 now += 1146;
                 master.handle_char(RxChar::new(*b, Instant::from_micros(now)));

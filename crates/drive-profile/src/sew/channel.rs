@@ -524,6 +524,12 @@ impl ReturnCode {
         Self::new(class, code, u16::from_be_bytes([hi, lo]))
     }
 
+    /// The four bytes 4–7 of the parameter channel: class, code, additional high, low.
+    pub const fn to_bytes(self) -> [u8; 4] {
+        let [hi, lo] = self.additional_code.to_be_bytes();
+        [self.error_class, self.error_code, hi, lo]
+    }
+
     /// Encode into the 4 data bytes.
     pub const fn to_data(self) -> u32 {
         let [hi, lo] = self.additional_code.to_be_bytes();

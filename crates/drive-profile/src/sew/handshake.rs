@@ -8,7 +8,7 @@
 //! drive's bit. Acyclic telegrams do not use the handshake: their service always runs.
 //!
 //! ```
-//! use drive_profile::sew::{MasterHandshake, ParamChannel, Prepared, SlaveHandshake, Verdict};
+//! use drive_profile::sew::{MasterHandshake, ParamChannel, Prepared, SlaveHandshake, Echo};
 //!
 //! let mut master = MasterHandshake::new();
 //! let mut drive = SlaveHandshake::new();
@@ -19,7 +19,7 @@
 //! // Now the read goes out with the bit toggled, and the drive executes it.
 //! let Prepared::Send(req) = master.prepare(1, true, ParamChannel::read(8318)) else { panic!() };
 //! let answer = drive.handle(&req, |p| p.answer(Ok(1500)));
-//! assert_eq!(MasterHandshake::verdict(&req, &answer), Verdict::Done);
+//! assert_eq!(MasterHandshake::echo(&req, &answer), Echo::Done);
 //! // Repeated, the drive does not execute it again: it repeats the answer.
 //! let again = drive.handle(&req, |_| unreachable!());
 //! assert_eq!(again, answer);
@@ -80,9 +80,9 @@ pub enum Prepared {
     LearnFirst,
 }
 
-/// How a cyclic answer relates to the service the master sent ([`MasterHandshake::verdict`]).
+/// How a cyclic answer relates to the service the master sent ([`MasterHandshake::echo`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum Verdict {
+pub enum Echo {
     /// The drive echoed the sent bit with the answer of the sent service: done.
     Done,
     /// The drive has not executed the service yet: send it again.
@@ -158,12 +158,12 @@ impl MasterHandshake {
     }
 
     /// How the answer `got` relates to the service `sent`.
-    pub fn verdict(sent: &ParamChannel, got: &ParamChannel) -> Verdict {
+    pub fn echo(sent: &ParamChannel, got: &ParamChannel) -> Echo {
         let echoed = got.management.handshake() == sent.management.handshake();
         match (echoed, sent.is_answered_by(got)) {
-            (true, true) => Verdict::Done,
-            (true, false) => Verdict::Stale,
-            (false, _) => Verdict::Wait,
+            (true, true) => Echo::Done,
+            (true, false) => Echo::Stale,
+            (false, _) => Echo::Wait,
         }
     }
 }
@@ -204,14 +204,14 @@ mod tests {
     }
 
     #[test]
-    fn verdicts() {
+    fn echoes() {
         let sent = ParamChannel::read(8318).with_handshake(true);
         let done = sent.answer(Ok(5));
-        assert_eq!(MasterHandshake::verdict(&sent, &done), Verdict::Done);
+        assert_eq!(MasterHandshake::echo(&sent, &done), Echo::Done);
         let old = ParamChannel::read(8319).with_handshake(true).answer(Ok(5));
-        assert_eq!(MasterHandshake::verdict(&sent, &old), Verdict::Stale);
+        assert_eq!(MasterHandshake::echo(&sent, &old), Echo::Stale);
         let waiting = ParamChannel::read(8319).answer(Ok(5));
-        assert_eq!(MasterHandshake::verdict(&sent, &waiting), Verdict::Wait);
+        assert_eq!(MasterHandshake::echo(&sent, &waiting), Echo::Wait);
     }
 
     #[test]

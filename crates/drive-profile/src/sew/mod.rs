@@ -44,7 +44,7 @@ mod words;
 pub use channel::{
     AttributeInfo, DataLength, ErrorClass, Management, ParamChannel, ReturnCode, ScaleInfo, Service,
 };
-pub use handshake::{MasterHandshake, Prepared, SlaveHandshake, Verdict};
+pub use handshake::{Echo, MasterHandshake, Prepared, SlaveHandshake};
 pub use words::{BasicCommand, ControlWord1, StatusWord1, UnitStatus};
 
 use crate::param::{Access, Family, Label, ParamMeta, ValueName};

@@ -3,14 +3,14 @@
 use std::time::Duration;
 
 use drive_sim::{
-    DriveState, FaultReaction, ParamStore, Persistence, RampConfig, Response, SimDrive, SimError,
-    SimTime, SpeedMapping,
+    DriveState, FaultReaction, Instant, ParamStore, Persistence, RampConfig, Response, SimDrive,
+    SimError, SpeedMapping,
 };
 
 use crate::table::*;
 
-fn ms(n: u64) -> SimTime {
-    SimTime::from_millis(n)
+fn ms(n: u64) -> Instant {
+    Instant::from_millis(n)
 }
 
 fn drive() -> SimDrive {
@@ -220,7 +220,7 @@ fn speed_mapping_must_name_a_known_cell() {
 #[test]
 fn tick_hook_maps_internal_values_and_reads_ramp_parameters() {
     let mut d = drive();
-    d.set_tick_hook(Some(Box::new(|drive: &mut SimDrive, _now: SimTime| {
+    d.set_tick_hook(Some(Box::new(|drive: &mut SimDrive, _now: Instant| {
         let state_code = match drive.state() {
             DriveState::Inhibited => 1,
             DriveState::Enabled => 4,

@@ -4,43 +4,54 @@
 use std::time::Duration;
 
 use drive_profile::sew;
+use drive_profile::sew::{ControlWord1, Management, ParamChannel, ReturnCode, Service};
 use drive_sim::movidrive::{
-    BusSource, FAULT_RS485_TIMEOUT, FIRMWARE, Movidrive, ParamService, PiFunction, ReturnCode,
-    TimeoutReaction, UNIT_TYPE, control_word, index,
+    BusSource, FAULT_RS485_TIMEOUT, FIRMWARE, Movidrive, PiFunction, TimeoutReaction, UNIT_TYPE,
+    index,
 };
-use drive_sim::{DriveState, SimTime};
+use drive_sim::{DriveState, Instant};
 use proptest::prelude::*;
 
-fn ms(ms: u64) -> SimTime {
-    SimTime::from_millis(ms)
+fn ms(ms: u64) -> Instant {
+    Instant::from_millis(ms)
 }
 
-fn us(us: u64) -> SimTime {
-    SimTime::from_micros(us)
+fn us(us: u64) -> Instant {
+    Instant::from_micros(us)
 }
 
 /// Address 1, P100/P101 = RS-485, everything else at the table defaults.
 fn bus_drive() -> Movidrive {
     let mut d = Movidrive::new(1);
-    d.set_bus_control(BusSource::Rs485, SimTime::ZERO);
+    d.set_bus_control(BusSource::Rs485, Instant::ZERO);
     d
 }
 
-fn read(d: &mut Movidrive, index: u16, now: SimTime) -> Result<u32, ReturnCode> {
-    d.param_service(ParamService::Read, index, 0, now)
+/// A parameter channel with service code `code` (also undefined ones), 4 data bytes.
+fn request(code: u8, index: u16, data: u32) -> ParamChannel {
+    ParamChannel {
+        management: Management::from_raw(0x30 | code),
+        subindex: 0,
+        index,
+        data,
+    }
 }
 
-fn write(d: &mut Movidrive, index: u16, value: i64, now: SimTime) -> Result<u32, ReturnCode> {
-    d.param_service(ParamService::Write, index, value as u32, now)
+fn read(d: &mut Movidrive, index: u16, now: Instant) -> Result<u32, ReturnCode> {
+    d.param_service(Service::Read, index, 0, now)
+}
+
+fn write(d: &mut Movidrive, index: u16, value: i64, now: Instant) -> Result<u32, ReturnCode> {
+    d.param_service(Service::Write, index, value as u32, now)
 }
 
 fn write_volatile(
     d: &mut Movidrive,
     index: u16,
     value: i64,
-    now: SimTime,
+    now: Instant,
 ) -> Result<u32, ReturnCode> {
-    d.param_service(ParamService::WriteVolatile, index, value as u32, now)
+    d.param_service(Service::WriteVolatile, index, value as u32, now)
 }
 
 fn pi(d: &Movidrive) -> [u16; 3] {
@@ -60,7 +71,7 @@ fn assert_rpm(d: &Movidrive, expected: f64) {
 /// Enabled at 0 ms with 1000 1/min (PO 0006 / 5000), at speed from 667 ms on.
 fn running_drive() -> Movidrive {
     let mut d = bus_drive();
-    d.process_output(&[control_word::ENABLE, 5000], ms(0));
+    d.process_output(&[ControlWord1::ENABLE.bits(), 5000], ms(0));
     d.tick(ms(1000));
     assert_rpm(&d, 1000.0);
     d
@@ -78,7 +89,7 @@ fn new_takes_the_address_and_table_defaults() {
         d.rs485_timeout_reaction(),
         TimeoutReaction::RapidStopWarning
     );
-    let t = SimTime::ZERO;
+    let t = Instant::ZERO;
     assert_eq!(read(&mut d, index::RS485_ADDRESS, t), Ok(7));
     assert_eq!(read(&mut d, index::PO1_DESCRIPTION, t), Ok(9));
     assert_eq!(read(&mut d, index::PO1_DESCRIPTION + 1, t), Ok(1));
@@ -94,7 +105,7 @@ fn new_takes_the_address_and_table_defaults() {
 #[test]
 fn identity_reads_back_nonzero() {
     let mut d = Movidrive::new(1);
-    let t = SimTime::ZERO;
+    let t = Instant::ZERO;
     assert_eq!(read(&mut d, index::UNIT_TYPE, t), Ok(UNIT_TYPE));
     assert_ne!(UNIT_TYPE, 0);
     assert_eq!(read(&mut d, index::FIRMWARE, t), Ok(822_609_711));
@@ -151,50 +162,40 @@ fn writes_are_rounded_onto_the_step_grid() {
 #[test]
 fn read_minimum_maximum_default() {
     let mut d = Movidrive::new(1);
-    let t = SimTime::ZERO;
+    let t = Instant::ZERO;
     let svc = |d: &mut Movidrive, s, i| d.param_service(s, i, 0, t);
-    assert_eq!(svc(&mut d, ParamService::ReadMinimum, 8470), Ok(0));
-    assert_eq!(svc(&mut d, ParamService::ReadMaximum, 8470), Ok(2_000_000));
-    assert_eq!(svc(&mut d, ParamService::ReadDefault, 8470), Ok(2000));
-    assert_eq!(svc(&mut d, ParamService::ReadMaximum, 8304), Ok(12));
-    assert_eq!(svc(&mut d, ParamService::ReadMinimum, 8598), Ok(100));
-    assert_eq!(svc(&mut d, ParamService::ReadDefault, 8598), Ok(100));
+    assert_eq!(svc(&mut d, Service::ReadMinimum, 8470), Ok(0));
+    assert_eq!(svc(&mut d, Service::ReadMaximum, 8470), Ok(2_000_000));
+    assert_eq!(svc(&mut d, Service::ReadDefault, 8470), Ok(2000));
+    assert_eq!(svc(&mut d, Service::ReadMaximum, 8304), Ok(12));
+    assert_eq!(svc(&mut d, Service::ReadMinimum, 8598), Ok(100));
+    assert_eq!(svc(&mut d, Service::ReadDefault, 8598), Ok(100));
     // no printed range: the 32-bit signed limits
-    assert_eq!(
-        svc(&mut d, ParamService::ReadMinimum, 8318),
-        Ok(0x8000_0000)
-    );
-    assert_eq!(
-        svc(&mut d, ParamService::ReadMaximum, 8318),
-        Ok(0x7fff_ffff)
-    );
+    assert_eq!(svc(&mut d, Service::ReadMinimum, 8318), Ok(0x8000_0000));
+    assert_eq!(svc(&mut d, Service::ReadMaximum, 8318), Ok(0x7fff_ffff));
     // the default is the table's, not the current value
     write_volatile(&mut d, 8470, 500, t).unwrap();
-    assert_eq!(svc(&mut d, ParamService::ReadDefault, 8470), Ok(2000));
+    assert_eq!(svc(&mut d, Service::ReadDefault, 8470), Ok(2000));
 }
 
 #[test]
 fn read_scale_gives_size_and_conversion_index() {
     let mut d = Movidrive::new(1);
-    let t = SimTime::ZERO;
+    let t = Instant::ZERO;
     // the manual's example: P131 → size index 4 (time), conversion index −3
-    let p131 = d
-        .param_service(ParamService::ReadScale, 8471, 0, t)
-        .unwrap();
+    let p131 = d.param_service(Service::ReadScale, 8471, 0, t).unwrap();
     assert_eq!(p131.to_be_bytes(), [0, 0, 4, 0xfd]);
     assert_eq!(p131.to_be_bytes()[3] as i8, -3);
     // P000 speed: size index 11, conversion index 66 (1/min)
-    let p000 = d
-        .param_service(ParamService::ReadScale, 8318, 0, t)
-        .unwrap();
+    let p000 = d.param_service(Service::ReadScale, 8318, 0, t).unwrap();
     assert_eq!(p000.to_be_bytes(), [0, 0, 11, 66]);
 }
 
 #[test]
 fn read_attribute_gives_next_index_and_access_byte() {
     let mut d = Movidrive::new(1);
-    let t = SimTime::ZERO;
-    let attr = |d: &mut Movidrive, i| d.param_service(ParamService::ReadAttribute, i, 0, t);
+    let t = Instant::ZERO;
+    let attr = |d: &mut Movidrive, i| d.param_service(Service::ReadAttribute, i, 0, t);
     // P130 N/RW → N (0x10) | RW (0x08); next index 8471
     assert_eq!(attr(&mut d, 8470), Ok(8471 << 16 | 0x18));
     // P000 RO (0x02); next 8319
@@ -229,8 +230,8 @@ fn read_attribute_gives_next_index_and_access_byte() {
 fn unknown_index_answers_0x0010_for_every_service() {
     let mut d = Movidrive::new(1);
     for id in 1..=8 {
-        let service = ParamService::from_id(id).unwrap();
-        assert_eq!(service.id(), id);
+        let service = Service::from_code(id).unwrap();
+        assert_eq!(service.code(), id);
         assert_eq!(
             d.param_service(service, 1234, 0, ms(0)),
             Err(ReturnCode::ILLEGAL_INDEX),
@@ -245,13 +246,13 @@ fn unknown_service_answers_class_5_code_5() {
     let mut d = Movidrive::new(1);
     for id in [9u8, 10, 15, 0xff] {
         assert_eq!(
-            d.param_request(id, 8470, 0, ms(0)),
-            Err(ReturnCode::SERVICE_ERROR)
+            d.param(&request(id, 8470, 0), ms(0)),
+            Err(ReturnCode::ILLEGAL_SERVICE_CODING)
         );
     }
-    assert_eq!(ReturnCode::SERVICE_ERROR.to_bytes(), [5, 5, 0, 0]);
-    assert_eq!(d.param_request(0, 8470, 0, ms(0)), Ok(0));
-    assert_eq!(d.param_request(1, 8470, 0, ms(0)), Ok(2000));
+    assert_eq!(ReturnCode::ILLEGAL_SERVICE_CODING.to_bytes(), [5, 5, 0, 0]);
+    assert_eq!(d.param(&request(0, 8470, 0), ms(0)), Ok(0));
+    assert_eq!(d.param(&request(1, 8470, 0), ms(0)), Ok(2000));
 }
 
 #[test]
@@ -284,13 +285,16 @@ fn range_violations_answer_0x0015_and_0x0016() {
     let mut d = Movidrive::new(1);
     assert_eq!(
         write(&mut d, index::RAMP_T11_UP_CW, 2_000_001, ms(0)),
-        Err(ReturnCode::TOO_LARGE)
+        Err(ReturnCode::VALUE_TOO_LARGE)
     );
     // P850 scaling factor numerator: 1…65535
-    assert_eq!(write(&mut d, 8747, 0, ms(0)), Err(ReturnCode::TOO_SMALL));
+    assert_eq!(
+        write(&mut d, 8747, 0, ms(0)),
+        Err(ReturnCode::VALUE_TOO_SMALL)
+    );
     assert_eq!(
         write(&mut d, 8747, 65536, ms(0)),
-        Err(ReturnCode::TOO_LARGE)
+        Err(ReturnCode::VALUE_TOO_LARGE)
     );
     assert_eq!(d.nv_writes(8747), Some(0));
 }
@@ -320,7 +324,7 @@ fn r_parameter_needs_controller_inhibit_0x001c() {
         write_volatile(&mut d, index::FACTORY_SETTING, 0, ms(1000)),
         Err(ReturnCode::CONTROLLER_INHIBIT_REQUIRED)
     );
-    d.process_output(&[control_word::CONTROLLER_INHIBIT, 5000], ms(1100));
+    d.process_output(&[ControlWord1::INHIBIT.bits(), 5000], ms(1100));
     assert_eq!(
         write_volatile(&mut d, index::FACTORY_SETTING, 0, ms(1100)),
         Ok(0)
@@ -330,7 +334,7 @@ fn r_parameter_needs_controller_inhibit_0x001c() {
 #[test]
 fn r_parameter_while_the_output_stage_is_still_on_answers_0x0020() {
     let mut d = running_drive();
-    d.process_output(&[control_word::STOP, 5000], ms(1000));
+    d.process_output(&[ControlWord1::STOP.bits(), 5000], ms(1000));
     d.tick(ms(1100));
     assert!(d.actual_speed_rpm() > 0.0);
     assert_eq!(
@@ -352,14 +356,14 @@ fn every_return_code_is_in_the_manuals_table() {
         ReturnCode::NOT_IMPLEMENTED,
         ReturnCode::READ_ONLY,
         ReturnCode::PARAMETER_LOCK,
-        ReturnCode::TOO_LARGE,
-        ReturnCode::TOO_SMALL,
-        ReturnCode::SYSTEM_SOFTWARE,
+        ReturnCode::VALUE_TOO_LARGE,
+        ReturnCode::VALUE_TOO_SMALL,
+        ReturnCode::SYSTEM_SOFTWARE_ERROR,
         ReturnCode::CONTROLLER_INHIBIT_REQUIRED,
         ReturnCode::INVALID_VALUE,
-        ReturnCode::NOT_SAVED_IN_EEPROM,
+        ReturnCode::NOT_STORED_IN_EEPROM,
         ReturnCode::OUTPUT_STAGE_ENABLED,
-        ReturnCode::SERVICE_ERROR,
+        ReturnCode::ILLEGAL_SERVICE_CODING,
     ] {
         assert!(rc.describe().known.is_some(), "{rc:?}");
         assert!(!rc.to_string().is_empty());
@@ -380,7 +384,7 @@ fn shared_and_second_indices_are_readable() {
     assert_eq!(write(&mut d, index::USER_UNIT_2, 0x6e, ms(0)), Ok(0));
     assert_eq!(read(&mut d, index::USER_UNIT_2, ms(0)), Ok(0x6e));
     assert_eq!(d.nv_writes(index::USER_UNIT_2), Some(1));
-    let scale = d.param_service(ParamService::ReadScale, index::USER_UNIT_2, 0, ms(0));
+    let scale = d.param_service(Service::ReadScale, index::USER_UNIT_2, 0, ms(0));
     assert_eq!(scale, Ok(0));
 }
 
@@ -433,7 +437,7 @@ fn enable_ramps_to_1000_rpm_in_the_time_p130_says() {
 #[test]
 fn zero_setpoint_does_not_move_the_drive() {
     let mut d = bus_drive();
-    d.process_output(&[control_word::ENABLE, 0], ms(0));
+    d.process_output(&[ControlWord1::ENABLE.bits(), 0], ms(0));
     d.tick(ms(1000));
     assert_rpm(&d, 0.0);
     assert_eq!(d.status_word_1(), 0x0407);
@@ -443,7 +447,7 @@ fn zero_setpoint_does_not_move_the_drive() {
 fn p130_changes_the_ramp() {
     let mut d = bus_drive();
     write_volatile(&mut d, index::RAMP_T11_UP_CW, 1000, ms(0)).unwrap();
-    d.process_output(&[control_word::ENABLE, 5000], ms(0));
+    d.process_output(&[ControlWord1::ENABLE.bits(), 5000], ms(0));
     d.tick(us(166_667));
     assert_rpm(&d, 500.0);
 }
@@ -452,7 +456,7 @@ fn p130_changes_the_ramp() {
 fn negative_speed_uses_the_ccw_ramps() {
     let mut d = bus_drive();
     write_volatile(&mut d, index::RAMP_T11_UP_CCW, 1000, ms(0)).unwrap();
-    d.process_output(&[control_word::ENABLE, (-5000i16) as u16], ms(0));
+    d.process_output(&[ControlWord1::ENABLE.bits(), (-5000i16) as u16], ms(0));
     d.tick(us(166_667));
     assert_rpm(&d, -500.0);
     d.tick(ms(1000));
@@ -462,7 +466,7 @@ fn negative_speed_uses_the_ccw_ramps() {
 #[test]
 fn stop_decelerates_on_the_p131_ramp() {
     let mut d = running_drive();
-    d.process_output(&[control_word::STOP, 5000], ms(1000));
+    d.process_output(&[ControlWord1::STOP.bits(), 5000], ms(1000));
     assert_eq!(d.drive().state(), DriveState::Ready);
     d.tick(us(1_333_333));
     assert_rpm(&d, 500.0);
@@ -477,7 +481,7 @@ fn stop_decelerates_on_the_p131_ramp() {
 fn rapid_stop_uses_the_stop_ramp_t13() {
     let mut d = running_drive();
     write_volatile(&mut d, index::STOP_RAMP_T13, 500, ms(1000)).unwrap();
-    d.process_output(&[control_word::RAPID_STOP, 5000], ms(1000));
+    d.process_output(&[ControlWord1::RAPID_STOP.bits(), 5000], ms(1000));
     assert_eq!(d.drive().state(), DriveState::QuickStop);
     // 3000 1/min per 0.5 s: 600 1/min in 100 ms
     d.tick(ms(1100));
@@ -490,7 +494,7 @@ fn rapid_stop_uses_the_stop_ramp_t13() {
 #[test]
 fn controller_inhibit_switches_the_output_stage_off() {
     let mut d = running_drive();
-    d.process_output(&[control_word::CONTROLLER_INHIBIT, 5000], ms(1000));
+    d.process_output(&[ControlWord1::INHIBIT.bits(), 5000], ms(1000));
     assert_eq!(d.drive().state(), DriveState::Inhibited);
     d.tick(ms(1001));
     assert_rpm(&d, 0.0);
@@ -503,7 +507,10 @@ fn integrator_and_parameter_set_bits_select_ramps_and_show_in_the_status() {
     let mut d = bus_drive();
     // integrator 2: t12 (P134, 10 s per 3000 1/min)
     d.process_output(
-        &[control_word::ENABLE | control_word::INTEGRATOR_BIT, 5000],
+        &[
+            ControlWord1::ENABLE.bits() | ControlWord1::INTEGRATOR_2.bits(),
+            5000,
+        ],
         ms(0),
     );
     d.tick(ms(1000));
@@ -511,7 +518,10 @@ fn integrator_and_parameter_set_bits_select_ramps_and_show_in_the_status() {
     assert_eq!(d.status_word_1() & 0x18, 0x08);
     // parameter set 2: t21 (P140 = 2 s), status bit 4
     d.process_output(
-        &[control_word::ENABLE | control_word::PARAMETER_SET_BIT, 5000],
+        &[
+            ControlWord1::ENABLE.bits() | ControlWord1::PARAMETER_SET_2.bits(),
+            5000,
+        ],
         ms(1000),
     );
     d.tick(ms(1100));
@@ -523,7 +533,7 @@ fn integrator_and_parameter_set_bits_select_ramps_and_show_in_the_status() {
 fn p870_mapping_changes_what_po1_means() {
     // default mapping: PO1 = control word → 5000 = 0x1388 has bit 1 clear = rapid stop
     let mut d = bus_drive();
-    d.process_output(&[5000, control_word::ENABLE], ms(0));
+    d.process_output(&[5000, ControlWord1::ENABLE.bits()], ms(0));
     d.tick(ms(1000));
     assert_rpm(&d, 0.0);
     assert_eq!(d.drive().state(), DriveState::Inhibited);
@@ -532,14 +542,14 @@ fn p870_mapping_changes_what_po1_means() {
     let mut d = bus_drive();
     write(&mut d, index::PO1_DESCRIPTION, 1, ms(0)).unwrap();
     write(&mut d, index::PO1_DESCRIPTION + 1, 9, ms(0)).unwrap();
-    d.process_output(&[5000, control_word::ENABLE], ms(0));
+    d.process_output(&[5000, ControlWord1::ENABLE.bits()], ms(0));
     d.tick(ms(1000));
     assert_rpm(&d, 1000.0);
 
     // PO2 = speed [%]: 0x2000 = 50 % of P302 (1500 1/min)
     let mut d = bus_drive();
     write(&mut d, index::PO1_DESCRIPTION + 1, 11, ms(0)).unwrap();
-    d.process_output(&[control_word::ENABLE, 0x2000], ms(0));
+    d.process_output(&[ControlWord1::ENABLE.bits(), 0x2000], ms(0));
     d.tick(ms(2000));
     assert_rpm(&d, 750.0);
     assert_eq!(d.pi_word(PiFunction::SpeedPercent), 0x2000);
@@ -548,14 +558,14 @@ fn p870_mapping_changes_what_po1_means() {
     // PO3 = ramp: 500 ms per 3000 1/min for up and down
     let mut d = bus_drive();
     write(&mut d, index::PO1_DESCRIPTION + 2, 8, ms(0)).unwrap();
-    d.process_output(&[control_word::ENABLE, 5000, 500], ms(0));
+    d.process_output(&[ControlWord1::ENABLE.bits(), 5000, 500], ms(0));
     d.tick(ms(100));
     assert_rpm(&d, 600.0);
 
     // PO3 = maximum speed: 2500 × 0.2 = 500 1/min limit
     let mut d = bus_drive();
     write(&mut d, index::PO1_DESCRIPTION + 2, 5, ms(0)).unwrap();
-    d.process_output(&[control_word::ENABLE, 5000, 2500], ms(0));
+    d.process_output(&[ControlWord1::ENABLE.bits(), 5000, 2500], ms(0));
     d.tick(ms(2000));
     assert_rpm(&d, 500.0);
 }
@@ -584,7 +594,7 @@ fn position_is_integrated_from_the_speed() {
     write(&mut d, index::PI1_DESCRIPTION + 2, 5, ms(0)).unwrap();
     write_volatile(&mut d, index::RAMP_T11_UP_CW, 0, ms(0)).unwrap();
     // 1500 1/min = 25 rev/s for 2 s = 50 rev = 204800 increments
-    d.process_output(&[control_word::ENABLE, 7500], ms(0));
+    d.process_output(&[ControlWord1::ENABLE.bits(), 7500], ms(0));
     d.tick(ms(2000));
     assert_eq!(d.position_increments(), 204_800);
     let [_, lo, hi] = pi(&d);
@@ -596,7 +606,7 @@ fn position_is_integrated_from_the_speed() {
 fn po_data_are_ignored_while_p876_is_off() {
     let mut d = bus_drive();
     write(&mut d, index::PO_DATA_ENABLE, 0, ms(0)).unwrap();
-    d.process_output(&[control_word::ENABLE, 5000], ms(0));
+    d.process_output(&[ControlWord1::ENABLE.bits(), 5000], ms(0));
     d.tick(ms(1000));
     assert_rpm(&d, 0.0);
     assert_eq!(d.process_output_words(), [0, 0, 0]);
@@ -607,21 +617,21 @@ fn po_data_are_ignored_while_p876_is_off() {
 fn terminal_control_keeps_the_drive_inhibited() {
     // factory setting: P100/P101 = terminals; no binary inputs are simulated
     let mut d = Movidrive::new(1);
-    d.process_output(&[control_word::ENABLE, 5000], ms(0));
+    d.process_output(&[ControlWord1::ENABLE.bits(), 5000], ms(0));
     d.tick(ms(1000));
     assert_rpm(&d, 0.0);
     assert!(!d.po_data_enabled());
     assert_eq!(d.status_word_1(), 0x0102);
     // P101 = RS485 but P100 still terminals: enabled, setpoint 0
     write(&mut d, index::CONTROL_SOURCE, 1, ms(1000)).unwrap();
-    d.process_output(&[control_word::ENABLE, 5000], ms(1000));
+    d.process_output(&[ControlWord1::ENABLE.bits(), 5000], ms(1000));
     d.tick(ms(2000));
     assert_eq!(d.status_word_1(), 0x0407);
     assert_rpm(&d, 0.0);
     // SBus as source works the same
     let mut d = Movidrive::new(1);
     d.set_bus_control(BusSource::SBus, ms(0));
-    d.process_output(&[control_word::ENABLE, 5000], ms(0));
+    d.process_output(&[ControlWord1::ENABLE.bits(), 5000], ms(0));
     d.tick(ms(1000));
     assert_rpm(&d, 1000.0);
 }
@@ -637,7 +647,7 @@ fn monitored_drive(reaction: i64) -> Movidrive {
     write_volatile(&mut d, index::STOP_RAMP_T13, 500, ms(0)).unwrap();
     write_volatile(&mut d, index::EMERGENCY_RAMP_T14, 300, ms(0)).unwrap();
     for t in (0..=1000).step_by(50) {
-        d.process_output(&[control_word::ENABLE, 5000], ms(t));
+        d.process_output(&[ControlWord1::ENABLE.bits(), 5000], ms(t));
         d.cyclic_telegram_received(ms(t));
     }
     assert_rpm(&d, 1000.0);
@@ -703,13 +713,16 @@ fn timeout_with_rapid_stop_fault_latches_until_reset() {
     assert_eq!(d.status_word_1(), 0x2B24);
     assert_eq!(read(&mut d, index::FAULT_T0, ms(2000)), Ok(43));
     // communication resumes: the fault stays
-    d.process_output(&[control_word::ENABLE, 5000], ms(2000));
+    d.process_output(&[ControlWord1::ENABLE.bits(), 5000], ms(2000));
     d.cyclic_telegram_received(ms(2000));
     d.tick(ms(2500));
     assert_eq!(d.drive().state(), DriveState::Fault(FAULT_RS485_TIMEOUT));
     // fault reset on the rising edge of bit 6
     d.process_output(
-        &[control_word::ENABLE | control_word::FAULT_RESET_BIT, 5000],
+        &[
+            ControlWord1::ENABLE.bits() | ControlWord1::FAULT_RESET.bits(),
+            5000,
+        ],
         ms(2500),
     );
     assert_eq!(d.fault_number(), None);
@@ -721,7 +734,7 @@ fn timeout_with_rapid_stop_fault_latches_until_reset() {
     d.cyclic_telegram_received(ms(2520));
     assert_eq!(d.drive().state(), DriveState::Enabled);
     for t in (2550..=3600).step_by(50) {
-        d.process_output(&[control_word::ENABLE, 5000], ms(t));
+        d.process_output(&[ControlWord1::ENABLE.bits(), 5000], ms(t));
         d.cyclic_telegram_received(ms(t));
     }
     assert_rpm(&d, 1000.0);
@@ -738,18 +751,27 @@ fn fault_reset_acts_on_the_edge_only() {
     // bit 6 already set before the fault: holding it does nothing, a new edge resets
     let mut d = monitored_drive(2);
     d.process_output(
-        &[control_word::ENABLE | control_word::FAULT_RESET_BIT, 5000],
+        &[
+            ControlWord1::ENABLE.bits() | ControlWord1::FAULT_RESET.bits(),
+            5000,
+        ],
         ms(1000),
     );
     d.tick(ms(1200));
     d.process_output(
-        &[control_word::ENABLE | control_word::FAULT_RESET_BIT, 5000],
+        &[
+            ControlWord1::ENABLE.bits() | ControlWord1::FAULT_RESET.bits(),
+            5000,
+        ],
         ms(1200),
     );
     assert_eq!(d.drive().state(), DriveState::Fault(43));
-    d.process_output(&[control_word::ENABLE, 5000], ms(1210));
+    d.process_output(&[ControlWord1::ENABLE.bits(), 5000], ms(1210));
     d.process_output(
-        &[control_word::ENABLE | control_word::FAULT_RESET_BIT, 5000],
+        &[
+            ControlWord1::ENABLE.bits() | ControlWord1::FAULT_RESET.bits(),
+            5000,
+        ],
         ms(1220),
     );
     assert_eq!(d.fault_number(), None);
@@ -760,7 +782,7 @@ fn fault_reset_acts_on_the_edge_only() {
 #[test]
 fn timeout_is_off_with_p812_zero_and_with_acyclic_traffic_only() {
     let mut d = bus_drive();
-    d.process_output(&[control_word::ENABLE, 5000], ms(0));
+    d.process_output(&[ControlWord1::ENABLE.bits(), 5000], ms(0));
     d.cyclic_telegram_received(ms(0));
     d.tick(ms(60_000));
     assert_rpm(&d, 1000.0);
@@ -768,7 +790,7 @@ fn timeout_is_off_with_p812_zero_and_with_acyclic_traffic_only() {
     // monitor on but only acyclic telegrams: never armed
     let mut d = bus_drive();
     write(&mut d, index::RS485_TIMEOUT, 100, ms(0)).unwrap();
-    d.process_output(&[control_word::ENABLE, 5000], ms(0));
+    d.process_output(&[ControlWord1::ENABLE.bits(), 5000], ms(0));
     d.tick(ms(10_000));
     assert_eq!(d.fault_number(), None);
     assert_rpm(&d, 1000.0);
@@ -800,14 +822,14 @@ fn held_safe_after_power_on_until_the_first_cyclic_telegram() {
     d.restart(ms(0));
     assert!(d.held_until_first_telegram());
     // acyclic telegrams do not release the hold
-    d.process_output(&[control_word::ENABLE, 5000], ms(10));
+    d.process_output(&[ControlWord1::ENABLE.bits(), 5000], ms(10));
     d.tick(ms(500));
     assert_rpm(&d, 0.0);
     assert_eq!(d.status_word_1(), 0x0206);
     d.cyclic_telegram_received(ms(500));
     assert!(!d.held_until_first_telegram());
     assert_eq!(d.drive().state(), DriveState::Enabled);
-    d.process_output(&[control_word::ENABLE, 5000], ms(550));
+    d.process_output(&[ControlWord1::ENABLE.bits(), 5000], ms(550));
     d.cyclic_telegram_received(ms(550));
     d.tick(ms(600));
     assert!(d.actual_speed_rpm() > 0.0);
@@ -877,12 +899,12 @@ proptest! {
         ops in prop::collection::vec((op(), 0u64..500), 1..60),
     ) {
         let mut d = bus_drive();
-        let mut now = SimTime::ZERO;
+        let mut now = Instant::ZERO;
         for (op, step) in ops {
-            now = now + Duration::from_millis(step);
+            now += Duration::from_millis(step);
             match op {
                 Op::Service(s, i, data) => {
-                    let _ = d.param_request(s, i, data, now);
+                    let _ = d.param(&request(s, i, data), now);
                 }
                 Op::Po(words) => d.process_output(&words, now),
                 Op::Cyclic => d.cyclic_telegram_received(now),

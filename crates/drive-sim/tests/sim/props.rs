@@ -4,7 +4,7 @@
 use std::time::Duration;
 
 use drive_sim::{
-    Command, FaultReaction, ParamStore, Persistence, RampConfig, SimDrive, SimError, SimTime,
+    Command, FaultReaction, Instant, ParamStore, Persistence, RampConfig, SimDrive, SimError,
     SpeedMapping, StoreOptions,
 };
 use proptest::prelude::*;
@@ -88,7 +88,7 @@ proptest! {
             sub: 0,
             to_raw: |rpm| (rpm * 1000.0).round() as i64,
         })).unwrap();
-        let mut now = SimTime::ZERO;
+        let mut now = Instant::ZERO;
         d.set_ramp_config(RampConfig { speed_limit: 10_000.0, ..RampConfig::default() }, now);
         d.tick(now);
         for op in ops {
@@ -96,7 +96,7 @@ proptest! {
             let target_before = d.effective_target();
             match op {
                 Op::Tick(us) => {
-                    now = now + micros(us);
+                    now += micros(us);
                     d.tick(now);
                     let after = d.actual_speed();
                     let lo = before.min(target_before);
@@ -200,7 +200,7 @@ proptest! {
     ) {
         let mut s = ParamStore::new(&TABLE);
         let persistence = if nv { Persistence::NonVolatile } else { Persistence::Volatile };
-        let result = s.write(RAMP_UP, 0, raw, persistence, SimTime::ZERO);
+        let result = s.write(RAMP_UP, 0, raw, persistence, Instant::ZERO);
         if (0..=2_000_000).contains(&raw) {
             prop_assert_eq!(result, Ok(()));
             prop_assert_eq!(s.read(RAMP_UP, 0), Ok(raw));
@@ -225,18 +225,18 @@ proptest! {
         d.set_ramp_config(RampConfig {
             acceleration: Duration::from_millis(up_ms),
             ..RampConfig::default()
-        }, SimTime::ZERO);
-        d.set_setpoint(setpoint, SimTime::ZERO).unwrap();
-        d.enable(SimTime::ZERO).unwrap();
+        }, Instant::ZERO);
+        d.set_setpoint(setpoint, Instant::ZERO).unwrap();
+        d.enable(Instant::ZERO).unwrap();
         // time to reach: |setpoint| / 3000 * up
         let needed_us = (setpoint.abs() / 3000.0 * up_ms as f64 * 1000.0).ceil() as u64;
-        d.tick(SimTime::from_micros(needed_us));
+        d.tick(Instant::from_micros(needed_us));
         prop_assert_eq!(d.actual_speed(), setpoint);
         if needed_us > 2 {
-            d.restart(SimTime::ZERO);
-            d.set_setpoint(setpoint, SimTime::ZERO).unwrap();
-            d.enable(SimTime::ZERO).unwrap();
-            d.tick(SimTime::from_micros(needed_us / 2));
+            d.restart(Instant::ZERO);
+            d.set_setpoint(setpoint, Instant::ZERO).unwrap();
+            d.enable(Instant::ZERO).unwrap();
+            d.tick(Instant::from_micros(needed_us / 2));
             prop_assert!(d.actual_speed().abs() < setpoint.abs());
         }
     }

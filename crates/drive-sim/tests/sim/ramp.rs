@@ -2,10 +2,10 @@
 
 use std::time::Duration;
 
-use drive_sim::{Ramp, RampConfig, RampMode, SimError, SimTime};
+use drive_sim::{Instant, Ramp, RampConfig, RampMode, SimError};
 
-fn ms(n: u64) -> SimTime {
-    SimTime::from_millis(n)
+fn ms(n: u64) -> Instant {
+    Instant::from_millis(n)
 }
 
 /// 1 s per 3000 1/min both ways, 100 ms quick stop, instant coast.
@@ -31,7 +31,7 @@ fn one_large_step_reaches_the_setpoint_exactly() {
     let mut r = ramp();
     r.set_setpoint(1500.0).unwrap();
     assert_eq!(
-        r.advance(SimTime::from_secs(3600), RampMode::Follow),
+        r.advance(Instant::from_secs(3600), RampMode::Follow),
         1500.0
     );
 }
@@ -131,12 +131,12 @@ fn zero_ramp_time_is_instant() {
 fn first_call_sets_the_time_base_and_time_never_runs_backwards() {
     let mut r = Ramp::default();
     r.set_setpoint(3000.0).unwrap();
-    assert_eq!(r.advance(SimTime::from_secs(100), RampMode::Follow), 0.0);
-    assert_eq!(r.last_update(), Some(SimTime::from_secs(100)));
-    assert_eq!(r.advance(SimTime::from_secs(50), RampMode::Follow), 0.0);
-    assert_eq!(r.last_update(), Some(SimTime::from_secs(100)));
+    assert_eq!(r.advance(Instant::from_secs(100), RampMode::Follow), 0.0);
+    assert_eq!(r.last_update(), Some(Instant::from_secs(100)));
+    assert_eq!(r.advance(Instant::from_secs(50), RampMode::Follow), 0.0);
+    assert_eq!(r.last_update(), Some(Instant::from_secs(100)));
     assert_eq!(
-        r.advance(SimTime::from_millis(100_100), RampMode::Follow),
+        r.advance(Instant::from_millis(100_100), RampMode::Follow),
         300.0
     );
 }

@@ -2,7 +2,7 @@
 
 use drive_profile::sew;
 use drive_sim::{
-    DriveState, ParamStore, Persistence, SimDrive, SimError, SimTime, SpeedMapping, StoreOptions,
+    DriveState, Instant, ParamStore, Persistence, SimDrive, SimError, SpeedMapping, StoreOptions,
 };
 
 /// P000 speed, 0.001 1/min per bit.
@@ -27,7 +27,7 @@ fn movidrive() -> SimDrive {
         to_raw: |rpm| (rpm * 1000.0).round() as i64,
     }))
     .unwrap();
-    d.tick(SimTime::ZERO);
+    d.tick(Instant::ZERO);
     d
 }
 
@@ -36,12 +36,12 @@ fn movidrive_sim_reads_speed_at_index_8318() {
     let mut d = movidrive();
     assert_eq!(d.read(SPEED, 0), Ok(0));
     assert_eq!(
-        d.write(SPEED, 0, 1, Persistence::Volatile, SimTime::ZERO),
+        d.write(SPEED, 0, 1, Persistence::Volatile, Instant::ZERO),
         Err(SimError::ReadOnly { index: SPEED })
     );
-    d.set_setpoint(1500.0, SimTime::ZERO).unwrap();
-    assert_eq!(d.enable(SimTime::ZERO), Ok(DriveState::Enabled));
-    d.tick(SimTime::from_secs(1));
+    d.set_setpoint(1500.0, Instant::ZERO).unwrap();
+    assert_eq!(d.enable(Instant::ZERO), Ok(DriveState::Enabled));
+    d.tick(Instant::from_secs(1));
     // the manual: "1000000 … represents the speed (3 decimal places)"
     assert_eq!(d.read(SPEED, 0), Ok(1_500_000));
     let meta = d.store().meta(SPEED, 0).unwrap();
@@ -51,7 +51,7 @@ fn movidrive_sim_reads_speed_at_index_8318() {
 #[test]
 fn movidrive_ramp_parameter_and_lock() {
     let mut d = movidrive();
-    let t = SimTime::ZERO;
+    let t = Instant::ZERO;
     assert_eq!(d.read(RAMP_UP, 0), Ok(2000));
     assert_eq!(d.store().has_eeprom(RAMP_UP, 0), Ok(true));
     d.write(RAMP_UP, 0, 1000, Persistence::NonVolatile, t)

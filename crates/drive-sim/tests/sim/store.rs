@@ -1,12 +1,12 @@
 //! Parameter store: access errors, EEPROM vs RAM, write counters, restart.
 
 use drive_sim::{
-    Meta, OperatingCondition, ParamStore, Persistence, SimError, SimTime, StoreOptions,
+    Instant, Meta, OperatingCondition, ParamStore, Persistence, SimError, StoreOptions,
 };
 
 use crate::table::*;
 
-const T0: SimTime = SimTime::ZERO;
+const T0: Instant = Instant::ZERO;
 const V: Persistence = Persistence::Volatile;
 const NV: Persistence = Persistence::NonVolatile;
 
@@ -269,7 +269,7 @@ fn check_order_read_only_before_lock_before_range() {
 #[test]
 fn volatile_writes_touch_ram_only() {
     let mut s = store();
-    s.write(RAMP_UP, 0, 500, V, SimTime::from_secs(1)).unwrap();
+    s.write(RAMP_UP, 0, 500, V, Instant::from_secs(1)).unwrap();
     assert_eq!(s.read(RAMP_UP, 0), Ok(500));
     assert_eq!(s.read_eeprom(RAMP_UP, 0), Ok(2000));
     assert_eq!(s.nv_writes(RAMP_UP, 0), Ok(0));
@@ -281,16 +281,16 @@ fn volatile_writes_touch_ram_only() {
 fn non_volatile_writes_count_and_record_time() {
     let mut s = store();
     for i in 0..5u64 {
-        s.write(RAMP_UP, 0, 100 + i as i64, NV, SimTime::from_secs(i))
+        s.write(RAMP_UP, 0, 100 + i as i64, NV, Instant::from_secs(i))
             .unwrap();
     }
     assert_eq!(s.read(RAMP_UP, 0), Ok(104));
     assert_eq!(s.read_eeprom(RAMP_UP, 0), Ok(104));
     assert_eq!(s.nv_writes(RAMP_UP, 0), Ok(5));
-    assert_eq!(s.last_nv_write(RAMP_UP, 0), Ok(Some(SimTime::from_secs(4))));
+    assert_eq!(s.last_nv_write(RAMP_UP, 0), Ok(Some(Instant::from_secs(4))));
     assert_eq!(s.has_eeprom(RAMP_UP, 0), Ok(true));
     // failed writes are not counted
-    let _ = s.write(RAMP_UP, 0, -5, NV, SimTime::from_secs(9));
+    let _ = s.write(RAMP_UP, 0, -5, NV, Instant::from_secs(9));
     assert_eq!(s.nv_writes(RAMP_UP, 0), Ok(5));
     s.write(ADDRESS, 0, 3, NV, T0).unwrap();
     assert_eq!(s.total_nv_writes(), 6);
@@ -357,18 +357,18 @@ fn reset_to_defaults_volatile_and_non_volatile() {
     s.write(RAMP_UP, 0, 300, NV, T0).unwrap();
     s.write(ADDRESS, 0, 5, NV, T0).unwrap();
     s.set_internal(STATUS, 55).unwrap();
-    s.reset_to_defaults(V, SimTime::from_secs(1));
+    s.reset_to_defaults(V, Instant::from_secs(1));
     assert_eq!(s.read(RAMP_UP, 0), Ok(2000));
     assert_eq!(s.read_eeprom(RAMP_UP, 0), Ok(300));
     assert_eq!(s.read(STATUS, 0), Ok(55)); // read-only: untouched
     s.restart();
     assert_eq!(s.read(RAMP_UP, 0), Ok(300));
 
-    s.reset_to_defaults(NV, SimTime::from_secs(2));
+    s.reset_to_defaults(NV, Instant::from_secs(2));
     assert_eq!(s.read_eeprom(RAMP_UP, 0), Ok(2000));
     assert_eq!(s.read_eeprom(ADDRESS, 0), Ok(0));
     assert_eq!(s.nv_writes(RAMP_UP, 0), Ok(2));
-    assert_eq!(s.last_nv_write(RAMP_UP, 0), Ok(Some(SimTime::from_secs(2))));
+    assert_eq!(s.last_nv_write(RAMP_UP, 0), Ok(Some(Instant::from_secs(2))));
     // cells already at their default are not rewritten
     assert_eq!(s.nv_writes(MOTOR_DATA, 0), Ok(0));
 }

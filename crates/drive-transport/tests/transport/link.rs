@@ -5,7 +5,7 @@ use std::time::Duration;
 use drive_transport::link::{
     self, Fault, FaultConfig, FaultStats, LinkConfig, LinkEnd, TimedChar, WireChar,
 };
-use drive_transport::serial::Parity;
+use drive_transport::serial::{LineSettings, Parity};
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio::time::Instant;
 
@@ -179,12 +179,7 @@ async fn both_directions_run_in_parallel() {
 #[tokio::test(start_paused = true)]
 async fn other_baud_rates_and_formats() {
     // 19200 baud 8N1: 10 bits per character.
-    let cfg = LinkConfig {
-        baud: 19200,
-        bits_per_char: 10,
-        parity: Parity::None,
-        ..LinkConfig::default()
-    };
+    let cfg = LinkConfig::from_line(LineSettings::new(19200).with_parity(Parity::None));
     let (mut a, mut b) = link::pair(cfg);
     let t0 = Instant::now();
     a.write_all(&[0; 8]).await.unwrap();

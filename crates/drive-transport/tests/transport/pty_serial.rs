@@ -31,7 +31,7 @@ async fn all_byte_values_pass_through_serial_open_on_a_pty() {
     let mut pty = PtyPair::open().unwrap();
     assert!(pty.slave_path().starts_with("/dev/pts/"));
     let mut port = serial::open(&pty.slave_config(9600)).unwrap();
-    assert_eq!(port.config().parity, Parity::None);
+    assert_eq!(port.config().line.parity, Parity::None);
     let data = all_bytes();
     timeout(LIMIT, async {
         assert_eq!(send_and_receive(&mut pty, &mut port, &data).await, data);
@@ -63,10 +63,8 @@ async fn pty_refuses_parity_even_naming_the_setting() {
     let pty = PtyPair::open().unwrap();
     let path = pty.slave_path().to_string_lossy().into_owned();
     for (parity, name) in [(Parity::Even, "parity even"), (Parity::Odd, "parity odd")] {
-        let cfg = SerialConfig {
-            parity,
-            ..pty.slave_config(9600)
-        };
+        let mut cfg = pty.slave_config(9600);
+        cfg.line.parity = parity;
         match serial::open(&cfg) {
             Err(TransportError::Unsupported {
                 setting,
@@ -144,10 +142,8 @@ async fn opening_a_regular_file_says_it_is_not_a_serial_device() {
 
 #[tokio::test]
 async fn invalid_settings_are_rejected_before_opening() {
-    let cfg = SerialConfig {
-        data_bits: 9,
-        ..SerialConfig::new("/dev/null", 9600)
-    };
+    let mut cfg = SerialConfig::new("/dev/null", 9600);
+    cfg.line.data_bits = 9;
     assert!(matches!(
         serial::open(&cfg),
         Err(TransportError::InvalidConfig { .. })

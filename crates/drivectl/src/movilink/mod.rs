@@ -12,7 +12,7 @@ use crate::error::{CliError, Result};
 use crate::params::{label, physical_text, trim_float};
 use clap::{Args, Subcommand};
 use drive_profile::{Access, ParamMeta, sew};
-use drive_transport::serial::{self, Parity, SerialConfig, StopBits};
+use drive_transport::serial::{self, LineSettings, Parity, SerialConfig, StopBits};
 use movilink::driver::{CharIo, DriverConfig, DriverError, MasterDriver, Stream};
 use movilink::guard::WriteGuard;
 use movilink::{Address, ParamChannel, PduType, Telegram};
@@ -35,12 +35,16 @@ pub struct LineArgs {
 }
 
 impl LineArgs {
+    /// The line settings (8 data bits).
+    pub fn line(&self) -> LineSettings {
+        LineSettings::new(self.baud)
+            .with_parity(self.parity)
+            .with_stop_bits(self.stop_bits)
+    }
+
     /// The serial configuration for `path`.
     pub fn config(&self, path: &str) -> SerialConfig {
-        let mut c = SerialConfig::new(path, self.baud);
-        c.parity = self.parity;
-        c.stop_bits = self.stop_bits;
-        c
+        SerialConfig::with_line(path, self.line())
     }
 }
 
@@ -229,6 +233,7 @@ pub fn run(args: &MovilinkArgs) -> Result<()> {
         let port = serial::open(&args.line.config(&args.port))
             .map_err(|e| CliError::failed(e.to_string()))?;
         let config = DriverConfig {
+            line: args.line.line(),
             response_timeout: Duration::from_millis(args.timeout),
             retries: args.retries,
             max_char_gap: (args.char_gap > 0).then(|| Duration::from_millis(args.char_gap)),

@@ -37,7 +37,13 @@ pub fn run(args: &SimArgs) -> Result<()> {
     }
     let rt = super::runtime()?;
     rt.block_on(async {
-        let mut bus = SimulatedBus::new(&args.addrs);
+        // A pty carries no parity: its characters are 8N1 whatever was asked.
+        let line = if args.port.is_some() {
+            args.line.line()
+        } else {
+            args.line.line().with_parity(Parity::None)
+        };
+        let mut bus = SimulatedBus::with_line(&args.addrs, line);
         let list = args
             .addrs
             .iter()

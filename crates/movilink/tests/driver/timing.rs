@@ -189,7 +189,10 @@ async fn p812_timeout_triggers_the_p833_reaction_only_without_cyclic_telegrams()
     };
     let (served, ()) = tokio::join!(sim.serve(wire), client);
     served.unwrap();
-    assert_eq!(sim.slave_config().rs485_timeout, Duration::from_millis(200));
+    assert_eq!(
+        sim.movidrive().rs485_timeout(),
+        Some(Duration::from_millis(200))
+    );
     assert_eq!(sim.movidrive().timeout_warning(), None);
     assert!(sim.movidrive().actual_speed_rpm() > 500.0);
 

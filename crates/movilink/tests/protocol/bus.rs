@@ -1,11 +1,13 @@
 //! In-memory bus for tests and benchmarks: a master and a drive exchange characters with wire
-//! timing (one character = 1146 µs), optional faults, and a simple parameter store.
+//! timing (one character = 11 bits at 9600 baud), optional faults, and a simple parameter store.
 #![allow(dead_code)]
+
+use core::time::Duration;
 
 use movilink::timing::{CHAR_TIME, Instant, START_PAUSE};
 use movilink::{
-    AttributeInfo, Backend, Master, MasterEvent, ParamChannel, ReturnCode, RxChar, ScaleInfo,
-    Service, Slave,
+    AttributeInfo, Backend, Master, MasterEvent, ParamChannel, RequestContext, ReturnCode, RxChar,
+    ScaleInfo, Service, Slave,
 };
 
 /// A drive with a few parameters: (index, value, min, max, read-only).
@@ -18,8 +20,14 @@ pub struct TestDrive {
     pub po: [u16; 3],
     /// Process input words answered.
     pub pi: [u16; 3],
-    /// P812 timeouts seen.
+    /// Timeouts of its own link monitor (like the MOVIDRIVE's P812).
     pub timeouts: u32,
+    /// Its link monitor: the longest time between cyclic requests, if on.
+    pub monitor: Option<Duration>,
+    /// When the monitor fires, while armed.
+    pub deadline: Option<Instant>,
+    /// The context of the last request.
+    pub last_request: Option<RequestContext>,
 }
 
 impl Default for TestDrive {
@@ -39,6 +47,9 @@ impl Default for TestDrive {
             po: [0; 3],
             pi: [0x0206, 0x0000, 0x0606],
             timeouts: 0,
+            monitor: None,
+            deadline: None,
+            last_request: None,
         }
     }
 }
@@ -50,7 +61,14 @@ impl TestDrive {
 }
 
 impl Backend for TestDrive {
-    fn param(&mut self, req: &ParamChannel) -> Result<u32, ReturnCode> {
+    fn on_request(&mut self, ctx: &RequestContext) {
+        self.last_request = Some(*ctx);
+        if ctx.cyclic {
+            self.deadline = self.monitor.map(|m| ctx.end + m);
+        }
+    }
+
+    fn param(&mut self, _ctx: &RequestContext, req: &ParamChannel) -> Result<u32, ReturnCode> {
         self.executed += 1;
         let Some(p) = self.params.iter_mut().find(|p| p.0 == req.index) else {
             return Err(ReturnCode::ILLEGAL_INDEX);
@@ -86,7 +104,7 @@ impl Backend for TestDrive {
         }
     }
 
-    fn process_data(&mut self, output: &[u16], input: &mut [u16]) {
+    fn process_data(&mut self, _ctx: &RequestContext, output: &[u16], input: &mut [u16]) {
         for (dst, src) in self.po.iter_mut().zip(output) {
             *dst = *src;
         }
@@ -95,8 +113,15 @@ impl Backend for TestDrive {
         }
     }
 
-    fn on_timeout(&mut self) {
-        self.timeouts += 1;
+    fn poll_timeout(&self) -> Option<Instant> {
+        self.deadline
+    }
+
+    fn handle_timeout(&mut self, now: Instant) {
+        if self.deadline.is_some_and(|d| now >= d) {
+            self.timeouts += 1;
+            self.deadline = None;
+        }
     }
 }
 
@@ -140,36 +165,34 @@ impl<B: Backend> Bus<B> {
     /// Run until the master is idle with no events left, handing every master event to
     /// `on_event`. Panics after an absurd number of steps (a hang is a bug).
     pub fn run(&mut self, mut on_event: impl FnMut(MasterEvent)) {
-        let ct = CHAR_TIME.as_micros() as u64;
         let mut buf = [0u8; 18];
         for _ in 0..100_000 {
             while let Some(ev) = self.master.poll_event() {
                 on_event(ev);
             }
-            if let Some(n) = self.master.poll_transmit(&mut buf) {
+            if let Some(n) = self.master.poll_transmit(self.now, &mut buf) {
                 self.requests += 1;
                 let start = self.now;
                 if self.faults.drop_requests > 0 {
                     self.faults.drop_requests -= 1;
                 } else {
                     for (i, b) in buf[..n].iter().enumerate() {
-                        self.slave
-                            .handle_char(RxChar::new(*b, start.plus(ct * (i as u64 + 1))));
+                        self.slave.handle_char(RxChar::new(*b, after(start, i + 1)));
                     }
                 }
-                self.now = start.plus(ct * n as u64);
+                self.now = after(start, n);
                 continue;
             }
             if self.master.is_idle() {
                 // A request without response (group, broadcast) is executed once the quiet
                 // line after it confirmed its end, a start pause after its last character.
-                let settle = self.now.plus(START_PAUSE.as_micros() as u64);
+                let settle = self.now + START_PAUSE;
                 if self.slave.poll_timeout().is_some_and(|t| t <= settle) {
                     self.slave.handle_timeout(settle);
                 }
                 return;
             }
-            if let Some(n) = self.slave.poll_transmit(&mut buf) {
+            if let Some(n) = self.slave.poll_transmit(self.now, &mut buf) {
                 self.responses += 1;
                 let start = self.now;
                 if self.faults.drop_responses > 0 {
@@ -185,7 +208,7 @@ impl<B: Backend> Bus<B> {
                         self.faults.parity_responses -= 1;
                     }
                     for (i, b) in buf[..n].iter().enumerate() {
-                        let t = start.plus(ct * (i as u64 + 1));
+                        let t = after(start, i + 1);
                         let c = if parity && i == 3 {
                             RxChar::with_error(*b, t, movilink::CharError::Parity)
                         } else {
@@ -194,7 +217,7 @@ impl<B: Backend> Bus<B> {
                         self.master.handle_char(c);
                     }
                 }
-                self.now = start.plus(ct * n as u64);
+                self.now = after(start, n);
                 continue;
             }
             let next = [self.master.poll_timeout(), self.slave.poll_timeout()]
@@ -219,12 +242,7 @@ impl<B: Backend> Bus<B> {
     }
 }
 
-trait Plus {
-    fn plus(self, us: u64) -> Self;
-}
-
-impl Plus for Instant {
-    fn plus(self, us: u64) -> Self {
-        Instant::from_micros(self.as_micros() + us)
-    }
+/// The end of `n` characters sent back to back from `start`.
+fn after(start: Instant, n: usize) -> Instant {
+    start + CHAR_TIME * u32::try_from(n).unwrap_or(u32::MAX)
 }

@@ -43,7 +43,7 @@ fn inserted_character_with_matching_bcc_is_rejected() {
         // The first 12 characters alone would pass every check of the codec.
         let (wrong, _) = codec::decode(&wire[..bytes.len()]).unwrap();
         assert_ne!(wrong, resp);
-        let mut rx = movilink::Receiver::for_master(drive1());
+        let mut rx = movilink::Receiver::new(movilink::TelegramFraming::master(drive1()));
         let mut events = Vec::new();
         let mut t = 0;
         for b in &wire {
@@ -67,7 +67,10 @@ fn inserted_character_after_bcc_is_rejected() {
     let req = Telegram::request(drive1(), PduType::PD3).with_process_data(&[1, 2, 3]);
     let bytes = encoded(&req);
     let wire = with_insert(&bytes, bytes.len() - 1, 0x00);
-    let mut rx = movilink::Receiver::for_slave(drive1(), Address::NO_GROUP);
+    let mut rx = movilink::Receiver::new(movilink::TelegramFraming::slave(
+        drive1(),
+        Address::NO_GROUP,
+    ));
     let mut events = Vec::new();
     let mut t = 0;
     for b in &wire {
@@ -92,7 +95,10 @@ fn dropped_character_is_rejected_by_gap() {
         .with_process_data(&[1, 2, 3]);
     let bytes = encoded(&req);
     for dropped in 1..bytes.len() {
-        let mut rx = movilink::Receiver::for_slave(drive1(), Address::NO_GROUP);
+        let mut rx = movilink::Receiver::new(movilink::TelegramFraming::slave(
+            drive1(),
+            Address::NO_GROUP,
+        ));
         let mut events = Vec::new();
         let mut last = 0;
         for (i, b) in bytes.iter().enumerate() {
@@ -121,7 +127,7 @@ fn inserted_character_in_response_is_not_accepted_by_master() {
         .with_param(ParamChannel::read(8471));
     m.send(req, Instant::ZERO).unwrap();
     let mut buf = [0u8; 18];
-    let n = m.poll_transmit(&mut buf).unwrap();
+    let n = m.poll_transmit(Instant::ZERO, &mut buf).unwrap();
     let resp = Telegram::response(drive1(), PduType::PARAM_0PD_ACYCLIC)
         .with_param(ParamChannel::read(8471).answer(Ok(2000)));
     let bytes = encoded(&resp);
@@ -163,7 +169,10 @@ fn inserted_character_in_write_request_is_not_executed() {
     }
     assert_eq!(s.backend().value(8471), Some(2000));
     assert_eq!(s.backend().executed, 0);
-    assert_eq!(s.poll_transmit(&mut [0u8; 18]), None);
+    assert_eq!(
+        s.poll_transmit(Instant::from_micros(t + PAUSE), &mut [0u8; 18]),
+        None
+    );
     assert!(matches!(
         s.poll_event(),
         Some(SlaveEvent::Rejected(RejectReason::TrailingCharacter { .. }))
@@ -185,7 +194,10 @@ fn end_confirmation_does_not_delay_the_response() {
     }
     assert_eq!(s.poll_timeout(), Some(Instant::from_micros(t + PAUSE)));
     s.handle_timeout(Instant::from_micros(t + PAUSE));
-    assert_eq!(s.poll_transmit(&mut [0u8; 18]), Some(18));
+    assert_eq!(
+        s.poll_transmit(Instant::from_micros(t + PAUSE), &mut [0u8; 18]),
+        Some(18)
+    );
 }
 
 /// Every response of a cyclic service is lost (the master gives up), although the drive

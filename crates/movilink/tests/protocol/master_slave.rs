@@ -189,7 +189,7 @@ fn slave_executes_cyclic_service_only_on_toggle() {
         }
         t0 += 1146 * n as u64 + 3440;
         s.handle_timeout(Instant::from_micros(t0));
-        let n = s.poll_transmit(&mut buf).unwrap();
+        let n = s.poll_transmit(Instant::from_micros(t0), &mut buf).unwrap();
         let (resp, _) = movilink::decode(&buf[..n]).unwrap();
         answers.push(resp.param().unwrap().management.handshake());
         t0 += 1146 * n as u64 + 3440;
@@ -372,7 +372,7 @@ fn response_with_other_pdu_type_is_rejected() {
     )
     .unwrap();
     let mut buf = [0u8; 18];
-    m.poll_transmit(&mut buf).unwrap();
+    m.poll_transmit(Instant::ZERO, &mut buf).unwrap();
     let wrong = Telegram::response(drive1(), PduType::PD1);
     let n = encode(&wrong, &mut buf).unwrap();
     for (i, b) in buf[..n].iter().enumerate() {
@@ -404,7 +404,7 @@ fn acyclic_answer_to_other_index_is_rejected() {
         .with_param(ParamChannel::read(8471));
     m.send(req, Instant::ZERO).unwrap();
     let mut buf = [0u8; 18];
-    m.poll_transmit(&mut buf).unwrap();
+    m.poll_transmit(Instant::ZERO, &mut buf).unwrap();
     let wrong = Telegram::response(drive1(), PduType::PARAM_0PD_ACYCLIC)
         .with_param(ParamChannel::read(8470).answer(Ok(1)));
     let n = encode(&wrong, &mut buf).unwrap();
@@ -452,7 +452,7 @@ fn cyclic_service_not_executed_in_time() {
     .unwrap();
     let mut transmissions = 0;
     while !m.is_idle() {
-        let n = m.poll_transmit(&mut buf).unwrap();
+        let n = m.poll_transmit(Instant::from_micros(t), &mut buf).unwrap();
         transmissions += 1;
         t += 1146 * n as u64 + 5000;
         answer(&mut m, &mut t);
@@ -481,7 +481,7 @@ fn send_errors() {
     );
     assert!(m.set_process_data(&[5]));
     let mut small = [0u8; 5];
-    assert_eq!(m.poll_transmit(&mut small), None);
+    assert_eq!(m.poll_transmit(Instant::ZERO, &mut small), None);
 }
 
 #[test]

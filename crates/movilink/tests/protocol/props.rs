@@ -86,13 +86,13 @@ proptest! {
     #[test]
     fn receiver_never_panics(chars in any_rx_chars(), master_side in any::<bool>()) {
         let mut rx = if master_side {
-            Receiver::for_master(Address::new(1).unwrap())
+            Receiver::new(movilink::TelegramFraming::master(Address::new(1).unwrap()))
         } else {
-            Receiver::for_slave(Address::new(1).unwrap(), Address::group(101).unwrap())
+            Receiver::new(movilink::TelegramFraming::slave(Address::new(1).unwrap(), Address::group(101).unwrap()))
         };
         let mut telegrams = 0usize;
         for c in &chars {
-            if let Some(RxEvent::Telegram(_)) = rx.handle_char(*c) {
+            if let Some(RxEvent::Frame(_)) = rx.handle_char(*c) {
                 telegrams += 1;
             }
             let _ = rx.poll_timeout();
@@ -104,11 +104,11 @@ proptest! {
 
     #[test]
     fn receiver_finds_telegram_after_garbage(garbage in prop::collection::vec(any::<u8>(), 0..30), t in any_telegram()) {
-        let mut rx = Receiver::new(
+        let mut rx = Receiver::new(movilink::TelegramFraming::new(
             t.direction(),
             movilink::AddressFilter::Any,
             movilink::LineTiming::MOVILINK,
-        );
+        ));
         let mut time = 0;
         for b in garbage {
             time += 1146;
@@ -122,7 +122,7 @@ proptest! {
             time += 1146;
             // The idle gap before SD may close an unfinished garbage telegram (a rejection,
             // e.g. garbage = [0x02]); nothing of the real telegram may be reported yet.
-            if let Some(e @ RxEvent::Telegram(_)) = rx.handle_char(RxChar::new(*b, Instant::from_micros(time))) {
+            if let Some(e @ RxEvent::Frame(_)) = rx.handle_char(RxChar::new(*b, Instant::from_micros(time))) {
                 found = Some(e);
             }
         }
@@ -130,7 +130,7 @@ proptest! {
         prop_assert_eq!(found, None);
         prop_assert_eq!(rx.poll_timeout(), Some(Instant::from_micros(time + 3440)));
         found = rx.handle_timeout(Instant::from_micros(time + 3440));
-        prop_assert_eq!(found, Some(RxEvent::Telegram(t)));
+        prop_assert_eq!(found, Some(RxEvent::Frame(t)));
     }
 
     #[test]
@@ -141,14 +141,16 @@ proptest! {
             .with_param(send.param().unwrap_or_default());
         let _ = m.send(req, Instant::ZERO);
         let mut buf = [0u8; 18];
-        let _ = m.poll_transmit(&mut buf);
+        let _ = m.poll_transmit(Instant::ZERO, &mut buf);
+        let mut now = Instant::ZERO;
         for c in &chars {
+            now = now.later(c.time);
             m.handle_char(*c);
             s.handle_char(*c);
-            if let Some(t) = m.poll_timeout() { m.handle_timeout(t); }
-            if let Some(t) = s.poll_timeout() { s.handle_timeout(t); }
-            let _ = m.poll_transmit(&mut buf);
-            let _ = s.poll_transmit(&mut buf);
+            if let Some(t) = m.poll_timeout() { m.handle_timeout(t); now = now.later(t); }
+            if let Some(t) = s.poll_timeout() { s.handle_timeout(t); now = now.later(t); }
+            let _ = m.poll_transmit(now, &mut buf);
+            let _ = s.poll_transmit(now, &mut buf);
             while m.poll_event().is_some() {}
             while s.poll_event().is_some() {}
         }

@@ -10,7 +10,10 @@ const PAUSE: u64 = 3440;
 const REQ: [u8; 10] = [0x02, 0x01, 0x05, 0x00, 0x06, 0x3A, 0x98, 0x01, 0xF4, 0x57];
 
 fn slave_rx() -> Receiver {
-    Receiver::for_slave(Address::new(1).unwrap(), Address::group(150).unwrap())
+    Receiver::new(movilink::TelegramFraming::slave(
+        Address::new(1).unwrap(),
+        Address::group(150).unwrap(),
+    ))
 }
 
 /// Feed `bytes` back to back starting at `t0` (first character complete at t0 + CT); if they
@@ -44,12 +47,12 @@ fn accepts_valid_request_and_resynchronises_after_idle() {
     let mut rx = slave_rx();
     let (ev, t) = feed(&mut rx, &REQ, 0);
     assert!(
-        matches!(ev.as_slice(), [RxEvent::Telegram(t)] if t.process_data() == [6, 0x3A98, 0x01F4])
+        matches!(ev.as_slice(), [RxEvent::Frame(t)] if t.process_data() == [6, 0x3A98, 0x01F4])
     );
     // Exactly one start pause of idle: accepted again.
     let (ev, _) = feed(&mut rx, &REQ, t + PAUSE);
     assert_eq!(ev.len(), 1);
-    assert!(matches!(ev[0], RxEvent::Telegram(_)));
+    assert!(matches!(ev[0], RxEvent::Frame(_)));
 }
 
 #[test]
@@ -60,7 +63,7 @@ fn start_character_without_idle_gap_is_not_a_start() {
     let (ev, t) = feed(&mut rx, &REQ, t + PAUSE - 1);
     assert!(ev.is_empty());
     let (ev, _) = feed(&mut rx, &REQ, t + PAUSE);
-    assert!(matches!(ev.as_slice(), [RxEvent::Telegram(_)]));
+    assert!(matches!(ev.as_slice(), [RxEvent::Frame(_)]));
 }
 
 #[test]
@@ -106,7 +109,7 @@ fn inter_character_gap_rejects_and_next_char_may_start() {
         })]
     );
     let (ev, _) = feed(&mut rx, &REQ[1..], t);
-    assert!(matches!(ev.as_slice(), [RxEvent::Telegram(_)]));
+    assert!(matches!(ev.as_slice(), [RxEvent::Frame(_)]));
 }
 
 #[test]
@@ -114,9 +117,14 @@ fn inter_character_gap_by_timeout() {
     let mut rx = slave_rx();
     let (_, t) = feed(&mut rx, &REQ[..3], 0);
     let due = rx.poll_timeout().unwrap();
-    assert_eq!(due, Instant::from_micros(t + CT + PAUSE));
+    // The telegram breaks off when a character ending now would have followed a gap of a start
+    // pause: one character time (11 bits at 9600 baud) plus the pause after the last one.
     assert_eq!(
-        rx.handle_timeout(Instant::from_micros(due.as_micros() - 1)),
+        due,
+        Instant::from_micros(t + PAUSE) + movilink::timing::CHAR_TIME
+    );
+    assert_eq!(
+        rx.handle_timeout(due.saturating_sub(std::time::Duration::from_nanos(1))),
         None
     );
     assert_eq!(
@@ -147,7 +155,7 @@ fn wrong_address_slave_side() {
         let (ev, _) = feed(&mut rx, &with_addr(adr), 0);
         if ok {
             assert!(
-                matches!(ev.as_slice(), [RxEvent::Telegram(t)] if t.address().get() == adr),
+                matches!(ev.as_slice(), [RxEvent::Frame(t)] if t.address().get() == adr),
                 "{adr}"
             );
         } else {
@@ -161,7 +169,10 @@ fn wrong_address_slave_side() {
         }
     }
     // Group 100 means "no group": address 100 is never accepted.
-    let mut rx = Receiver::for_slave(Address::new(1).unwrap(), Address::NO_GROUP);
+    let mut rx = Receiver::new(movilink::TelegramFraming::slave(
+        Address::new(1).unwrap(),
+        Address::NO_GROUP,
+    ));
     let (ev, _) = feed(&mut rx, &with_addr(100), 0);
     assert_eq!(
         ev,
@@ -176,18 +187,18 @@ fn wrong_address_master_side() {
     let mut resp = REQ.to_vec();
     resp[0] = 0x1D;
     resp[9] = movilink::codec::bcc(&resp[..9]);
-    let mut rx = Receiver::for_master(Address::new(2).unwrap());
+    let mut rx = Receiver::new(movilink::TelegramFraming::master(Address::new(2).unwrap()));
     let (ev, _) = feed(&mut rx, &resp, 0);
     assert_eq!(
         ev,
         vec![RxEvent::Rejected(RejectReason::WrongAddress { address: 1 })]
     );
     // Point-to-point request: any unicast answer is accepted.
-    rx.set_filter(AddressFilter::Master {
+    rx.framing_mut().filter = AddressFilter::Master {
         expected: Address::POINT_TO_POINT,
-    });
+    };
     let (ev, _) = feed(&mut rx, &resp, 100_000);
-    assert!(matches!(ev.as_slice(), [RxEvent::Telegram(_)]));
+    assert!(matches!(ev.as_slice(), [RxEvent::Frame(_)]));
 }
 
 #[test]
@@ -231,7 +242,7 @@ fn start_characters() {
         })]
     );
     let (ev, _) = feed(&mut rx, &REQ, t + PAUSE);
-    assert!(matches!(ev.as_slice(), [RxEvent::Telegram(_)]));
+    assert!(matches!(ev.as_slice(), [RxEvent::Frame(_)]));
 }
 
 #[test]
@@ -249,7 +260,7 @@ fn trailing_characters_reject_and_are_ignored_until_idle() {
         })]
     );
     let (ev, _) = feed(&mut rx, &REQ, t + PAUSE);
-    assert!(matches!(ev.as_slice(), [RxEvent::Telegram(_)]));
+    assert!(matches!(ev.as_slice(), [RxEvent::Frame(_)]));
 }
 
 /// A response delivered in two bursts 10 ms apart (as a USB serial adapter hands characters
@@ -257,7 +268,7 @@ fn trailing_characters_reject_and_are_ignored_until_idle() {
 /// and a gap beyond that wider limit still breaks the telegram off.
 #[test]
 fn bursty_delivery_needs_a_wider_gap_limit() {
-    use movilink::{Direction, LineTiming};
+    use movilink::{Direction, LineTiming, TelegramFraming};
     use std::time::Duration;
     let mut resp = REQ.to_vec();
     resp[0] = 0x1D;
@@ -282,7 +293,11 @@ fn bursty_delivery_needs_a_wider_gap_limit() {
         strict.start_pause
     );
 
-    let mut rx = Receiver::new(Direction::Response, AddressFilter::Any, strict);
+    let mut rx = Receiver::new(TelegramFraming::new(
+        Direction::Response,
+        AddressFilter::Any,
+        strict,
+    ));
     let ev = burst(&mut rx, 10_000);
     assert!(
         matches!(
@@ -294,11 +309,19 @@ fn bursty_delivery_needs_a_wider_gap_limit() {
         "{ev:?}"
     );
 
-    let mut rx = Receiver::new(Direction::Response, AddressFilter::Any, lenient);
+    let mut rx = Receiver::new(TelegramFraming::new(
+        Direction::Response,
+        AddressFilter::Any,
+        lenient,
+    ));
     let ev = burst(&mut rx, 10_000);
-    assert!(matches!(ev.as_slice(), [RxEvent::Telegram(_)]), "{ev:?}");
+    assert!(matches!(ev.as_slice(), [RxEvent::Frame(_)]), "{ev:?}");
 
-    let mut rx = Receiver::new(Direction::Response, AddressFilter::Any, lenient);
+    let mut rx = Receiver::new(TelegramFraming::new(
+        Direction::Response,
+        AddressFilter::Any,
+        lenient,
+    ));
     let ev = burst(&mut rx, 25_000);
     assert!(
         matches!(
