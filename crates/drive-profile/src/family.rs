@@ -85,4 +85,44 @@ mod tests {
         );
         assert!(lookup(Family::Nord, "P9999").is_none());
     }
+
+    #[test]
+    fn labels_wire_ranges_and_value_lists_per_family() {
+        let sew = |k| lookup(Family::Movidrive, k).unwrap();
+        assert_eq!(sew("P813").label().as_str(), "P813");
+        assert_eq!(sew("P080.1").label().as_str(), "P080.1");
+        assert_eq!(
+            lookup(Family::Nord, "P102").unwrap().label().as_str(),
+            "P102"
+        );
+        let bonfi = |k| lookup(Family::Bonfiglioli, k).unwrap();
+        assert_eq!(bonfi("1376").label().as_str(), "1376");
+        let element = crate::nord::ParamElement {
+            param: crate::nord::by_number(700).unwrap(),
+            element: 2,
+        };
+        assert_eq!(ParamMeta::label(&element).as_str(), "P700[-02]");
+
+        // SEW data are 32 bits, signed where the range goes below zero (P224 ±…), unsigned where
+        // it does not (P130), either sign without a range.
+        let p224 = sew("P224");
+        assert!(p224.raw_range().unwrap().0 < 0);
+        assert_eq!(
+            p224.wire_range(),
+            (i64::from(i32::MIN), i64::from(i32::MAX))
+        );
+        assert_eq!(sew("P130").wire_range(), (0, i64::from(u32::MAX)));
+        // Bonfiglioli: the data type's width.
+        assert_eq!(
+            bonfi("210").wire_range(),
+            (i64::from(i32::MIN), i64::from(i32::MAX))
+        );
+        assert_eq!(bonfi("218").wire_range(), (-32768, 32767));
+
+        // A SEW value list without a printed range is the whole domain (P870); a list inside a
+        // range is not (Bonfiglioli 412 names three of 0…44).
+        assert!(sew("P870").value_list_exhaustive());
+        assert!(!sew("P130").value_list_exhaustive());
+        assert!(!bonfi("412").value_list_exhaustive());
+    }
 }

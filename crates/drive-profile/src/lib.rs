@@ -6,6 +6,8 @@
 //!   size/conversion index for SEW, resolution for NORD, decimals for Bonfiglioli).
 //! * Control and status words as typed bit sets and DRIVECOM-style state machines per family
 //!   ([`state`]).
+//! * The family-generic write guard (`guard`, feature `std`): width, access, range, value list
+//!   and EEPROM wear, for every family's table.
 //!
 //! The crate is `no_std` without its default `std` feature.
 //!
@@ -28,6 +30,8 @@
 
 pub mod bonfiglioli;
 pub mod family;
+#[cfg(feature = "std")]
+pub mod guard;
 #[allow(missing_docs, clippy::all)]
 #[rustfmt::skip]
 pub mod generated;
@@ -38,4 +42,4 @@ pub mod sew;
 pub mod state;
 mod words;
 
-pub use param::{Access, Family, ParamMeta, ValueName};
+pub use param::{Access, Family, Label, ParamMeta, Persistence, ValueName};

@@ -145,6 +145,17 @@ impl fmt::Display for Access {
     }
 }
 
+/// Where a write goes: the volatile service (RAM only, lost at restart: MOVILINK "write
+/// volatile", USS "without EEPROM", Bonfiglioli data sets 5–9) or the non-volatile one (RAM and,
+/// where the parameter has EEPROM backing, EEPROM, which wears out).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Persistence {
+    /// RAM only; lost at restart.
+    Volatile,
+    /// RAM and EEPROM (counted as EEPROM wear).
+    NonVolatile,
+}
+
 /// One entry of a parameter's value list (e.g. P870 `9 = STEUERWORT 1` / control word 1).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct ValueName {
@@ -223,7 +234,47 @@ pub trait ParamMeta {
     fn value_name(&self, raw: i64) -> Option<&'static ValueName> {
         self.values().iter().find(|v| v.value == raw)
     }
+
+    /// Whether the value list is the parameter's whole domain, so that a value outside it is
+    /// invalid (SEW rows with a value list and no printed range). False where the list only
+    /// names some values of a range.
+    fn value_list_exhaustive(&self) -> bool {
+        false
+    }
+
+    /// The smallest and largest raw value the parameter's bus width can carry (its data type,
+    /// not its range): a value outside is never sent, whatever the caller forces. Default: 32
+    /// bits of either sign (`i32::MIN ..= u32::MAX`), where the table does not say more.
+    fn wire_range(&self) -> (i64, i64) {
+        (i64::from(i32::MIN), i64::from(u32::MAX))
+    }
+
+    /// The label users know the parameter by: `P813` (SEW), `P102` or `P700[-02]` (NORD),
+    /// `1376` (Bonfiglioli).
+    fn label(&self) -> Label {
+        match (self.family(), self.number()) {
+            (Family::Movidrive, Some(n)) => Label::new(format_args!("P{n:03}")),
+            (Family::Nord, Some(n)) => Label::new(format_args!("P{n}")),
+            (_, Some(n)) => Label::new(format_args!("{n}")),
+            (_, None) => Label::new(format_args!("#{}", self.bus_index())),
+        }
+    }
 }
+
+/// The [`ParamMeta`] accessors that return a field of the same name, written once for every
+/// family's row type: `field_accessors!(name_de: &'static str, name_en: &'static str, …)` inside
+/// the `impl ParamMeta` block.
+macro_rules! field_accessors {
+    ($($field:ident: $ty:ty),* $(,)?) => {
+        $(
+            fn $field(&self) -> $ty {
+                self.$field
+            }
+        )*
+    };
+}
+
+pub(crate) use field_accessors;
 
 /// Case-insensitive substring search without allocation (Unicode simple lowercase).
 pub fn contains_ignore_case(haystack: &str, needle: &str) -> bool {
@@ -242,7 +293,7 @@ pub fn contains_ignore_case(haystack: &str, needle: &str) -> bool {
 }
 
 /// A fixed-capacity label such as `P813` or `P080.3`, built without allocation.
-#[derive(Clone, Copy, PartialEq, Eq)]
+#[derive(Clone, Copy, PartialEq, Eq, Hash)]
 pub struct Label {
     buf: [u8; 16],
     len: u8,

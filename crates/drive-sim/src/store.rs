@@ -43,15 +43,7 @@ use drive_core::Instant;
 /// A parameter row as the store keeps it: any family's metadata, shareable across threads.
 pub type Meta = &'static (dyn ParamMeta + Sync);
 
-/// Where a write goes.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum Persistence {
-    /// RAM only; lost at restart (MOVILINK "write volatile", USS "without EEPROM",
-    /// Bonfiglioli data set + 5).
-    Volatile,
-    /// RAM and, where the parameter has EEPROM backing, EEPROM (counted as EEPROM wear).
-    NonVolatile,
-}
+pub use drive_profile::Persistence;
 
 /// Store-wide options; [`StoreOptions::default`] suits SEW MOVIDRIVE.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

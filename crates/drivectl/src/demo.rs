@@ -5,7 +5,8 @@
 
 use crate::error::CliError;
 use crate::error::Result;
-use crate::params::{all, label, lookup, trim_float};
+use crate::params::{all, lookup};
+use crate::tool::output::trim_float;
 use clap::Args;
 use drive_profile::Family;
 use drive_profile::bonfiglioli::{self, ActStateMachine};
@@ -22,7 +23,7 @@ pub fn run(_args: &DemoArgs) -> Result<()> {
     tables()?;
     nord_walk()?;
     bonfiglioli_walk()?;
-    crate::movilink::runtime()?.block_on(movilink_session())?;
+    crate::tool::line::runtime()?.block_on(movilink_session())?;
     Ok(())
 }
 
@@ -47,7 +48,7 @@ fn tables() -> Result<()> {
         println!(
             "  {:<12} {:<8} {:<28} index {:>5}: raw {raw} = {} {}",
             family.name(),
-            label(p),
+            p.label(),
             p.name_en(),
             p.bus_index(),
             trim_float(p.to_physical(raw), p.decimals()),
@@ -140,7 +141,9 @@ fn bonfiglioli_walk() -> Result<()> {
 /// 9600-baud wire timing: scan, identify, read and write parameters, enable, watch the speed
 /// ramp, stop.
 async fn movilink_session() -> Result<()> {
-    use crate::movilink::{driver_error, firmware_text, print_value, resolve};
+    use crate::movilink::{driver_error, firmware_text, raw_of, resolve};
+    use crate::tool::output::print_value;
+    use drive_profile::sew::{ControlWord1, StatusWord1, index};
     use drive_transport::link::{LinkConfig, pair};
     use movilink::driver::{DriverConfig, MasterDriver};
     use movilink::sim::SimulatedBus;
@@ -167,7 +170,7 @@ async fn movilink_session() -> Result<()> {
             .await
             .map_err(driver_error)?
         {
-            let fw = m.read(addr, 8300).await.map_err(driver_error)?;
+            let fw = m.read(addr, index::FIRMWARE).await.map_err(driver_error)?;
             println!(
                 "    address {a}: device type {device_type}, firmware {}",
                 firmware_text(fw)
@@ -182,30 +185,36 @@ async fn movilink_session() -> Result<()> {
     println!("  parameters of drive {}:", drive.get());
     for key in ["P000", "P130", "P812"] {
         let t = resolve(key)?;
-        let raw = m.read(drive, t.index).await.map_err(driver_error)?;
+        let data = m.read(drive, t.index).await.map_err(driver_error)?;
         print!("    ");
-        print_value(t, raw, false);
+        print_value(&t, raw_of(&t, data), false);
     }
     let p130 = resolve("P130")?;
     println!("    write P130 = 0.5 s (volatile: RAM only, no EEPROM wear)");
     m.write_volatile(drive, p130.index, 500)
         .await
         .map_err(driver_error)?;
-    let raw = m.read(drive, p130.index).await.map_err(driver_error)?;
+    let data = m.read(drive, p130.index).await.map_err(driver_error)?;
     print!("    ");
-    print_value(p130, raw, false);
+    print_value(&p130, raw_of(&p130, data), false);
 
     println!(
         "  enable: PO1 = 0x0006 (control word 1: enable), PO2 = 5000 (1000 1/min), type 0x05 cyclic"
     );
     let mut last_speed = 0.0;
-    for (phase, control, target) in [("ramp up", 0x0006u16, 1000.0), ("stop", 0x0002, 0.0)] {
+    for (phase, control, target) in [
+        ("ramp up", ControlWord1::ENABLE, 1000.0),
+        ("stop", ControlWord1::STOP, 0.0),
+    ] {
         if phase == "stop" {
             println!("  stop: PO1 = 0x0002 (control word 1: stop on the ramp)");
         }
         for _ in 0..40 {
-            let request =
-                Telegram::request(drive, PduType::PD3).with_process_data(&[control, 5000, 0]);
+            let request = Telegram::request(drive, PduType::PD3).with_process_data(&[
+                control.bits(),
+                5000,
+                0,
+            ]);
             let response = m.exchange(request).await.map_err(driver_error)?;
             let pi = response.process_data();
             let status = pi.first().copied().unwrap_or(0);
@@ -213,7 +222,7 @@ async fn movilink_session() -> Result<()> {
             println!(
                 "    t = {:>5.0} ms  PI1 0x{status:04X} ({})  speed {speed:>6.1} 1/min",
                 started.elapsed().as_secs_f64() * 1000.0,
-                crate::movilink::decode::status_summary(status)
+                StatusWord1::from_bits(status)
             );
             last_speed = speed;
             if (speed - target).abs() < 0.5 {

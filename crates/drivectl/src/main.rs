@@ -7,6 +7,7 @@ mod demo;
 mod error;
 mod movilink;
 mod params;
+mod tool;
 
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;

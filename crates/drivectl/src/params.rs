@@ -1,6 +1,7 @@
 //! `drivectl params <family> [--search TERM] [--json]` and `params <family> show <P|index>`.
 
 use crate::error::{CliError, Result};
+use crate::tool::output::{physical_text, trim_float};
 use clap::{Args, Subcommand};
 use drive_profile::{Family, ParamMeta};
 use serde_json::{Value, json};
@@ -57,36 +58,6 @@ pub fn lookup(family: Family, key: &str) -> Result<&'static dyn ParamMeta> {
         })
 }
 
-/// The label users know a parameter by: `P813`, `P700[-02]`, `1376`.
-pub fn label(p: &dyn ParamMeta) -> String {
-    let number = match (p.family(), p.number()) {
-        (Family::Movidrive, Some(n)) => format!("P{n:03}"),
-        (Family::Movidrive, None) => "-".to_owned(),
-        (Family::Nord, Some(n)) => format!("P{n}"),
-        (_, Some(n)) => n.to_string(),
-        (_, None) => "-".to_owned(),
-    };
-    match (p.family(), p.sub_index()) {
-        (Family::Nord, Some(s)) => format!("{number}[-{s:02}]"),
-        _ => number,
-    }
-}
-
-/// Format a physical value with the parameter's decimals and unit.
-pub fn physical_text(p: &dyn ParamMeta, raw: i64) -> String {
-    let v = p.to_physical(raw);
-    let d = usize::from(p.decimals());
-    let mut s = format!("{v:.d$}");
-    if !p.unit().is_empty() {
-        s.push(' ');
-        s.push_str(p.unit());
-    }
-    if let Some(name) = p.value_name(raw) {
-        let _ = write!(s, " ({})", name.en);
-    }
-    s
-}
-
 fn scaling_text(p: &dyn ParamMeta) -> String {
     let mut s = String::new();
     let _ = p.describe_scaling(&mut s);
@@ -108,7 +79,7 @@ pub fn to_json(p: &dyn ParamMeta) -> Value {
         .collect();
     json!({
         "family": p.family().name(),
-        "number": label(p),
+        "number": p.label().to_string(),
         "index": p.bus_index(),
         "sub_index": p.sub_index(),
         "name_de": p.name_de(),
@@ -171,7 +142,7 @@ fn list(family: Family, search: Option<&str>, json: bool) -> Result<()> {
             let _ = writeln!(
                 out,
                 "{:<10} {:>6}  {:<34} {:<34} {:<7} {:<8} {:>10}  {}",
-                label(*p),
+                p.label(),
                 p.bus_index(),
                 clip(p.name_de(), 34),
                 clip(p.name_en(), 34),
@@ -194,7 +165,7 @@ fn show(family: Family, key: &str, json: bool) -> Result<()> {
         return Ok(());
     }
     let mut out = String::new();
-    let _ = writeln!(out, "{} {} / {}", label(p), p.name_de(), p.name_en());
+    let _ = writeln!(out, "{} {} / {}", p.label(), p.name_de(), p.name_en());
     let _ = writeln!(out, "  family     {}", p.family());
     let _ = writeln!(
         out,
@@ -235,17 +206,6 @@ fn show(family: Family, key: &str, json: bool) -> Result<()> {
     }
     print!("{out}");
     Ok(())
-}
-
-/// A float with at most `decimals` places and no trailing zeros.
-pub fn trim_float(v: f64, decimals: u8) -> String {
-    let d = usize::from(decimals);
-    let s = format!("{v:.d$}");
-    if s.contains('.') {
-        s.trim_end_matches('0').trim_end_matches('.').to_owned()
-    } else {
-        s
-    }
 }
 
 fn clip(s: &str, n: usize) -> String {

@@ -185,7 +185,10 @@ fn backup_and_restore_round_trip() {
     let v = ok_json(&sim.run(1, &["--json", "backup", "--out", f]));
     assert!(v[0]["parameters"].as_u64().unwrap() > 200, "{v:?}");
     let text = std::fs::read_to_string(&file).unwrap();
-    assert!(text.contains("drivebus-movilink-backup"));
+    let doc: serde_json::Value = serde_json::from_str(&text).unwrap();
+    assert_eq!(doc["format"], "drivebus-backup");
+    assert_eq!(doc["family"], "movidrive");
+    assert_eq!(doc["address"], 1);
     ok_json(&sim.run(1, &["--json", "write", "P130", "0.1", "--volatile"]));
     ok_json(&sim.run(1, &["--json", "write", "P131", "0.1", "--volatile"]));
     let v = ok_json(&sim.run(1, &["--json", "restore", f]));
@@ -197,6 +200,19 @@ fn backup_and_restore_round_trip() {
     assert_eq!(
         ok_json(&sim.run(1, &["--json", "read", "P131"]))[0]["raw"],
         3000
+    );
+    // A backup of the first drivectl versions (MOVILINK-only format) is still restored.
+    ok_json(&sim.run(1, &["--json", "write", "P130", "0.1", "--volatile"]));
+    let legacy = serde_json::json!({
+        "format": "drivebus-movilink-backup", "version": 1, "address": 1,
+        "parameters": [{"index": 8470, "number": "P130", "raw": 1200, "writable": true}],
+    });
+    std::fs::write(&file, legacy.to_string()).unwrap();
+    let v = ok_json(&sim.run(1, &["--json", "restore", f]));
+    assert_eq!(v.last().unwrap()["mismatches"], 0);
+    assert_eq!(
+        ok_json(&sim.run(1, &["--json", "read", "P130"]))[0]["raw"],
+        1200
     );
     // A corrupt file is refused before anything is written.
     std::fs::write(&file, text.replace("\"raw\": 1200", "\"raw\": 99999999")).unwrap();

@@ -27,7 +27,6 @@
 //!
 //! Optional layers on top:
 //!
-//! * `std` (default): `guard`, the write guard (access, range, EEPROM wear) for tools;
 //! * `tokio`: `driver`, the async master (`MasterDriver`) over any `CharIo` of the runtime
 //!   layer (the in-memory wire model of `drive-transport`, serial ports, ptys);
 //! * `sim`: `sim`, simulated MOVIDRIVE drives answering on a `CharIo`.
@@ -64,8 +63,6 @@ pub mod codec;
 pub mod driver;
 pub mod error;
 pub mod frame;
-#[cfg(feature = "std")]
-pub mod guard;
 pub mod master;
 pub mod receiver;
 #[cfg(feature = "sim")]

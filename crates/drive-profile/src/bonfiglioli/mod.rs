@@ -30,7 +30,7 @@ use crate::generated::bonfiglioli_faults::FAULTS;
 use crate::generated::bonfiglioli_params::PARAMS;
 use crate::generated::bonfiglioli_vabus_errors::VABUS_ERRORS;
 use crate::generated::bonfiglioli_warnings::WARNINGS;
-use crate::param::{Access, Family, ParamMeta, ValueName, contains_ignore_case};
+use crate::param::{Access, Family, ParamMeta, ValueName, contains_ignore_case, field_accessors};
 use crate::scaling::{self, ScaleError};
 use core::fmt;
 
@@ -217,6 +217,16 @@ impl Param {
 }
 
 impl ParamMeta for Param {
+    field_accessors!(
+        name_de: &'static str,
+        name_en: &'static str,
+        unit: &'static str,
+        range_de: &'static str,
+        range_en: &'static str,
+        values: &'static [ValueName],
+        decimals: u8,
+    );
+
     fn family(&self) -> Family {
         Family::Bonfiglioli
     }
@@ -234,18 +244,6 @@ impl ParamMeta for Param {
     /// four are equal, ch. 7).
     fn sub_index(&self) -> Option<u16> {
         Some(0)
-    }
-
-    fn name_de(&self) -> &'static str {
-        self.name_de
-    }
-
-    fn name_en(&self) -> &'static str {
-        self.name_en
-    }
-
-    fn unit(&self) -> &'static str {
-        self.unit
     }
 
     fn access(&self) -> Access {
@@ -278,24 +276,16 @@ impl ParamMeta for Param {
         Some((lo, hi))
     }
 
-    fn range_de(&self) -> &'static str {
-        self.range_de
-    }
-
-    fn range_en(&self) -> &'static str {
-        self.range_en
-    }
-
-    fn values(&self) -> &'static [ValueName] {
-        self.values
-    }
-
-    fn decimals(&self) -> u8 {
-        self.decimals
-    }
-
     fn to_physical(&self, raw: i64) -> f64 {
         scaling::from_decimals(raw, self.decimals)
+    }
+
+    /// The data type's width (uInt, Int, Long); 32 bits of either sign where the manual gives
+    /// no type.
+    fn wire_range(&self) -> (i64, i64) {
+        self.data_type
+            .bounds()
+            .unwrap_or((i64::from(i32::MIN), i64::from(u32::MAX)))
     }
 
     fn from_physical(&self, value: f64) -> Result<i64, ScaleError> {

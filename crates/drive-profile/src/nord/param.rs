@@ -2,7 +2,7 @@
 
 use core::fmt;
 
-use crate::param::{Access, Family, ParamMeta, ValueName, contains_ignore_case};
+use crate::param::{Access, Family, ParamMeta, ValueName, contains_ignore_case, field_accessors};
 use crate::scaling::{self, ScaleError};
 
 /// The resolution of a parameter: the physical value of one raw step (P102: 0.01 s).
@@ -110,6 +110,17 @@ impl Param {
 }
 
 impl ParamMeta for Param {
+    field_accessors!(
+        name_de: &'static str,
+        name_en: &'static str,
+        unit: &'static str,
+        access: Access,
+        default_raw: Option<i64>,
+        raw_range: Option<(i64, i64)>,
+        range_de: &'static str,
+        range_en: &'static str,
+        values: &'static [ValueName],
+    );
     fn family(&self) -> Family {
         Family::Nord
     }
@@ -118,33 +129,6 @@ impl ParamMeta for Param {
     }
     fn bus_index(&self) -> u16 {
         self.pnu
-    }
-    fn name_de(&self) -> &'static str {
-        self.name_de
-    }
-    fn name_en(&self) -> &'static str {
-        self.name_en
-    }
-    fn unit(&self) -> &'static str {
-        self.unit
-    }
-    fn access(&self) -> Access {
-        self.access
-    }
-    fn default_raw(&self) -> Option<i64> {
-        self.default_raw
-    }
-    fn raw_range(&self) -> Option<(i64, i64)> {
-        self.raw_range
-    }
-    fn range_de(&self) -> &'static str {
-        self.range_de
-    }
-    fn range_en(&self) -> &'static str {
-        self.range_en
-    }
-    fn values(&self) -> &'static [ValueName] {
-        self.values
     }
     fn decimals(&self) -> u8 {
         self.resolution.map_or(0, |r| r.decimals)
@@ -244,5 +228,9 @@ impl ParamMeta for ParamElement {
     }
     fn describe_scaling(&self, f: &mut dyn fmt::Write) -> fmt::Result {
         self.param.describe_scaling(f)
+    }
+    /// `P700[-02]`.
+    fn label(&self) -> crate::param::Label {
+        ParamElement::label(self)
     }
 }

@@ -47,7 +47,7 @@ pub use channel::{
 pub use handshake::{Echo, MasterHandshake, Prepared, SlaveHandshake};
 pub use words::{BasicCommand, ControlWord1, StatusWord1, UnitStatus};
 
-use crate::param::{Access, Family, Label, ParamMeta, ValueName};
+use crate::param::{Access, Family, Label, ParamMeta, ValueName, field_accessors};
 use crate::scaling::{Linear, ScaleError, pow10};
 use core::fmt;
 
@@ -183,6 +183,15 @@ fn raw_bounds(p: &Param) -> (i64, i64) {
 }
 
 impl ParamMeta for Param {
+    field_accessors!(
+        name_de: &'static str,
+        name_en: &'static str,
+        access: Access,
+        range_de: &'static str,
+        range_en: &'static str,
+        values: &'static [ValueName],
+        decimals: u8,
+    );
     fn family(&self) -> Family {
         Family::Movidrive
     }
@@ -192,17 +201,8 @@ impl ParamMeta for Param {
     fn bus_index(&self) -> u16 {
         self.index
     }
-    fn name_de(&self) -> &'static str {
-        self.name_de
-    }
-    fn name_en(&self) -> &'static str {
-        self.name_en
-    }
     fn unit(&self) -> &'static str {
         self.display_unit
-    }
-    fn access(&self) -> Access {
-        self.access
     }
     fn default_raw(&self) -> Option<i64> {
         self.default
@@ -221,20 +221,25 @@ impl ParamMeta for Param {
             }
         }
     }
-    fn range_de(&self) -> &'static str {
-        self.range_de
-    }
-    fn range_en(&self) -> &'static str {
-        self.range_en
-    }
-    fn values(&self) -> &'static [ValueName] {
-        self.values
-    }
-    fn decimals(&self) -> u8 {
-        self.decimals
-    }
     fn to_physical(&self, raw: i64) -> f64 {
         self.scaling().to_physical(raw)
+    }
+    /// The list is the domain where the manual prints no range.
+    fn value_list_exhaustive(&self) -> bool {
+        self.ranges.is_empty() && !self.values.is_empty()
+    }
+    /// 32-bit data: signed where the range goes below 0, unsigned where it starts at 0 or
+    /// above (the drive reads the data that way), either sign without a range.
+    fn wire_range(&self) -> (i64, i64) {
+        match self.raw_range() {
+            Some((lo, _)) if lo < 0 => (i64::from(i32::MIN), i64::from(i32::MAX)),
+            Some(_) => (0, i64::from(u32::MAX)),
+            None => (i64::from(i32::MIN), i64::from(u32::MAX)),
+        }
+    }
+    /// `P813`, or `P080.1` for a sub-entry.
+    fn label(&self) -> Label {
+        self.menu_label()
     }
     /// Rounds to the nearest raw value, then onto the step grid of its range segment; values in
     /// a gap between segments (e.g. −9…9 for P224) are out of range.

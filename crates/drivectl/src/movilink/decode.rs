@@ -4,7 +4,8 @@
 //! is still explained as far as its bytes go, with the error named where it occurs.
 
 use crate::error::{CliError, Result};
-use crate::params::{physical_text, trim_float};
+use crate::tool::output::{physical_text, trim_float};
+use drive_profile::sew::{ControlWord1, StatusWord1};
 use drive_profile::{ParamMeta, sew};
 use movilink::codec::bcc;
 use movilink::{Address, ParamChannel, PduType, ReturnCode, SD1, SD2, Service};
@@ -284,51 +285,13 @@ fn pd_hint(request: bool, word: usize, v: u16) -> String {
     }
 }
 
-fn control_word_hint(v: u16) -> &'static str {
-    match v & 0x0007 {
-        0x0006 => ": enable",
-        0x0002 => ": stop",
-        0x0000 => ": rapid stop",
-        _ if v & 1 == 1 => ": controller inhibit",
-        _ => "",
-    }
+fn control_word_hint(v: u16) -> String {
+    format!(": {}", ControlWord1::from_bits(v).command().name())
 }
 
 fn status_word_hint(v: u16) -> String {
-    let s = status_summary(v);
+    let s = StatusWord1::from_bits(v).to_string();
     if s.is_empty() { s } else { format!(": {s}") }
-}
-
-/// A one-line reading of status word 1 (SEW unit profile; see docs/protocols/movidrive-profile.md).
-pub fn status_summary(v: u16) -> String {
-    let mut parts = Vec::new();
-    if v & 1 != 0 {
-        parts.push("output stage enabled".to_owned());
-    }
-    if v & 2 != 0 {
-        parts.push("ready".to_owned());
-    }
-    if v & 4 != 0 {
-        parts.push("PO data enabled".to_owned());
-    }
-    let high = v >> 8;
-    if v & 0x20 != 0 {
-        parts.push(format!("fault/warning {high}"));
-    } else {
-        let status = match high {
-            0 => "24 V operation",
-            1 => "controller inhibit",
-            2 => "no enable",
-            3 => "standstill current",
-            4 => "enable",
-            5 => "n-control",
-            _ => "",
-        };
-        if !status.is_empty() {
-            parts.push(format!("inverter status {high} = {status}"));
-        }
-    }
-    parts.join(", ")
 }
 
 fn explain_param(

@@ -1,52 +1,32 @@
 //! `drivectl movilink …`: talk to a MOVIDRIVE over MOVILINK (RS-485 / RS-232).
 //!
-//! Every command opens the port with the given settings, runs the async master driver of the
-//! `movilink` crate and prints one result per line (`--json`: one JSON object per line).
+//! A thin mapping onto the tool layer: [`MovilinkClient`] is the [`ParamClient`] of the
+//! `movilink` driver; reads, writes, backup and restore are the tool layer's. What only MOVILINK
+//! has lives here: min/max/default/scale/attributes (`info`), the address scan, process data
+//! exchanges and group/broadcast writes.
 
-pub mod backup;
 pub mod decode;
 pub mod sim;
-mod wear;
 
-use crate::error::{CliError, Result};
-use crate::params::{label, physical_text, trim_float};
 use clap::{Args, Subcommand};
-use drive_profile::{Access, ParamMeta, sew};
-use drive_transport::serial::{self, LineSettings, Parity, SerialConfig, StopBits};
+use drive_profile::sew::{self, StatusWord1, index};
+use drive_profile::{Access, Family, Persistence};
 use movilink::driver::{CharIo, DriverConfig, DriverError, MasterDriver, Stream};
-use movilink::guard::WriteGuard;
 use movilink::{Address, ParamChannel, PduType, Telegram};
-use serde_json::json;
+use serde_json::{Map, Value, json};
+use std::ops::RangeInclusive;
 use std::path::PathBuf;
 use std::time::Duration;
 
-/// Serial line settings shared by the MOVILINK commands and `drivectl sim movilink`.
-#[derive(Debug, Args, Clone)]
-pub struct LineArgs {
-    /// Baud rate (MOVILINK: 9600).
-    #[arg(long, default_value_t = 9600)]
-    pub baud: u32,
-    /// Parity: even (MOVILINK), odd or none (pseudo-terminals only accept none).
-    #[arg(long, default_value = "even")]
-    pub parity: Parity,
-    /// Stop bits: 1 or 2.
-    #[arg(long, default_value = "1")]
-    pub stop_bits: StopBits,
-}
+use crate::error::{CliError, Result};
+use crate::tool::client::{ClientError, ParamClient, Target, parse_int};
+use crate::tool::line::{LineArgs, MasterArgs, runtime};
+use crate::tool::output::{physical_text, print_value, trim_float};
+use crate::tool::{backup, write};
 
-impl LineArgs {
-    /// The line settings (8 data bits).
-    pub fn line(&self) -> LineSettings {
-        LineSettings::new(self.baud)
-            .with_parity(self.parity)
-            .with_stop_bits(self.stop_bits)
-    }
-
-    /// The serial configuration for `path`.
-    pub fn config(&self, path: &str) -> SerialConfig {
-        SerialConfig::with_line(path, self.line())
-    }
-}
+/// Indices outside the table that may be read and written raw (MOVIDRIVE indices start at
+/// 8300; numbers below 1000 are menu numbers).
+pub const RAW_INDICES: RangeInclusive<u16> = 1000..=0xFFFF;
 
 /// Arguments of `drivectl movilink`.
 #[derive(Debug, Args)]
@@ -56,20 +36,11 @@ pub struct MovilinkArgs {
     port: String,
     #[command(flatten)]
     line: LineArgs,
+    #[command(flatten)]
+    master: MasterArgs,
     /// Drive address: 0–99 single drive, 254 point-to-point.
     #[arg(long, default_value_t = 0)]
     addr: u8,
-    /// Response timeout in milliseconds (the manual allows at most 50).
-    #[arg(long, default_value_t = 50)]
-    timeout: u64,
-    /// Retries after a timeout or a corrupt answer.
-    #[arg(long, default_value_t = 2)]
-    retries: u8,
-    /// Longest gap in ms accepted between the characters of an answer. USB serial adapters
-    /// hand characters over in bursts (FTDI: every 16 ms); 0 applies the manual's rule
-    /// (less than the 3.44 ms start pause). BCC, length and parity checks always apply.
-    #[arg(long, default_value_t = 20)]
-    char_gap: u64,
     /// One JSON object per result.
     #[arg(long, global = true)]
     json: bool,
@@ -97,7 +68,8 @@ enum MovilinkCommand {
         /// Write to RAM only (the service for frequent writes; lost at power-off).
         #[arg(long)]
         volatile: bool,
-        /// Skip the access/range/EEPROM-wear checks of the table.
+        /// Skip the access/range/value-list/EEPROM-wear checks of the table (a value that does
+        /// not fit the parameter's 32 bits is never sent).
         #[arg(long)]
         force: bool,
     },
@@ -145,52 +117,124 @@ enum MovilinkCommand {
     Restore {
         /// Backup file written by `backup`.
         file: PathBuf,
-        /// Write even values the table check refuses.
+        /// Write even values the table check refuses (values that do not fit are refused).
         #[arg(long)]
         force: bool,
     },
 }
 
-/// Parse an integer given as decimal, `0x` hex or negative decimal.
-pub fn parse_int(s: &str) -> Option<i64> {
-    let t = s.trim();
-    let (neg, body) = t.strip_prefix('-').map_or((false, t), |b| (true, b));
-    let v = match body.strip_prefix("0x").or_else(|| body.strip_prefix("0X")) {
-        Some(h) => i64::from_str_radix(h, 16).ok()?,
-        None => body.parse::<i64>().ok()?,
-    };
-    Some(if neg { -v } else { v })
+/// The MOVILINK driver as the tool layer's [`ParamClient`]: acyclic PARAM + 0PD services on
+/// one drive.
+#[derive(Debug)]
+pub struct MovilinkClient<'a, IO> {
+    driver: &'a mut MasterDriver<IO>,
+    address: Address,
+    port: String,
 }
 
-/// A parameter as named on the command line: the table row if known, and the index.
-#[derive(Debug, Clone, Copy)]
-pub struct Target {
-    /// Bus index.
-    pub index: u16,
-    /// The table row, when the index is in the MOVIDRIVE table.
-    pub param: Option<&'static sew::Param>,
+impl<'a, IO: CharIo> MovilinkClient<'a, IO> {
+    /// The drive at `address` behind `driver` on `port`.
+    pub fn new(driver: &'a mut MasterDriver<IO>, address: Address, port: &str) -> Self {
+        Self {
+            driver,
+            address,
+            port: port.to_owned(),
+        }
+    }
 }
 
-/// Resolve `P813`, `813`, `8600`, `0x2198`; indices outside the table are allowed (raw access).
+/// The 32-bit data of a raw value (it has passed the width check: signed or unsigned 32 bits).
+fn data_of(raw: i64) -> u32 {
+    raw as u32
+}
+
+/// A raw value of 32-bit data: signed where the parameter's range goes below zero, else
+/// unsigned (as the drive reads it); signed outside the table.
+pub fn raw_of(t: &Target, data: u32) -> i64 {
+    match t.param.map(|p| p.wire_range()) {
+        Some((lo, _)) if lo >= 0 => i64::from(data),
+        _ => i64::from(data as i32),
+    }
+}
+
+fn client_error(e: DriverError) -> ClientError {
+    match e {
+        DriverError::Device(_) => ClientError::Device(e.to_string()),
+        other => ClientError::Link(other.to_string()),
+    }
+}
+
+impl<IO: CharIo> ParamClient for MovilinkClient<'_, IO> {
+    fn family(&self) -> Family {
+        Family::Movidrive
+    }
+
+    fn drive_key(&self) -> String {
+        format!("{} {}", self.port, self.address.get())
+    }
+
+    /// P802 factory setting, P803 parameter lock, P810/P811 RS-485 address and group address
+    /// (writing them would cut the connection the restore runs on), P840 manual reset.
+    fn not_restored(&self) -> &'static [u16] {
+        &[
+            index::FACTORY_SETTING,
+            index::PARAMETER_LOCK,
+            index::RS485_ADDRESS,
+            index::RS485_GROUP_ADDRESS,
+            index::MANUAL_RESET,
+        ]
+    }
+
+    async fn read(&mut self, target: &Target) -> std::result::Result<i64, ClientError> {
+        let data = self
+            .driver
+            .read(self.address, target.index)
+            .await
+            .map_err(client_error)?;
+        Ok(raw_of(target, data))
+    }
+
+    async fn write(
+        &mut self,
+        target: &Target,
+        raw: i64,
+        persistence: Persistence,
+    ) -> std::result::Result<(), ClientError> {
+        let data = data_of(raw);
+        match persistence {
+            Persistence::Volatile => {
+                self.driver
+                    .write_volatile(self.address, target.index, data)
+                    .await
+            }
+            Persistence::NonVolatile => self.driver.write(self.address, target.index, data).await,
+        }
+        .map_err(client_error)
+    }
+
+    async fn identify(&mut self) -> std::result::Result<Map<String, Value>, ClientError> {
+        let device_type = self
+            .driver
+            .read(self.address, index::UNIT_TYPE)
+            .await
+            .map_err(client_error)?;
+        let firmware = self
+            .driver
+            .read(self.address, index::FIRMWARE)
+            .await
+            .map_err(client_error)?;
+        let mut m = Map::new();
+        m.insert("address".into(), self.address.get().into());
+        m.insert("device_type".into(), device_type.into());
+        m.insert("firmware".into(), firmware.into());
+        Ok(m)
+    }
+}
+
+/// Resolve a MOVIDRIVE parameter: `P813`, `813`, `8600`, `0x2198`; indices outside the table
+/// are allowed (raw access).
 pub fn resolve(key: &str) -> Result<Target> {
-    if let Some(p) = sew::lookup(key) {
-        return Ok(Target {
-            index: p.bus_index(),
-            param: Some(p),
-        });
-    }
-    let t = key.trim();
-    let numeric = t.strip_prefix(['P', 'p']).is_none();
-    match parse_int(t) {
-        Some(v) if numeric && (1000..=0xFFFF).contains(&v) => Ok(Target {
-            index: v as u16,
-            param: None,
-        }),
-        _ => Err(CliError::usage(format!(
-            "no MOVIDRIVE parameter `{key}`; give a menu number (P813) or an index (8600); \
-             `drivectl params movidrive --search NAME` finds it"
-        ))),
-    }
+    Target::resolve(Family::Movidrive, key, RAW_INDICES)
 }
 
 fn address(a: u8) -> Result<Address> {
@@ -218,28 +262,23 @@ pub fn driver_error(e: DriverError) -> CliError {
     CliError::failed(e.to_string())
 }
 
-/// A tokio runtime for one command.
-pub fn runtime() -> Result<tokio::runtime::Runtime> {
-    tokio::runtime::Builder::new_current_thread()
-        .enable_all()
-        .build()
-        .map_err(|e| CliError::failed(format!("cannot start the async runtime: {e}")))
+/// The driver configuration of the command-line options.
+fn driver_config(line: &LineArgs, master: &MasterArgs) -> DriverConfig {
+    DriverConfig {
+        line: line.line(),
+        response_timeout: master.response_timeout(),
+        retries: master.retries,
+        max_char_gap: master.max_char_gap(),
+        ..DriverConfig::default()
+    }
 }
 
 /// Run `drivectl movilink`.
 pub fn run(args: &MovilinkArgs) -> Result<()> {
     let rt = runtime()?;
     rt.block_on(async {
-        let port = serial::open(&args.line.config(&args.port))
-            .map_err(|e| CliError::failed(e.to_string()))?;
-        let config = DriverConfig {
-            line: args.line.line(),
-            response_timeout: Duration::from_millis(args.timeout),
-            retries: args.retries,
-            max_char_gap: (args.char_gap > 0).then(|| Duration::from_millis(args.char_gap)),
-            ..DriverConfig::default()
-        };
-        let mut master = MasterDriver::new(Stream(port), config);
+        let port = args.line.open(&args.port)?;
+        let mut master = MasterDriver::new(Stream(port), driver_config(&args.line, &args.master));
         execute(&mut master, args).await
     })
 }
@@ -249,11 +288,9 @@ async fn execute<IO: CharIo>(m: &mut MasterDriver<IO>, args: &MovilinkArgs) -> R
     match &args.command {
         MovilinkCommand::Read { param } => {
             let t = resolve(param)?;
-            let raw = m
-                .read(address(args.addr)?, t.index)
-                .await
-                .map_err(driver_error)?;
-            print_value(t, raw, json);
+            let mut client = MovilinkClient::new(m, address(args.addr)?, &args.port);
+            let raw = client.read(&t).await?;
+            print_value(&t, raw, json);
             Ok(())
         }
         MovilinkCommand::Write {
@@ -264,70 +301,29 @@ async fn execute<IO: CharIo>(m: &mut MasterDriver<IO>, args: &MovilinkArgs) -> R
             force,
         } => {
             let t = resolve(param)?;
-            let raw_value = to_raw(t, value, *raw)?;
+            let request = write::WriteRequest {
+                target: t,
+                raw: t.raw_from_text(value, *raw)?,
+                persistence: if *volatile {
+                    Persistence::Volatile
+                } else {
+                    Persistence::NonVolatile
+                },
+                force: *force,
+            };
             let addr = any_address(args.addr)?;
-            if !force {
-                let mut guard = WriteGuard::new();
-                wear::prime(&mut guard, &args.port, addr.get(), t.index);
-                guard
-                    .check(t.index, raw_value, *volatile, std::time::Instant::now())
-                    .map_err(|e| CliError::usage(format!("{e}")))?;
-            }
-            let word = raw_value as i32 as u32;
             if !addr.expects_response() {
-                // Group (101–199) or broadcast (255): every drive addressed executes the
-                // write, none answers, so there is nothing to read back.
-                let channel = if *volatile {
-                    ParamChannel::write_volatile(t.index, word)
-                } else {
-                    ParamChannel::write(t.index, word)
-                };
-                let request =
-                    Telegram::request(addr, PduType::PARAM_0PD_ACYCLIC).with_param(channel);
-                m.send_unanswered(request).await.map_err(driver_error)?;
-                // Keep the line idle for the broadcast spacing before this process lets go of
-                // the port, so the next telegram (perhaps from the next drivectl run) cannot
-                // follow sooner than the 25 ms the drives need.
-                tokio::time::sleep(movilink::timing::BROADCAST_SPACING).await;
-                if !volatile {
-                    wear::record(&args.port, addr.get(), t.index);
-                }
-                if json {
-                    println!(
-                        "{}",
-                        json!({"index": t.index, "raw": raw_value, "address": addr.get(), "answered": false})
-                    );
-                } else {
-                    println!(
-                        "sent index {} = raw {raw_value} to {} {} (never answered by design)",
-                        t.index,
-                        if addr.is_broadcast() {
-                            "broadcast"
-                        } else {
-                            "group"
-                        },
-                        addr.get()
-                    );
-                }
-                return Ok(());
+                return write_unanswered(m, addr, &args.port, &request, json).await;
             }
-            if *volatile {
-                m.write_volatile(addr, t.index, word).await
-            } else {
-                m.write(addr, t.index, word).await
-            }
-            .map_err(driver_error)?;
-            if !volatile {
-                wear::record(&args.port, addr.get(), t.index);
-            }
-            let back = m.read(addr, t.index).await.map_err(driver_error)?;
-            print_value(t, back, json);
+            let mut client = MovilinkClient::new(m, addr, &args.port);
+            let back = write::write_checked(&mut client, &request).await?;
+            print_value(&t, back, json);
             Ok(())
         }
         MovilinkCommand::Info { param } => {
             info(m, address(args.addr)?, resolve(param)?, json).await
         }
-        MovilinkCommand::Scan { from, to } => scan(m, *from, *to, args.timeout, json).await,
+        MovilinkCommand::Scan { from, to } => scan(m, *from, *to, args.master.timeout, json).await,
         MovilinkCommand::Pd {
             pdu_type,
             out,
@@ -345,73 +341,67 @@ async fn execute<IO: CharIo>(m: &mut MasterDriver<IO>, args: &MovilinkArgs) -> R
             )
             .await
         }
-        MovilinkCommand::Backup { out } => backup::backup(m, address(args.addr)?, out, json).await,
+        MovilinkCommand::Backup { out } => {
+            let mut client = MovilinkClient::new(m, address(args.addr)?, &args.port);
+            backup::backup(&mut client, out, json).await
+        }
         MovilinkCommand::Restore { file, force } => {
-            backup::restore(m, address(args.addr)?, file, *force, json).await
+            let mut client = MovilinkClient::new(m, address(args.addr)?, &args.port);
+            backup::restore(&mut client, file, *force, json).await
         }
     }
 }
 
-/// The raw value of `value` for `t` (physical unless `raw`).
-fn to_raw(t: Target, value: &str, raw: bool) -> Result<i64> {
-    if raw || t.param.is_none() {
-        return parse_int(value)
-            .ok_or_else(|| CliError::usage(format!("`{value}` is not an integer raw value")));
+/// A write to a group (101–199) or broadcast (255): every drive addressed executes it, none
+/// answers, so there is nothing to read back.
+async fn write_unanswered<IO: CharIo>(
+    m: &mut MasterDriver<IO>,
+    addr: Address,
+    port: &str,
+    request: &write::WriteRequest,
+    json: bool,
+) -> Result<()> {
+    // The drives of a group share the wear log entry of the group address.
+    let client = MovilinkClient::new(m, addr, port);
+    if let Some(warning) = write::check(&client, request)? {
+        eprintln!("drivectl: warning: {warning}");
     }
-    let p = t
-        .param
-        .ok_or_else(|| CliError::usage("unknown parameter"))?;
-    if let Some(v) = p
-        .values()
-        .iter()
-        .find(|v| v.de.eq_ignore_ascii_case(value) || v.en.eq_ignore_ascii_case(value))
-    {
-        return Ok(v.value);
+    let t = request.target;
+    let data = data_of(request.raw);
+    let channel = match request.persistence {
+        Persistence::Volatile => ParamChannel::write_volatile(t.index, data),
+        Persistence::NonVolatile => ParamChannel::write(t.index, data),
+    };
+    let telegram = Telegram::request(addr, PduType::PARAM_0PD_ACYCLIC).with_param(channel);
+    m.send_unanswered(telegram).await.map_err(driver_error)?;
+    // Keep the line idle for the broadcast spacing before this process lets go of the port, so
+    // the next telegram (perhaps from the next drivectl run) cannot follow sooner than the
+    // 25 ms the drives need.
+    tokio::time::sleep(movilink::timing::BROADCAST_SPACING).await;
+    if request.persistence == Persistence::NonVolatile {
+        if let Some(param) = t.param {
+            crate::tool::wear::record(&format!("{port} {}", addr.get()), param);
+        }
     }
-    let x: f64 = value.trim().parse().map_err(|_| {
-        CliError::usage(format!(
-            "`{value}` is not a number in {}; give the value in the parameter's unit, or --raw",
-            if p.unit().is_empty() {
-                "the parameter's unit"
-            } else {
-                p.unit()
-            }
-        ))
-    })?;
-    p.from_physical(x).map_err(|e| {
-        CliError::usage(format!(
-            "{} {}: {e}; --raw --force sends a raw value unchecked",
-            label(p),
-            p.name_en()
-        ))
-    })
-}
-
-/// Print one read result.
-pub fn print_value(t: Target, raw: u32, json: bool) {
-    let signed = i64::from(raw as i32);
-    match (t.param, json) {
-        (Some(p), true) => println!(
+    if json {
+        println!(
             "{}",
-            json!({
-                "index": t.index, "number": label(p), "name_de": p.name_de(), "name_en": p.name_en(),
-                "raw": signed, "value": p.to_physical(signed), "unit": p.unit(),
-                "meaning": p.value_name(signed).map(|v| v.en),
-            })
-        ),
-        (Some(p), false) => println!(
-            "{} {} (index {}): {} (raw {signed})",
-            label(p),
-            p.name_en(),
+            json!({"index": t.index, "raw": request.raw, "address": addr.get(), "answered": false})
+        );
+    } else {
+        println!(
+            "sent index {} = raw {} to {} {} (never answered by design)",
             t.index,
-            physical_text(p, signed)
-        ),
-        (None, true) => println!(
-            "{}",
-            json!({"index": t.index, "raw": signed, "value": signed, "unit": ""})
-        ),
-        (None, false) => println!("index {}: raw {signed} (0x{raw:08X})", t.index),
+            request.raw,
+            if addr.is_broadcast() {
+                "broadcast"
+            } else {
+                "group"
+            },
+            addr.get()
+        );
     }
+    Ok(())
 }
 
 async fn info<IO: CharIo>(
@@ -429,8 +419,8 @@ async fn info<IO: CharIo>(
         .await
         .map_err(driver_error)?;
     let access = Access::from_bits_truncate(attr.attributes as u8);
-    let show = |raw: u32| {
-        let v = i64::from(raw as i32);
+    let show = |data: u32| {
+        let v = raw_of(&t, data);
         t.param
             .map_or_else(|| v.to_string(), |p| physical_text(p, v))
     };
@@ -440,9 +430,9 @@ async fn info<IO: CharIo>(
             "{}",
             json!({
                 "index": t.index,
-                "number": t.param.map(|p| label(p)),
+                "number": t.param.map(|p| p.label().to_string()),
                 "name_en": t.param.map(|p| p.name_en()),
-                "min": min as i32, "max": max as i32, "default": default as i32,
+                "min": raw_of(&t, min), "max": raw_of(&t, max), "default": raw_of(&t, default),
                 "size_index": scale.size_index, "conversion_index": scale.conversion_index,
                 "quantity": size_name,
                 "next_index": attr.next_index, "attributes": attr.attributes, "access": access.to_string(),
@@ -451,7 +441,7 @@ async fn info<IO: CharIo>(
     } else {
         let name = t
             .param
-            .map_or_else(String::new, |p| format!("{} {} ", label(p), p.name_en()));
+            .map_or_else(String::new, |p| format!("{} {} ", p.label(), p.name_en()));
         println!("{name}(index {})", t.index);
         println!("  minimum    {}", show(min));
         println!("  maximum    {}", show(max));
@@ -480,11 +470,7 @@ async fn scan<IO: CharIo>(
             "scan range must satisfy 0 ≤ --from ≤ --to ≤ 99",
         ));
     }
-    let bar = indicatif::ProgressBar::new(u64::from(to - from) + 1);
-    bar.set_style(
-        indicatif::ProgressStyle::with_template("scanning {pos}/{len} {bar:30} {msg}")
-            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
-    );
+    let bar = backup::progress(usize::from(to - from) + 1, "scanning");
     let mut found = 0;
     for a in from..=to {
         bar.set_message(format!("address {a}"));
@@ -495,7 +481,7 @@ async fn scan<IO: CharIo>(
             .map_err(driver_error)?;
         bar.inc(1);
         let Some(device_type) = probe else { continue };
-        let firmware = m.read(addr, 8300).await.map_err(driver_error)?;
+        let firmware = m.read(addr, index::FIRMWARE).await.map_err(driver_error)?;
         found += 1;
         bar.suspend(|| {
             if json {
@@ -521,10 +507,9 @@ async fn scan<IO: CharIo>(
 /// SEW firmware numbers read like 822609711 = part 822 609, version 7.11.
 pub fn firmware_text(v: u32) -> String {
     let s = v.to_string();
-    if s.len() == 9 {
-        format!("{} {} {}.{}", &s[0..3], &s[3..6], &s[6..7], &s[7..9])
-    } else {
-        s
+    match (s.get(0..3), s.get(3..6), s.get(6..7), s.get(7..9)) {
+        (Some(a), Some(b), Some(c), Some(d)) if s.len() == 9 => format!("{a} {b} {c}.{d}"),
+        _ => s,
     }
 }
 
@@ -589,20 +574,22 @@ async fn pd<IO: CharIo>(
 }
 
 fn print_pd(addr: Address, pdu: PduType, out: &[u16], pi: &[u16], json: bool) {
+    let status = pi.first().map(|s| StatusWord1::from_bits(*s).to_string());
     if json {
         println!(
             "{}",
             json!({"address": addr.get(), "type": pdu.raw(), "out": out, "in": pi,
-                   "status": pi.first().map(|s| decode::status_summary(*s))})
+                   "status": status})
         );
     } else {
         let words_text: Vec<String> = pi.iter().map(|w| format!("0x{w:04X}")).collect();
-        let status = pi
-            .first()
-            .map_or_else(String::new, |s| decode::status_summary(*s));
         let speed = pi.get(1).map_or_else(String::new, |w| {
             format!(", speed {} 1/min", trim_float(sew::speed_from_word(*w), 1))
         });
-        println!("PI {}: {status}{speed}", words_text.join(" "));
+        println!(
+            "PI {}: {}{speed}",
+            words_text.join(" "),
+            status.unwrap_or_default()
+        );
     }
 }

@@ -4,7 +4,6 @@
 
 mod common;
 mod cyclic;
-mod guard;
 mod retries;
 mod scan;
 mod services;

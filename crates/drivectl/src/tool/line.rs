@@ -1,0 +1,76 @@
+//! Serial line and master options, shared by every protocol command and `drivectl sim`.
+
+use clap::Args;
+use drive_transport::serial::{self, LineSettings, Parity, SerialConfig, SerialPort, StopBits};
+use std::time::Duration;
+
+use crate::error::{CliError, Result};
+
+/// Serial line settings.
+#[derive(Debug, Args, Clone)]
+pub struct LineArgs {
+    /// Baud rate in bit/s (MOVILINK: 9600); every pause and timeout follows it.
+    #[arg(long, default_value_t = 9600, value_parser = clap::value_parser!(u32).range(1..=4_000_000))]
+    pub baud: u32,
+    /// Parity: even (MOVILINK), odd or none (pseudo-terminals only accept none).
+    #[arg(long, default_value = "even")]
+    pub parity: Parity,
+    /// Stop bits: 1 or 2.
+    #[arg(long, default_value = "1")]
+    pub stop_bits: StopBits,
+}
+
+impl LineArgs {
+    /// The line settings (8 data bits).
+    pub fn line(&self) -> LineSettings {
+        LineSettings::new(self.baud)
+            .with_parity(self.parity)
+            .with_stop_bits(self.stop_bits)
+    }
+
+    /// The serial configuration for `path`.
+    pub fn config(&self, path: &str) -> SerialConfig {
+        SerialConfig::with_line(path, self.line())
+    }
+
+    /// Open `path` with these settings (every setting read back; a refused one is named).
+    pub fn open(&self, path: &str) -> Result<SerialPort> {
+        serial::open(&self.config(path)).map_err(|e| CliError::failed(e.to_string()))
+    }
+}
+
+/// Options of a master on a serial line: how long to wait for an answer, how often to try.
+#[derive(Debug, Args, Clone)]
+pub struct MasterArgs {
+    /// Response timeout in milliseconds (MOVILINK allows a drive at most 50).
+    #[arg(long, default_value_t = 50)]
+    pub timeout: u64,
+    /// Retries after a timeout or a corrupt answer.
+    #[arg(long, default_value_t = 2)]
+    pub retries: u8,
+    /// Longest gap in ms accepted between the characters of an answer. USB serial adapters
+    /// hand characters over in bursts (FTDI: every 16 ms); 0 applies the protocol's own rule.
+    /// Checksums, lengths and parity always apply.
+    #[arg(long, default_value_t = 20)]
+    pub char_gap: u64,
+}
+
+impl MasterArgs {
+    /// The response timeout.
+    pub fn response_timeout(&self) -> Duration {
+        Duration::from_millis(self.timeout)
+    }
+
+    /// The widened gap limit, if any.
+    pub fn max_char_gap(&self) -> Option<Duration> {
+        (self.char_gap > 0).then(|| Duration::from_millis(self.char_gap))
+    }
+}
+
+/// A tokio runtime for one command.
+pub fn runtime() -> Result<tokio::runtime::Runtime> {
+    tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()
+        .map_err(|e| CliError::failed(format!("cannot start the async runtime: {e}")))
+}
