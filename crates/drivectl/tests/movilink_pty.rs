@@ -12,8 +12,13 @@ struct Sim {
 
 impl Sim {
     fn start(addrs: &[u8]) -> Sim {
+        Sim::start_with(addrs, &[])
+    }
+
+    fn start_with(addrs: &[u8], extra: &[&str]) -> Sim {
         let mut cmd = Command::new(env!("CARGO_BIN_EXE_drivectl"));
         cmd.args(["sim", "movilink", "--pty", "--parity", "none"]);
+        cmd.args(extra);
         for a in addrs {
             cmd.args(["--addr", &a.to_string()]);
         }
@@ -303,4 +308,82 @@ fn group_and_broadcast_writes_reach_every_drive_unanswered() {
     // Reading from a group cannot work: nobody answers by design.
     let o = sim.run(101, &["read", "P130"]);
     assert_eq!(o.status.code(), Some(2));
+}
+
+/// `--baud` reaches the master's timing: `line` shows what the driver was built with (character
+/// time and start pause of 19200 8N1, not of 9600).
+#[test]
+fn baud_rate_reaches_the_master_timing() {
+    let sim = Sim::start(&[1]);
+    let line = |baud: &str| {
+        let o = Command::new(env!("CARGO_BIN_EXE_drivectl"))
+            .args(["movilink", "--port", &sim.path, "--parity", "none"])
+            .args(["--baud", baud, "--char-gap", "0", "--json", "line"])
+            .output()
+            .unwrap();
+        ok_json(&o).remove(0)
+    };
+    let fast = line("19200");
+    assert_eq!(fast["baud"], 19200);
+    assert_eq!(fast["bits_per_char"], 10);
+    assert_eq!(fast["char_time_us"], 520.833);
+    assert_eq!(fast["start_pause_us"], 1570.0);
+    assert_eq!(fast["max_gap_us"], 1570.0);
+    let slow = line("9600");
+    assert_eq!(slow["char_time_us"], 1041.667);
+    assert_eq!(slow["start_pause_us"], 3130.0);
+    // And the driver works with it.
+    let o = Command::new(env!("CARGO_BIN_EXE_drivectl"))
+        .args(["movilink", "--port", &sim.path, "--parity", "none", "--addr", "1"])
+        .args(["--baud", "19200", "--json", "read", "P130"])
+        .output()
+        .unwrap();
+    assert_eq!(ok_json(&o)[0]["raw"], 2000);
+}
+
+/// `--baud` reaches the simulated drive's timing: it answers a start pause after a request,
+/// which at 19200 8N1 is 1.57 ms. The smallest of ten answer delays is never below the start
+/// pause (a hard bound) and, at 19200, below the smallest at 9600 (where the pause is 3.13 ms).
+#[test]
+fn baud_rate_reaches_the_simulator_timing() {
+    use drive_transport::serial::{self, LineSettings, Parity, SerialConfig};
+    use std::time::{Duration, Instant};
+    use tokio::io::{AsyncReadExt, AsyncWriteExt};
+
+    // Read P130 (index 8470) from drive 1, acyclic PARAM + 0PD.
+    let mut request = [0x02, 0x01, 0x86, 0x31, 0x00, 0x21, 0x16, 0, 0, 0, 0, 0];
+    request[11] = request[..11].iter().fold(0, |a, b| a ^ b);
+    let smallest_delay = |baud: u32| -> Duration {
+        let b = baud.to_string();
+        let sim = Sim::start_with(&[1], &["--baud", &b]);
+        let rt = tokio::runtime::Builder::new_current_thread()
+            .enable_all()
+            .build()
+            .unwrap();
+        rt.block_on(async {
+            let line = LineSettings::new(baud).with_parity(Parity::None);
+            let mut port = serial::open(&SerialConfig::with_line(sim.path.clone(), line)).unwrap();
+            let mut best = Duration::MAX;
+            for _ in 0..10 {
+                tokio::time::sleep(Duration::from_millis(20)).await;
+                let t0 = Instant::now();
+                port.write_all(&request).await.unwrap();
+                let mut answer = [0u8; 12];
+                let n = port.read(&mut answer).await.unwrap();
+                let delay = t0.elapsed();
+                assert!(n > 0 && answer[0] == 0x1D, "{:?}", &answer[..n]);
+                if n < 12 {
+                    port.read_exact(&mut answer[n..]).await.unwrap();
+                }
+                best = best.min(delay);
+            }
+            best
+        })
+    };
+    let fast = smallest_delay(19200);
+    let slow = smallest_delay(9600);
+    assert!(fast >= Duration::from_micros(1570), "{fast:?}");
+    assert!(slow >= Duration::from_micros(3130), "{slow:?}");
+    eprintln!("smallest answer delay: 19200 {fast:?}, 9600 {slow:?}");
+    assert!(fast < slow, "19200: {fast:?}, 9600: {slow:?}");
 }

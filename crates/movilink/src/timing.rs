@@ -110,6 +110,21 @@ impl LineTiming {
     }
 }
 
+impl core::fmt::Display for LineTiming {
+    /// `19200 8N1: character 572.9 µs, start pause 1.72 ms, gap limit 1.72 ms`.
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        let us = |d: Duration| d.as_nanos() as f64 / 1000.0;
+        write!(
+            f,
+            "{}: character {:.1} µs, start pause {:.2} ms, gap limit {:.2} ms",
+            self.line,
+            us(self.char_time),
+            us(self.start_pause) / 1000.0,
+            us(self.max_gap) / 1000.0
+        )
+    }
+}
+
 impl Default for LineTiming {
     fn default() -> Self {
         Self::MOVILINK
@@ -150,6 +165,10 @@ mod tests {
         assert_eq!(
             LineTiming::MOVILINK.with_max_gap(Duration::ZERO).max_gap,
             START_PAUSE
+        );
+        assert_eq!(
+            fast.to_string(),
+            "19200 8E1: character 572.9 µs, start pause 1.72 ms, gap limit 1.72 ms"
         );
     }
 }

@@ -107,6 +107,10 @@ enum MovilinkCommand {
         #[arg(long, default_value_t = 100)]
         interval: u64,
     },
+    /// Show the line settings and the timing the master uses on this port: character time,
+    /// start pause, gap limit, response timeout and retries (the port is opened, so a setting
+    /// it refuses is named).
+    Line,
     /// Save all readable parameters to a JSON file.
     Backup {
         /// Output file.
@@ -340,6 +344,33 @@ async fn execute<IO: CharIo>(m: &mut MasterDriver<IO>, args: &MovilinkArgs) -> R
                 json,
             )
             .await
+        }
+        MovilinkCommand::Line => {
+            let c = m.config();
+            let t = c.line_timing();
+            let us = |d: Duration| d.as_nanos() as f64 / 1000.0;
+            if json {
+                println!(
+                    "{}",
+                    json!({
+                        "port": args.port, "baud": t.line.baud, "data_bits": t.line.data_bits,
+                        "parity": t.line.parity.to_string(), "stop_bits": t.line.stop_bits.bits(),
+                        "bits_per_char": t.line.bits_per_char(),
+                        "char_time_us": us(t.char_time), "start_pause_us": us(t.start_pause),
+                        "max_gap_us": us(t.max_gap),
+                        "response_timeout_ms": c.response_timeout.as_millis() as u64,
+                        "retries": c.retries,
+                    })
+                );
+            } else {
+                println!(
+                    "{} {t}; response timeout {} ms, {} retries",
+                    args.port,
+                    c.response_timeout.as_millis(),
+                    c.retries
+                );
+            }
+            Ok(())
         }
         MovilinkCommand::Backup { out } => {
             let mut client = MovilinkClient::new(m, address(args.addr)?, &args.port);

@@ -2,13 +2,14 @@
 //! port, or on a new pseudo-terminal whose path is printed (first line of standard output) for
 //! other tools.
 
-use super::LineArgs;
 use crate::error::{CliError, Result};
+use crate::tool::line::LineArgs;
 use clap::Args;
 use drive_transport::pty::PtyPair;
-use drive_transport::serial::{self, Parity};
+use drive_transport::serial::Parity;
 use movilink::driver::Stream;
 use movilink::sim::SimulatedBus;
+use movilink::timing::LineTiming;
 use std::io::Write as _;
 use std::time::Duration;
 
@@ -35,7 +36,7 @@ pub fn run(args: &SimArgs) -> Result<()> {
             "--addr {bad}: a drive address is 0…99 (P810)"
         )));
     }
-    let rt = super::runtime()?;
+    let rt = crate::tool::line::runtime()?;
     rt.block_on(async {
         // A pty carries no parity: its characters are 8N1 whatever was asked.
         let line = if args.port.is_some() {
@@ -44,6 +45,7 @@ pub fn run(args: &SimArgs) -> Result<()> {
             args.line.line().with_parity(Parity::None)
         };
         let mut bus = SimulatedBus::with_line(&args.addrs, line);
+        let timing = LineTiming::new(line);
         let list = args
             .addrs
             .iter()
@@ -51,12 +53,8 @@ pub fn run(args: &SimArgs) -> Result<()> {
             .collect::<Vec<_>>()
             .join(", ");
         if let Some(path) = &args.port {
-            let port = serial::open(&args.line.config(path))
-                .map_err(|e| CliError::failed(e.to_string()))?;
-            eprintln!(
-                "simulated MOVIDRIVE at address {list} on {path} ({}); Ctrl-C stops",
-                args.line.config(path)
-            );
+            let port = args.line.open(path)?;
+            eprintln!("simulated MOVIDRIVE at address {list} on {path} ({timing}); Ctrl-C stops");
             return bus
                 .serve(Stream(port))
                 .await
@@ -77,7 +75,7 @@ pub fn run(args: &SimArgs) -> Result<()> {
         println!("{}", path.display());
         let _ = std::io::stdout().flush();
         eprintln!(
-            "simulated MOVIDRIVE at address {list} on {} (8N1); Ctrl-C stops",
+            "simulated MOVIDRIVE at address {list} on {} ({timing}); Ctrl-C stops",
             path.display()
         );
         loop {

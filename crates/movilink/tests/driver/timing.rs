@@ -277,3 +277,59 @@ async fn a_cyclic_param_3pd_exchange_takes_the_wire_time_and_two_start_pauses() 
         );
     }
 }
+
+/// The driver and the simulated drive follow the line settings they are given: at 19200 baud
+/// 8E1 a PARAM + 3PD exchange takes half the 9600-baud wire time and the 19200-baud start
+/// pauses (1.72 ms), on the 19200-baud wire model.
+#[tokio::test(start_paused = true)]
+async fn driver_and_simulator_follow_19200_baud() {
+    use drive_core::LineSettings;
+    let line = LineSettings::new(19200);
+    let (port, wire) = link::pair(LinkConfig::from_line(line));
+    let (wire, drive_log) = Tap::new(wire);
+    let mut sim = SimulatedMovidrive::with_line(1, line);
+    let client = async move {
+        let config = DriverConfig {
+            line,
+            ..DriverConfig::default()
+        };
+        let mut m = MasterDriver::new(port, config);
+        let t = Telegram::request(addr(1), PduType::PARAM_3PD)
+            .with_param(ParamChannel::no_service())
+            .with_process_data(&[0x0006, 0, 0]);
+        let mut figures = Vec::new();
+        for _ in 0..4 {
+            m.exchange(t).await.unwrap();
+            figures.push(m.last_timing().unwrap().duration());
+        }
+        figures
+    };
+    let (served, figures) = tokio::join!(sim.serve(wire), client);
+    served.unwrap();
+    let char_time = line.char_time();
+    assert_eq!(char_time, Duration::from_nanos(572_917));
+    let pause = Duration::from_micros(1720);
+    // Request and answer on the wire, the drive's start pause before its answer.
+    let bound = char_time * 36 + pause;
+    for f in &figures {
+        assert!(
+            *f >= bound && *f <= bound + Duration::from_millis(1),
+            "{f:?} (bound {bound:?})"
+        );
+    }
+    // Between the requests the master waits the 19200-baud start pause, not 9600's 3.44 ms.
+    let requests = drive_log.lock().unwrap().clone();
+    let starts: Vec<_> = telegrams(&requests).iter().map(|t| t.start).collect();
+    assert!(starts.len() >= 4);
+    let ends: Vec<_> = telegrams(&requests).iter().map(|t| t.end).collect();
+    for (end, next) in ends.iter().zip(starts.iter().skip(1)) {
+        let period = next.saturating_duration_since(*end);
+        // From a request's end to the next request: the answer (18 characters), two pauses
+        // and tokio's 1 ms timer ticks at most, all at 19200.
+        assert!(
+            period >= char_time * 18 + pause * 2
+                && period < char_time * 18 + pause * 2 + Duration::from_millis(2),
+            "{period:?}"
+        );
+    }
+}
