@@ -334,7 +334,9 @@ fn baud_rate_reaches_the_master_timing() {
     assert_eq!(slow["start_pause_us"], 3130.0);
     // And the driver works with it.
     let o = Command::new(env!("CARGO_BIN_EXE_drivectl"))
-        .args(["movilink", "--port", &sim.path, "--parity", "none", "--addr", "1"])
+        .args([
+            "movilink", "--port", &sim.path, "--parity", "none", "--addr", "1",
+        ])
         .args(["--baud", "19200", "--json", "read", "P130"])
         .output()
         .unwrap();
