@@ -156,9 +156,9 @@ impl DirStats {
 /// The name of a rejection reason for the statistics.
 pub fn reason_name(r: &RejectReason) -> &'static str {
     match r {
-        RejectReason::Parity => "parity",
-        RejectReason::Framing => "framing",
-        RejectReason::Overrun => "overrun",
+        RejectReason::Char(CharError::Parity) => "parity",
+        RejectReason::Char(CharError::Framing) => "framing",
+        RejectReason::Char(_) => "overrun",
         RejectReason::InterCharacterGap { .. } => "gap (too short)",
         RejectReason::TrailingCharacter { .. } => "trailing character (too long)",
         RejectReason::WrongAddress { .. } => "address",

@@ -65,15 +65,9 @@ pub use drive_core::CharError;
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, thiserror::Error)]
 #[non_exhaustive]
 pub enum RejectReason {
-    /// A character of the telegram had a parity error.
-    #[error("parity error")]
-    Parity,
-    /// A character of the telegram had a framing error.
-    #[error("framing error")]
-    Framing,
-    /// The UART lost characters.
-    #[error("receiver overrun")]
-    Overrun,
+    /// A character of the telegram had a UART error (parity, framing, overrun).
+    #[error("{0}")]
+    Char(CharError),
     /// The line was idle for a start pause or longer inside a telegram.
     #[error("inter-character gap exceeded after {received} bytes")]
     InterCharacterGap {
@@ -125,6 +119,9 @@ pub enum RejectReason {
     /// Master: the response's parameter channel answers another service or index.
     #[error("parameter channel of the response does not answer the request")]
     ParamMismatch,
+    /// Another rejection of the shared receiver.
+    #[error("{0}")]
+    Line(drive_core::LineError),
     /// More characters than the longest telegram without a break (cannot happen with the
     /// MOVILINK framing, which ends every telegram at its length; kept for completeness).
     #[error("telegram longer than {capacity} bytes")]
@@ -138,24 +135,20 @@ impl From<drive_core::LineError> for RejectReason {
     fn from(e: drive_core::LineError) -> Self {
         use drive_core::LineError;
         match e {
-            LineError::Char(c) => c.into(),
+            LineError::Char(c) => Self::Char(c),
             LineError::InterCharacterGap { received } => Self::InterCharacterGap {
                 received: u8::try_from(received).unwrap_or(u8::MAX),
             },
             LineError::TrailingCharacter { byte } => Self::TrailingCharacter { byte },
             LineError::TooLong { capacity } => Self::TooLong { capacity },
-            _ => Self::Overrun,
+            other => Self::Line(other),
         }
     }
 }
 
 impl From<CharError> for RejectReason {
     fn from(e: CharError) -> Self {
-        match e {
-            CharError::Parity => Self::Parity,
-            CharError::Framing => Self::Framing,
-            _ => Self::Overrun,
-        }
+        Self::Char(e)
     }
 }
 

@@ -37,8 +37,8 @@ impl ReceivedChar {
 /// A byte stream whose received characters carry their arrival time and UART error flag.
 ///
 /// Implemented for any tokio byte stream through [`Stream`] (serial ports, ptys,
-/// [`tokio::io::duplex`]: arrival time = time of the read, no error flags), for `&mut T` and
-/// `Box<T>`; `drive-transport` implements it for its in-memory wire model.
+/// [`tokio::io::duplex`]: arrival time = time of the read, no error flags) and for `&mut T`;
+/// `drive-transport` implements it for its in-memory wire model.
 pub trait CharIo: Send {
     /// Poll for received characters; `Ready(Ok(0))` means end of file (for a non-empty `buf`).
     fn poll_read_chars(
@@ -55,24 +55,6 @@ pub trait CharIo: Send {
 }
 
 impl<T: CharIo + ?Sized> CharIo for &mut T {
-    fn poll_read_chars(
-        &mut self,
-        cx: &mut Context<'_>,
-        buf: &mut [ReceivedChar],
-    ) -> Poll<io::Result<usize>> {
-        (**self).poll_read_chars(cx, buf)
-    }
-
-    fn poll_write(&mut self, cx: &mut Context<'_>, buf: &[u8]) -> Poll<io::Result<usize>> {
-        (**self).poll_write(cx, buf)
-    }
-
-    fn poll_flush(&mut self, cx: &mut Context<'_>) -> Poll<io::Result<()>> {
-        (**self).poll_flush(cx)
-    }
-}
-
-impl<T: CharIo + ?Sized> CharIo for Box<T> {
     fn poll_read_chars(
         &mut self,
         cx: &mut Context<'_>,

@@ -63,7 +63,7 @@ async fn answers_that_keep_failing_parity_are_corrupt() {
     match r {
         Err(DriverError::Corrupt {
             address: 1,
-            reason: RejectReason::Parity,
+            reason: RejectReason::Char(movilink::CharError::Parity),
             attempts: 3,
         }) => {}
         other => panic!("{other:?}"),

@@ -249,7 +249,10 @@ fn retry_after_corrupt_answer() {
     assert!(
         matches!(
             rejected.as_slice(),
-            [RejectReason::BadBcc { .. }, RejectReason::Parity]
+            [
+                RejectReason::BadBcc { .. },
+                RejectReason::Char(movilink::CharError::Parity)
+            ]
         ),
         "{rejected:?}"
     );

@@ -69,9 +69,9 @@ fn start_character_without_idle_gap_is_not_a_start() {
 #[test]
 fn parity_and_framing_errors_reject() {
     for (err, reason) in [
-        (CharError::Parity, RejectReason::Parity),
-        (CharError::Framing, RejectReason::Framing),
-        (CharError::Overrun, RejectReason::Overrun),
+        (CharError::Parity, RejectReason::Char(CharError::Parity)),
+        (CharError::Framing, RejectReason::Char(CharError::Framing)),
+        (CharError::Overrun, RejectReason::Char(CharError::Overrun)),
     ] {
         let mut rx = slave_rx();
         let mut events = Vec::new();
