@@ -88,6 +88,26 @@ enum Phase {
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct Nanos {
+    char_time: u64,
+    response_timeout: u64,
+    retry_pause: u64,
+    unanswered_hold: u64,
+}
+
+impl Nanos {
+    fn of(config: &ExchangeConfig, char_time: Duration) -> Self {
+        use crate::time::duration_nanos;
+        Self {
+            char_time: duration_nanos(char_time),
+            response_timeout: duration_nanos(config.response_timeout),
+            retry_pause: duration_nanos(config.retry_pause),
+            unanswered_hold: duration_nanos(config.unanswered_hold),
+        }
+    }
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 struct Job {
     attempts: u16,
     phase: Phase,
@@ -97,6 +117,8 @@ struct Job {
 #[derive(Debug, Clone)]
 pub struct Exchange<F: Framing, const N: usize> {
     config: ExchangeConfig,
+    /// The configuration's and the line's times in nanoseconds (on every transmission's path).
+    ns: Nanos,
     receiver: Receiver<F, N>,
     gate: TxGate,
     now: Instant,
@@ -109,6 +131,7 @@ impl<F: Framing, const N: usize> Exchange<F, N> {
         let receiver = Receiver::new(framing);
         let gate = TxGate::new(receiver.timing().start_gap);
         Self {
+            ns: Nanos::of(&config, receiver.timing().char_time),
             config,
             receiver,
             gate,
@@ -125,6 +148,7 @@ impl<F: Framing, const N: usize> Exchange<F, N> {
     /// Change the response timeout; applies from the next transmission on.
     pub fn set_response_timeout(&mut self, timeout: Duration) {
         self.config.response_timeout = timeout;
+        self.ns.response_timeout = crate::time::duration_nanos(timeout);
     }
 
     /// Change the number of retransmissions; applies to the request in flight too.
@@ -202,18 +226,21 @@ impl<F: Framing, const N: usize> Exchange<F, N> {
     /// `answered`: whether a response is expected. Returns the end of its last character. A
     /// request without response is complete with this.
     pub fn transmitted(&mut self, chars: usize, answered: bool) -> Instant {
-        let timing = *self.receiver.timing();
-        let n = u32::try_from(chars).unwrap_or(u32::MAX);
-        let end = self.now + timing.char_time.saturating_mul(n);
-        self.gate
-            .on_request_sent(end, answered, self.config.unanswered_hold);
+        let n = u64::try_from(chars).unwrap_or(u64::MAX);
+        let end = self.now.add_nanos(self.ns.char_time.saturating_mul(n));
+        self.gate.on_activity(end);
+        if !answered {
+            self.gate.hold_until(end.add_nanos(self.ns.unanswered_hold));
+        }
         let Some(job) = self.job.as_mut() else {
             return end;
         };
         job.attempts = job.attempts.saturating_add(1);
         if answered {
             job.phase = Phase::Waiting {
-                give_up: end + self.config.response_timeout + timing.char_time,
+                give_up: end
+                    .add_nanos(self.ns.response_timeout)
+                    .add_nanos(self.ns.char_time),
             };
             self.receiver.reset();
         } else {
@@ -230,7 +257,7 @@ impl<F: Framing, const N: usize> Exchange<F, N> {
         if job.attempts <= u16::from(self.config.retries) {
             job.phase = Phase::Queued;
             let last = self.gate.last_activity().unwrap_or(self.now);
-            self.gate.hold_until(last + self.config.retry_pause);
+            self.gate.hold_until(last.add_nanos(self.ns.retry_pause));
             Verdict::Retry
         } else {
             let attempts = job.attempts;
@@ -294,6 +321,7 @@ impl<F: Framing, const N: usize> Exchange<F, N> {
     }
 
     /// Feed one character received from the bus.
+    #[inline]
     pub fn handle_char(&mut self, c: RxChar) -> Option<ExchangeEvent<F::Frame, F::Error>> {
         self.advance(c.time);
         self.gate.on_activity(c.time);
@@ -323,6 +351,7 @@ impl<F: Framing, const N: usize> Exchange<F, N> {
         }
     }
 
+    #[inline]
     fn give_up(&self) -> Option<Instant> {
         match self.job {
             Some(Job {
@@ -333,6 +362,7 @@ impl<F: Framing, const N: usize> Exchange<F, N> {
         }
     }
 
+    #[inline]
     fn advance(&mut self, now: Instant) {
         self.now = self.now.later(now);
     }

@@ -130,6 +130,10 @@ pub enum Start<E> {
 pub enum Progress<E> {
     /// The frame goes on.
     More,
+    /// The frame is this many bytes long (known from a header, e.g. MOVILINK's PDU type or
+    /// USS's length byte): the receiver collects them without asking again and then treats the
+    /// frame as [`Progress::Complete`].
+    Length(usize),
     /// The frame is complete (it is checked and decoded now, and accepted once its end is
     /// confirmed by silence).
     Complete,
@@ -211,10 +215,32 @@ pub enum RxEvent<F, E> {
 enum State<F> {
     /// Waiting for a start character after an idle gap.
     Idle,
-    /// Collecting a frame of `len` bytes so far.
-    Receiving { len: usize },
+    /// Collecting a frame of `len` bytes so far, `expected` in all once the framing said so
+    /// (0 while unknown).
+    Receiving { len: usize, expected: usize },
     /// A valid frame is complete; waiting for the silence that confirms its end.
     Complete { frame: F },
+}
+
+/// The times of a [`FrameTiming`] in nanoseconds, for the per-character path.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct Nanos {
+    char_time: u64,
+    start_gap: u64,
+    max_gap: u64,
+    end_silence: u64,
+}
+
+impl Nanos {
+    const fn of(t: &FrameTiming) -> Self {
+        use crate::time::duration_nanos;
+        Self {
+            char_time: duration_nanos(t.char_time),
+            start_gap: duration_nanos(t.start_gap),
+            max_gap: duration_nanos(t.max_gap),
+            end_silence: duration_nanos(t.end_silence),
+        }
+    }
 }
 
 /// The receiver; see the [module docs](self). `N` is the longest frame it can hold.
@@ -222,6 +248,7 @@ enum State<F> {
 pub struct Receiver<F: Framing, const N: usize> {
     framing: F,
     timing: FrameTiming,
+    ns: Nanos,
     state: State<F::Frame>,
     last: Option<Instant>,
     buf: [u8; N],
@@ -233,6 +260,7 @@ impl<F: Framing, const N: usize> Receiver<F, N> {
         let timing = framing.timing();
         Self {
             framing,
+            ns: Nanos::of(&timing),
             timing,
             state: State::Idle,
             last: None,
@@ -254,6 +282,7 @@ impl<F: Framing, const N: usize> Receiver<F, N> {
     /// Read the framing's times again.
     pub fn refresh_timing(&mut self) {
         self.timing = self.framing.timing();
+        self.ns = Nanos::of(&self.timing);
     }
 
     /// The times in use.
@@ -270,6 +299,7 @@ impl<F: Framing, const N: usize> Receiver<F, N> {
 
     /// Whether a frame is being received (including a complete one whose end is not yet
     /// confirmed).
+    #[inline]
     pub fn is_receiving(&self) -> bool {
         !matches!(self.state, State::Idle)
     }
@@ -280,14 +310,42 @@ impl<F: Framing, const N: usize> Receiver<F, N> {
     }
 
     /// Feed one character; returns a confirmed or rejected frame.
+    #[inline]
     pub fn handle_char(&mut self, c: RxChar) -> Option<RxEvent<F::Frame, F::Error>> {
+        // The common case, a character in the middle of a frame whose length is known, takes
+        // the short way.
+        if let (State::Receiving { len, expected }, Some(prev), None) =
+            (&self.state, self.last, c.error)
+        {
+            let (len, expected) = (*len, *expected);
+            if len + 1 < expected
+                && c.time >= prev
+                && self.gap(prev, c.time) < self.ns.max_gap
+                && !self.framing.restarts(c.byte)
+            {
+                if let Some(slot) = self.buf.get_mut(len) {
+                    *slot = c.byte;
+                    self.state = State::Receiving {
+                        len: len + 1,
+                        expected,
+                    };
+                    self.last = Some(c.time);
+                    return None;
+                }
+            }
+        }
+        self.handle_char_in_general(c)
+    }
+
+    #[inline(never)]
+    fn handle_char_in_general(&mut self, c: RxChar) -> Option<RxEvent<F::Frame, F::Error>> {
         let gap = self.last.map(|prev| self.gap(prev, c.time));
-        let idle = gap.is_none_or(|g| g >= self.timing.start_gap);
-        let broke_off = gap.is_none_or(|g| g >= self.timing.max_gap);
-        let confirmed = gap.is_none_or(|g| g >= self.timing.end_silence);
+        let idle = gap.is_none_or(|g| g >= self.ns.start_gap);
+        let broke_off = gap.is_none_or(|g| g >= self.ns.max_gap);
+        let confirmed = gap.is_none_or(|g| g >= self.ns.end_silence);
         self.last = Some(self.last.map_or(c.time, |prev| prev.later(c.time)));
         match self.state {
-            State::Receiving { len } if broke_off && self.timing.ends_by_silence => {
+            State::Receiving { len, .. } if broke_off && self.timing.ends_by_silence => {
                 // The silence ended the frame; it stands if the silence was long enough.
                 let frame = self.finish(len);
                 match frame {
@@ -313,7 +371,7 @@ impl<F: Framing, const N: usize> Receiver<F, N> {
                     }
                 }
             }
-            State::Receiving { len } if broke_off => {
+            State::Receiving { len, .. } if broke_off => {
                 // The frame broke off; after a long enough gap this character may start the
                 // next one.
                 self.state = State::Idle;
@@ -322,12 +380,12 @@ impl<F: Framing, const N: usize> Receiver<F, N> {
                 }
                 Some(RxEvent::Rejected(gap_error(len)))
             }
-            State::Receiving { len } if self.framing.restarts(c.byte) => {
+            State::Receiving { len, .. } if self.framing.restarts(c.byte) => {
                 self.state = State::Idle;
                 let _ = self.start(c);
                 Some(RxEvent::Rejected(gap_error(len)))
             }
-            State::Receiving { len } => self.continue_with(c, len),
+            State::Receiving { len, expected } => self.continue_with(c, len, expected),
             State::Complete { frame } if confirmed => {
                 // The confirmation was not polled in time, but the line was quiet long enough:
                 // the frame stands, and this character may start the next one.
@@ -369,13 +427,13 @@ impl<F: Framing, const N: usize> Receiver<F, N> {
         let last = self.last?;
         match self.state {
             State::Complete { frame } => {
-                if now.saturating_duration_since(last) >= self.timing.end_silence {
+                if now.nanos_since(last) >= self.ns.end_silence {
                     self.state = State::Idle;
                     return Some(RxEvent::Frame(frame));
                 }
                 None
             }
-            State::Receiving { len } if self.gap(last, now) >= self.timing.max_gap => {
+            State::Receiving { len, .. } if self.gap(last, now) >= self.ns.max_gap => {
                 if !self.timing.ends_by_silence {
                     self.state = State::Idle;
                     return Some(RxEvent::Rejected(gap_error(len)));
@@ -400,8 +458,10 @@ impl<F: Framing, const N: usize> Receiver<F, N> {
     pub fn poll_timeout(&self) -> Option<Instant> {
         let last = self.last?;
         match self.state {
-            State::Receiving { .. } => Some(last + self.timing.char_time + self.timing.max_gap),
-            State::Complete { .. } => Some(last + self.timing.end_silence),
+            State::Receiving { .. } => {
+                Some(last.add_nanos(self.ns.char_time.saturating_add(self.ns.max_gap)))
+            }
+            State::Complete { .. } => Some(last.add_nanos(self.ns.end_silence)),
             State::Idle => None,
         }
     }
@@ -410,15 +470,15 @@ impl<F: Framing, const N: usize> Receiver<F, N> {
     /// (the one deadline of the receiver that needs nothing but a quiet line).
     pub fn pending_confirmation(&self) -> Option<Instant> {
         match (self.state, self.last) {
-            (State::Complete { .. }, Some(last)) => Some(last + self.timing.end_silence),
+            (State::Complete { .. }, Some(last)) => Some(last.add_nanos(self.ns.end_silence)),
             _ => None,
         }
     }
 
-    /// Idle time between a character completed at `prev` and one completed at `now`.
-    fn gap(&self, prev: Instant, now: Instant) -> Duration {
-        now.saturating_duration_since(prev)
-            .saturating_sub(self.timing.char_time)
+    /// Idle time (ns) between a character completed at `prev` and one completed at `now`.
+    #[inline]
+    fn gap(&self, prev: Instant, now: Instant) -> u64 {
+        now.nanos_since(prev).saturating_sub(self.ns.char_time)
     }
 
     fn start(&mut self, c: RxChar) -> Option<RxEvent<F::Frame, F::Error>> {
@@ -431,7 +491,6 @@ impl<F: Framing, const N: usize> Receiver<F, N> {
                     return Some(RxEvent::Rejected(too_long::<F>(N)));
                 };
                 *first = c.byte;
-                self.state = State::Receiving { len: 1 };
                 self.check(1)
             }
             Start::Ignore => None,
@@ -439,7 +498,12 @@ impl<F: Framing, const N: usize> Receiver<F, N> {
         }
     }
 
-    fn continue_with(&mut self, c: RxChar, len: usize) -> Option<RxEvent<F::Frame, F::Error>> {
+    fn continue_with(
+        &mut self,
+        c: RxChar,
+        len: usize,
+        expected: usize,
+    ) -> Option<RxEvent<F::Frame, F::Error>> {
         if let Some(e) = c.error {
             self.state = State::Idle;
             return Some(RxEvent::Rejected(LineError::Char(e).into()));
@@ -449,7 +513,15 @@ impl<F: Framing, const N: usize> Receiver<F, N> {
             return Some(RxEvent::Rejected(too_long::<F>(N)));
         };
         *slot = c.byte;
-        self.check(len + 1)
+        let len = len + 1;
+        if expected == 0 {
+            return self.check(len);
+        }
+        if len < expected {
+            self.state = State::Receiving { len, expected };
+            return None;
+        }
+        self.complete(len)
     }
 
     /// The frame has `len` bytes now: ask the framing what they mean.
@@ -457,27 +529,38 @@ impl<F: Framing, const N: usize> Receiver<F, N> {
         let bytes = self.buf.get(..len).unwrap_or(&[]);
         match self.framing.progress(bytes) {
             Progress::More => {
-                self.state = State::Receiving { len };
+                self.state = State::Receiving { len, expected: 0 };
                 None
             }
+            Progress::Length(expected) if len < expected => {
+                self.state = State::Receiving { len, expected };
+                None
+            }
+            Progress::Length(_) => self.complete(len),
             Progress::Reject(e) => {
                 self.state = State::Idle;
                 Some(RxEvent::Rejected(e))
             }
-            Progress::Complete => match self.finish(len) {
-                Err(e) => {
-                    self.state = State::Idle;
-                    Some(RxEvent::Rejected(e))
-                }
-                Ok(frame) if self.timing.end_silence.is_zero() => {
-                    self.state = State::Idle;
-                    Some(RxEvent::Frame(frame))
-                }
-                Ok(frame) => {
-                    self.state = State::Complete { frame };
-                    None
-                }
-            },
+            Progress::Complete => self.complete(len),
+        }
+    }
+
+    /// The frame of `len` bytes is complete: decode it; accept it at once without an end
+    /// silence, else wait for the silence.
+    fn complete(&mut self, len: usize) -> Option<RxEvent<F::Frame, F::Error>> {
+        match self.finish(len) {
+            Err(e) => {
+                self.state = State::Idle;
+                Some(RxEvent::Rejected(e))
+            }
+            Ok(frame) if self.ns.end_silence == 0 => {
+                self.state = State::Idle;
+                Some(RxEvent::Frame(frame))
+            }
+            Ok(frame) => {
+                self.state = State::Complete { frame };
+                None
+            }
         }
     }
 

@@ -25,7 +25,8 @@ use crate::time::Instant;
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct TxGate {
-    idle_gap: Duration,
+    /// The idle gap in nanoseconds (the gate is on every character's path).
+    idle_gap_ns: u64,
     last_activity: Option<Instant>,
     not_before: Instant,
 }
@@ -36,7 +37,7 @@ impl TxGate {
     /// to require a first gap).
     pub const fn new(idle_gap: Duration) -> Self {
         Self {
-            idle_gap,
+            idle_gap_ns: crate::time::duration_nanos(idle_gap),
             last_activity: None,
             not_before: Instant::ZERO,
         }
@@ -44,10 +45,11 @@ impl TxGate {
 
     /// The idle gap before each frame.
     pub const fn idle_gap(&self) -> Duration {
-        self.idle_gap
+        Duration::from_nanos(self.idle_gap_ns)
     }
 
     /// A character ended on the bus at `end` (sent or received).
+    #[inline]
     pub fn on_activity(&mut self, end: Instant) {
         self.last_activity = Some(self.last_activity.map_or(end, |last| last.later(end)));
     }
@@ -82,7 +84,7 @@ impl TxGate {
     pub fn earliest_start(&self) -> Instant {
         let after_gap = self
             .last_activity
-            .map_or(Instant::ZERO, |last| last + self.idle_gap);
+            .map_or(Instant::ZERO, |last| last.add_nanos(self.idle_gap_ns));
         after_gap.later(self.not_before)
     }
 

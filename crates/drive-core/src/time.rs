@@ -36,11 +36,13 @@ impl Instant {
     pub const MAX: Instant = Instant(u64::MAX);
 
     /// `nanos` nanoseconds after the epoch.
+    #[inline]
     pub const fn from_nanos(nanos: u64) -> Instant {
         Instant(nanos)
     }
 
     /// `micros` microseconds after the epoch (saturating).
+    #[inline]
     pub const fn from_micros(micros: u64) -> Instant {
         Instant(micros.saturating_mul(1_000))
     }
@@ -61,11 +63,13 @@ impl Instant {
     }
 
     /// Nanoseconds since the epoch.
+    #[inline]
     pub const fn as_nanos(self) -> u64 {
         self.0
     }
 
     /// Whole microseconds since the epoch.
+    #[inline]
     pub const fn as_micros(self) -> u64 {
         self.0 / 1_000
     }
@@ -76,14 +80,30 @@ impl Instant {
     }
 
     /// Time from `earlier` to `self`; zero if `earlier` is later.
+    #[inline]
     pub const fn saturating_duration_since(self, earlier: Instant) -> Duration {
         Duration::from_nanos(self.0.saturating_sub(earlier.0))
     }
 
     /// `self + d`, saturating at [`Instant::MAX`].
     #[must_use]
+    #[inline]
     pub const fn saturating_add(self, d: Duration) -> Instant {
         Instant(self.0.saturating_add(duration_nanos(d)))
+    }
+
+    /// `self + nanos` nanoseconds, saturating (the hot paths of the receivers keep their times
+    /// as nanoseconds).
+    #[must_use]
+    #[inline]
+    pub const fn add_nanos(self, nanos: u64) -> Instant {
+        Instant(self.0.saturating_add(nanos))
+    }
+
+    /// Nanoseconds from `earlier` to `self`; zero if `earlier` is later.
+    #[inline]
+    pub const fn nanos_since(self, earlier: Instant) -> u64 {
+        self.0.saturating_sub(earlier.0)
     }
 
     /// `self - d`, saturating at the epoch.
@@ -94,6 +114,7 @@ impl Instant {
 
     /// The later of the two.
     #[must_use]
+    #[inline]
     pub const fn later(self, other: Instant) -> Instant {
         if other.0 > self.0 { other } else { self }
     }

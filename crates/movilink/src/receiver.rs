@@ -168,8 +168,7 @@ impl Framing for TelegramFraming {
             }
             [_, _, typ, ..] => match PduType::new(typ) {
                 None => Progress::Reject(RejectReason::UnknownPduType { pdu_type: typ }),
-                Some(t) if frame.len() >= t.telegram_len() => Progress::Complete,
-                Some(_) => Progress::More,
+                Some(t) => Progress::Length(t.telegram_len()),
             },
             _ => Progress::More,
         }

@@ -370,8 +370,8 @@ impl Framing for Uss {
     }
     fn progress(&self, frame: &[u8]) -> Progress<TestError> {
         match frame.get(1) {
-            Some(&lge) if frame.len() == usize::from(lge) + 2 => Progress::Complete,
-            _ => Progress::More,
+            Some(&lge) => Progress::Length(usize::from(lge) + 2),
+            None => Progress::More,
         }
     }
     fn decode(&self, frame: &[u8]) -> Result<u8, TestError> {
