@@ -1,6 +1,14 @@
 //! Shared helpers of the workspace integration tests: simulated drives built from each family's
 //! generated table, and iteration over every parameter of every family.
 
+// Test-helper crate: only the integration tests use it, and they want a panic on bad fixtures.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic
+)]
+
 pub mod movilink_bus;
 
 use drive_profile::{Family, ParamMeta};

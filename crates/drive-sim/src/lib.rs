@@ -81,15 +81,6 @@
 //! # Ok::<(), SimError>(())
 //! ```
 #![warn(missing_docs)]
-#![cfg_attr(
-    not(test),
-    warn(
-        clippy::unwrap_used,
-        clippy::expect_used,
-        clippy::indexing_slicing,
-        clippy::panic
-    )
-)]
 
 mod drive;
 mod error;

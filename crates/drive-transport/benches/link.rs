@@ -3,6 +3,14 @@
 //!
 //! Run with `cargo bench -p drive-transport`.
 
+// Benchmark setup: a failing fixture means a broken benchmark, so panicking is the report.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic
+)]
+
 use std::hint::black_box;
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};

@@ -519,10 +519,12 @@ impl LinkEnd {
         cx: &mut Context<'_>,
         buf: &mut [WireChar],
     ) -> Poll<io::Result<usize>> {
-        let mut i = 0;
-        self.poll_deliver(cx, buf.len(), |slot| {
-            buf[i] = slot.ch;
-            i += 1;
+        let max = buf.len();
+        let mut out = buf.iter_mut();
+        self.poll_deliver(cx, max, |slot| {
+            if let Some(dst) = out.next() {
+                *dst = slot.ch;
+            }
         })
     }
 
@@ -537,14 +539,16 @@ impl LinkEnd {
         cx: &mut Context<'_>,
         buf: &mut [TimedChar],
     ) -> Poll<io::Result<usize>> {
-        let mut i = 0;
+        let max = buf.len();
+        let mut out = buf.iter_mut();
         let mut now = None;
-        self.poll_deliver(cx, buf.len(), |slot| {
+        self.poll_deliver(cx, max, |slot| {
             let at = slot
                 .at
                 .unwrap_or_else(|| *now.get_or_insert_with(Instant::now));
-            buf[i] = TimedChar { ch: slot.ch, at };
-            i += 1;
+            if let Some(dst) = out.next() {
+                *dst = TimedChar { ch: slot.ch, at };
+            }
         })
     }
 
@@ -633,10 +637,12 @@ impl AsyncRead for LinkEnd {
     ) -> Poll<io::Result<()>> {
         let this = self.get_mut();
         let unfilled = buf.initialize_unfilled();
-        let mut i = 0;
-        match this.poll_deliver(cx, unfilled.len(), |slot| {
-            unfilled[i] = slot.ch.byte;
-            i += 1;
+        let max = unfilled.len();
+        let mut out = unfilled.iter_mut();
+        match this.poll_deliver(cx, max, |slot| {
+            if let Some(dst) = out.next() {
+                *dst = slot.ch.byte;
+            }
         }) {
             Poll::Ready(Ok(n)) => {
                 buf.advance(n);
@@ -675,7 +681,7 @@ impl AsyncWrite for LinkEnd {
         }
         let n = space.min(buf.len());
         let mut now = None;
-        for &byte in &buf[..n] {
+        for &byte in buf.iter().take(n) {
             tx.transmit(byte, &mut now);
         }
         let waker = tx.rx_waker.take();

@@ -1,5 +1,13 @@
 //! End-to-end tests of the `drivectl` binary: real process, real output, real exit codes.
 
+// Test code: helpers outside `#[test]` fns (not exempted by clippy.toml) panic by design.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic
+)]
+
 use std::process::{Command, Output};
 
 fn drivectl(args: &[&str]) -> Output {

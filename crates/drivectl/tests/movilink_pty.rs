@@ -1,6 +1,14 @@
 //! End to end over a real pseudo-terminal: `drivectl sim movilink --pty` on one side,
 //! `drivectl movilink --port <pty>` on the other, as separate processes.
 
+// Test code: helpers outside `#[test]` fns (not exempted by clippy.toml) panic by design.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic
+)]
+
 use std::io::{BufRead, BufReader};
 use std::process::{Child, Command, Output, Stdio};
 

@@ -4,6 +4,14 @@
 //! * `movilink_exchange`: a master and a drive exchanging the bytes of an acyclic parameter
 //!   read in memory, character by character (target ≥ 1 000 000 reads/s).
 
+// Benchmark setup: a failing fixture means a broken benchmark, so panicking is the report.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic
+)]
+
 use std::hint::black_box;
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};

@@ -1,5 +1,13 @@
 //! Integration tests of the drive-sim crate (one test binary).
 
+// Test code: helpers outside `#[test]` fns (not exempted by clippy.toml) panic by design.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic
+)]
+
 mod drive;
 mod inject;
 mod movidrive;

@@ -114,6 +114,12 @@ struct Entry {
     raw: i64,
 }
 
+/// `value[key]` without the `Index` operator: the field, or `Null` when it is missing or `value`
+/// is not an object (a backup file is user input; nothing here may panic on it).
+fn field<'a>(value: &'a Value, key: &str) -> &'a Value {
+    value.get(key).unwrap_or(&Value::Null)
+}
+
 /// Parse and check a backup file; every problem is reported with its entry.
 fn load(file: &Path, family: Family, not_restored: &[u16], force: bool) -> Result<Vec<Entry>> {
     let text = std::fs::read_to_string(file)
@@ -124,39 +130,39 @@ fn load(file: &Path, family: Family, not_restored: &[u16], force: bool) -> Resul
             file.display()
         ))
     })?;
-    let legacy = doc["format"] == LEGACY_MOVILINK && family == Family::Movidrive;
-    if !(doc["format"] == FORMAT || legacy) || doc["version"] != VERSION {
+    let legacy = field(&doc, "format") == LEGACY_MOVILINK && family == Family::Movidrive;
+    if !(field(&doc, "format") == FORMAT || legacy) || field(&doc, "version") != VERSION {
         return Err(CliError::usage(format!(
             "{} is not a {FORMAT} version {VERSION} file",
             file.display()
         )));
     }
-    if !legacy && doc["family"] != family.name() {
+    if !legacy && field(&doc, "family") != family.name() {
         return Err(CliError::usage(format!(
             "{} is a backup of a {} drive, not of a {family} drive",
             file.display(),
-            doc["family"].as_str().unwrap_or("unknown")
+            field(&doc, "family").as_str().unwrap_or("unknown")
         )));
     }
-    let list = doc["parameters"]
+    let list = field(&doc, "parameters")
         .as_array()
         .ok_or_else(|| CliError::usage("backup file has no `parameters` list"))?;
     let mut entries = Vec::new();
     for (i, e) in list.iter().enumerate() {
         let bad =
             |why: String| CliError::usage(format!("{}: entry {}: {why}", file.display(), i + 1));
-        let index = e["index"]
+        let index = field(e, "index")
             .as_u64()
             .and_then(|v| u16::try_from(v).ok())
             .ok_or_else(|| bad("no valid `index`".into()))?;
-        let sub = match &e["sub"] {
+        let sub = match field(e, "sub") {
             Value::Null => 0,
             v => v
                 .as_u64()
                 .and_then(|v| u16::try_from(v).ok())
                 .ok_or_else(|| bad("no valid `sub`".into()))?,
         };
-        let raw = e["raw"]
+        let raw = field(e, "raw")
             .as_i64()
             .ok_or_else(|| bad("no integer `raw` value".into()))?;
         let param = family::params(family)

@@ -1,12 +1,12 @@
 //! The family-generic tool layer: what every protocol's commands share, so that each
 //! protocol's command-line module is a thin mapping onto its driver.
 //!
-//! * [`line`]: the serial line and master options, the runtime, opening a port;
+//! * [`line`](mod@line): the serial line and master options, the runtime, opening a port;
 //! * [`client`]: the [`ParamClient`](client::ParamClient) trait (read/write a parameter by its
 //!   table entry), naming parameters on the command line ([`Target`](client::Target)) and turning
 //!   typed values into raw ones;
-//! * [`write`]: the one write path (width check always, write guard and EEPROM-wear log unless
-//!   forced, read-back);
+//! * [`write`](mod@write): the one write path (width check always, write guard and EEPROM-wear
+//!   log unless forced, read-back);
 //! * [`wear`]: the EEPROM-wear write log that keeps the guard's rule across runs;
 //! * [`backup`]: backup and restore of every family's parameters, with progress and atomic
 //!   files;

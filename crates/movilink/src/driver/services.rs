@@ -52,7 +52,7 @@ impl<IO: CharIo> MasterDriver<IO> {
     }
 
     /// Write `value` to `index`, non-volatile (EEPROM). Not for cyclic writes: EEPROMs wear
-    /// out; see [`crate::guard::WriteGuard`] and [`MasterDriver::write_volatile`].
+    /// out; see [`drive_profile::guard::WriteGuard`] and [`MasterDriver::write_volatile`].
     pub async fn write(
         &mut self,
         address: Address,

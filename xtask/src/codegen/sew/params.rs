@@ -250,9 +250,9 @@ pub(super) fn read_params(
         }
         let size = row.int("size_index")?;
         let size_units: Vec<&Unit> = units.iter().filter(|u| u.size == size).collect();
-        if size_units.is_empty() {
+        let Some(quantity) = size_units.first().map(|u| &u.quantity_en) else {
             return Err(row.err(format!("unknown size index {size}")));
-        }
+        };
         let conversion = row.int("conversion_index")?;
         if conv.get(conversion).is_none() {
             return Err(row.err(format!("unknown or reserved conversion index {conversion}")));
@@ -275,8 +275,7 @@ pub(super) fn read_params(
                 .find(|u| u.symbol == display_unit)
                 .ok_or_else(|| {
                     row.err(format!(
-                        "display unit `{display_unit}` is not a unit of size index {size} ({})",
-                        size_units[0].quantity_en
+                        "display unit `{display_unit}` is not a unit of size index {size} ({quantity})"
                     ))
                 })?;
             Some(u.conversion)
@@ -306,17 +305,18 @@ pub(super) fn read_params(
         }
         let mut values_from = None;
         if let Some(r) = values_ref {
-            let target = out
+            let (target, referenced) = out
                 .iter()
-                .position(|p| p.menu == Some(r))
+                .enumerate()
+                .find(|(_, p)| p.menu == Some(r))
                 .ok_or_else(|| row.err(format!("values_ref {r:03} is not a menu row above")))?;
-            let origin = out[target].values_from.unwrap_or(target);
-            if out[origin].values.is_empty() {
+            let origin = referenced.values_from.unwrap_or(target);
+            if out.get(origin).is_none_or(|p| p.values.is_empty()) {
                 return Err(row.err(format!("values_ref {r:03} has no value list")));
             }
             values_from = Some(origin);
             // The printed reference names the referenced index too: it must match.
-            let expect = format!("Nr {r:03} bzw. Index {}", out[target].index);
+            let expect = format!("Nr {r:03} bzw. Index {}", referenced.index);
             let printed = row.str("range_de")?.replace("MenüNr", "Menü Nr");
             if !printed.contains(&expect) {
                 return Err(row.err(format!("range_de must reference `{expect}`")));
@@ -328,7 +328,12 @@ pub(super) fn read_params(
         }
         // The default must lie within the range / value list unless the row says otherwise.
         let list: Vec<i64> = match values_from {
-            Some(o) => out[o].values.iter().map(|v| v.0).collect(),
+            Some(o) => out
+                .get(o)
+                .into_iter()
+                .flat_map(|p| &p.values)
+                .map(|v| v.0)
+                .collect(),
             None => values.iter().map(|v| v.0).collect(),
         };
         if let Some(d) = default {
