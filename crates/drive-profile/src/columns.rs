@@ -160,7 +160,7 @@ pub const COLUMN_KEYS: &[&str] = &[
     "decimals",
     "scaling",
     "values",
-    // SEW and Bonfiglioli.
+    // Groups (SEW: code and heading; Bonfiglioli: heading).
     "group",
     "group_de",
     "group_en",
