@@ -2,6 +2,8 @@
 //!
 //! * Parameter metadata generated from the vendor manuals ([`sew`], [`nord`], [`bonfiglioli`]),
 //!   with lookups by bus index, by menu/parameter number and by name, none of which allocate.
+//! * Every table column of a parameter row as a typed value ([`ParamMeta::columns`], keys in
+//!   [`COLUMN_KEYS`], see [`columns`]), for output such as `drivectl params --json`.
 //! * Scaling between raw bus values and physical values ([`scaling`], and per family: PNO
 //!   size/conversion index for SEW, resolution for NORD, decimals for Bonfiglioli).
 //! * Control and status words as typed bit sets and DRIVECOM-style state machines per family
@@ -20,6 +22,7 @@
 #![warn(missing_docs)]
 
 pub mod bonfiglioli;
+pub mod columns;
 pub mod family;
 #[cfg(feature = "std")]
 pub mod guard;
@@ -33,4 +36,5 @@ pub mod sew;
 pub mod state;
 mod words;
 
+pub use columns::{COLUMN_KEYS, Column};
 pub use param::{Access, Family, Label, ParamMeta, Persistence, ValueName};

@@ -3,6 +3,8 @@
 
 use core::fmt;
 
+use crate::columns::FieldSink;
+
 /// The drive families drivebus knows.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 #[non_exhaustive]
@@ -217,6 +219,26 @@ pub trait ParamMeta {
     fn describe_scaling(&self, f: &mut dyn fmt::Write) -> fmt::Result {
         let _ = f;
         Ok(())
+    }
+
+    /// Every table column of the row as a typed value, keyed by names from
+    /// [`COLUMN_KEYS`](crate::columns::COLUMN_KEYS): first the columns every family has
+    /// ([`common_columns`](crate::columns::common_columns)), then
+    /// [`ParamMeta::family_columns`]. Each key is emitted at most once; keys the family has no
+    /// column for are left out. Does not allocate.
+    ///
+    /// Implementors override [`ParamMeta::family_columns`], not this.
+    fn columns(&self, out: &mut FieldSink<'_>) {
+        crate::columns::common_columns(self, out);
+        self.family_columns(out);
+    }
+
+    /// The family's own columns (everything the row type has beyond the [`ParamMeta`]
+    /// methods), plus `table_min` / `table_max`: the range ends as the table gives them. Keys
+    /// must come from [`COLUMN_KEYS`](crate::columns::COLUMN_KEYS) and not repeat a common key.
+    /// Default: none.
+    fn family_columns(&self, out: &mut FieldSink<'_>) {
+        let _ = out;
     }
 
     /// Whether `raw` lies within [`ParamMeta::raw_range`] (true when no range is known).

@@ -3,8 +3,8 @@
 use crate::error::{CliError, Result};
 use crate::tool::output::{physical_text, trim_float};
 use clap::{Args, Subcommand};
-use drive_profile::{Family, ParamMeta};
-use serde_json::{Value, json};
+use drive_profile::{COLUMN_KEYS, Column, Family, ParamMeta};
+use serde_json::{Map, Number, Value};
 use std::fmt::Write as _;
 
 /// Arguments of `drivectl params`.
@@ -64,36 +64,48 @@ fn scaling_text(p: &dyn ParamMeta) -> String {
     s
 }
 
-/// The JSON object describing a parameter.
+/// A column value as JSON: numbers stay numbers (non-finite floats become null), lists and
+/// records become arrays and objects.
+fn column_json(c: Column<'_>) -> Value {
+    match c {
+        Column::Null => Value::Null,
+        Column::Bool(b) => Value::Bool(b),
+        Column::Int(n) => Value::from(n),
+        Column::Float(x) => Number::from_f64(x).map_or(Value::Null, Value::Number),
+        Column::Text(s) => Value::from(s),
+        Column::Formatted(d) => Value::from(d.to_string()),
+        Column::List(items) => {
+            let mut list = Vec::new();
+            items(&mut |c| list.push(column_json(c)));
+            Value::Array(list)
+        }
+        Column::Record(fields) => {
+            let mut map = Map::new();
+            fields(&mut |k, c| {
+                map.insert(k.to_owned(), column_json(c));
+            });
+            Value::Object(map)
+        }
+    }
+}
+
+/// The JSON object describing a parameter: every key of [`COLUMN_KEYS`], whatever the family,
+/// null where the family has no such column (`docs/params-json.md`).
 pub fn to_json(p: &dyn ParamMeta) -> Value {
-    let range = p.raw_range().map(|(lo, hi)| {
-        json!({
-            "min": lo, "max": hi,
-            "min_value": p.to_physical(lo), "max_value": p.to_physical(hi),
-        })
-    });
-    let values: Vec<Value> = p
-        .values()
+    let mut map: Map<String, Value> = COLUMN_KEYS
         .iter()
-        .map(|v| json!({"value": v.value, "de": v.de, "en": v.en}))
+        .map(|k| ((*k).to_owned(), Value::Null))
         .collect();
-    json!({
-        "family": p.family().name(),
-        "number": p.label().to_string(),
-        "index": p.bus_index(),
-        "sub_index": p.sub_index(),
-        "name_de": p.name_de(),
-        "name_en": p.name_en(),
-        "unit": p.unit(),
-        "access": p.access().to_string(),
-        "default": p.default_raw(),
-        "default_value": p.default_raw().map(|d| p.to_physical(d)),
-        "range": range,
-        "range_de": p.range_de(),
-        "range_en": p.range_en(),
-        "scaling": scaling_text(p),
-        "values": values,
-    })
+    p.columns(&mut |k, c| {
+        debug_assert!(
+            COLUMN_KEYS.contains(&k),
+            "column key {k} not in COLUMN_KEYS"
+        );
+        if let Some(slot) = map.get_mut(k) {
+            *slot = column_json(c);
+        }
+    });
+    Value::Object(map)
 }
 
 /// Run `drivectl params`.

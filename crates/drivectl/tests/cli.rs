@@ -128,3 +128,101 @@ fn demo_runs() {
     let out = stdout(&o);
     assert!(out.contains("1000 1/min"), "{out}");
 }
+
+/// The keys of every object `params <family> --json` prints.
+fn json_key_sets(family: &str) -> Vec<std::collections::BTreeSet<String>> {
+    let o = drivectl(&["params", family, "--json"]);
+    assert!(o.status.success(), "{family}: {}", stderr(&o));
+    let rows = json_lines(&o);
+    assert!(!rows.is_empty(), "{family}: no rows");
+    rows.iter()
+        .map(|p| p.as_object().expect("an object").keys().cloned().collect())
+        .collect()
+}
+
+#[test]
+fn every_family_lists_the_same_json_keys() {
+    let expected: std::collections::BTreeSet<String> = drive_profile::COLUMN_KEYS
+        .iter()
+        .map(|k| k.to_string())
+        .collect();
+    for family in ["movidrive", "nord", "bonfiglioli"] {
+        for keys in json_key_sets(family) {
+            assert_eq!(keys, expected, "{family}");
+        }
+    }
+    // The shared keys the earlier output had are still there.
+    for key in [
+        "family",
+        "number",
+        "index",
+        "sub_index",
+        "name_de",
+        "name_en",
+        "unit",
+        "access",
+        "default",
+        "default_value",
+        "range",
+        "range_de",
+        "range_en",
+        "scaling",
+        "values",
+    ] {
+        assert!(expected.contains(key), "{key}");
+    }
+}
+
+#[test]
+fn json_columns_are_typed() {
+    let sew = &json_lines(&drivectl(&[
+        "params",
+        "movidrive",
+        "show",
+        "P000",
+        "--json",
+    ]))[0];
+    assert_eq!(sew["index"].as_u64(), Some(8318));
+    assert_eq!(sew["size_index"].as_u64(), Some(11));
+    assert_eq!(sew["conversion_index"].as_u64(), Some(66));
+    assert_eq!(sew["display_conversion_index"].as_u64(), Some(67));
+    assert_eq!(sew["index_hex"], "207E");
+    assert_eq!(sew["access_flags"]["read_only"], true);
+    assert!(sew["range_segments"].is_array());
+    assert!(sew["errata"].is_array());
+    // Another family's columns are null, not missing.
+    assert!(sew["resolution"].is_null() && sew["data_type"].is_null());
+
+    let nord = &json_lines(&drivectl(&["params", "nord", "show", "P102", "--json"]))[0];
+    assert_eq!(nord["resolution"]["step"].as_f64(), Some(0.01));
+    assert_eq!(nord["resolution"]["decimals"].as_u64(), Some(2));
+    assert_eq!(nord["pnu"].as_u64(), Some(0x66));
+    assert_eq!(nord["parameter_set"], true);
+    assert!(nord["size_index"].is_null());
+
+    let bonfi = &json_lines(&drivectl(&[
+        "params",
+        "bonfiglioli",
+        "show",
+        "1376",
+        "--json",
+    ]))[0];
+    assert_eq!(bonfi["range"]["min"].as_i64(), Some(1));
+    assert_eq!(bonfi["range"]["max"].as_i64(), Some(247));
+    assert_eq!(bonfi["table_min"].as_i64(), Some(1));
+    assert_eq!(bonfi["table_max"].as_i64(), Some(247));
+    assert_eq!(bonfi["data_type"], "unknown");
+    assert_eq!(bonfi["menu"], "PARA");
+    assert_eq!(
+        bonfi["chapters"],
+        serde_json::json!(["5", "5.2.2", "5.3.2"])
+    );
+    let p210 = &json_lines(&drivectl(&[
+        "params",
+        "bonfiglioli",
+        "show",
+        "210",
+        "--json",
+    ]))[0];
+    assert_eq!(p210["data_type"], "Long");
+}

@@ -25,6 +25,7 @@
 pub mod state;
 pub mod words;
 
+use crate::columns::{Column, FieldSink, text_list};
 use crate::generated::bonfiglioli_exceptions::EXCEPTIONS;
 use crate::generated::bonfiglioli_faults::FAULTS;
 use crate::generated::bonfiglioli_params::PARAMS;
@@ -51,6 +52,16 @@ pub enum Menu {
     Para,
 }
 
+impl Menu {
+    /// `VAL` or `PARA`, as the manual writes it.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Menu::Val => "VAL",
+            Menu::Para => "PARA",
+        }
+    }
+}
+
 /// The data type of a parameter on the bus (ch. 6.4).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum DataType {
@@ -73,6 +84,14 @@ impl DataType {
             DataType::Int => "Int",
             DataType::Long => "Long",
             DataType::Unknown => "unknown type",
+        }
+    }
+
+    /// A short key: `uInt`, `Int`, `Long` or `unknown` (the JSON column `data_type`).
+    pub const fn key(self) -> &'static str {
+        match self {
+            DataType::Unknown => "unknown",
+            known => known.name(),
         }
     }
 
@@ -127,6 +146,20 @@ pub enum TypeSource {
     Unknown,
 }
 
+impl TypeSource {
+    /// Lowercase name: `stated`, `example`, `range`, `layout`, `analogy` or `unknown`.
+    pub const fn name(self) -> &'static str {
+        match self {
+            TypeSource::Stated => "stated",
+            TypeSource::Example => "example",
+            TypeSource::Range => "range",
+            TypeSource::Layout => "layout",
+            TypeSource::Analogy => "analogy",
+            TypeSource::Unknown => "unknown",
+        }
+    }
+}
+
 /// Whether a parameter can be read and written over the bus.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum ParamAccess {
@@ -136,6 +169,17 @@ pub enum ParamAccess {
     ReadWrite,
     /// Write-only: the ACU cannot read back P484 and P524 (ch. 10.2.3).
     WriteOnly,
+}
+
+impl ParamAccess {
+    /// `read_only`, `read_write` or `write_only`.
+    pub const fn name(self) -> &'static str {
+        match self {
+            ParamAccess::ReadOnly => "read_only",
+            ParamAccess::ReadWrite => "read_write",
+            ParamAccess::WriteOnly => "write_only",
+        }
+    }
 }
 
 /// One parameter of the Bonfiglioli tables (generated from `data/bonfiglioli/parameters.csv`).
@@ -303,6 +347,33 @@ impl ParamMeta for Param {
             Some(bits) => write!(f, "{d} decimal{s}, {} ({bits} bit)", self.data_type.name()),
             None => write!(f, "{d} decimal{s}, data type not given in the manual"),
         }
+    }
+
+    /// The table columns beyond the common ones; `min` / `max` are `table_min` / `table_max`,
+    /// `access` is `bus_access`, the `;`-separated `aliases_de` and `chapters` are lists.
+    fn family_columns(&self, out: &mut FieldSink<'_>) {
+        out("table_min", self.min.into());
+        out("table_max", self.max.into());
+        out("group_de", Column::Text(self.group_de));
+        out("group_en", Column::Text(self.group_en));
+        out(
+            "aliases_de",
+            Column::List(&|items| text_list(self.aliases_de, ';', items)),
+        );
+        out("menu", Column::Text(self.menu.name()));
+        out("data_type", Column::Text(self.data_type.key()));
+        out("type_source", Column::Text(self.type_source.name()));
+        out("data_set", self.data_set.into());
+        out("not_in_operation", self.not_in_operation.into());
+        out("setup", self.setup.into());
+        out("bus_only", self.bus_only.into());
+        out("ram_only", self.ram_only.into());
+        out("bus_access", Column::Text(self.access.name()));
+        out(
+            "chapters",
+            Column::List(&|items| text_list(self.chapters, ';', items)),
+        );
+        out("notes", Column::Text(self.notes));
     }
 
     fn name_matches(&self, term: &str) -> bool {

@@ -2,6 +2,7 @@
 
 use core::fmt;
 
+use crate::columns::{Column, FieldSink};
 use crate::param::{Access, Family, ParamMeta, ValueName, contains_ignore_case, field_accessors};
 use crate::scaling::{self, ScaleError};
 
@@ -107,6 +108,42 @@ impl Param {
                 contains_ignore_case(e.name_de, term) || contains_ignore_case(e.name_en, term)
             })
     }
+
+    /// The NORD columns beyond the common ones, for the parameter and each element view.
+    fn nord_columns(&self, out: &mut FieldSink<'_>) {
+        let (lo, hi) = (self.raw_range.map(|r| r.0), self.raw_range.map(|r| r.1));
+        out("table_min", lo.into());
+        out("table_max", hi.into());
+        out("pnu", self.pnu.into());
+        match self.resolution {
+            Some(r) => out(
+                "resolution",
+                Column::Record(&|f| {
+                    f("step", Column::Float(r.step));
+                    f("decimals", r.decimals.into());
+                    f("text", Column::Text(r.text));
+                }),
+            ),
+            None => out("resolution", Column::Null),
+        }
+        out("parameter_set", self.parameter_set.into());
+        out("array_len", self.array_len.into());
+        out(
+            "elements",
+            Column::List(&|items| {
+                for e in self.elements {
+                    items(Column::Record(&|f| {
+                        f("element", e.element.into());
+                        f("name_de", Column::Text(e.name_de));
+                        f("name_en", Column::Text(e.name_en));
+                    }));
+                }
+            }),
+        );
+        out("description_de", Column::Text(self.description_de));
+        out("description_en", Column::Text(self.description_en));
+        out("source", Column::Text(self.source));
+    }
 }
 
 impl ParamMeta for Param {
@@ -139,6 +176,11 @@ impl ParamMeta for Param {
     fn from_physical(&self, value: f64) -> Result<i64, ScaleError> {
         let (lo, hi) = self.raw_min_max();
         scaling::to_steps(value, self.step(), lo, hi)
+    }
+    /// `pnu`, `resolution`, `parameter_set`, `array_len`, `elements`, `description_de` /
+    /// `description_en` and `source`; `raw_range` gives `table_min` / `table_max`.
+    fn family_columns(&self, out: &mut FieldSink<'_>) {
+        self.nord_columns(out);
     }
     /// `resolution 0.01 s`, or `integer` where no resolution is known.
     fn describe_scaling(&self, f: &mut dyn fmt::Write) -> fmt::Result {
@@ -228,6 +270,10 @@ impl ParamMeta for ParamElement {
     }
     fn describe_scaling(&self, f: &mut dyn fmt::Write) -> fmt::Result {
         self.param.describe_scaling(f)
+    }
+    /// The parameter's columns (the element shows in the common `name_*` and `sub_index`).
+    fn family_columns(&self, out: &mut FieldSink<'_>) {
+        self.param.nord_columns(out);
     }
     /// `P700[-02]`.
     fn label(&self) -> crate::param::Label {

@@ -47,6 +47,7 @@ pub use channel::{
 pub use handshake::{Echo, MasterHandshake, Prepared, SlaveHandshake};
 pub use words::{BasicCommand, ControlWord1, StatusWord1, UnitStatus};
 
+use crate::columns::{Column, FieldSink, text_list};
 use crate::param::{Access, Family, Label, ParamMeta, ValueName, field_accessors};
 use crate::scaling::{Linear, ScaleError, pow10};
 use core::fmt;
@@ -269,6 +270,49 @@ impl ParamMeta for Param {
             }
         }
         Ok(())
+    }
+    /// The columns of the parameter list beyond the common ones; `menu` is the common
+    /// `param_number`, the printed segments are `range_segments` (their outer ends
+    /// `table_min` / `table_max`), `group_de` / `group_en` the heading of `group`.
+    fn family_columns(&self, out: &mut FieldSink<'_>) {
+        let heading = self.group();
+        out("table_min", self.ranges.iter().map(|s| s.min).min().into());
+        out("table_max", self.ranges.iter().map(|s| s.max).max().into());
+        out("group", Column::Text(self.group));
+        out("group_de", heading.map(|g| g.name_de).into());
+        out("group_en", heading.map(|g| g.name_en).into());
+        out("parent", self.parent.into());
+        out("sub", self.sub.into());
+        out("md60a_only", self.md60a_only.into());
+        out("index_hex", Column::Text(self.index_hex));
+        out("index2", self.index2.into());
+        out("pno_unit", Column::Text(self.pno_unit));
+        out("display_unit", Column::Text(self.display_unit));
+        out("size_index", self.size_index.into());
+        out("conversion_index", self.conversion_index.into());
+        out(
+            "display_conversion_index",
+            self.display_conversion_index.into(),
+        );
+        out("default2", self.default2.into());
+        out("default_outside_range", self.default_outside_range.into());
+        out(
+            "range_segments",
+            Column::List(&|items| {
+                for seg in self.ranges {
+                    items(Column::Record(&|f| {
+                        f("min", Column::Int(seg.min));
+                        f("max", Column::Int(seg.max));
+                        f("step", Column::Int(seg.step));
+                    }));
+                }
+            }),
+        );
+        out("values_ref", self.values_ref.into());
+        out(
+            "errata",
+            Column::List(&|items| text_list(self.errata, ' ', items)),
+        );
     }
     fn in_range(&self, raw: i64) -> bool {
         if self.ranges.is_empty() {
