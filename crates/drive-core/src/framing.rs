@@ -314,11 +314,9 @@ impl<F: Framing, const N: usize> Receiver<F, N> {
     pub fn handle_char(&mut self, c: RxChar) -> Option<RxEvent<F::Frame, F::Error>> {
         // The common case, a character in the middle of a frame whose length is known, takes
         // the short way.
-        if let (State::Receiving { len, expected }, Some(prev), None) =
-            (&self.state, self.last, c.error)
-        {
-            let (len, expected) = (*len, *expected);
-            if len + 1 < expected
+        if let (&State::Receiving { len, expected }, Some(prev)) = (&self.state, self.last) {
+            if c.error.is_none()
+                && len + 1 < expected
                 && c.time >= prev
                 && self.gap(prev, c.time) < self.ns.max_gap
                 && !self.framing.restarts(c.byte)
@@ -337,7 +335,6 @@ impl<F: Framing, const N: usize> Receiver<F, N> {
         self.handle_char_in_general(c)
     }
 
-    #[inline(never)]
     fn handle_char_in_general(&mut self, c: RxChar) -> Option<RxEvent<F::Frame, F::Error>> {
         let gap = self.last.map(|prev| self.gap(prev, c.time));
         let idle = gap.is_none_or(|g| g >= self.ns.start_gap);

@@ -3,6 +3,14 @@
 //! stations served by `serve` over a tokio duplex stream. Nothing here is specific to one
 //! protocol: this is what every protocol's async driver and simulator are made of.
 
+// A failing fixture is a failing test: panicking is the report.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic
+)]
+
 use std::time::Duration;
 
 use drive_core::framing::{FrameTiming, Framing, LineError, Progress, Start};

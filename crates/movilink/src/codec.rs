@@ -92,6 +92,7 @@ pub fn telegram_len(bytes: &[u8]) -> Result<usize, DecodeError> {
 
 /// Decode the telegram at the start of `bytes`, returning it and the number of bytes it took.
 /// Bytes after the telegram are ignored.
+#[inline]
 pub fn decode(bytes: &[u8]) -> Result<(Telegram, usize), DecodeError> {
     let (Some(&sd), Some(&adr), Some(&typ)) = (bytes.first(), bytes.get(1), bytes.get(2)) else {
         if let Some(&sd) = bytes.first() {

@@ -295,6 +295,7 @@ impl Master {
     /// The next request telegram, if one is due at `now` (`buf` must hold
     /// [`MAX_TELEGRAM_LEN`] bytes; a smaller buffer gets nothing). Returns the number of
     /// bytes written; they start on the wire at `now`.
+    #[inline]
     pub fn poll_transmit(&mut self, now: Instant, buf: &mut [u8]) -> Option<usize> {
         let request = self.job.as_ref()?.request;
         if !self.exchange.may_transmit(now) {
@@ -316,12 +317,14 @@ impl Master {
     }
 
     /// When [`Master::handle_timeout`] (or [`Master::poll_transmit`]) has work to do.
+    #[inline]
     pub fn poll_timeout(&self) -> Option<Instant> {
         self.job.as_ref()?;
         self.exchange.poll_timeout()
     }
 
     /// The next event.
+    #[inline]
     pub fn poll_event(&mut self) -> Option<MasterEvent> {
         self.events.pop()
     }
@@ -334,6 +337,7 @@ impl Master {
     }
 
     /// Feed one character received from the bus.
+    #[inline]
     pub fn handle_char(&mut self, c: RxChar) {
         if let Some(ev) = self.exchange.handle_char(c) {
             self.on_exchange(ev);
@@ -341,6 +345,7 @@ impl Master {
     }
 
     /// Advance the time to `now`: transmissions may become due, a response may time out.
+    #[inline]
     pub fn handle_timeout(&mut self, now: Instant) {
         if let Some(ev) = self.exchange.handle_timeout(now) {
             self.on_exchange(ev);

@@ -150,6 +150,7 @@ impl Framing for TelegramFraming {
         self.timing.frame_timing()
     }
 
+    #[inline]
     fn start(&self, byte: u8) -> Start<RejectReason> {
         if byte == self.direction.start_character() {
             Start::Begin
@@ -161,6 +162,7 @@ impl Framing for TelegramFraming {
         }
     }
 
+    #[inline]
     fn progress(&self, frame: &[u8]) -> Progress<RejectReason> {
         match *frame {
             [_, address] if !self.filter.accepts(address) => {
@@ -174,6 +176,7 @@ impl Framing for TelegramFraming {
         }
     }
 
+    #[inline]
     fn decode(&self, frame: &[u8]) -> Result<Telegram, RejectReason> {
         codec::decode(frame)
             .map(|(t, _)| t)

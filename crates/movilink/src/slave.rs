@@ -28,6 +28,7 @@
 //!   through [`Backend::handle_timeout`]; the slave has no timer of its own beyond framing and
 //!   the response.
 
+use drive_core::time::earliest;
 use drive_core::{Endpoint, Queue};
 use drive_profile::sew::SlaveHandshake;
 
@@ -199,6 +200,7 @@ impl<B: Backend> Slave<B> {
     }
 
     /// Feed one character received from the bus.
+    #[inline]
     pub fn handle_char(&mut self, c: RxChar) {
         self.advance(c.time);
         let end = self.receiver.last_char_time();
@@ -214,6 +216,7 @@ impl<B: Backend> Slave<B> {
     }
 
     /// Advance the time to `now`: the response may become due, the backend's deadline may pass.
+    #[inline]
     pub fn handle_timeout(&mut self, now: Instant) {
         self.advance(now);
         let end = self.receiver.last_char_time();
@@ -234,6 +237,7 @@ impl<B: Backend> Slave<B> {
 
     /// The response, if one is due at `now`. Returns the number of bytes written to `buf`
     /// (which must hold [`MAX_TELEGRAM_LEN`] bytes); they start on the wire at `now`.
+    #[inline]
     pub fn poll_transmit(&mut self, now: Instant, buf: &mut [u8]) -> Option<usize> {
         self.advance(now);
         let p = self.tx.as_ref()?;
@@ -249,18 +253,16 @@ impl<B: Backend> Slave<B> {
 
     /// When [`Slave::handle_timeout`] has work to do: a request's end confirmation, a gap
     /// limit, the response falling due, or the backend's own deadline.
+    #[inline]
     pub fn poll_timeout(&self) -> Option<Instant> {
-        [
-            self.tx.map(|p| p.not_before),
-            self.receiver.poll_timeout(),
+        earliest(
+            earliest(self.tx.map(|p| p.not_before), self.receiver.poll_timeout()),
             self.backend.poll_timeout(),
-        ]
-        .into_iter()
-        .flatten()
-        .min()
+        )
     }
 
     /// The next event.
+    #[inline]
     pub fn poll_event(&mut self) -> Option<SlaveEvent> {
         self.events.pop()
     }
@@ -353,13 +355,10 @@ impl<B: Backend> Endpoint for Slave<B> {
     }
 
     fn poll_quiet_timeout(&self) -> Option<Instant> {
-        [
+        earliest(
             self.tx.map(|p| p.not_before),
             self.receiver.pending_confirmation(),
-        ]
-        .into_iter()
-        .flatten()
-        .min()
+        )
     }
 
     fn max_frame_len(&self) -> usize {

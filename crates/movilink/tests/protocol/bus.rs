@@ -4,6 +4,8 @@
 
 use core::time::Duration;
 
+use drive_core::time::earliest;
+
 use movilink::timing::{CHAR_TIME, Instant, START_PAUSE};
 use movilink::{
     AttributeInfo, Backend, Master, MasterEvent, ParamChannel, RequestContext, ReturnCode, RxChar,
@@ -220,10 +222,7 @@ impl<B: Backend> Bus<B> {
                 self.now = after(start, n);
                 continue;
             }
-            let next = [self.master.poll_timeout(), self.slave.poll_timeout()]
-                .into_iter()
-                .flatten()
-                .min();
+            let next = earliest(self.master.poll_timeout(), self.slave.poll_timeout());
             let Some(next) = next else { return };
             if next > self.now {
                 self.now = next;
@@ -242,7 +241,9 @@ impl<B: Backend> Bus<B> {
     }
 }
 
-/// The end of `n` characters sent back to back from `start`.
+/// The end of `n` characters sent back to back from `start` (in nanoseconds: the pump is part
+/// of the exchange benchmark).
 fn after(start: Instant, n: usize) -> Instant {
-    start + CHAR_TIME * u32::try_from(n).unwrap_or(u32::MAX)
+    const CHAR_NS: u64 = CHAR_TIME.as_nanos() as u64;
+    start.add_nanos(CHAR_NS * n as u64)
 }
