@@ -205,29 +205,12 @@ pub const COLUMN_KEYS: &[&str] = &[
 ];
 
 /// The keys every family emits, from [`ParamMeta`] alone ([`common_columns`] plus
-/// `table_min` / `table_max`, which each family fills from its own range columns).
-pub const COMMON_KEYS: &[&str] = &[
-    "family",
-    "number",
-    "param_number",
-    "index",
-    "sub_index",
-    "name_de",
-    "name_en",
-    "unit",
-    "access",
-    "access_flags",
-    "default",
-    "default_value",
-    "range",
-    "table_min",
-    "table_max",
-    "range_de",
-    "range_en",
-    "decimals",
-    "scaling",
-    "values",
-];
+/// `table_min` / `table_max`, which each family fills from its own range columns): the first
+/// block of [`COLUMN_KEYS`], up to `values`.
+pub const COMMON_KEYS: &[&str] = COLUMN_KEYS.split_at(COMMON_KEY_COUNT).0;
+
+/// How many of [`COLUMN_KEYS`] every family emits.
+const COMMON_KEY_COUNT: usize = 20;
 
 /// [`ParamMeta::describe_scaling`] as a [`fmt::Display`].
 struct Scaling<'p, P: ?Sized>(&'p P);

@@ -111,7 +111,11 @@ struct Cell {
 
 impl Cell {
     fn new(meta: Meta) -> Cell {
-        let default = meta.default_raw();
+        Cell::with_default(meta, meta.default_raw())
+    }
+
+    /// A cell of `meta` whose default (and initial value, 0 when `None`) is `default`.
+    fn with_default(meta: Meta, default: Option<i64>) -> Cell {
         let initial = default.unwrap_or(0);
         Cell {
             meta,
@@ -432,16 +436,7 @@ impl ParamStore {
                 value: i64::from(index),
             });
         }
-        let initial = default.unwrap_or(0);
-        let cell = Cell {
-            meta,
-            default,
-            range: meta.raw_range(),
-            ram: initial,
-            eeprom: initial,
-            nv_writes: 0,
-            last_nv_write: None,
-        };
+        let cell = Cell::with_default(meta, default);
         let mut cells = BTreeMap::new();
         cells.insert(0, cell);
         self.entries.insert(

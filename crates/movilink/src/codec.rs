@@ -75,37 +75,35 @@ pub fn encode(telegram: &Telegram, out: &mut [u8]) -> Result<usize, EncodeError>
 /// Length of the telegram starting at `bytes[0]`, once its first three bytes (SD, ADR, TYP)
 /// are known; checks the start character and PDU type (not the address).
 pub fn telegram_len(bytes: &[u8]) -> Result<usize, DecodeError> {
-    let (Some(&sd), Some(&typ)) = (bytes.first(), bytes.get(2)) else {
-        if let Some(&sd) = bytes.first() {
-            Direction::from_start_character(sd)
-                .ok_or(DecodeError::BadStartCharacter { byte: sd })?;
-        }
-        return Err(DecodeError::Truncated {
-            needed: 3,
-            available: bytes.len(),
-        });
-    };
-    Direction::from_start_character(sd).ok_or(DecodeError::BadStartCharacter { byte: sd })?;
+    let (_, _, typ) = header(bytes)?;
     let t = PduType::new(typ).ok_or(DecodeError::UnknownPduType { pdu_type: typ })?;
     Ok(t.telegram_len())
+}
+
+/// The start character's direction and the raw ADR and TYP bytes; a wrong start character is
+/// reported before missing bytes.
+#[inline]
+fn header(bytes: &[u8]) -> Result<(Direction, u8, u8), DecodeError> {
+    let sd = *bytes.first().ok_or(DecodeError::Truncated {
+        needed: 3,
+        available: 0,
+    })?;
+    let direction =
+        Direction::from_start_character(sd).ok_or(DecodeError::BadStartCharacter { byte: sd })?;
+    match (bytes.get(1), bytes.get(2)) {
+        (Some(&adr), Some(&typ)) => Ok((direction, adr, typ)),
+        _ => Err(DecodeError::Truncated {
+            needed: 3,
+            available: bytes.len(),
+        }),
+    }
 }
 
 /// Decode the telegram at the start of `bytes`, returning it and the number of bytes it took.
 /// Bytes after the telegram are ignored.
 #[inline]
 pub fn decode(bytes: &[u8]) -> Result<(Telegram, usize), DecodeError> {
-    let (Some(&sd), Some(&adr), Some(&typ)) = (bytes.first(), bytes.get(1), bytes.get(2)) else {
-        if let Some(&sd) = bytes.first() {
-            Direction::from_start_character(sd)
-                .ok_or(DecodeError::BadStartCharacter { byte: sd })?;
-        }
-        return Err(DecodeError::Truncated {
-            needed: 3,
-            available: bytes.len(),
-        });
-    };
-    let direction =
-        Direction::from_start_character(sd).ok_or(DecodeError::BadStartCharacter { byte: sd })?;
+    let (direction, adr, typ) = header(bytes)?;
     let address = Address::new(adr).ok_or(DecodeError::InvalidAddress { address: adr })?;
     let pdu_type = PduType::new(typ).ok_or(DecodeError::UnknownPduType { pdu_type: typ })?;
     let len = pdu_type.telegram_len();
