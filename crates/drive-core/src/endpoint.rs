@@ -11,7 +11,9 @@ pub trait Endpoint {
     /// Feed one character received from the bus.
     fn handle_char(&mut self, c: RxChar);
 
-    /// Advance the time to `now` (at or after [`Endpoint::poll_timeout`]).
+    /// Advance the time to `now` and do what is due by then. May be called at any time, not only
+    /// at [`Endpoint::poll_timeout`] (a serve loop calls every station when one station's
+    /// deadline comes); an endpoint with nothing due does nothing.
     fn handle_timeout(&mut self, now: Instant);
 
     /// The next frame to send, if one is due at `now`; its bytes start on the wire at `now`.

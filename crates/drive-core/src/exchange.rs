@@ -161,9 +161,19 @@ impl<F: Framing, const N: usize> Exchange<F, N> {
         &self.receiver
     }
 
-    /// The answer receiver, for changing.
+    /// The answer receiver, for changing (e.g. the address a master expects). After changing
+    /// its framing's times call [`Exchange::refresh_timing`], not the receiver's own.
     pub fn receiver_mut(&mut self) -> &mut Receiver<F, N> {
         &mut self.receiver
+    }
+
+    /// Read the framing's times again (the line's settings changed): the receiver's, the
+    /// character time of the exchange and the gate's idle gap.
+    pub fn refresh_timing(&mut self) {
+        self.receiver.refresh_timing();
+        let timing = *self.receiver.timing();
+        self.ns = Nanos::of(&self.config, timing.char_time);
+        self.gate.set_idle_gap(timing.start_gap);
     }
 
     /// The bus gate.
@@ -249,15 +259,17 @@ impl<F: Framing, const N: usize> Exchange<F, N> {
         end
     }
 
-    /// The protocol refused a frame (or the attempt failed otherwise): retry or give up.
+    /// The protocol refused a frame (or the attempt failed otherwise): retry or give up. Either
+    /// way the next transmission waits `retry_pause` after the last bus activity (what failed
+    /// may still be on the line, whichever request comes next).
     pub fn fail(&mut self) -> Verdict {
         let Some(job) = self.job.as_mut() else {
             return Verdict::GiveUp { attempts: 0 };
         };
+        let last = self.gate.last_activity().unwrap_or(self.now);
+        self.gate.hold_until(last.add_nanos(self.ns.retry_pause));
         if job.attempts <= u16::from(self.config.retries) {
             job.phase = Phase::Queued;
-            let last = self.gate.last_activity().unwrap_or(self.now);
-            self.gate.hold_until(last.add_nanos(self.ns.retry_pause));
             Verdict::Retry
         } else {
             let attempts = job.attempts;

@@ -22,17 +22,22 @@
 //!   ([`LineError::InterCharacterGap`]) — unless the framing ends frames by silence
 //!   ([`FrameTiming::ends_by_silence`], Modbus RTU), where that gap *ends* the frame;
 //! * a complete frame is accepted only once the line stayed quiet for
-//!   [`FrameTiming::end_silence`] after its last character; a character within that time
-//!   rejects it ([`LineError::TrailingCharacter`]: the frame on the wire was longer than it
-//!   said, which is how an inserted character is caught). With a zero end silence a complete
-//!   frame is accepted at once;
+//!   [`FrameTiming::end_silence`] after its last character; a character that completes within
+//!   that time rejects it ([`LineError::TrailingCharacter`]: the frame on the wire was longer
+//!   than it said, which is how an inserted character is caught). This is a UART's idle timer
+//!   restarted by every character: a character whose start bit falls into the last character
+//!   time of the silence completes after the confirmation and counts as coming after the frame,
+//!   whether or not the caller polled the timeout before handing it over. With a zero end
+//!   silence a complete frame is accepted at once;
 //! * a UART error flag on any character of a frame rejects the frame;
 //! * after a rejection the receiver ignores characters until the next idle gap, then
 //!   resynchronises on the next start character.
 //!
 //! Confirmation by silence is reported by [`Receiver::handle_timeout`] at the time of
-//! [`Receiver::poll_timeout`]; a caller that misses it gets the frame with the next character
-//! that follows after enough silence.
+//! [`Receiver::poll_timeout`]; a caller that misses it gets the frame with the next character.
+//! Each call returns at most one event; where one character has two (it ends a frame and is
+//! itself rejected as the next one's start), the second waits and [`Receiver::poll_timeout`]
+//! is due at once.
 //!
 //! Gaps: a character's time is the end of its stop bit, so the idle gap before a character is
 //! its time minus the previous character's time minus one character time.
@@ -251,6 +256,9 @@ pub struct Receiver<F: Framing, const N: usize> {
     ns: Nanos,
     state: State<F::Frame>,
     last: Option<Instant>,
+    /// The event of a character that ended one frame and was itself rejected as the start of
+    /// the next (one character, two events): delivered by the next call.
+    pending: Option<RxEvent<F::Frame, F::Error>>,
     buf: [u8; N],
 }
 
@@ -264,6 +272,7 @@ impl<F: Framing, const N: usize> Receiver<F, N> {
             timing,
             state: State::Idle,
             last: None,
+            pending: None,
             buf: [0; N],
         }
     }
@@ -295,6 +304,7 @@ impl<F: Framing, const N: usize> Receiver<F, N> {
     pub fn reset(&mut self) {
         self.state = State::Idle;
         self.last = None;
+        self.pending = None;
     }
 
     /// Whether a frame is being received (including a complete one whose end is not yet
@@ -332,14 +342,32 @@ impl<F: Framing, const N: usize> Receiver<F, N> {
                 }
             }
         }
-        self.handle_char_in_general(c)
+        match self.pending.take() {
+            // Events come out in order: the one left over first, this character's next.
+            Some(earlier) => {
+                // The receiver is idle after a left-over event, so this character can set
+                // nothing pending itself; at most one event waits.
+                let ev = self.handle_char_in_general(c);
+                if self.pending.is_none() {
+                    self.pending = ev;
+                }
+                Some(earlier)
+            }
+            None => self.handle_char_in_general(c),
+        }
     }
 
     fn handle_char_in_general(&mut self, c: RxChar) -> Option<RxEvent<F::Frame, F::Error>> {
         let gap = self.last.map(|prev| self.gap(prev, c.time));
         let idle = gap.is_none_or(|g| g >= self.ns.start_gap);
         let broke_off = gap.is_none_or(|g| g >= self.ns.max_gap);
-        let confirmed = gap.is_none_or(|g| g >= self.ns.end_silence);
+        // A frame's end is confirmed `end_silence` after its last character completed, as a
+        // UART's idle timer restarted by every character confirms it: a character completing
+        // after that instant comes after the confirmation, whether or not the caller polled
+        // the timeout first (it may only have started within the silence).
+        let confirmed = self
+            .last
+            .is_none_or(|prev| c.time.nanos_since(prev) >= self.ns.end_silence);
         self.last = Some(self.last.map_or(c.time, |prev| prev.later(c.time)));
         match self.state {
             State::Receiving { len, .. } if broke_off && self.timing.ends_by_silence => {
@@ -349,14 +377,14 @@ impl<F: Framing, const N: usize> Receiver<F, N> {
                     Err(e) => {
                         self.state = State::Idle;
                         if idle {
-                            let _ = self.start(c);
+                            self.pending = self.start(c);
                         }
                         Some(RxEvent::Rejected(e))
                     }
                     Ok(frame) if confirmed => {
                         self.state = State::Idle;
                         if idle {
-                            let _ = self.start(c);
+                            self.pending = self.start(c);
                         }
                         Some(RxEvent::Frame(frame))
                     }
@@ -373,13 +401,13 @@ impl<F: Framing, const N: usize> Receiver<F, N> {
                 // next one.
                 self.state = State::Idle;
                 if idle {
-                    let _ = self.start(c);
+                    self.pending = self.start(c);
                 }
                 Some(RxEvent::Rejected(gap_error(len)))
             }
             State::Receiving { len, .. } if self.framing.restarts(c.byte) => {
                 self.state = State::Idle;
-                let _ = self.start(c);
+                self.pending = self.start(c);
                 Some(RxEvent::Rejected(gap_error(len)))
             }
             State::Receiving { len, expected } => self.continue_with(c, len, expected),
@@ -388,7 +416,7 @@ impl<F: Framing, const N: usize> Receiver<F, N> {
                 // the frame stands, and this character may start the next one.
                 self.state = State::Idle;
                 if idle {
-                    let _ = self.start(c);
+                    self.pending = self.start(c);
                 }
                 Some(RxEvent::Frame(frame))
             }
@@ -421,6 +449,9 @@ impl<F: Framing, const N: usize> Receiver<F, N> {
     /// silence has passed is accepted; a partial frame whose gap reached the limit is rejected
     /// (or, ending by silence, completed).
     pub fn handle_timeout(&mut self, now: Instant) -> Option<RxEvent<F::Frame, F::Error>> {
+        if let Some(earlier) = self.pending.take() {
+            return Some(earlier);
+        }
         let last = self.last?;
         match self.state {
             State::Complete { frame } => {
@@ -454,6 +485,9 @@ impl<F: Framing, const N: usize> Receiver<F, N> {
     /// one is in progress.
     pub fn poll_timeout(&self) -> Option<Instant> {
         let last = self.last?;
+        if self.pending.is_some() {
+            return Some(last);
+        }
         match self.state {
             State::Receiving { .. } => {
                 Some(last.add_nanos(self.ns.char_time.saturating_add(self.ns.max_gap)))
@@ -466,6 +500,9 @@ impl<F: Framing, const N: usize> Receiver<F, N> {
     /// When a complete frame's end will be confirmed by silence, if one awaits confirmation
     /// (the one deadline of the receiver that needs nothing but a quiet line).
     pub fn pending_confirmation(&self) -> Option<Instant> {
+        if self.pending.is_some() {
+            return self.last;
+        }
         match (self.state, self.last) {
             (State::Complete { .. }, Some(last)) => Some(last.add_nanos(self.ns.end_silence)),
             _ => None,

@@ -48,6 +48,11 @@ impl TxGate {
         Duration::from_nanos(self.idle_gap_ns)
     }
 
+    /// Change the idle gap (the line's settings changed); the history is kept.
+    pub fn set_idle_gap(&mut self, idle_gap: Duration) {
+        self.idle_gap_ns = crate::time::duration_nanos(idle_gap);
+    }
+
     /// A character ended on the bus at `end` (sent or received).
     #[inline]
     pub fn on_activity(&mut self, end: Instant) {

@@ -19,7 +19,8 @@
 //! * `rt` (feature `tokio`): the runtime layer: `CharIo`, the byte-stream adapter, the clock
 //!   choice and the serve loop of simulated devices.
 //!
-//! The crate is `no_std` without its default `std` feature, and nothing in it allocates.
+//! The crate is `no_std` without its default `std` feature, and nothing outside the runtime
+//! layer (`rt`, feature `tokio`) allocates.
 #![cfg_attr(not(feature = "std"), no_std)]
 #![warn(missing_docs)]
 

@@ -264,3 +264,232 @@ async fn the_same_session_on_the_virtual_clock() {
     assert_eq!(results[2], Err(2));
     assert_eq!(requests, 2);
 }
+
+// ----- The port's waiting rules, on a line whose received characters are scripted -----
+
+use std::collections::VecDeque;
+use std::pin::Pin;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::task::{Context, Poll};
+
+use drive_core::rt::{CharIo, ReceivedChar};
+use tokio::time::{Instant as TokioInstant, Sleep};
+
+/// A line whose received characters are scripted: each becomes readable at its arrival time
+/// on tokio's clock and carries that time; what is written is swallowed.
+#[derive(Default)]
+struct Scripted {
+    chars: VecDeque<(TokioInstant, u8)>,
+    sleep: Option<Pin<Box<Sleep>>>,
+}
+
+impl Scripted {
+    fn new(chars: impl IntoIterator<Item = (TokioInstant, u8)>) -> Self {
+        Self {
+            chars: chars.into_iter().collect(),
+            sleep: None,
+        }
+    }
+}
+
+impl CharIo for Scripted {
+    fn poll_read_chars(
+        &mut self,
+        cx: &mut Context<'_>,
+        buf: &mut [ReceivedChar],
+    ) -> Poll<std::io::Result<usize>> {
+        let Some(&(at, byte)) = self.chars.front() else {
+            return Poll::Pending;
+        };
+        if at > TokioInstant::now() {
+            let sleep = self
+                .sleep
+                .get_or_insert_with(|| Box::pin(tokio::time::sleep_until(at)));
+            sleep.as_mut().reset(at);
+            if sleep.as_mut().poll(cx).is_pending() {
+                return Poll::Pending;
+            }
+        }
+        self.chars.pop_front();
+        buf[0] = ReceivedChar::new(byte, at);
+        Poll::Ready(Ok(1))
+    }
+    fn poll_write(&mut self, _: &mut Context<'_>, buf: &[u8]) -> Poll<std::io::Result<usize>> {
+        Poll::Ready(Ok(buf.len()))
+    }
+    fn poll_flush(&mut self, _: &mut Context<'_>) -> Poll<std::io::Result<()>> {
+        Poll::Ready(Ok(()))
+    }
+}
+
+use std::future::Future as _;
+
+/// An endpoint with one fixed deadline that records what it is fed.
+struct Recorder {
+    deadline: Option<Instant>,
+    quiet: Option<Instant>,
+    log: Vec<String>,
+}
+
+impl Recorder {
+    fn new(deadline: Option<Instant>, quiet: Option<Instant>) -> Self {
+        Self {
+            deadline,
+            quiet,
+            log: Vec::new(),
+        }
+    }
+}
+
+impl Endpoint for Recorder {
+    fn handle_char(&mut self, c: RxChar) {
+        self.log
+            .push(format!("char {:#04x} at {} µs", c.byte, c.time.as_micros()));
+    }
+    fn handle_timeout(&mut self, now: Instant) {
+        self.log.push(format!("timeout at {} µs", now.as_micros()));
+    }
+    fn poll_transmit(&mut self, _: Instant, _: &mut [u8]) -> Option<usize> {
+        None
+    }
+    fn poll_timeout(&self) -> Option<Instant> {
+        self.deadline
+    }
+    fn poll_quiet_timeout(&self) -> Option<Instant> {
+        self.quiet
+    }
+    fn max_frame_len(&self) -> usize {
+        0
+    }
+}
+
+#[tokio::test(start_paused = true)]
+async fn characters_that_wait_are_fed_before_a_passed_deadline() {
+    let epoch = TokioInstant::now();
+    let line = Scripted::new([(epoch + Duration::from_millis(5), 0x55)]);
+    let mut port = Port::new(line, Clock::Real, Duration::from_micros(1_146));
+    let mut rec = Recorder::new(Some(Instant::from_millis(10)), None);
+    // The task comes back to the port only at 20 ms: the character of 5 ms is older than the
+    // deadline of 10 ms and goes first.
+    tokio::time::advance(Duration::from_millis(20)).await;
+    assert!(port.wait(&mut rec).await.unwrap());
+    assert!(port.wait(&mut rec).await.unwrap());
+    assert_eq!(rec.log, ["char 0x55 at 5000 µs", "timeout at 20000 µs"]);
+}
+
+#[tokio::test(start_paused = true)]
+async fn a_deadline_that_stays_in_the_past_does_not_starve_the_runtime() {
+    let ran = Arc::new(AtomicBool::new(false));
+    let flag = ran.clone();
+    tokio::spawn(async move { flag.store(true, Ordering::SeqCst) });
+    let mut port = Port::new(
+        Scripted::default(),
+        Clock::Real,
+        Duration::from_micros(1_146),
+    );
+    // An endpoint whose deadline never moves (a bug in it, or a deadline it cannot act on):
+    // the port's loop must still let other tasks run.
+    let mut stuck = Recorder::new(Some(Instant::ZERO), None);
+    for _ in 0..10_000 {
+        assert!(port.wait(&mut stuck).await.unwrap());
+        if ran.load(Ordering::SeqCst) {
+            break;
+        }
+    }
+    assert!(ran.load(Ordering::SeqCst), "the other task never ran");
+}
+
+#[tokio::test(start_paused = true)]
+async fn the_virtual_clock_waits_when_a_quiet_deadline_brings_no_progress() {
+    let mut port = Port::new(
+        Scripted::default(),
+        Clock::Virtual,
+        Duration::from_micros(1_146),
+    );
+    let mut stuck = Recorder::new(None, Some(Instant::ZERO));
+    assert!(port.wait(&mut stuck).await.unwrap());
+    // Handled once at 0; the same deadline again at the same time is waited for (nothing
+    // else can happen here), not handled in a loop.
+    let again = tokio::time::timeout(Duration::from_secs(1), port.wait(&mut stuck)).await;
+    assert!(again.is_err(), "returned {again:?}");
+    assert_eq!(stuck.log, ["timeout at 0 µs"]);
+}
+
+#[tokio::test(start_paused = true)]
+async fn the_virtual_clock_measures_a_gap_limit_from_the_last_character() {
+    // An answer whose characters come 1.5 ms apart in real time, on a line whose virtual
+    // character time is 0.573 ms with a gap limit of two characters: each gap is within one
+    // character time plus the gap limit (1.72 ms) of the character before it.
+    let line = LineSettings::new(19200);
+    let toy = Toy { line };
+    let config = ExchangeConfig {
+        response_timeout: Duration::from_millis(20),
+        retries: 0,
+        retry_pause: line.char_times(4, 1),
+        unanswered_hold: Duration::ZERO,
+    };
+    let mut master = Master {
+        x: Exchange::new(toy, config),
+        request: None,
+        result: None,
+    };
+    let mut answer = [0u8; 16];
+    let n = encode(3, &[1, 2, 3, 4, 5, 6], &mut answer);
+    let epoch = TokioInstant::now();
+    let script = answer[..n].iter().enumerate().map(|(i, &b)| {
+        (
+            epoch + Duration::from_millis(1) + Duration::from_micros(1_500) * i as u32,
+            b,
+        )
+    });
+    let mut port = Port::new(Scripted::new(script), Clock::Virtual, line.char_time());
+    master.send(3, &[0, 1, 2, 3, 4, 5], port.now());
+    let result = run(&mut port, &mut master).await;
+    assert_eq!(
+        result.map(|r| r.0[..7].to_vec()),
+        Ok(vec![3, 1, 2, 3, 4, 5, 6])
+    );
+}
+
+/// An endpoint that claims a frame longer than the buffer it was given.
+struct Overlong;
+
+impl Endpoint for Overlong {
+    fn handle_char(&mut self, _: RxChar) {}
+    fn handle_timeout(&mut self, _: Instant) {}
+    fn poll_transmit(&mut self, _: Instant, buf: &mut [u8]) -> Option<usize> {
+        Some(buf.len() + 1)
+    }
+    fn poll_timeout(&self) -> Option<Instant> {
+        None
+    }
+    fn poll_quiet_timeout(&self) -> Option<Instant> {
+        None
+    }
+    fn max_frame_len(&self) -> usize {
+        4
+    }
+}
+
+#[tokio::test(start_paused = true)]
+async fn a_frame_longer_than_its_buffer_is_an_error_not_a_cut_frame() {
+    let mut port = Port::new(
+        Scripted::default(),
+        Clock::Real,
+        Duration::from_micros(1_146),
+    );
+    let mut buf = [0u8; 4];
+    let err = port.transmit(&mut Overlong, &mut buf).await.unwrap_err();
+    assert_eq!(err.kind(), std::io::ErrorKind::InvalidData);
+    assert!(
+        err.to_string().contains("5-byte frame in a 4-byte buffer"),
+        "{err}"
+    );
+
+    let mut time = Timebase::new(Clock::Real, Duration::from_micros(1_146));
+    let err = serve(&mut [Overlong], &mut time, Scripted::default())
+        .await
+        .unwrap_err();
+    assert_eq!(err.kind(), std::io::ErrorKind::InvalidData);
+}

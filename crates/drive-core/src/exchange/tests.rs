@@ -179,3 +179,75 @@ fn rejected_answers_and_unanswered_requests_and_abort() {
     assert!(x.is_idle());
     assert_eq!(x.gate().earliest_start(), us(211_000));
 }
+
+#[test]
+fn the_retry_pause_follows_the_last_attempt_too() {
+    // One attempt only: a garbage answer gives up, and the next request still waits the
+    // retry pause after it (what failed may still be on the line).
+    let mut x: Exchange<Lp, 8> = Exchange::new(Lp, config(0));
+    x.begin(Instant::ZERO).unwrap();
+    assert!(x.may_transmit(Instant::ZERO));
+    x.transmitted(4, true);
+    let c = RxChar::with_error(0xA5, us(6_000), crate::CharError::Parity);
+    assert!(matches!(
+        x.handle_char(c),
+        Some(ExchangeEvent::Rejected(_, Verdict::GiveUp { attempts: 1 }))
+    ));
+    x.begin(us(6_000)).unwrap();
+    assert_eq!(x.poll_timeout(), Some(us(6_000 + 6_000)));
+    assert!(!x.may_transmit(us(11_999)));
+    assert!(x.may_transmit(us(12_000)));
+
+    // The same after a response timeout on the last attempt.
+    let mut x: Exchange<Lp, 8> = Exchange::new(Lp, config(0));
+    x.begin(Instant::ZERO).unwrap();
+    assert!(x.may_transmit(Instant::ZERO));
+    let end = x.transmitted(4, true);
+    let give_up = x.response_deadline().unwrap();
+    assert_eq!(
+        x.handle_timeout(give_up),
+        Some(ExchangeEvent::NoAnswer(Verdict::GiveUp { attempts: 1 }))
+    );
+    x.begin(give_up).unwrap();
+    // The last activity was the request's end; the pause from there has long passed.
+    assert!(x.may_transmit(give_up));
+    assert!(end.add_nanos(6_000_000) < give_up);
+}
+
+/// `Lp` on a line whose speed can change.
+#[derive(Debug, Clone, Copy)]
+struct Scaled {
+    factor: u32,
+}
+
+impl Framing for Scaled {
+    type Frame = u8;
+    type Error = LineError;
+    fn timing(&self) -> FrameTiming {
+        FrameTiming::uniform(CHAR * self.factor, PAUSE * self.factor)
+    }
+    fn start(&self, byte: u8) -> Start<LineError> {
+        Lp.start(byte)
+    }
+    fn progress(&self, frame: &[u8]) -> Progress<LineError> {
+        Lp.progress(frame)
+    }
+    fn decode(&self, frame: &[u8]) -> Result<u8, LineError> {
+        Lp.decode(frame)
+    }
+}
+
+#[test]
+fn refresh_timing_reaches_the_gate_and_the_transmission_times() {
+    let mut x: Exchange<Scaled, 8> = Exchange::new(Scaled { factor: 1 }, config(0));
+    x.receiver_mut().framing_mut().factor = 2;
+    x.refresh_timing();
+    assert_eq!(x.gate().idle_gap(), PAUSE * 2);
+    assert_eq!(x.receiver().timing().char_time, CHAR * 2);
+    x.begin(Instant::ZERO).unwrap();
+    assert!(x.may_transmit(Instant::ZERO));
+    // Four characters of 2 ms each.
+    assert_eq!(x.transmitted(4, true), us(8_000));
+    // Give up after the response timeout plus one (new) character time.
+    assert_eq!(x.response_deadline(), Some(us(8_000 + 50_000 + 2_000)));
+}

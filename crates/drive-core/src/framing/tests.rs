@@ -431,3 +431,92 @@ proptest! {
         feed(&mut Receiver::<Uss, 0>::new(Uss), &input);
     }
 }
+
+/// The events of `chars`, with every timeout due before a character handled first (as a
+/// caller polling in time would) or with no timeouts at all until the end.
+fn events_of<F: Framing, const N: usize>(
+    rx: &mut Receiver<F, N>,
+    chars: &[RxChar],
+    poll_timeouts: bool,
+) -> Vec<RxEvent<F::Frame, F::Error>> {
+    let mut out = Vec::new();
+    for c in chars {
+        if poll_timeouts {
+            while let Some(t) = rx.poll_timeout().filter(|t| *t <= c.time) {
+                out.extend(rx.handle_timeout(t));
+            }
+        }
+        out.extend(rx.handle_char(*c));
+    }
+    while let Some(t) = rx.poll_timeout() {
+        out.extend(rx.handle_timeout(t));
+    }
+    out
+}
+
+#[test]
+fn the_end_is_confirmed_the_same_with_or_without_polled_timeouts() {
+    // Headered: last character complete at 5 ms, end silence 3 ms: the end is confirmed at
+    // 8 ms. A character completing before that instant makes the frame too long; one
+    // completing at or after it comes after the frame (and, after a full start pause from the
+    // frame's end, is judged as a start character: 0x55 is not one).
+    let trailing = RxEvent::Rejected(TestError::Line(LineError::TrailingCharacter { byte: 0x55 }));
+    let frame = RxEvent::Frame((4, 1));
+    let f = headered(&[1]);
+    for (t, expected) in [
+        (7_999, vec![trailing]),
+        (8_000, vec![frame]),
+        (8_500, vec![frame]),
+        (
+            9_000,
+            vec![frame, RxEvent::Rejected(TestError::BadStart(0x55))],
+        ),
+    ] {
+        let mut all: Vec<RxChar> = chars(&f, 0).collect();
+        all.push(RxChar::new(0x55, us(t)));
+        let new = || Receiver::<Headered, 16>::new(Headered { address: 7 });
+        assert_eq!(
+            events_of(&mut new(), &all, true),
+            expected,
+            "{t} µs, polled"
+        );
+        assert_eq!(
+            events_of(&mut new(), &all, false),
+            expected,
+            "{t} µs, unpolled"
+        );
+    }
+    // The same with a UART error on that character: the frame stands, then the error.
+    let mut all: Vec<RxChar> = chars(&f, 0).collect();
+    all.push(RxChar::with_error(0x02, us(9_000), CharError::Framing));
+    let expected = vec![
+        frame,
+        RxEvent::Rejected(TestError::Line(LineError::Char(CharError::Framing))),
+    ];
+    let new = || Receiver::<Headered, 16>::new(Headered { address: 7 });
+    assert_eq!(events_of(&mut new(), &all, true), expected);
+    assert_eq!(events_of(&mut new(), &all, false), expected);
+
+    // RTU: last character at 5 ms, confirmed 3.5 characters later (8.5 ms).
+    let f = rtu(&[1, 3, 0, 10]);
+    for (t, trailing) in [(8_499, true), (8_500, false), (8_700, false)] {
+        let mut all: Vec<RxChar> = chars(&f, 0).collect();
+        all.push(RxChar::new(0x11, us(t)));
+        let expected = if trailing {
+            RxEvent::Rejected(TestError::Line(LineError::TrailingCharacter { byte: 0x11 }))
+        } else {
+            RxEvent::Frame(5)
+        };
+        let new = || Receiver::<Rtu, 256>::new(Rtu);
+        assert_eq!(
+            events_of(&mut new(), &all, true),
+            [expected],
+            "{t} µs, polled"
+        );
+        assert_eq!(
+            events_of(&mut new(), &all, false),
+            [expected],
+            "{t} µs, unpolled"
+        );
+    }
+}

@@ -80,7 +80,10 @@ pub const CHUNK: usize = 64;
 ///
 /// A USB serial adapter that delivers characters in bursts makes the gaps between bursts look
 /// like inter-character gaps: a master on such a port needs a wider gap limit (drivectl's
-/// `--char-gap`), or the adapter's low-latency mode.
+/// `--char-gap`), or the adapter's low-latency mode. The same latency makes an answer look
+/// later than it was: its first character is judged against the response timeout by the time
+/// it was read (an FTDI adapter's default latency timer adds up to 16 ms), so a response timeout
+/// at the protocol's limit needs the adapter's low-latency mode or a few milliseconds more.
 #[derive(Debug)]
 pub struct Stream<T>(pub T);
 

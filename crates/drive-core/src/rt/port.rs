@@ -15,21 +15,29 @@ use crate::time::Instant;
 /// The async side of a sans-IO master: it writes what the endpoint hands out, feeds every
 /// received character with its arrival time, and calls the endpoint's `handle_timeout` when its
 /// deadline is reached. Every protocol rule is the endpoint's; the port only waits and moves
-/// bytes.
+/// bytes. Characters that are waiting are always fed before a deadline is handled, and a
+/// deadline in the past is handled through the same timer as any other (so a loop of
+/// [`Port::transmit`] and [`Port::wait`] always yields to the runtime).
 ///
 /// Timing ([`Clock`]): on [`Clock::Real`] every pause is waited for on tokio's clock. On
 /// [`Clock::Virtual`] the endpoint's clock advances one character time per character and jumps
 /// to every deadline that needs only a quiet line ([`Endpoint::poll_quiet_timeout`]); its other
-/// deadlines (a response timeout) become real timers measured from the last transmission.
+/// deadlines (a response timeout, a gap limit inside an answer) become real timers measured
+/// from the last event (the last transmission or the last character received).
 #[derive(Debug)]
 pub struct Port<IO> {
     io: IO,
     time: Timebase,
     rx: Box<[ReceivedChar]>,
-    /// The wait timer, made on first use (so that `new` works outside a runtime).
-    sleep: Option<Pin<Box<Sleep>>>,
-    /// Tokio time and endpoint time right after the last transmission.
-    sent_at: Option<(TokioInstant, Instant)>,
+    /// The wait timer, made on first use (so that `new` works outside a runtime), and the
+    /// instant it is set to.
+    sleep: Option<(Pin<Box<Sleep>>, TokioInstant)>,
+    /// Virtual clock: tokio time and endpoint time of the last event (a transmission or a
+    /// received character), from which real timers are measured.
+    anchor: Option<(TokioInstant, Instant)>,
+    /// Virtual clock: the endpoint time at which a quiet deadline was last handled, so that an
+    /// endpoint that makes no progress there is waited for instead of polled in a loop.
+    quiet_handled_at: Option<Instant>,
     /// Arrival of the last character fed to the endpoint.
     last_rx: Option<TokioInstant>,
 }
@@ -43,7 +51,8 @@ impl<IO: CharIo> Port<IO> {
             rx: vec![ReceivedChar::new(0, time.epoch()); CHUNK].into_boxed_slice(),
             time,
             sleep: None,
-            sent_at: None,
+            anchor: None,
+            quiet_handled_at: None,
             last_rx: None,
         }
     }
@@ -90,9 +99,9 @@ impl<IO: CharIo> Port<IO> {
         let Some(n) = endpoint.poll_transmit(now, buf) else {
             return Ok(None);
         };
-        write_all(&mut self.io, buf.get(..n).unwrap_or(&[])).await?;
+        write_all(&mut self.io, frame_of(buf, n)?).await?;
         self.time.sent(n);
-        self.sent_at = Some((TokioInstant::now(), self.time.now()));
+        self.anchor = Some((TokioInstant::now(), self.time.now()));
         Ok(Some(n))
     }
 
@@ -101,26 +110,21 @@ impl<IO: CharIo> Port<IO> {
     pub async fn wait<E: Endpoint>(&mut self, endpoint: &mut E) -> io::Result<bool> {
         let deadline = endpoint.poll_timeout();
         let timer_at = match self.time.clock() {
-            Clock::Real => match deadline {
-                Some(d) => {
-                    let at = self.time.to_tokio(d);
-                    if at <= TokioInstant::now() {
-                        endpoint.handle_timeout(self.time.now());
-                        return Ok(true);
-                    }
-                    Some(at)
-                }
-                None => None,
-            },
+            Clock::Real => deadline.map(|d| self.time.to_tokio(d)),
             Clock::Virtual => {
                 if let Some(q) = endpoint.poll_quiet_timeout() {
-                    self.time.jump_to(q);
-                    endpoint.handle_timeout(self.time.now());
-                    return Ok(true);
+                    let now = self.time.now();
+                    if q > now || self.quiet_handled_at != Some(now) {
+                        self.time.jump_to(q);
+                        let now = self.time.now();
+                        self.quiet_handled_at = Some(now);
+                        endpoint.handle_timeout(now);
+                        return Ok(true);
+                    }
                 }
                 deadline.map(|d| {
                     let (real, virt) = self
-                        .sent_at
+                        .anchor
                         .unwrap_or_else(|| (TokioInstant::now(), self.time.now()));
                     real + d.saturating_duration_since(virt)
                 })
@@ -128,10 +132,13 @@ impl<IO: CharIo> Port<IO> {
         };
         let sleep = match timer_at {
             Some(at) => {
-                let s = self
+                let (s, armed) = self
                     .sleep
-                    .get_or_insert_with(|| Box::pin(tokio::time::sleep_until(at)));
-                s.as_mut().reset(at);
+                    .get_or_insert_with(|| (Box::pin(tokio::time::sleep_until(at)), at));
+                if *armed != at {
+                    s.as_mut().reset(at);
+                    *armed = at;
+                }
                 Some(s.as_mut())
             }
             None => None,
@@ -139,10 +146,7 @@ impl<IO: CharIo> Port<IO> {
         match read_or_sleep(&mut self.io, &mut self.rx, sleep).await? {
             Woken::Read(0) => Ok(false),
             Woken::Read(n) => {
-                for i in 0..n {
-                    let Some(c) = self.rx.get(i).copied() else {
-                        break;
-                    };
+                for c in self.rx.iter().take(n) {
                     let time = self.time.arrival(c.at);
                     self.last_rx = Some(c.at);
                     endpoint.handle_char(RxChar {
@@ -150,6 +154,11 @@ impl<IO: CharIo> Port<IO> {
                         time,
                         error: c.error,
                     });
+                }
+                if self.time.clock() == Clock::Virtual {
+                    if let Some(at) = self.last_rx {
+                        self.anchor = Some((at, self.time.now()));
+                    }
                 }
                 Ok(true)
             }
@@ -169,4 +178,18 @@ impl<IO: CharIo> Port<IO> {
         let flush = std::future::poll_fn(|cx| io.poll_flush(cx));
         let _ = tokio::time::timeout(Duration::from_secs(1), flush).await;
     }
+}
+
+/// The first `n` bytes of `buf`, the frame an endpoint said it wrote there; an endpoint that
+/// reports more than the buffer holds is a bug, reported instead of sending a cut frame.
+pub(super) fn frame_of(buf: &[u8], n: usize) -> io::Result<&[u8]> {
+    buf.get(..n).ok_or_else(|| {
+        io::Error::new(
+            io::ErrorKind::InvalidData,
+            format!(
+                "the endpoint reported a {n}-byte frame in a {}-byte buffer",
+                buf.len()
+            ),
+        )
+    })
 }

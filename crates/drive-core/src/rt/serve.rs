@@ -3,10 +3,9 @@
 
 use std::io;
 
-use tokio::time::Instant as TokioInstant;
-
 use super::clock::{Clock, Timebase};
 use super::io::{CHUNK, CharIo, ReceivedChar, Woken, read_or_sleep, write_all};
+use super::port::frame_of;
 use crate::char::RxChar;
 use crate::endpoint::Endpoint;
 
@@ -14,9 +13,12 @@ use crate::endpoint::Endpoint;
 /// fails.
 ///
 /// On [`Clock::Real`] every deadline of every station is waited for (frame confirmation,
-/// response due, the devices' own timers). On [`Clock::Virtual`] the loop waits for nothing: it
-/// jumps to deadlines that need only a quiet line (a request's end confirmation, its response
-/// falling due), so a benchmark measures software only; the stations' other timers do not fire.
+/// response due, the devices' own timers); characters that are waiting are fed first, and a
+/// deadline in the past goes through the timer like any other, so the loop always yields to
+/// the runtime. On [`Clock::Virtual`] the loop waits for nothing: it jumps to deadlines that
+/// need only a quiet line (a request's end confirmation, its response falling due), so a
+/// benchmark measures software only; the stations' other timers do not fire. A station's frame
+/// is handed to the line only; the other stations do not hear it.
 pub async fn serve<S: Endpoint, IO: CharIo>(
     stations: &mut [S],
     time: &mut Timebase,
@@ -30,23 +32,25 @@ pub async fn serve<S: Endpoint, IO: CharIo>(
     let mut buf = vec![0u8; max];
     let mut rx = vec![ReceivedChar::new(0, time.epoch()); CHUNK];
     let mut sleep = Box::pin(tokio::time::sleep_until(time.epoch()));
+    let mut armed_at = time.epoch();
     let mut last_jump = None;
     loop {
-        let now = time.now();
         for s in stations.iter_mut() {
-            while let Some(n) = s.poll_transmit(now, &mut buf) {
-                write_all(&mut io, buf.get(..n).unwrap_or(&[])).await?;
+            // `now` after every write: writing on the wire model waits until the frame left
+            // the line.
+            while let Some(n) = s.poll_transmit(time.now(), &mut buf) {
+                write_all(&mut io, frame_of(&buf, n)?).await?;
+                time.sent(n);
             }
         }
         let armed = match time.clock() {
             Clock::Real => match stations.iter().filter_map(|s| s.poll_timeout()).min() {
                 Some(deadline) => {
                     let at = time.to_tokio(deadline);
-                    if at <= TokioInstant::now() {
-                        timeouts(stations, time.now());
-                        continue;
+                    if at != armed_at {
+                        sleep.as_mut().reset(at);
+                        armed_at = at;
                     }
-                    sleep.as_mut().reset(at);
                     Some(sleep.as_mut())
                 }
                 None => None,
