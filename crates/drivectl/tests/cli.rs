@@ -226,3 +226,39 @@ fn json_columns_are_typed() {
     ]))[0];
     assert_eq!(p210["data_type"], "Long");
 }
+
+#[test]
+fn a_response_timeout_shorter_than_the_start_pause_is_refused_before_opening_the_port() {
+    // At 300 baud a drive waits 110 ms before answering: the default 50 ms can never be met.
+    let o = drivectl(&[
+        "movilink",
+        "--port",
+        "/nonexistent",
+        "--baud",
+        "300",
+        "read",
+        "P000",
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    let err = stderr(&o);
+    assert!(err.contains("start pause"), "{err}");
+    assert!(err.contains("300 baud (110.00 ms)"), "{err}");
+    assert!(err.contains("--timeout 110 or more"), "{err}");
+    // With that timeout the port is what fails.
+    let o = drivectl(&[
+        "movilink",
+        "--port",
+        "/nonexistent",
+        "--baud",
+        "300",
+        "--timeout",
+        "110",
+        "read",
+        "P000",
+    ]);
+    assert!(
+        stderr(&o).contains("/nonexistent not found"),
+        "{}",
+        stderr(&o)
+    );
+}

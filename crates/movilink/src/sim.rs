@@ -59,9 +59,11 @@ struct DriveBackend {
 
 impl Backend for DriveBackend {
     fn on_request(&mut self, ctx: &RequestContext) {
-        // Every request carries a parameter channel or process data, and both paths bring the
-        // model up to `ctx.end` first, so an acyclic request needs no tick of its own (a
-        // second one would double the model's work per request).
+        // An acyclic request reaches the model through its parameter service or its process
+        // data, and both bring the model up to `ctx.end` first; a second tick here would double
+        // the model's work per request. The one exception, PARAM + 0PD with "no service" or an
+        // undefined service code, the slave answers by itself: nothing in that answer depends on
+        // the model, which catches up with the next call.
         if ctx.cyclic {
             self.drive.cyclic_telegram_received(ctx.end);
         }
@@ -137,7 +139,8 @@ impl SimulatedMovidrive {
     /// [`Clock::Real`] (tokio's clock, the default) or [`Clock::Virtual`] (waits for nothing).
     pub fn set_clock(&mut self, clock: Clock) {
         self.clock = clock;
-        self.time = None;
+        // The slave keeps its line history: its time goes on from where it is.
+        self.time = self.time.map(|t| t.switched_to(clock));
     }
 
     /// Serve requests on `io` until it closes (`Ok`) or fails. Answers only correct
@@ -279,6 +282,7 @@ impl SimulatedBus {
     /// [`Clock::Real`] (tokio's clock, the default) or [`Clock::Virtual`] (waits for nothing).
     pub fn set_clock(&mut self, clock: Clock) {
         self.clock = clock;
-        self.time = None;
+        // The slave keeps its line history: its time goes on from where it is.
+        self.time = self.time.map(|t| t.switched_to(clock));
     }
 }

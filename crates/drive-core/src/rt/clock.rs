@@ -94,6 +94,26 @@ impl Timebase {
         }
     }
 
+    /// The same time base on `clock`, continuing from the time an endpoint sees now: an
+    /// endpoint that keeps its state across the switch sees its time go on, not start again at
+    /// zero (which would make every gap since its last character look like none).
+    #[must_use]
+    pub fn switched_to(self, clock: Clock) -> Self {
+        let now = self.now();
+        let epoch = match clock {
+            Clock::Real => TokioInstant::now()
+                .checked_sub(now.as_duration())
+                .unwrap_or(self.epoch),
+            Clock::Virtual => self.epoch,
+        };
+        Self {
+            clock,
+            epoch,
+            virt: now,
+            char_time: self.char_time,
+        }
+    }
+
     /// The virtual clock jumps forward to `t` (no effect on the real clock).
     pub fn jump_to(&mut self, t: Instant) {
         if self.clock == Clock::Virtual {

@@ -12,8 +12,9 @@ impl Movidrive {
     /// last value, extra words are ignored). Taken only while P876 "PO data enable" is ON; the
     /// control word acts only with P101 = bus, the speed only with P100 = bus.
     ///
-    /// For a cyclic telegram call [`Movidrive::cyclic_telegram_received`] as well (after this
-    /// call, so that an enable received with the first telegram takes effect at once).
+    /// For a cyclic telegram call [`Movidrive::cyclic_telegram_received`] first, at the same
+    /// instant: an enable that arrives with the releasing telegram takes effect at once, and a
+    /// fault reset carried by it is released by the next cyclic telegram.
     pub fn process_output(&mut self, po: &[u16], now: Instant) {
         self.update(now);
         if self.value(index::PO_DATA_ENABLE) != 1 {

@@ -266,23 +266,40 @@ pub fn driver_error(e: DriverError) -> CliError {
     CliError::failed(e.to_string())
 }
 
-/// The driver configuration of the command-line options.
-fn driver_config(line: &LineArgs, master: &MasterArgs) -> DriverConfig {
-    DriverConfig {
-        line: line.line(),
-        response_timeout: master.response_timeout(),
+/// The driver configuration of the command-line options. A response timeout shorter than the
+/// start pause a drive waits before answering is refused: no answer could come in time (below
+/// about 660 baud the default of 50 ms is such a timeout).
+fn driver_config(line: &LineArgs, master: &MasterArgs) -> Result<DriverConfig> {
+    let settings = line.line();
+    let pause = movilink::timing::start_pause(&settings);
+    let timeout = master.response_timeout();
+    if timeout < pause {
+        let needed = pause.as_micros().div_ceil(1000);
+        return Err(CliError::usage(format!(
+            "a response timeout of {} ms is shorter than the start pause a drive waits before \
+             answering at {} baud ({:.2} ms): no answer could arrive in time; use --timeout \
+             {needed} or more",
+            timeout.as_millis(),
+            settings.baud,
+            pause.as_secs_f64() * 1e3,
+        )));
+    }
+    Ok(DriverConfig {
+        line: settings,
+        response_timeout: timeout,
         retries: master.retries,
         max_char_gap: master.max_char_gap(),
         ..DriverConfig::default()
-    }
+    })
 }
 
 /// Run `drivectl movilink`.
 pub fn run(args: &MovilinkArgs) -> Result<()> {
     let rt = runtime()?;
     rt.block_on(async {
+        let config = driver_config(&args.line, &args.master)?;
         let port = args.line.open(&args.port)?;
-        let mut master = MasterDriver::new(Stream(port), driver_config(&args.line, &args.master));
+        let mut master = MasterDriver::new(Stream(port), config);
         execute(&mut master, args).await
     })
 }

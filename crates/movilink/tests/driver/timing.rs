@@ -333,3 +333,101 @@ async fn driver_and_simulator_follow_19200_baud() {
         );
     }
 }
+
+/// Feed `request` to `drive` character by character from `start` (wire time); returns the end
+/// of its last character.
+fn feed_request(
+    drive: &mut SimulatedMovidrive,
+    request: Telegram,
+    start: movilink::Instant,
+) -> movilink::Instant {
+    use drive_core::Endpoint as _;
+    let mut buf = [0u8; movilink::MAX_TELEGRAM_LEN];
+    let n = movilink::encode(&request, &mut buf).unwrap();
+    let mut t = start;
+    for &b in &buf[..n] {
+        t += movilink::timing::CHAR_TIME;
+        drive.handle_char(movilink::RxChar::new(b, t));
+    }
+    t
+}
+
+/// Advance `drive` through every deadline up to `until` as a serve loop would.
+fn pump(drive: &mut SimulatedMovidrive, until: movilink::Instant) {
+    use drive_core::Endpoint as _;
+    let mut buf = [0u8; movilink::MAX_TELEGRAM_LEN];
+    while let Some(t) = drive.poll_timeout().filter(|t| *t <= until) {
+        drive.handle_timeout(t);
+        let _ = drive.poll_transmit(t, &mut buf);
+    }
+    drive.handle_timeout(until);
+}
+
+#[test]
+fn a_cyclic_request_complete_before_the_p812_deadline_is_in_time() {
+    use drive_profile::sew::{ControlWord1, index};
+    use movilink::Instant as T;
+    let mut drive = SimulatedMovidrive::new(1);
+    let md = drive.movidrive_mut();
+    // P812 = 100 ms, P833 = 4 (rapid stop / fault): a late telegram would latch F43.
+    md.param(
+        &ParamChannel::write_volatile(index::RS485_TIMEOUT, 100),
+        T::ZERO,
+    )
+    .unwrap();
+    md.param(
+        &ParamChannel::write_volatile(index::RS485_TIMEOUT_REACTION, 4),
+        T::ZERO,
+    )
+    .unwrap();
+    let request = Telegram::request(addr(1), PduType::PD3).with_process_data(&[
+        ControlWord1::ENABLE.bits(),
+        0,
+        0,
+    ]);
+    let end1 = feed_request(&mut drive, request, T::from_millis(10));
+    pump(&mut drive, end1 + Duration::from_millis(5));
+    // The next request's check byte ends 1 ms before the deadline (end1 + 100 ms); its end is
+    // confirmed by the start pause after it, 2.44 ms after the deadline.
+    let start2 = end1 + (Duration::from_millis(99) - movilink::timing::CHAR_TIME * 10);
+    let end2 = feed_request(&mut drive, request, start2);
+    assert_eq!(end2, end1 + Duration::from_millis(99));
+    pump(&mut drive, end2 + Duration::from_millis(10));
+    assert_eq!(drive.movidrive().fault_number(), None);
+    // Without further telegrams the monitor does fire, 100 ms after the second one.
+    pump(&mut drive, end2 + Duration::from_millis(101));
+    assert_eq!(
+        drive.movidrive().fault_number(),
+        Some(drive_sim::movidrive::FAULT_RS485_TIMEOUT)
+    );
+}
+
+#[tokio::test(start_paused = true)]
+async fn a_simulator_switched_to_the_virtual_clock_still_answers() {
+    use movilink::driver::{Clock, Stream};
+    let mut sim = SimulatedMovidrive::new(1);
+    // Ten seconds on tokio's clock, one read.
+    tokio::time::advance(Duration::from_secs(10)).await;
+    let (a, b) = tokio::io::duplex(256);
+    let client = async move {
+        let mut m = MasterDriver::new(Stream(a), DriverConfig::default());
+        m.read(addr(1), 8470).await
+    };
+    let (served, value) = tokio::join!(sim.serve(Stream(b)), client);
+    served.unwrap();
+    assert_eq!(value.unwrap(), 2000);
+    // Then the same drive on the virtual clock: its line history stays valid.
+    sim.set_clock(Clock::Virtual);
+    let (a, b) = tokio::io::duplex(256);
+    let client = async move {
+        let config = DriverConfig {
+            clock: Clock::Virtual,
+            ..DriverConfig::default()
+        };
+        let mut m = MasterDriver::new(Stream(a), config);
+        m.read(addr(1), 8470).await
+    };
+    let (served, value) = tokio::join!(sim.serve(Stream(b)), client);
+    served.unwrap();
+    assert_eq!(value.unwrap(), 2000);
+}
