@@ -391,6 +391,25 @@ mod tests {
         let (_, max) = p102.raw_range().unwrap();
         assert!(g.check(p102, max + 1, nv, t).is_err());
         g.check(p102, max, nv, t).unwrap();
+        // NORD parameters are 16-bit words: with or without a range (P480 has none, also as
+        // an array element), a value past the word is refused even when the range is not
+        // checked.
+        assert!(matches!(
+            check_width(p102, 70_000),
+            Err(GuardError::DoesNotFit {
+                min: -32768,
+                max: 65535,
+                ..
+            })
+        ));
+        let p480 = family::lookup(Family::Nord, "P480").unwrap();
+        assert_eq!(p480.raw_range(), None);
+        check_width(p480, 65_535).unwrap();
+        check_width(p480, -32_768).unwrap();
+        assert!(check_width(p480, 65_536).is_err());
+        assert!(check_width(p480, -32_769).is_err());
+        let p480_11 = crate::nord::lookup("P480").unwrap().element(11).unwrap();
+        assert!(check_width(&p480_11, 65_536).is_err());
         // Warnings: SEW `R`, Bonfiglioli "not in operation".
         let r = sew::params()
             .iter()

@@ -169,6 +169,13 @@ pub struct ValueName {
     pub en: &'static str,
 }
 
+/// What 32 bits carry when the sign is not known: `i32::MIN ..= u32::MAX` (a value is sent as
+/// its low 32 bits, read by the device as signed or unsigned).
+pub const WIRE_32: (i64, i64) = (i32::MIN as i64, u32::MAX as i64);
+
+/// What a 16-bit word carries when the sign is not known: `i16::MIN ..= u16::MAX`.
+pub const WIRE_16: (i64, i64) = (i16::MIN as i64, u16::MAX as i64);
+
 /// A family-independent view of one parameter's metadata.
 ///
 /// Implemented by each family's generated parameter type. All methods are cheap and do not
@@ -265,10 +272,10 @@ pub trait ParamMeta {
     }
 
     /// The smallest and largest raw value the parameter's bus width can carry (its data type,
-    /// not its range): a value outside is never sent, whatever the caller forces. Default: 32
-    /// bits of either sign (`i32::MIN ..= u32::MAX`), where the table does not say more.
+    /// not its range): a value outside is never sent, whatever the caller forces. Default:
+    /// [`WIRE_32`], where the table does not say more.
     fn wire_range(&self) -> (i64, i64) {
-        (i64::from(i32::MIN), i64::from(u32::MAX))
+        WIRE_32
     }
 
     /// The label users know the parameter by: `P813` (SEW), `P102` or `P700[-02]` (NORD),

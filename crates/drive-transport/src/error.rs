@@ -94,7 +94,47 @@ pub enum TransportError {
     Io(#[from] io::Error),
 }
 
+/// A line setting a device refused ([`TransportError::refused_setting`]), so that a front end
+/// can name its own option for it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[non_exhaustive]
+pub enum LineOption {
+    /// The baud rate.
+    Baud,
+    /// The number of data bits.
+    DataBits,
+    /// Parity.
+    Parity,
+    /// The number of stop bits.
+    StopBits,
+    /// Kernel RS-485 mode.
+    Rs485,
+}
+
 impl TransportError {
+    /// The line setting the device refused, if that is what this error is (its message names
+    /// the setting and what to try; a front end adds its own option's name).
+    pub fn refused_setting(&self) -> Option<LineOption> {
+        let TransportError::Unsupported { setting, .. } = self else {
+            return None;
+        };
+        // The settings are named by this crate's `serial` module: "baud 250000",
+        // "7 data bits", "parity even", "2 stop bits", "RS-485 mode".
+        if setting.starts_with("baud ") {
+            Some(LineOption::Baud)
+        } else if setting.ends_with(" data bits") {
+            Some(LineOption::DataBits)
+        } else if setting.starts_with("parity ") {
+            Some(LineOption::Parity)
+        } else if setting.ends_with(" stop bits") {
+            Some(LineOption::StopBits)
+        } else if setting == "RS-485 mode" {
+            Some(LineOption::Rs485)
+        } else {
+            None
+        }
+    }
+
     /// The [`io::ErrorKind`] that best describes this error, for callers that must return
     /// `std::io::Error`.
     pub fn io_kind(&self) -> io::ErrorKind {

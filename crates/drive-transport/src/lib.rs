@@ -67,4 +67,4 @@ pub mod serial;
 #[cfg(target_os = "linux")]
 mod sys;
 
-pub use error::TransportError;
+pub use error::{LineOption, TransportError};

@@ -372,7 +372,7 @@ fn apply_parity(
         Parity::Odd => tokio_serial::Parity::Odd,
     };
     let setting = format!("parity {parity}");
-    let hint = "this device refuses parity; pseudo-terminals need --parity none".to_owned();
+    let hint = "this device refuses parity; pseudo-terminals accept only no parity".to_owned();
     stream
         .set_parity(wanted)
         .map_err(|e| setting_error(path, setting.clone(), hint.clone(), e))?;
@@ -390,7 +390,7 @@ fn apply_stop_bits(
     };
     let setting = format!("{stop_bits} stop bits");
     let hint = format!(
-        "this device refuses {stop_bits} stop bits; try --stop-bits {}",
+        "this device refuses {stop_bits} stop bits; try {} stop bit(s)",
         match stop_bits {
             StopBits::One => 2,
             StopBits::Two => 1,

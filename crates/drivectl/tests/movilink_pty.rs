@@ -206,6 +206,22 @@ fn backup_and_restore_round_trip() {
     ok_json(&sim.run(1, &["--json", "write", "P131", "0.1", "--volatile"]));
     let v = ok_json(&sim.run(1, &["--json", "restore", f]));
     assert_eq!(v.last().unwrap()["mismatches"], 0);
+    // Exactly the two changed parameters were written, on the one write path: they are in
+    // the EEPROM-wear log.
+    assert_eq!(v.last().unwrap()["written"], 2, "{v:?}");
+    let log: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(sim.state.join("eeprom-writes.json")).unwrap(),
+    )
+    .unwrap();
+    for index in ["8470", "8471"] {
+        assert!(
+            log.as_object()
+                .unwrap()
+                .keys()
+                .any(|k| k.ends_with(&format!("movidrive {index} 0"))),
+            "{log}"
+        );
+    }
     assert_eq!(
         ok_json(&sim.run(1, &["--json", "read", "P130"]))[0]["raw"],
         1200
@@ -214,11 +230,16 @@ fn backup_and_restore_round_trip() {
         ok_json(&sim.run(1, &["--json", "read", "P131"]))[0]["raw"],
         3000
     );
-    // A backup of the first drivectl versions (MOVILINK-only format) is still restored.
+    // A backup of the first drivectl versions (MOVILINK-only format) is still restored,
+    // including an unsigned value above 2^31 that format stored sign-extended (P221 =
+    // 3 000 000 000 as -1 294 967 296).
     ok_json(&sim.run(1, &["--json", "write", "P130", "0.1", "--volatile"]));
     let legacy = serde_json::json!({
         "format": "drivebus-movilink-backup", "version": 1, "address": 1,
-        "parameters": [{"index": 8470, "number": "P130", "raw": 1200, "writable": true}],
+        "parameters": [
+            {"index": 8470, "number": "P130", "raw": 1200, "writable": true},
+            {"index": 8502, "number": "P221", "raw": -1_294_967_296_i64, "writable": true},
+        ],
     });
     std::fs::write(&file, legacy.to_string()).unwrap();
     let v = ok_json(&sim.run(1, &["--json", "restore", f]));
@@ -226,6 +247,10 @@ fn backup_and_restore_round_trip() {
     assert_eq!(
         ok_json(&sim.run(1, &["--json", "read", "P130"]))[0]["raw"],
         1200
+    );
+    assert_eq!(
+        ok_json(&sim.run(1, &["--json", "read", "P221"]))[0]["raw"],
+        3_000_000_000_u64
     );
     // A corrupt file is refused before anything is written.
     std::fs::write(&file, text.replace("\"raw\": 1200", "\"raw\": 99999999")).unwrap();
@@ -396,4 +421,26 @@ fn baud_rate_reaches_the_simulator_timing() {
     assert!(slow >= Duration::from_micros(3130), "{slow:?}");
     eprintln!("smallest answer delay: 19200 {fast:?}, 9600 {slow:?}");
     assert!(fast < slow, "19200: {fast:?}, 9600: {slow:?}");
+}
+
+/// A port that refuses a setting is named with the setting, what to try, and the drivectl
+/// option that changes it (the transport library itself names no command-line option).
+#[test]
+fn a_refused_parity_names_the_option() {
+    let sim = Sim::start(&[1]);
+    let o = Command::new(env!("CARGO_BIN_EXE_drivectl"))
+        .args([
+            "movilink", "--port", &sim.path, "--addr", "1", "read", "P000",
+        ])
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("does not support parity even"), "{err}");
+    assert!(
+        err.contains("pseudo-terminals accept only no parity"),
+        "{err}"
+    );
+    assert!(err.contains("(option --parity even|odd|none)"), "{err}");
+    assert_eq!(err.trim_end().lines().count(), 1, "{err}");
 }

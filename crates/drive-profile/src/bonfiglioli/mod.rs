@@ -31,7 +31,9 @@ use crate::generated::bonfiglioli_faults::FAULTS;
 use crate::generated::bonfiglioli_params::PARAMS;
 use crate::generated::bonfiglioli_vabus_errors::VABUS_ERRORS;
 use crate::generated::bonfiglioli_warnings::WARNINGS;
-use crate::param::{Access, Family, ParamMeta, ValueName, contains_ignore_case, field_accessors};
+use crate::param::{
+    Access, Family, ParamMeta, ValueName, WIRE_32, contains_ignore_case, field_accessors,
+};
 use crate::scaling::{self, ScaleError};
 use core::fmt;
 
@@ -327,15 +329,11 @@ impl ParamMeta for Param {
     /// The data type's width (uInt, Int, Long); 32 bits of either sign where the manual gives
     /// no type.
     fn wire_range(&self) -> (i64, i64) {
-        self.data_type
-            .bounds()
-            .unwrap_or((i64::from(i32::MIN), i64::from(u32::MAX)))
+        self.data_type.bounds().unwrap_or(WIRE_32)
     }
 
     fn from_physical(&self, value: f64) -> Result<i64, ScaleError> {
-        let (lo, hi) = self
-            .raw_range()
-            .unwrap_or((i64::from(i32::MIN), i64::from(u32::MAX)));
+        let (lo, hi) = self.raw_range().unwrap_or(WIRE_32);
         scaling::to_decimals(value, self.decimals, lo, hi)
     }
 

@@ -3,7 +3,9 @@
 use core::fmt;
 
 use crate::columns::{Column, FieldSink};
-use crate::param::{Access, Family, ParamMeta, ValueName, contains_ignore_case, field_accessors};
+use crate::param::{
+    Access, Family, ParamMeta, ValueName, WIRE_16, contains_ignore_case, field_accessors,
+};
 use crate::scaling::{self, ScaleError};
 
 /// The resolution of a parameter: the physical value of one raw step (P102: 0.01 s).
@@ -97,8 +99,7 @@ impl Param {
 
     fn raw_min_max(&self) -> (i64, i64) {
         // Parameters are 16-bit words (BU 0255 section 6); without a range take the word's.
-        self.raw_range
-            .unwrap_or((i64::from(i16::MIN), i64::from(u16::MAX)))
+        self.raw_range.unwrap_or(WIRE_16)
     }
 
     /// Whether `term` occurs in the parameter's or an element's name (German or English).
@@ -166,6 +167,11 @@ impl ParamMeta for Param {
     }
     fn bus_index(&self) -> u16 {
         self.pnu
+    }
+    /// A 16-bit word (BU 0255 section 6: parameters go as words; only position values, of
+    /// which the table has none, go as double words).
+    fn wire_range(&self) -> (i64, i64) {
+        WIRE_16
     }
     fn decimals(&self) -> u8 {
         self.resolution.map_or(0, |r| r.decimals)
@@ -246,6 +252,9 @@ impl ParamMeta for ParamElement {
     }
     fn default_raw(&self) -> Option<i64> {
         self.param.default_raw
+    }
+    fn wire_range(&self) -> (i64, i64) {
+        self.param.wire_range()
     }
     fn raw_range(&self) -> Option<(i64, i64)> {
         self.param.raw_range

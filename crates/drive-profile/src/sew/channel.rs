@@ -66,6 +66,28 @@ impl Service {
     pub const fn is_write(self) -> bool {
         matches!(self, Self::Write | Self::WriteVolatile)
     }
+
+    /// The service's English name, e.g. `write volatile`.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Self::NoService => "no service",
+            Self::Read => "read",
+            Self::Write => "write",
+            Self::WriteVolatile => "write volatile",
+            Self::ReadMinimum => "read minimum",
+            Self::ReadMaximum => "read maximum",
+            Self::ReadDefault => "read default",
+            Self::ReadScale => "read scale",
+            Self::ReadAttribute => "read attribute",
+        }
+    }
+}
+
+impl fmt::Display for Service {
+    /// [`Service::name`].
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
 }
 
 /// The data length of the management byte (bits 4–5). SEW drives always use 4 bytes.
@@ -568,6 +590,27 @@ impl core::error::Error for ReturnCode {}
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn services_have_english_names() {
+        let names: Vec<String> = (0..=8)
+            .map(|c| Service::from_code(c).unwrap().to_string())
+            .collect();
+        assert_eq!(
+            names,
+            [
+                "no service",
+                "read",
+                "write",
+                "write volatile",
+                "read minimum",
+                "read maximum",
+                "read default",
+                "read scale",
+                "read attribute"
+            ]
+        );
+    }
 
     #[test]
     fn management_bits() {

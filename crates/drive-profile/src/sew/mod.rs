@@ -48,7 +48,7 @@ pub use handshake::{Echo, MasterHandshake, Prepared, SlaveHandshake};
 pub use words::{BasicCommand, ControlWord1, StatusWord1, UnitStatus};
 
 use crate::columns::{Column, FieldSink, text_list};
-use crate::param::{Access, Family, Label, ParamMeta, ValueName, field_accessors};
+use crate::param::{Access, Family, Label, ParamMeta, ValueName, WIRE_32, field_accessors};
 use crate::scaling::{Linear, ScaleError, pow10};
 use core::fmt;
 
@@ -179,8 +179,7 @@ impl Param {
 }
 
 fn raw_bounds(p: &Param) -> (i64, i64) {
-    p.raw_range()
-        .unwrap_or((i64::from(i32::MIN), i64::from(u32::MAX)))
+    p.raw_range().unwrap_or(WIRE_32)
 }
 
 impl ParamMeta for Param {
@@ -235,7 +234,7 @@ impl ParamMeta for Param {
         match self.raw_range() {
             Some((lo, _)) if lo < 0 => (i64::from(i32::MIN), i64::from(i32::MAX)),
             Some(_) => (0, i64::from(u32::MAX)),
-            None => (i64::from(i32::MIN), i64::from(u32::MAX)),
+            None => WIRE_32,
         }
     }
     /// `P813`, or `P080.1` for a sub-entry.

@@ -304,15 +304,20 @@ fn explain_param(
     let m = p.management;
     let service = m.service().map_or_else(
         || format!("undefined service {}", m.service_code()),
-        |s| format!("{s:?}"),
+        |s| s.name().to_owned(),
     );
     push(
         at,
         &raw[..1],
         "management",
         format!(
-            "service {service}, data length {} bytes, handshake {}, status {}",
+            "service {service}, data length {} byte{}, handshake {}, status {}",
             m.data_length().bytes(),
+            if m.data_length().bytes() == 1 {
+                ""
+            } else {
+                "s"
+            },
             u8::from(m.handshake()),
             if m.is_error() { "ERROR" } else { "ok" }
         ),

@@ -12,14 +12,16 @@ use clap::{Args, Subcommand};
 use drive_profile::sew::{self, StatusWord1, index};
 use drive_profile::{Access, Family, Persistence};
 use movilink::driver::{CharIo, DriverConfig, DriverError, MasterDriver, Stream};
-use movilink::{Address, ParamChannel, PduType, Telegram};
+use movilink::{Address, ParamChannel, PduType, ReturnCode, Telegram};
 use serde_json::{Map, Value, json};
 use std::ops::RangeInclusive;
 use std::path::PathBuf;
 use std::time::Duration;
 
 use crate::error::{CliError, Result};
-use crate::tool::client::{ClientError, ParamClient, Target, parse_int};
+use crate::tool::client::{
+    ClientError, DeviceError, DeviceErrorKind, ParamClient, Target, parse_int,
+};
 use crate::tool::line::{LineArgs, MasterArgs, runtime};
 use crate::tool::output::{physical_text, print_value, trim_float};
 use crate::tool::{backup, write};
@@ -163,10 +165,47 @@ pub fn raw_of(t: &Target, data: u32) -> i64 {
 
 fn client_error(e: DriverError) -> ClientError {
     match e {
-        DriverError::Device(_) => ClientError::Device(e.to_string()),
+        DriverError::Device(code) => ClientError::Device(DeviceError {
+            kind: device_error_kind(code),
+            message: e.to_string(),
+        }),
         other => ClientError::Link(other.to_string()),
     }
 }
+
+/// How often a service answered with "internal communication error" (6/2) is sent in all: the
+/// manual says to repeat it, and to power-cycle the drive when it persists.
+const SERVICE_ATTEMPTS: u32 = 3;
+
+/// What a SEW return code means for the tool layer.
+fn device_error_kind(code: ReturnCode) -> DeviceErrorKind {
+    if [
+        ReturnCode::ILLEGAL_INDEX,
+        ReturnCode::NOT_IMPLEMENTED,
+        ReturnCode::OPTION_CARD_MISSING,
+    ]
+    .contains(&code)
+    {
+        DeviceErrorKind::Absent
+    } else if (code.error_class, code.error_code) == (6, 2) {
+        DeviceErrorKind::Transient
+    } else {
+        DeviceErrorKind::Refused
+    }
+}
+
+/// What a MOVIDRIVE restore never writes: P802 factory setting, P803 parameter lock, P804 reset
+/// statistics data (a command: 1–3 clear the fault memory or a counter), P810/P811 RS-485
+/// address and group address (writing them would cut the connection the restore runs on), P840
+/// manual reset.
+pub const NOT_RESTORED: &[u16] = &[
+    index::FACTORY_SETTING,
+    index::PARAMETER_LOCK,
+    index::RESET_STATISTICS,
+    index::RS485_ADDRESS,
+    index::RS485_GROUP_ADDRESS,
+    index::MANUAL_RESET,
+];
 
 impl<IO: CharIo> ParamClient for MovilinkClient<'_, IO> {
     fn family(&self) -> Family {
@@ -177,25 +216,24 @@ impl<IO: CharIo> ParamClient for MovilinkClient<'_, IO> {
         format!("{} {}", self.port, self.address.get())
     }
 
-    /// P802 factory setting, P803 parameter lock, P810/P811 RS-485 address and group address
-    /// (writing them would cut the connection the restore runs on), P840 manual reset.
     fn not_restored(&self) -> &'static [u16] {
-        &[
-            index::FACTORY_SETTING,
-            index::PARAMETER_LOCK,
-            index::RS485_ADDRESS,
-            index::RS485_GROUP_ADDRESS,
-            index::MANUAL_RESET,
-        ]
+        NOT_RESTORED
     }
 
     async fn read(&mut self, target: &Target) -> std::result::Result<i64, ClientError> {
-        let data = self
-            .driver
-            .read(self.address, target.index)
-            .await
-            .map_err(client_error)?;
-        Ok(raw_of(target, data))
+        let mut attempts = 0;
+        loop {
+            attempts += 1;
+            match self.driver.read(self.address, target.index).await {
+                Ok(data) => return Ok(raw_of(target, data)),
+                Err(e) => match client_error(e) {
+                    // The manual: "repeat the read or write service".
+                    ClientError::Device(d)
+                        if d.kind == DeviceErrorKind::Transient && attempts < SERVICE_ATTEMPTS => {}
+                    other => return Err(other),
+                },
+            }
+        }
     }
 
     async fn write(
@@ -205,15 +243,25 @@ impl<IO: CharIo> ParamClient for MovilinkClient<'_, IO> {
         persistence: Persistence,
     ) -> std::result::Result<(), ClientError> {
         let data = data_of(raw);
-        match persistence {
-            Persistence::Volatile => {
-                self.driver
-                    .write_volatile(self.address, target.index, data)
-                    .await
+        let mut attempts = 0;
+        loop {
+            attempts += 1;
+            let sent = match persistence {
+                Persistence::Volatile => {
+                    self.driver
+                        .write_volatile(self.address, target.index, data)
+                        .await
+                }
+                Persistence::NonVolatile => {
+                    self.driver.write(self.address, target.index, data).await
+                }
+            };
+            match sent.map_err(client_error) {
+                Err(ClientError::Device(d))
+                    if d.kind == DeviceErrorKind::Transient && attempts < SERVICE_ATTEMPTS => {}
+                done => return done,
             }
-            Persistence::NonVolatile => self.driver.write(self.address, target.index, data).await,
         }
-        .map_err(client_error)
     }
 
     async fn identify(&mut self) -> std::result::Result<Map<String, Value>, ClientError> {
@@ -411,6 +459,7 @@ async fn write_unanswered<IO: CharIo>(
 ) -> Result<()> {
     // The drives of a group share the wear log entry of the group address.
     let client = MovilinkClient::new(m, addr, port);
+    let drive_key = client.drive_key();
     if let Some(warning) = write::check(&client, request)? {
         eprintln!("drivectl: warning: {warning}");
     }
@@ -426,11 +475,7 @@ async fn write_unanswered<IO: CharIo>(
     // the next telegram (perhaps from the next drivectl run) cannot follow sooner than the
     // 25 ms the drives need.
     tokio::time::sleep(movilink::timing::BROADCAST_SPACING).await;
-    if request.persistence == Persistence::NonVolatile {
-        if let Some(param) = t.param {
-            crate::tool::wear::record(&format!("{port} {}", addr.get()), param);
-        }
-    }
+    write::record(&drive_key, request);
     if json {
         println!(
             "{}",
@@ -639,5 +684,115 @@ fn print_pd(addr: Address, pdu: PduType, out: &[u16], pi: &[u16], json: bool) {
             words_text.join(" "),
             status.unwrap_or_default()
         );
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use drive_core::rt::{Timebase, serve};
+    use movilink::driver::Clock;
+    use movilink::{Backend, RequestContext, Slave, SlaveConfig};
+
+    /// A drive whose first `failures` parameter services answer "internal communication
+    /// error" (6/2), then 1234.
+    struct Flaky {
+        failures: u32,
+        calls: u32,
+    }
+
+    impl Backend for Flaky {
+        fn param(
+            &mut self,
+            _: &RequestContext,
+            _: &ParamChannel,
+        ) -> std::result::Result<u32, ReturnCode> {
+            self.calls += 1;
+            if self.calls <= self.failures {
+                Err(ReturnCode::INTERNAL_COMMUNICATION_ERROR)
+            } else {
+                Ok(1234)
+            }
+        }
+        fn process_data(&mut self, _: &RequestContext, _: &[u16], _: &mut [u16]) {}
+    }
+
+    /// Read P130 from a flaky drive; the result and how many services the drive saw.
+    fn read_from_flaky(failures: u32) -> (std::result::Result<i64, ClientError>, u32) {
+        let rt = tokio::runtime::Builder::new_current_thread()
+            .enable_time()
+            .build()
+            .unwrap();
+        rt.block_on(async {
+            let (a, b) = tokio::io::duplex(256);
+            let drive = Address::new(1).unwrap();
+            let slave = Slave::new(SlaveConfig::new(drive), Flaky { failures, calls: 0 });
+            let station = tokio::spawn(async move {
+                let mut stations = [slave];
+                let mut time = Timebase::new(Clock::Virtual, movilink::timing::CHAR_TIME);
+                let _ = serve(&mut stations, &mut time, Stream(b)).await;
+                let [slave] = stations;
+                slave.backend().calls
+            });
+            let config = DriverConfig {
+                clock: Clock::Virtual,
+                ..DriverConfig::default()
+            };
+            let mut driver = MasterDriver::new(Stream(a), config);
+            let target = resolve("P130").unwrap();
+            let r = MovilinkClient::new(&mut driver, drive, "test")
+                .read(&target)
+                .await;
+            drop(driver);
+            (r, station.await.unwrap())
+        })
+    }
+
+    #[test]
+    fn internal_communication_errors_are_repeated_as_the_manual_says() {
+        let (r, calls) = read_from_flaky(2);
+        assert_eq!(r.unwrap(), 1234);
+        assert_eq!(calls, 3);
+        let (r, calls) = read_from_flaky(3);
+        match r {
+            Err(ClientError::Device(d)) => assert_eq!(d.kind, DeviceErrorKind::Transient),
+            other => panic!("{other:?}"),
+        }
+        assert_eq!(calls, SERVICE_ATTEMPTS);
+    }
+
+    #[test]
+    fn return_codes_sort_into_what_the_tool_does() {
+        for absent in [
+            ReturnCode::ILLEGAL_INDEX,
+            ReturnCode::NOT_IMPLEMENTED,
+            ReturnCode::OPTION_CARD_MISSING,
+        ] {
+            assert_eq!(
+                device_error_kind(absent),
+                DeviceErrorKind::Absent,
+                "{absent}"
+            );
+        }
+        assert_eq!(
+            device_error_kind(ReturnCode::INTERNAL_COMMUNICATION_ERROR),
+            DeviceErrorKind::Transient
+        );
+        assert_eq!(
+            device_error_kind(ReturnCode::new(6, 2, 0x0001)),
+            DeviceErrorKind::Transient
+        );
+        for refused in [
+            ReturnCode::READ_ONLY,
+            ReturnCode::PARAMETER_LOCK,
+            ReturnCode::VALUE_TOO_LARGE,
+            ReturnCode::CONTROLLER_INHIBIT_REQUIRED,
+        ] {
+            assert_eq!(
+                device_error_kind(refused),
+                DeviceErrorKind::Refused,
+                "{refused}"
+            );
+        }
     }
 }

@@ -2,9 +2,10 @@
 //!
 //! The backup is a JSON document with every readable parameter of the family's table (one value
 //! per bus index and sub-index) and the drive's identification. Restore checks the whole file
-//! against the table before it writes anything (every value must fit its parameter's width, and
-//! unless forced lie in its range), writes the writable parameters that differ non-volatilely,
-//! then reads every one back and compares. The file is written to a temporary name and renamed,
+//! before it writes anything: every entry must name a parameter of the table once and fit its
+//! width, and every value that differs from the drive's passes the one write path's checks
+//! (access, range, value list, EEPROM wear; `--force` skips all but the width). It then writes
+//! those values non-volatilely, logs them in the EEPROM-wear log, and reads every entry back. The file is written to a temporary name and renamed,
 //! so an interrupted backup never leaves a truncated file behind.
 
 use std::collections::BTreeSet;
@@ -14,8 +15,9 @@ use drive_profile::family::{self, AnyParam};
 use drive_profile::{Family, Persistence};
 use serde_json::{Value, json};
 
-use super::client::{ClientError, ParamClient, Target};
+use super::client::{ClientError, DeviceErrorKind, ParamClient, Target};
 use super::output::print_value;
+use super::write::{self, WriteRequest};
 use crate::error::{CliError, Result};
 
 /// Format name in the file's `format` field.
@@ -66,6 +68,7 @@ pub async fn backup<C: ParamClient>(client: &mut C, out: &Path, json: bool) -> R
     let bar = progress(rows.len(), "reading");
     let mut entries = Vec::new();
     let mut skipped = 0;
+    let mut unreadable = Vec::new();
     for p in &rows {
         let t = Target::of(*p);
         bar.set_message(t.label());
@@ -76,7 +79,9 @@ pub async fn backup<C: ParamClient>(client: &mut C, out: &Path, json: bool) -> R
             })),
             // A drive without an option card answers "not implemented" or "option card
             // missing" for its parameters: they are not part of this drive's backup.
-            Err(ClientError::Device(_)) => skipped += 1,
+            Err(ClientError::Device(d)) if d.kind == DeviceErrorKind::Absent => skipped += 1,
+            // Any other refusal is a gap in the backup: saved without it, and said.
+            Err(ClientError::Device(d)) => unreadable.push(format!("{} ({d})", t.label())),
             Err(e) => {
                 bar.abandon();
                 return Err(e.into());
@@ -96,13 +101,21 @@ pub async fn backup<C: ParamClient>(client: &mut C, out: &Path, json: bool) -> R
     if json {
         println!(
             "{}",
-            json!({"file": out.display().to_string(), "parameters": saved, "skipped": skipped})
+            json!({"file": out.display().to_string(), "parameters": saved, "skipped": skipped,
+                   "unreadable": unreadable})
         );
     } else {
         println!(
             "saved {saved} parameters to {} ({skipped} not present on this drive)",
             out.display()
         );
+    }
+    if !unreadable.is_empty() {
+        return Err(CliError::failed(format!(
+            "the backup is incomplete: the drive refused to read {} parameter(s): {}",
+            unreadable.len(),
+            unreadable.join(", ")
+        )));
     }
     Ok(())
 }
@@ -120,8 +133,21 @@ fn field<'a>(value: &'a Value, key: &str) -> &'a Value {
     value.get(key).unwrap_or(&Value::Null)
 }
 
-/// Parse and check a backup file; every problem is reported with its entry.
-fn load(file: &Path, family: Family, not_restored: &[u16], force: bool) -> Result<Vec<Entry>> {
+/// A value of the legacy MOVILINK format, which stored every 32-bit value sign-extended
+/// (`i64::from(raw as i32)`): for a parameter that carries no negative values, a negative
+/// 32-bit value is the unsigned one it stood for (P221 = 3 000 000 000 was saved as
+/// −1 294 967 296). Anything else is left as it is for the width check to judge.
+fn legacy_raw(raw: i64, (lo, _): (i64, i64)) -> i64 {
+    match i32::try_from(raw) {
+        Ok(v) if v < 0 && lo >= 0 => i64::from(v as u32),
+        _ => raw,
+    }
+}
+
+/// Parse and check a backup file; every problem is reported with its entry. Each value must
+/// fit its parameter's width; the table's other rules are the write path's, for the values
+/// that differ from the drive's.
+fn load(file: &Path, family: Family, not_restored: &[u16]) -> Result<Vec<Entry>> {
     let text = std::fs::read_to_string(file)
         .map_err(|e| CliError::failed(format!("cannot read {}: {e}", file.display())))?;
     let doc: Value = serde_json::from_str(&text).map_err(|e| {
@@ -138,16 +164,22 @@ fn load(file: &Path, family: Family, not_restored: &[u16], force: bool) -> Resul
         )));
     }
     if !legacy && field(&doc, "family") != family.name() {
-        return Err(CliError::usage(format!(
-            "{} is a backup of a {} drive, not of a {family} drive",
-            file.display(),
-            field(&doc, "family").as_str().unwrap_or("unknown")
-        )));
+        return Err(CliError::usage(match field(&doc, "family").as_str() {
+            Some(other) => format!(
+                "{} is a backup of a {other} drive, not of a {family} drive",
+                file.display()
+            ),
+            None => format!(
+                "{} names no drive family (`family`); it is not a {family} backup",
+                file.display()
+            ),
+        }));
     }
     let list = field(&doc, "parameters")
         .as_array()
         .ok_or_else(|| CliError::usage("backup file has no `parameters` list"))?;
-    let mut entries = Vec::new();
+    let mut entries: Vec<Entry> = Vec::new();
+    let mut seen = std::collections::BTreeMap::new();
     for (i, e) in list.iter().enumerate() {
         let bad =
             |why: String| CliError::usage(format!("{}: entry {}: {why}", file.display(), i + 1));
@@ -168,19 +200,23 @@ fn load(file: &Path, family: Family, not_restored: &[u16], force: bool) -> Resul
         let param = family::params(family)
             .find(|p| p.bus_index() == index && p.sub_index().unwrap_or(0) == sub)
             .ok_or_else(|| bad(format!("index {index} is not in the {family} table")))?;
+        let raw = if legacy {
+            legacy_raw(raw, param.wire_range())
+        } else {
+            raw
+        };
         if !param.access().is_writable() || not_restored.contains(&index) {
             continue;
         }
         let target = Target::of(param);
-        target
-            .check_width(raw)
-            .map_err(|e| bad(format!("{}: {e}", target.label())))?;
-        if !force && !param.in_range(raw) {
-            let (lo, hi) = param.raw_range().unwrap_or((raw, raw));
+        target.check_width(raw).map_err(|e| bad(e.to_string()))?;
+        // One parameter twice would be written twice (and its EEPROM with it), the last one
+        // winning: a file like that was not made by drivectl.
+        if let Some(first) = seen.insert((index, sub), i + 1) {
             return Err(bad(format!(
-                "{} {}: raw {raw} is outside {lo} … {hi}; fix the file or use --force",
+                "{} appears twice (entries {first} and {})",
                 target.label(),
-                param.name_en()
+                i + 1
             )));
         }
         entries.push(Entry { target, raw });
@@ -188,32 +224,65 @@ fn load(file: &Path, family: Family, not_restored: &[u16], force: bool) -> Resul
     Ok(entries)
 }
 
-/// Write a backup back and verify it.
+/// Write a backup back and verify it: read what the drive holds, check every value that
+/// differs on the one write path (width always; access, range, value list and the EEPROM-wear
+/// rule unless forced) before anything is written, write those non-volatilely and log them in
+/// the wear log, then read every entry back.
 pub async fn restore<C: ParamClient>(
     client: &mut C,
     file: &Path,
     force: bool,
     json: bool,
 ) -> Result<()> {
-    let entries = load(file, client.family(), client.not_restored(), force)?;
-    let bar = progress(entries.len(), "writing");
-    let mut refused = Vec::new();
+    let entries = load(file, client.family(), client.not_restored())?;
+    let bar = progress(entries.len(), "reading");
+    let mut changes = Vec::new();
     for e in &entries {
         bar.set_message(e.target.label());
-        let current = client.read(&e.target).await?;
+        let current = client
+            .read(&e.target)
+            .await
+            .inspect_err(|_| bar.abandon())?;
         if current != e.raw {
-            match client
-                .write(&e.target, e.raw, Persistence::NonVolatile)
-                .await
-            {
-                Ok(()) => {}
-                Err(ClientError::Device(why)) => {
-                    refused.push(format!("{} ({why})", e.target.label()))
-                }
-                Err(err) => {
-                    bar.abandon();
-                    return Err(err.into());
-                }
+            changes.push(WriteRequest {
+                target: e.target,
+                raw: e.raw,
+                persistence: Persistence::NonVolatile,
+                force,
+            });
+        }
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+    // Every write is checked before the first one is sent: a file that would be refused
+    // halfway leaves the drive as it was.
+    let mut warnings = Vec::new();
+    for req in &changes {
+        let warning = write::check(client, req).map_err(|e| {
+            CliError::usage(format!("{}: {e}; nothing was written", file.display()))
+        })?;
+        warnings.extend(warning);
+    }
+    for w in &warnings {
+        eprintln!("drivectl: warning: {w}");
+    }
+    let drive_key = client.drive_key();
+    let bar = progress(changes.len(), "writing");
+    let mut refused = Vec::new();
+    let mut written = 0;
+    for req in &changes {
+        bar.set_message(req.target.label());
+        match client.write(&req.target, req.raw, req.persistence).await {
+            Ok(()) => {
+                write::record(&drive_key, req);
+                written += 1;
+            }
+            Err(ClientError::Device(why)) => {
+                refused.push(format!("{} ({why})", req.target.label()))
+            }
+            Err(err) => {
+                bar.abandon();
+                return Err(err.into());
             }
         }
         bar.inc(1);
@@ -222,7 +291,10 @@ pub async fn restore<C: ParamClient>(
     let bar = progress(entries.len(), "verifying");
     let mut mismatches = Vec::new();
     for e in &entries {
-        let back = client.read(&e.target).await?;
+        let back = client
+            .read(&e.target)
+            .await
+            .inspect_err(|_| bar.abandon())?;
         if back != e.raw {
             mismatches.push((e, back));
         }
@@ -235,12 +307,13 @@ pub async fn restore<C: ParamClient>(
     if json {
         println!(
             "{}",
-            json!({"file": file.display().to_string(), "written": entries.len(),
-                   "refused": refused, "mismatches": mismatches.len()})
+            json!({"file": file.display().to_string(), "entries": entries.len(),
+                   "written": written, "refused": refused, "mismatches": mismatches.len()})
         );
     } else {
         println!(
-            "restored {} parameters from {}",
+            "restored {} parameters from {} ({written} written, the others already held the \
+             saved value)",
             entries.len(),
             file.display()
         );
@@ -255,4 +328,130 @@ pub async fn restore<C: ParamClient>(
         )));
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::tool::client::DeviceError;
+    use drive_profile::sew::index;
+
+    /// A drive that answers every read with the index as value, except: P000 "speed" (8318)
+    /// is absent, P001 "user display" (8501) refuses reading.
+    struct Fake;
+
+    impl ParamClient for Fake {
+        fn family(&self) -> Family {
+            Family::Movidrive
+        }
+        fn drive_key(&self) -> String {
+            "fake 1".into()
+        }
+        async fn read(&mut self, t: &Target) -> std::result::Result<i64, ClientError> {
+            let refuse = |kind, message: &str| {
+                Err(ClientError::Device(DeviceError {
+                    kind,
+                    message: message.into(),
+                }))
+            };
+            match t.index {
+                8318 => refuse(DeviceErrorKind::Absent, "not implemented"),
+                8501 => refuse(DeviceErrorKind::Refused, "access denied"),
+                i => Ok(i64::from(i)),
+            }
+        }
+        async fn write(
+            &mut self,
+            _: &Target,
+            _: i64,
+            _: Persistence,
+        ) -> std::result::Result<(), ClientError> {
+            Ok(())
+        }
+        async fn identify(&mut self) -> std::result::Result<Map<String, Value>, ClientError> {
+            Ok(Map::new())
+        }
+    }
+
+    use serde_json::Map;
+
+    #[test]
+    fn absent_parameters_are_skipped_and_refused_ones_make_the_backup_fail_loudly() {
+        let dir = std::env::temp_dir().join(format!("drivectl-backup-unit-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let out = dir.join("b.json");
+        let rt = tokio::runtime::Builder::new_current_thread()
+            .build()
+            .unwrap();
+        let r = rt.block_on(backup(&mut Fake, &out, true));
+        let err = r.unwrap_err().to_string();
+        assert!(err.contains("incomplete"), "{err}");
+        assert!(err.contains("P001 (access denied)"), "{err}");
+        assert!(!err.contains("P000"), "{err}");
+        // The file holds everything else.
+        let doc: Value = serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+        let list = doc["parameters"].as_array().unwrap();
+        assert!(list.iter().any(|e| e["index"] == index::RAMP_T11_UP_CW));
+        assert!(
+            !list
+                .iter()
+                .any(|e| e["index"] == 8318 || e["index"] == 8501)
+        );
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}
+
+#[cfg(test)]
+mod load_tests {
+    use super::*;
+    use crate::movilink::NOT_RESTORED;
+
+    #[test]
+    fn commands_and_link_settings_in_a_file_are_not_restored() {
+        let dir = std::env::temp_dir().join(format!("drivectl-load-unit-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let file = dir.join("b.json");
+        let doc = json!({
+            "format": FORMAT, "version": VERSION, "family": "movidrive",
+            "parameters": [
+                {"index": 8470, "raw": 1200},
+                // P804 = 1 would clear the fault memory; P810 would move the drive.
+                {"index": 8596, "raw": 1},
+                {"index": 8597, "raw": 7},
+            ],
+        });
+        std::fs::write(&file, doc.to_string()).unwrap();
+        let entries = load(&file, Family::Movidrive, NOT_RESTORED).unwrap();
+        let indices: Vec<u16> = entries.iter().map(|e| e.target.index).collect();
+        assert_eq!(indices, [8470]);
+        // A file of another family, and one that names none.
+        let err = load(&file, Family::Nord, &[]).unwrap_err().to_string();
+        assert!(
+            err.ends_with("is a backup of a movidrive drive, not of a nord drive"),
+            "{err}"
+        );
+        // One parameter twice.
+        let twice = json!({
+            "format": FORMAT, "version": VERSION, "family": "movidrive",
+            "parameters": [
+                {"index": 8470, "raw": 1200}, {"index": 8471, "raw": 1}, {"index": 8470, "raw": 1300},
+            ],
+        });
+        std::fs::write(&file, twice.to_string()).unwrap();
+        let err = load(&file, Family::Movidrive, &[]).unwrap_err().to_string();
+        assert!(
+            err.ends_with("entry 3: P130 appears twice (entries 1 and 3)"),
+            "{err}"
+        );
+        std::fs::write(&file, doc.to_string()).unwrap();
+        let mut doc = doc;
+        doc.as_object_mut().unwrap().remove("family");
+        std::fs::write(&file, doc.to_string()).unwrap();
+        let err = load(&file, Family::Movidrive, &[]).unwrap_err().to_string();
+        assert!(
+            err.ends_with("names no drive family (`family`); it is not a movidrive backup"),
+            "{err}"
+        );
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
 }

@@ -4,7 +4,7 @@
 use std::ops::RangeInclusive;
 
 use drive_profile::family::{self, AnyParam};
-use drive_profile::guard::{self, GuardError};
+use drive_profile::guard;
 use drive_profile::{Family, Persistence};
 use serde_json::{Map, Value};
 
@@ -13,16 +13,46 @@ use crate::error::{CliError, Result};
 /// Why a client call failed.
 #[derive(Debug)]
 pub enum ClientError {
-    /// The drive answered negatively (unknown parameter, value refused, …): the drive is there.
-    Device(String),
+    /// The drive answered negatively: the drive is there.
+    Device(DeviceError),
     /// The line failed: no answer, garbled answers, the port is gone.
     Link(String),
+}
+
+/// A negative answer of the drive, sorted by what a tool does about it (each protocol maps its
+/// own codes).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct DeviceError {
+    /// What kind of refusal.
+    pub kind: DeviceErrorKind,
+    /// The drive's answer, for a person (with the code).
+    pub message: String,
+}
+
+/// What a negative answer means for the tool.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum DeviceErrorKind {
+    /// This drive does not have the parameter (unknown index, not implemented, option card
+    /// missing): a backup leaves it out.
+    Absent,
+    /// A passing fault of the drive (e.g. SEW 6/2 "internal communication error: repeat the
+    /// service"): the same request may succeed when repeated.
+    Transient,
+    /// Anything else (value refused, parameter lock, controller inhibit needed, …).
+    Refused,
+}
+
+impl std::fmt::Display for DeviceError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.message)
+    }
 }
 
 impl From<ClientError> for CliError {
     fn from(e: ClientError) -> Self {
         match e {
-            ClientError::Device(m) | ClientError::Link(m) => CliError::failed(m),
+            ClientError::Device(d) => CliError::failed(d.message),
+            ClientError::Link(m) => CliError::failed(m),
         }
     }
 }
@@ -129,9 +159,10 @@ impl Target {
     pub fn check_width(&self, raw: i64) -> Result<()> {
         let (min, max) = match self.param {
             Some(p) => {
-                return guard::check_width(p, raw).map_err(|e| CliError::usage(width_hint(&e)));
+                return guard::check_width(p, raw)
+                    .map_err(|e| CliError::usage(super::write::with_hint(&e)));
             }
-            None => (i64::from(i32::MIN), i64::from(u32::MAX)),
+            None => drive_profile::param::WIRE_32,
         };
         if raw < min || raw > max {
             return Err(CliError::usage(format!(
@@ -175,10 +206,6 @@ impl Target {
             ))
         })
     }
-}
-
-fn width_hint(e: &GuardError) -> String {
-    format!("{e} (not even --force sends a value that would be cut)")
 }
 
 /// Parse an integer given as decimal, `0x` hex or negative decimal.

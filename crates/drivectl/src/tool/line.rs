@@ -2,6 +2,7 @@
 
 use clap::Args;
 use drive_transport::serial::{self, LineSettings, Parity, SerialConfig, SerialPort, StopBits};
+use drive_transport::{LineOption, TransportError};
 use std::time::Duration;
 
 use crate::error::{CliError, Result};
@@ -33,10 +34,22 @@ impl LineArgs {
         SerialConfig::with_line(path, self.line())
     }
 
-    /// Open `path` with these settings (every setting read back; a refused one is named).
+    /// Open `path` with these settings (every setting read back; a refused one is named, with
+    /// the option that changes it).
     pub fn open(&self, path: &str) -> Result<SerialPort> {
-        serial::open(&self.config(path)).map_err(|e| CliError::failed(e.to_string()))
+        serial::open(&self.config(path)).map_err(|e| CliError::failed(open_error(&e)))
     }
+}
+
+/// A port's refusal with the drivectl option for the refused setting.
+pub fn open_error(e: &TransportError) -> String {
+    let option = match e.refused_setting() {
+        Some(LineOption::Baud) => "--baud",
+        Some(LineOption::Parity) => "--parity even|odd|none",
+        Some(LineOption::StopBits) => "--stop-bits 1|2",
+        _ => return e.to_string(),
+    };
+    format!("{e} (option {option})")
 }
 
 /// Options of a master on a serial line: how long to wait for an answer, how often to try.

@@ -50,12 +50,25 @@ pub async fn write_checked<C: ParamClient>(client: &mut C, req: &WriteRequest) -
         eprintln!("drivectl: warning: {warning}");
     }
     client.write(&req.target, req.raw, req.persistence).await?;
+    record(&client.drive_key(), req);
+    // The write is done: a failing read-back must not look like a failed write.
+    client.read(&req.target).await.map_err(|e| {
+        CliError::failed(format!(
+            "{} was written, but reading it back failed: {}",
+            req.target.label(),
+            CliError::from(e)
+        ))
+    })
+}
+
+/// Enter a sent write into the EEPROM-wear log of drive `drive_key` (non-volatile writes of
+/// table parameters only).
+pub fn record(drive_key: &str, req: &WriteRequest) {
     if req.persistence == Persistence::NonVolatile {
         if let Some(param) = req.target.param {
-            wear::record(&client.drive_key(), param);
+            wear::record(drive_key, param);
         }
     }
-    Ok(client.read(&req.target).await?)
 }
 
 /// The guard's message with what drivectl offers as a way out.
@@ -73,5 +86,66 @@ pub fn with_hint(e: &GuardError) -> String {
         e.to_string()
     } else {
         format!("{e}; {hint}")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::tool::client::ClientError;
+    use drive_profile::Family;
+    use serde_json::{Map, Value};
+
+    /// A drive that takes every write and then stops answering.
+    struct GoneAfterWrite {
+        written: bool,
+    }
+
+    impl ParamClient for GoneAfterWrite {
+        fn family(&self) -> Family {
+            Family::Movidrive
+        }
+        fn drive_key(&self) -> String {
+            "gone 1".into()
+        }
+        async fn read(&mut self, _: &Target) -> std::result::Result<i64, ClientError> {
+            Err(ClientError::Link("no answer from drive 1".into()))
+        }
+        async fn write(
+            &mut self,
+            _: &Target,
+            _: i64,
+            _: Persistence,
+        ) -> std::result::Result<(), ClientError> {
+            self.written = true;
+            Ok(())
+        }
+        async fn identify(&mut self) -> std::result::Result<Map<String, Value>, ClientError> {
+            Ok(Map::new())
+        }
+    }
+
+    #[test]
+    fn a_failed_read_back_says_the_value_was_written() {
+        let mut client = GoneAfterWrite { written: false };
+        let target = crate::movilink::resolve("P130").unwrap();
+        let req = WriteRequest {
+            target,
+            raw: 1500,
+            persistence: Persistence::Volatile,
+            force: true,
+        };
+        let rt = tokio::runtime::Builder::new_current_thread()
+            .build()
+            .unwrap();
+        let err = rt
+            .block_on(write_checked(&mut client, &req))
+            .unwrap_err()
+            .to_string();
+        assert!(client.written);
+        assert_eq!(
+            err,
+            "P130 was written, but reading it back failed: no answer from drive 1"
+        );
     }
 }

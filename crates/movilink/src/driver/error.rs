@@ -7,7 +7,7 @@ use crate::error::{RejectReason, ReturnCode};
 #[non_exhaustive]
 pub enum DriverError {
     /// The drive answered the parameter service negatively; the code says why.
-    #[error("the drive refused the service: {} ({}); {}", .0.describe(), code_text(.0), device_hint(.0))]
+    #[error("the drive refused the service: {}; {}", .0.describe(), device_hint(.0))]
     Device(ReturnCode),
     /// Nothing answered in time, in every attempt.
     #[error(
@@ -48,13 +48,6 @@ pub enum DriverError {
     Io(#[from] std::io::Error),
 }
 
-fn code_text(rc: &ReturnCode) -> String {
-    format!(
-        "code {}/{}/{:#06x}",
-        rc.error_class, rc.error_code, rc.additional_code
-    )
-}
-
 fn device_hint(rc: &ReturnCode) -> &'static str {
     match *rc {
         ReturnCode::ILLEGAL_INDEX | ReturnCode::NOT_IMPLEMENTED => {
@@ -70,5 +63,24 @@ fn device_hint(rc: &ReturnCode) -> &'static str {
         }
         ReturnCode::INTERNAL_COMMUNICATION_ERROR => "repeat the service",
         _ => "see the return code table of the manual (ch. 6.2)",
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_refusal_names_its_code_once() {
+        let text = DriverError::Device(ReturnCode::VALUE_TOO_LARGE).to_string();
+        assert_eq!(
+            text,
+            "the drive refused the service: value for parameter too large (error class 8, \
+             error code 0, additional code 0x0015); read the minimum and maximum and write a \
+             value in range"
+        );
+        // An unknown code still shows its numbers, once.
+        let text = DriverError::Device(ReturnCode::new(8, 0, 0x0042)).to_string();
+        assert_eq!(text.matches("0x0042").count(), 1, "{text}");
     }
 }

@@ -156,7 +156,10 @@ async fn device_errors_are_typed() {
         }
         let msg = m.read(a, 9999).await.unwrap_err().to_string();
         assert!(msg.contains("illegal parameter index"), "{msg}");
-        assert!(msg.contains("8/0/0x0010"), "{msg}");
+        assert!(
+            msg.contains("(error class 8, error code 0, additional code 0x0010)"),
+            "{msg}"
+        );
         // A negative answer in an exchange is data, not an error.
         let t = Telegram::request(a, PduType::PARAM_1PD_ACYCLIC)
             .with_param(ParamChannel::read(9999))
