@@ -342,22 +342,37 @@ impl<F: Framing, const N: usize> Receiver<F, N> {
                 }
             }
         }
-        match self.pending.take() {
-            // Events come out in order: the one left over first, this character's next.
-            Some(earlier) => {
-                // The receiver is idle after a left-over event, so this character can set
-                // nothing pending itself; at most one event waits.
-                let ev = self.handle_char_in_general(c);
-                if self.pending.is_none() {
-                    self.pending = ev;
-                }
-                Some(earlier)
-            }
-            None => self.handle_char_in_general(c),
+        // (A left-over event means the receiver is not receiving: the short way never skips
+        // one.)
+        self.handle_char_in_general(c)
+    }
+
+    /// Every character the short way does not take.
+    #[inline]
+    fn handle_char_in_general(&mut self, c: RxChar) -> Option<RxEvent<F::Frame, F::Error>> {
+        if self.pending.is_none() {
+            self.handle_any_char(c)
+        } else {
+            self.handle_char_after_leftover(c)
         }
     }
 
-    fn handle_char_in_general(&mut self, c: RxChar) -> Option<RxEvent<F::Frame, F::Error>> {
+    /// A character while an event is left over: events come out in order, the left-over one
+    /// first, this character's next.
+    #[cold]
+    #[inline(never)]
+    fn handle_char_after_leftover(&mut self, c: RxChar) -> Option<RxEvent<F::Frame, F::Error>> {
+        let earlier = self.pending.take();
+        // The receiver is idle after a left-over event, so this character can set nothing
+        // pending itself; at most one event waits.
+        let ev = self.handle_any_char(c);
+        if self.pending.is_none() {
+            self.pending = ev;
+        }
+        earlier
+    }
+
+    fn handle_any_char(&mut self, c: RxChar) -> Option<RxEvent<F::Frame, F::Error>> {
         let gap = self.last.map(|prev| self.gap(prev, c.time));
         let idle = gap.is_none_or(|g| g >= self.ns.start_gap);
         let broke_off = gap.is_none_or(|g| g >= self.ns.max_gap);
@@ -449,8 +464,8 @@ impl<F: Framing, const N: usize> Receiver<F, N> {
     /// silence has passed is accepted; a partial frame whose gap reached the limit is rejected
     /// (or, ending by silence, completed).
     pub fn handle_timeout(&mut self, now: Instant) -> Option<RxEvent<F::Frame, F::Error>> {
-        if let Some(earlier) = self.pending.take() {
-            return Some(earlier);
+        if self.pending.is_some() {
+            return self.pending.take();
         }
         let last = self.last?;
         match self.state {

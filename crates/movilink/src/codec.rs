@@ -34,40 +34,33 @@ pub fn encode(telegram: &Telegram, out: &mut [u8]) -> Result<usize, EncodeError>
             available,
         });
     };
-    let mut bytes = [0u8; crate::MAX_TELEGRAM_LEN];
-    bytes[0] = telegram.direction().start_character();
-    bytes[1] = telegram.address().get();
-    bytes[2] = telegram.pdu_type().raw();
-    let mut pos = 3;
-    if let Some(p) = telegram.param() {
-        for (dst, src) in bytes.iter_mut().skip(pos).zip(p.to_bytes()) {
-            *dst = src;
+    // Each byte goes straight to `out` and into the check sum as it is written: building the
+    // telegram in a stack buffer and XOR-ing it afterwards read back bytes just stored one by
+    // one, which stalls the CPU (store forwarding) for longer than the whole encode.
+    let mut check = 0u8;
+    let mut slots = out.iter_mut();
+    let mut put = |b: u8| {
+        if let Some(slot) = slots.next() {
+            *slot = b;
+            check ^= b;
         }
-        pos += ParamChannel::LEN;
+    };
+    put(telegram.direction().start_character());
+    put(telegram.address().get());
+    put(telegram.pdu_type().raw());
+    if let Some(p) = telegram.param() {
+        for b in p.to_bytes() {
+            put(b);
+        }
     }
-    for (dst, w) in bytes
-        .iter_mut()
-        .skip(pos)
-        .step_by(2)
-        .zip(telegram.process_data())
-    {
-        *dst = (w >> 8) as u8;
+    for w in telegram.process_data() {
+        let [hi, lo] = w.to_be_bytes();
+        put(hi);
+        put(lo);
     }
-    for (dst, w) in bytes
-        .iter_mut()
-        .skip(pos + 1)
-        .step_by(2)
-        .zip(telegram.process_data())
-    {
-        *dst = *w as u8;
-    }
-    // BCC at the last position: XOR of everything before it (the byte itself is still 0).
-    let check = bcc(&bytes);
-    if let Some(last) = bytes.get_mut(len - 1) {
+    // BCC at the last position: XOR of everything before it.
+    if let Some(last) = slots.next() {
         *last = check;
-    }
-    for (dst, src) in out.iter_mut().zip(bytes) {
-        *dst = src;
     }
     Ok(len)
 }
