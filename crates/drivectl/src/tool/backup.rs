@@ -333,47 +333,18 @@ pub async fn restore<C: ParamClient>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::tool::client::DeviceError;
+    use crate::tool::fake::{FakeClient, refusal};
     use drive_profile::sew::index;
 
-    /// A drive that answers every read with the index as value, except: P000 "speed" (8318)
-    /// is absent, P001 "user display" (8501) refuses reading.
-    struct Fake;
-
-    impl ParamClient for Fake {
-        fn family(&self) -> Family {
-            Family::Movidrive
-        }
-        fn drive_key(&self) -> String {
-            "fake 1".into()
-        }
-        async fn read(&mut self, t: &Target) -> std::result::Result<i64, ClientError> {
-            let refuse = |kind, message: &str| {
-                Err(ClientError::Device(DeviceError {
-                    kind,
-                    message: message.into(),
-                }))
-            };
-            match t.index {
-                8318 => refuse(DeviceErrorKind::Absent, "not implemented"),
-                8501 => refuse(DeviceErrorKind::Refused, "access denied"),
-                i => Ok(i64::from(i)),
-            }
-        }
-        async fn write(
-            &mut self,
-            _: &Target,
-            _: i64,
-            _: Persistence,
-        ) -> std::result::Result<(), ClientError> {
-            Ok(())
-        }
-        async fn identify(&mut self) -> std::result::Result<Map<String, Value>, ClientError> {
-            Ok(Map::new())
+    /// Every read answers the index as value, except: P000 "speed" (8318) is absent, P001
+    /// "user display" (8501) refuses reading.
+    fn answers(i: u16) -> std::result::Result<i64, ClientError> {
+        match i {
+            8318 => Err(refusal(DeviceErrorKind::Absent, "not implemented")),
+            8501 => Err(refusal(DeviceErrorKind::Refused, "access denied")),
+            i => Ok(i64::from(i)),
         }
     }
-
-    use serde_json::Map;
 
     #[test]
     fn absent_parameters_are_skipped_and_refused_ones_make_the_backup_fail_loudly() {
@@ -383,7 +354,7 @@ mod tests {
         let rt = tokio::runtime::Builder::new_current_thread()
             .build()
             .unwrap();
-        let r = rt.block_on(backup(&mut Fake, &out, true));
+        let r = rt.block_on(backup(&mut FakeClient::new(answers), &out, true));
         let err = r.unwrap_err().to_string();
         assert!(err.contains("incomplete"), "{err}");
         assert!(err.contains("P001 (access denied)"), "{err}");

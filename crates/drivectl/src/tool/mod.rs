@@ -14,6 +14,8 @@
 
 pub mod backup;
 pub mod client;
+#[cfg(test)]
+pub mod fake;
 pub mod line;
 pub mod output;
 pub mod wear;

@@ -93,41 +93,13 @@ pub fn with_hint(e: &GuardError) -> String {
 mod tests {
     use super::*;
     use crate::tool::client::ClientError;
-    use drive_profile::Family;
-    use serde_json::{Map, Value};
-
-    /// A drive that takes every write and then stops answering.
-    struct GoneAfterWrite {
-        written: bool,
-    }
-
-    impl ParamClient for GoneAfterWrite {
-        fn family(&self) -> Family {
-            Family::Movidrive
-        }
-        fn drive_key(&self) -> String {
-            "gone 1".into()
-        }
-        async fn read(&mut self, _: &Target) -> std::result::Result<i64, ClientError> {
-            Err(ClientError::Link("no answer from drive 1".into()))
-        }
-        async fn write(
-            &mut self,
-            _: &Target,
-            _: i64,
-            _: Persistence,
-        ) -> std::result::Result<(), ClientError> {
-            self.written = true;
-            Ok(())
-        }
-        async fn identify(&mut self) -> std::result::Result<Map<String, Value>, ClientError> {
-            Ok(Map::new())
-        }
-    }
+    use crate::tool::fake::FakeClient;
 
     #[test]
     fn a_failed_read_back_says_the_value_was_written() {
-        let mut client = GoneAfterWrite { written: false };
+        // A drive that takes every write and then stops answering.
+        let mut client =
+            FakeClient::new(|_| Err(ClientError::Link("no answer from drive 1".into())));
         let target = crate::movilink::resolve("P130").unwrap();
         let req = WriteRequest {
             target,
@@ -142,7 +114,7 @@ mod tests {
             .block_on(write_checked(&mut client, &req))
             .unwrap_err()
             .to_string();
-        assert!(client.written);
+        assert_eq!(client.written, [(8470, 1500, Persistence::Volatile)]);
         assert_eq!(
             err,
             "P130 was written, but reading it back failed: no answer from drive 1"
