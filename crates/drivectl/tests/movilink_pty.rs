@@ -444,3 +444,34 @@ fn a_refused_parity_names_the_option() {
     assert!(err.contains("(option --parity even|odd|none)"), "{err}");
     assert_eq!(err.trim_end().lines().count(), 1, "{err}");
 }
+
+/// Restore goes through the write path's checks, with restore's own ways out: a parameter
+/// written to EEPROM a moment ago is not written again (and the message names no option
+/// `restore` does not have).
+#[test]
+fn restore_right_after_an_eeprom_write_is_refused_before_writing() {
+    let sim = Sim::start(&[1]);
+    let dir = std::env::temp_dir().join(format!("drivectl-restore-wear-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("one.json");
+    let doc = serde_json::json!({
+        "format": "drivebus-backup", "version": 1, "family": "movidrive",
+        "parameters": [{"index": 8470, "raw": 1200}],
+    });
+    std::fs::write(&file, doc.to_string()).unwrap();
+    ok_json(&sim.run(1, &["--json", "write", "P130", "0.5"]));
+    let o = sim.run(1, &["restore", file.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("restore again in a second, or use --force"),
+        "{err}"
+    );
+    assert!(err.contains("nothing was written"), "{err}");
+    assert!(!err.contains("--volatile"), "{err}");
+    assert_eq!(
+        ok_json(&sim.run(1, &["--json", "read", "P130"]))[0]["raw"],
+        500
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}

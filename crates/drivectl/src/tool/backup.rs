@@ -12,6 +12,7 @@ use std::collections::BTreeSet;
 use std::path::Path;
 
 use drive_profile::family::{self, AnyParam};
+use drive_profile::guard::GuardError;
 use drive_profile::{Family, Persistence};
 use serde_json::{Value, json};
 
@@ -144,6 +145,16 @@ fn legacy_raw(raw: i64, (lo, _): (i64, i64)) -> i64 {
     }
 }
 
+/// The guard's message with what `restore` offers as a way out.
+fn restore_hint(e: &GuardError) -> String {
+    let hint = match e {
+        GuardError::TooFrequent { .. } => "restore again in a second, or use --force",
+        GuardError::DoesNotFit { .. } => return write::with_hint(e),
+        _ => "fix the file, or use --force to let the drive decide",
+    };
+    format!("{e}; {hint}")
+}
+
 /// Parse and check a backup file; every problem is reported with its entry. Each value must
 /// fit its parameter's width; the table's other rules are the write path's, for the values
 /// that differ from the drive's.
@@ -258,7 +269,7 @@ pub async fn restore<C: ParamClient>(
     // halfway leaves the drive as it was.
     let mut warnings = Vec::new();
     for req in &changes {
-        let warning = write::check(client, req).map_err(|e| {
+        let warning = write::check_with(client, req, restore_hint).map_err(|e| {
             CliError::usage(format!("{}: {e}; nothing was written", file.display()))
         })?;
         warnings.extend(warning);
@@ -312,10 +323,10 @@ pub async fn restore<C: ParamClient>(
         );
     } else {
         println!(
-            "restored {} parameters from {} ({written} written, the others already held the \
-             saved value)",
+            "restored {} parameter(s) from {}: {written} written, {} already held the saved value",
             entries.len(),
-            file.display()
+            file.display(),
+            entries.len() - changes.len()
         );
     }
     if !mismatches.is_empty() || !refused.is_empty() {

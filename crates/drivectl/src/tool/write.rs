@@ -22,8 +22,18 @@ pub struct WriteRequest {
 }
 
 /// Check `req` as the user asked (see the [module docs](self)); returns the guard's warning to
-/// show, if any. Nothing is sent.
+/// show, if any. Nothing is sent. A refusal carries the hints of the `write` command.
 pub fn check<C: ParamClient>(client: &C, req: &WriteRequest) -> Result<Option<String>> {
+    check_with(client, req, with_hint)
+}
+
+/// [`check`] with the caller's way out in a refusal (`hint` turns the guard's error into the
+/// message), for commands with other options than `write`.
+pub fn check_with<C: ParamClient>(
+    client: &C,
+    req: &WriteRequest,
+    hint: fn(&GuardError) -> String,
+) -> Result<Option<String>> {
     req.target.check_width(req.raw)?;
     if req.force {
         return Ok(None);
@@ -40,7 +50,7 @@ pub fn check<C: ParamClient>(client: &C, req: &WriteRequest) -> Result<Option<St
     wear::prime(&mut guard, &client.drive_key(), param);
     guard
         .check(param, req.raw, req.persistence, wear::now())
-        .map_err(|e| CliError::usage(with_hint(&e)))?;
+        .map_err(|e| CliError::usage(hint(&e)))?;
     Ok(WriteGuard::warning(param).map(|w| w.to_string()))
 }
 
