@@ -19,7 +19,7 @@ pub struct DemoArgs {}
 
 /// Run the demonstration.
 pub fn run(_args: &DemoArgs) -> Result<()> {
-    println!("drivebus demo: everything below runs without hardware.\n");
+    outln!("drivebus demo: everything below runs without hardware.\n")?;
     tables()?;
     nord_walk()?;
     bonfiglioli_walk()?;
@@ -28,15 +28,15 @@ pub fn run(_args: &DemoArgs) -> Result<()> {
 }
 
 fn tables() -> Result<()> {
-    println!("== Parameter tables generated from the manuals");
+    outln!("== Parameter tables generated from the manuals")?;
     for family in Family::ALL {
-        println!(
+        outln!(
             "  {:<12} {:>4} parameters",
             family.name(),
             all(family).len()
-        );
+        )?;
     }
-    println!();
+    outln!()?;
     let samples = [
         (Family::Movidrive, "8318", 1_000_000),
         (Family::Movidrive, "P813", 5),
@@ -45,7 +45,7 @@ fn tables() -> Result<()> {
     ];
     for (family, key, raw) in samples {
         let p = lookup(family, key)?;
-        println!(
+        outln!(
             "  {:<12} {:<8} {:<28} index {:>5}: raw {raw} = {} {}",
             family.name(),
             p.label(),
@@ -53,9 +53,9 @@ fn tables() -> Result<()> {
             p.bus_index(),
             trim_float(p.to_physical(raw), p.decimals()),
             p.unit()
-        );
+        )?;
     }
-    println!();
+    outln!()?;
     Ok(())
 }
 
@@ -66,12 +66,12 @@ const MAX_STEPS: usize = 8;
 /// drive that follows the manual's transition table.
 fn nord_walk() -> Result<()> {
     use nord::State;
-    println!("== NORD state machine (control word → status word)");
+    outln!("== NORD state machine (control word → status word)")?;
     let status_of = |s: State| nord::state_info(s).map_or(0, |i| i.value);
     let mut state = State::SwitchOnDisabled;
     let mut last = 0u16;
     for target in [State::OperationEnabled, State::SwitchOnDisabled] {
-        println!("  target: {}", target.name_en());
+        outln!("  target: {}", target.name_en())?;
         for _ in 0..MAX_STEPS {
             let status = status_of(state);
             let decoded = NordStateMachine::decode(status);
@@ -82,11 +82,11 @@ fn nord_walk() -> Result<()> {
                 .iter()
                 .find(|t| t.from.is_none_or(|f| f == decoded) && t.triggered_by(last, word))
                 .map_or(decoded, |t| t.to);
-            println!(
+            outln!(
                 "    status 0x{status:04X} {:<24} send 0x{word:04X} → {}",
                 decoded.name_en(),
                 next.name_en()
-            );
+            )?;
             last = word;
             state = next;
         }
@@ -97,14 +97,14 @@ fn nord_walk() -> Result<()> {
             )));
         }
     }
-    println!();
+    outln!()?;
     Ok(())
 }
 
 /// Bonfiglioli ACT: the same walk, using the shortcut transition 4 from switch-on disabled.
 fn bonfiglioli_walk() -> Result<()> {
     use bonfiglioli::State;
-    println!("== Bonfiglioli ACT state machine (control word 410 → status word 411)");
+    outln!("== Bonfiglioli ACT state machine (control word 410 → status word 411)")?;
     let status_of = |s: State| {
         bonfiglioli::state::ACT_PATTERNS
             .iter()
@@ -113,7 +113,7 @@ fn bonfiglioli_walk() -> Result<()> {
     };
     let mut state = State::SwitchOnDisabled;
     for target in [State::OperationEnabled, State::SwitchOnDisabled] {
-        println!("  target: {target}");
+        outln!("  target: {target}")?;
         for _ in 0..MAX_STEPS {
             let status = status_of(state);
             let decoded = ActStateMachine::decode(status);
@@ -123,17 +123,17 @@ fn bonfiglioli_walk() -> Result<()> {
             let next = bonfiglioli::act_transitions()
                 .find(|t| t.from == decoded && t.word == word)
                 .map_or(decoded, |t| t.to);
-            println!(
+            outln!(
                 "    status 0x{status:04X} {:<24} send 0x{word:04X} → {next}",
                 decoded.name_en()
-            );
+            )?;
             state = next;
         }
         if state != target {
             return Err(CliError::failed(format!("ACT walk stuck in {state}")));
         }
     }
-    println!();
+    outln!()?;
     Ok(())
 }
 
@@ -150,9 +150,9 @@ async fn movilink_session() -> Result<()> {
     use movilink::{Address, PduType, Telegram};
     use std::time::Duration;
 
-    println!(
+    outln!(
         "== MOVILINK session: master ↔ simulated MOVIDRIVEs at 1 and 5, 9600 baud 8E1 wire model"
-    );
+    )?;
     let (master_end, drive_end) = pair(LinkConfig::new(9600));
     let sim = tokio::spawn(async move {
         let mut bus = SimulatedBus::new(&[1, 5]);
@@ -161,7 +161,7 @@ async fn movilink_session() -> Result<()> {
     let mut m = MasterDriver::new(master_end, DriverConfig::default());
     let started = tokio::time::Instant::now();
 
-    println!("  scan 0…9:");
+    outln!("  scan 0…9:")?;
     let mut found = Vec::new();
     for a in 0..=9u8 {
         let addr = Address::new(a).ok_or_else(|| CliError::failed("bad address"))?;
@@ -171,10 +171,10 @@ async fn movilink_session() -> Result<()> {
             .map_err(driver_error)?
         {
             let fw = m.read(addr, index::FIRMWARE).await.map_err(driver_error)?;
-            println!(
+            outln!(
                 "    address {a}: device type {device_type}, firmware {}",
                 firmware_text(fw)
-            );
+            )?;
             found.push(addr);
         }
     }
@@ -182,32 +182,32 @@ async fn movilink_session() -> Result<()> {
         .first()
         .ok_or_else(|| CliError::failed("the simulated drives did not answer the scan"))?;
 
-    println!("  parameters of drive {}:", drive.get());
+    outln!("  parameters of drive {}:", drive.get())?;
     for key in ["P000", "P130", "P812"] {
         let t = resolve(key)?;
         let data = m.read(drive, t.index).await.map_err(driver_error)?;
-        print!("    ");
-        print_value(&t, raw_of(&t, data), false);
+        out!("    ")?;
+        print_value(&t, raw_of(&t, data), false)?;
     }
     let p130 = resolve("P130")?;
-    println!("    write P130 = 0.5 s (volatile: RAM only, no EEPROM wear)");
+    outln!("    write P130 = 0.5 s (volatile: RAM only, no EEPROM wear)")?;
     m.write_volatile(drive, p130.index, 500)
         .await
         .map_err(driver_error)?;
     let data = m.read(drive, p130.index).await.map_err(driver_error)?;
-    print!("    ");
-    print_value(&p130, raw_of(&p130, data), false);
+    out!("    ")?;
+    print_value(&p130, raw_of(&p130, data), false)?;
 
-    println!(
+    outln!(
         "  enable: PO1 = 0x0006 (control word 1: enable), PO2 = 5000 (1000 1/min), type 0x05 cyclic"
-    );
+    )?;
     let mut last_speed = 0.0;
     for (phase, control, target) in [
         ("ramp up", ControlWord1::ENABLE, 1000.0),
         ("stop", ControlWord1::STOP, 0.0),
     ] {
         if phase == "stop" {
-            println!("  stop: PO1 = 0x0002 (control word 1: stop on the ramp)");
+            outln!("  stop: PO1 = 0x0002 (control word 1: stop on the ramp)")?;
         }
         for _ in 0..40 {
             let request = Telegram::request(drive, PduType::PD3).with_process_data(&[
@@ -219,11 +219,11 @@ async fn movilink_session() -> Result<()> {
             let pi = response.process_data();
             let status = pi.first().copied().unwrap_or(0);
             let speed = drive_profile::sew::speed_from_word(pi.get(1).copied().unwrap_or(0));
-            println!(
+            outln!(
                 "    t = {:>5.0} ms  PI1 0x{status:04X} ({})  speed {speed:>6.1} 1/min",
                 started.elapsed().as_secs_f64() * 1000.0,
                 StatusWord1::from_bits(status)
-            );
+            )?;
             last_speed = speed;
             if (speed - target).abs() < 0.5 {
                 break;
@@ -232,13 +232,13 @@ async fn movilink_session() -> Result<()> {
         }
     }
     let stats = m.stats();
-    println!(
+    outln!(
         "  {} transactions, {} retries, {} timeouts in {:.2} s",
         stats.transactions,
         stats.retries,
         stats.timeouts,
         started.elapsed().as_secs_f64()
-    );
+    )?;
     drop(m);
     sim.abort();
     if last_speed.abs() >= 0.5 {
@@ -246,6 +246,6 @@ async fn movilink_session() -> Result<()> {
             "the simulated drive did not stop (speed {last_speed} 1/min)"
         )));
     }
-    println!();
+    outln!()?;
     Ok(())
 }

@@ -26,6 +26,21 @@ impl CliError {
         }
     }
 
+    /// Standard output was closed by its reader (`drivectl … | head`): the command ends
+    /// quietly, with the exit code a shell reports for a process ended by SIGPIPE (141), so a
+    /// `pipefail` script sees what it sees for any other Unix tool.
+    pub fn closed_pipe() -> Self {
+        CliError {
+            message: String::new(),
+            code: 141,
+        }
+    }
+
+    /// True for [`CliError::closed_pipe`]: nothing is printed.
+    pub fn is_closed_pipe(&self) -> bool {
+        self.code == 141 && self.message.is_empty()
+    }
+
     /// The process exit code.
     pub fn exit_code(&self) -> u8 {
         self.code

@@ -3,11 +3,16 @@
 //! Human-readable output by default, `--json` for scripts (one JSON object per result).
 //! Errors print one line saying what failed and what to try, and exit with a non-zero code.
 
+// Command output goes through `outln!`/`out!` (a closed pipe is an error, not a panic) and
+// messages through `errln!`.
+#![deny(clippy::print_stdout, clippy::print_stderr)]
+
+#[macro_use]
+mod tool;
 mod demo;
 mod error;
 mod movilink;
 mod params;
-mod tool;
 
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
@@ -66,8 +71,9 @@ fn main() -> ExitCode {
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
+        Err(e) if e.is_closed_pipe() => ExitCode::from(e.exit_code()),
         Err(e) => {
-            eprintln!("drivectl: {e}");
+            errln!("drivectl: {e}");
             ExitCode::from(e.exit_code())
         }
     }

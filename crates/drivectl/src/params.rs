@@ -166,14 +166,14 @@ fn list(family: Family, search: Option<&str>, json: bool) -> Result<()> {
         }
         let _ = writeln!(out, "{} parameters", params.len());
     }
-    print!("{out}");
+    out!("{out}")?;
     Ok(())
 }
 
 fn show(family: Family, key: &str, json: bool) -> Result<()> {
     let p = lookup(family, key)?;
     if json {
-        println!("{}", to_json(p));
+        outln!("{}", to_json(p))?;
         return Ok(());
     }
     let mut out = String::new();
@@ -216,7 +216,7 @@ fn show(family: Family, key: &str, json: bool) -> Result<()> {
             let _ = writeln!(out, "    {:>6} = {} ({})", v.value, v.en, v.de);
         }
     }
-    print!("{out}");
+    out!("{out}")?;
     Ok(())
 }
 

@@ -262,3 +262,31 @@ fn a_response_timeout_shorter_than_the_start_pause_is_refused_before_opening_the
         stderr(&o)
     );
 }
+
+/// `drivectl … | head` where the reader is already gone: the read end is closed right after the
+/// start, long before the new process gets to its first write, which meets a closed pipe.
+fn into_closed_pipe(args: &[&str]) -> Output {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_drivectl"))
+        .args(args)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stdout.take());
+    child.wait_with_output().unwrap()
+}
+
+#[test]
+fn issue7_a_closed_pipe_ends_a_command_quietly() {
+    for args in [
+        &["params", "movidrive", "--json"][..],
+        &["params", "nord", "show", "P102"],
+        &["demo"],
+        &["decode", "movilink", "02 01 85 00 06 20 00 0B B8 13"],
+    ] {
+        let o = into_closed_pipe(args);
+        // No panic, no message: the exit code a shell shows for SIGPIPE.
+        assert_eq!(stderr(&o), "", "{args:?}");
+        assert_eq!(o.status.code(), Some(141), "{args:?}");
+    }
+}

@@ -430,7 +430,7 @@ pub fn run(hex_args: &[String], json: bool) -> Result<()> {
             ));
         }
     }
-    print!("{out}");
+    out!("{out}")?;
     if all.iter().any(|e| e.error.is_some()) {
         return Err(CliError::failed(
             "the capture holds an invalid telegram (see above)",

@@ -359,7 +359,7 @@ async fn execute<IO: CharIo>(m: &mut MasterDriver<IO>, args: &MovilinkArgs) -> R
             let t = resolve(param)?;
             let mut client = MovilinkClient::new(m, address(args.addr)?, &args.port);
             let raw = client.read(&t).await?;
-            print_value(&t, raw, json);
+            print_value(&t, raw, json)?;
             Ok(())
         }
         MovilinkCommand::Write {
@@ -386,7 +386,7 @@ async fn execute<IO: CharIo>(m: &mut MasterDriver<IO>, args: &MovilinkArgs) -> R
             }
             let mut client = MovilinkClient::new(m, addr, &args.port);
             let back = write::write_checked(&mut client, &request).await?;
-            print_value(&t, back, json);
+            print_value(&t, back, json)?;
             Ok(())
         }
         MovilinkCommand::Info { param } => {
@@ -415,7 +415,7 @@ async fn execute<IO: CharIo>(m: &mut MasterDriver<IO>, args: &MovilinkArgs) -> R
             let t = c.line_timing();
             let us = |d: Duration| d.as_nanos() as f64 / 1000.0;
             if json {
-                println!(
+                outln!(
                     "{}",
                     json!({
                         "port": args.port, "baud": t.line.baud, "data_bits": t.line.data_bits,
@@ -426,14 +426,14 @@ async fn execute<IO: CharIo>(m: &mut MasterDriver<IO>, args: &MovilinkArgs) -> R
                         "response_timeout_ms": c.response_timeout.as_millis() as u64,
                         "retries": c.retries,
                     })
-                );
+                )?;
             } else {
-                println!(
+                outln!(
                     "{} {t}; response timeout {} ms, {} retries",
                     args.port,
                     c.response_timeout.as_millis(),
                     c.retries
-                );
+                )?;
             }
             Ok(())
         }
@@ -461,7 +461,7 @@ async fn write_unanswered<IO: CharIo>(
     let client = MovilinkClient::new(m, addr, port);
     let drive_key = client.drive_key();
     if let Some(warning) = write::check(&client, request)? {
-        eprintln!("drivectl: warning: {warning}");
+        errln!("drivectl: warning: {warning}");
     }
     let t = request.target;
     let data = data_of(request.raw);
@@ -477,12 +477,12 @@ async fn write_unanswered<IO: CharIo>(
     tokio::time::sleep(movilink::timing::BROADCAST_SPACING).await;
     write::record(&drive_key, request);
     if json {
-        println!(
+        outln!(
             "{}",
             json!({"index": t.index, "raw": request.raw, "address": addr.get(), "answered": false})
-        );
+        )?;
     } else {
-        println!(
+        outln!(
             "sent index {} = raw {} to {} {} (never answered by design)",
             t.index,
             request.raw,
@@ -492,7 +492,7 @@ async fn write_unanswered<IO: CharIo>(
                 "group"
             },
             addr.get()
-        );
+        )?;
     }
     Ok(())
 }
@@ -519,7 +519,7 @@ async fn info<IO: CharIo>(
     };
     let size_name = sew::size_name(scale.size_index).unwrap_or("unknown quantity");
     if json {
-        println!(
+        outln!(
             "{}",
             json!({
                 "index": t.index,
@@ -530,23 +530,25 @@ async fn info<IO: CharIo>(
                 "quantity": size_name,
                 "next_index": attr.next_index, "attributes": attr.attributes, "access": access.to_string(),
             })
-        );
+        )?;
     } else {
         let name = t
             .param
             .map_or_else(String::new, |p| format!("{} {} ", p.label(), p.name_en()));
-        println!("{name}(index {})", t.index);
-        println!("  minimum    {}", show(min));
-        println!("  maximum    {}", show(max));
-        println!("  default    {}", show(default));
-        println!(
+        outln!("{name}(index {})", t.index)?;
+        outln!("  minimum    {}", show(min))?;
+        outln!("  maximum    {}", show(max))?;
+        outln!("  default    {}", show(default))?;
+        outln!(
             "  scale      size index {} ({size_name}), conversion index {}",
-            scale.size_index, scale.conversion_index
-        );
-        println!(
+            scale.size_index,
+            scale.conversion_index
+        )?;
+        outln!(
             "  attributes 0x{:04X} ({access}), next index {}",
-            attr.attributes, attr.next_index
-        );
+            attr.attributes,
+            attr.next_index
+        )?;
     }
     Ok(())
 }
@@ -576,23 +578,24 @@ async fn scan<IO: CharIo>(
         let Some(device_type) = probe else { continue };
         let firmware = m.read(addr, index::FIRMWARE).await.map_err(driver_error)?;
         found += 1;
-        bar.suspend(|| {
+        bar.suspend(|| -> Result<()> {
             if json {
-                println!(
+                outln!(
                     "{}",
                     json!({"address": a, "device_type": device_type, "firmware": firmware})
-                );
+                )?;
             } else {
-                println!(
+                outln!(
                     "address {a:>2}: device type {device_type}, firmware {}",
                     firmware_text(firmware)
-                );
+                )?;
             }
-        });
+            Ok(())
+        })?;
     }
     bar.finish_and_clear();
     if !json {
-        println!("{found} drive(s) answered between {from} and {to}");
+        outln!("{found} drive(s) answered between {from} and {to}")?;
     }
     Ok(())
 }
@@ -651,7 +654,7 @@ async fn pd<IO: CharIo>(
         session.set_output(&words);
         for _ in 0..count {
             let response = session.cycle().await.map_err(driver_error)?;
-            print_pd(addr, pdu, &words, response.process_data(), json);
+            print_pd(addr, pdu, &words, response.process_data(), json)?;
         }
     } else {
         for i in 0..count {
@@ -660,30 +663,30 @@ async fn pd<IO: CharIo>(
             }
             let request = Telegram::request(addr, pdu).with_process_data(&words);
             let response = m.exchange(request).await.map_err(driver_error)?;
-            print_pd(addr, pdu, &words, response.process_data(), json);
+            print_pd(addr, pdu, &words, response.process_data(), json)?;
         }
     }
     Ok(())
 }
 
-fn print_pd(addr: Address, pdu: PduType, out: &[u16], pi: &[u16], json: bool) {
+fn print_pd(addr: Address, pdu: PduType, out: &[u16], pi: &[u16], json: bool) -> Result<()> {
     let status = pi.first().map(|s| StatusWord1::from_bits(*s).to_string());
     if json {
-        println!(
+        outln!(
             "{}",
             json!({"address": addr.get(), "type": pdu.raw(), "out": out, "in": pi,
                    "status": status})
-        );
+        )
     } else {
         let words_text: Vec<String> = pi.iter().map(|w| format!("0x{w:04X}")).collect();
         let speed = pi.get(1).map_or_else(String::new, |w| {
             format!(", speed {} 1/min", trim_float(sew::speed_from_word(*w), 1))
         });
-        println!(
+        outln!(
             "PI {}: {}{speed}",
             words_text.join(" "),
             status.unwrap_or_default()
-        );
+        )
     }
 }
 

@@ -10,7 +10,6 @@ use drive_transport::serial::Parity;
 use movilink::driver::Stream;
 use movilink::sim::SimulatedBus;
 use movilink::timing::LineTiming;
-use std::io::Write as _;
 use std::time::Duration;
 
 /// Arguments of `drivectl sim movilink`.
@@ -54,14 +53,14 @@ pub fn run(args: &SimArgs) -> Result<()> {
             .join(", ");
         if let Some(path) = &args.port {
             let port = args.line.open(path)?;
-            eprintln!("simulated MOVIDRIVE at address {list} on {path} ({timing}); Ctrl-C stops");
+            errln!("simulated MOVIDRIVE at address {list} on {path} ({timing}); Ctrl-C stops");
             return bus
                 .serve(Stream(port))
                 .await
                 .map_err(|e| CliError::failed(format!("serving {path}: {e}")));
         }
         if args.line.parity != Parity::None {
-            eprintln!("note: pseudo-terminals carry no parity; serving the pty as 8N1");
+            errln!("note: pseudo-terminals carry no parity; serving the pty as 8N1");
         }
         let mut pair = PtyPair::open().map_err(|e| CliError::failed(e.to_string()))?;
         let path = pair.slave_path().to_path_buf();
@@ -72,9 +71,8 @@ pub fn run(args: &SimArgs) -> Result<()> {
             .write(true)
             .open(&path)
             .map_err(|e| CliError::failed(format!("cannot open {}: {e}", path.display())))?;
-        println!("{}", path.display());
-        let _ = std::io::stdout().flush();
-        eprintln!(
+        outln!("{}", path.display())?;
+        errln!(
             "simulated MOVIDRIVE at address {list} on {} ({timing}); Ctrl-C stops",
             path.display()
         );

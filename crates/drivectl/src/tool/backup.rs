@@ -100,16 +100,16 @@ pub async fn backup<C: ParamClient>(client: &mut C, out: &Path, json: bool) -> R
         .map_err(|e| CliError::failed(format!("cannot encode the backup: {e}")))?;
     write_atomic(out, &text)?;
     if json {
-        println!(
+        outln!(
             "{}",
             json!({"file": out.display().to_string(), "parameters": saved, "skipped": skipped,
                    "unreadable": unreadable})
-        );
+        )?;
     } else {
-        println!(
+        outln!(
             "saved {saved} parameters to {} ({skipped} not present on this drive)",
             out.display()
-        );
+        )?;
     }
     if !unreadable.is_empty() {
         return Err(CliError::failed(format!(
@@ -275,7 +275,7 @@ pub async fn restore<C: ParamClient>(
         warnings.extend(warning);
     }
     for w in &warnings {
-        eprintln!("drivectl: warning: {w}");
+        errln!("drivectl: warning: {w}");
     }
     let drive_key = client.drive_key();
     let bar = progress(changes.len(), "writing");
@@ -313,21 +313,21 @@ pub async fn restore<C: ParamClient>(
     }
     bar.finish_and_clear();
     for (e, back) in &mismatches {
-        print_value(&e.target, *back, json);
+        print_value(&e.target, *back, json)?;
     }
     if json {
-        println!(
+        outln!(
             "{}",
             json!({"file": file.display().to_string(), "entries": entries.len(),
                    "written": written, "refused": refused, "mismatches": mismatches.len()})
-        );
+        )?;
     } else {
-        println!(
+        outln!(
             "restored {} parameter(s) from {}: {written} written, {} already held the saved value",
             entries.len(),
             file.display(),
             entries.len() - changes.len()
-        );
+        )?;
     }
     if !mismatches.is_empty() || !refused.is_empty() {
         return Err(CliError::failed(format!(

@@ -12,11 +12,12 @@
 //!   files;
 //! * [`output`]: values as text or JSON.
 
+#[macro_use]
+pub mod output;
 pub mod backup;
 pub mod client;
 #[cfg(test)]
 pub mod fake;
 pub mod line;
-pub mod output;
 pub mod wear;
 pub mod write;

@@ -57,7 +57,7 @@ pub fn check_with<C: ParamClient>(
 /// Check, write and read back: the value the drive holds afterwards.
 pub async fn write_checked<C: ParamClient>(client: &mut C, req: &WriteRequest) -> Result<i64> {
     if let Some(warning) = check(client, req)? {
-        eprintln!("drivectl: warning: {warning}");
+        errln!("drivectl: warning: {warning}");
     }
     client.write(&req.target, req.raw, req.persistence).await?;
     record(&client.drive_key(), req);
