@@ -475,3 +475,117 @@ fn restore_right_after_an_eeprom_write_is_refused_before_writing() {
     );
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// `drivectl movilink …` with the given arguments only (no defaults from [`Sim::run`]).
+fn drivectl(sim: &Sim, args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_drivectl"))
+        .args(args)
+        .env("DRIVECTL_STATE_DIR", &sim.state)
+        .output()
+        .expect("drivectl runs")
+}
+
+#[test]
+fn issue7_line_options_before_or_after_the_subcommand() {
+    let sim = Sim::start(&[1]);
+    let p = sim.path.as_str();
+    let before = [
+        "movilink",
+        "--port",
+        p,
+        "--parity",
+        "none",
+        "--baud",
+        "19200",
+        "--timeout",
+        "70",
+        "--retries",
+        "5",
+        "--char-gap",
+        "0",
+        "--addr",
+        "1",
+        "line",
+        "--json",
+    ];
+    let after = [
+        "movilink",
+        "line",
+        "--json",
+        "--port",
+        p,
+        "--parity",
+        "none",
+        "--baud",
+        "19200",
+        "--timeout",
+        "70",
+        "--retries",
+        "5",
+        "--char-gap",
+        "0",
+        "--addr",
+        "1",
+    ];
+    let mixed = [
+        "movilink",
+        "--baud",
+        "19200",
+        "--port",
+        p,
+        "line",
+        "--parity",
+        "none",
+        "--timeout",
+        "70",
+        "--json",
+        "--retries",
+        "5",
+        "--char-gap",
+        "0",
+    ];
+    for args in [&before[..], &after, &mixed] {
+        let v = ok_json(&drivectl(&sim, args));
+        assert_eq!(v[0]["baud"], 19200, "{args:?}");
+        assert_eq!(v[0]["parity"], "none", "{args:?}");
+        assert_eq!(v[0]["response_timeout_ms"], 70, "{args:?}");
+        assert_eq!(v[0]["retries"], 5, "{args:?}");
+    }
+    // A parameter read with every option after the subcommand.
+    let v = ok_json(&drivectl(
+        &sim,
+        &[
+            "movilink", "read", "P130", "--json", "--port", p, "--parity", "none", "--addr", "1",
+        ],
+    ));
+    assert_eq!(v[0]["raw"], 2000);
+}
+
+#[test]
+fn issue7_timeout_and_gap_options_have_limits_named_in_help() {
+    let sim = Sim::start(&[1]);
+    let p = sim.path.as_str();
+    for (opt, bad) in [
+        ("--timeout", "0"),
+        ("--timeout", "60001"),
+        ("--timeout", "18446744073709551615"),
+        ("--char-gap", "10001"),
+        ("--retries", "256"),
+        ("--baud", "0"),
+    ] {
+        let o = drivectl(
+            &sim,
+            &[
+                "movilink", "--port", p, "--parity", "none", opt, bad, "read", "P000",
+            ],
+        );
+        assert_eq!(o.status.code(), Some(2), "{opt} {bad}");
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(err.contains(opt), "{opt} {bad}: {err}");
+    }
+    let help = drivectl(&sim, &["movilink", "--help"]);
+    let help = String::from_utf8_lossy(&help.stdout);
+    for limit in ["1–60000", "0–255", "0–10000", "1–4000000"] {
+        assert!(help.contains(limit), "{limit} in {help}");
+    }
+}

@@ -34,14 +34,15 @@ pub const RAW_INDICES: RangeInclusive<u16> = 1000..=0xFFFF;
 #[derive(Debug, Args)]
 pub struct MovilinkArgs {
     /// Serial port, e.g. /dev/ttyUSB0 (or the pty printed by `drivectl sim movilink --pty`).
-    #[arg(long)]
+    /// This and every line option are accepted before or after the subcommand.
+    #[arg(long, global = true, default_value = "", hide_default_value = true)]
     port: String,
     #[command(flatten)]
     line: LineArgs,
     #[command(flatten)]
     master: MasterArgs,
     /// Drive address: 0–99 single drive, 254 point-to-point.
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, global = true, default_value_t = 0)]
     addr: u8,
     /// One JSON object per result.
     #[arg(long, global = true)]
@@ -343,6 +344,11 @@ fn driver_config(line: &LineArgs, master: &MasterArgs) -> Result<DriverConfig> {
 
 /// Run `drivectl movilink`.
 pub fn run(args: &MovilinkArgs) -> Result<()> {
+    if args.port.is_empty() {
+        return Err(CliError::usage(
+            "no serial port given; add --port PATH (e.g. /dev/ttyUSB0; `drivectl ports` lists them)",
+        ));
+    }
     let rt = runtime()?;
     rt.block_on(async {
         let config = driver_config(&args.line, &args.master)?;

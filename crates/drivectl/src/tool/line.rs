@@ -7,17 +7,17 @@ use std::time::Duration;
 
 use crate::error::{CliError, Result};
 
-/// Serial line settings.
+/// Serial line settings. Every option is accepted before or after the subcommand.
 #[derive(Debug, Args, Clone)]
 pub struct LineArgs {
-    /// Baud rate in bit/s (MOVILINK: 9600); every pause and timeout follows it.
-    #[arg(long, default_value_t = 9600, value_parser = clap::value_parser!(u32).range(1..=4_000_000))]
+    /// Baud rate in bit/s, 1–4000000 (MOVILINK: 9600); every pause and timeout follows it.
+    #[arg(long, global = true, default_value_t = 9600, value_parser = clap::value_parser!(u32).range(1..=4_000_000))]
     pub baud: u32,
     /// Parity: even (MOVILINK), odd or none (pseudo-terminals only accept none).
-    #[arg(long, default_value = "even")]
+    #[arg(long, global = true, default_value = "even")]
     pub parity: Parity,
     /// Stop bits: 1 or 2.
-    #[arg(long, default_value = "1")]
+    #[arg(long, global = true, default_value = "1")]
     pub stop_bits: StopBits,
 }
 
@@ -52,19 +52,26 @@ pub fn open_error(e: &TransportError) -> String {
     format!("{e} (option {option})")
 }
 
+/// The longest response timeout `--timeout` takes, in milliseconds (a minute: longer is a
+/// hang to the user, and far beyond any drive's answer).
+pub const MAX_TIMEOUT_MS: u64 = 60_000;
+/// The widest `--char-gap`, in milliseconds.
+pub const MAX_CHAR_GAP_MS: u64 = 10_000;
+
 /// Options of a master on a serial line: how long to wait for an answer, how often to try.
+/// Every option is accepted before or after the subcommand.
 #[derive(Debug, Args, Clone)]
 pub struct MasterArgs {
-    /// Response timeout in milliseconds (MOVILINK allows a drive at most 50).
-    #[arg(long, default_value_t = 50)]
+    /// Response timeout in milliseconds, 1–60000 (MOVILINK allows a drive at most 50).
+    #[arg(long, global = true, default_value_t = 50, value_parser = clap::value_parser!(u64).range(1..=MAX_TIMEOUT_MS))]
     pub timeout: u64,
-    /// Retries after a timeout or a corrupt answer.
-    #[arg(long, default_value_t = 2)]
+    /// Retries after a timeout or a corrupt answer, 0–255 (255: 256 attempts, then give up).
+    #[arg(long, global = true, default_value_t = 2)]
     pub retries: u8,
-    /// Longest gap in ms accepted between the characters of an answer. USB serial adapters
-    /// hand characters over in bursts (FTDI: every 16 ms); 0 applies the protocol's own rule.
-    /// Checksums, lengths and parity always apply.
-    #[arg(long, default_value_t = 20)]
+    /// Longest gap in ms accepted between the characters of an answer, 0–10000. USB serial
+    /// adapters hand characters over in bursts (FTDI: every 16 ms); 0 applies the protocol's
+    /// own rule. Checksums, lengths and parity always apply.
+    #[arg(long, global = true, default_value_t = 20, value_parser = clap::value_parser!(u64).range(0..=MAX_CHAR_GAP_MS))]
     pub char_gap: u64,
 }
 
