@@ -318,9 +318,12 @@ fn eeprom_writes_in_quick_succession_are_refused_across_runs() {
 #[test]
 fn group_and_broadcast_writes_reach_every_drive_unanswered() {
     let sim = Sim::start(&[1, 3]);
-    // Put both drives into group 101 (P811, RAM only).
+    // Put both drives into group 101 (P811, RAM only; a link setting, so --yes).
     for a in [1, 3] {
-        ok_json(&sim.run(a, &["--json", "write", "P811", "101", "--volatile"]));
+        ok_json(&sim.run(
+            a,
+            &["--json", "write", "P811", "101", "--volatile", "--yes"],
+        ));
     }
     let v = ok_json(&sim.run(101, &["--json", "write", "P130", "0.8", "--volatile"]));
     assert_eq!(v[0]["answered"], false);
@@ -588,4 +591,156 @@ fn issue7_timeout_and_gap_options_have_limits_named_in_help() {
     for limit in ["1–60000", "0–255", "0–10000", "1–4000000"] {
         assert!(help.contains(limit), "{limit} in {help}");
     }
+}
+
+fn stderr_of(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+#[test]
+fn issue7_link_settings_need_yes_and_say_where_the_drive_answers() {
+    let sim = Sim::start(&[1]);
+    // No --yes: refused before anything is sent, with the consequence named.
+    let o = sim.run(1, &["write", "P810", "5"]);
+    assert_eq!(o.status.code(), Some(2));
+    let err = stderr_of(&o);
+    assert!(err.contains("--yes") && err.contains("address 5"), "{err}");
+    // 0.4 is no address: refused, not rounded to 0.
+    let o = sim.run(1, &["write", "P810", "0.4", "--yes"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr_of(&o));
+    let v = ok_json(&sim.run(1, &["--json", "read", "P810"]));
+    assert_eq!(v[0]["raw"], 1);
+    // With --yes: written, read back at the new address, and said.
+    let o = sim.run(1, &["--json", "write", "P810", "5", "--yes"]);
+    let v = ok_json(&o);
+    assert_eq!(v[0]["raw"], 5);
+    assert!(stderr_of(&o).contains("use --addr 5"), "{}", stderr_of(&o));
+    let v = ok_json(&sim.run(5, &["--json", "read", "P810"]));
+    assert_eq!(v[0]["raw"], 5);
+    // A group write of an address would give every drive of the group the same one.
+    let o = sim.run(101, &["write", "P810", "7", "--volatile"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr_of(&o));
+}
+
+#[test]
+fn issue7_values_are_parsed_strictly_and_never_rounded_silently() {
+    let sim = Sim::start(&[1]);
+    for (args, what) in [
+        (
+            &["write", "P130", "--5", "--raw", "--volatile"][..],
+            "`--5`",
+        ),
+        (&["write", "P130", "0x-5", "--raw", "--volatile"], "`0x-5`"),
+        (&["write", "P700", "2.5", "--volatile"], "it takes one of"),
+        (&["write", "P700", "SERVOX", "--volatile"], "16 (SERVO)"),
+        (
+            &["write", "P130", "1.25", "--volatile"],
+            "1.30 s (raw 1300)",
+        ),
+    ] {
+        let o = sim.run(1, args);
+        assert_eq!(o.status.code(), Some(2), "{args:?}");
+        assert!(stderr_of(&o).contains(what), "{args:?}: {}", stderr_of(&o));
+    }
+    // Nothing was written.
+    assert_eq!(
+        ok_json(&sim.run(1, &["--json", "read", "P130"]))[0]["raw"],
+        2000
+    );
+    // A decimal comma; rounding when asked, and said.
+    let v = ok_json(&sim.run(1, &["--json", "write", "P130", "1,5", "--volatile"]));
+    assert_eq!(v[0]["raw"], 1500);
+    let o = sim.run(
+        1,
+        &["--json", "write", "P130", "1.25", "--volatile", "--round"],
+    );
+    assert_eq!(ok_json(&o)[0]["raw"], 1300);
+    assert!(
+        stderr_of(&o).contains("cannot hold 1.25 exactly"),
+        "{}",
+        stderr_of(&o)
+    );
+    // --force lifts the range of a physical value (the drive decides), not the width.
+    let o = sim.run(1, &["write", "P130", "3000", "--volatile"]);
+    assert_eq!(o.status.code(), Some(2));
+    let o = sim.run(1, &["write", "P130", "3000", "--volatile", "--force"]);
+    assert!(
+        stderr_of(&o).contains("the drive refused"),
+        "{}",
+        stderr_of(&o)
+    );
+    let o = sim.run(1, &["write", "P130", "5000000", "--volatile", "--force"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr_of(&o).contains("bus width"), "{}", stderr_of(&o));
+}
+
+#[test]
+fn issue7_the_eeprom_wear_rule_is_keyed_on_the_drive_and_cannot_be_switched_off() {
+    let sim = Sim::start(&[1]);
+    let p = sim.path.clone();
+    let dir = std::env::temp_dir().join(format!("drivectl-wear-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let link = dir.join("port-link");
+    let _ = std::fs::remove_file(&link);
+    std::os::unix::fs::symlink(&p, &link).unwrap();
+    let link = link.to_str().unwrap().to_owned();
+    let doubled = p.replacen("/dev/", "/dev//", 1);
+    let write = |port: &str, addr: &str, value: &str| {
+        drivectl(
+            &sim,
+            &[
+                "movilink", "--port", port, "--parity", "none", "--addr", addr, "write", "P130",
+                value,
+            ],
+        )
+    };
+    assert!(write(&p, "1", "1.4").status.success());
+    // The same drive by a symlink, by `//`, and point-to-point: the same drive, refused.
+    for (port, addr) in [
+        (link.as_str(), "1"),
+        (doubled.as_str(), "1"),
+        (p.as_str(), "254"),
+    ] {
+        let o = write(port, addr, "1.5");
+        assert_eq!(o.status.code(), Some(2), "{port} {addr}: {}", stderr_of(&o));
+        assert!(stderr_of(&o).contains("--volatile"), "{}", stderr_of(&o));
+    }
+    // A state directory that cannot be written refuses (nothing sent), unless --force.
+    let o = Command::new(env!("CARGO_BIN_EXE_drivectl"))
+        .args([
+            "movilink", "--port", &p, "--parity", "none", "--addr", "1", "write", "P131", "1.5",
+        ])
+        .env("DRIVECTL_STATE_DIR", "/proc/drivectl-cannot-be-here")
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        stderr_of(&o).contains("EEPROM-wear log") && stderr_of(&o).contains("nothing was sent"),
+        "{}",
+        stderr_of(&o)
+    );
+    assert_eq!(
+        ok_json(&sim.run(1, &["--json", "read", "P131"]))[0]["raw"],
+        2000
+    );
+    // A damaged log refuses too, and names the file.
+    std::fs::write(sim.state.join("eeprom-writes.json"), "{not json").unwrap();
+    let o = sim.run(1, &["write", "P132", "1.5"]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr_of(&o).contains("is damaged"), "{}", stderr_of(&o));
+    // An entry from the future (a clock set back) counts as a write made now.
+    let future = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .unwrap()
+        .as_millis()
+        + 3_600_000;
+    let key = format!("{p} 1 movidrive 8472 0");
+    std::fs::write(
+        sim.state.join("eeprom-writes.json"),
+        serde_json::json!({ key: future as u64 }).to_string(),
+    )
+    .unwrap();
+    let o = sim.run(1, &["write", "P132", "1.5"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr_of(&o));
+    let _ = std::fs::remove_dir_all(&dir);
 }

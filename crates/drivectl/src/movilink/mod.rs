@@ -20,7 +20,8 @@ use std::time::Duration;
 
 use crate::error::{CliError, Result};
 use crate::tool::client::{
-    ClientError, DeviceError, DeviceErrorKind, ParamClient, Target, parse_int,
+    ClientError, DeviceError, DeviceErrorKind, ParamClient, Target, ValueText, canonical_port,
+    parse_int,
 };
 use crate::tool::line::{LineArgs, MasterArgs, runtime};
 use crate::tool::output::{physical_text, print_value, trim_float};
@@ -71,10 +72,20 @@ enum MovilinkCommand {
         /// Write to RAM only (the service for frequent writes; lost at power-off).
         #[arg(long)]
         volatile: bool,
-        /// Skip the access/range/value-list/EEPROM-wear checks of the table (a value that does
-        /// not fit the parameter's 32 bits is never sent).
+        /// Skip the access/range/value-list/EEPROM-wear checks of the table and convert a
+        /// physical value outside the table's range (a value that does not fit the parameter's
+        /// 32 bits is never sent).
         #[arg(long)]
         force: bool,
+        /// Accept a physical value the parameter cannot hold exactly (1.25 s where it takes
+        /// 0.1 s steps) and write the nearest one it can, saying so; without it such a value is
+        /// refused with the nearest one named.
+        #[arg(long)]
+        round: bool,
+        /// Confirm a write of the drive's own link settings (P810 address, P811 group address,
+        /// P812 RS-485 timeout): it changes how the drive is reached.
+        #[arg(long)]
+        yes: bool,
     },
     /// Minimum, maximum, default, scale and attributes of a parameter.
     Info {
@@ -137,6 +148,8 @@ pub struct MovilinkClient<'a, IO> {
     driver: &'a mut MasterDriver<IO>,
     address: Address,
     port: String,
+    /// The drive's key for the EEPROM-wear log, once known.
+    key: Option<String>,
 }
 
 impl<'a, IO: CharIo> MovilinkClient<'a, IO> {
@@ -146,9 +159,18 @@ impl<'a, IO: CharIo> MovilinkClient<'a, IO> {
             driver,
             address,
             port: port.to_owned(),
+            key: None,
         }
     }
 }
+
+/// The settings of the RS-485 link a MOVILINK master talks over: P810 address, P811 group
+/// address, P812 RS-485 timeout delay.
+pub const LINK_SETTINGS: &[u16] = &[
+    index::RS485_ADDRESS,
+    index::RS485_GROUP_ADDRESS,
+    index::RS485_TIMEOUT,
+];
 
 /// The 32-bit data of a raw value (it has passed the width check: signed or unsigned 32 bits).
 fn data_of(raw: i64) -> u32 {
@@ -213,8 +235,63 @@ impl<IO: CharIo> ParamClient for MovilinkClient<'_, IO> {
         Family::Movidrive
     }
 
-    fn drive_key(&self) -> String {
-        format!("{} {}", self.port, self.address.get())
+    async fn drive_key(&mut self) -> std::result::Result<String, ClientError> {
+        if let Some(k) = &self.key {
+            return Ok(k.clone());
+        }
+        // Point-to-point (254) reaches whichever drive is connected: its own address (P810)
+        // names it. Groups and broadcast are keyed by their address.
+        let address = if self.address.get() == 254 {
+            let a = self.read(&resolve_index(index::RS485_ADDRESS)).await?;
+            format!("{a}")
+        } else {
+            self.address.get().to_string()
+        };
+        let key = format!("{} {address}", canonical_port(&self.port));
+        self.key = Some(key.clone());
+        Ok(key)
+    }
+
+    fn link_settings(&self) -> &'static [u16] {
+        LINK_SETTINGS
+    }
+
+    fn link_change(&self, target: &Target, raw: i64) -> String {
+        match target.index {
+            index::RS485_ADDRESS if self.address.get() == 254 => format!(
+                "the drive will answer at address {raw} (--addr {raw}) and still at 254 \
+                 (point-to-point)"
+            ),
+            index::RS485_ADDRESS => format!(
+                "the drive will answer at address {raw}, no longer at {} (use --addr {raw})",
+                self.address.get()
+            ),
+            index::RS485_GROUP_ADDRESS => format!(
+                "the drive will take group telegrams to address {raw} (--addr {raw} writes to \
+                 the group)"
+            ),
+            index::RS485_TIMEOUT if raw == 0 => "the drive will no longer watch the RS-485 \
+                 link for a timeout (0 s): a master that stops leaves it running"
+                .to_owned(),
+            _ => format!(
+                "the drive will stop with an RS-485 timeout when no telegram arrives for {} \
+                 (P812)",
+                target
+                    .param
+                    .map_or_else(|| raw.to_string(), |p| physical_text(p, raw))
+            ),
+        }
+    }
+
+    fn follow_link_change(&mut self, target: &Target, raw: i64) -> String {
+        let note = self.link_change(target, raw);
+        if target.index == index::RS485_ADDRESS && self.address.get() != 254 {
+            if let Some(a) = u8::try_from(raw).ok().and_then(Address::new) {
+                self.address = a;
+                self.key = None;
+            }
+        }
+        note
     }
 
     fn not_restored(&self) -> &'static [u16] {
@@ -282,6 +359,19 @@ impl<IO: CharIo> ParamClient for MovilinkClient<'_, IO> {
         m.insert("firmware".into(), firmware.into());
         Ok(m)
     }
+}
+
+/// The target of a MOVIDRIVE index from the table.
+fn resolve_index(i: u16) -> Target {
+    drive_profile::family::lookup(Family::Movidrive, &i.to_string()).map_or(
+        Target {
+            family: Family::Movidrive,
+            index: i,
+            sub: 0,
+            param: None,
+        },
+        Target::of,
+    )
 }
 
 /// Resolve a MOVIDRIVE parameter: `P813`, `813`, `8600`, `0x2198`; indices outside the table
@@ -374,11 +464,26 @@ async fn execute<IO: CharIo>(m: &mut MasterDriver<IO>, args: &MovilinkArgs) -> R
             raw,
             volatile,
             force,
+            round,
+            yes,
         } => {
             let t = resolve(param)?;
+            let how = ValueText {
+                raw: *raw,
+                force: *force,
+                round: *round,
+            };
+            let parsed = t.value_from_text(value, &how)?;
+            if let (Some(x), Some(p)) = (parsed.rounded_from, t.param) {
+                errln!(
+                    "drivectl: note: {} cannot hold {x} exactly; writing the nearest value it takes, {}",
+                    p.label(),
+                    physical_text(p, parsed.raw)
+                );
+            }
             let request = write::WriteRequest {
                 target: t,
-                raw: t.raw_from_text(value, *raw)?,
+                raw: parsed.raw,
                 persistence: if *volatile {
                     Persistence::Volatile
                 } else {
@@ -388,11 +493,14 @@ async fn execute<IO: CharIo>(m: &mut MasterDriver<IO>, args: &MovilinkArgs) -> R
             };
             let addr = any_address(args.addr)?;
             if !addr.expects_response() {
-                return write_unanswered(m, addr, &args.port, &request, json).await;
+                return write_unanswered(m, addr, &args.port, &request, *yes, json).await;
             }
             let mut client = MovilinkClient::new(m, addr, &args.port);
-            let back = write::write_checked(&mut client, &request).await?;
-            print_value(&t, back, json)?;
+            let done = write::write_checked(&mut client, &request, *yes).await?;
+            if let Some(note) = &done.link_note {
+                errln!("drivectl: note: {note}");
+            }
+            print_value(&t, done.back, json)?;
             Ok(())
         }
         MovilinkCommand::Info { param } => {
@@ -461,12 +569,14 @@ async fn write_unanswered<IO: CharIo>(
     addr: Address,
     port: &str,
     request: &write::WriteRequest,
+    yes: bool,
     json: bool,
 ) -> Result<()> {
     // The drives of a group share the wear log entry of the group address.
-    let client = MovilinkClient::new(m, addr, port);
-    let drive_key = client.drive_key();
-    if let Some(warning) = write::check(&client, request)? {
+    let mut client = MovilinkClient::new(m, addr, port);
+    write::check_link_setting(&client, request, yes)?;
+    let drive_key = client.drive_key().await?;
+    if let Some(warning) = write::check(&mut client, request).await? {
         errln!("drivectl: warning: {warning}");
     }
     let t = request.target;
@@ -481,7 +591,9 @@ async fn write_unanswered<IO: CharIo>(
     // the next telegram (perhaps from the next drivectl run) cannot follow sooner than the
     // 25 ms the drives need.
     tokio::time::sleep(movilink::timing::BROADCAST_SPACING).await;
-    write::record(&drive_key, request);
+    if let Err(e) = write::record(&drive_key, request) {
+        errln!("drivectl: warning: {e}");
+    }
     if json {
         outln!(
             "{}",

@@ -267,9 +267,10 @@ pub async fn restore<C: ParamClient>(
     bar.finish_and_clear();
     // Every write is checked before the first one is sent: a file that would be refused
     // halfway leaves the drive as it was.
+    let drive_key = client.drive_key().await?;
     let mut warnings = Vec::new();
     for req in &changes {
-        let warning = write::check_with(client, req, restore_hint).map_err(|e| {
+        let warning = write::check_with(&drive_key, req, restore_hint).map_err(|e| {
             CliError::usage(format!("{}: {e}; nothing was written", file.display()))
         })?;
         warnings.extend(warning);
@@ -277,7 +278,6 @@ pub async fn restore<C: ParamClient>(
     for w in &warnings {
         errln!("drivectl: warning: {w}");
     }
-    let drive_key = client.drive_key();
     let bar = progress(changes.len(), "writing");
     let mut refused = Vec::new();
     let mut written = 0;
@@ -285,7 +285,9 @@ pub async fn restore<C: ParamClient>(
         bar.set_message(req.target.label());
         match client.write(&req.target, req.raw, req.persistence).await {
             Ok(()) => {
-                write::record(&drive_key, req);
+                if let Err(e) = write::record(&drive_key, req) {
+                    bar.suspend(|| errln!("drivectl: warning: {e}"));
+                }
                 written += 1;
             }
             Err(ClientError::Device(why)) => {

@@ -5,7 +5,7 @@ use std::ops::RangeInclusive;
 
 use drive_profile::family::{self, AnyParam};
 use drive_profile::guard;
-use drive_profile::{Family, Persistence};
+use drive_profile::{Family, ParamMeta, Persistence};
 use serde_json::{Map, Value};
 
 use crate::error::{CliError, Result};
@@ -63,8 +63,32 @@ pub trait ParamClient {
     /// The family whose table the drive's parameters come from.
     fn family(&self) -> Family;
 
-    /// A name of the drive for the EEPROM-wear log: the port and the address.
-    fn drive_key(&self) -> String;
+    /// A name of the drive for the EEPROM-wear log: the canonical port path (symlinks and `//`
+    /// resolved, see [`canonical_port`]) and the address the drive really has (a point-to-point
+    /// address is resolved by asking the drive), so that no second way to the same drive
+    /// starts a fresh log.
+    async fn drive_key(&mut self) -> std::result::Result<String, ClientError>;
+
+    /// Indices of the drive's own settings for the link this client talks over (address,
+    /// baud rate, timeouts): writing one needs confirmation.
+    fn link_settings(&self) -> &'static [u16] {
+        &[]
+    }
+
+    /// What writing `raw` to the link setting `target` does to the link, for a person (e.g.
+    /// "the drive will answer at address 5 (--addr 5)").
+    fn link_change(&self, target: &Target, raw: i64) -> String {
+        format!(
+            "writing {raw} to {} changes how the drive is reached",
+            target.label()
+        )
+    }
+
+    /// The link setting `target` was just written with `raw`: follow it where the client can
+    /// (talk to the new address from now on) and say where the drive answers now.
+    fn follow_link_change(&mut self, target: &Target, raw: i64) -> String {
+        self.link_change(target, raw)
+    }
 
     /// Indices a restore never writes (commands, the link's own settings).
     fn not_restored(&self) -> &'static [u16] {
@@ -173,50 +197,199 @@ impl Target {
         Ok(())
     }
 
-    /// The raw value of what the user typed: a value name of the parameter's list (German or
-    /// English), a number in the parameter's unit, or with `raw` (or outside the table) a raw
-    /// integer (decimal, `0x` hex, negative).
+    /// The raw value of what the user typed (see [`ValueText`]): with `raw` (or outside the
+    /// table) a strict integer; a value name of the parameter's list; for a selection
+    /// parameter an integer of its list; else a number in the parameter's unit, converted
+    /// within its range (`force`: within the wire width only) and refused when the parameter
+    /// cannot hold it exactly unless `round`.
+    #[cfg(test)]
     pub fn raw_from_text(&self, value: &str, raw: bool) -> Result<i64> {
-        let Some(p) = self.param.filter(|_| !raw) else {
-            return parse_int(value)
-                .ok_or_else(|| CliError::usage(format!("`{value}` is not an integer raw value")));
+        self.value_from_text(
+            value,
+            &ValueText {
+                raw,
+                ..ValueText::default()
+            },
+        )
+        .map(|v| v.raw)
+    }
+
+    /// [`Target::raw_from_text`] with every option, and the rounding that happened.
+    pub fn value_from_text(&self, value: &str, how: &ValueText) -> Result<Parsed> {
+        let exact = |raw| Parsed {
+            raw,
+            rounded_from: None,
         };
+        let Some(p) = self.param.filter(|_| !how.raw) else {
+            return parse_int(value).map(exact).ok_or_else(|| {
+                CliError::usage(format!(
+                    "`{value}` is not an integer raw value (decimal, 0x hex, a leading - for negative)"
+                ))
+            });
+        };
+        let t = value.trim();
         if let Some(v) = p
             .values()
             .iter()
-            .find(|v| v.de.eq_ignore_ascii_case(value) || v.en.eq_ignore_ascii_case(value))
+            .find(|v| v.de.eq_ignore_ascii_case(t) || v.en.eq_ignore_ascii_case(t))
         {
-            return Ok(v.value);
+            return Ok(exact(v.value));
         }
-        let x: f64 = value.trim().parse().map_err(|_| {
-            CliError::usage(format!(
-                "`{value}` is not a number in {}; give the value in the parameter's unit, or --raw",
-                if p.unit().is_empty() {
-                    "the parameter's unit"
-                } else {
-                    p.unit()
-                }
-            ))
-        })?;
-        p.from_physical(x).map_err(|e| {
-            CliError::usage(format!(
-                "{} {}: {e}; --raw --force sends a raw value unchecked by the table",
+        let list = || {
+            p.values()
+                .iter()
+                .map(|v| format!("{} ({})", v.value, v.en))
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
+        if p.value_list_exhaustive() && !p.values().is_empty() {
+            // A selection: one of its values, by number or name; never a fraction.
+            return match parse_int(t) {
+                Some(v) if how.force || p.value_name(v).is_some() => Ok(exact(v)),
+                _ => Err(CliError::usage(format!(
+                    "`{value}` is not a value of {} {}; it takes one of: {}",
+                    p.label(),
+                    p.name_en(),
+                    list()
+                ))),
+            };
+        }
+        let Some(x) = parse_decimal(t) else {
+            let unit = if p.unit().is_empty() {
+                "the parameter's unit"
+            } else {
+                p.unit()
+            };
+            let names = if p.values().is_empty() {
+                String::new()
+            } else {
+                format!(" or a value name ({})", list())
+            };
+            return Err(CliError::usage(format!(
+                "`{value}` is not a number in {unit}{names}; give the value in the parameter's \
+                 unit (1.5 or 1,5), or --raw"
+            )));
+        };
+        let raw = if how.force {
+            forced_raw(p, x)
+        } else {
+            p.from_physical(x).map_err(|e| {
+                CliError::usage(format!(
+                    "{} {}: {e}; --force sends a value outside the table's range",
+                    p.label(),
+                    p.name_en()
+                ))
+            })
+        }?;
+        let held = p.to_physical(raw);
+        if (held - x).abs() <= 1e-9 * x.abs().max(1.0) {
+            return Ok(exact(raw));
+        }
+        let held_text = super::output::physical_text(p, raw);
+        if !how.round {
+            return Err(CliError::usage(format!(
+                "{} {} cannot hold {value} exactly: the nearest value it takes is {held_text} \
+                 (raw {raw}); write that, or add --round to have it rounded",
                 p.label(),
                 p.name_en()
-            ))
+            )));
+        }
+        Ok(Parsed {
+            raw,
+            rounded_from: Some(x),
         })
     }
 }
 
-/// Parse an integer given as decimal, `0x` hex or negative decimal.
+/// How a value typed on the command line is read (the `write` options).
+#[derive(Debug, Clone, Copy, Default)]
+pub struct ValueText {
+    /// The text is the raw bus value.
+    pub raw: bool,
+    /// Convert outside the table's range (within the wire width) and take any integer for a
+    /// selection parameter.
+    pub force: bool,
+    /// Accept a value the parameter cannot hold exactly, rounded to the nearest one it can.
+    pub round: bool,
+}
+
+/// A value read from the command line.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Parsed {
+    /// The raw bus value.
+    pub raw: i64,
+    /// What the user typed, when `raw` is a rounded form of it (`--round`).
+    pub rounded_from: Option<f64>,
+}
+
+/// A physical value converted without the table's range (`--force`): the family's scaling is
+/// linear in the raw value, so two points give it; the result is checked against the wire
+/// width only.
+fn forced_raw(p: &dyn ParamMeta, x: f64) -> Result<i64> {
+    let b = p.to_physical(0);
+    let a = p.to_physical(1) - b;
+    let (lo, hi) = p.wire_range();
+    let r = ((x - b) / a).round();
+    if !r.is_finite() || r < lo as f64 || r > hi as f64 {
+        return Err(CliError::usage(format!(
+            "{} {}: {x} {} does not fit the parameter's bus width ({} … {}); not even --force \
+             sends a value that would be cut",
+            p.label(),
+            p.name_en(),
+            p.unit(),
+            p.to_physical(lo),
+            p.to_physical(hi)
+        )));
+    }
+    Ok(r as i64)
+}
+
+/// The port path as the EEPROM-wear log keys it: symlinks, `.`/`..` and doubled slashes
+/// resolved (`/dev//pts/0`, `/dev/serial/by-id/…` → `/dev/pts/0`, `/dev/ttyUSB0`); the path as
+/// given when it cannot be resolved (it was opened, so that is rare).
+pub fn canonical_port(path: &str) -> String {
+    std::fs::canonicalize(path).map_or_else(|_| path.to_owned(), |p| p.display().to_string())
+}
+
+/// Parse an integer strictly: decimal digits or `0x` hex digits, with at most one leading `-`
+/// (`--5`, `0x-5`, `+5`, `5 000` and `1e3` are not integers).
 pub fn parse_int(s: &str) -> Option<i64> {
     let t = s.trim();
     let (neg, body) = t.strip_prefix('-').map_or((false, t), |b| (true, b));
-    let v = match body.strip_prefix("0x").or_else(|| body.strip_prefix("0X")) {
-        Some(h) => i64::from_str_radix(h, 16).ok()?,
-        None => body.parse::<i64>().ok()?,
+    let (digits, radix) = match body.strip_prefix("0x").or_else(|| body.strip_prefix("0X")) {
+        Some(h) => (h, 16),
+        None => (body, 10),
     };
-    if neg { v.checked_neg() } else { Some(v) }
+    if digits.is_empty() || !digits.chars().all(|c| c.is_digit(radix)) {
+        return None;
+    }
+    // The magnitude as u64, so that i64::MIN (whose magnitude is no i64) parses too.
+    let m = u64::from_str_radix(digits, radix).ok()?;
+    if neg {
+        0i64.checked_sub_unsigned(m)
+    } else {
+        i64::try_from(m).ok()
+    }
+}
+
+/// Parse a decimal number strictly: an optional `-`, digits, and an optional fraction after
+/// `.` or `,` (a decimal comma, as German drive documentation writes it). No exponent, no
+/// `inf`/`NaN`, no thousands separators.
+pub fn parse_decimal(s: &str) -> Option<f64> {
+    let t = s.trim();
+    let body = t.strip_prefix('-').unwrap_or(t);
+    let (int, frac) = match body.split_once(['.', ',']) {
+        Some((i, f)) => (i, Some(f)),
+        None => (body, None),
+    };
+    let digits = |d: &str| d.chars().all(|c| c.is_ascii_digit());
+    let ok = digits(int)
+        && frac.is_none_or(|f| digits(f) && !f.is_empty())
+        && !(int.is_empty() && frac.is_none());
+    if !ok {
+        return None;
+    }
+    t.replace(',', ".").parse().ok()
 }
 
 #[cfg(test)]
@@ -237,6 +410,90 @@ mod tests {
         assert_eq!(p870.raw_from_text("control word 1", false).unwrap(), 9);
         assert_eq!(parse_int("-0x10"), Some(-16));
         assert_eq!(parse_int("x"), None);
+    }
+
+    #[test]
+    fn issue7_numbers_are_parsed_strictly() {
+        for bad in [
+            "--5", "0x-5", "-0x-5", "+5", "", "-", "0x", "5 000", "1e3", "1.0", "٣",
+        ] {
+            assert_eq!(parse_int(bad), None, "{bad:?}");
+        }
+        assert_eq!(parse_int(" -5 "), Some(-5));
+        assert_eq!(parse_int("0xFFFFFFFF"), Some(0xFFFF_FFFF));
+        assert_eq!(parse_int("-9223372036854775808"), Some(i64::MIN));
+        assert_eq!(parse_int("9223372036854775808"), None);
+        for bad in [
+            "--1.5", "1.5.2", "1,5,2", "inf", "NaN", "1e3", ".", "1.", "+1", "1 5", "0x10",
+        ] {
+            assert_eq!(parse_decimal(bad), None, "{bad:?}");
+        }
+        assert_eq!(parse_decimal("1,5"), Some(1.5));
+        assert_eq!(parse_decimal("-0.25"), Some(-0.25));
+        assert_eq!(parse_decimal(".5"), Some(0.5));
+        // `--5 --raw` is not +5.
+        let p130 = Target::resolve(Family::Movidrive, "P130", 1000..=0xFFFF).unwrap();
+        assert!(p130.raw_from_text("--5", true).is_err());
+        assert_eq!(p130.raw_from_text("1,5", false).unwrap(), 1500);
+    }
+
+    #[test]
+    fn issue7_selections_take_integers_or_names_and_rounding_is_never_silent() {
+        let p700 = Target::resolve(Family::Movidrive, "P700", 1000..=0xFFFF).unwrap();
+        let e = p700.raw_from_text("2.5", false).unwrap_err().to_string();
+        assert!(
+            e.contains("not a value of P700") && e.contains("16 (SERVO)"),
+            "{e}"
+        );
+        let e = p700
+            .raw_from_text("servo-ish", false)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("it takes one of: 0 ("), "{e}");
+        assert_eq!(p700.raw_from_text("16", false).unwrap(), 16);
+        assert_eq!(p700.raw_from_text("SERVO", false).unwrap(), 16);
+        // 1.25 s lies in P130's 0.1 s steps (1…10 s): refused, named, or rounded when asked.
+        let p130 = Target::resolve(Family::Movidrive, "P130", 1000..=0xFFFF).unwrap();
+        let e = p130.raw_from_text("1.25", false).unwrap_err().to_string();
+        assert!(
+            e.contains("cannot hold 1.25 exactly") && e.contains("1.30 s (raw 1300)"),
+            "{e}"
+        );
+        let how = ValueText {
+            round: true,
+            ..ValueText::default()
+        };
+        assert_eq!(
+            p130.value_from_text("1.25", &how).unwrap(),
+            Parsed {
+                raw: 1300,
+                rounded_from: Some(1.25)
+            }
+        );
+        // An address of 0.4 is no address.
+        let p810 = Target::resolve(Family::Movidrive, "P810", 1000..=0xFFFF).unwrap();
+        assert!(p810.raw_from_text("0.4", false).is_err());
+    }
+
+    #[test]
+    fn issue7_force_lifts_the_range_of_a_physical_value_but_not_the_width() {
+        let p130 = Target::resolve(Family::Movidrive, "P130", 1000..=0xFFFF).unwrap();
+        assert!(p130.raw_from_text("3000", false).is_err());
+        let forced = ValueText {
+            force: true,
+            ..ValueText::default()
+        };
+        assert_eq!(
+            p130.value_from_text("3000", &forced).unwrap().raw,
+            3_000_000
+        );
+        // Off the steps but on the resolution (1 ms): exact when forced.
+        assert_eq!(p130.value_from_text("1.25", &forced).unwrap().raw, 1250);
+        let e = p130
+            .value_from_text("5000000", &forced)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("bus width"), "{e}");
     }
 
     #[test]

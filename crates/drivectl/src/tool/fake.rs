@@ -39,8 +39,8 @@ impl ParamClient for FakeClient {
     fn family(&self) -> Family {
         Family::Movidrive
     }
-    fn drive_key(&self) -> String {
-        "fake 1".into()
+    async fn drive_key(&mut self) -> Result<String, ClientError> {
+        Ok("fake 1".into())
     }
     async fn read(&mut self, t: &Target) -> Result<i64, ClientError> {
         (self.read)(t.index)

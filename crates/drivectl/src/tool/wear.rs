@@ -2,12 +2,19 @@
 //! write` in a loop is stopped by the EEPROM-wear rule of the write guard just like a program
 //! that keeps one guard alive. The same log serves every family.
 //!
-//! The log is a small JSON object `{"<drive> <family> <index> <sub>": unix-milliseconds}` in
-//! `$DRIVECTL_STATE_DIR`, else `$XDG_STATE_HOME/drivectl`, else `~/.local/state/drivectl`.
-//! It is rewritten through a temporary file and a rename, so it is never half-written; a log
-//! that cannot be read is treated as empty (the guard then knows only this run's writes).
+//! The log is a small JSON object `{"<drive> <family> <index> <sub>": unix-milliseconds}` named
+//! [`FILE`] in `$DRIVECTL_STATE_DIR`, else `$XDG_STATE_HOME/drivectl`, else
+//! `~/.local/state/drivectl`. `<drive>` is the client's [`drive_key`](super::client::ParamClient::drive_key):
+//! the canonical port path (symlinks and `//` resolved) and the address the drive really has,
+//! so a second path to the same port or a point-to-point address does not start a fresh log.
+//!
+//! The rule must not switch itself off: a log that cannot be read (damaged) or a state
+//! directory that cannot be written refuses non-volatile writes with a message that names the
+//! path and the ways out (another `DRIVECTL_STATE_DIR`, `--volatile`, `--force`). The log is
+//! rewritten through a temporary file and a rename, so it is never half-written. An entry in
+//! the future (a clock set back) counts as a write made now.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
 use drive_core::Instant;
@@ -15,12 +22,16 @@ use drive_profile::ParamMeta;
 use drive_profile::guard::WriteGuard;
 use serde_json::{Map, Value};
 
-const FILE: &str = "eeprom-writes.json";
+use crate::error::{CliError, Result};
+
+/// The log's file name inside the state directory.
+pub const FILE: &str = "eeprom-writes.json";
 
 /// How long entries are kept.
 const KEEP: Duration = Duration::from_secs(60);
 
-fn dir() -> Option<PathBuf> {
+/// Where the state directory is, and why (for messages and `--help`).
+pub fn dir() -> Option<PathBuf> {
     if let Some(d) = std::env::var_os("DRIVECTL_STATE_DIR") {
         return Some(PathBuf::from(d));
     }
@@ -49,29 +60,77 @@ pub fn now() -> Instant {
     )
 }
 
-fn load() -> Map<String, Value> {
-    dir()
-        .and_then(|d| std::fs::read_to_string(d.join(FILE)).ok())
-        .and_then(|t| serde_json::from_str::<Value>(&t).ok())
-        .and_then(|v| v.as_object().cloned())
-        .unwrap_or_default()
+/// The refusal when the log cannot be kept: the rule would be off.
+fn unusable(what: &str, path: &Path, e: &dyn std::fmt::Display) -> CliError {
+    CliError::failed(format!(
+        "the EEPROM-wear log {} {what} ({e}), so non-volatile writes cannot be counted: nothing \
+         was sent; set DRIVECTL_STATE_DIR to a writable directory, write with --volatile, or \
+         --force to write without the rule",
+        path.display()
+    ))
 }
 
-/// Tell `guard` about the last non-volatile write of `param` on `drive`, if the log has one.
-pub fn prime(guard: &mut WriteGuard, drive: &str, param: &dyn ParamMeta) {
-    let log = load();
-    if let Some(ms) = log.get(&key(drive, param)).and_then(Value::as_u64) {
-        guard.remember(param, Instant::from_millis(ms));
+/// The state directory, or a refusal when none can be found.
+fn state_dir() -> Result<PathBuf> {
+    dir().ok_or_else(|| {
+        CliError::failed(
+            "no place for the EEPROM-wear log (neither DRIVECTL_STATE_DIR, XDG_STATE_HOME nor \
+             HOME is set): nothing was sent; set DRIVECTL_STATE_DIR, write with --volatile, or \
+             --force to write without the rule",
+        )
+    })
+}
+
+/// The log as it is on disk (empty when there is none yet).
+fn load(d: &Path) -> Result<Map<String, Value>> {
+    let path = d.join(FILE);
+    match std::fs::read(&path) {
+        Ok(bytes) => serde_json::from_slice::<Value>(&bytes)
+            .ok()
+            .and_then(|v| v.as_object().cloned())
+            .ok_or_else(|| {
+                unusable(
+                    "is damaged",
+                    &path,
+                    &"not a JSON object; delete it to start a new log",
+                )
+            }),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(Map::new()),
+        Err(e) => Err(unusable("cannot be read", &path, &e)),
     }
 }
 
+/// Make sure the log can be read and written before a non-volatile write is sent: the
+/// directory is created if needed and a probe file is written and removed.
+pub fn ensure_usable() -> Result<()> {
+    let d = state_dir()?;
+    load(&d)?;
+    let probe = d.join(format!("{FILE}.probe.{}", std::process::id()));
+    std::fs::create_dir_all(&d)
+        .and_then(|()| std::fs::write(&probe, b"{}"))
+        .and_then(|()| std::fs::remove_file(&probe))
+        .map_err(|e| unusable("cannot be written", &d.join(FILE), &e))
+}
+
+/// Tell `guard` about the last non-volatile write of `param` on `drive`, if the log has one.
+pub fn prime(guard: &mut WriteGuard, drive: &str, param: &dyn ParamMeta) -> Result<()> {
+    let log = load(&state_dir()?)?;
+    if let Some(ms) = log.get(&key(drive, param)).and_then(Value::as_u64) {
+        // A write "in the future" (the clock was set back) is taken as one made now.
+        let at = Instant::from_millis(ms).min(now());
+        guard.remember(param, at);
+    }
+    Ok(())
+}
+
 /// Record a non-volatile write of `param` on `drive` that just happened (entries older than a
-/// minute are dropped).
-pub fn record(drive: &str, param: &dyn ParamMeta) {
-    let Some(d) = dir() else { return };
+/// minute are dropped). The write is done: a failure here is returned for the caller to
+/// report, not to undo anything.
+pub fn record(drive: &str, param: &dyn ParamMeta) -> Result<()> {
+    let d = state_dir()?;
     let now_ms = now().as_nanos() / 1_000_000;
     let keep_ms = KEEP.as_millis() as u64;
-    let mut log = load();
+    let mut log = load(&d)?;
     log.retain(|_, v| {
         v.as_u64()
             .is_some_and(|t| now_ms.saturating_sub(t) < keep_ms)
@@ -79,7 +138,15 @@ pub fn record(drive: &str, param: &dyn ParamMeta) {
     log.insert(key(drive, param), Value::from(now_ms));
     let text = Value::Object(log).to_string();
     let tmp = d.join(format!("{FILE}.{}", std::process::id()));
-    let _ = std::fs::create_dir_all(&d)
+    std::fs::create_dir_all(&d)
         .and_then(|()| std::fs::write(&tmp, text))
-        .and_then(|()| std::fs::rename(&tmp, d.join(FILE)));
+        .and_then(|()| std::fs::rename(&tmp, d.join(FILE)))
+        .map_err(|e| {
+            let _ = std::fs::remove_file(&tmp);
+            CliError::failed(format!(
+                "the write was sent, but the EEPROM-wear log {} cannot be written ({e}); the \
+                 next write of this parameter is not held back by it",
+                d.join(FILE).display()
+            ))
+        })
 }

@@ -23,14 +23,16 @@ pub struct WriteRequest {
 
 /// Check `req` as the user asked (see the [module docs](self)); returns the guard's warning to
 /// show, if any. Nothing is sent. A refusal carries the hints of the `write` command.
-pub fn check<C: ParamClient>(client: &C, req: &WriteRequest) -> Result<Option<String>> {
-    check_with(client, req, with_hint)
+pub async fn check<C: ParamClient>(client: &mut C, req: &WriteRequest) -> Result<Option<String>> {
+    let drive = client.drive_key().await?;
+    check_with(&drive, req, with_hint)
 }
 
-/// [`check`] with the caller's way out in a refusal (`hint` turns the guard's error into the
-/// message), for commands with other options than `write`.
-pub fn check_with<C: ParamClient>(
-    client: &C,
+/// [`check`] for the drive named `drive` (its [`ParamClient::drive_key`]), with the caller's way
+/// out in a refusal (`hint` turns the guard's error into the message), for commands with other
+/// options than `write`.
+pub fn check_with(
+    drive: &str,
     req: &WriteRequest,
     hint: fn(&GuardError) -> String,
 ) -> Result<Option<String>> {
@@ -47,38 +49,84 @@ pub fn check_with<C: ParamClient>(
         )));
     };
     let mut guard = WriteGuard::new();
-    wear::prime(&mut guard, &client.drive_key(), param);
+    if req.persistence == Persistence::NonVolatile {
+        // The rule must not switch itself off: no log, no non-volatile write.
+        wear::ensure_usable()?;
+        wear::prime(&mut guard, drive, param)?;
+    }
     guard
         .check(param, req.raw, req.persistence, wear::now())
         .map_err(|e| CliError::usage(hint(&e)))?;
     Ok(WriteGuard::warning(param).map(|w| w.to_string()))
 }
 
-/// Check, write and read back: the value the drive holds afterwards.
-pub async fn write_checked<C: ParamClient>(client: &mut C, req: &WriteRequest) -> Result<i64> {
-    if let Some(warning) = check(client, req)? {
+/// Refuse a write of the drive's own link settings (address, baud rate, timeouts of the link
+/// in use) unless the user confirmed it with `--yes`: such a write moves the drive away from
+/// the link it was written over.
+pub fn check_link_setting<C: ParamClient>(client: &C, req: &WriteRequest, yes: bool) -> Result<()> {
+    if yes || !client.link_settings().contains(&req.target.index) {
+        return Ok(());
+    }
+    Err(CliError::usage(format!(
+        "{} is a setting of the link this command talks over: {}; add --yes to write it",
+        req.target.label(),
+        client.link_change(&req.target, req.raw)
+    )))
+}
+
+/// What a checked write did: the value the drive holds afterwards, and where the drive answers
+/// now when a link setting was written.
+#[derive(Debug, Clone)]
+pub struct Written {
+    /// The value read back.
+    pub back: i64,
+    /// For a link setting: what changed for the link (`P810`: the drive answers at address 5).
+    pub link_note: Option<String>,
+}
+
+/// Check, write and read back: the value the drive holds afterwards. A write of a link setting
+/// needs `yes`; the client follows the change (a new address) before reading back.
+pub async fn write_checked<C: ParamClient>(
+    client: &mut C,
+    req: &WriteRequest,
+    yes: bool,
+) -> Result<Written> {
+    check_link_setting(client, req, yes)?;
+    if let Some(warning) = check(client, req).await? {
         errln!("drivectl: warning: {warning}");
     }
+    let drive = client.drive_key().await?;
     client.write(&req.target, req.raw, req.persistence).await?;
-    record(&client.drive_key(), req);
+    if let Err(e) = record(&drive, req) {
+        errln!("drivectl: warning: {e}");
+    }
+    let link_note = client
+        .link_settings()
+        .contains(&req.target.index)
+        .then(|| client.follow_link_change(&req.target, req.raw));
     // The write is done: a failing read-back must not look like a failed write.
-    client.read(&req.target).await.map_err(|e| {
+    let back = client.read(&req.target).await.map_err(|e| {
         CliError::failed(format!(
-            "{} was written, but reading it back failed: {}",
+            "{} was written{}, but reading it back failed: {}",
             req.target.label(),
+            link_note
+                .as_ref()
+                .map_or_else(String::new, |n| format!(" ({n})")),
             CliError::from(e)
         ))
-    })
+    })?;
+    Ok(Written { back, link_note })
 }
 
 /// Enter a sent write into the EEPROM-wear log of drive `drive_key` (non-volatile writes of
 /// table parameters only).
-pub fn record(drive_key: &str, req: &WriteRequest) {
+pub fn record(drive_key: &str, req: &WriteRequest) -> Result<()> {
     if req.persistence == Persistence::NonVolatile {
         if let Some(param) = req.target.param {
-            wear::record(drive_key, param);
+            wear::record(drive_key, param)?;
         }
     }
+    Ok(())
 }
 
 /// The guard's message with what drivectl offers as a way out.
@@ -121,7 +169,7 @@ mod tests {
             .build()
             .unwrap();
         let err = rt
-            .block_on(write_checked(&mut client, &req))
+            .block_on(write_checked(&mut client, &req, false))
             .unwrap_err()
             .to_string();
         assert_eq!(client.written, [(8470, 1500, Persistence::Volatile)]);
