@@ -10,6 +10,7 @@
 )]
 
 use std::io::{BufRead, BufReader};
+use std::os::unix::fs::FileTypeExt as _;
 use std::process::{Child, Command, Output, Stdio};
 
 struct Sim {
@@ -743,4 +744,136 @@ fn issue7_the_eeprom_wear_rule_is_keyed_on_the_drive_and_cannot_be_switched_off(
     let o = sim.run(1, &["write", "P132", "1.5"]);
     assert_eq!(o.status.code(), Some(2), "{}", stderr_of(&o));
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn issue7_backups_go_only_to_regular_files_checked_before_the_first_read() {
+    let sim = Sim::start(&[1]);
+    let dir = std::env::temp_dir().join(format!("drivectl-bk7-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let d = dir.to_str().unwrap();
+    let started = std::time::Instant::now();
+    for (out, why) in [
+        ("/dev/full", "is a device node"),
+        (d, "is a directory"),
+        ("/proc/drivectl-nowhere/b.json", "nothing was read"),
+    ] {
+        let o = sim.run(1, &["backup", "--out", out, "--overwrite"]);
+        assert_ne!(o.status.code(), Some(0), "{out}");
+        assert!(stderr_of(&o).contains(why), "{out}: {}", stderr_of(&o));
+    }
+    // Refused at once, not after reading hundreds of parameters (about 2 s here).
+    assert!(started.elapsed() < std::time::Duration::from_secs(1));
+    assert!(
+        std::fs::metadata("/dev/full")
+            .unwrap()
+            .file_type()
+            .is_char_device()
+    );
+    // A new file, then the same name again: not replaced without --overwrite.
+    let f = dir.join("b.json");
+    let fs = f.to_str().unwrap();
+    ok_json(&sim.run(1, &["--json", "backup", "--out", fs]));
+    let o = sim.run(1, &["backup", "--out", fs]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr_of(&o).contains("--overwrite"), "{}", stderr_of(&o));
+    // Through a symlink with --overwrite: the target is written, the link stays.
+    std::fs::write(&f, "old").unwrap();
+    let link = dir.join("link.json");
+    std::os::unix::fs::symlink(&f, &link).unwrap();
+    let v = ok_json(&sim.run(
+        1,
+        &[
+            "--json",
+            "backup",
+            "--out",
+            link.to_str().unwrap(),
+            "--overwrite",
+        ],
+    ));
+    assert_eq!(v[0]["type"], "backup");
+    assert!(
+        std::fs::symlink_metadata(&link)
+            .unwrap()
+            .file_type()
+            .is_symlink()
+    );
+    assert!(
+        std::fs::read_to_string(&f)
+            .unwrap()
+            .contains("drivebus-backup")
+    );
+    // Nothing else was left in the directory (no temporary files).
+    let mut names: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().into_string().unwrap())
+        .collect();
+    names.sort();
+    assert_eq!(names, ["b.json", "link.json"]);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn issue7_restore_dry_run_shows_old_and_new_and_the_report_is_honest() {
+    let sim = Sim::start(&[1]);
+    let dir = std::env::temp_dir().join(format!("drivectl-rs7-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let f = dir.join("b.json");
+    let fs = f.to_str().unwrap();
+    ok_json(&sim.run(1, &["--json", "write", "P130", "1.2", "--volatile"]));
+    ok_json(&sim.run(1, &["--json", "backup", "--out", fs]));
+    // Nothing differs: said so, nothing written.
+    let o = sim.run(1, &["restore", fs]);
+    assert!(o.status.success(), "{}", stderr_of(&o));
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        text.contains("already held the saved values; nothing was written"),
+        "{text}"
+    );
+    // One change: the dry run shows it as old → new and writes nothing.
+    ok_json(&sim.run(1, &["--json", "write", "P130", "0.5", "--volatile"]));
+    let o = sim.run(1, &["restore", fs, "--dry-run"]);
+    assert!(o.status.success(), "{}", stderr_of(&o));
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        text.contains("P130 Ramp t11 up CW [s]: 0.50 s (raw 500) → 1.20 s (raw 1200)"),
+        "{text}"
+    );
+    assert!(text.contains("1 of "), "{text}");
+    let v = ok_json(&sim.run(1, &["--json", "restore", fs, "--dry-run"]));
+    assert_eq!(v[0]["type"], "change");
+    assert_eq!(
+        (v[0]["from_raw"].as_i64(), v[0]["to_raw"].as_i64()),
+        (Some(500), Some(1200))
+    );
+    assert_eq!(v[1]["type"], "restore");
+    assert_eq!(
+        ok_json(&sim.run(1, &["--json", "read", "P130"]))[0]["raw"],
+        500
+    );
+    // A file from another device type is refused.
+    let text = std::fs::read_to_string(&f).unwrap();
+    let mut doc: serde_json::Value = serde_json::from_str(&text).unwrap();
+    doc["device_type"] = serde_json::json!(1);
+    std::fs::write(&f, doc.to_string()).unwrap();
+    let o = sim.run(1, &["restore", fs]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr_of(&o).contains("--any-device"), "{}", stderr_of(&o));
+    // The value of 2^40 for a parameter: refused, nothing sent.
+    doc["device_type"] =
+        serde_json::from_str::<serde_json::Value>(&text).unwrap()["device_type"].clone();
+    let list = doc["parameters"].as_array_mut().unwrap();
+    let e = list.iter_mut().find(|e| e["index"] == 8470).unwrap();
+    e["raw"] = serde_json::json!(1_099_511_627_776_i64);
+    std::fs::write(&f, format!("\u{feff}{doc}")).unwrap();
+    let o = sim.run(1, &["restore", fs]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr_of(&o).contains("1099511627776"), "{}", stderr_of(&o));
+    assert_eq!(
+        ok_json(&sim.run(1, &["--json", "read", "P130"]))[0]["raw"],
+        500
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -23,6 +23,7 @@ use crate::tool::client::{
     ClientError, DeviceError, DeviceErrorKind, ParamClient, Target, ValueText, canonical_port,
     parse_int,
 };
+use crate::tool::interrupt::Interrupt;
 use crate::tool::line::{LineArgs, MasterArgs, runtime};
 use crate::tool::output::{physical_text, print_value, trim_float};
 use crate::tool::{backup, write};
@@ -127,17 +128,29 @@ enum MovilinkCommand {
     Line,
     /// Save all readable parameters to a JSON file.
     Backup {
-        /// Output file.
+        /// Output file: a new regular file (a symlink is followed to one); checked before the
+        /// first read.
         #[arg(long)]
         out: PathBuf,
+        /// Replace the output file if it exists.
+        #[arg(long)]
+        overwrite: bool,
     },
-    /// Write a backup file back to the drive and verify every value.
+    /// Write a backup file back to the drive and verify every value. Everything is checked
+    /// before the first write; Ctrl-C stops after the write in progress and lists what was
+    /// written; running it again finishes it.
     Restore {
         /// Backup file written by `backup`.
         file: PathBuf,
         /// Write even values the table check refuses (values that do not fit are refused).
         #[arg(long)]
         force: bool,
+        /// Show what would change (old → new) and write nothing.
+        #[arg(long)]
+        dry_run: bool,
+        /// Restore onto a drive whose device type differs from the file's.
+        #[arg(long)]
+        any_device: bool,
     },
 }
 
@@ -551,13 +564,27 @@ async fn execute<IO: CharIo>(m: &mut MasterDriver<IO>, args: &MovilinkArgs) -> R
             }
             Ok(())
         }
-        MovilinkCommand::Backup { out } => {
+        MovilinkCommand::Backup { out, overwrite } => {
             let mut client = MovilinkClient::new(m, address(args.addr)?, &args.port);
-            backup::backup(&mut client, out, json).await
+            let stop = Interrupt::install("the backup file was not written");
+            backup::backup(&mut client, out, *overwrite, json, &stop).await
         }
-        MovilinkCommand::Restore { file, force } => {
+        MovilinkCommand::Restore {
+            file,
+            force,
+            dry_run,
+            any_device,
+        } => {
             let mut client = MovilinkClient::new(m, address(args.addr)?, &args.port);
-            backup::restore(&mut client, file, *force, json).await
+            let stop = Interrupt::install(
+                "the drive may be half restored; run the same restore again to finish it",
+            );
+            let opts = backup::RestoreOptions {
+                force: *force,
+                dry_run: *dry_run,
+                any_device: *any_device,
+            };
+            backup::restore(&mut client, file, opts, json, &stop).await
         }
     }
 }

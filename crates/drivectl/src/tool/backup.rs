@@ -1,12 +1,21 @@
 //! Backup and restore of a drive's parameters, for every family, over a [`ParamClient`].
 //!
 //! The backup is a JSON document with every readable parameter of the family's table (one value
-//! per bus index and sub-index) and the drive's identification. Restore checks the whole file
-//! before it writes anything: every entry must name a parameter of the table once and fit its
-//! width, and every value that differs from the drive's passes the one write path's checks
-//! (access, range, value list, EEPROM wear; `--force` skips all but the width). It then writes
-//! those values non-volatilely, logs them in the EEPROM-wear log, and reads every entry back. The file is written to a temporary name and renamed,
-//! so an interrupted backup never leaves a truncated file behind.
+//! per bus index and sub-index) and the drive's identification (`device_type`, `firmware`). Its
+//! path is checked before the first read ([`OutputFile`]: regular files only, a symlink is
+//! followed, an existing file is replaced only with `--overwrite`) and the file is written to a
+//! temporary name and renamed, so an interrupted backup never leaves a truncated file behind.
+//!
+//! Restore checks the whole file before it writes anything: every entry must name a parameter
+//! of the table once and fit its width (a UTF-8 byte order mark, as Notepad writes it, is
+//! skipped), the drive's device type must be the file's (`--any-device` overrides; another
+//! firmware is a warning), and every value that differs from the drive's passes the one write
+//! path's checks (access, range, value list, EEPROM wear; `--force` skips all but the width);
+//! every refusal is listed at once. `--dry-run` stops there and shows the changes as old → new.
+//! Otherwise the changed values are written non-volatilely and logged in the EEPROM-wear log,
+//! and every entry is read back; a mismatch shows the expected and the read value. A restore
+//! that stops halfway (Ctrl-C, the drive gone) lists what was written and what was not: running
+//! it again finishes it, since values the drive already holds are not written.
 
 use std::collections::BTreeSet;
 use std::path::Path;
@@ -17,7 +26,9 @@ use drive_profile::{Family, Persistence};
 use serde_json::{Value, json};
 
 use super::client::{ClientError, DeviceErrorKind, ParamClient, Target};
-use super::output::print_value;
+use super::interrupt::Interrupt;
+use super::outfile::OutputFile;
+use super::output::physical_text;
 use super::write::{self, WriteRequest};
 use crate::error::{CliError, Result};
 
@@ -50,19 +61,16 @@ pub fn progress(len: usize, what: &str) -> indicatif::ProgressBar {
     bar
 }
 
-/// Write `text` to `out` through a temporary file and a rename.
-pub fn write_atomic(out: &Path, text: &str) -> Result<()> {
-    let tmp = out.with_extension("tmp-drivectl");
-    std::fs::write(&tmp, text.as_bytes())
-        .and_then(|()| std::fs::rename(&tmp, out))
-        .map_err(|e| {
-            let _ = std::fs::remove_file(&tmp);
-            CliError::failed(format!("cannot write {}: {e}", out.display()))
-        })
-}
-
-/// Read every parameter and write the backup file.
-pub async fn backup<C: ParamClient>(client: &mut C, out: &Path, json: bool) -> Result<()> {
+/// Read every parameter and write the backup file `out` (checked before the first read; an
+/// existing file only with `overwrite`).
+pub async fn backup<C: ParamClient>(
+    client: &mut C,
+    out: &Path,
+    overwrite: bool,
+    json: bool,
+    stop: &Interrupt,
+) -> Result<()> {
+    let file = OutputFile::prepare(out, overwrite)?;
     let family = client.family();
     let mut doc = client.identify().await?;
     let rows = rows(family);
@@ -71,6 +79,15 @@ pub async fn backup<C: ParamClient>(client: &mut C, out: &Path, json: bool) -> R
     let mut skipped = 0;
     let mut unreadable = Vec::new();
     for p in &rows {
+        if stop.requested() {
+            bar.abandon();
+            return Err(CliError::failed(format!(
+                "backup interrupted after {} of {} parameters; {} was not written",
+                entries.len(),
+                rows.len(),
+                out.display()
+            )));
+        }
         let t = Target::of(*p);
         bar.set_message(t.label());
         match client.read(&t).await {
@@ -85,7 +102,11 @@ pub async fn backup<C: ParamClient>(client: &mut C, out: &Path, json: bool) -> R
             Err(ClientError::Device(d)) => unreadable.push(format!("{} ({d})", t.label())),
             Err(e) => {
                 bar.abandon();
-                return Err(e.into());
+                return Err(CliError::failed(format!(
+                    "{}; {} was not written",
+                    CliError::from(e),
+                    out.display()
+                )));
             }
         }
         bar.inc(1);
@@ -98,12 +119,12 @@ pub async fn backup<C: ParamClient>(client: &mut C, out: &Path, json: bool) -> R
     doc.insert("parameters".into(), Value::Array(entries));
     let text = serde_json::to_string_pretty(&Value::Object(doc))
         .map_err(|e| CliError::failed(format!("cannot encode the backup: {e}")))?;
-    write_atomic(out, &text)?;
+    file.commit(&text)?;
     if json {
         outln!(
             "{}",
-            json!({"file": out.display().to_string(), "parameters": saved, "skipped": skipped,
-                   "unreadable": unreadable})
+            json!({"type": "backup", "file": out.display().to_string(), "parameters": saved,
+                   "skipped": skipped, "unreadable": unreadable})
         )?;
     } else {
         outln!(
@@ -158,10 +179,12 @@ fn restore_hint(e: &GuardError) -> String {
 /// Parse and check a backup file; every problem is reported with its entry. Each value must
 /// fit its parameter's width; the table's other rules are the write path's, for the values
 /// that differ from the drive's.
-fn load(file: &Path, family: Family, not_restored: &[u16]) -> Result<Vec<Entry>> {
+fn load(file: &Path, family: Family, not_restored: &[u16]) -> Result<(Vec<Entry>, Value)> {
     let text = std::fs::read_to_string(file)
         .map_err(|e| CliError::failed(format!("cannot read {}: {e}", file.display())))?;
-    let doc: Value = serde_json::from_str(&text).map_err(|e| {
+    // Notepad saves UTF-8 with a byte order mark.
+    let text = text.strip_prefix('\u{feff}').unwrap_or(&text);
+    let doc: Value = serde_json::from_str(text).map_err(|e| {
         CliError::usage(format!(
             "{} is not a drivectl backup (invalid JSON: {e})",
             file.display()
@@ -232,82 +255,274 @@ fn load(file: &Path, family: Family, not_restored: &[u16]) -> Result<Vec<Entry>>
         }
         entries.push(Entry { target, raw });
     }
-    Ok(entries)
+    let identity = json!({
+        "device_type": field(&doc, "device_type"),
+        "firmware": field(&doc, "firmware"),
+    });
+    Ok((entries, identity))
 }
 
-/// Write a backup back and verify it: read what the drive holds, check every value that
-/// differs on the one write path (width always; access, range, value list and the EEPROM-wear
-/// rule unless forced) before anything is written, write those non-volatilely and log them in
-/// the wear log, then read every entry back.
+/// How `restore` was asked to run.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct RestoreOptions {
+    /// Write values the table check refuses (never a value that does not fit).
+    pub force: bool,
+    /// Show the changes, write nothing.
+    pub dry_run: bool,
+    /// Restore onto a drive of another device type than the file's.
+    pub any_device: bool,
+}
+
+/// A value as text: physical with unit where the table knows the parameter.
+fn value_text(t: &Target, raw: i64) -> String {
+    t.param.map_or_else(
+        || format!("raw {raw}"),
+        |p| format!("{} (raw {raw})", physical_text(p, raw)),
+    )
+}
+
+/// The name of an entry for a person: `P130 Ramp t11 up CW [s]`.
+fn entry_name(t: &Target) -> String {
+    t.param
+        .map_or_else(|| t.label(), |p| format!("{} {}", p.label(), p.name_en()))
+}
+
+/// One value as JSON with its parameter, `key_raw`/`key` for the raw and physical value.
+fn value_json(t: &Target, raw: i64) -> (Value, Value) {
+    (
+        Value::from(raw),
+        t.param
+            .map_or(Value::from(raw), |p| json!(p.to_physical(raw))),
+    )
+}
+
+/// Compare the drive's identification with the file's: another device type is refused unless
+/// `any_device`, another firmware is a warning.
+fn check_identity(
+    file: &Path,
+    saved: &Value,
+    drive: &serde_json::Map<String, Value>,
+    any_device: bool,
+) -> Result<()> {
+    let (st, dt) = (
+        field(saved, "device_type"),
+        drive.get("device_type").unwrap_or(&Value::Null),
+    );
+    if !st.is_null() && !dt.is_null() && st != dt {
+        let msg = format!(
+            "{} was saved from a drive of device type {st}; this drive is device type {dt}",
+            file.display()
+        );
+        if !any_device {
+            return Err(CliError::usage(format!(
+                "{msg}: nothing was written; add --any-device to restore it anyway"
+            )));
+        }
+        errln!("drivectl: warning: {msg}");
+    }
+    let (sf, df) = (
+        field(saved, "firmware"),
+        drive.get("firmware").unwrap_or(&Value::Null),
+    );
+    if !sf.is_null() && !df.is_null() && sf != df {
+        errln!(
+            "drivectl: warning: {} was saved from firmware {sf}; this drive runs firmware {df}: \
+             parameters may differ between firmware versions",
+            file.display()
+        );
+    }
+    Ok(())
+}
+
+/// Write a backup back and verify it (see the [module docs](self)).
 pub async fn restore<C: ParamClient>(
     client: &mut C,
     file: &Path,
-    force: bool,
+    opts: RestoreOptions,
     json: bool,
+    stop: &Interrupt,
 ) -> Result<()> {
-    let entries = load(file, client.family(), client.not_restored())?;
+    let (entries, saved_identity) = load(file, client.family(), client.not_restored())?;
+    let identity = client.identify().await?;
+    check_identity(file, &saved_identity, &identity, opts.any_device)?;
     let bar = progress(entries.len(), "reading");
     let mut changes = Vec::new();
     for e in &entries {
+        if stop.requested() {
+            bar.abandon();
+            return Err(CliError::failed(
+                "restore interrupted while reading the drive; nothing was written",
+            ));
+        }
         bar.set_message(e.target.label());
-        let current = client
-            .read(&e.target)
-            .await
-            .inspect_err(|_| bar.abandon())?;
+        let current = client.read(&e.target).await.map_err(|err| {
+            bar.abandon();
+            CliError::failed(format!("{}; nothing was written", CliError::from(err)))
+        })?;
         if current != e.raw {
-            changes.push(WriteRequest {
-                target: e.target,
-                raw: e.raw,
-                persistence: Persistence::NonVolatile,
-                force,
-            });
+            changes.push((
+                WriteRequest {
+                    target: e.target,
+                    raw: e.raw,
+                    persistence: Persistence::NonVolatile,
+                    force: opts.force,
+                },
+                current,
+            ));
         }
         bar.inc(1);
     }
     bar.finish_and_clear();
     // Every write is checked before the first one is sent: a file that would be refused
-    // halfway leaves the drive as it was.
+    // halfway leaves the drive as it was. Every refusal is listed, not just the first.
     let drive_key = client.drive_key().await?;
     let mut warnings = Vec::new();
-    for req in &changes {
-        let warning = write::check_with(&drive_key, req, restore_hint).map_err(|e| {
-            CliError::usage(format!("{}: {e}; nothing was written", file.display()))
-        })?;
-        warnings.extend(warning);
+    let mut refusals = Vec::new();
+    for (req, _) in &changes {
+        match write::check_with(&drive_key, req, restore_hint) {
+            Ok(w) => warnings.extend(w),
+            Err(e) => refusals.push(e.to_string()),
+        }
+    }
+    if opts.dry_run {
+        for (req, old) in &changes {
+            let t = &req.target;
+            if json {
+                let (from_raw, from) = value_json(t, *old);
+                let (to_raw, to) = value_json(t, req.raw);
+                outln!(
+                    "{}",
+                    json!({"type": "change", "index": t.index, "sub": t.sub,
+                           "number": t.param.map(|p| p.label().to_string()),
+                           "name_en": t.param.map(|p| p.name_en()),
+                           "unit": t.param.map(|p| p.unit()),
+                           "from_raw": from_raw, "from": from, "to_raw": to_raw, "to": to})
+                )?;
+            } else {
+                outln!(
+                    "{}: {} → {}",
+                    entry_name(t),
+                    value_text(t, *old),
+                    value_text(t, req.raw)
+                )?;
+            }
+        }
+        for r in &refusals {
+            errln!("drivectl: would be refused: {r}");
+        }
+        if json {
+            outln!(
+                "{}",
+                json!({"type": "restore", "dry_run": true, "file": file.display().to_string(),
+                       "entries": entries.len(), "changes": changes.len(),
+                       "unchanged": entries.len() - changes.len(), "refused": refusals})
+            )?;
+        } else {
+            outln!(
+                "dry run: {} of {} parameter(s) in {} differ from the drive and would be written; \
+                 nothing was written",
+                changes.len(),
+                entries.len(),
+                file.display()
+            )?;
+        }
+        if !refusals.is_empty() {
+            return Err(CliError::usage(format!(
+                "{} of the changes would be refused",
+                refusals.len()
+            )));
+        }
+        return Ok(());
+    }
+    if let Some(first) = refusals.first() {
+        return Err(CliError::usage(format!(
+            "{}: {} change(s) refused, nothing was written: {first}{}",
+            file.display(),
+            refusals.len(),
+            if refusals.len() > 1 {
+                format!(
+                    " (and {} more; `restore --dry-run` lists them)",
+                    refusals.len() - 1
+                )
+            } else {
+                String::new()
+            }
+        )));
     }
     for w in &warnings {
         errln!("drivectl: warning: {w}");
     }
     let bar = progress(changes.len(), "writing");
     let mut refused = Vec::new();
-    let mut written = 0;
-    for req in &changes {
+    let mut written = Vec::new();
+    // Where the writing stopped, why, and whether the write in flight may have arrived.
+    let mut halted: Option<(usize, String, bool)> = None;
+    for (i, (req, _)) in changes.iter().enumerate() {
+        if stop.requested() {
+            halted = Some((i, "interrupted".to_owned(), false));
+            break;
+        }
         bar.set_message(req.target.label());
         match client.write(&req.target, req.raw, req.persistence).await {
             Ok(()) => {
                 if let Err(e) = write::record(&drive_key, req) {
                     bar.suspend(|| errln!("drivectl: warning: {e}"));
                 }
-                written += 1;
+                written.push(req.target.label());
             }
             Err(ClientError::Device(why)) => {
                 refused.push(format!("{} ({why})", req.target.label()))
             }
             Err(err) => {
-                bar.abandon();
-                return Err(err.into());
+                halted = Some((i, CliError::from(err).to_string(), true));
+                break;
             }
         }
         bar.inc(1);
+    }
+    if let Some((at, why, in_flight)) = halted {
+        bar.abandon();
+        let rest = changes.get(at..).unwrap_or_default();
+        let missing: Vec<String> = rest.iter().map(|(r, _)| r.target.label()).collect();
+        let uncertain = in_flight.then(|| missing.first().cloned()).flatten();
+        if json {
+            outln!(
+                "{}",
+                json!({"type": "restore", "file": file.display().to_string(), "complete": false,
+                       "entries": entries.len(), "written": written, "refused": refused,
+                       "not_written": missing, "uncertain": uncertain})
+            )?;
+        }
+        return Err(CliError::failed(format!(
+            "restore stopped ({why}): the drive is half restored: {} of {} change(s) written ({}), \
+             {} not written ({}){}; run the same restore again to finish it (values the drive \
+             already holds are not written again)",
+            written.len(),
+            changes.len(),
+            if written.is_empty() {
+                "none".to_owned()
+            } else {
+                written.join(", ")
+            },
+            missing.len(),
+            missing.join(", "),
+            uncertain.map_or_else(String::new, |u| format!(
+                "; {u} was being written when the link failed and may or may not have arrived"
+            )),
+        )));
     }
     bar.finish_and_clear();
     let bar = progress(entries.len(), "verifying");
     let mut mismatches = Vec::new();
     for e in &entries {
-        let back = client
-            .read(&e.target)
-            .await
-            .inspect_err(|_| bar.abandon())?;
+        let back = client.read(&e.target).await.map_err(|err| {
+            bar.abandon();
+            CliError::failed(format!(
+                "{} change(s) were written, but verifying failed: {}; run the restore again to check",
+                written.len(),
+                CliError::from(err)
+            ))
+        })?;
         if back != e.raw {
             mismatches.push((e, back));
         }
@@ -315,29 +530,63 @@ pub async fn restore<C: ParamClient>(
     }
     bar.finish_and_clear();
     for (e, back) in &mismatches {
-        print_value(&e.target, *back, json)?;
+        let t = &e.target;
+        if json {
+            let (expected_raw, expected) = value_json(t, e.raw);
+            let (raw, value) = value_json(t, *back);
+            outln!(
+                "{}",
+                json!({"type": "mismatch", "index": t.index, "sub": t.sub,
+                       "number": t.param.map(|p| p.label().to_string()),
+                       "name_en": t.param.map(|p| p.name_en()),
+                       "unit": t.param.map(|p| p.unit()),
+                       "expected_raw": expected_raw, "expected": expected,
+                       "raw": raw, "value": value})
+            )?;
+        } else {
+            outln!(
+                "{}: expected {}, the drive holds {}",
+                entry_name(t),
+                value_text(t, e.raw),
+                value_text(t, *back)
+            )?;
+        }
     }
+    let unchanged = entries.len() - changes.len();
     if json {
         outln!(
             "{}",
-            json!({"file": file.display().to_string(), "entries": entries.len(),
-                   "written": written, "refused": refused, "mismatches": mismatches.len()})
+            json!({"type": "restore", "file": file.display().to_string(), "complete": true,
+                   "entries": entries.len(), "written": written.len(), "unchanged": unchanged,
+                   "refused": refused, "mismatches": mismatches.len()})
+        )?;
+    } else if written.is_empty() && refused.is_empty() {
+        outln!(
+            "{}: all {} parameter(s) already held the saved values; nothing was written",
+            file.display(),
+            entries.len()
         )?;
     } else {
         outln!(
-            "restored {} parameter(s) from {}: {written} written, {} already held the saved value",
-            entries.len(),
+            "{}: {} parameter(s) written, {unchanged} already held the saved value, {} refused by \
+             the drive; {} verified",
             file.display(),
-            entries.len() - changes.len()
+            written.len(),
+            refused.len(),
+            entries.len() - mismatches.len()
         )?;
     }
     if !mismatches.is_empty() || !refused.is_empty() {
         return Err(CliError::failed(format!(
-            "verify failed: {} value(s) differ after restore, {} write(s) refused by the drive ({}); \
+            "verify failed: {} value(s) differ after restore, {} write(s) refused by the drive{}; \
              check controller inhibit and the parameter lock",
             mismatches.len(),
             refused.len(),
-            refused.join(", ")
+            if refused.is_empty() {
+                String::new()
+            } else {
+                format!(" ({})", refused.join(", "))
+            }
         )));
     }
     Ok(())
@@ -367,7 +616,13 @@ mod tests {
         let rt = tokio::runtime::Builder::new_current_thread()
             .build()
             .unwrap();
-        let r = rt.block_on(backup(&mut FakeClient::new(answers), &out, true));
+        let r = rt.block_on(backup(
+            &mut FakeClient::new(answers),
+            &out,
+            false,
+            true,
+            &Interrupt::never(),
+        ));
         let err = r.unwrap_err().to_string();
         assert!(err.contains("incomplete"), "{err}");
         assert!(err.contains("P001 (access denied)"), "{err}");
@@ -405,7 +660,7 @@ mod load_tests {
             ],
         });
         std::fs::write(&file, doc.to_string()).unwrap();
-        let entries = load(&file, Family::Movidrive, NOT_RESTORED).unwrap();
+        let (entries, _) = load(&file, Family::Movidrive, NOT_RESTORED).unwrap();
         let indices: Vec<u16> = entries.iter().map(|e| e.target.index).collect();
         assert_eq!(indices, [8470]);
         // A file of another family, and one that names none.
@@ -436,6 +691,167 @@ mod load_tests {
             err.ends_with("names no drive family (`family`); it is not a movidrive backup"),
             "{err}"
         );
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}
+
+#[cfg(test)]
+mod restore_tests {
+    use super::*;
+    use crate::tool::fake::FakeClient;
+
+    /// Every read answers the index as value (writes do not change it).
+    fn index_as_value(i: u16) -> std::result::Result<i64, ClientError> {
+        Ok(i64::from(i))
+    }
+
+    /// A backup file in a fresh directory with P130…P133 (8470…8473) set to 1000 and the
+    /// device type `device_type`; the directory is removed by the caller.
+    fn file_with(name: &str, device_type: u64) -> (std::path::PathBuf, std::path::PathBuf) {
+        let dir = std::env::temp_dir().join(format!("drivectl-{name}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        let file = dir.join("b.json");
+        let doc = json!({
+            "format": FORMAT, "version": VERSION, "family": "movidrive",
+            "device_type": device_type, "firmware": 822_609_711,
+            "parameters": [
+                {"index": 8470, "raw": 1000}, {"index": 8471, "raw": 1000},
+                {"index": 8472, "raw": 1000}, {"index": 8473, "raw": 8473},
+            ],
+        });
+        // As Notepad saves it: a byte order mark and CRLF line ends.
+        let text = format!("\u{feff}{}", serde_json::to_string_pretty(&doc).unwrap())
+            .replace('\n', "\r\n");
+        std::fs::write(&file, text).unwrap();
+        (dir, file)
+    }
+
+    fn drive(device_type: u64) -> FakeClient {
+        let mut c = FakeClient::new(index_as_value);
+        c.identity.insert("device_type".into(), device_type.into());
+        c.identity.insert("firmware".into(), 822_609_711.into());
+        c
+    }
+
+    fn run(c: &mut FakeClient, file: &Path, opts: RestoreOptions, stop: &Interrupt) -> Result<()> {
+        let rt = tokio::runtime::Builder::new_current_thread()
+            .build()
+            .unwrap();
+        // The wear log of these tests lives in their own directory.
+        rt.block_on(restore(
+            c,
+            file,
+            RestoreOptions {
+                force: true,
+                ..opts
+            },
+            true,
+            stop,
+        ))
+    }
+
+    #[test]
+    fn issue7_a_restore_cut_short_by_the_link_says_what_was_written_and_how_to_finish() {
+        let (dir, file) = file_with("restore-link", 7);
+        let mut c = drive(7);
+        c.link_dies_after = Some(1);
+        let e = run(
+            &mut c,
+            &file,
+            RestoreOptions::default(),
+            &Interrupt::never(),
+        )
+        .unwrap_err()
+        .to_string();
+        assert_eq!(c.written.len(), 1);
+        assert!(
+            e.contains("half restored: 1 of 3 change(s) written (P130)"),
+            "{e}"
+        );
+        assert!(e.contains("2 not written (P131, P132)"), "{e}");
+        assert!(
+            e.contains("P131 was being written when the link failed"),
+            "{e}"
+        );
+        assert!(e.contains("run the same restore again"), "{e}");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn issue7_ctrl_c_during_a_restore_finishes_the_write_in_flight_and_reports() {
+        let (dir, file) = file_with("restore-int", 7);
+        let stop = Interrupt::never();
+        let mut c = drive(7);
+        c.interrupt_after = Some((2, stop.clone()));
+        let e = run(&mut c, &file, RestoreOptions::default(), &stop)
+            .unwrap_err()
+            .to_string();
+        assert_eq!(c.written.len(), 2);
+        assert!(e.contains("restore stopped (interrupted)"), "{e}");
+        assert!(
+            e.contains("2 of 3 change(s) written (P130, P131), 1 not written (P132)"),
+            "{e}"
+        );
+        assert!(!e.contains("may or may not"), "{e}");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn issue7_restore_checks_the_device_type_and_dry_run_writes_nothing() {
+        let (dir, file) = file_with("restore-type", 7);
+        let mut c = drive(8);
+        let e = run(
+            &mut c,
+            &file,
+            RestoreOptions::default(),
+            &Interrupt::never(),
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(
+            e.contains("device type 7; this drive is device type 8"),
+            "{e}"
+        );
+        assert!(e.contains("--any-device"), "{e}");
+        assert!(c.written.is_empty());
+        let dry = RestoreOptions {
+            dry_run: true,
+            any_device: true,
+            ..RestoreOptions::default()
+        };
+        run(&mut c, &file, dry, &Interrupt::never()).unwrap();
+        assert!(c.written.is_empty());
+        // Written, and every value read back differs (this drive ignores writes): a mismatch
+        // names what was expected.
+        let any = RestoreOptions {
+            any_device: true,
+            ..RestoreOptions::default()
+        };
+        let e = run(&mut c, &file, any, &Interrupt::never())
+            .unwrap_err()
+            .to_string();
+        assert_eq!(c.written.len(), 3);
+        assert!(e.contains("3 value(s) differ"), "{e}");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn issue7_a_value_wider_than_the_parameter_in_a_file_is_refused_before_any_write() {
+        let (dir, file) = file_with("restore-wide", 7);
+        let text = std::fs::read_to_string(&file).unwrap();
+        std::fs::write(&file, text.replacen("1000", "1099511627776", 1)).unwrap();
+        let mut c = drive(7);
+        let e = run(
+            &mut c,
+            &file,
+            RestoreOptions::default(),
+            &Interrupt::never(),
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("entry 1") && e.contains("1099511627776"), "{e}");
+        assert!(c.written.is_empty());
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }

@@ -15,6 +15,12 @@ pub struct FakeClient {
     pub read: ReadScript,
     /// Every write taken: index, raw value, persistence.
     pub written: Vec<(u16, i64, Persistence)>,
+    /// After this many writes, every write fails as a dead link (no answer).
+    pub link_dies_after: Option<usize>,
+    /// Set (as Ctrl-C would) after this many writes.
+    pub interrupt_after: Option<(usize, super::interrupt::Interrupt)>,
+    /// What `identify` answers.
+    pub identity: Map<String, Value>,
 }
 
 impl FakeClient {
@@ -23,6 +29,9 @@ impl FakeClient {
         Self {
             read,
             written: Vec::new(),
+            link_dies_after: None,
+            interrupt_after: None,
+            identity: Map::new(),
         }
     }
 }
@@ -51,10 +60,21 @@ impl ParamClient for FakeClient {
         raw: i64,
         persistence: Persistence,
     ) -> Result<(), ClientError> {
+        if self
+            .link_dies_after
+            .is_some_and(|n| self.written.len() >= n)
+        {
+            return Err(ClientError::Link("no answer from drive 1".into()));
+        }
         self.written.push((t.index, raw, persistence));
+        if let Some((n, stop)) = &self.interrupt_after {
+            if self.written.len() >= *n {
+                stop.set();
+            }
+        }
         Ok(())
     }
     async fn identify(&mut self) -> Result<Map<String, Value>, ClientError> {
-        Ok(Map::new())
+        Ok(self.identity.clone())
     }
 }

@@ -18,6 +18,8 @@ pub mod backup;
 pub mod client;
 #[cfg(test)]
 pub mod fake;
+pub mod interrupt;
 pub mod line;
+pub mod outfile;
 pub mod wear;
 pub mod write;

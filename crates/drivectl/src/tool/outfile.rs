@@ -1,0 +1,202 @@
+//! Output files that are never a device node, never replaced unasked, and never half-written.
+//!
+//! [`OutputFile::prepare`] checks the path before any work is done (a backup reads hundreds of
+//! parameters first): it must be a regular file or not exist yet; a symlink is followed to the
+//! regular file it names (the link stays a link); an existing file is replaced only with
+//! `overwrite`. It creates the temporary file in the target's directory right away, so an
+//! unwritable directory is reported at once. [`OutputFile::commit`] writes the text, checks the
+//! path again (it may have changed during the work) and renames the temporary file into place;
+//! a prepared file that is dropped uncommitted (an error, Ctrl-C) removes its temporary file.
+
+use std::fs::{File, OpenOptions};
+use std::io::Write as _;
+use std::path::{Path, PathBuf};
+
+use crate::error::{CliError, Result};
+
+/// A file being written: a temporary file next to its final path.
+#[derive(Debug)]
+pub struct OutputFile {
+    /// The path as the user gave it (for messages).
+    shown: PathBuf,
+    /// The regular file that is written (a symlink's target).
+    target: PathBuf,
+    overwrite: bool,
+    tmp: PathBuf,
+    file: Option<File>,
+}
+
+/// What is at `path` now, for the checks.
+fn kind_of(meta: &std::fs::Metadata) -> &'static str {
+    use std::os::unix::fs::FileTypeExt as _;
+    let t = meta.file_type();
+    if t.is_dir() {
+        "a directory"
+    } else if t.is_char_device() || t.is_block_device() {
+        "a device node"
+    } else if t.is_fifo() {
+        "a named pipe"
+    } else if t.is_socket() {
+        "a socket"
+    } else {
+        "not a regular file"
+    }
+}
+
+/// The regular file `shown` stands for, or why it cannot be written.
+fn resolve(shown: &Path, overwrite: bool) -> Result<PathBuf> {
+    let refuse = |why: String| CliError::usage(format!("{}: {why}", shown.display()));
+    let target = match std::fs::symlink_metadata(shown) {
+        Ok(m) if m.file_type().is_symlink() => std::fs::canonicalize(shown).map_err(|_| {
+            refuse("is a symlink to a file that does not exist; give the file's own path".into())
+        })?,
+        Ok(_) => shown.to_path_buf(),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(shown.to_path_buf()),
+        Err(e) => return Err(refuse(format!("cannot be checked ({e})"))),
+    };
+    let meta =
+        std::fs::metadata(&target).map_err(|e| refuse(format!("cannot be checked ({e})")))?;
+    if !meta.is_file() {
+        return Err(refuse(format!(
+            "is {}; output goes only to regular files",
+            kind_of(&meta)
+        )));
+    }
+    if !overwrite {
+        return Err(refuse(
+            "exists; add --overwrite to replace it, or choose another name".into(),
+        ));
+    }
+    Ok(target)
+}
+
+impl OutputFile {
+    /// Check `path` and create the temporary file (see the [module docs](self)).
+    pub fn prepare(path: &Path, overwrite: bool) -> Result<Self> {
+        let target = resolve(path, overwrite)?;
+        let name = target
+            .file_name()
+            .ok_or_else(|| CliError::usage(format!("{}: names no file", path.display())))?
+            .to_string_lossy()
+            .into_owned();
+        let dir = match target.parent() {
+            Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+            _ => PathBuf::from("."),
+        };
+        let tmp = dir.join(format!(".{name}.drivectl-{}.tmp", std::process::id()));
+        // create_new: never through something planted at the temporary name.
+        let file = OpenOptions::new()
+            .write(true)
+            .create_new(true)
+            .open(&tmp)
+            .map_err(|e| {
+                CliError::failed(format!(
+                    "cannot write {} ({e}); nothing was read from the drive",
+                    path.display()
+                ))
+            })?;
+        Ok(Self {
+            shown: path.to_path_buf(),
+            target,
+            overwrite,
+            tmp,
+            file: Some(file),
+        })
+    }
+
+    /// Write `text` and move the file into place.
+    pub fn commit(mut self, text: &str) -> Result<()> {
+        let fail = |e: &dyn std::fmt::Display| {
+            CliError::failed(format!("cannot write {}: {e}", self.shown.display()))
+        };
+        let mut file = self.file.take().ok_or_else(|| fail(&"already written"))?;
+        file.write_all(text.as_bytes())
+            .and_then(|()| file.sync_all())
+            .map_err(|e| fail(&e))?;
+        drop(file);
+        // The path may have changed while the drive was read.
+        let now = resolve(&self.shown, self.overwrite)?;
+        if now != self.target {
+            return Err(fail(
+                &"the path changed while the backup was made; nothing was replaced",
+            ));
+        }
+        std::fs::rename(&self.tmp, &self.target).map_err(|e| fail(&e))?;
+        self.tmp = PathBuf::new();
+        Ok(())
+    }
+}
+
+impl Drop for OutputFile {
+    fn drop(&mut self) {
+        if !self.tmp.as_os_str().is_empty() {
+            let _ = std::fs::remove_file(&self.tmp);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn issue7_output_goes_only_to_regular_files() {
+        let dir = std::env::temp_dir().join(format!("drivectl-outfile-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        let err = |p: &Path, o| OutputFile::prepare(p, o).unwrap_err().to_string();
+        assert!(err(Path::new("/dev/full"), true).contains("is a device node"));
+        assert!(err(&dir, true).contains("is a directory"));
+        // A new file: written; then it exists and needs --overwrite.
+        let f = dir.join("b.json");
+        OutputFile::prepare(&f, false)
+            .unwrap()
+            .commit("one")
+            .unwrap();
+        assert!(err(&f, false).contains("--overwrite"));
+        OutputFile::prepare(&f, true)
+            .unwrap()
+            .commit("two")
+            .unwrap();
+        assert_eq!(std::fs::read_to_string(&f).unwrap(), "two");
+        // A symlink is followed: the target gets the text, the link stays a link.
+        let link = dir.join("link.json");
+        std::os::unix::fs::symlink(&f, &link).unwrap();
+        OutputFile::prepare(&link, true)
+            .unwrap()
+            .commit("three")
+            .unwrap();
+        assert!(
+            std::fs::symlink_metadata(&link)
+                .unwrap()
+                .file_type()
+                .is_symlink()
+        );
+        assert_eq!(std::fs::read_to_string(&f).unwrap(), "three");
+        // A dangling link is refused.
+        let dangling = dir.join("dangling.json");
+        std::os::unix::fs::symlink(dir.join("nowhere"), &dangling).unwrap();
+        assert!(err(&dangling, true).contains("does not exist"));
+        // An unwritable directory is reported before any work; a dropped file leaves nothing.
+        assert!(err(Path::new("/proc/drivectl/b.json"), false).contains("nothing was read"));
+        let pending = OutputFile::prepare(&dir.join("c.json"), false).unwrap();
+        drop(pending);
+        let left: Vec<_> = std::fs::read_dir(&dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name())
+            .collect();
+        assert_eq!(left.len(), 3, "{left:?}");
+        // The path turned into a directory while the work ran: nothing replaced.
+        let g = dir.join("g.json");
+        let pending = OutputFile::prepare(&g, false).unwrap();
+        std::fs::create_dir(&g).unwrap();
+        assert!(
+            pending
+                .commit("x")
+                .unwrap_err()
+                .to_string()
+                .contains("is a directory")
+        );
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}
