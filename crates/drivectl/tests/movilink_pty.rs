@@ -877,3 +877,115 @@ fn issue7_restore_dry_run_shows_old_and_new_and_the_report_is_honest() {
     );
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// The speed in 1/min the drive reports (P000).
+fn speed(sim: &Sim) -> f64 {
+    ok_json(&sim.run(1, &["--json", "read", "P000"]))[0]["value"]
+        .as_f64()
+        .unwrap()
+}
+
+#[test]
+fn issue7_pd_stops_the_drive_at_its_end_unless_asked_not_to() {
+    let sim = Sim::start(&[1]);
+    let enable = [
+        "pd",
+        "--out",
+        "0x0006,5000,0",
+        "--count",
+        "5",
+        "--interval",
+        "100",
+    ];
+    // --keep-running: left running at 1000 1/min, and said so.
+    let mut args = enable.to_vec();
+    args.push("--keep-running");
+    let o = sim.run(1, &args);
+    assert!(o.status.success(), "{}", stderr_of(&o));
+    let err = stderr_of(&o);
+    // The simulated drive has no RS-485 timeout (P812 = 0): warned.
+    assert!(err.contains("P812 is 0"), "{err}");
+    assert!(err.contains("--keep-running"), "{err}");
+    std::thread::sleep(std::time::Duration::from_millis(700));
+    assert!(speed(&sim) > 900.0);
+    // A normal end: the stop is sent and reported.
+    let o = sim.run(1, &enable);
+    assert!(o.status.success(), "{}", stderr_of(&o));
+    assert!(
+        stderr_of(&o).contains("sent stop (control word 0x0002)"),
+        "{}",
+        stderr_of(&o)
+    );
+    assert!(stderr_of(&o).contains("no enable"), "{}", stderr_of(&o));
+    std::thread::sleep(std::time::Duration::from_millis(1500));
+    assert!(speed(&sim) < 900.0, "decelerating on the ramp");
+    // `--stop inhibit`.
+    let mut args = enable.to_vec();
+    args.extend(["--stop", "inhibit"]);
+    let o = sim.run(1, &args);
+    assert!(
+        stderr_of(&o).contains("sent controller inhibit (control word 0x0001)"),
+        "{}",
+        stderr_of(&o)
+    );
+}
+
+#[test]
+fn issue7_pd_stops_the_drive_on_ctrl_c_and_on_a_closed_pipe() {
+    let sim = Sim::start(&[1]);
+    let args = [
+        "movilink",
+        "--port",
+        &sim.path,
+        "--parity",
+        "none",
+        "--addr",
+        "1",
+        "pd",
+        "--type",
+        "0x05",
+        "--out",
+        "0x0006,5000,0",
+        "--count",
+        "100000",
+        "--interval",
+        "50",
+    ];
+    // Ctrl-C after a few exchanges.
+    let mut child = Command::new(env!("CARGO_BIN_EXE_drivectl"))
+        .args(args)
+        .env("DRIVECTL_STATE_DIR", &sim.state)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut lines = BufReader::new(child.stdout.take().unwrap()).lines();
+    for _ in 0..3 {
+        lines.next().unwrap().unwrap();
+    }
+    let kill = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(kill.success());
+    for _ in lines {}
+    let o = child.wait_with_output().unwrap();
+    assert_eq!(o.status.code(), Some(0));
+    assert!(stderr_of(&o).contains("interrupted"), "{}", stderr_of(&o));
+    assert!(stderr_of(&o).contains("sent stop"), "{}", stderr_of(&o));
+    // `pd … | head -2`: the pipe closes, the stop is still sent.
+    let mut child = Command::new(env!("CARGO_BIN_EXE_drivectl"))
+        .args(args)
+        .env("DRIVECTL_STATE_DIR", &sim.state)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut out = BufReader::new(child.stdout.take().unwrap());
+    let mut line = String::new();
+    out.read_line(&mut line).unwrap();
+    drop(out);
+    let o = child.wait_with_output().unwrap();
+    assert_eq!(o.status.code(), Some(141), "{}", stderr_of(&o));
+    assert!(stderr_of(&o).contains("sent stop"), "{}", stderr_of(&o));
+}

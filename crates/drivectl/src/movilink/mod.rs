@@ -9,7 +9,7 @@ pub mod decode;
 pub mod sim;
 
 use clap::{Args, Subcommand};
-use drive_profile::sew::{self, StatusWord1, index};
+use drive_profile::sew::{self, ControlWord1, StatusWord1, index};
 use drive_profile::{Access, Family, Persistence};
 use movilink::driver::{CharIo, DriverConfig, DriverError, MasterDriver, Stream};
 use movilink::{Address, ParamChannel, PduType, ReturnCode, Telegram};
@@ -118,9 +118,19 @@ enum MovilinkCommand {
         /// Number of exchanges.
         #[arg(long, default_value_t = 1)]
         count: u32,
-        /// Milliseconds between exchanges.
-        #[arg(long, default_value_t = 100)]
+        /// Milliseconds between exchanges, 1–60000.
+        #[arg(long, default_value_t = 100, value_parser = clap::value_parser!(u64).range(1..=60_000))]
         interval: u64,
+        /// Leave the drive as the last exchange left it. Without it, `pd` ends (after --count
+        /// exchanges, on Ctrl-C, on an error or a closed output pipe) by sending the control
+        /// word slot (P870–P872) the --stop command.
+        #[arg(long)]
+        keep_running: bool,
+        /// How `pd` stops the drive at its end: `ramp` (control word 0x0002: stop on the
+        /// active integrator ramp) or `inhibit` (0x0001: controller inhibit, the output stage
+        /// off and the motor coasts).
+        #[arg(long, default_value = "ramp", value_parser = ["ramp", "inhibit"])]
+        stop: String,
     },
     /// Show the line settings and the timing the master uses on this port: character time,
     /// start pause, gap limit, response timeout and retries (the port is opened, so a setting
@@ -525,17 +535,23 @@ async fn execute<IO: CharIo>(m: &mut MasterDriver<IO>, args: &MovilinkArgs) -> R
             out,
             count,
             interval,
+            keep_running,
+            stop,
         } => {
-            pd(
-                m,
-                address(args.addr)?,
-                pdu_type,
+            let end = match (*keep_running, stop.as_str()) {
+                (true, _) => None,
+                (false, "inhibit") => Some(ControlWord1::INHIBIT),
+                (false, _) => Some(ControlWord1::STOP),
+            };
+            let session = PdSession {
+                addr: address(args.addr)?,
                 out,
-                *count,
-                *interval,
+                count: *count,
+                interval: *interval,
+                end,
                 json,
-            )
-            .await
+            };
+            pd(m, pdu_type, &session).await
         }
         MovilinkCommand::Line => {
             let c = m.config();
@@ -754,15 +770,74 @@ pub fn firmware_text(v: u32) -> String {
     }
 }
 
-async fn pd<IO: CharIo>(
-    m: &mut MasterDriver<IO>,
+/// What `pd` was asked to do.
+struct PdSession<'a> {
     addr: Address,
-    pdu_type: &str,
-    out: &[String],
+    out: &'a [String],
     count: u32,
     interval: u64,
+    /// The command sent at the end (`None`: `--keep-running`).
+    end: Option<ControlWord1>,
     json: bool,
-) -> Result<()> {
+}
+
+/// Where the drive takes its control word among the process output words: the slots whose
+/// setpoint description (P870–P872) is control word 1 or 2. Also warns when the drive has no
+/// RS-485 timeout (P812 = 0) or ignores PO data (P876 = 0). A drive that does not answer these
+/// reads gets a warning, not an error: the session itself says what is wrong.
+async fn pd_preflight<IO: CharIo>(
+    m: &mut MasterDriver<IO>,
+    addr: Address,
+    words: usize,
+    stopping: bool,
+) -> Vec<usize> {
+    let mut slots = Vec::new();
+    for (slot, index) in [index::PO1_DESCRIPTION, 8305, 8306]
+        .into_iter()
+        .enumerate()
+        .take(words)
+    {
+        match m.read(addr, index).await {
+            // 9 = control word 1, 10 = control word 2.
+            Ok(9 | 10) => slots.push(slot),
+            Ok(_) => {}
+            Err(e) => {
+                errln!(
+                    "drivectl: warning: cannot read the setpoint description of PO{} ({e})",
+                    slot + 1
+                );
+            }
+        }
+    }
+    if stopping && slots.is_empty() {
+        errln!(
+            "drivectl: warning: no process output word of this drive is a control word \
+             (P870–P872): drivectl cannot stop it over process data when pd ends"
+        );
+    }
+    match m.read(addr, index::RS485_TIMEOUT).await {
+        Ok(0) => errln!(
+            "drivectl: warning: the drive's RS-485 timeout P812 is 0 (off): it keeps running \
+             when the master goes quiet{}",
+            if stopping {
+                ""
+            } else {
+                " (and --keep-running leaves it running)"
+            }
+        ),
+        Ok(_) => {}
+        Err(e) => errln!("drivectl: warning: cannot read the RS-485 timeout P812 ({e})"),
+    }
+    if let Ok(0) = m.read(addr, index::PO_DATA_ENABLE).await {
+        errln!(
+            "drivectl: warning: P876 PO data enable is off: the drive ignores process output data"
+        );
+    }
+    slots
+}
+
+async fn pd<IO: CharIo>(m: &mut MasterDriver<IO>, pdu_type: &str, s: &PdSession<'_>) -> Result<()> {
+    let (addr, json) = (s.addr, s.json);
     let pdu = parse_int(pdu_type)
         .and_then(|v| u8::try_from(v).ok())
         .and_then(PduType::new)
@@ -777,7 +852,7 @@ async fn pd<IO: CharIo>(
         ));
     }
     let mut words = Vec::new();
-    for w in out {
+    for w in s.out {
         let v = parse_int(w)
             .filter(|v| (-32768..=65535).contains(v))
             .ok_or_else(|| CliError::usage(format!("`{w}` is not a 16-bit word")))?;
@@ -791,27 +866,80 @@ async fn pd<IO: CharIo>(
             words.len()
         )));
     }
+    let slots = pd_preflight(m, addr, words.len(), s.end.is_some()).await;
+    let stop = Interrupt::install("the drive was NOT sent a stop and may still be running");
+    // The stop telegram: the control word slots get the stop command (their high byte kept),
+    // every other word stays as it was.
+    let stop_words = s.end.filter(|_| !slots.is_empty()).map(|cmd| {
+        let mut w = words.clone();
+        for &i in &slots {
+            if let Some(x) = w.get_mut(i) {
+                *x = (*x & 0xFF00) | cmd.bits();
+            }
+        }
+        (w, cmd)
+    });
     // Cyclic types run as a cyclic session (one telegram every --interval, which keeps the
     // drive's RS-485 timeout P812 fed); acyclic ones are single exchanges --interval apart.
-    let period = Duration::from_millis(interval.max(1));
-    if pdu.is_cyclic() {
-        let mut session = m.cyclic(addr, pdu, period).map_err(driver_error)?;
-        session.set_output(&words);
-        for _ in 0..count {
-            let response = session.cycle().await.map_err(driver_error)?;
-            print_pd(addr, pdu, &words, response.process_data(), json)?;
-        }
-    } else {
-        for i in 0..count {
-            if i > 0 {
-                tokio::time::sleep(period).await;
+    // Ctrl-C ends the loop after the exchange in progress.
+    let period = Duration::from_millis(s.interval.max(1));
+    let result: Result<()> = async {
+        if pdu.is_cyclic() {
+            let mut session = m.cyclic(addr, pdu, period).map_err(driver_error)?;
+            session.set_output(&words);
+            for _ in 0..s.count {
+                if stop.requested() {
+                    break;
+                }
+                let response = session.cycle().await.map_err(driver_error)?;
+                print_pd(addr, pdu, &words, response.process_data(), json)?;
             }
-            let request = Telegram::request(addr, pdu).with_process_data(&words);
-            let response = m.exchange(request).await.map_err(driver_error)?;
-            print_pd(addr, pdu, &words, response.process_data(), json)?;
+        } else {
+            for i in 0..s.count {
+                if i > 0 {
+                    tokio::time::sleep(period).await;
+                }
+                if stop.requested() {
+                    break;
+                }
+                let request = Telegram::request(addr, pdu).with_process_data(&words);
+                let response = m.exchange(request).await.map_err(driver_error)?;
+                print_pd(addr, pdu, &words, response.process_data(), json)?;
+            }
+        }
+        Ok(())
+    }
+    .await;
+    if let Some((w, cmd)) = stop_words {
+        let request = Telegram::request(addr, pdu).with_process_data(&w);
+        match m.exchange(request).await {
+            Ok(response) => {
+                let status = response
+                    .process_data()
+                    .first()
+                    .map(|s| StatusWord1::from_bits(*s).to_string())
+                    .unwrap_or_default();
+                errln!(
+                    "drivectl: sent {} (control word 0x{:04X}) at the end; the drive reports: {status}",
+                    cmd.command().name(),
+                    w.get(slots.first().copied().unwrap_or(0))
+                        .copied()
+                        .unwrap_or(0)
+                );
+            }
+            Err(e) => {
+                errln!(
+                    "drivectl: warning: the stop at the end was not answered ({e}): the drive may \
+                     still be running"
+                );
+                return result.and(Err(driver_error(e)));
+            }
         }
     }
-    Ok(())
+    if s.end.is_none() {
+        errln!("drivectl: note: the drive was left as the last exchange set it (--keep-running)");
+    }
+    result
 }
 
 fn print_pd(addr: Address, pdu: PduType, out: &[u16], pi: &[u16], json: bool) -> Result<()> {
