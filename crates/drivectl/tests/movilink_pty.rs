@@ -475,3 +475,32 @@ fn restore_right_after_an_eeprom_write_is_refused_before_writing() {
     );
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// Issue 7 #13: the status and fault words P010–P013 are decoded, as `pd` decodes status
+/// word 1, in text and JSON.
+#[test]
+fn read_decodes_status_and_fault_words() {
+    let sim = Sim::start(&[1]);
+    // One parameter per call: this test is about the decoding, not about several in one call.
+    let o = sim.run(1, &["read", "P012"]);
+    assert!(o.status.success());
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(text.contains(": no fault (raw "), "{text}");
+
+    let v = ok_json(&sim.run(1, &["--json", "read", "P010"]));
+    let status = v[0]["raw"].as_u64().unwrap() & 0xFFFF;
+    assert_eq!(status & 0x20, 0, "no fault after power-on: 0x{status:04X}");
+    let d = &v[0]["decoded"];
+    assert_eq!(d["status_word"], format!("0x{status:04X}"));
+    assert_eq!(d["fault"], serde_json::Value::Null);
+    assert_eq!(d["unit_status"]["code"], status >> 8);
+    let meaning = v[0]["meaning"].as_str().unwrap();
+    assert!(
+        meaning.contains("ready") && meaning.contains(&format!("unit status {}", status >> 8)),
+        "{meaning}"
+    );
+    let v = ok_json(&sim.run(1, &["--json", "read", "P012"]));
+    assert_eq!(v[0]["meaning"], "no fault");
+    let v = ok_json(&sim.run(1, &["--json", "read", "P013"]));
+    assert_eq!(v[0]["meaning"], "parameter set 1");
+}

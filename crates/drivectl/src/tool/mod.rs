@@ -10,6 +10,7 @@
 //! * [`wear`]: the EEPROM-wear write log that keeps the guard's rule across runs;
 //! * [`backup`]: backup and restore of every family's parameters, with progress and atomic
 //!   files;
+//! * [`meaning`]: what a raw value means (value names, decoded status and fault words);
 //! * [`output`]: values as text or JSON.
 
 #[macro_use]
@@ -19,5 +20,6 @@ pub mod client;
 #[cfg(test)]
 pub mod fake;
 pub mod line;
+pub mod meaning;
 pub mod wear;
 pub mod write;
