@@ -290,3 +290,32 @@ fn issue7_a_closed_pipe_ends_a_command_quietly() {
         assert_eq!(o.status.code(), Some(141), "{args:?}");
     }
 }
+
+/// Issue 7 #19: `watch --interval` is validated with its limits, which `--help` states.
+#[test]
+fn watch_interval_has_limits_in_help() {
+    let o = drivectl(&[
+        "movilink",
+        "--port",
+        "/dev/null",
+        "watch",
+        "P000",
+        "--interval",
+        "10",
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("50..=3600000"), "{}", stderr(&o));
+    let o = drivectl(&["movilink", "--port", "/dev/null", "watch", "--help"]);
+    assert!(o.status.success());
+    assert!(stdout(&o).contains("50–3600000"), "{}", stdout(&o));
+    let o = drivectl(&[
+        "movilink",
+        "--port",
+        "/dev/null",
+        "watch",
+        "P000",
+        "--csv",
+        "--json",
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+}

@@ -989,3 +989,133 @@ fn issue7_pd_stops_the_drive_on_ctrl_c_and_on_a_closed_pipe() {
     assert_eq!(o.status.code(), Some(141), "{}", stderr_of(&o));
     assert!(stderr_of(&o).contains("sent stop"), "{}", stderr_of(&o));
 }
+
+/// Issue 7 #13: the status and fault words P010–P013 are decoded, as `pd` decodes status
+/// word 1, in text and JSON.
+#[test]
+fn read_decodes_status_and_fault_words() {
+    let sim = Sim::start(&[1]);
+    // One parameter per call: this test is about the decoding, not about several in one call.
+    let o = sim.run(1, &["read", "P012"]);
+    assert!(o.status.success());
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(text.contains(": no fault (raw "), "{text}");
+
+    let v = ok_json(&sim.run(1, &["--json", "read", "P010"]));
+    let status = v[0]["raw"].as_u64().unwrap() & 0xFFFF;
+    assert_eq!(status & 0x20, 0, "no fault after power-on: 0x{status:04X}");
+    let d = &v[0]["decoded"];
+    assert_eq!(d["status_word"], format!("0x{status:04X}"));
+    assert_eq!(d["fault"], serde_json::Value::Null);
+    assert_eq!(d["unit_status"]["code"], status >> 8);
+    let meaning = v[0]["meaning"].as_str().unwrap();
+    assert!(
+        meaning.contains("ready") && meaning.contains(&format!("unit status {}", status >> 8)),
+        "{meaning}"
+    );
+    let v = ok_json(&sim.run(1, &["--json", "read", "P012"]));
+    assert_eq!(v[0]["meaning"], "no fault");
+    let v = ok_json(&sim.run(1, &["--json", "read", "P013"]));
+    assert_eq!(v[0]["meaning"], "parameter set 1");
+}
+
+/// Issue 7 #20: several parameters in one call, in the order given; a refusal is reported
+/// for its parameter and the others are still read; a bad name fails before anything is read.
+#[test]
+fn read_takes_several_parameters() {
+    let sim = Sim::start(&[1]);
+    let v = ok_json(&sim.run(1, &["--json", "read", "P130", "P000", "8318", "P010"]));
+    let numbers: Vec<&str> = v.iter().map(|o| o["number"].as_str().unwrap()).collect();
+    assert_eq!(numbers, ["P130", "P000", "P000", "P010"]);
+    assert_eq!(v[0]["raw"], 2000);
+
+    // Index 9999 is not in the drive: refused, and P130 after it is still read.
+    let o = sim.run(1, &["--json", "read", "P000", "9999", "P130"]);
+    assert_eq!(o.status.code(), Some(1));
+    let out = String::from_utf8_lossy(&o.stdout);
+    let read: Vec<serde_json::Value> = out
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    assert_eq!(
+        (read.len(), &read[1]["number"]),
+        (2, &serde_json::json!("P130"))
+    );
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("index 9999: the drive refused"), "{err}");
+    assert!(
+        err.lines()
+            .last()
+            .unwrap()
+            .contains("1 of 3 parameters could not be read: index 9999"),
+        "{err}"
+    );
+
+    // A name that does not resolve: exit 2, nothing read.
+    let o = sim.run(1, &["read", "P000", "P9999"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        o.stdout.is_empty(),
+        "{}",
+        String::from_utf8_lossy(&o.stdout)
+    );
+    assert!(String::from_utf8_lossy(&o.stderr).contains("`P9999`"));
+}
+
+/// Issue 7 #19: `watch` polls several parameters; piped, it writes one JSON object per poll
+/// (`"type": "sample"`, an RFC 3339 UTC time with milliseconds) or CSV with a header row.
+#[test]
+fn watch_polls_with_timestamps_as_json_and_csv() {
+    let sim = Sim::start(&[1]);
+    let v = ok_json(&sim.run(
+        1,
+        &[
+            "--json",
+            "watch",
+            "P000",
+            "P130",
+            "--interval",
+            "100",
+            "--count",
+            "3",
+        ],
+    ));
+    assert_eq!(v.len(), 3);
+    let mut times = Vec::new();
+    for s in &v {
+        assert_eq!(s["type"], "sample");
+        let t = s["time"].as_str().unwrap().to_owned();
+        let b = t.as_bytes();
+        assert!(
+            t.len() == 24 && b[10] == b'T' && b[19] == b'.' && t.ends_with('Z'),
+            "{t}"
+        );
+        assert_eq!(s["values"][0]["number"], "P000");
+        assert_eq!(s["values"][1]["raw"], 2000);
+        times.push(t);
+    }
+    assert!(times.windows(2).all(|w| w[0] < w[1]), "{times:?}");
+
+    let o = sim.run(
+        1,
+        &[
+            "watch",
+            "P000",
+            "P130",
+            "--interval",
+            "100",
+            "--count",
+            "3",
+            "--csv",
+        ],
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let out = String::from_utf8_lossy(&o.stdout);
+    let rows: Vec<&str> = out.lines().collect();
+    assert_eq!(rows.len(), 4, "{out}");
+    assert_eq!(rows[0], "time,P000 Speed [1/min],P130 Ramp t11 up CW [s]");
+    for r in &rows[1..] {
+        let f: Vec<&str> = r.split(',').collect();
+        assert_eq!((f.len(), f[2]), (3, "2.00"), "{r}");
+    }
+}

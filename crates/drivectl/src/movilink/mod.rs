@@ -26,7 +26,7 @@ use crate::tool::client::{
 use crate::tool::interrupt::Interrupt;
 use crate::tool::line::{LineArgs, MasterArgs, runtime};
 use crate::tool::output::{physical_text, print_value, trim_float};
-use crate::tool::{backup, write};
+use crate::tool::{backup, read, watch, write};
 
 /// Indices outside the table that may be read and written raw (MOVIDRIVE indices start at
 /// 8300; numbers below 1000 are menu numbers).
@@ -55,10 +55,46 @@ pub struct MovilinkArgs {
 
 #[derive(Debug, Subcommand)]
 enum MovilinkCommand {
-    /// Read a parameter: value with unit and scaling, and the raw value.
+    /// Read parameters: value with unit and scaling (status and fault words decoded), and the
+    /// raw value; one line (or JSON object) per parameter, in the order given.
+    ///
+    /// Every name is checked before anything is sent. A drive's refusal of one parameter is
+    /// reported for it and the others are still read (exit 1 at the end); a link failure stops.
+    #[command(
+        after_help = "Examples:\n  drivectl movilink --port /dev/ttyUSB0 --addr 1 read P000\n  \
+        drivectl movilink --port /dev/ttyUSB0 --addr 1 read P000 P010 P130 8318"
+    )]
     Read {
-        /// Index (8318, 0x207E) or menu number (P000).
-        param: String,
+        /// Indices (8318, 0x207E) or menu numbers (P000).
+        #[arg(required = true, num_args = 1..)]
+        params: Vec<String>,
+    },
+    /// Poll parameters at a steady rhythm, every row with its time (RFC 3339, UTC): a table
+    /// redrawn in place on a terminal, one line per poll when piped, CSV or JSON (one object
+    /// per poll, "type": "sample"). Ctrl-C ends it (exit 0).
+    ///
+    /// Polls start every --interval; one that takes longer than the interval lets the slots it
+    /// overran pass (they are skipped, not fired back to back). A drive's refusal shows in the
+    /// parameter's cell and the polls go on; a link failure (no answer) ends the watch (exit 1).
+    #[command(
+        after_help = "Examples:\n  drivectl movilink --port /dev/ttyUSB0 --addr 1 watch P000 P004 P010\n  \
+        drivectl movilink --port /dev/ttyUSB0 --addr 1 watch P000 --interval 200 --count 50 --csv > speed.csv"
+    )]
+    Watch {
+        /// Indices (8318, 0x207E) or menu numbers (P000).
+        #[arg(required = true, num_args = 1..)]
+        params: Vec<String>,
+        /// Milliseconds between the starts of two polls, 50–3600000.
+        #[arg(long, default_value_t = 1000, value_name = "MS",
+              value_parser = clap::value_parser!(u64)
+                  .range(watch::MIN_INTERVAL_MS..=watch::MAX_INTERVAL_MS))]
+        interval: u64,
+        /// Number of polls; 0 = until Ctrl-C.
+        #[arg(long, default_value_t = 0, value_name = "N")]
+        count: u64,
+        /// CSV: a header row, then one row of physical values per poll (not with --json).
+        #[arg(long, conflicts_with = "json")]
+        csv: bool,
     },
     /// Write a parameter (checked against the table first).
     Write {
@@ -474,12 +510,43 @@ pub fn run(args: &MovilinkArgs) -> Result<()> {
 async fn execute<IO: CharIo>(m: &mut MasterDriver<IO>, args: &MovilinkArgs) -> Result<()> {
     let json = args.json;
     match &args.command {
-        MovilinkCommand::Read { param } => {
-            let t = resolve(param)?;
+        MovilinkCommand::Read { params } => {
+            let targets = params
+                .iter()
+                .map(|p| resolve(p))
+                .collect::<Result<Vec<_>>>()?;
             let mut client = MovilinkClient::new(m, address(args.addr)?, &args.port);
-            let raw = client.read(&t).await?;
-            print_value(&t, raw, json)?;
-            Ok(())
+            read::read_all(&mut client, &targets, json).await
+        }
+        MovilinkCommand::Watch {
+            params,
+            interval,
+            count,
+            csv,
+        } => {
+            let targets = params
+                .iter()
+                .map(|p| resolve(p))
+                .collect::<Result<Vec<_>>>()?;
+            let options = watch::Options {
+                interval: Duration::from_millis(*interval),
+                count: *count,
+                format: watch::Format::choose(
+                    *csv,
+                    json,
+                    std::io::IsTerminal::is_terminal(&std::io::stdout()),
+                )?,
+            };
+            let mut client = MovilinkClient::new(m, address(args.addr)?, &args.port);
+            watch::watch(
+                &mut client,
+                &targets,
+                options,
+                &mut |s| out!("{s}"),
+                watch::ctrl_c(),
+            )
+            .await
+            .map(drop)
         }
         MovilinkCommand::Write {
             param,

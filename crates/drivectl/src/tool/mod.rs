@@ -10,6 +10,9 @@
 //! * [`wear`]: the EEPROM-wear write log that keeps the guard's rule across runs;
 //! * [`backup`]: backup and restore of every family's parameters, with progress and atomic
 //!   files;
+//! * [`read`](mod@read): reading several parameters in one call;
+//! * [`meaning`]: what a raw value means (value names, decoded status and fault words);
+//! * [`watch`]: several parameters polled with timestamps (a table, lines, CSV or JSON);
 //! * [`output`]: values as text or JSON.
 
 #[macro_use]
@@ -20,6 +23,9 @@ pub mod client;
 pub mod fake;
 pub mod interrupt;
 pub mod line;
+pub mod meaning;
 pub mod outfile;
+pub mod read;
+pub mod watch;
 pub mod wear;
 pub mod write;

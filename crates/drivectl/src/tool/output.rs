@@ -4,9 +4,10 @@ use std::fmt::Write as _;
 use std::io::Write as _;
 
 use drive_profile::ParamMeta;
-use serde_json::json;
+use serde_json::{Value, json};
 
 use super::client::Target;
+use super::meaning::{Meaning, meaning};
 use crate::error::{CliError, Result};
 
 /// Write one piece of standard output. A reader that went away (`drivectl … | head`) is not an
@@ -74,28 +75,52 @@ pub fn trim_float(v: f64, decimals: u8) -> String {
     }
 }
 
-/// Print one value read from a drive: a line of text, or one JSON object.
-pub fn print_value(t: &Target, raw: i64, json: bool) -> Result<()> {
-    match (t.param, json) {
-        (Some(p), true) => outln!(
-            "{}",
+/// One value read from a drive as a JSON object: `index`, `number`, `name_de`, `name_en`,
+/// `raw`, `value`, `unit`, `meaning` (a value name or a decoded word, else `null`) and
+/// `decoded` (the decoded status/fault word, else `null`); outside the table `index`, `raw`,
+/// `value` and `unit`.
+pub fn value_json(t: &Target, raw: i64) -> Value {
+    match t.param {
+        Some(p) => {
+            let m = meaning(p, raw);
             json!({
                 "index": t.index, "number": p.label().to_string(), "name_de": p.name_de(),
                 "name_en": p.name_en(), "raw": raw, "value": p.to_physical(raw), "unit": p.unit(),
-                "meaning": p.value_name(raw).map(|v| v.en),
+                "meaning": m.as_ref().map(|m| m.text.clone()),
+                "decoded": m.and_then(|m| m.decoded),
             })
-        ),
+        }
+        None => json!({"index": t.index, "raw": raw, "value": raw, "unit": ""}),
+    }
+}
+
+/// One value as text without the parameter's name: the physical value with its unit and value
+/// name (`1.50 s`, `9 (control word 1)`), a decoded word in hex with its meaning
+/// (`0x0206: ready, PO data enabled, unit status 2 = no enable`), raw outside the table.
+pub fn value_text(t: &Target, raw: i64) -> String {
+    match t.param {
+        Some(p) => match meaning(p, raw) {
+            Some(Meaning {
+                text,
+                decoded: Some(_),
+            }) => format!("0x{:04X}: {text}", raw as u32),
+            _ => physical_text(p, raw),
+        },
+        None => format!("raw {raw} (0x{:08X})", raw as u32),
+    }
+}
+
+/// Print one value read from a drive: a line of text, or one JSON object.
+pub fn print_value(t: &Target, raw: i64, json: bool) -> Result<()> {
+    match (t.param, json) {
+        (_, true) => outln!("{}", value_json(t, raw)),
         (Some(p), false) => outln!(
             "{} {} (index {}): {} (raw {raw})",
             p.label(),
             p.name_en(),
             t.index,
-            physical_text(p, raw)
+            value_text(t, raw)
         ),
-        (None, true) => outln!(
-            "{}",
-            json!({"index": t.index, "raw": raw, "value": raw, "unit": ""})
-        ),
-        (None, false) => outln!("index {}: raw {raw} (0x{:08X})", t.index, raw as u32),
+        (None, false) => outln!("index {}: {}", t.index, value_text(t, raw)),
     }
 }
