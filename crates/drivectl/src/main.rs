@@ -58,9 +58,9 @@ enum DecodeCommand {
     /// with their offset and skipped.
     ///
     /// Examples:
-    ///   drivectl decode movilink 02 01 86 31 00 20 6D 00 00 00 00 F0
+    ///   drivectl decode movilink 02 01 86 31 00 20 6D 00 00 00 00 F9
     ///   drivectl decode movilink --file capture.txt --json
-    ///   candump-to-hex | drivectl decode movilink -
+    ///   drivectl decode movilink - < capture.txt
     #[command(verbatim_doc_comment)]
     Movilink {
         /// The bytes; `-` reads a capture from standard input (as --file).
