@@ -398,3 +398,85 @@ fn issue7_14_decode_says_when_a_file_cannot_be_read() {
     assert!(e.contains("cannot read /nonexistent/capture.txt"), "{e}");
     assert!(!e.contains("panicked"), "{e}");
 }
+
+// ---- issue 7 #15: `sim movilink` refuses what it cannot serve ----
+
+/// Run drivectl, killing it if it still runs after `secs` (a simulator that accepted its
+/// arguments serves until stopped): the exit status is `None` then.
+fn drivectl_within(args: &[&str], secs: u64) -> (Option<i32>, String) {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_drivectl"))
+        .args(args)
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("drivectl runs");
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(secs);
+    let code = loop {
+        if let Some(status) = child.try_wait().unwrap() {
+            break status.code();
+        }
+        if std::time::Instant::now() > deadline {
+            child.kill().unwrap();
+            child.wait().unwrap();
+            break None;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    };
+    let mut err = String::new();
+    std::io::Read::read_to_string(&mut child.stderr.take().unwrap(), &mut err).unwrap();
+    (code, err)
+}
+
+#[test]
+fn issue7_15_sim_refuses_a_duplicate_address_naming_it() {
+    let (code, err) = drivectl_within(
+        &[
+            "sim", "movilink", "--pty", "--parity", "none", "--addr", "1", "--addr", "5", "--addr",
+            "1",
+        ],
+        5,
+    );
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("--addr 1 is given twice"), "{err}");
+    assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+}
+
+#[test]
+fn issue7_15_baud_0_is_refused_by_the_simulator_and_the_master() {
+    let (code, err) = drivectl_within(
+        &[
+            "sim", "movilink", "--pty", "--parity", "none", "--baud", "0",
+        ],
+        5,
+    );
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("'0' for '--baud <BAUD>'"), "{err}");
+    assert!(err.contains("1..=4000000"), "{err}");
+    let o = drivectl(&["movilink", "--port", "/dev/null", "--baud", "0", "line"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("1..=4000000"), "{}", stderr(&o));
+}
+
+/// The master refuses parity on a pty (tests/movilink_pty.rs `a_refused_parity_names_the_option`);
+/// the simulator used to switch to 8N1 by itself. Now both refuse, naming the setting and the way
+/// out, and the default (even) says it is the default.
+#[test]
+fn issue7_15_sim_on_a_pty_refuses_parity_as_the_master_does() {
+    for (extra, named) in [
+        (&[][..], "parity even (the default"),
+        (&["--parity", "even"][..], "parity even"),
+        (&["--parity", "odd"][..], "parity odd"),
+    ] {
+        let mut args = vec!["sim", "movilink", "--pty", "--addr", "1"];
+        args.extend_from_slice(extra);
+        let (code, err) = drivectl_within(&args, 5);
+        assert_eq!(code, Some(2), "{args:?}: {err}");
+        assert!(err.contains(named), "{args:?}: {err}");
+        assert!(
+            err.contains("pseudo-terminals accept only no parity"),
+            "{err}"
+        );
+        assert!(err.contains("--parity none"), "{err}");
+        assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+    }
+}
