@@ -256,7 +256,8 @@ fn hex(bytes: &[u8]) -> String {
 pub fn split(capture: &Capture) -> Vec<Item> {
     let bytes = capture.bytes.as_slice();
     let starts = capture.line_starts();
-    let next_line = |p: usize| starts.iter().copied().find(|&b| b > p);
+    // Sorted, so a binary search keeps long captures linear-ish.
+    let next_line = |p: usize| starts.get(starts.partition_point(|&b| b <= p)).copied();
     let mut out = Vec::new();
     let mut p = 0;
     while let Some(rest) = bytes.get(p..).filter(|r| !r.is_empty()) {
