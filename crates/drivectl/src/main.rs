@@ -50,11 +50,28 @@ enum SimCommand {
 #[derive(Debug, Subcommand)]
 enum DecodeCommand {
     /// A MOVILINK capture: hex bytes, e.g. `02 01 85 00 06 20 00 0B B8 13`.
+    ///
+    /// Bytes are pairs of hex digits, with or without `0x`, separated by spaces, commas or
+    /// colons, or run together (`020185`); an odd number of digits or a non-hex token is an
+    /// error naming it. Several telegrams back to back are split by their start character
+    /// (SD1 02 request, SD2 1D response) and PDU type; bytes that start no telegram are reported
+    /// with their offset and skipped.
+    ///
+    /// Examples:
+    ///   drivectl decode movilink 02 01 86 31 00 20 6D 00 00 00 00 F9
+    ///   drivectl decode movilink --file capture.txt --json
+    ///   drivectl decode movilink - < capture.txt
+    #[command(verbatim_doc_comment)]
     Movilink {
-        /// The bytes (spaces, commas or none between them).
-        #[arg(required = true, num_args = 1..)]
+        /// The bytes; `-` reads a capture from standard input (as --file).
+        #[arg(required_unless_present = "file", conflicts_with = "file", num_args = 1..)]
         hex: Vec<String>,
-        /// One JSON object per telegram.
+        /// Read the capture from a file: one telegram per line or a byte stream over several
+        /// lines; blank lines, `#` comments, CR LF line ends and a UTF-8 BOM are allowed.
+        #[arg(long, value_name = "PATH")]
+        file: Option<String>,
+        /// One JSON object per telegram (`"type": "telegram"`) or skipped run of bytes
+        /// (`"type": "error"`).
         #[arg(long)]
         json: bool,
     },
@@ -66,7 +83,9 @@ fn main() -> ExitCode {
         Command::Params(args) => params::run(&args),
         Command::Movilink(args) => movilink::run(&args),
         Command::Sim(SimCommand::Movilink(args)) => movilink::sim::run(&args),
-        Command::Decode(DecodeCommand::Movilink { hex, json }) => movilink::decode::run(&hex, json),
+        Command::Decode(DecodeCommand::Movilink { hex, file, json }) => {
+            movilink::decode::run(&hex, file.as_deref(), json)
+        }
         Command::Demo(args) => demo::run(&args),
     };
     match result {

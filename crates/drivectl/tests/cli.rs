@@ -319,3 +319,193 @@ fn watch_interval_has_limits_in_help() {
     ]);
     assert_eq!(o.status.code(), Some(2));
 }
+
+// ---- issue 7 #14: `decode movilink` input ----
+
+/// A read request of P070 (index 8301) to address 1 and the simulator's answer, BCCs correct.
+const READ_8301: &str = "02 01 86 31 00 20 6D 00 00 00 00 F9";
+const ANSWER_8301: &str = "1D 01 86 31 00 20 6D 03 93 8D 11 EA";
+
+fn drivectl_stdin(args: &[&str], input: &[u8]) -> Output {
+    use std::io::Write;
+    let mut child = Command::new(env!("CARGO_BIN_EXE_drivectl"))
+        .args(args)
+        .stdin(std::process::Stdio::piped())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("drivectl runs");
+    child.stdin.take().unwrap().write_all(input).unwrap();
+    child.wait_with_output().unwrap()
+}
+
+#[test]
+fn issue7_14_decode_refuses_odd_digits_and_signs_naming_the_token() {
+    // An odd digit count used to be padded, shifting every byte after it.
+    let o = drivectl(&["decode", "movilink", "02 1 86 31 00 20 6D 00 00 00 00 F9"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stdout(&o));
+    assert_eq!(stdout(&o), "");
+    let e = stderr(&o);
+    assert!(
+        e.contains("`1`") && e.contains("column 4") && e.contains("odd"),
+        "{e}"
+    );
+    // `-02` used to be read as 02.
+    let o = drivectl(&["decode", "movilink", "--", "-02", "01", "86"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stdout(&o));
+    let e = stderr(&o);
+    assert!(
+        e.contains("argument 1") && e.contains("`-02` is not hex"),
+        "{e}"
+    );
+}
+
+#[test]
+fn issue7_14_decode_reads_a_notepad_file_one_telegram_per_line() {
+    let dir = std::env::temp_dir().join(format!("drivectl-decode-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("capture.txt");
+    let text = format!("\u{feff}# P070 read\r\n{READ_8301}\r\n\r\n{ANSWER_8301}  # answer\r\n");
+    std::fs::write(&path, text).unwrap();
+    let o = drivectl(&[
+        "decode",
+        "movilink",
+        "--file",
+        path.to_str().unwrap(),
+        "--json",
+    ]);
+    std::fs::remove_dir_all(&dir).unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v = json_lines(&o);
+    assert_eq!(v.len(), 2);
+    assert_eq!(v[0]["type"], "telegram");
+    assert_eq!(v[0]["direction"], "request");
+    assert_eq!(v[0]["line"], 2);
+    assert_eq!(v[0]["pdu_type"], "0x86");
+    assert_eq!(v[0]["pdu_name"], "PARAM+0PD acyclic");
+    assert_eq!(v[0]["address"], 1);
+    assert_eq!(v[0]["index"], 8301);
+    assert_eq!(v[1]["direction"], "response");
+    assert_eq!(v[1]["line"], 4);
+    assert_eq!(v[1]["raw"], 60_001_553);
+    assert_eq!(v[1]["valid"], true);
+}
+
+#[test]
+fn issue7_14_decode_splits_a_stream_from_stdin_and_reports_stray_bytes() {
+    let input = format!("55 AA {READ_8301} {ANSWER_8301} 02 01");
+    let o = drivectl_stdin(&["decode", "movilink", "-", "--json"], input.as_bytes());
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    let v = json_lines(&o);
+    let kinds: Vec<_> = v
+        .iter()
+        .map(|j| (j["type"].as_str().unwrap(), j["offset"].as_u64().unwrap()))
+        .collect();
+    assert_eq!(
+        kinds,
+        [
+            ("error", 0),
+            ("telegram", 2),
+            ("telegram", 14),
+            ("telegram", 26)
+        ]
+    );
+    assert_eq!(v[0]["bytes"], "55 AA");
+    assert_eq!(v[1]["valid"], true);
+    assert_eq!(v[2]["valid"], true);
+    assert_eq!(v[3]["valid"], false);
+    let e = stderr(&o);
+    assert!(e.contains("1 of 3 telegram(s) are invalid"), "{e}");
+    assert!(e.contains("2 byte(s) start no telegram"), "{e}");
+}
+
+#[test]
+fn issue7_14_decode_says_when_a_file_cannot_be_read() {
+    let o = drivectl(&["decode", "movilink", "--file", "/nonexistent/capture.txt"]);
+    assert_eq!(o.status.code(), Some(1));
+    let e = stderr(&o);
+    assert!(e.contains("cannot read /nonexistent/capture.txt"), "{e}");
+    assert!(!e.contains("panicked"), "{e}");
+}
+
+// ---- issue 7 #15: `sim movilink` refuses what it cannot serve ----
+
+/// Run drivectl, killing it if it still runs after `secs` (a simulator that accepted its
+/// arguments serves until stopped): the exit status is `None` then.
+fn drivectl_within(args: &[&str], secs: u64) -> (Option<i32>, String) {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_drivectl"))
+        .args(args)
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("drivectl runs");
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(secs);
+    let code = loop {
+        if let Some(status) = child.try_wait().unwrap() {
+            break status.code();
+        }
+        if std::time::Instant::now() > deadline {
+            child.kill().unwrap();
+            child.wait().unwrap();
+            break None;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    };
+    let mut err = String::new();
+    std::io::Read::read_to_string(&mut child.stderr.take().unwrap(), &mut err).unwrap();
+    (code, err)
+}
+
+#[test]
+fn issue7_15_sim_refuses_a_duplicate_address_naming_it() {
+    let (code, err) = drivectl_within(
+        &[
+            "sim", "movilink", "--pty", "--parity", "none", "--addr", "1", "--addr", "5", "--addr",
+            "1",
+        ],
+        5,
+    );
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("--addr 1 is given twice"), "{err}");
+    assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+}
+
+#[test]
+fn issue7_15_baud_0_is_refused_by_the_simulator_and_the_master() {
+    let (code, err) = drivectl_within(
+        &[
+            "sim", "movilink", "--pty", "--parity", "none", "--baud", "0",
+        ],
+        5,
+    );
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("'0' for '--baud <BAUD>'"), "{err}");
+    assert!(err.contains("1..=4000000"), "{err}");
+    let o = drivectl(&["movilink", "--port", "/dev/null", "--baud", "0", "line"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("1..=4000000"), "{}", stderr(&o));
+}
+
+/// The master refuses parity on a pty (tests/movilink_pty.rs `a_refused_parity_names_the_option`);
+/// the simulator used to switch to 8N1 by itself. Now both refuse, naming the setting and the way
+/// out, and the default (even) says it is the default.
+#[test]
+fn issue7_15_sim_on_a_pty_refuses_parity_as_the_master_does() {
+    for (extra, named) in [
+        (&[][..], "parity even (the default"),
+        (&["--parity", "even"][..], "parity even"),
+        (&["--parity", "odd"][..], "parity odd"),
+    ] {
+        let mut args = vec!["sim", "movilink", "--pty", "--addr", "1"];
+        args.extend_from_slice(extra);
+        let (code, err) = drivectl_within(&args, 5);
+        assert_eq!(code, Some(2), "{args:?}: {err}");
+        assert!(err.contains(named), "{args:?}: {err}");
+        assert!(
+            err.contains("pseudo-terminals accept only no parity"),
+            "{err}"
+        );
+        assert!(err.contains("--parity none"), "{err}");
+        assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+    }
+}

@@ -1119,3 +1119,28 @@ fn watch_polls_with_timestamps_as_json_and_csv() {
         assert_eq!((f.len(), f[2]), (3, "2.00"), "{r}");
     }
 }
+
+/// Issue 7 #22: scan names the device type only where a manual codes P070 (none does, so the
+/// name is null and the text says why), and shows the rated current (P071) the manual gives.
+#[test]
+fn issue7_22_scan_names_no_device_type_it_cannot_and_shows_the_rated_current() {
+    let sim = Sim::start(&[2]);
+    let scan = ["--timeout", "20", "scan", "--from", "1", "--to", "3"];
+    let json: Vec<&str> = ["--json"].iter().chain(scan.iter()).copied().collect();
+    let v = ok_json(&sim.run(0, &json));
+    assert_eq!(v.len(), 1, "{v:?}");
+    assert_eq!(v[0]["address"], 2);
+    assert_eq!(v[0]["device_type"], 60_001_553);
+    assert!(v[0]["device_type_name"].is_null(), "{v:?}");
+    assert_eq!(v[0]["rated_current_a"], 4.0);
+    let o = sim.run(0, &scan);
+    assert!(o.status.success());
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        text.contains(
+            "address  2: device type 60001553 (no designation: the manual does not code P070), \
+             rated current 4 A, firmware 822 609 7.11"
+        ),
+        "{text}"
+    );
+}

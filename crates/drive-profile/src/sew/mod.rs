@@ -37,6 +37,7 @@
 //! does not list.
 
 pub mod channel;
+pub mod device;
 mod handshake;
 pub mod index;
 mod words;

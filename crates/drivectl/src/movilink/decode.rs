@@ -7,7 +7,8 @@ use crate::error::{CliError, Result};
 use crate::tool::output::{physical_text, trim_float};
 use drive_profile::sew::{ControlWord1, StatusWord1};
 use drive_profile::{ParamMeta, sew};
-use movilink::codec::bcc;
+use movilink::DecodeError;
+use movilink::codec::{self, bcc};
 use movilink::{Address, ParamChannel, PduType, ReturnCode, SD1, SD2, Service};
 use serde_json::{Value, json};
 
@@ -25,10 +26,25 @@ pub struct Field {
 }
 
 /// The explanation of one telegram of a capture.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, Default)]
 pub struct Explained {
+    /// Offset of the telegram's first byte in the capture.
+    pub offset: usize,
     /// Request (SD1) or response (SD2), if the start character says so.
     pub direction: Option<&'static str>,
+    /// The address byte, if present.
+    pub address: Option<u8>,
+    /// The PDU type, if present and known.
+    pub pdu_type: Option<PduType>,
+    /// The parameter channel's index, if the PDU type has one.
+    pub index: Option<u16>,
+    /// The parameter channel's service, if the PDU type has one and the code is defined.
+    pub service: Option<&'static str>,
+    /// The parameter channel's data as the parameter's raw value (signed where its range goes
+    /// below zero or the index is not in the table), unless the status bit marks an error.
+    pub raw: Option<i64>,
+    /// The process data words.
+    pub words: Vec<u16>,
     /// The fields in order.
     pub fields: Vec<Field>,
     /// The first problem found, if any.
@@ -37,39 +53,191 @@ pub struct Explained {
     pub len: usize,
 }
 
-/// Parse hex arguments: `02 01 85`, `020185`, `0x02,0x01` and mixtures.
-pub fn parse_hex(args: &[String]) -> Result<Vec<u8>> {
-    let mut digits = String::new();
-    for a in args {
-        for part in a.split([',', ' ', ':', '-']) {
-            let p = part.trim();
-            let p = p
-                .strip_prefix("0x")
-                .or_else(|| p.strip_prefix("0X"))
-                .unwrap_or(p);
-            if p.len() % 2 == 1 {
-                digits.push('0');
-            }
-            digits.push_str(p);
+/// One item of a split capture: a telegram (valid or not), or bytes that start none.
+#[derive(Debug, Clone)]
+pub enum Item {
+    /// A telegram framed by its start character and PDU type.
+    Telegram(Explained),
+    /// Bytes that do not start a telegram, skipped up to the next start character or line.
+    Unrecognised {
+        /// Offset of the first byte in the capture.
+        offset: usize,
+        /// The skipped bytes.
+        bytes: Vec<u8>,
+        /// Why they start no telegram.
+        reason: String,
+    },
+}
+
+impl Item {
+    /// Offset of the item's first byte.
+    pub fn offset(&self) -> usize {
+        match self {
+            Self::Telegram(e) => e.offset,
+            Self::Unrecognised { offset, .. } => *offset,
         }
     }
+}
+
+/// A capture: the bytes, and for input read from a file or stdin the line each byte came from.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct Capture {
+    /// The bytes in input order.
+    pub bytes: Vec<u8>,
+    /// 1-based input line of each byte; empty for bytes given as arguments.
+    pub lines: Vec<usize>,
+}
+
+impl Capture {
+    /// The input line of the byte at `offset`, if the capture came from lines.
+    fn line_of(&self, offset: usize) -> Option<usize> {
+        self.lines.get(offset).copied()
+    }
+
+    /// Offsets (after 0) where a new input line starts: a telegram does not cross one unless
+    /// its check character proves it was wrapped.
+    fn line_starts(&self) -> Vec<usize> {
+        self.lines
+            .windows(2)
+            .enumerate()
+            .filter(|(_, w)| w.first() != w.get(1))
+            .map(|(i, _)| i + 1)
+            .collect()
+    }
+}
+
+/// Characters between bytes or groups of bytes: white space, commas and colons.
+fn is_separator(c: char) -> bool {
+    c.is_whitespace() || c == ',' || c == ':'
+}
+
+/// The tokens of `text` with the 1-based column (in characters) where each starts.
+fn tokens(text: &str) -> Vec<(usize, &str)> {
+    let mut out = Vec::new();
+    let mut start: Option<(usize, usize)> = None;
+    for (col, (i, c)) in text.char_indices().enumerate() {
+        match (is_separator(c), start) {
+            (true, Some((s, s_col))) => {
+                out.push((s_col + 1, text.get(s..i).unwrap_or("")));
+                start = None;
+            }
+            (false, None) => start = Some((i, col)),
+            _ => {}
+        }
+    }
+    if let Some((s, s_col)) = start {
+        out.push((s_col + 1, text.get(s..).unwrap_or("")));
+    }
+    out
+}
+
+/// The bytes of one token: hex digits in pairs, optionally after one `0x`/`0X` prefix
+/// (`02`, `0x02`, `020186`, `0x020186`). `place` says where the token is, for the message.
+fn token_bytes(token: &str, place: &str, out: &mut Vec<u8>) -> Result<()> {
+    let digits = token
+        .strip_prefix("0x")
+        .or_else(|| token.strip_prefix("0X"))
+        .unwrap_or(token);
     if let Some(bad) = digits.chars().find(|c| !c.is_ascii_hexdigit()) {
         return Err(CliError::usage(format!(
-            "`{bad}` is not a hex digit; give bytes like `02 01 86` or `020186`"
+            "{place}: `{token}` is not hex (`{bad}` is not a hex digit); give bytes like \
+             `02 01 86`, `020186` or `0x02,0x01,0x86`"
         )));
     }
-    let bytes: Vec<u8> = digits
-        .as_bytes()
-        .chunks(2)
-        .filter_map(|pair| std::str::from_utf8(pair).ok())
-        .filter_map(|s| u8::from_str_radix(s, 16).ok())
-        .collect();
+    if digits.is_empty() {
+        return Err(CliError::usage(format!(
+            "{place}: `{token}` has no hex digits after the prefix"
+        )));
+    }
+    if digits.len() % 2 == 1 {
+        return Err(CliError::usage(format!(
+            "{place}: `{token}` has an odd number of hex digits ({}); a byte is two digits \
+             (`02`, not `2`), so a digit is missing or left over",
+            digits.len()
+        )));
+    }
+    for pair in digits.as_bytes().chunks(2) {
+        let byte = std::str::from_utf8(pair)
+            .ok()
+            .and_then(|s| u8::from_str_radix(s, 16).ok())
+            .ok_or_else(|| CliError::usage(format!("{place}: `{token}` is not hex")))?;
+        out.push(byte);
+    }
+    Ok(())
+}
+
+/// Parse hex arguments: `02 01 85`, `020185`, `0x02,0x01` and mixtures. Every token must be
+/// whole bytes: an odd number of digits or a non-hex character (a leading `-` too) is an error
+/// naming the argument and the token.
+pub fn parse_hex(args: &[String]) -> Result<Vec<u8>> {
+    let mut bytes = Vec::new();
+    for (n, a) in args.iter().enumerate() {
+        for (col, token) in tokens(a) {
+            let place = if args.len() == 1 {
+                format!("column {col}")
+            } else {
+                format!("argument {}, column {col}", n + 1)
+            };
+            token_bytes(token, &place, &mut bytes)?;
+        }
+    }
     if bytes.is_empty() {
         return Err(CliError::usage(
             "no bytes given; give a telegram like `02 01 86 …`",
         ));
     }
     Ok(bytes)
+}
+
+/// Parse a capture read from a file or stdin (`source` names it in messages): hex bytes as
+/// for [`parse_hex`], one telegram per line or a stream over several lines. A UTF-8 byte order
+/// mark, CR LF line ends, blank lines and `#` comments (to the end of the line) are allowed.
+pub fn parse_text(text: &str, source: &str) -> Result<Capture> {
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+    let mut capture = Capture::default();
+    for (n, line) in text.lines().enumerate() {
+        let content = line.split_once('#').map_or(line, |(before, _)| before);
+        let before = capture.bytes.len();
+        for (col, token) in tokens(content) {
+            let place = format!("{source} line {}, column {col}", n + 1);
+            token_bytes(token, &place, &mut capture.bytes)?;
+        }
+        let added = capture.bytes.len() - before;
+        capture.lines.extend(std::iter::repeat_n(n + 1, added));
+    }
+    if capture.bytes.is_empty() {
+        return Err(CliError::usage(format!(
+            "{source} holds no bytes; give hex like `02 01 86 …`, one telegram per line"
+        )));
+    }
+    Ok(capture)
+}
+
+/// Read a capture from `path`, or from standard input for `-`.
+pub fn read_capture(path: &str) -> Result<Capture> {
+    use std::io::Read;
+    let (source, raw) = if path == "-" {
+        let mut buf = Vec::new();
+        std::io::stdin()
+            .read_to_end(&mut buf)
+            .map_err(|e| CliError::failed(format!("cannot read standard input: {e}")))?;
+        ("standard input".to_owned(), buf)
+    } else {
+        let buf = std::fs::read(path).map_err(|e| {
+            CliError::failed(format!(
+                "cannot read {path}: {e}; check the path and that it is a readable file"
+            ))
+        })?;
+        (path.to_owned(), buf)
+    };
+    let text = String::from_utf8(raw).map_err(|e| {
+        CliError::usage(format!(
+            "{source} is not text (byte {} is not UTF-8); give hex like `02 01 86 …`, \
+             one telegram per line",
+            e.utf8_error().valid_up_to()
+        ))
+    })?;
+    parse_text(&text, &source)
 }
 
 fn hex(bytes: &[u8]) -> String {
@@ -80,21 +248,64 @@ fn hex(bytes: &[u8]) -> String {
         .join(" ")
 }
 
-/// Explain every telegram in `capture`.
-pub fn explain_all(capture: &[u8]) -> Vec<Explained> {
+/// Split `capture` into telegrams with the MOVILINK framing (start character SD1 0x02 or SD2
+/// 0x1D, length from the PDU type) and explain each. Bytes that start no telegram are reported
+/// and skipped up to the next start character. A telegram that would cross a line of the input
+/// is taken only if its check character is right (a wrapped dump); otherwise the line's part is
+/// explained as truncated and the next line starts afresh. Never panics.
+pub fn split(capture: &Capture) -> Vec<Item> {
+    let bytes = capture.bytes.as_slice();
+    let starts = capture.line_starts();
+    // Sorted, so a binary search keeps long captures linear-ish.
+    let next_line = |p: usize| starts.get(starts.partition_point(|&b| b <= p)).copied();
     let mut out = Vec::new();
-    let mut rest = capture;
-    let mut offset = 0;
-    while !rest.is_empty() {
-        let e = explain(rest);
-        let used = e.len.max(1);
-        let mut e = e;
-        for f in &mut e.fields {
-            f.offset += offset;
+    let mut p = 0;
+    while let Some(rest) = bytes.get(p..).filter(|r| !r.is_empty()) {
+        let framed = match codec::telegram_len(rest) {
+            Ok(n) => Some(n.min(rest.len())),
+            // A start character with fewer than three bytes after it: a truncated telegram.
+            Err(DecodeError::Truncated { .. }) => Some(rest.len()),
+            Err(_) => None,
+        };
+        if let Some(n) = framed {
+            let mut e = explain(rest.get(..n).unwrap_or(rest));
+            let mut n = n;
+            if let Some(b) = next_line(p).filter(|&b| b < p + n) {
+                if e.error.is_some() {
+                    n = b - p;
+                    e = explain(rest.get(..n).unwrap_or(rest));
+                }
+            }
+            e.offset = p;
+            for f in &mut e.fields {
+                f.offset += p;
+            }
+            e.len = n;
+            out.push(Item::Telegram(e));
+            p += n.max(1);
+            continue;
         }
-        out.push(e);
-        offset += used;
-        rest = rest.get(used..).unwrap_or(&[]);
+        let reason = match rest.first() {
+            Some(&b) if b == SD1 || b == SD2 => format!(
+                "unknown PDU type 0x{:02X} after a start character",
+                rest.get(2).copied().unwrap_or(0)
+            ),
+            _ => "no start character (SD1 = 02, SD2 = 1D)".to_owned(),
+        };
+        let limit = next_line(p).map_or(rest.len(), |b| b - p);
+        let skip = rest
+            .iter()
+            .enumerate()
+            .skip(1)
+            .take_while(|(i, _)| *i < limit)
+            .find(|(_, b)| **b == SD1 || **b == SD2)
+            .map_or(limit, |(i, _)| i);
+        out.push(Item::Unrecognised {
+            offset: p,
+            bytes: rest.get(..skip).unwrap_or(rest).to_vec(),
+            reason,
+        });
+        p += skip.max(1);
     }
     out
 }
@@ -142,6 +353,7 @@ pub fn explain(bytes: &[u8]) -> Explained {
                 fields,
                 error: Some(format!("byte 0x{sd:02X} is not SD1 or SD2")),
                 len: 1,
+                ..Explained::default()
             };
         }
     }
@@ -151,6 +363,7 @@ pub fn explain(bytes: &[u8]) -> Explained {
             fields,
             error: Some("truncated after the start character".into()),
             len: bytes.len(),
+            ..Explained::default()
         };
     };
     let adr_text = match Address::new(adr) {
@@ -172,6 +385,8 @@ pub fn explain(bytes: &[u8]) -> Explained {
             fields,
             error: Some("truncated after the address".into()),
             len: bytes.len(),
+            address: Some(adr),
+            ..Explained::default()
         };
     };
     let Some(pdu) = PduType::new(typ) else {
@@ -181,6 +396,8 @@ pub fn explain(bytes: &[u8]) -> Explained {
             fields,
             error: Some(format!("unknown PDU type 0x{typ:02X}")),
             len: 3,
+            address: Some(adr),
+            ..Explained::default()
         };
     };
     let words = pdu.pd_words();
@@ -207,9 +424,13 @@ pub fn explain(bytes: &[u8]) -> Explained {
                 bytes.len()
             )),
             len: bytes.len(),
+            address: Some(adr),
+            pdu_type: Some(pdu),
+            ..Explained::default()
         };
     }
     let mut at = 3;
+    let mut channel = None;
     if pdu.has_param() {
         let mut raw = [0u8; 8];
         if let Some(src) = bytes.get(at..at + 8) {
@@ -217,8 +438,10 @@ pub fn explain(bytes: &[u8]) -> Explained {
         }
         let p = ParamChannel::from_bytes(raw);
         explain_param(&p, direction == Some("response"), at, &raw, &mut push);
+        channel = Some(p);
         at += 8;
     }
+    let mut pd = Vec::with_capacity(words);
     let is_request = direction == Some("request");
     for w in 0..words {
         let b = bytes.get(at..at + 2).unwrap_or(&[0, 0]);
@@ -226,6 +449,7 @@ pub fn explain(bytes: &[u8]) -> Explained {
             b.first().copied().unwrap_or(0),
             b.get(1).copied().unwrap_or(0),
         ]);
+        pd.push(v);
         let name = format!("{}{}", if is_request { "PO" } else { "PI" }, w + 1);
         push(
             at,
@@ -257,9 +481,29 @@ pub fn explain(bytes: &[u8]) -> Explained {
     }
     Explained {
         direction,
+        address: Some(adr),
+        pdu_type: Some(pdu),
+        index: channel.map(|p| p.index),
+        service: channel
+            .and_then(|p| p.management.service())
+            .map(Service::name),
+        raw: channel
+            .filter(|p| !p.management.is_error())
+            .map(|p| raw_value(p.index, p.data)),
+        words: pd,
         fields,
         error,
         len,
+        ..Explained::default()
+    }
+}
+
+/// The channel's data as the parameter's raw value: unsigned where the parameter's range
+/// starts at zero or above, else signed (as `read` reports it).
+fn raw_value(index: u16, data: u32) -> i64 {
+    match sew::by_index(index).map(|q| q.wire_range()) {
+        Some((lo, _)) if lo >= 0 => i64::from(data),
+        _ => i64::from(data as i32),
     }
 }
 
@@ -391,50 +635,295 @@ fn explain_param(
     push(at + 4, &raw[4..8], "data", data_meaning);
 }
 
-/// JSON of one explained telegram.
-pub fn to_json(e: &Explained) -> Value {
+/// The name of a PDU type: `PARAM+0PD acyclic`, `3PD cyclic`.
+fn pdu_name(pdu: PduType) -> String {
+    format!(
+        "{}{}PD {}",
+        if pdu.has_param() { "PARAM+" } else { "" },
+        pdu.pd_words(),
+        if pdu.is_cyclic() { "cyclic" } else { "acyclic" }
+    )
+}
+
+/// JSON of one explained telegram (`"type": "telegram"`); `line` is its first byte's input
+/// line, if it came from a file or stdin.
+pub fn to_json(e: &Explained, line: Option<usize>) -> Value {
     json!({
+        "type": "telegram",
+        "offset": e.offset,
+        "line": line,
+        "length": e.len,
+        "bytes": e.fields.iter().map(|f| f.bytes.as_str()).collect::<Vec<_>>().join(" "),
         "direction": e.direction,
         "valid": e.error.is_none(),
         "error": e.error,
-        "length": e.len,
+        "address": e.address,
+        "pdu_type": e.pdu_type.map(|t| format!("0x{:02X}", t.raw())),
+        "pdu_name": e.pdu_type.map(pdu_name),
+        "service": e.service,
+        "index": e.index,
+        "number": e.index.and_then(sew::by_index).map(|q| q.menu_label().to_string()),
+        "raw": e.raw,
+        "process_data": e.words,
         "fields": e.fields.iter().map(|f| json!({
             "offset": f.offset, "bytes": f.bytes, "field": f.name, "meaning": f.meaning,
         })).collect::<Vec<_>>(),
     })
 }
 
-/// Run `drivectl decode movilink`.
-pub fn run(hex_args: &[String], json: bool) -> Result<()> {
-    let capture = parse_hex(hex_args)?;
-    let all = explain_all(&capture);
+/// JSON of one item of a split capture: a telegram, or `"type": "error"` for skipped bytes.
+pub fn item_json(item: &Item, capture: &Capture) -> Value {
+    let line = capture.line_of(item.offset());
+    match item {
+        Item::Telegram(e) => to_json(e, line),
+        Item::Unrecognised {
+            offset,
+            bytes,
+            reason,
+        } => json!({
+            "type": "error",
+            "offset": offset,
+            "line": line,
+            "length": bytes.len(),
+            "bytes": hex(bytes),
+            "error": reason,
+        }),
+    }
+}
+
+/// Where an item starts, for the text output: `offset 12` or `offset 12 (line 3)`.
+fn place(offset: usize, line: Option<usize>) -> String {
+    match line {
+        Some(l) => format!("offset {offset} (line {l})"),
+        None => format!("offset {offset}"),
+    }
+}
+
+/// Run `drivectl decode movilink`: bytes from the arguments, or a capture from `file`
+/// (`-` = standard input; a lone `-` argument means the same).
+pub fn run(hex_args: &[String], file: Option<&str>, json: bool) -> Result<()> {
+    let capture = match (file, hex_args) {
+        (Some(path), _) => read_capture(path)?,
+        (None, [only]) if only == "-" => read_capture("-")?,
+        (None, args) => Capture {
+            bytes: parse_hex(args)?,
+            lines: Vec::new(),
+        },
+    };
+    let items = split(&capture);
     let mut out = String::new();
-    for e in &all {
+    for item in &items {
         if json {
-            out.push_str(&to_json(e).to_string());
+            out.push_str(&item_json(item, &capture).to_string());
             out.push('\n');
             continue;
         }
-        out.push_str(&format!(
-            "{} telegram, {} bytes: {}\n",
-            e.direction.unwrap_or("unrecognised"),
-            e.len,
-            e.error
-                .as_deref()
-                .map_or_else(|| "valid".to_owned(), |er| format!("INVALID ({er})"))
-        ));
-        for f in &e.fields {
-            out.push_str(&format!(
-                "  {:>3}  {:<12} {:<11} {}\n",
-                f.offset, f.bytes, f.name, f.meaning
-            ));
+        let at = place(item.offset(), capture.line_of(item.offset()));
+        match item {
+            Item::Telegram(e) => {
+                out.push_str(&format!(
+                    "{} telegram at {at}, {} bytes: {}\n",
+                    e.direction.unwrap_or("unrecognised"),
+                    e.len,
+                    e.error
+                        .as_deref()
+                        .map_or_else(|| "valid".to_owned(), |er| format!("INVALID ({er})"))
+                ));
+                for f in &e.fields {
+                    out.push_str(&format!(
+                        "  {:>3}  {:<12} {:<11} {}\n",
+                        f.offset, f.bytes, f.name, f.meaning
+                    ));
+                }
+            }
+            Item::Unrecognised { bytes, reason, .. } => {
+                out.push_str(&format!(
+                    "skipped {} byte{} at {at}: {} ({reason})\n",
+                    bytes.len(),
+                    if bytes.len() == 1 { "" } else { "s" },
+                    hex(bytes)
+                ));
+            }
         }
     }
     out!("{out}")?;
-    if all.iter().any(|e| e.error.is_some()) {
-        return Err(CliError::failed(
-            "the capture holds an invalid telegram (see above)",
+    let telegrams = items
+        .iter()
+        .filter(|i| matches!(i, Item::Telegram(_)))
+        .count();
+    let invalid = items
+        .iter()
+        .filter(|i| matches!(i, Item::Telegram(e) if e.error.is_some()))
+        .count();
+    let skipped: usize = items
+        .iter()
+        .map(|i| match i {
+            Item::Unrecognised { bytes, .. } => bytes.len(),
+            Item::Telegram(_) => 0,
+        })
+        .sum();
+    let mut problems = Vec::new();
+    if invalid > 0 {
+        problems.push(format!("{invalid} of {telegrams} telegram(s) are invalid"));
+    }
+    if skipped > 0 {
+        problems.push(format!(
+            "{skipped} byte(s) start no telegram and were skipped"
         ));
     }
+    if !problems.is_empty() {
+        return Err(CliError::failed(format!(
+            "{} (see above)",
+            problems.join("; ")
+        )));
+    }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A read request of P070 (index 8301) to address 1, with its correct BCC.
+    const READ_8301: [u8; 12] = [
+        0x02, 0x01, 0x86, 0x31, 0x00, 0x20, 0x6D, 0x00, 0x00, 0x00, 0x00, 0xF9,
+    ];
+    /// Its response: 60 001 553, BCC correct.
+    const ANSWER_8301: [u8; 12] = [
+        0x1D, 0x01, 0x86, 0x31, 0x00, 0x20, 0x6D, 0x03, 0x93, 0x8D, 0x11, 0xEA,
+    ];
+
+    fn args(a: &[&str]) -> Vec<String> {
+        a.iter().map(|s| (*s).to_owned()).collect()
+    }
+
+    fn message(r: Result<impl std::fmt::Debug>) -> String {
+        match r {
+            Ok(v) => panic!("expected an error, got {v:?}"),
+            Err(e) => e.to_string(),
+        }
+    }
+
+    #[test]
+    fn hex_tokens_are_whole_bytes() {
+        assert_eq!(
+            parse_hex(&args(&["02 01", "0x86,0x31", "00:20:6D", "00000000F9"])).unwrap(),
+            READ_8301
+        );
+        let odd = message(parse_hex(&args(&["02", "1", "86"])));
+        assert!(odd.contains("argument 2") && odd.contains("`1`"), "{odd}");
+        assert!(odd.contains("odd number"), "{odd}");
+        let odd = message(parse_hex(&args(&["02 01 860"])));
+        assert!(odd.contains("column 7") && odd.contains("`860`"), "{odd}");
+        let dash = message(parse_hex(&args(&["-02", "01"])));
+        assert!(dash.contains("`-02` is not hex"), "{dash}");
+        let bare = message(parse_hex(&args(&["0x"])));
+        assert!(bare.contains("no hex digits"), "{bare}");
+        assert!(parse_hex(&args(&["  "])).is_err());
+    }
+
+    #[test]
+    fn text_captures_allow_bom_crlf_blank_lines_and_comments() {
+        let text = "\u{feff}# read P070\r\n02 01 86 31 00 20 6D 00 00 00 00 F9\r\n\r\n\
+                    1D 01 86 31 00 20 6D 03 93 8D 11 EA # answer\r\n";
+        let c = parse_text(text, "capture.txt").unwrap();
+        assert_eq!(c.bytes, [READ_8301, ANSWER_8301].concat());
+        assert_eq!(c.lines.first(), Some(&2));
+        assert_eq!(c.lines.last(), Some(&4));
+        let bad = message(parse_text("02 01\n86 3\n", "capture.txt"));
+        assert!(bad.contains("capture.txt line 2, column 4"), "{bad}");
+        assert!(parse_text("# nothing\n\n", "capture.txt").is_err());
+    }
+
+    fn kinds(items: &[Item]) -> Vec<(usize, usize, bool)> {
+        items
+            .iter()
+            .map(|i| match i {
+                Item::Telegram(e) => (e.offset, e.len, e.error.is_none()),
+                Item::Unrecognised { offset, bytes, .. } => (*offset, bytes.len(), false),
+            })
+            .collect()
+    }
+
+    #[test]
+    fn a_stream_splits_into_telegrams_and_resynchronises() {
+        // Noise, a request, noise, its answer, a truncated request at the end.
+        let bytes = [
+            &[0x55, 0xAA][..],
+            &READ_8301,
+            &[0xFF],
+            &ANSWER_8301,
+            &READ_8301[..5],
+        ]
+        .concat();
+        let items = split(&Capture {
+            bytes,
+            lines: Vec::new(),
+        });
+        assert_eq!(
+            kinds(&items),
+            [
+                (0, 2, false),
+                (2, 12, true),
+                (14, 1, false),
+                (15, 12, true),
+                (27, 5, false)
+            ]
+        );
+        let Some(Item::Telegram(answer)) = items.get(3) else {
+            panic!("{items:?}")
+        };
+        assert_eq!(answer.address, Some(1));
+        assert_eq!(answer.index, Some(8301));
+        assert_eq!(answer.raw, Some(60_001_553));
+        assert_eq!(answer.service, Some("read"));
+        // An unknown PDU type after a start character is skipped to the next start character.
+        let items = split(&Capture {
+            bytes: [&[0x02, 0x01, 0x07, 0x00][..], &READ_8301].concat(),
+            lines: Vec::new(),
+        });
+        assert_eq!(kinds(&items), [(0, 4, false), (4, 12, true)]);
+    }
+
+    #[test]
+    fn lines_bound_broken_telegrams_but_not_wrapped_ones() {
+        // Line 1 is cut short; line 2 is whole: the cut one does not eat line 2.
+        let text = "02 01 86 31 00\n02 01 86 31 00 20 6D 00 00 00 00 F9\n";
+        let items = split(&parse_text(text, "t").unwrap());
+        assert_eq!(kinds(&items), [(0, 5, false), (5, 12, true)]);
+        // A dump wrapped at 8 bytes a line: the check character proves the telegram whole.
+        let text = "02 01 86 31 00 20 6D 00\n00 00 00 F9\n";
+        let items = split(&parse_text(text, "t").unwrap());
+        assert_eq!(kinds(&items), [(0, 12, true)]);
+    }
+
+    #[test]
+    fn splitting_never_panics() {
+        // Every short prefix of every start, plus pseudo-random streams.
+        let mut seed: u32 = 0x1234_5678;
+        for round in 0..2000 {
+            let len = round % 40;
+            let bytes: Vec<u8> = (0..len)
+                .map(|_| {
+                    seed = seed.wrapping_mul(1_103_515_245).wrapping_add(12_345);
+                    match (seed >> 16) % 5 {
+                        0 => SD1,
+                        1 => SD2,
+                        _ => (seed >> 8) as u8,
+                    }
+                })
+                .collect();
+            let lines = (0..len).map(|i| 1 + i / 7).collect();
+            let capture = Capture { bytes, lines };
+            let items = split(&capture);
+            let covered: usize = items
+                .iter()
+                .map(|i| match i {
+                    Item::Telegram(e) => e.len,
+                    Item::Unrecognised { bytes, .. } => bytes.len(),
+                })
+                .sum();
+            assert_eq!(covered, capture.bytes.len(), "{:02X?}", capture.bytes);
+        }
+    }
 }

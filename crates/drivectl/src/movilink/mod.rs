@@ -129,7 +129,8 @@ enum MovilinkCommand {
         /// Index or menu number.
         param: String,
     },
-    /// Find responding drives with their device type (8301) and firmware (8300).
+    /// Find responding drives with their device type (P070, index 8301: named where a manual
+    /// codes it, else `device_type_name` null), rated current (P071) and firmware (P076).
     Scan {
         /// First address.
         #[arg(long, default_value_t = 0)]
@@ -805,16 +806,24 @@ async fn scan<IO: CharIo>(
         bar.inc(1);
         let Some(device_type) = probe else { continue };
         let firmware = m.read(addr, index::FIRMWARE).await.map_err(driver_error)?;
+        let current = rated_current(m, addr).await;
         found += 1;
         bar.suspend(|| -> Result<()> {
             if json {
                 outln!(
                     "{}",
-                    json!({"address": a, "device_type": device_type, "firmware": firmware})
+                    json!({"address": a, "device_type": device_type,
+                           "device_type_name": sew::device::designation(device_type),
+                           "rated_current_a": current, "firmware": firmware})
                 )?;
             } else {
                 outln!(
-                    "address {a:>2}: device type {device_type}, firmware {}",
+                    "address {a:>2}: device type {}, rated current {}, firmware {}",
+                    device_type_text(device_type),
+                    current.map_or_else(
+                        || "unreadable".to_owned(),
+                        |c| format!("{} A", trim_float(c, 3))
+                    ),
                     firmware_text(firmware)
                 )?;
             }
@@ -826,6 +835,23 @@ async fn scan<IO: CharIo>(
         outln!("{found} drive(s) answered between {from} and {to}")?;
     }
     Ok(())
+}
+
+/// P070 as text: the type designation where a manual codes the value, else the number and
+/// that it is not named (never a designation guessed from the digits).
+fn device_type_text(device_type: u32) -> String {
+    sew::device::designation(device_type).map_or_else(
+        || format!("{device_type} (no designation: the manual does not code P070)"),
+        |name| format!("{name} ({device_type})"),
+    )
+}
+
+/// P071 unit rated current in A, or `None` when the drive does not answer it (a unit without
+/// P071 still shows up in the scan).
+async fn rated_current<IO: CharIo>(m: &mut MasterDriver<IO>, addr: Address) -> Option<f64> {
+    let raw = m.read(addr, index::RATED_CURRENT).await.ok()?;
+    let p = sew::by_index(index::RATED_CURRENT)?;
+    Some(drive_profile::ParamMeta::to_physical(p, i64::from(raw)))
 }
 
 /// SEW firmware numbers read like 822609711 = part 822 609, version 7.11.

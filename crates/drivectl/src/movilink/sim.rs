@@ -18,31 +18,54 @@ pub struct SimArgs {
     /// Serve on this serial port.
     #[arg(long, conflicts_with = "pty", required_unless_present = "pty")]
     port: Option<String>,
-    /// Serve on a new pseudo-terminal and print its path.
+    /// Serve on a new pseudo-terminal and print its path; needs `--parity none` (a pty carries
+    /// no parity), on the master too.
     #[arg(long)]
     pty: bool,
-    /// Drive address(es) (P810); repeat for several drives on one bus.
+    /// Drive address(es) 0…99 (P810); repeat for several drives on one bus, each address once.
     #[arg(long = "addr", default_value = "0")]
     addrs: Vec<u8>,
     #[command(flatten)]
     line: LineArgs,
 }
 
-/// Run the simulated bus until interrupted.
-pub fn run(args: &SimArgs) -> Result<()> {
+/// Check the arguments before anything is opened: addresses 0…99, each once; on a pty no
+/// parity (a pseudo-terminal carries none, and the master refuses parity on one too).
+fn check(args: &SimArgs) -> Result<()> {
     if let Some(bad) = args.addrs.iter().find(|a| **a > 99) {
         return Err(CliError::usage(format!(
             "--addr {bad}: a drive address is 0…99 (P810)"
         )));
     }
+    for (i, a) in args.addrs.iter().enumerate() {
+        if args.addrs.get(..i).is_some_and(|before| before.contains(a)) {
+            return Err(CliError::usage(format!(
+                "--addr {a} is given twice; each simulated drive needs its own address (P810)"
+            )));
+        }
+    }
+    if args.pty && args.line.parity != Parity::None {
+        let default = if args.line.parity == Parity::Even {
+            " (the default, MOVILINK's 8E1)"
+        } else {
+            ""
+        };
+        return Err(CliError::usage(format!(
+            "--pty does not support parity {}{default}: pseudo-terminals accept only no parity; \
+             add --parity none here and on the master (drivectl movilink --port PTY --parity \
+             none), or serve a real port with --port",
+            args.line.parity
+        )));
+    }
+    Ok(())
+}
+
+/// Run the simulated bus until interrupted.
+pub fn run(args: &SimArgs) -> Result<()> {
+    check(args)?;
     let rt = crate::tool::line::runtime()?;
     rt.block_on(async {
-        // A pty carries no parity: its characters are 8N1 whatever was asked.
-        let line = if args.port.is_some() {
-            args.line.line()
-        } else {
-            args.line.line().with_parity(Parity::None)
-        };
+        let line = args.line.line();
         let mut bus = SimulatedBus::with_line(&args.addrs, line);
         let timing = LineTiming::new(line);
         let list = args
@@ -58,9 +81,6 @@ pub fn run(args: &SimArgs) -> Result<()> {
                 .serve(Stream(port))
                 .await
                 .map_err(|e| CliError::failed(format!("serving {path}: {e}")));
-        }
-        if args.line.parity != Parity::None {
-            errln!("note: pseudo-terminals carry no parity; serving the pty as 8N1");
         }
         let mut pair = PtyPair::open().map_err(|e| CliError::failed(e.to_string()))?;
         let path = pair.slave_path().to_path_buf();
