@@ -99,7 +99,17 @@ fn human_listing_has_a_header_and_count() {
     let out = stdout(&o);
     assert!(out.lines().next().unwrap().starts_with("number"));
     assert!(out.contains("P102"));
-    assert!(out.trim_end().ends_with("parameters"));
+    // The count, then the legend of the access codes shown (issue 7 #18).
+    let tail: Vec<_> = out.lines().rev().take(4).collect();
+    assert_eq!(
+        tail,
+        [
+            "  RW   read/write",
+            "  RO   read-only",
+            "access:",
+            "17 parameters"
+        ]
+    );
 }
 
 #[test]
@@ -303,5 +313,65 @@ fn issue7_a_closed_pipe_ends_a_command_quietly() {
         // No panic, no message: the exit code a shell shows for SIGPIPE.
         assert_eq!(stderr(&o), "", "{args:?}");
         assert_eq!(o.status.code(), Some(141), "{args:?}");
+    }
+}
+
+#[test]
+fn issue7_search_folds_umlauts_and_sharp_s() {
+    // "Drehzahl-Überwachung 1" (P500) and "Drehzahlüberwachung 2" (P502), however the term
+    // spells the umlaut.
+    for term in ["ueberwachung", "uberwachung", "ÜBERWACHUNG", "Ueberwachung"] {
+        let o = drivectl(&["params", "movidrive", "--search", term, "--json"]);
+        assert!(o.status.success(), "{term}: {}", stderr(&o));
+        let numbers: Vec<_> = json_lines(&o)
+            .iter()
+            .map(|p| p["number"].as_str().unwrap().to_owned())
+            .collect();
+        assert!(
+            numbers.contains(&"P500".to_owned()) && numbers.contains(&"P502".to_owned()),
+            "{term}: {numbers:?}"
+        );
+    }
+}
+
+#[test]
+fn issue7_access_codes_are_explained() {
+    // `show` says what each code of the parameter means.
+    let o = drivectl(&["params", "movidrive", "show", "P813"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = stdout(&o);
+    assert!(out.contains("access     N/RW"), "{out}");
+    assert!(out.contains("N    non-volatile"), "{out}");
+    assert!(out.contains("RW   read/write"), "{out}");
+
+    // The listing ends with a legend of the codes it shows.
+    let o = drivectl(&["params", "movidrive"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = stdout(&o);
+    let legend = out.rsplit_once(" parameters\n").map(|(_, l)| l).unwrap();
+    for code in ["N ", "S ", "R ", "RO ", "RW "] {
+        assert!(
+            legend.lines().any(|l| l.trim_start().starts_with(code)),
+            "{code}: {legend}"
+        );
+    }
+    assert!(
+        legend.contains("controller inhibit"),
+        "R explained: {legend}"
+    );
+
+    // `params --help` explains every code.
+    let o = drivectl(&["params", "--help"]);
+    let help = stdout(&o);
+    for explained in [
+        "N    non-volatile",
+        "S    SEW: may be stored",
+        "R    SEW: writing needs controller inhibit",
+        "RO   read-only",
+        "RW   read/write",
+        "NOP  ",
+        "DS   ",
+    ] {
+        assert!(help.contains(explained), "{explained}: {help}");
     }
 }
