@@ -375,3 +375,110 @@ fn issue7_access_codes_are_explained() {
         assert!(help.contains(explained), "{explained}: {help}");
     }
 }
+
+/// The top-level commands whose `--help` must show examples. `movilink` joins once its
+/// examples are in (issue 7 #21).
+const COMMANDS_WITH_EXAMPLES: &[&[&str]] = &[
+    &[],
+    &["params"],
+    &["params", "movidrive", "show"],
+    &["sim"],
+    &["decode"],
+    &["demo"],
+    &["ports"],
+    &["completions"],
+    &["man"],
+];
+
+#[test]
+fn issue7_every_command_help_has_examples() {
+    for cmd in COMMANDS_WITH_EXAMPLES {
+        for flag in ["--help", "-h"] {
+            let args: Vec<&str> = cmd.iter().copied().chain([flag]).collect();
+            let o = drivectl(&args);
+            assert!(o.status.success(), "{args:?}: {}", stderr(&o));
+            let help = stdout(&o);
+            let examples = help
+                .split_once("\nExamples:\n")
+                .map(|(_, e)| e)
+                .unwrap_or_else(|| panic!("{args:?}: no Examples: block in {help}"));
+            // Real command lines: the first example calls drivectl with the command.
+            let first = examples.lines().next().unwrap_or("").trim_start();
+            let expected = ["drivectl"]
+                .into_iter()
+                .chain(cmd.iter().copied().take(1))
+                .collect::<Vec<_>>()
+                .join(" ");
+            assert!(first.starts_with(&expected), "{args:?}: {first}");
+        }
+    }
+}
+
+#[test]
+fn issue7_ports_lists_or_says_none() {
+    let o = drivectl(&["ports"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = stdout(&o);
+    let first = out.lines().next().unwrap_or("");
+    assert!(
+        first.starts_with("port ") || first.starts_with("no serial ports found"),
+        "{out}"
+    );
+    let o = drivectl(&["ports", "--json"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    for p in json_lines(&o) {
+        assert!(p["path"].is_string(), "{p}");
+        assert!(
+            ["usb", "pci", "bluetooth", "unknown"].contains(&p["type"].as_str().unwrap()),
+            "{p}"
+        );
+        for key in ["vid", "pid", "serial_number", "manufacturer", "product"] {
+            assert!(p.get(key).is_some(), "{key}: {p}");
+        }
+    }
+}
+
+#[test]
+fn issue7_completions_name_the_subcommands() {
+    let o = drivectl(&["completions", "bash"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let script = stdout(&o);
+    assert!(script.contains("complete -F _drivectl"), "{script}");
+    for sub in ["params", "movilink", "ports", "completions", "--search"] {
+        assert!(script.contains(sub), "{sub}");
+    }
+    for shell in ["zsh", "fish", "powershell", "elvish"] {
+        let o = drivectl(&["completions", shell]);
+        assert!(o.status.success(), "{shell}: {}", stderr(&o));
+        assert!(stdout(&o).contains("params"), "{shell}");
+    }
+    let o = drivectl(&["completions", "tcsh"]);
+    assert_eq!(o.status.code(), Some(2));
+}
+
+#[test]
+fn issue7_man_pages_render_as_roff() {
+    let o = drivectl(&["man"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let page = stdout(&o);
+    assert!(page.contains(".TH drivectl 1"), "{page}");
+    for section in [".SH NAME", ".SH SYNOPSIS", ".SH SUBCOMMANDS"] {
+        assert!(page.contains(section), "{section}: {page}");
+    }
+    assert!(page.contains("drivectl\\-ports(1)"), "{page}");
+
+    // One command's page, named after its path, with its options and examples.
+    let o = drivectl(&["man", "params"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let page = stdout(&o);
+    assert!(page.contains(".TH drivectl-params 1"), "{page}");
+    assert!(page.contains("\\-\\-search"), "{page}");
+    assert!(page.contains("Examples:"), "{page}");
+    let o = drivectl(&["man", "movilink", "read"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stdout(&o).contains("\\fBdrivectl movilink read\\fR"));
+
+    let o = drivectl(&["man", "nope"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("use one of: params"), "{}", stderr(&o));
+}
