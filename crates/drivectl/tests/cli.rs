@@ -308,6 +308,8 @@ fn issue7_a_closed_pipe_ends_a_command_quietly() {
         &["params", "nord", "show", "P102"],
         &["demo"],
         &["decode", "movilink", "02 01 85 00 06 20 00 0B B8 13"],
+        &["completions", "bash"],
+        &["man"],
     ] {
         let o = into_closed_pipe(args);
         // No panic, no message: the exit code a shell shows for SIGPIPE.
