@@ -305,20 +305,80 @@ macro_rules! field_accessors {
 
 pub(crate) use field_accessors;
 
-/// Case-insensitive substring search without allocation (Unicode simple lowercase).
+/// Whether `needle` occurs in `haystack`, the way a parameter name search should match:
+/// ignoring case (Unicode simple lowercase) and German spelling variants, without allocation.
+///
+/// Both sides are folded the same way, so a term typed on a keyboard without umlauts finds the
+/// manual's name and vice versa:
+///
+/// * `ß` (and capital `ẞ`) is `ss`;
+/// * `ä`, `ö`, `ü` (any case) in a name match `ä`/`ae`, `ö`/`oe`, `ü`/`ue` in the term, and
+///   also the base letter `a`, `o`, `u`: `ueberwachung`, `uberwachung` and `ÜBERWACHUNG` all
+///   find "Überwachung", and `Kuehlkoerper` finds "Kühlkörper". One term uses one of the two
+///   spellings throughout (`uberwachung` or `ueberwachung`, not `kuhlkoerper`).
+/// * An umlaut in the term asks for an umlaut (or its transliteration): `ü` finds "ü" and "ue",
+///   never a plain "u".
+///
+/// The base-letter form can match a little more than intended (`mutter` finds "Mütter"); for a
+/// name search that is the kinder mistake.
 pub fn contains_ignore_case(haystack: &str, needle: &str) -> bool {
     if needle.is_empty() {
         return true;
     }
-    let mut starts = haystack.char_indices().map(|(i, _)| i);
-    starts.any(|i| {
-        let rest = haystack.get(i..).unwrap_or("");
-        let mut h = rest.chars().flat_map(char::to_lowercase);
-        needle
-            .chars()
-            .flat_map(char::to_lowercase)
-            .all(|n| h.next() == Some(n))
+    contains_folded(
+        fold(haystack, Umlaut::Transliterate),
+        fold(needle, Umlaut::Transliterate),
+    ) || contains_folded(
+        fold(haystack, Umlaut::BaseLetter),
+        fold(needle, Umlaut::Keep),
+    )
+}
+
+/// How [`fold`] spells `ä`, `ö` and `ü`.
+#[derive(Clone, Copy)]
+enum Umlaut {
+    /// `ae`, `oe`, `ue`.
+    Transliterate,
+    /// `a`, `o`, `u`.
+    BaseLetter,
+    /// Unchanged (lowercase `ä`, `ö`, `ü`).
+    Keep,
+}
+
+/// The folded form of `s`: lowercase, `ß` → `ss`, umlauts per `umlaut`.
+fn fold(s: &str, umlaut: Umlaut) -> impl Iterator<Item = char> + Clone + '_ {
+    s.chars().flat_map(char::to_lowercase).flat_map(move |c| {
+        let (first, second) = match (c, umlaut) {
+            ('ß', _) => ('s', Some('s')),
+            ('ä', Umlaut::Transliterate) => ('a', Some('e')),
+            ('ö', Umlaut::Transliterate) => ('o', Some('e')),
+            ('ü', Umlaut::Transliterate) => ('u', Some('e')),
+            ('ä', Umlaut::BaseLetter) => ('a', None),
+            ('ö', Umlaut::BaseLetter) => ('o', None),
+            ('ü', Umlaut::BaseLetter) => ('u', None),
+            (c, _) => (c, None),
+        };
+        core::iter::once(first).chain(second)
     })
+}
+
+/// Substring search on folded forms (naive, fine for names).
+fn contains_folded(
+    haystack: impl Iterator<Item = char> + Clone,
+    needle: impl Iterator<Item = char> + Clone,
+) -> bool {
+    // Try every folded position, so a term may also start in the second half of an expanded
+    // character (`ß` → `ss`).
+    let mut rest = haystack;
+    loop {
+        let mut h = rest.clone();
+        if needle.clone().all(|n| h.next() == Some(n)) {
+            return true;
+        }
+        if rest.next().is_none() {
+            return false;
+        }
+    }
 }
 
 /// A fixed-capacity label such as `P813` or `P080.3`, built without allocation.
@@ -398,6 +458,44 @@ mod tests {
         assert!(contains_ignore_case("SBus Adresse", "bus adr"));
         assert!(!contains_ignore_case("Drehzahl", "zahlen"));
         assert!(contains_ignore_case("x", ""));
+    }
+
+    #[test]
+    fn search_folds_umlauts_and_sharp_s_on_both_sides() {
+        // Issue 7 #18: a keyboard without umlauts finds "Überwachung".
+        for term in [
+            "ueberwachung",
+            "UEBERWACHUNG",
+            "uberwachung",
+            "Überwachung",
+            "ÜBERWACHUNG",
+        ] {
+            assert!(contains_ignore_case("Drehzahlüberwachung", term), "{term}");
+        }
+        // Transliterated text in the table is found with an umlaut in the term.
+        assert!(contains_ignore_case("Ueberwachung", "überwachung"));
+        assert!(contains_ignore_case("Kühlkörpertemperatur", "kuehlkoerper"));
+        assert!(contains_ignore_case("Kühlkörpertemperatur", "kuhlkorper"));
+        assert!(contains_ignore_case("Kühlkörpertemperatur", "HLK"));
+        assert!(contains_ignore_case("Größe", "groesse"));
+        assert!(contains_ignore_case("Größe", "GROSSE"));
+        assert!(contains_ignore_case("Größe", "GRÖẞE"));
+        assert!(contains_ignore_case("GROẞE", "grosse"));
+        assert!(contains_ignore_case("Maße", "masse"));
+        assert!(contains_ignore_case("Stoß", "ss"));
+        assert!(contains_ignore_case("Stoß", "s"));
+        assert!(contains_ignore_case("Fäh", "AEH"));
+        // Plain ASCII still behaves as before.
+        assert!(contains_ignore_case("Steuerung", "steuer"));
+        assert!(!contains_ignore_case("Überwachung", "uuberwachung"));
+        assert!(!contains_ignore_case("Drehzahl", "ueberwachung"));
+        assert!(!contains_ignore_case("Maße", "mase"));
+        // An umlaut in the term asks for an umlaut, not for its base letter.
+        assert!(!contains_ignore_case("Hochlaufzeit", "ü"));
+        assert!(!contains_ignore_case("Mutter", "mütter"));
+        assert!(contains_ignore_case("Mütter", "mutter"));
+        // One spelling per term.
+        assert!(!contains_ignore_case("Kühlkörper", "kuhlkoerper"));
     }
 
     #[test]

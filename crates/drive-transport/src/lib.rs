@@ -6,6 +6,7 @@
 //!
 //! - [`serial`]: open a serial port with baud rate, data bits, parity, stop bits and optional
 //!   Linux RS-485 mode; every refused setting is reported by name with a hint;
+//! - [`ports`]: the machine's serial ports as plain data (type, USB IDs, serial number);
 //! - [`pty`]: pseudo-terminal pairs in raw mode, a stand-in for a serial port that other
 //!   programs can open;
 //! - [`link`]: an in-memory full-duplex line with a wire-time model (characters take
@@ -61,6 +62,7 @@
 
 mod error;
 pub mod link;
+pub mod ports;
 #[cfg(target_os = "linux")]
 pub mod pty;
 pub mod serial;

@@ -13,8 +13,15 @@ use drive_profile::bonfiglioli::{self, ActStateMachine};
 use drive_profile::nord::{self, NordStateMachine};
 use drive_profile::state::StateMachine;
 
-/// Arguments of `drivectl demo`.
+/// Examples below `drivectl demo --help`.
+const AFTER_HELP: &str = "\
+Examples:
+  drivectl demo                  tables, state machines and a simulated MOVILINK session
+  drivectl demo | less           page through it";
+
+/// Arguments of `drivectl demo`: none; it runs without hardware, on simulated drives.
 #[derive(Debug, Args)]
+#[command(after_help = AFTER_HELP)]
 pub struct DemoArgs {}
 
 /// Run the demonstration.

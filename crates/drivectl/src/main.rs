@@ -9,17 +9,26 @@
 
 #[macro_use]
 mod tool;
+mod completions;
 mod demo;
 mod error;
+mod examples;
 mod movilink;
 mod params;
+mod ports;
 
-use clap::{Parser, Subcommand};
+use clap::{CommandFactory, Parser, Subcommand};
 use std::process::ExitCode;
 
 /// Talk to SEW, NORD and Bonfiglioli frequency inverters over their own buses.
 #[derive(Debug, Parser)]
-#[command(name = "drivectl", version, about, propagate_version = true)]
+#[command(
+    name = "drivectl",
+    version,
+    about,
+    propagate_version = true,
+    after_help = examples::ROOT
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -32,13 +41,19 @@ enum Command {
     /// Talk to a SEW MOVIDRIVE over MOVILINK (RS-485 / RS-232).
     Movilink(movilink::MovilinkArgs),
     /// Run simulated drives on a serial port or a new pseudo-terminal.
-    #[command(subcommand)]
+    #[command(subcommand, after_help = examples::SIM)]
     Sim(SimCommand),
     /// Explain captured telegrams field by field.
-    #[command(subcommand)]
+    #[command(subcommand, after_help = examples::DECODE)]
     Decode(DecodeCommand),
     /// Run the built-in demonstration (tables, state machines, simulated sessions).
     Demo(demo::DemoArgs),
+    /// List this machine's serial ports (type, USB VID:PID, serial number, maker).
+    Ports(ports::PortsArgs),
+    /// Print a shell completion script (bash, zsh, fish, powershell, elvish).
+    Completions(completions::CompletionsArgs),
+    /// Print a man page (roff) generated from the command definitions.
+    Man(completions::ManArgs),
 }
 
 #[derive(Debug, Subcommand)]
@@ -87,6 +102,9 @@ fn main() -> ExitCode {
             movilink::decode::run(&hex, file.as_deref(), json)
         }
         Command::Demo(args) => demo::run(&args),
+        Command::Ports(args) => ports::run(&args),
+        Command::Completions(args) => completions::completions(&args, Cli::command()),
+        Command::Man(args) => completions::man(&args, Cli::command()),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -3,16 +3,45 @@
 use crate::error::{CliError, Result};
 use crate::tool::output::{physical_text, trim_float};
 use clap::{Args, Subcommand};
-use drive_profile::{COLUMN_KEYS, Column, Family, ParamMeta};
+use drive_profile::{Access, COLUMN_KEYS, Column, Family, ParamMeta};
 use serde_json::{Map, Number, Value};
 use std::fmt::Write as _;
 
+/// Examples and the access codes, below `drivectl params --help`.
+const PARAMS_AFTER_HELP: &str = "\
+Examples:
+  drivectl params movidrive                            the whole MOVIDRIVE table
+  drivectl params movidrive --search ueberwachung      names with \"Überwachung\"
+  drivectl params nord --json                          one JSON object per parameter
+  drivectl params sew show P813                        one parameter in full
+  drivectl params bonfiglioli show 1376 --json
+
+Access codes (the access column, joined by /):
+  N    non-volatile: SEW copies the value from EEPROM into RAM at restart; Bonfiglioli
+       writes it to EEPROM automatically (RAM data sets 5-9 spare the EEPROM)
+  S    SEW: may be stored even while the parameter lock (P803) is on
+  R    SEW: writing needs controller inhibit (the drive must not be enabled)
+  RO   read-only
+  RW   read/write
+  NOP  Bonfiglioli: not writable while the drive is in operation
+  DS   Bonfiglioli: exists once per data set 1-4; data set 0 addresses all four
+NORD tables give only RO and RW.";
+
+/// Examples below `drivectl params FAMILY show --help`.
+const SHOW_AFTER_HELP: &str = "\
+Examples:
+  drivectl params movidrive show P813       by P-number
+  drivectl params movidrive show 0x2198     by bus index (hex or decimal)
+  drivectl params nord show P102 --json";
+
 /// Arguments of `drivectl params`.
 #[derive(Debug, Args)]
+#[command(after_help = PARAMS_AFTER_HELP)]
 pub struct ParamsArgs {
     /// Drive family: movidrive (sew), nord or bonfiglioli.
     family: String,
-    /// Only parameters whose German or English name contains TERM (case-insensitive).
+    /// Only parameters whose German or English name contains TERM, ignoring case; umlauts and ß
+    /// need not be typed (`ueberwachung` or `uberwachung` finds "Überwachung", `grosse` "Größe").
     #[arg(long, value_name = "TERM")]
     search: Option<String>,
     /// One JSON object per parameter instead of a table.
@@ -25,6 +54,7 @@ pub struct ParamsArgs {
 #[derive(Debug, Subcommand)]
 enum ParamsAction {
     /// Show one parameter in full: P-number (P813, 813) or bus index (8600, 0x2198).
+    #[command(after_help = SHOW_AFTER_HELP)]
     Show {
         /// P-number or bus index.
         param: String,
@@ -165,6 +195,16 @@ fn list(family: Family, search: Option<&str>, json: bool) -> Result<()> {
             );
         }
         let _ = writeln!(out, "{} parameters", params.len());
+        let present = params
+            .iter()
+            .fold(Access::NONE, |acc, p| acc.union(p.access()));
+        let codes = access_codes(family, present);
+        if !codes.is_empty() {
+            let _ = writeln!(out, "access:");
+            for (code, meaning) in codes {
+                let _ = writeln!(out, "  {code:<4} {meaning}");
+            }
+        }
     }
     out!("{out}")?;
     Ok(())
@@ -195,6 +235,17 @@ fn show(family: Family, key: &str, json: bool) -> Result<()> {
     );
     let _ = writeln!(out, "  scaling    {}", scaling_text(p));
     let _ = writeln!(out, "  access     {}", p.access());
+    for (code, meaning) in access_codes(family, p.access()) {
+        let _ = writeln!(out, "    {code:<4} {meaning}");
+    }
+    // Bonfiglioli columns that qualify RW.
+    let row = to_json(p);
+    if row.get("bus_access").and_then(Value::as_str) == Some("write_only") {
+        let _ = writeln!(out, "    write-only on the bus: it cannot be read back");
+    }
+    if row.get("ram_only").and_then(Value::as_bool) == Some(true) {
+        let _ = writeln!(out, "    kept in RAM only, never written to EEPROM");
+    }
     if let Some(d) = p.default_raw() {
         let _ = writeln!(out, "  default    {} (raw {d})", physical_text(p, d));
     }
@@ -220,6 +271,47 @@ fn show(family: Family, key: &str, json: bool) -> Result<()> {
     Ok(())
 }
 
+/// Each access code set in `access`, in the order `Access` prints them, with what it means for
+/// `family` (the legend of SEW's table, and what the other families' columns map onto).
+fn access_codes(family: Family, access: Access) -> Vec<(&'static str, &'static str)> {
+    let non_volatile = match family {
+        Family::Bonfiglioli => {
+            "non-volatile: a written value goes to EEPROM automatically (writes to the RAM \
+             data sets 5-9 spare the EEPROM)"
+        }
+        _ => "non-volatile: at restart the value is copied from EEPROM into RAM",
+    };
+    [
+        (Access::NON_VOLATILE, "N", non_volatile),
+        (
+            Access::STORE_LOCKED,
+            "S",
+            "may be stored even while the parameter lock (P803) is on",
+        ),
+        (
+            Access::NEEDS_INHIBIT,
+            "R",
+            "writing needs controller inhibit (the drive must not be enabled)",
+        ),
+        (Access::READ_ONLY, "RO", "read-only"),
+        (Access::READ_WRITE, "RW", "read/write"),
+        (
+            Access::NOT_IN_OPERATION,
+            "NOP",
+            "not writable while the drive is in operation",
+        ),
+        (
+            Access::DATA_SET,
+            "DS",
+            "exists once per data set 1-4; data set 0 addresses all four",
+        ),
+    ]
+    .into_iter()
+    .filter(|(flag, _, _)| access.contains(*flag))
+    .map(|(_, code, meaning)| (code, meaning))
+    .collect()
+}
+
 fn clip(s: &str, n: usize) -> String {
     if s.chars().count() <= n {
         s.to_owned()
@@ -227,5 +319,30 @@ fn clip(s: &str, n: usize) -> String {
         let mut t: String = s.chars().take(n.saturating_sub(1)).collect();
         t.push('…');
         t
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_access_code_is_explained() {
+        // Each flag `Access` can print, for every family, has a meaning under the same code.
+        for bit in 0..8 {
+            let flag = Access::from_bits_truncate(1 << bit);
+            if flag == Access::NONE {
+                continue;
+            }
+            for family in Family::ALL {
+                let codes = access_codes(family, flag);
+                assert_eq!(codes.len(), 1, "{flag:?}");
+                assert_eq!(codes[0].0, flag.to_string(), "{flag:?}");
+                assert!(!codes[0].1.is_empty());
+            }
+        }
+        let codes = access_codes(Family::Movidrive, Access::parse("N/R/RW").unwrap());
+        let names: Vec<_> = codes.iter().map(|c| c.0).collect();
+        assert_eq!(names, ["N", "R", "RW"]);
     }
 }

@@ -1,0 +1,24 @@
+//! The "Examples:" blocks of top-level commands whose definitions live in `main.rs`.
+
+/// Below `drivectl sim --help`.
+pub const SIM: &str = "\
+Examples:
+  drivectl sim movilink --pty --addr 1 --parity none     a drive on a new pty; prints its path
+  drivectl sim movilink --pty --addr 1 --addr 2 --parity none    two drives on one bus
+  drivectl sim movilink --port /dev/ttyUSB1 --addr 1     answer on a real port (9600 8E1)";
+
+/// Below `drivectl decode --help`.
+pub const DECODE: &str = "\
+Examples:
+  drivectl decode movilink 02 01 85 00 06 20 00 0B B8 13
+  drivectl decode movilink 020185000620000BB813 --json";
+
+/// Below `drivectl --help`.
+pub const ROOT: &str = "\
+Examples:
+  drivectl params movidrive --search drehzahl        browse a parameter table
+  drivectl ports                                     find the RS-485 adapter
+  drivectl movilink --port /dev/ttyUSB0 --addr 1 read P000
+  drivectl sim movilink --pty --addr 1 --parity none  a simulated drive to try things on
+  drivectl completions bash > ~/.local/share/bash-completion/completions/drivectl
+Every command's --help has examples of its own.";
