@@ -92,8 +92,31 @@ enum DecodeCommand {
     },
 }
 
+/// Whether `--json` is among the arguments (before a `--`): then messages and errors on
+/// standard error are JSON objects too, including the command line's own errors.
+fn json_requested() -> bool {
+    std::env::args_os()
+        .skip(1)
+        .take_while(|a| a != "--")
+        .any(|a| a == "--json")
+}
+
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    let json = json_requested();
+    tool::output::json_messages(json);
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) if json && e.use_stderr() => {
+            // A usage error of the command line, as one JSON object (its first line: clap adds
+            // usage and a `--help` hint below it).
+            let text = e.to_string();
+            let first = text.lines().next().unwrap_or_default();
+            let message = first.strip_prefix("error: ").unwrap_or(first);
+            tool::output::final_error(&error::CliError::usage(message));
+            return ExitCode::from(2);
+        }
+        Err(e) => e.exit(),
+    };
     let result = match cli.command {
         Command::Params(args) => params::run(&args),
         Command::Movilink(args) => movilink::run(&args),
@@ -110,7 +133,7 @@ fn main() -> ExitCode {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) if e.is_closed_pipe() => ExitCode::from(e.exit_code()),
         Err(e) => {
-            errln!("drivectl: {e}");
+            tool::output::final_error(&e);
             ExitCode::from(e.exit_code())
         }
     }

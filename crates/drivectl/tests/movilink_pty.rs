@@ -1144,3 +1144,70 @@ fn issue7_22_scan_names_no_device_type_it_cannot_and_shows_the_rated_current() {
         "{text}"
     );
 }
+
+/// Every line of standard error as a JSON object.
+fn stderr_json(o: &Output) -> Vec<serde_json::Value> {
+    stderr_of(o)
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap_or_else(|e| panic!("stderr not JSON: {l}: {e}")))
+        .collect()
+}
+
+#[test]
+fn issue7_json_is_one_schema_per_kind_and_errors_are_json_too() {
+    let sim = Sim::start(&[1]);
+    // `info` speaks as `params` does: unit, raw and physical range and default.
+    let info = &ok_json(&sim.run(1, &["--json", "info", "P130"]))[0];
+    let params = Command::new(env!("CARGO_BIN_EXE_drivectl"))
+        .args(["params", "movidrive", "show", "P130", "--json"])
+        .output()
+        .unwrap();
+    let params = &ok_json(&params)[0];
+    for key in [
+        "index",
+        "number",
+        "name_de",
+        "name_en",
+        "unit",
+        "default",
+        "default_value",
+    ] {
+        assert_eq!(info[key], params[key], "{key}");
+    }
+    for key in ["min", "max", "min_value", "max_value"] {
+        assert_eq!(info["range"][key], params["range"][key], "range.{key}");
+    }
+    // pd: a kind, a timestamp, the PDU type as hex with its name.
+    let o = sim.run(1, &["--json", "pd", "--out", "0,0,0"]);
+    let pd = &ok_json(&o)[0];
+    assert_eq!(pd["type"], "pd");
+    assert_eq!(pd["pdu_type"], "0x85");
+    assert_eq!(pd["pdu_name"], "3PD acyclic");
+    assert!(pd["time"].as_str().unwrap().ends_with('Z'), "{pd}");
+    // Its warnings and notes on stderr are JSON objects as well.
+    let msgs = stderr_json(&o);
+    assert!(msgs.iter().any(|m| m["type"] == "warning"), "{msgs:?}");
+    assert!(msgs.iter().any(|m| m["type"] == "note"), "{msgs:?}");
+    // An error of the command, and one of the command line, as JSON on stderr.
+    let o = sim.run(1, &["--json", "read", "P9999"]);
+    assert_eq!(o.status.code(), Some(2));
+    let e = stderr_json(&o);
+    assert_eq!(
+        (e.len(), &e[0]["type"], &e[0]["exit_code"]),
+        (1, &"error".into(), &2.into())
+    );
+    let o = sim.run(1, &["--json", "--timeout", "0", "read", "P000"]);
+    assert_eq!(o.status.code(), Some(2));
+    let e = stderr_json(&o);
+    assert!(
+        e[0]["message"].as_str().unwrap().contains("--timeout"),
+        "{e:?}"
+    );
+    // Without --json, errors stay one line of text.
+    let o = sim.run(1, &["read", "P9999"]);
+    assert!(
+        stderr_of(&o).starts_with("drivectl: no movidrive parameter"),
+        "{}",
+        stderr_of(&o)
+    );
+}

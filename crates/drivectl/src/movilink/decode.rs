@@ -636,7 +636,7 @@ fn explain_param(
 }
 
 /// The name of a PDU type: `PARAM+0PD acyclic`, `3PD cyclic`.
-fn pdu_name(pdu: PduType) -> String {
+pub fn pdu_name(pdu: PduType) -> String {
     format!(
         "{}{}PD {}",
         if pdu.has_param() { "PARAM+" } else { "" },

@@ -708,7 +708,9 @@ async fn write_unanswered<IO: CharIo>(
     if json {
         outln!(
             "{}",
-            json!({"index": t.index, "raw": request.raw, "address": addr.get(), "answered": false})
+            json!({"index": t.index, "number": t.param.map(|p| p.label().to_string()),
+                   "name_de": t.param.map(|p| p.name_de()), "name_en": t.param.map(|p| p.name_en()),
+                   "raw": request.raw, "address": addr.get(), "answered": false})
         )?;
     } else {
         outln!(
@@ -747,14 +749,23 @@ async fn info<IO: CharIo>(
             .map_or_else(|| v.to_string(), |p| physical_text(p, v))
     };
     let size_name = sew::size_name(scale.size_index).unwrap_or("unknown quantity");
+    let physical = |raw: i64| t.param.map_or(raw as f64, |p| p.to_physical(raw));
     if json {
         outln!(
             "{}",
             json!({
+                // The keys of `params … --json` where they mean the same: raw values plain,
+                // physical ones as `*_value` in the table's unit.
                 "index": t.index,
                 "number": t.param.map(|p| p.label().to_string()),
+                "name_de": t.param.map(|p| p.name_de()),
                 "name_en": t.param.map(|p| p.name_en()),
-                "min": raw_of(&t, min), "max": raw_of(&t, max), "default": raw_of(&t, default),
+                "unit": t.param.map(|p| p.unit()),
+                "range": {
+                    "min": raw_of(&t, min), "max": raw_of(&t, max),
+                    "min_value": physical(raw_of(&t, min)), "max_value": physical(raw_of(&t, max)),
+                },
+                "default": raw_of(&t, default), "default_value": physical(raw_of(&t, default)),
                 "size_index": scale.size_index, "conversion_index": scale.conversion_index,
                 "quantity": size_name,
                 "next_index": attr.next_index, "attributes": attr.attributes, "access": access.to_string(),
@@ -1013,7 +1024,7 @@ async fn pd<IO: CharIo>(m: &mut MasterDriver<IO>, pdu_type: &str, s: &PdSession<
                     .map(|s| StatusWord1::from_bits(*s).to_string())
                     .unwrap_or_default();
                 errln!(
-                    "drivectl: sent {} (control word 0x{:04X}) at the end; the drive reports: {status}",
+                    "drivectl: note: sent {} (control word 0x{:04X}) at the end; the drive reports: {status}",
                     cmd.command().name(),
                     w.get(slots.first().copied().unwrap_or(0))
                         .copied()
@@ -1040,8 +1051,9 @@ fn print_pd(addr: Address, pdu: PduType, out: &[u16], pi: &[u16], json: bool) ->
     if json {
         outln!(
             "{}",
-            json!({"address": addr.get(), "type": pdu.raw(), "out": out, "in": pi,
-                   "status": status})
+            json!({"type": "pd", "time": crate::tool::watch::timestamp(std::time::SystemTime::now()),
+                   "address": addr.get(), "pdu_type": format!("0x{:02X}", pdu.raw()),
+                   "pdu_name": decode::pdu_name(pdu), "out": out, "in": pi, "status": status})
         )
     } else {
         let words_text: Vec<String> = pi.iter().map(|w| format!("0x{w:04X}")).collect();

@@ -28,7 +28,7 @@ impl Interrupt {
             }
             set.store(true, Ordering::SeqCst);
             errln!(
-                "drivectl: interrupted; finishing the exchange in progress (Ctrl-C again stops at once)"
+                "drivectl: note: interrupted; finishing the exchange in progress (Ctrl-C again stops at once)"
             );
             if tokio::signal::ctrl_c().await.is_ok() {
                 errln!("drivectl: stopped at once: {at_once}");

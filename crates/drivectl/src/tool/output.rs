@@ -2,6 +2,7 @@
 
 use std::fmt::Write as _;
 use std::io::Write as _;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 use drive_profile::ParamMeta;
 use serde_json::{Value, json};
@@ -38,14 +39,59 @@ macro_rules! out {
     ($($t:tt)*) => { $crate::tool::output::emit(format_args!($($t)*)) };
 }
 
-/// `errln!` for messages: a standard error that cannot be written (closed, a full disk) is
-/// not worth a panic, and the message has nowhere else to go.
+/// `errln!` for messages on standard error (see [`message`]).
 #[macro_export]
 macro_rules! errln {
-    ($($t:tt)*) => {{
-        use std::io::Write as _;
-        let _ = writeln!(std::io::stderr().lock(), $($t)*);
-    }};
+    ($($t:tt)*) => {
+        $crate::tool::output::message(format_args!($($t)*))
+    };
+}
+
+/// Whether messages on standard error are JSON objects (`--json` was given).
+static JSON_MESSAGES: AtomicBool = AtomicBool::new(false);
+
+/// Make every message on standard error a JSON object (with `--json`): a script reads both
+/// streams the same way.
+pub fn json_messages(on: bool) {
+    JSON_MESSAGES.store(on, Ordering::Relaxed);
+}
+
+/// One message on standard error: `drivectl: warning: …`, `drivectl: note: …` or an error
+/// `drivectl: …` as text, or with `--json` as `{"type": "warning"|"note"|"error", "message":
+/// …}` (lines without the `drivectl:` prefix, such as the simulator's, are notes). A standard
+/// error that cannot be written (closed, a full disk) is not worth a panic, and the message
+/// has nowhere else to go.
+pub fn message(args: std::fmt::Arguments<'_>) {
+    let text = args.to_string();
+    let mut err = std::io::stderr().lock();
+    if !JSON_MESSAGES.load(Ordering::Relaxed) {
+        let _ = writeln!(err, "{text}");
+        return;
+    }
+    let (kind, body) = match text.strip_prefix("drivectl: ") {
+        Some(rest) => rest
+            .strip_prefix("warning: ")
+            .map(|m| ("warning", m))
+            .or_else(|| rest.strip_prefix("note: ").map(|m| ("note", m)))
+            .unwrap_or(("error", rest)),
+        None => ("note", text.as_str()),
+    };
+    let _ = writeln!(err, "{}", json!({"type": kind, "message": body}));
+}
+
+/// The command's final error on standard error: a line of text, or with `--json` a JSON object
+/// with the exit code.
+pub fn final_error(e: &CliError) {
+    if JSON_MESSAGES.load(Ordering::Relaxed) {
+        let mut err = std::io::stderr().lock();
+        let _ = writeln!(
+            err,
+            "{}",
+            json!({"type": "error", "message": e.to_string(), "exit_code": e.exit_code()})
+        );
+    } else {
+        errln!("drivectl: {e}");
+    }
 }
 
 /// A physical value with the parameter's decimals, unit and value name, e.g. `1.50 s` or
@@ -90,7 +136,11 @@ pub fn value_json(t: &Target, raw: i64) -> Value {
                 "decoded": m.and_then(|m| m.decoded),
             })
         }
-        None => json!({"index": t.index, "raw": raw, "value": raw, "unit": ""}),
+        // The same keys outside the table, null where only the table knows.
+        None => json!({
+            "index": t.index, "number": null, "name_de": null, "name_en": null, "raw": raw,
+            "value": raw, "unit": null, "meaning": null, "decoded": null,
+        }),
     }
 }
 
@@ -122,5 +172,26 @@ pub fn print_value(t: &Target, raw: i64, json: bool) -> Result<()> {
             value_text(t, raw)
         ),
         (None, false) => outln!("index {}: {}", t.index, value_text(t, raw)),
+    }
+}
+
+#[cfg(test)]
+mod json_tests {
+    use super::*;
+    use drive_profile::Family;
+
+    #[test]
+    fn issue7_a_value_outside_the_table_has_the_keys_of_one_inside_it() {
+        let keys = |v: &serde_json::Value| {
+            let mut k: Vec<String> = v.as_object().unwrap().keys().cloned().collect();
+            k.sort();
+            k
+        };
+        let inside = Target::resolve(Family::Movidrive, "P130", 1000..=0xFFFF).unwrap();
+        let outside = Target::resolve(Family::Movidrive, "9999", 1000..=0xFFFF).unwrap();
+        let (a, b) = (value_json(&inside, 1500), value_json(&outside, 5));
+        assert_eq!(keys(&a), keys(&b));
+        assert!(b["unit"].is_null() && b["number"].is_null() && b["name_en"].is_null());
+        assert_eq!(b["value"], 5);
     }
 }
