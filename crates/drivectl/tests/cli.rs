@@ -609,6 +609,16 @@ const COMMANDS_WITH_EXAMPLES: &[&[&str]] = &[
     &["ports"],
     &["completions"],
     &["man"],
+    &["movilink"],
+    &["movilink", "read"],
+    &["movilink", "watch"],
+    &["movilink", "write"],
+    &["movilink", "info"],
+    &["movilink", "scan"],
+    &["movilink", "pd"],
+    &["movilink", "line"],
+    &["movilink", "backup"],
+    &["movilink", "restore"],
 ];
 
 #[test]
@@ -702,4 +712,20 @@ fn issue7_man_pages_render_as_roff() {
     let o = drivectl(&["man", "nope"]);
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("use one of: params"), "{}", stderr(&o));
+}
+
+#[test]
+fn issue7_help_says_where_the_eeprom_wear_log_lives_and_how_to_move_it() {
+    for args in [
+        &["movilink", "--help"][..],
+        &["movilink", "write", "--help"],
+    ] {
+        let help = stdout(&drivectl(args));
+        assert!(help.contains("eeprom-writes.json"), "{args:?}: {help}");
+        assert!(
+            help.contains("set\nDRIVECTL_STATE_DIR to move it")
+                || help.contains("DRIVECTL_STATE_DIR to move it"),
+            "{args:?}"
+        );
+    }
 }

@@ -973,6 +973,41 @@ fn issue7_pd_stops_the_drive_on_ctrl_c_and_on_a_closed_pipe() {
     assert_eq!(o.status.code(), Some(0));
     assert!(stderr_of(&o).contains("interrupted"), "{}", stderr_of(&o));
     assert!(stderr_of(&o).contains("sent stop"), "{}", stderr_of(&o));
+    // `--count 0` runs until Ctrl-C, which also cuts a long pause short.
+    let endless = [
+        "movilink",
+        "--port",
+        &sim.path,
+        "--parity",
+        "none",
+        "--addr",
+        "1",
+        "pd",
+        "--out",
+        "0x0006,5000,0",
+        "--count",
+        "0",
+        "--interval",
+        "60000",
+    ];
+    let mut child = Command::new(env!("CARGO_BIN_EXE_drivectl"))
+        .args(endless)
+        .env("DRIVECTL_STATE_DIR", &sim.state)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut lines = BufReader::new(child.stdout.take().unwrap()).lines();
+    lines.next().unwrap().unwrap();
+    let asked = std::time::Instant::now();
+    Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    for _ in lines {}
+    let o = child.wait_with_output().unwrap();
+    assert!(asked.elapsed() < std::time::Duration::from_secs(5));
+    assert!(stderr_of(&o).contains("sent stop"), "{}", stderr_of(&o));
     // `pd … | head -2`: the pipe closes, the stop is still sent.
     let mut child = Command::new(env!("CARGO_BIN_EXE_drivectl"))
         .args(args)

@@ -32,8 +32,38 @@ use crate::tool::{backup, read, watch, write};
 /// 8300; numbers below 1000 are menu numbers).
 pub const RAW_INDICES: RangeInclusive<u16> = 1000..=0xFFFF;
 
+/// Where the EEPROM-wear log lives, for `--help`.
+const WEAR_LOG_HELP: &str = "\
+EEPROM-wear log: non-volatile writes are remembered for a minute in eeprom-writes.json in
+$DRIVECTL_STATE_DIR, else $XDG_STATE_HOME/drivectl, else ~/.local/state/drivectl; set
+DRIVECTL_STATE_DIR to move it. A log that cannot be written refuses non-volatile writes.";
+
+/// Below `drivectl movilink write --help`.
+const WRITE_HELP: &str = "\
+Examples:
+  drivectl movilink --port /dev/ttyUSB0 --addr 1 write P130 1.5 --volatile    1.5 s, RAM only
+  drivectl movilink --port /dev/ttyUSB0 --addr 1 write P130 1,5               decimal comma, EEPROM
+  drivectl movilink --port /dev/ttyUSB0 --addr 1 write P700 SERVO             a value by name
+  drivectl movilink --port /dev/ttyUSB0 --addr 1 write P810 5 --yes           move the drive to address 5
+  drivectl movilink --port /dev/ttyUSB0 --addr 101 write P130 0.8 --volatile  a group write, never answered
+
+EEPROM-wear log: non-volatile writes are remembered for a minute in eeprom-writes.json in
+$DRIVECTL_STATE_DIR, else $XDG_STATE_HOME/drivectl, else ~/.local/state/drivectl; set
+DRIVECTL_STATE_DIR to move it. A log that cannot be written refuses non-volatile writes.";
+
+/// Below `drivectl movilink --help`.
+const MOVILINK_HELP: &str = "\
+Examples:
+  drivectl movilink --port /dev/ttyUSB0 --addr 1 read P000 P010
+  drivectl movilink --port /dev/ttyUSB0 --addr 1 write P130 1.5 --volatile
+  drivectl movilink read P000 --port /dev/ttyUSB0 --addr 1      options after the command work too
+  drivectl movilink --port /dev/ttyUSB0 scan
+
+Access codes, value names and ranges: `drivectl params movidrive show P130`.";
+
 /// Arguments of `drivectl movilink`.
 #[derive(Debug, Args)]
+#[command(after_help = MOVILINK_HELP, after_long_help = format!("{MOVILINK_HELP}\n\n{WEAR_LOG_HELP}"))]
 pub struct MovilinkArgs {
     /// Serial port, e.g. /dev/ttyUSB0 (or the pty printed by `drivectl sim movilink --pty`).
     /// This and every line option are accepted before or after the subcommand.
@@ -97,6 +127,7 @@ enum MovilinkCommand {
         csv: bool,
     },
     /// Write a parameter (checked against the table first).
+    #[command(after_help = WRITE_HELP)]
     Write {
         /// Index or menu number.
         param: String,
@@ -125,12 +156,18 @@ enum MovilinkCommand {
         yes: bool,
     },
     /// Minimum, maximum, default, scale and attributes of a parameter.
+    #[command(
+        after_help = "Examples:\n  drivectl movilink --port /dev/ttyUSB0 --addr 1 info P130\n  drivectl movilink --port /dev/ttyUSB0 --addr 1 info 8470 --json"
+    )]
     Info {
         /// Index or menu number.
         param: String,
     },
     /// Find responding drives with their device type (P070, index 8301: named where a manual
     /// codes it, else `device_type_name` null), rated current (P071) and firmware (P076).
+    #[command(
+        after_help = "Examples:\n  drivectl movilink --port /dev/ttyUSB0 scan\n  drivectl movilink --port /dev/ttyUSB0 --timeout 20 scan --from 1 --to 31 --json"
+    )]
     Scan {
         /// First address.
         #[arg(long, default_value_t = 0)]
@@ -140,6 +177,9 @@ enum MovilinkCommand {
         to: u8,
     },
     /// Exchange process data and decode the status.
+    #[command(
+        after_help = "Examples:\n  drivectl movilink --port /dev/ttyUSB0 --addr 1 pd --out 0x0006,5000,0 --count 50     enable, 1000 1/min for 5 s, then stop\n  drivectl movilink --port /dev/ttyUSB0 --addr 1 pd --type 0x05 --out 0x0006,5000,0 --count 0 --interval 50    cyclic until Ctrl-C, then stop\n  drivectl movilink --port /dev/ttyUSB0 --addr 1 pd --out 0x0006,5000,0 --keep-running   leave it running (P812 should be set)"
+    )]
     Pd {
         /// PDU type, e.g. 0x85 (3PD acyclic) or 0x05 (3PD cyclic).
         #[arg(long = "type", default_value = "0x85")]
@@ -152,7 +192,7 @@ enum MovilinkCommand {
             allow_hyphen_values = true
         )]
         out: Vec<String>,
-        /// Number of exchanges.
+        /// Number of exchanges; 0 runs until Ctrl-C.
         #[arg(long, default_value_t = 1)]
         count: u32,
         /// Milliseconds between exchanges, 1–60000.
@@ -172,8 +212,14 @@ enum MovilinkCommand {
     /// Show the line settings and the timing the master uses on this port: character time,
     /// start pause, gap limit, response timeout and retries (the port is opened, so a setting
     /// it refuses is named).
+    #[command(
+        after_help = "Examples:\n  drivectl movilink --port /dev/ttyUSB0 line\n  drivectl movilink --port /dev/ttyUSB0 --baud 19200 --parity none line --json"
+    )]
     Line,
     /// Save all readable parameters to a JSON file.
+    #[command(
+        after_help = "Examples:\n  drivectl movilink --port /dev/ttyUSB0 --addr 1 backup --out drive1.json\n  drivectl movilink --port /dev/ttyUSB0 --addr 1 backup --out drive1.json --overwrite"
+    )]
     Backup {
         /// Output file: a new regular file (a symlink is followed to one); checked before the
         /// first read.
@@ -186,6 +232,9 @@ enum MovilinkCommand {
     /// Write a backup file back to the drive and verify every value. Everything is checked
     /// before the first write; Ctrl-C stops after the write in progress and lists what was
     /// written; running it again finishes it.
+    #[command(
+        after_help = "Examples:\n  drivectl movilink --port /dev/ttyUSB0 --addr 1 restore drive1.json --dry-run    what would change\n  drivectl movilink --port /dev/ttyUSB0 --addr 1 restore drive1.json"
+    )]
     Restore {
         /// Backup file written by `backup`.
         file: PathBuf,
@@ -991,21 +1040,29 @@ async fn pd<IO: CharIo>(m: &mut MasterDriver<IO>, pdu_type: &str, s: &PdSession<
         if pdu.is_cyclic() {
             let mut session = m.cyclic(addr, pdu, period).map_err(driver_error)?;
             session.set_output(&words);
-            for _ in 0..s.count {
+            let mut done = 0u32;
+            while s.count == 0 || done < s.count {
                 if stop.requested() {
                     break;
                 }
+                done = done.saturating_add(1);
                 let response = session.cycle().await.map_err(driver_error)?;
                 print_pd(addr, pdu, &words, response.process_data(), json)?;
             }
         } else {
-            for i in 0..s.count {
-                if i > 0 {
-                    tokio::time::sleep(period).await;
+            let mut done = 0u32;
+            while s.count == 0 || done < s.count {
+                if done > 0 {
+                    // Ctrl-C ends the pause at once.
+                    tokio::select! {
+                        () = tokio::time::sleep(period) => {}
+                        () = stop.wait() => {}
+                    }
                 }
                 if stop.requested() {
                     break;
                 }
+                done = done.saturating_add(1);
                 let request = Telegram::request(addr, pdu).with_process_data(&words);
                 let response = m.exchange(request).await.map_err(driver_error)?;
                 print_pd(addr, pdu, &words, response.process_data(), json)?;

@@ -14,6 +14,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 #[derive(Debug, Clone)]
 pub struct Interrupt {
     flag: Arc<AtomicBool>,
+    notify: Arc<tokio::sync::Notify>,
 }
 
 impl Interrupt {
@@ -21,12 +22,14 @@ impl Interrupt {
     /// ends the process without waiting.
     pub fn install(at_once: &'static str) -> Self {
         let flag = Arc::new(AtomicBool::new(false));
-        let set = flag.clone();
+        let notify = Arc::new(tokio::sync::Notify::new());
+        let (set, wake) = (flag.clone(), notify.clone());
         tokio::spawn(async move {
             if tokio::signal::ctrl_c().await.is_err() {
                 return;
             }
             set.store(true, Ordering::SeqCst);
+            wake.notify_waiters();
             errln!(
                 "drivectl: note: interrupted; finishing the exchange in progress (Ctrl-C again stops at once)"
             );
@@ -35,7 +38,7 @@ impl Interrupt {
                 std::process::exit(130);
             }
         });
-        Self { flag }
+        Self { flag, notify }
     }
 
     /// A flag nobody sets (tests, commands without Ctrl-C handling).
@@ -43,6 +46,7 @@ impl Interrupt {
     pub fn never() -> Self {
         Self {
             flag: Arc::new(AtomicBool::new(false)),
+            notify: Arc::new(tokio::sync::Notify::new()),
         }
     }
 
@@ -50,6 +54,16 @@ impl Interrupt {
     #[cfg(test)]
     pub fn set(&self) {
         self.flag.store(true, Ordering::SeqCst);
+        self.notify.notify_waiters();
+    }
+
+    /// Wait until Ctrl-C is pressed (at once if it was).
+    pub async fn wait(&self) {
+        let notified = self.notify.notified();
+        if self.requested() {
+            return;
+        }
+        notified.await;
     }
 
     /// Whether Ctrl-C was pressed.
