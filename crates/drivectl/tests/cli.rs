@@ -729,3 +729,23 @@ fn issue7_help_says_where_the_eeprom_wear_log_lives_and_how_to_move_it() {
         );
     }
 }
+
+#[test]
+fn issue7_names_and_values_are_checked_before_the_port_is_opened() {
+    for (args, what) in [
+        (
+            &["read", "P000", "P9999"][..],
+            "no movidrive parameter `P9999`",
+        ),
+        (&["watch", "P9999"], "no movidrive parameter"),
+        (&["info", "P9999"], "no movidrive parameter"),
+        (&["write", "P130", "--5", "--raw"], "`--5`"),
+        (&["write", "P700", "2.5"], "it takes one of"),
+    ] {
+        let mut all = vec!["movilink", "--port", "/dev/drivectl-no-such-port"];
+        all.extend_from_slice(args);
+        let o = drivectl(&all);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {}", stderr(&o));
+        assert!(stderr(&o).contains(what), "{args:?}: {}", stderr(&o));
+    }
+}

@@ -548,13 +548,41 @@ pub fn run(args: &MovilinkArgs) -> Result<()> {
             "no serial port given; add --port PATH (e.g. /dev/ttyUSB0; `drivectl ports` lists them)",
         ));
     }
+    let config = driver_config(&args.line, &args.master)?;
+    precheck(&args.command)?;
     let rt = runtime()?;
     rt.block_on(async {
-        let config = driver_config(&args.line, &args.master)?;
         let port = args.line.open(&args.port)?;
         let mut master = MasterDriver::new(Stream(port), config);
         execute(&mut master, args).await
     })
+}
+
+/// What can be checked without the drive is checked before the port is opened: parameter names
+/// and a write's value (a mistyped name is reported as such, not as a busy or missing port).
+fn precheck(command: &MovilinkCommand) -> Result<()> {
+    match command {
+        MovilinkCommand::Read { params } | MovilinkCommand::Watch { params, .. } => {
+            params.iter().try_for_each(|p| resolve(p).map(|_| ()))
+        }
+        MovilinkCommand::Info { param } => resolve(param).map(|_| ()),
+        MovilinkCommand::Write {
+            param,
+            value,
+            raw,
+            force,
+            round,
+            ..
+        } => {
+            let how = ValueText {
+                raw: *raw,
+                force: *force,
+                round: *round,
+            };
+            resolve(param)?.value_from_text(value, &how).map(|_| ())
+        }
+        _ => Ok(()),
+    }
 }
 
 async fn execute<IO: CharIo>(m: &mut MasterDriver<IO>, args: &MovilinkArgs) -> Result<()> {
