@@ -749,3 +749,40 @@ fn issue7_names_and_values_are_checked_before_the_port_is_opened() {
         assert!(stderr(&o).contains(what), "{args:?}: {}", stderr(&o));
     }
 }
+
+#[test]
+fn issue7_device_nodes_and_endless_input_are_refused_not_read_forever() {
+    let started = std::time::Instant::now();
+    let o = drivectl(&["decode", "movilink", "--file", "/dev/zero"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("is a device node"), "{}", stderr(&o));
+    let o = drivectl(&[
+        "movilink",
+        "--port",
+        "/dev/drivectl-none",
+        "restore",
+        "/dev/zero",
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("is a device node"), "{}", stderr(&o));
+    // Standard input that never ends: cut off at the limit.
+    let o = Command::new(env!("CARGO_BIN_EXE_drivectl"))
+        .args(["decode", "movilink", "-"])
+        .stdin(std::fs::File::open("/dev/zero").unwrap())
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("larger than 64 MiB"), "{}", stderr(&o));
+    assert!(started.elapsed() < std::time::Duration::from_secs(20));
+    let o = drivectl(&[
+        "movilink",
+        "--port",
+        "/dev/drivectl-none",
+        "write",
+        "9999",
+        "99999999999999999999",
+        "--raw",
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("too large"), "{}", stderr(&o));
+}

@@ -213,22 +213,17 @@ pub fn parse_text(text: &str, source: &str) -> Result<Capture> {
     Ok(capture)
 }
 
-/// Read a capture from `path`, or from standard input for `-`.
+/// The largest capture read (64 MiB of hex text: about 1.7 million telegrams).
+const MAX_CAPTURE: u64 = 64 << 20;
+
+/// Read a capture from `path`, or from standard input for `-` (a device node, or more than
+/// [`MAX_CAPTURE`], is refused).
 pub fn read_capture(path: &str) -> Result<Capture> {
-    use std::io::Read;
-    let (source, raw) = if path == "-" {
-        let mut buf = Vec::new();
-        std::io::stdin()
-            .read_to_end(&mut buf)
-            .map_err(|e| CliError::failed(format!("cannot read standard input: {e}")))?;
-        ("standard input".to_owned(), buf)
+    let raw = crate::tool::infile::read_limited(std::path::Path::new(path), true, MAX_CAPTURE)?;
+    let source = if path == "-" {
+        "standard input".to_owned()
     } else {
-        let buf = std::fs::read(path).map_err(|e| {
-            CliError::failed(format!(
-                "cannot read {path}: {e}; check the path and that it is a readable file"
-            ))
-        })?;
-        (path.to_owned(), buf)
+        path.to_owned()
     };
     let text = String::from_utf8(raw).map_err(|e| {
         CliError::usage(format!(

@@ -581,6 +581,9 @@ fn precheck(command: &MovilinkCommand) -> Result<()> {
             };
             resolve(param)?.value_from_text(value, &how).map(|_| ())
         }
+        MovilinkCommand::Restore { file, .. } => {
+            backup::check_file(file, Family::Movidrive, NOT_RESTORED)
+        }
         _ => Ok(()),
     }
 }

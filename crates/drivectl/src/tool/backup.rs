@@ -180,8 +180,15 @@ fn restore_hint(e: &GuardError) -> String {
 /// fit its parameter's width; the table's other rules are the write path's, for the values
 /// that differ from the drive's.
 fn load(file: &Path, family: Family, not_restored: &[u16]) -> Result<(Vec<Entry>, Value)> {
-    let text = std::fs::read_to_string(file)
-        .map_err(|e| CliError::failed(format!("cannot read {}: {e}", file.display())))?;
+    // A backup of the largest table is about 60 KB; 16 MiB is no backup.
+    let bytes = super::infile::read_limited(file, false, 16 << 20)?;
+    let text = String::from_utf8(bytes).map_err(|e| {
+        CliError::usage(format!(
+            "{} is not a drivectl backup (not UTF-8 text at byte {})",
+            file.display(),
+            e.utf8_error().valid_up_to()
+        ))
+    })?;
     // Notepad saves UTF-8 with a byte order mark.
     let text = text.strip_prefix('\u{feff}').unwrap_or(&text);
     let doc: Value = serde_json::from_str(text).map_err(|e| {
@@ -260,6 +267,12 @@ fn load(file: &Path, family: Family, not_restored: &[u16]) -> Result<(Vec<Entry>
         "firmware": field(&doc, "firmware"),
     });
     Ok((entries, identity))
+}
+
+/// Check a restore file without a drive (before a port is opened): it must be a backup of
+/// `family` whose every entry names a parameter once and fits it.
+pub fn check_file(file: &Path, family: Family, not_restored: &[u16]) -> Result<()> {
+    load(file, family, not_restored).map(|_| ())
 }
 
 /// How `restore` was asked to run.

@@ -222,9 +222,19 @@ impl Target {
         };
         let Some(p) = self.param.filter(|_| !how.raw) else {
             return parse_int(value).map(exact).ok_or_else(|| {
-                CliError::usage(format!(
-                    "`{value}` is not an integer raw value (decimal, 0x hex, a leading - for negative)"
-                ))
+                let t = value.trim();
+                let digits = t.strip_prefix('-').unwrap_or(t);
+                if !digits.is_empty() && digits.chars().all(|c| c.is_ascii_digit()) {
+                    CliError::usage(format!(
+                        "`{value}` is too large for any parameter (a raw value has at most 32 \
+                         bits); nothing was sent"
+                    ))
+                } else {
+                    CliError::usage(format!(
+                        "`{value}` is not an integer raw value (decimal, 0x hex, a leading - for \
+                         negative)"
+                    ))
+                }
             });
         };
         let t = value.trim();

@@ -21,6 +21,7 @@ pub mod backup;
 pub mod client;
 #[cfg(test)]
 pub mod fake;
+pub mod infile;
 pub mod interrupt;
 pub mod line;
 pub mod meaning;
