@@ -197,11 +197,7 @@ impl Target {
         Ok(())
     }
 
-    /// The raw value of what the user typed (see [`ValueText`]): with `raw` (or outside the
-    /// table) a strict integer; a value name of the parameter's list; for a selection
-    /// parameter an integer of its list; else a number in the parameter's unit, converted
-    /// within its range (`force`: within the wire width only) and refused when the parameter
-    /// cannot hold it exactly unless `round`.
+    /// [`Target::value_from_text`] with only `raw` set (tests).
     #[cfg(test)]
     pub fn raw_from_text(&self, value: &str, raw: bool) -> Result<i64> {
         self.value_from_text(
@@ -214,7 +210,11 @@ impl Target {
         .map(|v| v.raw)
     }
 
-    /// [`Target::raw_from_text`] with every option, and the rounding that happened.
+    /// The raw value of what the user typed, read as `how` says ([`ValueText`]), and the
+    /// rounding that happened: with `raw` (or outside the table) a strict integer; a value name
+    /// of the parameter's list; for a selection parameter an integer of its list; else a
+    /// number in the parameter's unit, converted within its range (`force`: within the wire
+    /// width only) and refused when the parameter cannot hold it exactly unless `round`.
     pub fn value_from_text(&self, value: &str, how: &ValueText) -> Result<Parsed> {
         let exact = |raw| Parsed {
             raw,
