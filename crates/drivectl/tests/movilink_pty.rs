@@ -438,7 +438,8 @@ fn a_refused_parity_names_the_option() {
         ])
         .output()
         .unwrap();
-    assert_eq!(o.status.code(), Some(1));
+    // Exit 2, as `sim movilink --pty` refuses parity (issue 7 #15): a setting to change.
+    assert_eq!(o.status.code(), Some(2));
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.contains("does not support parity even"), "{err}");
     assert!(

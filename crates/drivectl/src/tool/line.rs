@@ -37,7 +37,15 @@ impl LineArgs {
     /// Open `path` with these settings (every setting read back; a refused one is named, with
     /// the option that changes it).
     pub fn open(&self, path: &str) -> Result<SerialPort> {
-        serial::open(&self.config(path)).map_err(|e| CliError::failed(open_error(&e)))
+        serial::open(&self.config(path)).map_err(|e| {
+            // A setting the device refuses is the user's to change (exit 2, as `sim` refuses
+            // parity on a pty); a missing or busy port is a failure (exit 1).
+            if e.refused_setting().is_some() {
+                CliError::usage(open_error(&e))
+            } else {
+                CliError::failed(open_error(&e))
+            }
+        })
     }
 }
 

@@ -105,11 +105,18 @@ fn load(d: &Path) -> Result<Map<String, Value>> {
 pub fn ensure_usable() -> Result<()> {
     let d = state_dir()?;
     load(&d)?;
+    // The directory's writability is probed once per process (a restore checks many writes).
+    static WRITABLE: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+    if WRITABLE.load(std::sync::atomic::Ordering::Relaxed) {
+        return Ok(());
+    }
     let probe = d.join(format!("{FILE}.probe.{}", std::process::id()));
     std::fs::create_dir_all(&d)
         .and_then(|()| std::fs::write(&probe, b"{}"))
         .and_then(|()| std::fs::remove_file(&probe))
-        .map_err(|e| unusable("cannot be written", &d.join(FILE), &e))
+        .map_err(|e| unusable("cannot be written", &d.join(FILE), &e))?;
+    WRITABLE.store(true, std::sync::atomic::Ordering::Relaxed);
+    Ok(())
 }
 
 /// Tell `guard` about the last non-volatile write of `param` on `drive`, if the log has one.
