@@ -1,21 +1,30 @@
 //! `bonfiglioli-modbus`: Modbus RTU and ASCII with Bonfiglioli's function codes 100/101 for
 //! ACTIVE and ACTIVE Cube drives, sans-IO.
 //!
-//! The crate will hold the Modbus frame types with function codes 100/101, their codec, the
-//! RTU and ASCII framing descriptions and the master and slave state machines. It is a
-//! placeholder for now: the protocol arrives with its own issue.
+//! * [`frame`]: addresses, the start address (data set | parameter number), requests and
+//!   responses with their function codes, exception codes and diagnostic sub-functions;
+//! * [`pdu`]: the PDU codec (function code and data).
 //!
-//! What it builds on is in place:
-//!
-//! * [`drive_core`]: the one time type ([`Instant`](drive_core::Instant)), line timing
-//!   ([`LineSettings`](drive_core::LineSettings)), the generic character
-//!   [`Receiver`](drive_core::Receiver) a framing description plugs into, the
-//!   [`Endpoint`](drive_core::Endpoint) interface and the transaction skeleton
-//!   ([`Exchange`](drive_core::Exchange));
-//! * [`drive_profile::bonfiglioli`]: Bonfiglioli's parameter table, Modbus exceptions, VABus
-//!   errors, control/status words and state machines.
+//! It builds on [`drive_core`] (time, line timing, the character
+//! [`Receiver`](drive_core::Receiver) a framing description plugs into, the
+//! [`Endpoint`](drive_core::Endpoint) interface and the transaction skeleton) and on
+//! [`drive_profile::bonfiglioli`] (the parameter table, Modbus exceptions, VABus errors,
+//! control/status words and state machines).
 //!
 //! Like every protocol crate of drivebus it is sans-IO (no I/O, no clock: time is an argument)
 //! and `no_std` without its default `std` feature.
+//!
+//! ```
+//! use bonfiglioli_modbus::frame::{DataSet, Request, StartAddress};
+//!
+//! // Read parameter 372 in data set 2 (the manual's ch. 8.1.1).
+//! let start = StartAddress::new(DataSet::new(2).unwrap(), 372).unwrap();
+//! let mut pdu = [0u8; 5];
+//! let n = Request::ReadWord { start, count: 1 }.encode(&mut pdu).unwrap();
+//! assert_eq!(&pdu[..n], [0x03, 0x21, 0x74, 0x00, 0x01]);
+//! ```
 #![cfg_attr(not(feature = "std"), no_std)]
 #![warn(missing_docs)]
+
+pub mod frame;
+pub mod pdu;
