@@ -15,7 +15,8 @@
 //!
 //! What it enforces:
 //!
-//! * the idle gap before every transmission, `retry_pause` after a failed attempt or an abort,
+//! * the idle gap before every transmission (the framing's start gap, at least
+//!   [`ExchangeConfig::min_idle_gap`]), `retry_pause` after a failed attempt or an abort,
 //!   `unanswered_hold` after a request that gets no response ([`TxGate`]);
 //! * the response timeout, from the request's end to the start of the answer's first
 //!   character (the answer's first character may complete up to one character time later);
@@ -47,6 +48,9 @@ pub struct ExchangeConfig {
     pub retry_pause: Duration,
     /// How long a request that gets no response (group, broadcast) holds the bus after its end.
     pub unanswered_hold: Duration,
+    /// The least idle time before any transmission, beyond the framing's own start gap (Modbus:
+    /// 2 ms after an answer, while ASCII framing itself needs no gap); zero for none.
+    pub min_idle_gap: Duration,
 }
 
 /// What happens after a failed attempt.
@@ -129,7 +133,7 @@ impl<F: Framing, const N: usize> Exchange<F, N> {
     /// An exchange receiving answers with `framing`; the bus is assumed idle.
     pub fn new(framing: F, config: ExchangeConfig) -> Self {
         let receiver = Receiver::new(framing);
-        let gate = TxGate::new(receiver.timing().start_gap);
+        let gate = TxGate::new(receiver.timing().start_gap.max(config.min_idle_gap));
         Self {
             ns: Nanos::of(&config, receiver.timing().char_time),
             config,
@@ -173,7 +177,8 @@ impl<F: Framing, const N: usize> Exchange<F, N> {
         self.receiver.refresh_timing();
         let timing = *self.receiver.timing();
         self.ns = Nanos::of(&self.config, timing.char_time);
-        self.gate.set_idle_gap(timing.start_gap);
+        self.gate
+            .set_idle_gap(timing.start_gap.max(self.config.min_idle_gap));
     }
 
     /// The bus gate.

@@ -216,6 +216,7 @@ async fn session(clock: Clock) -> (Vec<Result<([u8; 8], usize), u16>>, u32) {
         retries: 1,
         retry_pause: line.char_times(4, 1),
         unanswered_hold: Duration::ZERO,
+        min_idle_gap: Duration::ZERO,
     };
     let mut master = Master {
         x: Exchange::new(toy, config),
@@ -428,6 +429,7 @@ async fn the_virtual_clock_measures_a_gap_limit_from_the_last_character() {
         retries: 0,
         retry_pause: line.char_times(4, 1),
         unanswered_hold: Duration::ZERO,
+        min_idle_gap: Duration::ZERO,
     };
     let mut master = Master {
         x: Exchange::new(toy, config),

@@ -80,6 +80,7 @@ impl MasterConfig {
             retries: self.retries,
             retry_pause: self.timing.restart_pause(),
             unanswered_hold: BROADCAST_SPACING,
+            min_idle_gap: Duration::ZERO,
         }
     }
 }

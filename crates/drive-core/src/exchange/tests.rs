@@ -39,6 +39,7 @@ fn config(retries: u8) -> ExchangeConfig {
         retries,
         retry_pause: PAUSE * 2,
         unanswered_hold: Duration::from_millis(25),
+        min_idle_gap: Duration::ZERO,
     }
 }
 
@@ -250,4 +251,37 @@ fn refresh_timing_reaches_the_gate_and_the_transmission_times() {
     assert_eq!(x.transmitted(4, true), us(8_000));
     // Give up after the response timeout plus one (new) character time.
     assert_eq!(x.response_deadline(), Some(us(8_000 + 50_000 + 2_000)));
+}
+
+#[test]
+fn min_idle_gap_holds_the_next_request_beyond_the_framings_start_gap() {
+    // Modbus: 2 ms after an answer even where the framing needs less (ASCII needs none).
+    let cfg = ExchangeConfig {
+        min_idle_gap: Duration::from_millis(5),
+        ..config(2)
+    };
+    let mut x: Exchange<Lp, 8> = Exchange::new(Lp, cfg);
+    x.begin(Instant::ZERO).unwrap();
+    assert!(x.may_transmit(Instant::ZERO));
+    x.transmitted(4, true);
+    assert_eq!(answer(&mut x, &[0xA5, 1, 42], 10_000), [ExchangeEvent::Frame(42)]);
+    x.complete();
+    // The answer's last character ended at 13 ms: 5 ms, not the framing's 3 ms.
+    assert_eq!(x.gate().earliest_start(), us(13_000 + 5_000));
+    // A shorter minimum leaves the framing's gap in force; refreshing keeps the rule.
+    x.refresh_timing();
+    assert_eq!(x.gate().earliest_start(), us(18_000));
+    let mut y: Exchange<Lp, 8> = Exchange::new(
+        Lp,
+        ExchangeConfig {
+            min_idle_gap: Duration::from_millis(1),
+            ..config(2)
+        },
+    );
+    y.begin(Instant::ZERO).unwrap();
+    y.may_transmit(Instant::ZERO);
+    y.transmitted(4, true);
+    answer(&mut y, &[0xA5, 1, 42], 10_000);
+    y.complete();
+    assert_eq!(y.gate().earliest_start(), us(16_000));
 }
