@@ -3,7 +3,13 @@
 //!
 //! * [`frame`]: addresses, the start address (data set | parameter number), requests and
 //!   responses with their function codes, exception codes and diagnostic sub-functions;
-//! * [`pdu`]: the PDU codec (function code and data).
+//! * [`pdu`]: the PDU codec (function code and data);
+//! * [`rtu`] and [`ascii`]: the two transmission modes (CRC-16 and binary, LRC and hex text),
+//!   their times from the real line settings, whole-frame encode and decode;
+//! * [`framing`]: one framing description for both modes and both sides
+//!   ([`ModbusFraming`]) on drive-core's character receiver ([`Receiver`]), the
+//!   received frames ([`Received`]), whole-frame [`encode_request`], [`encode_response`] and
+//!   [`decode_frame`], and [`FrameError`].
 //!
 //! It builds on [`drive_core`] (time, line timing, the character
 //! [`Receiver`](drive_core::Receiver) a framing description plugs into, the
@@ -26,5 +32,13 @@
 #![cfg_attr(not(feature = "std"), no_std)]
 #![warn(missing_docs)]
 
+pub mod ascii;
 pub mod frame;
+pub mod framing;
 pub mod pdu;
+pub mod rtu;
+
+pub use framing::{
+    FrameError, MAX_FRAME, ModbusFraming, Mode, Received, Receiver, RxEvent, Side, decode_frame,
+    encode_request, encode_response,
+};
