@@ -33,10 +33,14 @@
 #![warn(missing_docs)]
 
 pub mod ascii;
+#[cfg(feature = "tokio")]
+pub mod driver;
 pub mod frame;
 pub mod framing;
+pub mod master;
 pub mod pdu;
 pub mod rtu;
+pub mod slave;
 
 pub use framing::{
     FrameError, MAX_FRAME, ModbusFraming, Mode, Received, Receiver, RxEvent, Side, decode_frame,

@@ -264,7 +264,10 @@ fn min_idle_gap_holds_the_next_request_beyond_the_framings_start_gap() {
     x.begin(Instant::ZERO).unwrap();
     assert!(x.may_transmit(Instant::ZERO));
     x.transmitted(4, true);
-    assert_eq!(answer(&mut x, &[0xA5, 1, 42], 10_000), [ExchangeEvent::Frame(42)]);
+    assert_eq!(
+        answer(&mut x, &[0xA5, 1, 42], 10_000),
+        [ExchangeEvent::Frame(42)]
+    );
     x.complete();
     // The answer's last character ended at 13 ms: 5 ms, not the framing's 3 ms.
     assert_eq!(x.gate().earliest_start(), us(13_000 + 5_000));

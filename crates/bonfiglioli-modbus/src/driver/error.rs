@@ -1,0 +1,66 @@
+//! What a driver call can fail with: the drive's answer, or the line.
+
+use crate::frame::ExceptionCode;
+use crate::master::{RejectReason, SendError};
+
+/// Why a driver call failed.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum DriverError {
+    /// The drive answered with an exception; for exception 4 the cause from its VABus error
+    /// register (parameter 11), when it could be read.
+    #[error("the drive refused: {exception}{}", vabus_text(*.vabus))]
+    Device {
+        /// The Modbus exception code.
+        exception: ExceptionCode,
+        /// The VABus error register's value read right after it.
+        vabus: Option<u16>,
+    },
+    /// Nothing answered in time, in every attempt.
+    #[error(
+        "no answer from address {address} after {attempts} attempts; check address (parameter 1376), mode (RTU/ASCII, parameter 395), baud rate and parity, wiring and termination"
+    )]
+    Timeout {
+        /// The request's address.
+        address: u8,
+        /// Transmissions made.
+        attempts: u32,
+    },
+    /// Answers arrived but kept failing the checks.
+    #[error(
+        "answers from address {address} kept failing the checks ({reason}) in {attempts} attempts; check mode (RTU/ASCII), baud rate and parity, termination and for a second master on the bus"
+    )]
+    Corrupt {
+        /// The request's address.
+        address: u8,
+        /// The last check that failed.
+        reason: RejectReason,
+        /// Transmissions made.
+        attempts: u32,
+    },
+    /// The parameter number is outside 0–1599.
+    #[error("parameter {0} does not exist (parameter numbers are 0–1599)")]
+    NoSuchParameter(u16),
+    /// A value that does not fit 16 bits for a 16-bit write.
+    #[error("value {value} does not fit a 16-bit parameter; nothing was sent")]
+    TooWide {
+        /// The value.
+        value: u32,
+    },
+    /// The request cannot be sent this way.
+    #[error("invalid request: {0}")]
+    InvalidRequest(SendError),
+    /// The port failed or was closed.
+    #[error("port i/o failed: {0}; check that the port still exists and no other program uses it")]
+    Io(#[from] std::io::Error),
+}
+
+fn vabus_text(v: Option<u16>) -> String {
+    match v {
+        None => String::new(),
+        Some(code) => match drive_profile::bonfiglioli::vabus_error(code) {
+            Some(e) => format!("; VABus error {code}: {}", e.name_en),
+            None => format!("; VABus error {code}"),
+        },
+    }
+}
