@@ -196,6 +196,11 @@ impl<B: Backend> Slave<B> {
         &self.config
     }
 
+    /// Answer `address` from now on (the drive's address parameter was written).
+    pub fn set_address(&mut self, address: Address) {
+        self.config.address = address;
+    }
+
     /// The diagnostic counters.
     pub fn counters(&self) -> &Counters {
         &self.counters

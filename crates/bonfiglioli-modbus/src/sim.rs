@@ -1,0 +1,266 @@
+//! Simulated ACT and ACU drives on a [`CharIo`] (feature `sim`).
+//!
+//! [`SimulatedDrive`] is the thin Modbus front-end onto the one drive model,
+//! [`drive_sim::bonfiglioli::SimulatedBonfiglioli`]: the sans-IO [`Slave`] frames the requests
+//! (RTU or ASCII), answers its own address (broadcast writes are executed without an answer),
+//! keeps the FC 8 counters and the 10 ms answer delay, and hands parameter reads and writes to
+//! the model, whose refusals carry the exception and set its VABus error register (parameter
+//! 11). Every valid request feeds the model's watchdog (parameter 413). The front-end follows
+//! the Modbus address (parameter 1376) when it is written. [`SimulatedBus`] puts several drives
+//! on one line; both are served by the runtime layer's [`serve`](drive_core::rt::serve) loop.
+//!
+//! ```
+//! use bonfiglioli_modbus::driver::{DriverConfig, MasterDriver};
+//! use bonfiglioli_modbus::frame::{Address, DataSet};
+//! use bonfiglioli_modbus::framing::Mode;
+//! use bonfiglioli_modbus::sim::SimulatedDrive;
+//! use bonfiglioli_modbus::slave::Width;
+//! use drive_sim::bonfiglioli::Variant;
+//! use drive_transport::link::{self, LinkConfig};
+//!
+//! # #[tokio::main(flavor = "current_thread", start_paused = true)]
+//! # async fn main() -> Result<(), Box<dyn std::error::Error>> {
+//! let line = Mode::Rtu.line_settings(19200, drive_core::Parity::Even);
+//! let (port, wire) = link::pair(LinkConfig::from_line(line));
+//! let mut drive = SimulatedDrive::new(1, Variant::Acu, Mode::Rtu, line);
+//! let sim = tokio::spawn(async move { drive.serve(wire).await });
+//!
+//! let mut master = MasterDriver::new(port, DriverConfig::new(Mode::Rtu, line));
+//! let drive1 = Address::new(1).ok_or("address")?;
+//! let ds2 = DataSet::new(2).ok_or("data set")?;
+//! master.write(drive1, 372, ds2, Width::Word, 1390).await?; // rated speed, data set 2
+//! assert_eq!(master.read(drive1, 372, ds2, Width::Word).await?, 1390);
+//! drop(master); // closes the line: the simulated drive stops serving
+//! sim.await??;
+//! # Ok(())
+//! # }
+//! ```
+
+use std::io;
+
+use drive_core::rt::{self, CharIo, Clock, Timebase};
+use drive_core::{Endpoint, Instant, LineSettings, RxChar};
+use drive_sim::bonfiglioli::{self as model, SimulatedBonfiglioli, Variant};
+
+use crate::frame::{Address, ExceptionCode, StartAddress};
+use crate::framing::{MAX_FRAME, Mode};
+use crate::slave::{Backend, Slave, SlaveConfig, SlaveEvent, Width};
+
+/// The Modbus address parameter (ch. 5.2.2, 5.3.2).
+pub const ADDRESS_PARAM: u16 = 1376;
+
+/// The [`Backend`] of a simulated drive: the drive model.
+#[derive(Debug)]
+struct DriveBackend {
+    drive: SimulatedBonfiglioli,
+}
+
+fn width(w: Width) -> model::Width {
+    match w {
+        Width::Word => model::Width::Word,
+        Width::Long => model::Width::Long,
+    }
+}
+
+impl Backend for DriveBackend {
+    fn read(&mut self, start: StartAddress, w: Width, now: Instant) -> Result<u32, ExceptionCode> {
+        // The raw fields: the model refuses an unknown parameter or data set itself.
+        let data_set = (start.raw() >> 12) as u8;
+        self.drive
+            .read(start.param_bits(), data_set, width(w), now)
+            .map_err(|r| ExceptionCode(r.exception()))
+    }
+
+    fn write(
+        &mut self,
+        start: StartAddress,
+        w: Width,
+        value: u32,
+        now: Instant,
+    ) -> Result<(), ExceptionCode> {
+        let data_set = (start.raw() >> 12) as u8;
+        self.drive
+            .write(start.param_bits(), data_set, width(w), value, now)
+            .map_err(|r| ExceptionCode(r.exception()))
+    }
+
+    fn valid_exchange(&mut self, now: Instant) {
+        self.drive.valid_exchange(now);
+    }
+
+    fn handle_timeout(&mut self, now: Instant) {
+        self.drive.tick(now);
+    }
+}
+
+/// A simulated drive on a Modbus line; see the [module docs](self).
+#[derive(Debug)]
+pub struct SimulatedDrive {
+    slave: Slave<DriveBackend>,
+    clock: Clock,
+    time: Option<Timebase>,
+}
+
+impl SimulatedDrive {
+    /// A drive of `variant` at `address` (clamped to 1–247; its parameter 1376 is set to it),
+    /// speaking `mode` on `line`.
+    pub fn new(address: u8, variant: Variant, mode: Mode, line: LineSettings) -> Self {
+        let address = address.clamp(1, 247);
+        let mut drive = SimulatedBonfiglioli::new(variant);
+        // 1376 is a 16-bit parameter in every data set; the write cannot fail for 1–247.
+        let _ = drive.write(ADDRESS_PARAM, 0, model::Width::Word, u32::from(address), Instant::ZERO);
+        let config = SlaveConfig::new(Address::new(address).unwrap_or(Address::BROADCAST), mode, line);
+        Self {
+            slave: Slave::new(config, DriveBackend { drive }),
+            clock: Clock::Real,
+            time: None,
+        }
+    }
+
+    /// The drive model.
+    pub fn drive(&self) -> &SimulatedBonfiglioli {
+        &self.slave.backend().drive
+    }
+
+    /// The drive model, for changing (inputs, faults).
+    pub fn drive_mut(&mut self) -> &mut SimulatedBonfiglioli {
+        &mut self.slave.backend_mut().drive
+    }
+
+    /// The diagnostic counters of function code 8.
+    pub fn counters(&self) -> &crate::slave::Counters {
+        self.slave.counters()
+    }
+
+    /// The address the drive answers.
+    pub fn address(&self) -> Address {
+        self.slave.config().address
+    }
+
+    /// [`Clock::Real`] (tokio's clock, the default) or [`Clock::Virtual`] (waits for nothing).
+    pub fn set_clock(&mut self, clock: Clock) {
+        self.clock = clock;
+        self.time = self.time.map(|t| t.switched_to(clock));
+    }
+
+    /// Serve requests on `io` until it closes (`Ok`) or fails.
+    pub async fn serve<IO: CharIo>(&mut self, io: IO) -> io::Result<()> {
+        let char_time = self.slave.config().line.char_time();
+        let clock = self.clock;
+        let mut time = *self.time.get_or_insert_with(|| Timebase::new(clock, char_time));
+        let r = rt::serve(std::slice::from_mut(self), &mut time, io).await;
+        self.time = Some(time);
+        r
+    }
+
+    /// Follow the Modbus address (parameter 1376) once a request wrote it.
+    fn drain_events(&mut self) {
+        while let Some(event) = self.slave.poll_event() {
+            if let SlaveEvent::Received { .. } = event {
+                let drive = &mut self.slave.backend_mut().drive;
+                let wanted = drive
+                    .read(ADDRESS_PARAM, 1, model::Width::Word, Instant::ZERO)
+                    .ok()
+                    .and_then(|a| u8::try_from(a).ok())
+                    .and_then(Address::new)
+                    .filter(|a| !a.is_broadcast());
+                // Reading the address must not leave a refusal in the error register.
+                if let Some(a) = wanted {
+                    if a != self.slave.config().address {
+                        self.slave.set_address(a);
+                    }
+                }
+            }
+        }
+    }
+}
+
+impl Endpoint for SimulatedDrive {
+    fn handle_char(&mut self, c: RxChar) {
+        self.slave.handle_char(c);
+        self.drain_events();
+    }
+
+    fn handle_timeout(&mut self, now: Instant) {
+        self.slave.handle_timeout(now);
+        self.drain_events();
+    }
+
+    fn poll_transmit(&mut self, now: Instant, buf: &mut [u8]) -> Option<usize> {
+        self.slave.poll_transmit(now, buf)
+    }
+
+    fn poll_timeout(&self) -> Option<Instant> {
+        self.slave.poll_timeout()
+    }
+
+    fn poll_quiet_timeout(&self) -> Option<Instant> {
+        Endpoint::poll_quiet_timeout(&self.slave)
+    }
+
+    fn max_frame_len(&self) -> usize {
+        MAX_FRAME
+    }
+}
+
+/// Several simulated drives on one line, each answering its own address.
+#[derive(Debug)]
+pub struct SimulatedBus {
+    drives: Vec<SimulatedDrive>,
+    clock: Clock,
+    time: Option<Timebase>,
+    line: LineSettings,
+}
+
+impl SimulatedBus {
+    /// Drives of `variant` at `addresses` (duplicates kept once) speaking `mode` on `line`.
+    pub fn new(addresses: &[u8], variant: Variant, mode: Mode, line: LineSettings) -> Self {
+        let mut drives: Vec<SimulatedDrive> = Vec::with_capacity(addresses.len());
+        for &a in addresses {
+            let d = SimulatedDrive::new(a, variant, mode, line);
+            if !drives.iter().any(|x| x.address() == d.address()) {
+                drives.push(d);
+            }
+        }
+        Self {
+            drives,
+            clock: Clock::Real,
+            time: None,
+            line,
+        }
+    }
+
+    /// Serve requests on `io` until it closes (`Ok`) or fails.
+    pub async fn serve<IO: CharIo>(&mut self, io: IO) -> io::Result<()> {
+        let clock = self.clock;
+        let char_time = self.line.char_time();
+        let mut time = *self.time.get_or_insert_with(|| Timebase::new(clock, char_time));
+        let r = rt::serve(&mut self.drives, &mut time, io).await;
+        self.time = Some(time);
+        r
+    }
+
+    /// The drive at `address`.
+    pub fn drive(&self, address: u8) -> Option<&SimulatedDrive> {
+        self.drives.iter().find(|d| d.address().get() == address)
+    }
+
+    /// The drive at `address`, for changing.
+    pub fn drive_mut(&mut self, address: u8) -> Option<&mut SimulatedDrive> {
+        self.drives.iter_mut().find(|d| d.address().get() == address)
+    }
+
+    /// All drives.
+    pub fn drives(&self) -> &[SimulatedDrive] {
+        &self.drives
+    }
+
+    /// [`Clock::Real`] (the default) or [`Clock::Virtual`].
+    pub fn set_clock(&mut self, clock: Clock) {
+        self.clock = clock;
+        self.time = self.time.map(|t| t.switched_to(clock));
+        for d in &mut self.drives {
+            d.set_clock(clock);
+        }
+    }
+}
