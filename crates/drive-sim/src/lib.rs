@@ -11,6 +11,9 @@
 //! * [`FaultInjector`]: delayed and dropped answers, driven by the seeded
 //!   [`drive_core::SplitMix64`].
 //! * [`SimDrive`]: all of the above, advanced with [`SimDrive::tick`].
+//! * Family models on top: [`movidrive::Movidrive`] (SEW MOVIDRIVE) and
+//!   [`bonfiglioli::SimulatedBonfiglioli`] (Bonfiglioli ACT / ACU, parameters by number, data
+//!   set and width, refusals as Modbus exception + VABus error register).
 //!
 //! # Time
 //!
@@ -82,6 +85,7 @@
 //! ```
 #![warn(missing_docs)]
 
+pub mod bonfiglioli;
 mod drive;
 mod error;
 pub mod inject;

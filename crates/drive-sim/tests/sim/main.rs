@@ -8,6 +8,7 @@
     clippy::panic
 )]
 
+mod bonfiglioli;
 mod drive;
 mod inject;
 mod movidrive;
