@@ -40,6 +40,8 @@ pub mod framing;
 pub mod master;
 pub mod pdu;
 pub mod rtu;
+#[cfg(feature = "sim")]
+pub mod sim;
 pub mod slave;
 
 pub use framing::{

@@ -108,8 +108,18 @@ impl SimulatedDrive {
         let address = address.clamp(1, 247);
         let mut drive = SimulatedBonfiglioli::new(variant);
         // 1376 is a 16-bit parameter in every data set; the write cannot fail for 1–247.
-        let _ = drive.write(ADDRESS_PARAM, 0, model::Width::Word, u32::from(address), Instant::ZERO);
-        let config = SlaveConfig::new(Address::new(address).unwrap_or(Address::BROADCAST), mode, line);
+        let _ = drive.write(
+            ADDRESS_PARAM,
+            0,
+            model::Width::Word,
+            u32::from(address),
+            Instant::ZERO,
+        );
+        let config = SlaveConfig::new(
+            Address::new(address).unwrap_or(Address::BROADCAST),
+            mode,
+            line,
+        );
         Self {
             slave: Slave::new(config, DriveBackend { drive }),
             clock: Clock::Real,
@@ -147,7 +157,9 @@ impl SimulatedDrive {
     pub async fn serve<IO: CharIo>(&mut self, io: IO) -> io::Result<()> {
         let char_time = self.slave.config().line.char_time();
         let clock = self.clock;
-        let mut time = *self.time.get_or_insert_with(|| Timebase::new(clock, char_time));
+        let mut time = *self
+            .time
+            .get_or_insert_with(|| Timebase::new(clock, char_time));
         let r = rt::serve(std::slice::from_mut(self), &mut time, io).await;
         self.time = Some(time);
         r
@@ -157,14 +169,16 @@ impl SimulatedDrive {
     fn drain_events(&mut self) {
         while let Some(event) = self.slave.poll_event() {
             if let SlaveEvent::Received { .. } = event {
-                let drive = &mut self.slave.backend_mut().drive;
-                let wanted = drive
-                    .read(ADDRESS_PARAM, 1, model::Width::Word, Instant::ZERO)
+                // From the store, not through a read: a read's refusal would land in the
+                // drive's error register.
+                let store = self.slave.backend().drive.store();
+                let wanted = store
+                    .read(ADDRESS_PARAM, 0)
+                    .or_else(|_| store.read(ADDRESS_PARAM, 1))
                     .ok()
                     .and_then(|a| u8::try_from(a).ok())
                     .and_then(Address::new)
                     .filter(|a| !a.is_broadcast());
-                // Reading the address must not leave a refusal in the error register.
                 if let Some(a) = wanted {
                     if a != self.slave.config().address {
                         self.slave.set_address(a);
@@ -234,7 +248,9 @@ impl SimulatedBus {
     pub async fn serve<IO: CharIo>(&mut self, io: IO) -> io::Result<()> {
         let clock = self.clock;
         let char_time = self.line.char_time();
-        let mut time = *self.time.get_or_insert_with(|| Timebase::new(clock, char_time));
+        let mut time = *self
+            .time
+            .get_or_insert_with(|| Timebase::new(clock, char_time));
         let r = rt::serve(&mut self.drives, &mut time, io).await;
         self.time = Some(time);
         r
@@ -247,7 +263,9 @@ impl SimulatedBus {
 
     /// The drive at `address`, for changing.
     pub fn drive_mut(&mut self, address: u8) -> Option<&mut SimulatedDrive> {
-        self.drives.iter_mut().find(|d| d.address().get() == address)
+        self.drives
+            .iter_mut()
+            .find(|d| d.address().get() == address)
     }
 
     /// All drives.
