@@ -4,6 +4,7 @@
 use std::time::Duration;
 
 use drive_profile::bonfiglioli::{self, DataType, State};
+use drive_profile::state::StateMachine;
 use drive_sim::Instant;
 use drive_sim::bonfiglioli::{
     CHOSEN_WIDTHS, FAULT_WATCHDOG, Input, Refusal, SIM_DEFAULTS, SimulatedBonfiglioli, VabusCause,
@@ -660,4 +661,50 @@ fn local_remote_follows_the_active_data_set() {
         0x27,
         "data set 2: the held 0x0F acts"
     );
+}
+
+// ----- arbitrary requests -----
+
+proptest::proptest! {
+    /// Whatever a front-end passes on: no panic, exception 2 or 4 only, and parameter 11 holds
+    /// the cause of the last exception 4 (exception 2 leaves it).
+    #[test]
+    fn arbitrary_requests_are_answered_or_refused_consistently(
+        ops in proptest::collection::vec(
+            (0u16..1700, 0u8..16, proptest::bool::ANY, proptest::bool::ANY, proptest::num::u32::ANY, 0u64..50),
+            1..40,
+        ),
+        acu in proptest::bool::ANY,
+    ) {
+        let mut d = SimulatedBonfiglioli::new(if acu { Variant::Acu } else { Variant::Act });
+        let mut t = 0;
+        for (param, ds, long, write, value, dt) in ops {
+            t += dt;
+            let width = if long { Long } else { Word };
+            let before = d.error_register();
+            let result = if write {
+                d.write(param, ds, width, value, ms(t))
+            } else {
+                d.read(param, ds, width, ms(t)).map(drop)
+            };
+            match result {
+                Ok(()) => {}
+                Err(e @ Refusal::WrongWidth { .. }) => {
+                    proptest::prop_assert_eq!(e.exception(), 2);
+                    proptest::prop_assert_eq!(d.error_register(), before);
+                }
+                Err(e) => {
+                    proptest::prop_assert_eq!(e.exception(), 4);
+                    proptest::prop_assert_eq!(Some(d.error_register()), e.vabus());
+                }
+            }
+            let s = d.read(411, 0, Word, ms(t)).unwrap() as u16;
+            let state = if acu {
+                bonfiglioli::AcuStateMachine::decode(s)
+            } else {
+                bonfiglioli::ActStateMachine::decode(s)
+            };
+            proptest::prop_assert_eq!(state, d.state(), "status word {:#06x}", s);
+        }
+    }
 }
