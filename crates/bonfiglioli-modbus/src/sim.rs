@@ -49,10 +49,28 @@ use crate::slave::{Backend, Slave, SlaveConfig, SlaveEvent, Width};
 /// The Modbus address parameter (ch. 5.2.2, 5.3.2).
 pub const ADDRESS_PARAM: u16 = 1376;
 
+/// How often the model is advanced while something in it runs on time (a ramp, a holding
+/// time, the watchdog), between requests.
+pub const TICK: core::time::Duration = core::time::Duration::from_millis(10);
+
 /// The [`Backend`] of a simulated drive: the drive model.
 #[derive(Debug)]
 struct DriveBackend {
     drive: SimulatedBonfiglioli,
+    /// When the model was last advanced.
+    last_tick: Instant,
+}
+
+impl DriveBackend {
+    /// Whether the model has timed work: it is enabled or stopping, the motor turns, or the
+    /// watchdog (413) is armed.
+    fn busy(&self) -> bool {
+        use drive_profile::bonfiglioli::State;
+        let d = &self.drive;
+        matches!(d.state(), State::OperationEnabled | State::QuickStopActive)
+            || d.actual_frequency() != 0.0
+            || d.store().read(413, 0).is_ok_and(|v| v > 0)
+    }
 }
 
 fn width(w: Width) -> model::Width {
@@ -85,11 +103,20 @@ impl Backend for DriveBackend {
     }
 
     fn valid_exchange(&mut self, now: Instant) {
+        // The watchdog sees the quiet time up to this request before the request feeds it.
+        self.drive.tick(now);
         self.drive.valid_exchange(now);
     }
 
+    fn poll_timeout(&self) -> Option<Instant> {
+        self.busy().then(|| self.last_tick + TICK)
+    }
+
     fn handle_timeout(&mut self, now: Instant) {
-        self.drive.tick(now);
+        if now >= self.last_tick + TICK {
+            self.drive.tick(now);
+            self.last_tick = now;
+        }
     }
 }
 
@@ -121,7 +148,13 @@ impl SimulatedDrive {
             line,
         );
         Self {
-            slave: Slave::new(config, DriveBackend { drive }),
+            slave: Slave::new(
+                config,
+                DriveBackend {
+                    drive,
+                    last_tick: Instant::ZERO,
+                },
+            ),
             clock: Clock::Real,
             time: None,
         }
