@@ -5,6 +5,7 @@
 //! and renders Rust source.
 
 pub mod codegen;
+pub mod interop;
 pub mod render;
 pub mod table;
 

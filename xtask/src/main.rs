@@ -4,6 +4,8 @@
 //!   the Rust tables to `crates/drive-profile/src/generated/`.
 //! * `cargo xtask codegen --check` does the same in memory and fails when the committed
 //!   output differs (CI runs it; a `#[test]` in this crate runs it too).
+//! * `cargo xtask interop [--only mbpoll|libmodbus|pymodbus|master] [--no-install]` runs
+//!   third-party Modbus software against drivebus (see [`xtask::interop`]).
 
 use std::process::ExitCode;
 
@@ -13,8 +15,12 @@ fn main() -> ExitCode {
     match args.as_slice() {
         ["codegen"] => run(false),
         ["codegen", "--check"] => run(true),
+        ["interop", rest @ ..] => xtask::interop::run(&xtask::workspace_root(), rest),
         _ => {
-            eprintln!("usage: cargo xtask codegen [--check]");
+            eprintln!(
+                "usage: cargo xtask codegen [--check]\n       {}",
+                &xtask::interop::USAGE[7..]
+            );
             ExitCode::from(2)
         }
     }
