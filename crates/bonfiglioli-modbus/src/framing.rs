@@ -11,7 +11,7 @@
 //! messages to other drives in its diagnostic counters; the state machines filter); an
 //! address 248–255 is rejected ([`FrameError::ReservedAddress`], with the byte).
 //!
-//! The modes' rules are in [`rtu`](crate::rtu) and [`ascii`](crate::ascii).
+//! The modes' rules are in [`rtu`] and [`ascii`].
 //!
 //! ```
 //! use bonfiglioli_modbus::frame::{Address, Request, StartAddress};
