@@ -37,6 +37,19 @@ pub enum Width {
     Long,
 }
 
+impl Width {
+    /// The width the manual gives parameter `param` (uInt/Int: 16 bits, Long: 32 bits); None
+    /// for a parameter outside the table or one whose data type the manual does not give
+    /// (nothing is guessed: the caller asks its user).
+    pub fn of_param(param: u16) -> Option<Width> {
+        match drive_profile::bonfiglioli::by_number(param)?.data_type.bits()? {
+            16 => Some(Width::Word),
+            32 => Some(Width::Long),
+            _ => None,
+        }
+    }
+}
+
 /// The drive behind the protocol; the simulated drive implements it.
 pub trait Backend {
     /// Read the parameter of `start` with `width`; the value (16-bit values in the low half)
@@ -396,5 +409,20 @@ impl<B: Backend> Endpoint for Slave<B> {
 
     fn max_frame_len(&self) -> usize {
         MAX_FRAME
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn widths_come_from_the_table_and_unknown_types_are_not_guessed() {
+        // 372 rated speed: uInt; 481 fixed frequency 2: Long (ch. 8.1); 412 Local/Remote: the
+        // manual gives no type; 1600: no such parameter.
+        assert_eq!(Width::of_param(372), Some(Width::Word));
+        assert_eq!(Width::of_param(481), Some(Width::Long));
+        assert_eq!(Width::of_param(412), None);
+        assert_eq!(Width::of_param(1600), None);
     }
 }
