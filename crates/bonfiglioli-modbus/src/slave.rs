@@ -42,7 +42,10 @@ impl Width {
     /// for a parameter outside the table or one whose data type the manual does not give
     /// (nothing is guessed: the caller asks its user).
     pub fn of_param(param: u16) -> Option<Width> {
-        match drive_profile::bonfiglioli::by_number(param)?.data_type.bits()? {
+        match drive_profile::bonfiglioli::by_number(param)?
+            .data_type
+            .bits()?
+        {
             16 => Some(Width::Word),
             32 => Some(Width::Long),
             _ => None,
