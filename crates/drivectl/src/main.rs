@@ -9,6 +9,7 @@
 
 #[macro_use]
 mod tool;
+mod bonfiglioli;
 mod completions;
 mod demo;
 mod error;
@@ -40,6 +41,8 @@ enum Command {
     Params(params::ParamsArgs),
     /// Talk to a SEW MOVIDRIVE over MOVILINK (RS-485 / RS-232).
     Movilink(movilink::MovilinkArgs),
+    /// Talk to a Bonfiglioli ACTIVE / ACTIVE Cube over Modbus RTU or ASCII.
+    Bonfiglioli(bonfiglioli::BonfiglioliArgs),
     /// Run simulated drives on a serial port or a new pseudo-terminal.
     #[command(subcommand, after_help = examples::SIM)]
     Sim(SimCommand),
@@ -60,6 +63,8 @@ enum Command {
 enum SimCommand {
     /// Simulated MOVIDRIVE(s) answering MOVILINK.
     Movilink(movilink::sim::SimArgs),
+    /// Simulated Bonfiglioli ACT/ACU drive(s) answering Modbus RTU or ASCII.
+    Bonfiglioli(bonfiglioli::sim::SimArgs),
 }
 
 #[derive(Debug, Subcommand)]
@@ -87,6 +92,49 @@ enum DecodeCommand {
         file: Option<String>,
         /// One JSON object per telegram (`"type": "telegram"`) or skipped run of bytes
         /// (`"type": "error"`).
+        #[arg(long)]
+        json: bool,
+    },
+    /// A Bonfiglioli Modbus RTU capture: hex bytes, e.g. `01 03 21 74 00 01 CE 2C`.
+    ///
+    /// Bytes as for `decode movilink`. RTU has no start character: a stream is split where a
+    /// CRC-16 closes a frame; a run without a valid CRC is explained with the CRC it should
+    /// have. A read answer is scaled by the parameter of the read request before it.
+    ///
+    /// Examples:
+    ///   drivectl decode modbus-rtu 01 03 21 74 00 01 CE 2C 01 03 02 05 6E 3A F8
+    ///   drivectl decode modbus-rtu --file capture.txt --json
+    ///   drivectl decode modbus-rtu - < capture.txt
+    #[command(verbatim_doc_comment)]
+    ModbusRtu {
+        /// The bytes; `-` reads a capture from standard input (as --file).
+        #[arg(required_unless_present = "file", conflicts_with = "file", num_args = 1..)]
+        hex: Vec<String>,
+        /// Read the capture from a file (lines, `#` comments, CR LF and a BOM are allowed).
+        #[arg(long, value_name = "PATH")]
+        file: Option<String>,
+        /// One JSON object per frame.
+        #[arg(long)]
+        json: bool,
+    },
+    /// A Bonfiglioli Modbus ASCII capture: the frames as text (`:010321740001 66`) or their
+    /// characters as hex bytes (`3A 30 31 …`).
+    ///
+    /// Frames run from `:` to CR LF (a line end counts as CR LF); the LRC is checked and the
+    /// expected one named when it is wrong.
+    ///
+    /// Examples:
+    ///   drivectl decode modbus-ascii :01032174000166 :010302056E87
+    ///   drivectl decode modbus-ascii --file capture.txt --json
+    #[command(verbatim_doc_comment)]
+    ModbusAscii {
+        /// The frames; `-` reads a capture from standard input (as --file).
+        #[arg(required_unless_present = "file", conflicts_with = "file", num_args = 1..)]
+        text: Vec<String>,
+        /// Read the capture from a file, one frame per line.
+        #[arg(long, value_name = "PATH")]
+        file: Option<String>,
+        /// One JSON object per frame.
         #[arg(long)]
         json: bool,
     },
@@ -121,6 +169,14 @@ fn main() -> ExitCode {
         Command::Params(args) => params::run(&args),
         Command::Movilink(args) => movilink::run(&args),
         Command::Sim(SimCommand::Movilink(args)) => movilink::sim::run(&args),
+        Command::Bonfiglioli(args) => bonfiglioli::run(&args),
+        Command::Sim(SimCommand::Bonfiglioli(args)) => bonfiglioli::sim::run(&args),
+        Command::Decode(DecodeCommand::ModbusRtu { hex, file, json }) => {
+            bonfiglioli::decode::run(false, &hex, file.as_deref(), json)
+        }
+        Command::Decode(DecodeCommand::ModbusAscii { text, file, json }) => {
+            bonfiglioli::decode::run(true, &text, file.as_deref(), json)
+        }
         Command::Decode(DecodeCommand::Movilink { hex, file, json }) => {
             movilink::decode::run(&hex, file.as_deref(), json)
         }

@@ -786,3 +786,120 @@ fn issue7_device_nodes_and_endless_input_are_refused_not_read_forever() {
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("too large"), "{}", stderr(&o));
 }
+
+/// The manual's ch. 8.1 RTU examples, every one, as one stream: split at CRC boundaries and
+/// explained; each frame's CRC is right (bytes: address, function, data set/parameter or byte
+/// count, value or count, CRC low then high).
+#[test]
+fn decode_modbus_rtu_the_manuals_examples() {
+    let stream = [
+        "01 03 21 74 00 01 CE 2C",       // 8.1.1 ex. 1: read 372 in data set 2
+        "01 03 02 05 6E 3A F8",          // its answer: 0x056E = 1390
+        "01 03 01 74 00 02 85 ED",       // 8.1.1 ex. 2: register count 2
+        "01 83 02 C0 F1",                // exception 2
+        "03 06 41 78 00 0F 5C 09",       // 8.1.2 ex. 1: 376 in data set 4 = 15 (1.5 kW)
+        "03 06 21 78 00 00 02 0D",       // 8.1.2 ex. 2: 376 = 0
+        "03 86 04 E2 63",                // exception 4
+        "01 64 01 E1 81 DF",             // 8.1.3 ex. 1: read 481 (FC 100)
+        "01 64 00 00 03 E8 70 BC",       // its answer: 1000 = 10.00 Hz
+        "01 64 26 40 5B 97",             // 8.1.3 ex. 2: unknown parameter 1600
+        "01 E4 04 6A C3",                // exception 4
+        "01 65 21 77 00 00 03 E8 46 C5", // 8.1.4 ex. 1: 375 in data set 2 = 10.00 Hz
+        "01 65 21 77 00 00 03 84 46 E8", // 8.1.4 ex. 2: 9.00 Hz
+        "01 E5 04 6B 53",                // exception 4
+        "01 08 00 0A 00 00 C0 09",       // 8.1.5 ex. 1a: clear counters
+        "01 08 00 0E 00 00 81 C8",       // 8.1.5 ex. 1b: slave messages
+        "01 08 00 0E 00 01 40 08",       // its answer: 1
+        "01 08 00 13 00 00 11 CE",       // 8.1.5 ex. 2: unknown sub-function 0x13
+        "01 88 01 87 C0",                // exception 1
+    ];
+    let o = drivectl(&["decode", "modbus-rtu", "--json", &stream.join(" ")]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v = json_lines(&o);
+    assert_eq!(v.len(), stream.len());
+    assert!(v.iter().all(|f| f["valid"] == true), "{v:?}");
+    assert_eq!(
+        (v[1]["parameter"].as_u64(), v[1]["raw"].as_i64()),
+        (Some(372), Some(1390))
+    );
+    assert_eq!(v[3]["exception"], 2);
+    assert_eq!(
+        (v[4]["data_set"].as_u64(), v[4]["raw"].as_i64()),
+        (Some(4), Some(15))
+    );
+    assert_eq!(
+        (v[8]["parameter"].as_u64(), v[8]["raw"].as_i64()),
+        (Some(481), Some(1000))
+    );
+    // 1600 is past the last parameter number (1599): named as such.
+    assert_eq!(v[9]["data_set"], 2);
+    assert!(
+        v[9]["fields"].to_string().contains("parameter 1600 (none"),
+        "{}",
+        v[9]
+    );
+    assert_eq!(v[16]["raw"], 1);
+    // Text: names and scaled values.
+    let o = drivectl(&[
+        "decode",
+        "modbus-rtu",
+        "01 03 21 74 00 01 CE 2C 01 03 02 05 6E 3A F8",
+    ]);
+    let text = stdout(&o);
+    assert!(
+        text.contains("Rated speed") && text.contains("1390 1/min"),
+        "{text}"
+    );
+    // A wrong CRC names the right one; exit 1.
+    let o = drivectl(&["decode", "modbus-rtu", "01 03 21 74 00 01 CE 2D"]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stdout(&o).contains("expected CE 2C"), "{}", stdout(&o));
+    // Strict hex.
+    let o = drivectl(&["decode", "modbus-rtu", "01 0g"]);
+    assert_eq!(o.status.code(), Some(2));
+}
+
+/// The manual's ch. 8.2 ASCII examples as text, one frame per line (CR LF, a BOM and comments
+/// allowed), through standard input.
+#[test]
+fn decode_modbus_ascii_the_manuals_examples() {
+    let capture = "\u{feff}# ch. 8.2\r\n\
+        :01032174000166\r\n\
+        :010302056E87\r\n\
+        :03064178000F2F\r\n\
+        :0164 01E1 B9\r\n\
+        :0164000003E8B0\r\n\
+        :01E40417\r\n\
+        :0165217700 0003E817\r\n\
+        :0108000A0000ED\r\n\
+        :0108000E0001E8\r\n";
+    let o = drivectl_stdin(
+        &["decode", "modbus-ascii", "--json", "-"],
+        capture.as_bytes(),
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v = json_lines(&o);
+    assert_eq!(v.len(), 9);
+    assert!(v.iter().all(|f| f["valid"] == true), "{v:?}");
+    assert_eq!(
+        (v[1]["parameter"].as_u64(), v[1]["raw"].as_i64()),
+        (Some(372), Some(1390))
+    );
+    assert_eq!(
+        (v[2]["data_set"].as_u64(), v[2]["raw"].as_i64()),
+        (Some(4), Some(15))
+    );
+    assert_eq!(v[4]["raw"], 1000);
+    assert_eq!(v[5]["exception"], 4);
+    // Erratum E4: the ASC row of ch. 8.2.3 example 2 (`:01E40219`) carries code 02; the hex
+    // row (04, LRC 17) is right. As hex bytes of the characters, the manual's Hex row.
+    let o = drivectl(&["decode", "modbus-ascii", "3A 30 31 45 34 30 34 31 37 0D 0A"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = drivectl(&["decode", "modbus-ascii", ":01E40219"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stdout(&o).contains("exception 2"), "{}", stdout(&o));
+    // A wrong LRC names the right one.
+    let o = drivectl(&["decode", "modbus-ascii", ":01E40418"]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stdout(&o).contains("expected 17"), "{}", stdout(&o));
+}

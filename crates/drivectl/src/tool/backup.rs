@@ -22,7 +22,7 @@ use std::path::Path;
 
 use drive_profile::family::{self, AnyParam};
 use drive_profile::guard::GuardError;
-use drive_profile::{Family, Persistence};
+use drive_profile::{Access, Family, Persistence};
 use serde_json::{Value, json};
 
 use super::client::{ClientError, DeviceErrorKind, ParamClient, Target};
@@ -40,13 +40,31 @@ pub const VERSION: u64 = 1;
 const LEGACY_MOVILINK: &str = "drivebus-movilink-backup";
 
 /// The parameters a backup covers: numbered rows (SEW's fault-memory sub-entries share the
-/// index of their parent), one per bus index and sub-index.
-fn rows(family: Family) -> Vec<AnyParam> {
+/// index of their parent), one per bus index and sub-index; a data-set parameter
+/// ([`Access::DATA_SET`], Bonfiglioli) once per data set 1–4 (its sub-index is the data set;
+/// data set 0 addresses all four and is never saved or restored).
+fn rows(family: Family) -> Vec<Target> {
     let mut seen = BTreeSet::new();
     family::params(family)
         .filter(|p| p.number().is_some())
         .filter(|p| seen.insert((p.bus_index(), p.sub_index().unwrap_or(0))))
+        .flat_map(|p| {
+            subs(p).into_iter().map(move |sub| Target {
+                sub,
+                ..Target::of(p)
+            })
+        })
         .collect()
+}
+
+/// The sub-indices a backup holds of `p`: the data sets 1–4 of a data-set parameter, else its
+/// own sub-index.
+fn subs(p: AnyParam) -> Vec<u16> {
+    if p.access().contains(Access::DATA_SET) {
+        vec![1, 2, 3, 4]
+    } else {
+        vec![p.sub_index().unwrap_or(0)]
+    }
 }
 
 /// A progress bar for `len` steps.
@@ -78,7 +96,7 @@ pub async fn backup<C: ParamClient>(
     let mut entries = Vec::new();
     let mut skipped = 0;
     let mut unreadable = Vec::new();
-    for p in &rows {
+    for t in &rows {
         if stop.requested() {
             bar.abandon();
             return Err(CliError::failed(format!(
@@ -88,12 +106,12 @@ pub async fn backup<C: ParamClient>(
                 out.display()
             )));
         }
-        let t = Target::of(*p);
         bar.set_message(t.label());
-        match client.read(&t).await {
+        match client.read(t).await {
             Ok(raw) => entries.push(json!({
-                "index": t.index, "sub": t.sub, "number": t.label(), "name": p.name_en(),
-                "raw": raw, "writable": p.access().is_writable(),
+                "index": t.index, "sub": t.sub, "number": t.label(),
+                "name": t.param.map(|p| p.name_en()),
+                "raw": raw, "writable": t.param.is_some_and(|p| p.access().is_writable()),
             })),
             // A drive without an option card answers "not implemented" or "option card
             // missing" for its parameters: they are not part of this drive's backup.
@@ -239,7 +257,7 @@ fn load(file: &Path, family: Family, not_restored: &[u16]) -> Result<(Vec<Entry>
             .as_i64()
             .ok_or_else(|| bad("no integer `raw` value".into()))?;
         let param = family::params(family)
-            .find(|p| p.bus_index() == index && p.sub_index().unwrap_or(0) == sub)
+            .find(|p| p.bus_index() == index && subs(*p).contains(&sub))
             .ok_or_else(|| bad(format!("index {index} is not in the {family} table")))?;
         let raw = if legacy {
             legacy_raw(raw, param.wire_range())
@@ -249,7 +267,10 @@ fn load(file: &Path, family: Family, not_restored: &[u16]) -> Result<(Vec<Entry>
         if !param.access().is_writable() || not_restored.contains(&index) {
             continue;
         }
-        let target = Target::of(param);
+        let target = Target {
+            sub,
+            ..Target::of(param)
+        };
         target.check_width(raw).map_err(|e| bad(e.to_string()))?;
         // One parameter twice would be written twice (and its EEPROM with it), the last one
         // winning: a file like that was not made by drivectl.

@@ -172,10 +172,16 @@ impl Target {
 
     /// The label users know the parameter by (`index 9999` outside the table).
     pub fn label(&self) -> String {
-        self.param.map_or_else(
+        let name = self.param.map_or_else(
             || format!("index {}", self.index),
             |p| p.label().to_string(),
-        )
+        );
+        // A Bonfiglioli data set other than 0 (all four) is part of the name.
+        if self.family == Family::Bonfiglioli && self.sub != 0 {
+            format!("{name} data set {}", self.sub)
+        } else {
+            name
+        }
     }
 
     /// Refuse a raw value the parameter's bus width cannot carry (32 bits of either sign

@@ -1,0 +1,250 @@
+//! End to end over a real pseudo-terminal: `drivectl sim bonfiglioli --pty` on one side,
+//! `drivectl bonfiglioli --port <pty>` on the other, as separate processes, in RTU and ASCII.
+
+// Test code: helpers outside `#[test]` fns (not exempted by clippy.toml) panic by design.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic
+)]
+
+use std::io::{BufRead, BufReader};
+use std::process::{Child, Command, Output, Stdio};
+
+struct Sim {
+    child: Child,
+    path: String,
+    mode: &'static str,
+    state: std::path::PathBuf,
+}
+
+impl Sim {
+    fn start(mode: &'static str, extra: &[&str]) -> Sim {
+        let mut child = Command::new(env!("CARGO_BIN_EXE_drivectl"))
+            .args([
+                "sim",
+                "bonfiglioli",
+                "--pty",
+                "--parity",
+                "none",
+                "--mode",
+                mode,
+            ])
+            .args(extra)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::null())
+            .spawn()
+            .expect("sim starts");
+        let stdout = child.stdout.take().expect("stdout");
+        let mut line = String::new();
+        BufReader::new(stdout)
+            .read_line(&mut line)
+            .expect("sim prints its pty path");
+        let path = line.trim().to_owned();
+        assert!(
+            path.starts_with("/dev/"),
+            "first line is the pty path: {path:?}"
+        );
+        let state =
+            std::env::temp_dir().join(format!("drivectl-bonf-state-{}", path.replace('/', "_")));
+        let _ = std::fs::remove_dir_all(&state);
+        Sim {
+            child,
+            path,
+            mode,
+            state,
+        }
+    }
+
+    fn run(&self, args: &[&str]) -> Output {
+        let mut all = vec![
+            "bonfiglioli",
+            "--port",
+            &self.path,
+            "--parity",
+            "none",
+            "--mode",
+            self.mode,
+            "--addr",
+            "1",
+        ];
+        all.extend_from_slice(args);
+        Command::new(env!("CARGO_BIN_EXE_drivectl"))
+            .args(&all)
+            .env("DRIVECTL_STATE_DIR", &self.state)
+            .output()
+            .expect("drivectl runs")
+    }
+}
+
+impl Drop for Sim {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+        let _ = std::fs::remove_dir_all(&self.state);
+    }
+}
+
+fn ok_json(o: &Output) -> Vec<serde_json::Value> {
+    assert!(
+        o.status.success(),
+        "stderr: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    String::from_utf8_lossy(&o.stdout)
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap_or_else(|e| panic!("not JSON: {l}: {e}")))
+        .collect()
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+fn everyday(mode: &'static str) {
+    let sim = Sim::start(mode, &[]);
+    // ch. 8.1.1: 372 in data set 2 holds 1390 after writing it.
+    ok_json(&sim.run(&["--json", "write", "372", "1390", "--dataset", "2"]));
+    let v = ok_json(&sim.run(&["--json", "read", "372", "--dataset", "2"]));
+    assert_eq!(
+        (&v[0]["parameter"], &v[0]["dataset"], &v[0]["raw"]),
+        (
+            &serde_json::json!(372),
+            &serde_json::json!(2),
+            &serde_json::json!(1390)
+        )
+    );
+    assert_eq!(v[0]["unit"], "1/min");
+    // ch. 8.1.2: 1.5 kW is raw 15.
+    let v = ok_json(&sim.run(&["--json", "write", "376", "1.5", "--dataset", "4"]));
+    assert_eq!(v[0]["raw"], 15);
+    // ch. 8.1.3: the Long parameter 481 (FC 100/101), two decimals.
+    let v = ok_json(&sim.run(&["--json", "write", "481", "12.5"]));
+    assert_eq!(
+        (v[0]["raw"].as_i64(), v[0]["value"].as_f64()),
+        (Some(1250), Some(12.5))
+    );
+    // A refusal with its cause: 376 = 0 is not a valid rated power (ch. 8.1.2 example 2).
+    let o = sim.run(&["write", "376", "0", "--raw", "--force", "--dataset", "2"]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(stderr(&o).contains("exception"), "{}", stderr(&o));
+    // An unknown parameter (raw number): exception 4 with VABus 11.
+    let o = sim.run(&["read", "1500", "--word"]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("VABus error 11"), "{}", stderr(&o));
+    // diag: the counters named.
+    let v = ok_json(&sim.run(&["--json", "diag", "--clear"]));
+    assert_eq!(v[0]["counters"]["bus_exception_errors"], 0);
+    let v = ok_json(&sim.run(&["--json", "diag"]));
+    assert!(v[0]["counters"]["slave_messages"].as_u64().unwrap() >= 1);
+    // scan finds address 1 only.
+    let v = ok_json(&sim.run(&["--json", "scan", "--from", "1", "--to", "3"]));
+    assert_eq!(v.len(), 1);
+    assert_eq!(v[0]["address"], 1);
+    // control enable → status shows operation enabled; stop again.
+    let o = sim.run(&["control", "enable", "--freq", "20"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("control stop"), "{}", stderr(&o));
+    let v = ok_json(&sim.run(&["--json", "status"]));
+    assert_eq!(v[0]["state"], "operation enabled", "{v:?}");
+    let o = sim.run(&["control", "stop"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+}
+
+#[test]
+fn everyday_commands_over_rtu() {
+    everyday("rtu");
+}
+
+#[test]
+fn everyday_commands_over_ascii() {
+    everyday("ascii");
+}
+
+#[test]
+fn backup_and_restore_round_trip() {
+    let sim = Sim::start("rtu", &[]);
+    let dir = std::env::temp_dir().join(format!("drivectl-bonf-backup-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("drive.json");
+    let f = file.to_str().unwrap();
+    ok_json(&sim.run(&["--json", "write", "372", "1390", "--dataset", "2"]));
+    let v = ok_json(&sim.run(&["--json", "backup", "--out", f, "--overwrite"]));
+    assert!(v[0]["parameters"].as_u64().unwrap() > 48, "{v:?}");
+    let doc: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&file).unwrap()).unwrap();
+    let ds2 = doc["parameters"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|e| e["index"] == 372 && e["sub"] == 2)
+        .expect("372 data set 2 is saved");
+    assert_eq!(ds2["raw"], 1390);
+    // Change it, restore, and it is back.
+    ok_json(&sim.run(&[
+        "--json",
+        "write",
+        "372",
+        "1000",
+        "--dataset",
+        "2",
+        "--force",
+    ]));
+    // The EEPROM-wear rule allows the next non-volatile write of 372 after a second.
+    std::thread::sleep(std::time::Duration::from_millis(1100));
+    let v = ok_json(&sim.run(&["--json", "restore", f]));
+    assert_eq!(v.last().unwrap()["written"], 1, "{v:?}");
+    let v = ok_json(&sim.run(&["--json", "read", "372", "--dataset", "2"]));
+    assert_eq!(v[0]["raw"], 1390);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn bad_input_is_refused_before_anything_is_sent() {
+    let sim = Sim::start("rtu", &[]);
+    for (args, needle) in [
+        (&["read", "P9999"][..], "no bonfiglioli parameter"),
+        (&["read", "415"][..], "--word"),
+        (&["write", "372", "70000", "--raw"][..], "372"),
+        (&["write", "372", "--5", "--raw"][..], "not an integer"),
+        (&["write", "1376", "5", "--word"][..], "--yes"),
+    ] {
+        let o = sim.run(args);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {}", stderr(&o));
+        assert!(stderr(&o).contains(needle), "{args:?}: {}", stderr(&o));
+    }
+    // Frequent EEPROM writes: the hint is --ram.
+    ok_json(&sim.run(&["--json", "write", "372", "1391", "--dataset", "1"]));
+    let o = sim.run(&["write", "372", "1392", "--dataset", "1"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("--ram"), "{}", stderr(&o));
+    let v = ok_json(&sim.run(&["--json", "write", "372", "1392", "--dataset", "1", "--ram"]));
+    assert_eq!(v[0]["dataset"], 6);
+}
+
+#[test]
+fn sim_refuses_parity_on_a_pty_and_duplicate_addresses() {
+    let run = |args: &[&str]| {
+        Command::new(env!("CARGO_BIN_EXE_drivectl"))
+            .args(args)
+            .output()
+            .unwrap()
+    };
+    let o = run(&["sim", "bonfiglioli", "--pty"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("--parity none"), "{}", stderr(&o));
+    let o = run(&[
+        "sim",
+        "bonfiglioli",
+        "--pty",
+        "--parity",
+        "none",
+        "--addr",
+        "3",
+        "--addr",
+        "3",
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("twice"), "{}", stderr(&o));
+}
