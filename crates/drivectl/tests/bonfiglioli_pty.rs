@@ -66,6 +66,9 @@ impl Sim {
             "none",
             "--mode",
             self.mode,
+            // A pty takes 8 data bits only (ASCII's own are 7).
+            "--data-bits",
+            "8",
             "--addr",
             "1",
         ];
@@ -247,4 +250,35 @@ fn sim_refuses_parity_on_a_pty_and_duplicate_addresses() {
     ]);
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("twice"), "{}", stderr(&o));
+}
+
+#[test]
+fn ascii_uses_the_manuals_7_data_bits_and_a_pty_refusing_them_names_the_option() {
+    let sim = Sim::start("ascii", &[]);
+    let o = Command::new(env!("CARGO_BIN_EXE_drivectl"))
+        .args([
+            "bonfiglioli",
+            "--port",
+            &sim.path,
+            "--parity",
+            "none",
+            "--mode",
+            "ascii",
+            "read",
+            "372",
+            "--dataset",
+            "2",
+        ])
+        .env("DRIVECTL_STATE_DIR", &sim.state)
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("7 data bits") && err.contains("--data-bits"),
+        "{err}"
+    );
+    // RTU keeps 8 data bits, and without parity two stop bits (ch. 6.7.1.1).
+    let v = sim.run(&["line", "--json"]);
+    assert!(v.status.success(), "{}", String::from_utf8_lossy(&v.stderr));
 }

@@ -518,6 +518,10 @@ fn master(
             mode.name(),
             "--parity",
             "none",
+            // A pseudo-terminal takes 8 data bits only; ASCII's own are 7 (the manual's 7N2
+            // and 8N1 are both 10-bit characters, so the timing is the same).
+            "--data-bits",
+            "8",
             "--addr",
             "1",
             "--json",

@@ -131,6 +131,10 @@ pub struct BonfiglioliArgs {
     mode: String,
     #[command(flatten)]
     line: LineArgs,
+    /// Data bits, 7 or 8: by default the mode's (RTU 8, ASCII 7: ch. 6.7); a pseudo-terminal
+    /// takes only 8.
+    #[arg(long, global = true, value_parser = clap::value_parser!(u8).range(7..=8))]
+    data_bits: Option<u8>,
     /// Response timeout in milliseconds, 1–60000 (the manual: 500).
     #[arg(long, global = true, default_value_t = 500, value_parser = clap::value_parser!(u64).range(1..=60_000))]
     timeout: u64,
@@ -682,13 +686,27 @@ fn mode_of(s: &str) -> Mode {
     }
 }
 
+/// The character format of `mode` on the command line's line (ch. 6.7): RTU 8 data bits,
+/// ASCII 7 unless `data_bits` says otherwise; one stop bit with parity and two without, or two
+/// where `--stop-bits 2` asks for them.
+pub fn line_of(mode: Mode, line: &LineArgs, data_bits: Option<u8>) -> drive_core::LineSettings {
+    let mut settings = mode.line_settings(line.baud, line.parity);
+    if let Some(bits) = data_bits {
+        settings.data_bits = bits;
+    }
+    if line.stop_bits == drive_core::StopBits::Two {
+        settings.stop_bits = drive_core::StopBits::Two;
+    }
+    settings
+}
+
 /// The driver configuration of the command-line options.
 fn driver_config(args: &BonfiglioliArgs) -> DriverConfig {
     let mode = mode_of(&args.mode);
     DriverConfig {
         response_timeout: Duration::from_millis(args.timeout),
         retries: args.retries,
-        ..DriverConfig::new(mode, args.line.line())
+        ..DriverConfig::new(mode, line_of(mode, &args.line, args.data_bits))
     }
 }
 
@@ -731,11 +749,8 @@ pub fn run(args: &BonfiglioliArgs) -> Result<()> {
     let config = driver_config(args);
     let rt = runtime()?;
     rt.block_on(async {
-        let mut line = args.line.clone();
         // The mode's character format: RTU 8 data bits, ASCII 7 (ch. 6.7).
-        let settings = config.line;
-        line.stop_bits = settings.stop_bits;
-        let port = open(&line, &args.port, settings)?;
+        let port = open(&args.port, config.line)?;
         let mut master = MasterDriver::new(Stream(port), config);
         execute(&mut master, args).await
     })
@@ -743,13 +758,11 @@ pub fn run(args: &BonfiglioliArgs) -> Result<()> {
 
 /// Open `path` with `settings` (the mode's data bits).
 fn open(
-    line: &LineArgs,
     path: &str,
     settings: drive_core::LineSettings,
 ) -> Result<drive_transport::serial::SerialPort> {
     let config = drive_transport::serial::SerialConfig::with_line(path, settings);
     drive_transport::serial::open(&config).map_err(|e| {
-        let _ = line;
         if e.refused_setting().is_some() {
             CliError::usage(crate::tool::line::open_error(&e))
         } else {

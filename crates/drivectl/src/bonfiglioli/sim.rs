@@ -37,6 +37,10 @@ pub struct SimArgs {
     variant: String,
     #[command(flatten)]
     line: LineArgs,
+    /// Data bits, 7 or 8: by default the mode's (RTU 8, ASCII 7: ch. 6.7); on --pty they only
+    /// set the timing.
+    #[arg(long, value_parser = clap::value_parser!(u8).range(7..=8))]
+    data_bits: Option<u8>,
 }
 
 /// Check the arguments before anything is opened: addresses 1…247, each once; on a pty no
@@ -79,7 +83,7 @@ pub fn run(args: &SimArgs) -> Result<()> {
     } else {
         Variant::Act
     };
-    let line = mode.line_settings(args.line.baud, args.line.parity);
+    let line = super::line_of(mode, &args.line, args.data_bits);
     let rt = crate::tool::line::runtime()?;
     rt.block_on(async {
         let mut bus = SimulatedBus::new(&args.addrs, variant, mode, line);

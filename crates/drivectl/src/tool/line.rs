@@ -55,6 +55,7 @@ pub fn open_error(e: &TransportError) -> String {
         Some(LineOption::Baud) => "--baud",
         Some(LineOption::Parity) => "--parity even|odd|none",
         Some(LineOption::StopBits) => "--stop-bits 1|2",
+        Some(LineOption::DataBits) => "--data-bits 7|8",
         _ => return e.to_string(),
     };
     format!("{e} (option {option})")
