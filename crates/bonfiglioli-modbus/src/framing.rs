@@ -238,6 +238,16 @@ impl ModbusFraming {
         self.side
     }
 
+    /// A checked frame's PDU decoded for this side.
+    fn received(&self, address: Address, pdu: &[u8]) -> Result<Received, FrameError> {
+        match self.side {
+            Side::Slave => Ok(Received::Request(address, Request::decode(pdu))),
+            Side::Master => Response::decode(pdu)
+                .map(|r| Received::Response(address, r))
+                .map_err(FrameError::Pdu),
+        }
+    }
+
     /// The line the times come from.
     pub const fn line(&self) -> LineSettings {
         self.line
@@ -284,6 +294,14 @@ impl Framing for ModbusFraming {
                     capacity: rtu::MAX_FRAME as u16,
                 }))
             }
+            // A master knows an answer's length from its function code: the frame is then
+            // complete at that length and only awaits the silence that confirms it (so a
+            // virtual clock may jump to it). A drive must see a request of a wrong length end
+            // by silence, to answer it with exception 3.
+            Mode::Rtu if self.side == Side::Master => match rtu_response_len(frame) {
+                Some(n) => Progress::Length(n),
+                None => Progress::More,
+            },
             Mode::Rtu => Progress::More,
             Mode::Ascii => match *frame {
                 [_] => Progress::More,
@@ -297,14 +315,17 @@ impl Framing for ModbusFraming {
     }
 
     fn decode(&self, frame: &[u8]) -> Result<Received, FrameError> {
-        let mut pdu = [0u8; MAX_PDU];
-        let (address, n) = decode_frame(self.mode, frame, &mut pdu)?;
-        let pdu = pdu.get(..n).unwrap_or(&[]);
-        match self.side {
-            Side::Slave => Ok(Received::Request(address, Request::decode(pdu))),
-            Side::Master => Response::decode(pdu)
-                .map(|r| Received::Response(address, r))
-                .map_err(FrameError::Pdu),
+        match self.mode {
+            // RTU: the PDU is a slice of the frame, decoded in place.
+            Mode::Rtu => {
+                let (address, pdu) = rtu::decode(frame)?;
+                self.received(address, pdu)
+            }
+            Mode::Ascii => {
+                let mut pdu = [0u8; MAX_PDU];
+                let (address, n) = ascii::decode(frame, &mut pdu)?;
+                self.received(address, pdu.get(..n).unwrap_or(&[]))
+            }
         }
     }
 
@@ -314,16 +335,20 @@ impl Framing for ModbusFraming {
     }
 }
 
-fn encode_pdu_frame(
-    mode: Mode,
-    address: Address,
-    pdu: &[u8],
-    out: &mut [u8],
-) -> Result<usize, BufferTooSmall> {
-    match mode {
-        Mode::Rtu => rtu::encode(address, pdu, out),
-        Mode::Ascii => ascii::encode(address, pdu, out),
-    }
+/// The length of an RTU answer frame from its first bytes (address, function code and, for
+/// FC 3, the byte count), if they tell it: FC 3 `3 + count + 2`, FC 6 and 8 8 bytes, FC 100 9,
+/// FC 101 11, an exception 5. None while unknown or for another function code (the silence
+/// then ends the frame and the check judges it).
+fn rtu_response_len(frame: &[u8]) -> Option<usize> {
+    let &fc = frame.get(1)?;
+    Some(match fc {
+        3 => 3 + usize::from(*frame.get(2)?) + 2,
+        6 | 8 => 8,
+        100 => 9,
+        101 => 11,
+        f if f & 0x80 != 0 => 5,
+        _ => return None,
+    })
 }
 
 /// Encode a whole request frame (address, PDU, check; ASCII adds `:` hex LRC CR LF) into
@@ -334,9 +359,14 @@ pub fn encode_request(
     req: &Request,
     out: &mut [u8],
 ) -> Result<usize, BufferTooSmall> {
-    let mut pdu = [0u8; MAX_PDU];
-    let n = req.encode(&mut pdu)?;
-    encode_pdu_frame(mode, address, pdu.get(..n).unwrap_or(&[]), out)
+    match mode {
+        Mode::Rtu => rtu_frame(address, out, |pdu| req.encode(pdu)),
+        Mode::Ascii => {
+            let mut pdu = [0u8; LONGEST_PDU];
+            let n = req.encode(&mut pdu)?;
+            ascii::encode(address, pdu.get(..n).unwrap_or(&[]), out)
+        }
+    }
 }
 
 /// Encode a whole response frame into `out`; the number of bytes. [`MAX_FRAME`] bytes are
@@ -347,9 +377,39 @@ pub fn encode_response(
     resp: &Response,
     out: &mut [u8],
 ) -> Result<usize, BufferTooSmall> {
-    let mut pdu = [0u8; MAX_PDU];
-    let n = resp.encode(&mut pdu)?;
-    encode_pdu_frame(mode, address, pdu.get(..n).unwrap_or(&[]), out)
+    match mode {
+        Mode::Rtu => rtu_frame(address, out, |pdu| resp.encode(pdu)),
+        Mode::Ascii => {
+            let mut pdu = [0u8; LONGEST_PDU];
+            let n = resp.encode(&mut pdu)?;
+            ascii::encode(address, pdu.get(..n).unwrap_or(&[]), out)
+        }
+    }
+}
+
+/// The longest PDU a [`Request`] or [`Response`] encodes to (FC 101: 7 bytes).
+const LONGEST_PDU: usize = 7;
+
+/// An RTU frame built in place: the address, the PDU `pdu` writes straight behind it (no
+/// intermediate buffer), and the CRC.
+#[inline]
+fn rtu_frame(
+    address: Address,
+    out: &mut [u8],
+    pdu: impl FnOnce(&mut [u8]) -> Result<usize, BufferTooSmall>,
+) -> Result<usize, BufferTooSmall> {
+    let (first, rest) = out.split_first_mut().ok_or(BufferTooSmall {
+        needed: rtu::MIN_FRAME,
+    })?;
+    *first = address.get();
+    let n = pdu(rest).map_err(|e| BufferTooSmall {
+        needed: e.needed + 3,
+    })?;
+    let len = n + 3;
+    let frame = out.get_mut(..len).ok_or(BufferTooSmall { needed: len })?;
+    let (body, check) = frame.split_at_mut(len - 2);
+    check.copy_from_slice(&rtu::crc(body).to_le_bytes());
+    Ok(len)
 }
 
 /// Decode a whole frame (for `drivectl decode` and tests): check it and copy its PDU into
