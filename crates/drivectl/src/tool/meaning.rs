@@ -28,6 +28,7 @@ pub struct Meaning {
 pub fn meaning(p: AnyParam, raw: i64) -> Option<Meaning> {
     let word = match p.family() {
         Family::Movidrive => movidrive(p, raw),
+        Family::Bonfiglioli => bonfiglioli(p.bus_index(), raw),
         _ => None,
     };
     word.or_else(|| {
@@ -35,6 +36,31 @@ pub fn meaning(p: AnyParam, raw: i64) -> Option<Meaning> {
             text: v.en.to_owned(),
             decoded: None,
         })
+    })
+}
+
+/// Bonfiglioli's current fault (260, "FXX YY" with its text) and warnings (270, bit-coded,
+/// several at once), as the manual's ch. 12 names them. The status word 411 differs between ACT
+/// and ACU, which the table does not tell apart: `drivectl bonfiglioli status` decodes it.
+fn bonfiglioli(index: u16, raw: i64) -> Option<Meaning> {
+    use drive_profile::bonfiglioli as b;
+    let word = u16::try_from(raw).ok()?;
+    let text = match index {
+        260 if word == 0 => "no fault".to_owned(),
+        260 => match b::fault(word) {
+            Some(f) => format!("{}: {}", f.key, f.text_en),
+            None => format!("fault 0x{word:04X} (not in the manual's list)"),
+        },
+        270 if word == 0 => "no warning".to_owned(),
+        270 => b::warning_bits(word)
+            .map(|w| w.name_en)
+            .collect::<Vec<_>>()
+            .join(", "),
+        _ => return None,
+    };
+    Some(Meaning {
+        text,
+        decoded: None,
     })
 }
 
@@ -192,5 +218,23 @@ mod tests {
         let m = of("P870", 9).unwrap();
         assert_eq!((m.text.as_str(), m.decoded), ("control word 1", None));
         assert_eq!(of("P130", 2000), None);
+    }
+}
+
+#[cfg(test)]
+mod bonfiglioli_tests {
+    use super::*;
+
+    #[test]
+    fn bonfiglioli_faults_and_warnings_are_named() {
+        let p260 = drive_profile::family::lookup(Family::Bonfiglioli, "260").unwrap();
+        let p270 = drive_profile::family::lookup(Family::Bonfiglioli, "270").unwrap();
+        assert_eq!(meaning(p260, 0).unwrap().text, "no fault");
+        let f = meaning(p260, 0x2010).unwrap().text;
+        assert!(f.starts_with("F2010: "), "{f}");
+        assert_eq!(meaning(p270, 0).unwrap().text, "no warning");
+        // Several warnings at once, each named.
+        let w = meaning(p270, 0b11).unwrap().text;
+        assert_eq!(w.matches(", ").count(), 1, "{w}");
     }
 }
