@@ -282,3 +282,125 @@ fn ascii_uses_the_manuals_7_data_bits_and_a_pty_refusing_them_names_the_option()
     let v = sim.run(&["line", "--json"]);
     assert!(v.status.success(), "{}", String::from_utf8_lossy(&v.stderr));
 }
+
+/// The MOVILINK CLI's everyday behaviours hold for Bonfiglioli too (issue 8): options after the
+/// subcommand, errors as JSON with `--json`, a closed pipe, output only to regular files, a
+/// restore dry run, `watch` samples, the EEPROM-wear rule with its `--ram` hint, and the fault
+/// and warning words named.
+#[test]
+fn the_everyday_behaviours_of_the_movilink_cli_hold_here_too() {
+    let sim = Sim::start("rtu", &[]);
+    let err = |o: &Output| String::from_utf8_lossy(&o.stderr).into_owned();
+    // Every option after the subcommand.
+    let o = Command::new(env!("CARGO_BIN_EXE_drivectl"))
+        .args([
+            "bonfiglioli",
+            "read",
+            "372",
+            "--dataset",
+            "2",
+            "--json",
+            "--port",
+            &sim.path,
+            "--parity",
+            "none",
+            "--addr",
+            "1",
+            "--timeout",
+            "300",
+        ])
+        .env("DRIVECTL_STATE_DIR", &sim.state)
+        .output()
+        .unwrap();
+    assert_eq!(ok_json(&o)[0]["raw"], 1390);
+    // An error as one JSON object on stderr.
+    let o = sim.run(&["--json", "read", "1600"]);
+    assert_eq!(o.status.code(), Some(2));
+    let e: serde_json::Value = serde_json::from_str(err(&o).trim()).unwrap();
+    assert_eq!(
+        (e["type"].as_str(), e["exit_code"].as_u64()),
+        (Some("error"), Some(2))
+    );
+    // Faults and warnings named.
+    let v = ok_json(&sim.run(&["--json", "read", "260", "270"]));
+    assert_eq!(
+        (v[0]["meaning"].as_str(), v[1]["meaning"].as_str()),
+        (Some("no fault"), Some("no warning"))
+    );
+    // A device node as backup output: refused before the first read.
+    let o = sim.run(&["backup", "--out", "/dev/full"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(err(&o).contains("is a device node"), "{}", err(&o));
+    // Backup, then a dry run changes nothing and says so.
+    let dir = std::env::temp_dir().join(format!("drivectl-bonf-everyday-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let f = dir.join("b.json");
+    let fs = f.to_str().unwrap();
+    ok_json(&sim.run(&["--json", "backup", "--out", fs]));
+    let v = ok_json(&sim.run(&["--json", "restore", fs, "--dry-run"]));
+    let last = v.last().unwrap();
+    assert_eq!(
+        (last["type"].as_str(), last["changes"].as_u64()),
+        (Some("restore"), Some(0))
+    );
+    // Two EEPROM writes of one parameter in quick succession: the second is refused, with the
+    // RAM data sets as the way out.
+    assert!(
+        sim.run(&["write", "376", "1.6", "--dataset", "3"])
+            .status
+            .success()
+    );
+    let o = sim.run(&["write", "376", "1.7", "--dataset", "3"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(err(&o).contains("--ram"), "{}", err(&o));
+    assert!(
+        sim.run(&["write", "376", "1.7", "--dataset", "3", "--ram"])
+            .status
+            .success()
+    );
+    // watch: timestamped samples.
+    let v = ok_json(&sim.run(&[
+        "--json",
+        "watch",
+        "241",
+        "411",
+        "--count",
+        "2",
+        "--interval",
+        "100",
+    ]));
+    assert_eq!(v.len(), 2);
+    assert!(
+        v.iter()
+            .all(|s| s["type"] == "sample" && s["time"].is_string())
+    );
+    // A closed pipe ends it quietly.
+    let mut child = Command::new(env!("CARGO_BIN_EXE_drivectl"))
+        .args([
+            "bonfiglioli",
+            "--port",
+            &sim.path,
+            "--parity",
+            "none",
+            "--addr",
+            "1",
+            "watch",
+            "241",
+            "--interval",
+            "100",
+        ])
+        .env("DRIVECTL_STATE_DIR", &sim.state)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut out = BufReader::new(child.stdout.take().unwrap());
+    let mut line = String::new();
+    out.read_line(&mut line).unwrap();
+    drop(out);
+    let o = child.wait_with_output().unwrap();
+    assert_eq!(o.status.code(), Some(141), "{}", err(&o));
+    assert!(!err(&o).contains("panicked"), "{}", err(&o));
+    let _ = std::fs::remove_dir_all(&dir);
+}
