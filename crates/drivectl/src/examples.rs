@@ -11,7 +11,9 @@ Examples:
 pub const DECODE: &str = "\
 Examples:
   drivectl decode movilink 02 01 85 00 06 20 00 0B B8 13
-  drivectl decode movilink 020185000620000BB813 --json";
+  drivectl decode movilink 020185000620000BB813 --json
+  drivectl decode modbus-rtu 01 03 21 74 00 01 CE 2C
+  drivectl decode modbus-ascii :01032174000166";
 
 /// Below `drivectl --help`.
 pub const ROOT: &str = "\

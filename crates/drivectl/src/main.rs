@@ -100,12 +100,12 @@ enum DecodeCommand {
     /// Bytes as for `decode movilink`. RTU has no start character: a stream is split where a
     /// CRC-16 closes a frame; a run without a valid CRC is explained with the CRC it should
     /// have. A read answer is scaled by the parameter of the read request before it.
-    ///
-    /// Examples:
-    ///   drivectl decode modbus-rtu 01 03 21 74 00 01 CE 2C 01 03 02 05 6E 3A F8
-    ///   drivectl decode modbus-rtu --file capture.txt --json
-    ///   drivectl decode modbus-rtu - < capture.txt
-    #[command(verbatim_doc_comment)]
+    #[command(
+        verbatim_doc_comment,
+        after_help = "Examples:\n  drivectl decode modbus-rtu 01 03 21 74 00 01 CE 2C 01 03 02 05 6E 3A F8\n  \
+                      drivectl decode modbus-rtu --file capture.txt --json\n  \
+                      drivectl decode modbus-rtu - < capture.txt"
+    )]
     ModbusRtu {
         /// The bytes; `-` reads a capture from standard input (as --file).
         #[arg(required_unless_present = "file", conflicts_with = "file", num_args = 1..)]
@@ -122,11 +122,11 @@ enum DecodeCommand {
     ///
     /// Frames run from `:` to CR LF (a line end counts as CR LF); the LRC is checked and the
     /// expected one named when it is wrong.
-    ///
-    /// Examples:
-    ///   drivectl decode modbus-ascii :01032174000166 :010302056E87
-    ///   drivectl decode modbus-ascii --file capture.txt --json
-    #[command(verbatim_doc_comment)]
+    #[command(
+        verbatim_doc_comment,
+        after_help = "Examples:\n  drivectl decode modbus-ascii :01032174000166 :010302056E87\n  \
+                      drivectl decode modbus-ascii --file capture.txt --json"
+    )]
     ModbusAscii {
         /// The frames; `-` reads a capture from standard input (as --file).
         #[arg(required_unless_present = "file", conflicts_with = "file", num_args = 1..)]

@@ -619,6 +619,20 @@ const COMMANDS_WITH_EXAMPLES: &[&[&str]] = &[
     &["movilink", "line"],
     &["movilink", "backup"],
     &["movilink", "restore"],
+    &["bonfiglioli"],
+    &["bonfiglioli", "read"],
+    &["bonfiglioli", "write"],
+    &["bonfiglioli", "diag"],
+    &["bonfiglioli", "scan"],
+    &["bonfiglioli", "status"],
+    &["bonfiglioli", "control"],
+    &["bonfiglioli", "backup"],
+    &["bonfiglioli", "restore"],
+    &["bonfiglioli", "watch"],
+    &["bonfiglioli", "line"],
+    &["sim", "bonfiglioli"],
+    &["decode", "modbus-rtu"],
+    &["decode", "modbus-ascii"],
 ];
 
 #[test]
@@ -902,4 +916,39 @@ fn decode_modbus_ascii_the_manuals_examples() {
     let o = drivectl(&["decode", "modbus-ascii", ":01E40418"]);
     assert_eq!(o.status.code(), Some(1));
     assert!(stdout(&o).contains("expected 17"), "{}", stdout(&o));
+}
+
+/// The decode examples in `--help` decode without complaint (a wrong check byte in an example
+/// would teach the wrong thing).
+#[test]
+fn the_decode_examples_in_help_are_valid_captures() {
+    let mut ran = 0;
+    for cmd in [
+        &["decode"][..],
+        &["decode", "modbus-rtu"],
+        &["decode", "modbus-ascii"],
+    ] {
+        let help = stdout(&drivectl(&[cmd, &["--help"]].concat()));
+        for line in help.lines().map(str::trim) {
+            let Some(rest) = line.strip_prefix("drivectl ") else {
+                continue;
+            };
+            if !rest.starts_with("decode ")
+                || rest.contains("--file")
+                || rest.contains(" - ")
+                || rest.ends_with(" -")
+            {
+                continue;
+            }
+            let args: Vec<&str> = rest
+                .split_whitespace()
+                .take_while(|w| !w.starts_with('<'))
+                .collect();
+            let o = drivectl(&args);
+            assert!(o.status.success(), "{rest}: {}{}", stdout(&o), stderr(&o));
+            assert!(!stdout(&o).contains("INVALID"), "{rest}: {}", stdout(&o));
+            ran += 1;
+        }
+    }
+    assert!(ran >= 4, "only {ran} examples found");
 }

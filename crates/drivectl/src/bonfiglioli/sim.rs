@@ -15,8 +15,16 @@ use drive_transport::serial::{Parity, SerialConfig};
 use crate::error::{CliError, Result};
 use crate::tool::line::LineArgs;
 
+/// Examples below `drivectl sim bonfiglioli --help`.
+const AFTER_HELP: &str = "\
+Examples:
+  drivectl sim bonfiglioli --pty --parity none                 an ACT at address 1, Modbus RTU
+  drivectl sim bonfiglioli --pty --parity none --mode ascii --variant acu --addr 1 --addr 2
+  drivectl sim bonfiglioli --port /dev/ttyUSB1 --baud 19200    a real port (8E1; ASCII 7E1)";
+
 /// Arguments of `drivectl sim bonfiglioli`.
 #[derive(Debug, Args)]
+#[command(after_help = AFTER_HELP)]
 pub struct SimArgs {
     /// Serve on this serial port.
     #[arg(long, conflicts_with = "pty", required_unless_present = "pty")]
