@@ -404,3 +404,41 @@ fn the_everyday_behaviours_of_the_movilink_cli_hold_here_too() {
     assert!(!err(&o).contains("panicked"), "{}", err(&o));
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Address 0 broadcasts a write to every drive on the bus; nobody answers, nothing is read
+/// back, and a read from address 0 is refused (ch. 6.1).
+#[test]
+fn a_broadcast_write_reaches_every_drive() {
+    let sim = Sim::start("rtu", &["--addr", "1", "--addr", "2"]);
+    let run_at = |addr: &str, args: &[&str]| {
+        let mut all = vec![
+            "bonfiglioli",
+            "--port",
+            &sim.path,
+            "--parity",
+            "none",
+            "--addr",
+            addr,
+        ];
+        all.extend_from_slice(args);
+        Command::new(env!("CARGO_BIN_EXE_drivectl"))
+            .args(&all)
+            .env("DRIVECTL_STATE_DIR", &sim.state)
+            .output()
+            .unwrap()
+    };
+    let v = ok_json(&run_at(
+        "0",
+        &["--json", "write", "372", "1420", "--dataset", "2", "--ram"],
+    ));
+    assert_eq!(
+        (v[0]["answered"].as_bool(), v[0]["address"].as_u64()),
+        (Some(false), Some(0))
+    );
+    for addr in ["1", "2"] {
+        let v = ok_json(&run_at(addr, &["--json", "read", "372", "--dataset", "2"]));
+        assert_eq!(v[0]["raw"], 1420, "drive {addr}");
+    }
+    let o = run_at("0", &["read", "372", "--dataset", "2"]);
+    assert_eq!(o.status.code(), Some(2));
+}

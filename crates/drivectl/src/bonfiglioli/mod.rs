@@ -668,6 +668,49 @@ fn resolve_all(params: &[String], access: Access) -> Result<Vec<Target>> {
         .collect()
 }
 
+/// A write to every drive (address 0): checked as any write (width, table, link settings,
+/// EEPROM wear under the broadcast's own key), sent once, never answered, so nothing is read
+/// back (ch. 6.1).
+async fn write_broadcast<IO: CharIo>(
+    m: &mut MasterDriver<IO>,
+    port: &str,
+    request: &write::WriteRequest,
+    width: Option<Width>,
+    yes: bool,
+    json: bool,
+) -> Result<()> {
+    let mut c = BonfiglioliClient::new(m, Address::BROADCAST, port, width);
+    write::check_link_setting(&c, request, yes)?;
+    let drive = c.drive_key().await?;
+    if let Some(warning) = write::check(&mut c, request).await? {
+        errln!("drivectl: warning: {warning}");
+    }
+    write_ram_hint(
+        c.write(&request.target, request.raw, request.persistence)
+            .await
+            .map_err(CliError::from),
+    )?;
+    if let Err(e) = write::record(&drive, request) {
+        errln!("drivectl: warning: {e}");
+    }
+    let t = request.target;
+    if json {
+        outln!(
+            "{}",
+            serde_json::json!({"parameter": t.index, "dataset": t.sub, "index": t.index,
+                   "number": t.param.map(|p| p.label().to_string()),
+                   "name_en": t.param.map(|p| p.name_en()),
+                   "raw": request.raw, "address": 0, "answered": false})
+        )
+    } else {
+        outln!(
+            "sent {} = raw {} to every drive (broadcast, address 0; never answered by design)",
+            t.label(),
+            request.raw
+        )
+    }
+}
+
 fn address(a: u8) -> Result<Address> {
     Address::new(a)
         .filter(|a| !a.is_broadcast())
@@ -805,6 +848,8 @@ fn precheck(args: &BonfiglioliArgs) -> Result<()> {
     }
     .and_then(|()| match &args.command {
         BonfiglioliCommand::Scan { .. } => Ok(()),
+        // Address 0 broadcasts a write to every drive (never answered, ch. 6.1).
+        BonfiglioliCommand::Write { .. } if args.addr == 0 => Ok(()),
         _ => address(args.addr).map(drop),
     })
 }
@@ -888,6 +933,9 @@ async fn execute<IO: CharIo>(m: &mut MasterDriver<IO>, args: &BonfiglioliArgs) -
                 persistence,
                 force: *force,
             };
+            if args.addr == 0 {
+                return write_broadcast(m, &args.port, &request, access.width(), *yes, json).await;
+            }
             let mut c = BonfiglioliClient::new(m, address(args.addr)?, &args.port, access.width());
             let done = write_ram_hint(write::write_checked(&mut c, &request, *yes).await)?;
             if let Some(note) = &done.link_note {
