@@ -50,6 +50,8 @@ pub struct Port<IO> {
     /// Real clock: the endpoint time the last timer wake-up was handled at (the deadline,
     /// not tokio's late tick), until the next transmission or character.
     woken: Option<Instant>,
+    /// When the last frame was meant to start on tokio's clock (see [`Port::last_tx_start`]).
+    last_tx: Option<TokioInstant>,
 }
 
 impl<IO: CharIo> Port<IO> {
@@ -65,6 +67,7 @@ impl<IO: CharIo> Port<IO> {
             quiet_handled_at: None,
             last_rx: None,
             woken: None,
+            last_tx: None,
         }
     }
 
@@ -105,6 +108,13 @@ impl<IO: CharIo> Port<IO> {
         self.last_rx
     }
 
+    /// When the last frame [`Port::transmit`] wrote was meant to start, on tokio's clock: the
+    /// deadline it was sent for after a timer wake-up (where the wire model starts it), else
+    /// the time it was handed to the port.
+    pub fn last_tx_start(&self) -> Option<TokioInstant> {
+        self.last_tx
+    }
+
     /// Write the frame the endpoint has due now, if any; returns its length. After a write
     /// error the frame on the wire is broken: tell the endpoint (its `abort`) and call
     /// [`Port::settle`].
@@ -121,8 +131,14 @@ impl<IO: CharIo> Port<IO> {
         self.woken = None;
         let frame = frame_of(buf, n)?;
         match exact.and_then(|t| self.time.intended_start(t)) {
-            Some(start) => write_all_at(&mut self.io, frame, start).await?,
-            None => write_all(&mut self.io, frame).await?,
+            Some(start) => {
+                self.last_tx = Some(start);
+                write_all_at(&mut self.io, frame, start).await?;
+            }
+            None => {
+                self.last_tx = Some(TokioInstant::now());
+                write_all(&mut self.io, frame).await?;
+            }
         }
         self.time.sent(n);
         self.anchor = Some((TokioInstant::now(), self.time.now()));
