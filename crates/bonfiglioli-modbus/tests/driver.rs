@@ -310,6 +310,14 @@ impl<IO: drive_core::rt::CharIo> drive_core::rt::CharIo for Tap<IO> {
     ) -> std::task::Poll<std::io::Result<()>> {
         self.inner.poll_flush(cx)
     }
+    fn poll_write_at(
+        &mut self,
+        cx: &mut std::task::Context<'_>,
+        buf: &[u8],
+        start: tokio::time::Instant,
+    ) -> std::task::Poll<std::io::Result<usize>> {
+        self.inner.poll_write_at(cx, buf, start)
+    }
 }
 
 #[tokio::test(start_paused = true)]

@@ -212,12 +212,14 @@ async fn fc3_read_cycle_against_the_manuals_bound() {
         "more than 2 % above the bound: {exact_ratio}"
     );
     // Through tokio, each of the two waits of a cycle (the answer delay, the pause before the
-    // next request) ends on tokio's next 1 ms timer tick: at most 2 ms more per cycle.
-    assert!(ratio >= 1.0, "faster than the manual allows: {ratio}");
+    // next request) ends on tokio's next 1 ms timer tick, but the frame sent on that wake-up
+    // starts on the wire model at the deadline itself: the cycle keeps the manual's schedule
+    // (measured +0.01 %: the last answer is read on the tick after its end).
     assert!(
-        cycle <= bound + Duration::from_millis(2),
-        "more than the timer's rounding above the bound: {cycle:?}"
+        ratio >= 1.0 - 1e-6,
+        "faster than the manual allows: {ratio}"
     );
+    assert!(ratio <= 1.02, "more than 2 % above the bound: {cycle:?}");
 }
 
 /// The figures of a run, for the report.
@@ -337,14 +339,23 @@ impl<IO: drive_core::rt::CharIo> drive_core::rt::CharIo for Tap<IO> {
     ) -> std::task::Poll<std::io::Result<()>> {
         self.inner.poll_flush(cx)
     }
+    fn poll_write_at(
+        &mut self,
+        cx: &mut std::task::Context<'_>,
+        buf: &[u8],
+        start: tokio::time::Instant,
+    ) -> std::task::Poll<std::io::Result<usize>> {
+        self.inner.poll_write_at(cx, buf, start)
+    }
 }
 
 /// The exchange on the 19200-baud wire model through the tokio driver and `serve`, as the
 /// MOVILINK benchmark measures it (request start → answer end on the wire, from the characters'
 /// wire times, plus the manual's pause before the next request). The only wait inside it is the
-/// drive's 10 ms answer delay, a tokio timer that ends on tokio's next 1 ms tick: measured
-/// +2.02 % (0.417 ms late), so the drive answers 10.4 ms after the request instead of 10.0 ms.
-/// Asserted: never faster than the manual allows, at most one timer tick above the bound.
+/// drive's 10 ms answer delay, a tokio timer that ends on tokio's next 1 ms tick; the answer
+/// sent on that wake-up starts on the wire model at the deadline itself (before, it started
+/// on the tick: +2.02 %, 0.417 ms late). Asserted: never faster than the manual allows, within
+/// 2 % of the bound (measured +0.00 %).
 #[tokio::test(start_paused = true)]
 async fn fc3_exchange_on_the_wire_model_against_the_bound() {
     let line = line_of(Mode::Rtu);
@@ -406,7 +417,7 @@ async fn fc3_exchange_on_the_wire_model_against_the_bound() {
         "faster than the manual allows: {mean:?}"
     );
     assert!(
-        worst <= bound + Duration::from_millis(1),
-        "more than one timer tick above the bound: {worst:?} against {bound:?}"
+        worst.as_secs_f64() <= bound.as_secs_f64() * 1.02,
+        "more than 2 % above the bound: {worst:?} against {bound:?}"
     );
 }

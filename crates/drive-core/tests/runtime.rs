@@ -495,3 +495,185 @@ async fn a_frame_longer_than_its_buffer_is_an_error_not_a_cut_frame() {
         .unwrap_err();
     assert_eq!(err.kind(), std::io::ErrorKind::InvalidData);
 }
+
+// ----- Exact frame starts despite tokio's 1 ms timers -----
+
+/// A line that records every write with the start it was meant for, and places the frame the
+/// way the wire model does (`max(start, now − 1 ms)`, never before the previous frame's end):
+/// what it reads is nothing, until `close` says the port was closed.
+#[derive(Default)]
+struct Wire {
+    char_time: Duration,
+    /// (intended start if any, tokio time of the write, wire start, bytes).
+    writes: Vec<(Option<TokioInstant>, TokioInstant, TokioInstant, Vec<u8>)>,
+    busy_until: Option<TokioInstant>,
+    close_after: usize,
+}
+
+impl Wire {
+    fn new(char_time: Duration, close_after: usize) -> Self {
+        Self {
+            char_time,
+            close_after,
+            ..Self::default()
+        }
+    }
+
+    fn put(&mut self, buf: &[u8], start: Option<TokioInstant>) -> usize {
+        let now = TokioInstant::now();
+        let earliest = start.map_or(now, |s| {
+            s.max(now - drive_core::rt::TIMER_RESOLUTION).min(now)
+        });
+        let wire_start = self.busy_until.map_or(earliest, |b| b.max(earliest));
+        self.busy_until = Some(wire_start + self.char_time * buf.len() as u32);
+        self.writes.push((start, now, wire_start, buf.to_vec()));
+        buf.len()
+    }
+}
+
+impl CharIo for Wire {
+    fn poll_read_chars(
+        &mut self,
+        _: &mut Context<'_>,
+        _: &mut [ReceivedChar],
+    ) -> Poll<std::io::Result<usize>> {
+        if self.close_after > 0 && self.writes.len() >= self.close_after {
+            Poll::Ready(Ok(0))
+        } else {
+            Poll::Pending
+        }
+    }
+    fn poll_write(&mut self, _: &mut Context<'_>, buf: &[u8]) -> Poll<std::io::Result<usize>> {
+        Poll::Ready(Ok(self.put(buf, None)))
+    }
+    fn poll_write_at(
+        &mut self,
+        _: &mut Context<'_>,
+        buf: &[u8],
+        start: TokioInstant,
+    ) -> Poll<std::io::Result<usize>> {
+        Poll::Ready(Ok(self.put(buf, Some(start))))
+    }
+    fn poll_flush(&mut self, _: &mut Context<'_>) -> Poll<std::io::Result<()>> {
+        Poll::Ready(Ok(()))
+    }
+}
+
+/// An endpoint that sends `frame` once its deadline has come, and records the times it is
+/// told.
+struct Due {
+    at: Option<Instant>,
+    frame: &'static [u8],
+    ready: bool,
+    log: Vec<String>,
+}
+
+impl Due {
+    fn new(at: Instant, frame: &'static [u8]) -> Self {
+        Self {
+            at: Some(at),
+            frame,
+            ready: false,
+            log: Vec::new(),
+        }
+    }
+}
+
+impl Endpoint for Due {
+    fn handle_char(&mut self, _: RxChar) {}
+    fn handle_timeout(&mut self, now: Instant) {
+        self.log.push(format!("timeout at {} µs", now.as_micros()));
+        if self.at.is_some_and(|at| now >= at) {
+            self.at = None;
+            self.ready = true;
+        }
+    }
+    fn poll_transmit(&mut self, now: Instant, buf: &mut [u8]) -> Option<usize> {
+        if !self.ready {
+            return None;
+        }
+        self.ready = false;
+        self.log.push(format!("transmit at {} µs", now.as_micros()));
+        buf.get_mut(..self.frame.len())?.copy_from_slice(self.frame);
+        Some(self.frame.len())
+    }
+    fn poll_timeout(&self) -> Option<Instant> {
+        self.at
+    }
+    fn poll_quiet_timeout(&self) -> Option<Instant> {
+        None
+    }
+    fn max_frame_len(&self) -> usize {
+        self.frame.len()
+    }
+}
+
+/// A frame due at 2.345 ms (between tokio's ticks): tokio's timer ends at 3 ms, but the master
+/// is told 2.345 ms, `Port::now` says so, and the frame is written with that start, so the
+/// wire puts it there, not on the tick.
+#[tokio::test(start_paused = true)]
+async fn a_port_frame_due_between_ticks_starts_on_the_wire_at_its_deadline() {
+    let char_time = Duration::from_nanos(572_917);
+    let mut port = Port::new(Wire::new(char_time, 0), Clock::Real, char_time);
+    let epoch = port.timebase().epoch();
+    let due = Instant::from_micros(2_345);
+    let mut master = Due::new(due, &[0x01, 0x03]);
+    let mut buf = [0u8; 8];
+    assert_eq!(port.transmit(&mut master, &mut buf).await.unwrap(), None);
+    assert!(port.wait(&mut master).await.unwrap());
+    // tokio woke on its next 1 ms tick …
+    let woke = TokioInstant::now() - epoch;
+    assert!(woke > Duration::from_micros(2_345) && woke <= Duration::from_millis(3));
+    // … the endpoint's time is the deadline.
+    assert_eq!(port.now(), due);
+    assert_eq!(port.transmit(&mut master, &mut buf).await.unwrap(), Some(2));
+    assert_eq!(master.log, ["timeout at 2345 µs", "transmit at 2345 µs"]);
+    let (start, written, on_wire, bytes) = port.get_ref().writes[0].clone();
+    assert_eq!(start, Some(epoch + Duration::from_micros(2_345)));
+    assert!(written > on_wire, "written on the tick, after the deadline");
+    assert_eq!(on_wire - epoch, Duration::from_micros(2_345));
+    assert_eq!(bytes, [0x01, 0x03]);
+    // Once time has moved on by more than the timer's resolution, now is tokio's again.
+    tokio::time::advance(Duration::from_millis(2)).await;
+    assert_eq!(
+        port.now().as_duration(),
+        TokioInstant::now() - epoch,
+        "a stale deadline must not hold the port's time back"
+    );
+}
+
+/// The same in `serve`: a station's answer due at 10.417 ms starts there on the wire.
+#[tokio::test(start_paused = true)]
+async fn a_served_frame_due_between_ticks_starts_on_the_wire_at_its_deadline() {
+    let char_time = Duration::from_nanos(572_917);
+    let mut time = Timebase::new(Clock::Real, char_time);
+    let epoch = time.epoch();
+    let mut stations = [Due::new(Instant::from_micros(10_417), &[0x01, 0x03, 0x02])];
+    let mut wire = Wire::new(char_time, 1);
+    serve(&mut stations, &mut time, &mut wire).await.unwrap();
+    assert_eq!(
+        stations[0].log,
+        ["timeout at 10417 µs", "transmit at 10417 µs"]
+    );
+    let (start, written, on_wire, _) = wire.writes[0].clone();
+    assert_eq!(start, Some(epoch + Duration::from_micros(10_417)));
+    assert_eq!(written - epoch, Duration::from_millis(11));
+    assert_eq!(on_wire - epoch, Duration::from_micros(10_417));
+}
+
+/// A wake-up later than the timer's resolution (the task was busy) is not backdated: the
+/// endpoint is told now and the frame starts now.
+#[tokio::test(start_paused = true)]
+async fn a_late_wake_up_is_not_backdated() {
+    let char_time = Duration::from_nanos(572_917);
+    let mut port = Port::new(Wire::new(char_time, 0), Clock::Real, char_time);
+    let mut master = Due::new(Instant::from_micros(2_345), &[0x01]);
+    tokio::time::advance(Duration::from_millis(5)).await;
+    assert!(port.wait(&mut master).await.unwrap());
+    let mut buf = [0u8; 4];
+    assert_eq!(port.transmit(&mut master, &mut buf).await.unwrap(), Some(1));
+    assert_eq!(master.log, ["timeout at 5000 µs", "transmit at 5000 µs"]);
+    let (_, written, on_wire, _) = port.get_ref().writes[0].clone();
+    assert_eq!(on_wire, written);
+    assert_eq!(on_wire - port.timebase().epoch(), Duration::from_millis(5));
+}

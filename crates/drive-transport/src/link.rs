@@ -25,6 +25,18 @@
 //! With timing off, characters are delivered immediately (benchmark mode: only software
 //! overhead is measured); injected delays still apply.
 //!
+//! A frame can be written with the instant the protocol scheduled it to start
+//! ([`CharIo::poll_write_at`], which [`drive_core::rt::Port`] and [`drive_core::rt::serve`] use
+//! after a timer wake-up): its first character starts at that instant instead of now, but
+//! never before the line is free (the end of the characters already written in that
+//! direction, so the order of characters is kept) and never more than
+//! [`TIMER_RESOLUTION`](drive_core::rt::TIMER_RESOLUTION) (1 ms) in the past. The timer that
+//! woke the writer ends on tokio's next millisecond tick, after the instant the protocol asked
+//! for; this puts the frame on the wire where the protocol put it, not at the late wake-up. A
+//! start further in the past counts from now minus that resolution. A reader that looked at
+//! the line during that last millisecond may have seen it silent at a time a backdated
+//! character now occupies: the model's resolution for such a race stays the timer's.
+//!
 //! [`AsyncWrite::poll_flush`] waits until every character written so far has left the line
 //! (like `tcdrain`). Writes are accepted at once while fewer than [`LinkConfig::capacity`]
 //! characters are in flight or unread in that direction, and wait otherwise.
@@ -81,7 +93,7 @@ use tokio::io::{AsyncRead, AsyncWrite, ReadBuf};
 use tokio::time::{Instant, Sleep};
 
 use drive_core::line::{LineSettings, Parity};
-use drive_core::rt::{CharIo, ReceivedChar};
+use drive_core::rt::{CharIo, ReceivedChar, TIMER_RESOLUTION};
 use drive_core::{CharError, SplitMix64};
 
 /// One character as a UART receives it.
@@ -349,9 +361,16 @@ impl Pipe {
         }
     }
 
-    /// Reserves the line for one character after an idle `gap`; returns its arrival instant
-    /// (`None` = immediately available).
-    fn schedule(&mut self, gap: Duration, now: &mut Option<Instant>) -> Option<Instant> {
+    /// Reserves the line for one character after an idle `gap`, starting no earlier than
+    /// `start` (an intended start at most [`TIMER_RESOLUTION`] in the past; `None`: now) and
+    /// the end of the previous character; returns its arrival instant (`None` = immediately
+    /// available).
+    fn schedule(
+        &mut self,
+        gap: Duration,
+        now: &mut Option<Instant>,
+        start: Option<Instant>,
+    ) -> Option<Instant> {
         if !self.timing && gap.is_zero() {
             match self.busy_until {
                 None => return None,
@@ -364,7 +383,11 @@ impl Pipe {
             }
         }
         let now = *now.get_or_insert_with(Instant::now);
-        let start = self.busy_until.map_or(now, |busy| busy.max(now)) + gap;
+        let earliest = start.map_or(now, |start| {
+            let limit = now.checked_sub(TIMER_RESOLUTION).unwrap_or(now);
+            start.max(limit).min(now)
+        });
+        let start = self.busy_until.map_or(earliest, |busy| busy.max(earliest)) + gap;
         let end = start + self.char_time;
         self.busy_until = Some(end);
         Some(end)
@@ -401,14 +424,14 @@ impl Pipe {
         f
     }
 
-    /// Puts one application byte on the line, with its faults.
-    fn transmit(&mut self, byte: u8, now: &mut Option<Instant>) {
+    /// Puts one application byte on the line, with its faults, no earlier than `start`.
+    fn transmit(&mut self, byte: u8, now: &mut Option<Instant>, start: Option<Instant>) {
         self.stats.written += 1;
         let f = self.draw_faults();
         if !f.gap.is_zero() {
             self.stats.delayed += 1;
         }
-        let at = self.schedule(f.gap, now);
+        let at = self.schedule(f.gap, now, start);
         if f.drop {
             self.stats.dropped += 1;
         } else {
@@ -423,7 +446,7 @@ impl Pipe {
         }
         if let Some(extra) = f.insert {
             self.stats.inserted += 1;
-            let at = self.schedule(Duration::ZERO, now);
+            let at = self.schedule(Duration::ZERO, now, start);
             self.queue.push_back(Slot {
                 ch: WireChar::new(extra),
                 at,
@@ -654,11 +677,14 @@ impl AsyncRead for LinkEnd {
     }
 }
 
-impl AsyncWrite for LinkEnd {
-    fn poll_write(
-        self: Pin<&mut Self>,
+impl LinkEnd {
+    /// Writes what fits of `buf`, the first character no earlier than `start` (see the module
+    /// docs).
+    fn write_chars(
+        &mut self,
         cx: &mut Context<'_>,
         buf: &[u8],
+        start: Option<Instant>,
     ) -> Poll<io::Result<usize>> {
         if buf.is_empty() {
             return Poll::Ready(Ok(0));
@@ -682,7 +708,7 @@ impl AsyncWrite for LinkEnd {
         let n = space.min(buf.len());
         let mut now = None;
         for &byte in buf.iter().take(n) {
-            tx.transmit(byte, &mut now);
+            tx.transmit(byte, &mut now, start);
         }
         let waker = tx.rx_waker.take();
         drop(tx);
@@ -690,6 +716,16 @@ impl AsyncWrite for LinkEnd {
             waker.wake();
         }
         Poll::Ready(Ok(n))
+    }
+}
+
+impl AsyncWrite for LinkEnd {
+    fn poll_write(
+        self: Pin<&mut Self>,
+        cx: &mut Context<'_>,
+        buf: &[u8],
+    ) -> Poll<io::Result<usize>> {
+        self.get_mut().write_chars(cx, buf, None)
     }
 
     /// Waits until every character written so far has left the line.
@@ -774,6 +810,17 @@ impl CharIo for LinkEnd {
 
     fn poll_flush(&mut self, cx: &mut Context<'_>) -> Poll<io::Result<()>> {
         AsyncWrite::poll_flush(Pin::new(self), cx)
+    }
+
+    /// The first character starts at `start` (at most 1 ms in the past), never before the
+    /// line is free; see the module docs.
+    fn poll_write_at(
+        &mut self,
+        cx: &mut Context<'_>,
+        buf: &[u8],
+        start: Instant,
+    ) -> Poll<io::Result<usize>> {
+        self.write_chars(cx, buf, Some(start))
     }
 }
 

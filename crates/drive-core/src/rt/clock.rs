@@ -4,14 +4,22 @@ use core::time::Duration;
 
 use tokio::time::Instant as TokioInstant;
 
+use super::io::TIMER_RESOLUTION;
 use crate::time::Instant;
 
 /// Which time a sans-IO endpoint is driven with.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
 pub enum Clock {
     /// tokio's clock (paused in tests, real otherwise): every pause and timeout is waited for.
-    /// tokio's timers tick in 1 ms steps, so a wait may end up to 1 ms later than a rule asks,
-    /// never earlier.
+    ///
+    /// tokio's timers tick in 1 ms steps ([`TIMER_RESOLUTION`]): a wait ends on the first tick
+    /// at or after its deadline, never earlier. The endpoint is told the deadline itself as
+    /// its time (not the late tick), and a frame it sends because of that wake-up is written
+    /// with the deadline as its intended start ([`CharIo::poll_write_at`]). On a real port the
+    /// frame still leaves on tokio's tick, up to 1 ms later than the rule asks; on the wire
+    /// model of `drive-transport` it starts on the wire exactly where the protocol put it.
+    ///
+    /// [`CharIo::poll_write_at`]: super::CharIo::poll_write_at
     #[default]
     Real,
     /// A virtual clock for benchmarks of software overhead: it advances one character time per
@@ -72,6 +80,30 @@ impl Timebase {
     /// An endpoint [`Instant`] on tokio's clock.
     pub fn to_tokio(&self, t: Instant) -> TokioInstant {
         self.epoch + t.as_duration()
+    }
+
+    /// The time an endpoint is told when the timer for its deadline `d` has ended: on the
+    /// real clock `d` itself when tokio woke at most [`TIMER_RESOLUTION`] after it (the timer
+    /// ends on tokio's next tick, the protocol's time is the deadline), otherwise (a wake-up
+    /// delayed by a busy task) now; on the virtual clock now.
+    pub fn woken_at(&self, d: Instant) -> Instant {
+        let now = self.now();
+        match self.clock {
+            Clock::Real if d <= now && now.saturating_duration_since(d) <= TIMER_RESOLUTION => d,
+            _ => now,
+        }
+    }
+
+    /// The instant on tokio's clock at which a frame the endpoint sends at its time `t` is
+    /// meant to start, if it differs from now and can still be honoured: only on the real
+    /// clock, for a `t` at most [`TIMER_RESOLUTION`] in the past (see [`Timebase::woken_at`]).
+    pub fn intended_start(&self, t: Instant) -> Option<TokioInstant> {
+        if self.clock != Clock::Real {
+            return None;
+        }
+        let at = self.to_tokio(t);
+        let now = TokioInstant::now();
+        (at <= now && now.saturating_duration_since(at) <= TIMER_RESOLUTION).then_some(at)
     }
 
     /// The time of a received character that arrived at `at`: exact on the real clock; one

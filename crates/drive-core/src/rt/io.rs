@@ -52,7 +52,32 @@ pub trait CharIo: Send {
 
     /// Poll until everything written has been handed on (on the wire model: has left the line).
     fn poll_flush(&mut self, cx: &mut Context<'_>) -> Poll<io::Result<()>>;
+
+    /// Poll to write some of `buf` as a frame the protocol scheduled to start at `start` on
+    /// tokio's clock, which may lie a little in the past: the timer that woke the writer ends
+    /// on tokio's next tick ([`TIMER_RESOLUTION`]), after the instant the protocol asked for.
+    ///
+    /// A real port cannot send in the past: the default ignores `start` and calls
+    /// [`CharIo::poll_write`]. The wire model of `drive-transport` puts the first character on
+    /// the line at `start` (never before the line is free, never before the characters
+    /// already written), so a frame starts where the protocol put it, not at the late
+    /// wake-up. Pass the same `start` for every part of one frame.
+    fn poll_write_at(
+        &mut self,
+        cx: &mut Context<'_>,
+        buf: &[u8],
+        start: TokioInstant,
+    ) -> Poll<io::Result<usize>> {
+        let _ = start;
+        self.poll_write(cx, buf)
+    }
 }
+
+/// How late a tokio timer may end after its deadline: tokio's timers tick in 1 ms steps. A
+/// frame whose protocol start lies at most this far in the past is put on the wire model at
+/// that start ([`CharIo::poll_write_at`]); a wake-up later than this (a busy task) counts from
+/// its own time.
+pub const TIMER_RESOLUTION: core::time::Duration = core::time::Duration::from_millis(1);
 
 impl<T: CharIo + ?Sized> CharIo for &mut T {
     fn poll_read_chars(
@@ -69,6 +94,15 @@ impl<T: CharIo + ?Sized> CharIo for &mut T {
 
     fn poll_flush(&mut self, cx: &mut Context<'_>) -> Poll<io::Result<()>> {
         (**self).poll_flush(cx)
+    }
+
+    fn poll_write_at(
+        &mut self,
+        cx: &mut Context<'_>,
+        buf: &[u8],
+        start: TokioInstant,
+    ) -> Poll<io::Result<usize>> {
+        (**self).poll_write_at(cx, buf, start)
     }
 }
 
@@ -120,9 +154,31 @@ impl<T: AsyncRead + AsyncWrite + Unpin + Send> CharIo for Stream<T> {
 
 /// Write all of `bytes`, then flush.
 pub async fn write_all<IO: CharIo + ?Sized>(io: &mut IO, bytes: &[u8]) -> io::Result<()> {
+    write_frame(io, bytes, None).await
+}
+
+/// Write all of `bytes` as a frame the protocol scheduled to start at `start` (see
+/// [`CharIo::poll_write_at`]), then flush.
+pub async fn write_all_at<IO: CharIo + ?Sized>(
+    io: &mut IO,
+    bytes: &[u8],
+    start: TokioInstant,
+) -> io::Result<()> {
+    write_frame(io, bytes, Some(start)).await
+}
+
+async fn write_frame<IO: CharIo + ?Sized>(
+    io: &mut IO,
+    bytes: &[u8],
+    start: Option<TokioInstant>,
+) -> io::Result<()> {
     let mut rest = bytes;
     while !rest.is_empty() {
-        let n = poll_fn(|cx| io.poll_write(cx, rest)).await?;
+        let n = poll_fn(|cx| match start {
+            Some(at) => io.poll_write_at(cx, rest, at),
+            None => io.poll_write(cx, rest),
+        })
+        .await?;
         if n == 0 {
             return Err(io::Error::new(
                 io::ErrorKind::WriteZero,

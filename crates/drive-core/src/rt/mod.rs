@@ -20,6 +20,9 @@ mod port;
 mod serve;
 
 pub use clock::{Clock, Timebase};
-pub use io::{CHUNK, CharIo, ReceivedChar, Stream, Woken, read_or_sleep, write_all};
+pub use io::{
+    CHUNK, CharIo, ReceivedChar, Stream, TIMER_RESOLUTION, Woken, read_or_sleep, write_all,
+    write_all_at,
+};
 pub use port::Port;
 pub use serve::serve;

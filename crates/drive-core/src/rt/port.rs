@@ -7,7 +7,7 @@ use std::time::Duration;
 use tokio::time::{Instant as TokioInstant, Sleep};
 
 use super::clock::{Clock, Timebase};
-use super::io::{CHUNK, CharIo, ReceivedChar, Woken, read_or_sleep, write_all};
+use super::io::{CHUNK, CharIo, ReceivedChar, Woken, read_or_sleep, write_all, write_all_at};
 use crate::char::RxChar;
 use crate::endpoint::Endpoint;
 use crate::time::Instant;
@@ -19,11 +19,18 @@ use crate::time::Instant;
 /// deadline in the past is handled through the same timer as any other (so a loop of
 /// [`Port::transmit`] and [`Port::wait`] always yields to the runtime).
 ///
-/// Timing ([`Clock`]): on [`Clock::Real`] every pause is waited for on tokio's clock. On
+/// Timing ([`Clock`]): on [`Clock::Real`] every pause is waited for on tokio's clock; when the
+/// timer for a deadline ends (on tokio's next 1 ms tick), the endpoint is told the deadline as
+/// its time, [`Port::now`] stays there until the next transmission or character (within
+/// [`TIMER_RESOLUTION`]), and a frame the endpoint then sends is written with that time as
+/// its intended start ([`write_all_at`]: exact on the wire model, on the tick on a real port).
+/// On
 /// [`Clock::Virtual`] the endpoint's clock advances one character time per character and jumps
 /// to every deadline that needs only a quiet line ([`Endpoint::poll_quiet_timeout`]); its other
 /// deadlines (a response timeout, a gap limit inside an answer) become real timers measured
 /// from the last event (the last transmission or the last character received).
+///
+/// [`TIMER_RESOLUTION`]: super::TIMER_RESOLUTION
 #[derive(Debug)]
 pub struct Port<IO> {
     io: IO,
@@ -40,6 +47,11 @@ pub struct Port<IO> {
     quiet_handled_at: Option<Instant>,
     /// Arrival of the last character fed to the endpoint.
     last_rx: Option<TokioInstant>,
+    /// Real clock: the endpoint time the last timer wake-up was handled at (the deadline,
+    /// not tokio's late tick), until the next transmission or character.
+    woken: Option<Instant>,
+    /// When the last frame was meant to start on tokio's clock (see [`Port::last_tx_start`]).
+    last_tx: Option<TokioInstant>,
 }
 
 impl<IO: CharIo> Port<IO> {
@@ -54,12 +66,21 @@ impl<IO: CharIo> Port<IO> {
             anchor: None,
             quiet_handled_at: None,
             last_rx: None,
+            woken: None,
+            last_tx: None,
         }
     }
 
-    /// Now, as the endpoint sees it.
+    /// Now, as the endpoint sees it: right after a timer wake-up on the real clock, the
+    /// deadline it was woken for (see [`Clock::Real`]).
     pub fn now(&self) -> Instant {
-        self.time.now()
+        self.exact_now().unwrap_or_else(|| self.time.now())
+    }
+
+    /// The deadline of the last timer wake-up, while a frame sent now can still start there.
+    fn exact_now(&self) -> Option<Instant> {
+        self.woken
+            .filter(|&t| self.time.intended_start(t).is_some())
     }
 
     /// The time base.
@@ -87,6 +108,13 @@ impl<IO: CharIo> Port<IO> {
         self.last_rx
     }
 
+    /// When the last frame [`Port::transmit`] wrote was meant to start, on tokio's clock: the
+    /// deadline it was sent for after a timer wake-up (where the wire model starts it), else
+    /// the time it was handed to the port.
+    pub fn last_tx_start(&self) -> Option<TokioInstant> {
+        self.last_tx
+    }
+
     /// Write the frame the endpoint has due now, if any; returns its length. After a write
     /// error the frame on the wire is broken: tell the endpoint (its `abort`) and call
     /// [`Port::settle`].
@@ -95,11 +123,23 @@ impl<IO: CharIo> Port<IO> {
         endpoint: &mut E,
         buf: &mut [u8],
     ) -> io::Result<Option<usize>> {
-        let now = self.time.now();
+        let exact = self.exact_now();
+        let now = exact.unwrap_or_else(|| self.time.now());
         let Some(n) = endpoint.poll_transmit(now, buf) else {
             return Ok(None);
         };
-        write_all(&mut self.io, frame_of(buf, n)?).await?;
+        self.woken = None;
+        let frame = frame_of(buf, n)?;
+        match exact.and_then(|t| self.time.intended_start(t)) {
+            Some(start) => {
+                self.last_tx = Some(start);
+                write_all_at(&mut self.io, frame, start).await?;
+            }
+            None => {
+                self.last_tx = Some(TokioInstant::now());
+                write_all(&mut self.io, frame).await?;
+            }
+        }
         self.time.sent(n);
         self.anchor = Some((TokioInstant::now(), self.time.now()));
         Ok(Some(n))
@@ -146,6 +186,7 @@ impl<IO: CharIo> Port<IO> {
         match read_or_sleep(&mut self.io, &mut self.rx, sleep).await? {
             Woken::Read(0) => Ok(false),
             Woken::Read(n) => {
+                self.woken = None;
                 for c in self.rx.iter().take(n) {
                     let time = self.time.arrival(c.at);
                     self.last_rx = Some(c.at);
@@ -163,10 +204,23 @@ impl<IO: CharIo> Port<IO> {
                 Ok(true)
             }
             Woken::Timer => {
-                if let Some(d) = deadline {
-                    self.time.jump_to(d);
-                }
-                endpoint.handle_timeout(self.time.now());
+                let now = match (self.time.clock(), deadline) {
+                    (Clock::Real, Some(d)) => {
+                        // Never before a character already fed.
+                        let floor = self.last_rx.map(|at| self.time.to_instant(at));
+                        let now =
+                            floor.map_or(self.time.woken_at(d), |f| self.time.woken_at(d).later(f));
+                        self.woken = Some(now);
+                        now
+                    }
+                    (_, d) => {
+                        if let Some(d) = d {
+                            self.time.jump_to(d);
+                        }
+                        self.time.now()
+                    }
+                };
+                endpoint.handle_timeout(now);
                 Ok(true)
             }
         }

@@ -471,3 +471,50 @@ async fn writes_wait_when_the_line_is_full() {
     assert_eq!(got, [1, 2, 3, 4, 5, 6]);
     drop(writer.await.unwrap());
 }
+
+/// A frame written with its intended start (`CharIo::poll_write_at`, as `Port` and `serve` do
+/// after a timer wake-up on tokio's 1 ms tick) starts on the wire at that start, between the
+/// ticks; never before the line is free, and never more than the timer's resolution back.
+#[tokio::test(start_paused = true)]
+async fn a_frame_starts_where_its_writer_scheduled_it() {
+    use drive_core::rt::write_all_at;
+    let (mut a, mut b) = link::pair(LinkConfig::default());
+    let t0 = Instant::now();
+    // Scheduled for 2.345 ms, written on the tick at 3 ms.
+    tokio::time::advance(Duration::from_millis(3)).await;
+    let start = t0 + Duration::from_micros(2_345);
+    write_all_at(&mut a, &[1, 2], start).await.unwrap();
+    let got = read_timed_n(&mut b, 2).await;
+    assert_eq!(got[0].at, start + CHAR_8E1_9600);
+    assert_eq!(got[1].at, start + CHAR_8E1_9600 * 2);
+
+    // A start before the end of what is still on the line: after it, in order.
+    tokio::time::advance(Duration::from_millis(1)).await;
+    let now = Instant::now();
+    a.write_all(&[3, 4, 5]).await.unwrap(); // not flushed: on the line until now + 3 chars
+    write_all_at(&mut a, &[6], now - Duration::from_micros(500))
+        .await
+        .unwrap();
+    let got = read_timed_n(&mut b, 4).await;
+    assert_eq!(got[0].at, now + CHAR_8E1_9600);
+    for pair in got.windows(2) {
+        assert_eq!(
+            pair[1].at - pair[0].at,
+            CHAR_8E1_9600,
+            "back to back, in order"
+        );
+    }
+    assert_eq!(
+        got.iter().map(|c| c.ch.byte).collect::<Vec<_>>(),
+        [3, 4, 5, 6]
+    );
+
+    // A start more than 1 ms in the past counts from now − 1 ms.
+    tokio::time::advance(Duration::from_millis(10)).await;
+    let now = Instant::now();
+    write_all_at(&mut a, &[7], now - Duration::from_millis(5))
+        .await
+        .unwrap();
+    let got = read_timed_n(&mut b, 1).await;
+    assert_eq!(got[0].at, now - Duration::from_millis(1) + CHAR_8E1_9600);
+}

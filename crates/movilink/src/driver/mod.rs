@@ -12,8 +12,11 @@
 //!
 //! * [`Clock::Real`] (default): times are tokio's (paused in tests, real otherwise); the start
 //!   pause, the two start pauses after a failed or aborted telegram and the 25 ms broadcast
-//!   spacing are waited for. Tokio's timers have a resolution of 1 ms, so a wait may end up to
-//!   1 ms later than the rule asks, never earlier.
+//!   spacing are waited for. Tokio's timers have a resolution of 1 ms: a wait ends on the next
+//!   tick, never earlier than the rule asks. The master is told the deadline as its time and a
+//!   telegram it sends on that wake-up is written with the deadline as its intended start, so
+//!   on drive-transport's wire model it starts exactly where the rule puts it; a real port
+//!   sends it on the tick, up to 1 ms later.
 //! * [`Clock::Virtual`]: a benchmark profile that measures software overhead: the master's
 //!   clock advances by one character time per character and jumps over every pause; only the
 //!   response timeout is a real timer.

@@ -96,7 +96,9 @@ impl<IO: CharIo> MasterDriver<IO> {
                     transmissions = transmissions.saturating_add(1);
                     answered = false;
                     last_reject = None;
-                    request_start = before;
+                    // Where the request was meant to start (after a timer wake-up: the
+                    // deadline, where the wire model puts it, not tokio's later tick).
+                    request_start = self.port.last_tx_start().unwrap_or(before);
                     continue;
                 }
                 Ok(None) => {}

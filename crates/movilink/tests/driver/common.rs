@@ -57,6 +57,15 @@ impl<IO: CharIo> CharIo for Tap<IO> {
     fn poll_flush(&mut self, cx: &mut Context<'_>) -> Poll<io::Result<()>> {
         self.inner.poll_flush(cx)
     }
+
+    fn poll_write_at(
+        &mut self,
+        cx: &mut Context<'_>,
+        buf: &[u8],
+        start: tokio::time::Instant,
+    ) -> Poll<io::Result<usize>> {
+        self.inner.poll_write_at(cx, buf, start)
+    }
 }
 
 /// A port whose next write takes `partial` bytes and then fails (once).
