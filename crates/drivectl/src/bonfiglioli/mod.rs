@@ -690,6 +690,11 @@ async fn write_broadcast<IO: CharIo>(
             .await
             .map_err(CliError::from),
     )?;
+    // Keep the line quiet for the broadcast's hold and the frame gap before this process lets
+    // go of the port: the next request (perhaps from the next drivectl run, a few ms later)
+    // must not follow sooner, or the drives take both frames for one and drop it.
+    let hold = bonfiglioli_modbus::master::BROADCAST_HOLD + m.config().line.char_times(7, 2);
+    tokio::time::sleep(hold).await;
     if let Err(e) = write::record(&drive, request) {
         errln!("drivectl: warning: {e}");
     }
