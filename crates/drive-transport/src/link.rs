@@ -30,7 +30,7 @@
 //! after a timer wake-up): its first character starts at that instant instead of now, but
 //! never before the line is free (the end of the characters already written in that
 //! direction, so the order of characters is kept) and never more than
-//! [`TIMER_RESOLUTION`](drive_core::rt::TIMER_RESOLUTION) (1 ms) in the past. The timer that
+//! [`drive_core::rt::TIMER_RESOLUTION`] (1 ms) in the past. The timer that
 //! woke the writer ends on tokio's next millisecond tick, after the instant the protocol asked
 //! for; this puts the frame on the wire where the protocol put it, not at the late wake-up. A
 //! start further in the past counts from now minus that resolution. A reader that looked at
