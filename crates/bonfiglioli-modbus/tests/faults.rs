@@ -347,6 +347,10 @@ impl<IO: drive_core::rt::CharIo> drive_core::rt::CharIo for Tap<IO> {
     ) -> std::task::Poll<std::io::Result<usize>> {
         self.inner.poll_write_at(cx, buf, start)
     }
+
+    fn honours_write_start(&self) -> bool {
+        self.inner.honours_write_start()
+    }
 }
 
 /// The exchange on the 19200-baud wire model through the tokio driver and `serve`, as the

@@ -554,6 +554,9 @@ impl CharIo for Wire {
     ) -> Poll<std::io::Result<usize>> {
         Poll::Ready(Ok(self.put(buf, Some(start))))
     }
+    fn honours_write_start(&self) -> bool {
+        true
+    }
     fn poll_flush(&mut self, _: &mut Context<'_>) -> Poll<std::io::Result<()>> {
         Poll::Ready(Ok(()))
     }
@@ -676,4 +679,50 @@ async fn a_late_wake_up_is_not_backdated() {
     let (_, written, on_wire, _) = port.get_ref().writes[0].clone();
     assert_eq!(on_wire, written);
     assert_eq!(on_wire - port.timebase().epoch(), Duration::from_millis(5));
+}
+
+/// A port that sends when it is written to (a real serial port): it cannot place a frame in
+/// the past.
+struct SendsNow(Wire);
+
+impl CharIo for SendsNow {
+    fn poll_read_chars(
+        &mut self,
+        cx: &mut Context<'_>,
+        buf: &mut [ReceivedChar],
+    ) -> Poll<std::io::Result<usize>> {
+        self.0.poll_read_chars(cx, buf)
+    }
+    fn poll_write(&mut self, cx: &mut Context<'_>, buf: &[u8]) -> Poll<std::io::Result<usize>> {
+        self.0.poll_write(cx, buf)
+    }
+    fn poll_flush(&mut self, cx: &mut Context<'_>) -> Poll<std::io::Result<()>> {
+        self.0.poll_flush(cx)
+    }
+}
+
+/// On a port that sends when written to, the endpoint keeps tokio's time at the wake-up (the
+/// frame really leaves then), so its response timeout counts from the request's true end.
+#[tokio::test(start_paused = true)]
+async fn a_port_that_sends_now_keeps_tokios_time() {
+    let char_time = Duration::from_nanos(572_917);
+    let mut port = Port::new(SendsNow(Wire::new(char_time, 0)), Clock::Real, char_time);
+    let epoch = port.timebase().epoch();
+    let mut master = Due::new(Instant::from_micros(2_345), &[0x01, 0x03]);
+    assert!(port.wait(&mut master).await.unwrap());
+    let woke = TokioInstant::now() - epoch;
+    assert_eq!(port.now().as_duration(), woke);
+    let mut buf = [0u8; 8];
+    assert_eq!(port.transmit(&mut master, &mut buf).await.unwrap(), Some(2));
+    let told = woke.as_micros();
+    assert_eq!(
+        master.log,
+        [
+            format!("timeout at {told} µs"),
+            format!("transmit at {told} µs")
+        ]
+    );
+    let (start, written, on_wire, _) = port.get_ref().0.writes[0].clone();
+    assert_eq!(start, None);
+    assert_eq!(on_wire, written);
 }

@@ -13,13 +13,16 @@ pub enum Clock {
     /// tokio's clock (paused in tests, real otherwise): every pause and timeout is waited for.
     ///
     /// tokio's timers tick in 1 ms steps ([`TIMER_RESOLUTION`]): a wait ends on the first tick
-    /// at or after its deadline, never earlier. The endpoint is told the deadline itself as
-    /// its time (not the late tick), and a frame it sends because of that wake-up is written
-    /// with the deadline as its intended start ([`CharIo::poll_write_at`]). On a real port the
-    /// frame still leaves on tokio's tick, up to 1 ms later than the rule asks; on the wire
-    /// model of `drive-transport` it starts on the wire exactly where the protocol put it.
+    /// at or after its deadline, never earlier. On an I/O that places a frame at an intended
+    /// start ([`CharIo::honours_write_start`]: the wire model of `drive-transport`), the
+    /// endpoint is told the deadline itself as its time (not the late tick) and a frame it
+    /// sends because of that wake-up is written with the deadline as its start
+    /// ([`CharIo::poll_write_at`]): it starts on the wire exactly where the protocol put it. On
+    /// a real port the frame leaves on tokio's tick, up to 1 ms later than the rule asks, and
+    /// the endpoint is told that time.
     ///
     /// [`CharIo::poll_write_at`]: super::CharIo::poll_write_at
+    /// [`CharIo::honours_write_start`]: super::CharIo::honours_write_start
     #[default]
     Real,
     /// A virtual clock for benchmarks of software overhead: it advances one character time per

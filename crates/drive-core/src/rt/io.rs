@@ -71,6 +71,15 @@ pub trait CharIo: Send {
         let _ = start;
         self.poll_write(cx, buf)
     }
+
+    /// Whether [`CharIo::poll_write_at`] honours `start` (the wire model does; a real port
+    /// cannot). Only then does a runtime tell its endpoint a timer's exact deadline as the time
+    /// of a wake-up; on a port that sends when it is written to, the endpoint keeps the time the
+    /// frame really leaves (tokio's, up to 1 ms after the deadline), so its response timeout
+    /// counts from the request's true end there too.
+    fn honours_write_start(&self) -> bool {
+        false
+    }
 }
 
 /// How late a tokio timer may end after its deadline: tokio's timers tick in 1 ms steps. A
@@ -103,6 +112,10 @@ impl<T: CharIo + ?Sized> CharIo for &mut T {
         start: TokioInstant,
     ) -> Poll<io::Result<usize>> {
         (**self).poll_write_at(cx, buf, start)
+    }
+
+    fn honours_write_start(&self) -> bool {
+        (**self).honours_write_start()
     }
 }
 

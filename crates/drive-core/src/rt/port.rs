@@ -205,7 +205,7 @@ impl<IO: CharIo> Port<IO> {
             }
             Woken::Timer => {
                 let now = match (self.time.clock(), deadline) {
-                    (Clock::Real, Some(d)) => {
+                    (Clock::Real, Some(d)) if self.io.honours_write_start() => {
                         // Never before a character already fed.
                         let floor = self.last_rx.map(|at| self.time.to_instant(at));
                         let now =

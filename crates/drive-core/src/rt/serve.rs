@@ -106,7 +106,7 @@ pub async fn serve<S: Endpoint, IO: CharIo>(
             }
             Woken::Timer => {
                 let now = match (time.clock(), armed_deadline) {
-                    (Clock::Real, Some(d)) => {
+                    (Clock::Real, Some(d)) if io.honours_write_start() => {
                         // Never before a character already fed.
                         let now = last_rx.map_or(time.woken_at(d), |f| time.woken_at(d).later(f));
                         woken = Some(now);

@@ -66,6 +66,10 @@ impl<IO: CharIo> CharIo for Tap<IO> {
     ) -> Poll<io::Result<usize>> {
         self.inner.poll_write_at(cx, buf, start)
     }
+
+    fn honours_write_start(&self) -> bool {
+        self.inner.honours_write_start()
+    }
 }
 
 /// A port whose next write takes `partial` bytes and then fails (once).
