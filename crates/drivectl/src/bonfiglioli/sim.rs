@@ -2,18 +2,14 @@
 //! answering Modbus RTU or ASCII on a serial port, or on a new pseudo-terminal whose path is
 //! printed (first line of standard output) for other tools.
 
-use std::time::Duration;
-
-use bonfiglioli_modbus::driver::Stream;
 use bonfiglioli_modbus::framing::Mode;
 use bonfiglioli_modbus::sim::SimulatedBus;
 use clap::Args;
 use drive_sim::bonfiglioli::Variant;
-use drive_transport::pty::PtyPair;
-use drive_transport::serial::{Parity, SerialConfig};
 
-use crate::error::{CliError, Result};
+use crate::error::Result;
 use crate::tool::line::LineArgs;
+use crate::tool::simrun;
 
 /// Examples below `drivectl sim bonfiglioli --help`.
 const AFTER_HELP: &str = "\
@@ -54,32 +50,13 @@ pub struct SimArgs {
 /// Check the arguments before anything is opened: addresses 1…247, each once; on a pty no
 /// parity.
 fn check(args: &SimArgs) -> Result<()> {
-    if let Some(bad) = args.addrs.iter().find(|a| **a == 0 || **a > 247) {
-        return Err(CliError::usage(format!(
-            "--addr {bad}: a drive address is 1…247 (parameter 1376; 0 is broadcast)"
-        )));
-    }
-    for (i, a) in args.addrs.iter().enumerate() {
-        if args.addrs.get(..i).is_some_and(|before| before.contains(a)) {
-            return Err(CliError::usage(format!(
-                "--addr {a} is given twice; each simulated drive needs its own address (parameter 1376)"
-            )));
-        }
-    }
-    if args.pty && args.line.parity != Parity::None {
-        let default = if args.line.parity == Parity::Even {
-            " (the default)"
-        } else {
-            ""
-        };
-        return Err(CliError::usage(format!(
-            "--pty does not support parity {}{default}: pseudo-terminals accept only no parity; \
-             add --parity none here and on the master (drivectl bonfiglioli --port PTY --parity \
-             none), or serve a real port with --port",
-            args.line.parity
-        )));
-    }
-    Ok(())
+    simrun::check_addresses(&args.addrs, 1..=247, "parameter 1376; 0 is broadcast")?;
+    simrun::check_pty_parity(
+        args.pty,
+        args.line.parity,
+        " (the default)",
+        "drivectl bonfiglioli",
+    )
 }
 
 /// Run the simulated bus until interrupted.
@@ -92,54 +69,24 @@ pub fn run(args: &SimArgs) -> Result<()> {
         Variant::Act
     };
     let line = super::line_of(mode, &args.line, args.data_bits);
-    let rt = crate::tool::line::runtime()?;
-    rt.block_on(async {
-        let mut bus = SimulatedBus::new(&args.addrs, variant, mode, line);
-        let list = args
-            .addrs
-            .iter()
-            .map(u8::to_string)
-            .collect::<Vec<_>>()
-            .join(", ");
-        let what = format!(
-            "simulated {} at address {list}, Modbus {} at {} baud, parity {}",
-            args.variant.to_uppercase(),
-            args.mode.to_uppercase(),
-            line.baud,
-            line.parity
-        );
-        if let Some(path) = &args.port {
-            let port = drive_transport::serial::open(&SerialConfig::with_line(path, line))
-                .map_err(|e| {
-                    let text = crate::tool::line::open_error(&e);
-                    if e.refused_setting().is_some() {
-                        CliError::usage(text)
-                    } else {
-                        CliError::failed(text)
-                    }
-                })?;
-            errln!("{what} on {path}; Ctrl-C stops");
-            return bus
-                .serve(Stream(port))
-                .await
-                .map_err(|e| CliError::failed(format!("serving {path}: {e}")));
-        }
-        let mut pair = PtyPair::open().map_err(|e| CliError::failed(e.to_string()))?;
-        let path = pair.slave_path().to_path_buf();
-        // Keep the slave side open ourselves, so the master side never sees a hang-up between
-        // two clients.
-        let _keep = std::fs::OpenOptions::new()
-            .read(true)
-            .write(true)
-            .open(&path)
-            .map_err(|e| CliError::failed(format!("cannot open {}: {e}", path.display())))?;
-        outln!("{}", path.display())?;
-        errln!("{what} on {}; Ctrl-C stops", path.display());
-        loop {
-            if let Err(e) = bus.serve(Stream(pair.master())).await {
-                return Err(CliError::failed(format!("serving {}: {e}", path.display())));
-            }
-            tokio::time::sleep(Duration::from_millis(20)).await;
-        }
-    })
+    let list = args
+        .addrs
+        .iter()
+        .map(u8::to_string)
+        .collect::<Vec<_>>()
+        .join(", ");
+    let what = format!(
+        "simulated {} at address {list}, Modbus {} at {} baud, parity {}",
+        args.variant.to_uppercase(),
+        args.mode.to_uppercase(),
+        line.baud,
+        line.parity
+    );
+    let mut bus = SimulatedBus::new(&args.addrs, variant, mode, line);
+    crate::tool::line::runtime()?.block_on(simrun::serve(
+        &mut bus,
+        args.port.as_deref(),
+        line,
+        &what,
+    ))
 }

@@ -29,24 +29,24 @@ impl LineArgs {
             .with_stop_bits(self.stop_bits)
     }
 
-    /// The serial configuration for `path`.
-    pub fn config(&self, path: &str) -> SerialConfig {
-        SerialConfig::with_line(path, self.line())
-    }
-
     /// Open `path` with these settings (every setting read back; a refused one is named, with
     /// the option that changes it).
     pub fn open(&self, path: &str) -> Result<SerialPort> {
-        serial::open(&self.config(path)).map_err(|e| {
-            // A setting the device refuses is the user's to change (exit 2, as `sim` refuses
-            // parity on a pty); a missing or busy port is a failure (exit 1).
-            if e.refused_setting().is_some() {
-                CliError::usage(open_error(&e))
-            } else {
-                CliError::failed(open_error(&e))
-            }
-        })
+        open_settings(path, self.line())
     }
+}
+
+/// Open `path` with `settings` (every setting read back): a setting the device refuses is the
+/// user's to change (exit 2, naming the option, as `sim` refuses parity on a pty); a missing
+/// or busy port is a failure (exit 1).
+pub fn open_settings(path: &str, settings: LineSettings) -> Result<SerialPort> {
+    serial::open(&SerialConfig::with_line(path, settings)).map_err(|e| {
+        if e.refused_setting().is_some() {
+            CliError::usage(open_error(&e))
+        } else {
+            CliError::failed(open_error(&e))
+        }
+    })
 }
 
 /// A port's refusal with the drivectl option for the refused setting.

@@ -27,6 +27,7 @@ pub mod line;
 pub mod meaning;
 pub mod outfile;
 pub mod read;
+pub mod simrun;
 pub mod watch;
 pub mod wear;
 pub mod write;

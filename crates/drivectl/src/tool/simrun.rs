@@ -1,0 +1,136 @@
+//! What every `drivectl sim <protocol>` shares: checking the addresses and the pty's parity
+//! before anything is opened, and serving a simulated bus on a serial port or on a new
+//! pseudo-terminal whose path is printed as the first line of standard output.
+
+use std::io;
+use std::ops::RangeInclusive;
+use std::time::Duration;
+
+use drive_core::rt::{CharIo, Stream};
+use drive_core::{LineSettings, Parity};
+use drive_transport::pty::PtyPair;
+
+use super::line::open_settings;
+use crate::error::{CliError, Result};
+
+/// A simulated bus a protocol crate provides (`movilink::sim::SimulatedBus`,
+/// `bonfiglioli_modbus::sim::SimulatedBus`, …): it serves requests on a line until it closes.
+pub trait SimBus {
+    /// Serve on `io` until it closes (`Ok`) or fails.
+    fn serve_on<IO: CharIo>(&mut self, io: IO) -> impl Future<Output = io::Result<()>>;
+}
+
+impl SimBus for movilink::sim::SimulatedBus {
+    fn serve_on<IO: CharIo>(&mut self, io: IO) -> impl Future<Output = io::Result<()>> {
+        self.serve(io)
+    }
+}
+
+impl SimBus for bonfiglioli_modbus::sim::SimulatedBus {
+    fn serve_on<IO: CharIo>(&mut self, io: IO) -> impl Future<Output = io::Result<()>> {
+        self.serve(io)
+    }
+}
+
+/// Each of `addrs` in `valid` and given once; `param` names the address parameter (`P810`,
+/// `parameter 1376`).
+pub fn check_addresses(addrs: &[u8], valid: RangeInclusive<u8>, param: &str) -> Result<()> {
+    if let Some(bad) = addrs.iter().find(|a| !valid.contains(a)) {
+        return Err(CliError::usage(format!(
+            "--addr {bad}: a drive address is {}…{} ({param})",
+            valid.start(),
+            valid.end()
+        )));
+    }
+    for (i, a) in addrs.iter().enumerate() {
+        if addrs.get(..i).is_some_and(|before| before.contains(a)) {
+            return Err(CliError::usage(format!(
+                "--addr {a} is given twice; each simulated drive needs its own address ({param})"
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// On a pty no parity: a pseudo-terminal carries none, and the master refuses parity on one
+/// too. `default_note` tells when the refused parity is the default; `master` is the master's
+/// command (`drivectl movilink`).
+pub fn check_pty_parity(pty: bool, parity: Parity, default_note: &str, master: &str) -> Result<()> {
+    if !pty || parity == Parity::None {
+        return Ok(());
+    }
+    let default = if parity == Parity::Even {
+        default_note
+    } else {
+        ""
+    };
+    Err(CliError::usage(format!(
+        "--pty does not support parity {parity}{default}: pseudo-terminals accept only no \
+         parity; add --parity none here and on the master ({master} --port PTY --parity none), \
+         or serve a real port with --port"
+    )))
+}
+
+/// Serve `bus` on the serial port `port` with `settings`, or (`None`) on a new pseudo-terminal
+/// whose path is printed first, until interrupted. `what` says what is simulated, for the
+/// message on standard error.
+pub async fn serve<B: SimBus>(
+    bus: &mut B,
+    port: Option<&str>,
+    settings: LineSettings,
+    what: &str,
+) -> Result<()> {
+    if let Some(path) = port {
+        let port = open_settings(path, settings)?;
+        errln!("{what} on {path}; Ctrl-C stops");
+        return bus
+            .serve_on(Stream(port))
+            .await
+            .map_err(|e| CliError::failed(format!("serving {path}: {e}")));
+    }
+    let mut pair = PtyPair::open().map_err(|e| CliError::failed(e.to_string()))?;
+    let path = pair.slave_path().to_path_buf();
+    // Keep the slave side open ourselves, so the master side never sees a hang-up between two
+    // clients (each drivectl run opens and closes the pty).
+    let _keep = std::fs::OpenOptions::new()
+        .read(true)
+        .write(true)
+        .open(&path)
+        .map_err(|e| CliError::failed(format!("cannot open {}: {e}", path.display())))?;
+    outln!("{}", path.display())?;
+    errln!("{what} on {}; Ctrl-C stops", path.display());
+    loop {
+        if let Err(e) = bus.serve_on(Stream(pair.master())).await {
+            return Err(CliError::failed(format!("serving {}: {e}", path.display())));
+        }
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn addresses_and_pty_parity_are_checked_with_the_protocols_words() {
+        check_addresses(&[1, 5], 0..=99, "P810").unwrap();
+        let e = check_addresses(&[1, 100], 0..=99, "P810")
+            .unwrap_err()
+            .to_string();
+        assert_eq!(e, "--addr 100: a drive address is 0…99 (P810)");
+        let e = check_addresses(&[3, 1, 3], 1..=247, "parameter 1376")
+            .unwrap_err()
+            .to_string();
+        assert!(e.starts_with("--addr 3 is given twice"), "{e}");
+        check_pty_parity(true, Parity::None, "", "drivectl movilink").unwrap();
+        check_pty_parity(false, Parity::Even, "", "drivectl movilink").unwrap();
+        let e = check_pty_parity(true, Parity::Even, " (the default)", "drivectl bonfiglioli")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("parity even (the default)")
+                && e.contains("drivectl bonfiglioli --port PTY"),
+            "{e}"
+        );
+    }
+}
