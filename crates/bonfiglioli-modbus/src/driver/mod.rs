@@ -12,6 +12,7 @@ mod error;
 use std::time::Duration;
 
 use drive_core::LineSettings;
+use drive_core::rt::Step;
 pub use drive_core::rt::{CharIo, Clock, Port, ReceivedChar, Stream};
 
 pub use self::error::DriverError;
@@ -170,31 +171,15 @@ impl<IO: CharIo> MasterDriver<IO> {
                     }
                 }
             }
-            match self.port.transmit(&mut self.master, &mut buf).await {
-                Ok(Some(_)) => {
+            match self.port.step(&mut self.master, &mut buf).await {
+                Ok(Step::Sent(_)) => {
                     if sent > 0 {
                         self.stats.retries += 1;
                     }
                     sent = sent.saturating_add(1);
                     last_reject = None;
-                    continue;
                 }
-                Ok(None) => {}
-                Err(e) => {
-                    self.port.settle().await;
-                    self.master.abort(self.port.now());
-                    return Err(DriverError::Io(e));
-                }
-            }
-            match self.port.wait(&mut self.master).await {
-                Ok(true) => {}
-                Ok(false) => {
-                    self.master.abort(self.port.now());
-                    return Err(DriverError::Io(std::io::Error::new(
-                        std::io::ErrorKind::UnexpectedEof,
-                        "the port was closed",
-                    )));
-                }
+                Ok(Step::Waited) => {}
                 Err(e) => {
                     self.master.abort(self.port.now());
                     return Err(DriverError::Io(e));

@@ -226,6 +226,35 @@ impl<IO: CharIo> Port<IO> {
         }
     }
 
+    /// One step of a master's transaction, the same for every protocol's driver: send the frame
+    /// the endpoint has due now ([`Step::Sent`]), else wait for its next deadline or for
+    /// received characters and feed them ([`Step::Waited`]). A failed write is settled first
+    /// (what did get out leaves the line); a closed port is `UnexpectedEof`. After an error
+    /// the frame on the wire is broken or the line gone: the caller drops its request (its
+    /// master's `abort`).
+    pub async fn step<E: Endpoint>(
+        &mut self,
+        endpoint: &mut E,
+        buf: &mut [u8],
+    ) -> io::Result<Step> {
+        match self.transmit(endpoint, buf).await {
+            Ok(Some(n)) => return Ok(Step::Sent(n)),
+            Ok(None) => {}
+            Err(e) => {
+                self.settle().await;
+                return Err(e);
+            }
+        }
+        if self.wait(endpoint).await? {
+            Ok(Step::Waited)
+        } else {
+            Err(io::Error::new(
+                io::ErrorKind::UnexpectedEof,
+                "the port was closed",
+            ))
+        }
+    }
+
     /// After a failed write: let what did get out leave the line (best effort, at most 1 s).
     pub async fn settle(&mut self) {
         let io = &mut self.io;
@@ -246,4 +275,13 @@ pub(super) fn frame_of(buf: &[u8], n: usize) -> io::Result<&[u8]> {
             ),
         )
     })
+}
+
+/// What [`Port::step`] did.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Step {
+    /// A frame of this many bytes was written.
+    Sent(usize),
+    /// Time passed or characters arrived; the endpoint was told.
+    Waited,
 }

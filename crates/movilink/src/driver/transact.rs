@@ -8,6 +8,7 @@ use super::{CharIo, DriverError, ExchangeTiming, MasterDriver};
 use crate::error::{RejectReason, ReturnCode};
 use crate::frame::{MAX_TELEGRAM_LEN, Telegram};
 use crate::master::MasterEvent;
+use drive_core::rt::Step;
 
 /// What one request produced.
 #[derive(Debug, Default)]
@@ -88,8 +89,8 @@ impl<IO: CharIo> MasterDriver<IO> {
                 return Ok(out);
             }
             let before = TokioInstant::now();
-            match self.port.transmit(&mut self.master, &mut buf).await {
-                Ok(Some(_)) => {
+            match self.port.step(&mut self.master, &mut buf).await {
+                Ok(Step::Sent(_)) => {
                     if transmissions > 0 && !answered {
                         self.stats.retries += 1;
                     }
@@ -99,27 +100,12 @@ impl<IO: CharIo> MasterDriver<IO> {
                     // Where the request was meant to start (after a timer wake-up: the
                     // deadline, where the wire model puts it, not tokio's later tick).
                     request_start = self.port.last_tx_start().unwrap_or(before);
-                    continue;
                 }
-                Ok(None) => {}
+                Ok(Step::Waited) => {}
                 Err(e) => {
-                    // The telegram on the wire is broken: let what did get out leave the line,
-                    // then the master holds the bus for two start pauses.
-                    self.port.settle().await;
-                    self.master.abort(self.port.now());
-                    return Err(DriverError::Io(e));
-                }
-            }
-            match self.port.wait(&mut self.master).await {
-                Ok(true) => {}
-                Ok(false) => {
-                    self.master.abort(self.port.now());
-                    return Err(DriverError::Io(std::io::Error::new(
-                        std::io::ErrorKind::UnexpectedEof,
-                        "the port was closed",
-                    )));
-                }
-                Err(e) => {
+                    // The telegram on the wire is broken or the port gone (`step` let what
+                    // did get out leave the line): the master holds the bus for two start
+                    // pauses.
                     self.master.abort(self.port.now());
                     return Err(DriverError::Io(e));
                 }
