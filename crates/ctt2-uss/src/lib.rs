@@ -1,10 +1,9 @@
 //! `ctt2-uss`: NORD NORDAC LINK drives over AS-Interface CTT2, carrying USS PKW/PZD, sans-IO.
 //!
-//! The crate will hold the CTT2 frame types, the USS parameter (PKW) and process data (PZD)
-//! channels carried in them, their codec and the master and slave state machines. It is a
-//! placeholder for now: the protocol arrives with its own issue.
+//! * [`uss`]: the USS parameter channel (PKW: orders, answers, the plausibility check) and
+//!   process data (PZD), shared by both transports;
 //!
-//! What it builds on is in place:
+//! It builds on:
 //!
 //! * [`drive_core`]: the one time type ([`Instant`](drive_core::Instant)), the
 //!   [`Endpoint`](drive_core::Endpoint) interface of every sans-IO master and slave and the
@@ -16,3 +15,5 @@
 //! and `no_std` without its default `std` feature.
 #![cfg_attr(not(feature = "std"), no_std)]
 #![warn(missing_docs)]
+
+pub mod uss;

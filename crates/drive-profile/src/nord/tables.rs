@@ -125,7 +125,7 @@ impl Transition {
 }
 
 /// Width of a parameter value in the PKW area.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Width {
     /// 16 bit, carried in PWE2.
     Word,
