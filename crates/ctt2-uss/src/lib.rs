@@ -2,6 +2,8 @@
 //!
 //! * [`uss`]: the USS parameter channel (PKW: orders, answers, the plausibility check) and
 //!   process data (PZD), shared by both transports;
+//! * [`client`] (feature `tokio`): the master logic both transports share — orders to their
+//!   plausible answers, reads and writes, control through the state machine;
 //!
 //! It builds on:
 //!
@@ -16,4 +18,6 @@
 #![cfg_attr(not(feature = "std"), no_std)]
 #![warn(missing_docs)]
 
+#[cfg(feature = "tokio")]
+pub mod client;
 pub mod uss;
