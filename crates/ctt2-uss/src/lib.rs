@@ -4,6 +4,9 @@
 //!   process data (PZD), shared by both transports;
 //! * [`client`] (feature `tokio`): the master logic both transports share — orders to their
 //!   plausible answers, reads and writes, control through the state machine;
+//! * [`serial`]: USS on RS-485 — telegrams (STX, LGE, ADR, PKW, PZD, BCC), the framing on
+//!   drive-core's receiver, the sans-IO master and slave, the async master (feature `tokio`)
+//!   and simulated NORD drives on a line (feature `sim`);
 //!
 //! It builds on:
 //!
@@ -20,4 +23,5 @@
 
 #[cfg(feature = "tokio")]
 pub mod client;
+pub mod serial;
 pub mod uss;
