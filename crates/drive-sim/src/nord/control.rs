@@ -43,7 +43,15 @@ struct Inputs {
     enable_left: bool,
     disable_voltage: bool,
     quick_stop: bool,
-    fault_ack: bool,
+    /// One bit per input with the function "fault acknowledgement" that is high.
+    fault_ack: u8,
+}
+
+impl Inputs {
+    /// Whether a fault-acknowledgement input rose from `before` to `self`.
+    fn fault_ack_edge(self, before: Inputs) -> bool {
+        self.fault_ack & !before.fault_ack != 0
+    }
 }
 
 impl SimulatedNord {
@@ -63,7 +71,7 @@ impl SimulatedNord {
         let previous = self.stw.replace(control);
         let after = self.inputs();
         let bit7_edge = control & FAULT_RESET != 0 && previous.is_none_or(|p| p & FAULT_RESET == 0);
-        if (self.bus_controlled() && bit7_edge) || (after.fault_ack && !before.fault_ack) {
+        if (self.bus_controlled() && bit7_edge) || after.fault_ack_edge(before) {
             self.fault_reset();
         }
         self.evaluate(now);
@@ -75,7 +83,7 @@ impl SimulatedNord {
         self.tick(now);
         let before = self.inputs();
         self.busio_in = bits & 0x1F;
-        if self.inputs().fault_ack && !before.fault_ack {
+        if self.inputs().fault_ack_edge(before) {
             self.fault_reset();
         }
         self.evaluate(now);
@@ -290,14 +298,14 @@ impl SimulatedNord {
             (self.element(480, 10), stw_bit(8)),
             (self.element(480, 11), stw_bit(9)),
         ];
-        for (function, level) in busio.chain(bits) {
+        for (i, (function, level)) in (0u8..).zip(busio.chain(bits)) {
             let Some(level) = level else { continue };
             match function {
                 din::ENABLE_RIGHT => inputs.enable_right |= level,
                 din::ENABLE_LEFT => inputs.enable_left |= level,
                 din::DISABLE_VOLTAGE => inputs.disable_voltage |= !level,
                 din::QUICK_STOP => inputs.quick_stop |= !level,
-                din::FAULT_ACK => inputs.fault_ack |= level,
+                din::FAULT_ACK => inputs.fault_ack |= u8::from(level) << i,
                 _ => {}
             }
         }
