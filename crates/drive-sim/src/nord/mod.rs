@@ -89,8 +89,9 @@
 //!     0 Hz (erratum E14). 7b and 10b (quick stop without output voltage) are immediate.
 //!   * 13 [`SimulatedNord::raise_fault`] → fault reaction active (G); 14 after
 //!     [`FAULT_REACTION_TIME`] → fault (H); 15 a 0 → 1 edge of control bit 7 (bus control) or
-//!     of a BusIO bit with function "fault acknowledgement" (any control source) → switch-on
-//!     disabled. The cause is always gone in the simulator. An edge during the fault reaction
+//!     of a BusIO bit with function "fault acknowledgement" (any control source; each input's
+//!     own edge counts) → switch-on disabled. The first valid control word counts as following
+//!     a word with bit 7 = 0. The cause is always gone in the simulator. An edge during the fault reaction
 //!     is ignored. A fault while G or H is active is ignored.
 //!   * [`SimulatedNord::transition_log`] lists the transitions taken, by the table's ids.
 //! * **Setpoint:** the first setpoint whose P546 function is 1 "setpoint frequency" (default
