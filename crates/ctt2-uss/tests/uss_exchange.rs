@@ -154,7 +154,7 @@ fn broadcast_is_executed_by_all_and_answered_by_none() {
     assert_eq!(events, vec![MasterEvent::Sent]);
     // The master is done once it is sent; the drives take it once the start delay of silence
     // after it confirmed its end.
-    bus.now = bus.now + line().char_times(2, 1);
+    bus.now += line().char_times(2, 1);
     for s in &mut bus.slaves {
         s.handle_timeout(bus.now);
     }
@@ -221,10 +221,7 @@ fn fix_bcc(b: &mut [u8; MAX_TELEGRAM], n: usize) {
 #[test]
 fn wrong_answers_are_rejected_and_the_telegram_sent_again() {
     let t = telegram(Adr::new(addr(7)), read(102));
-    let cases: [(
-        fn(&mut [u8; MAX_TELEGRAM], usize) -> Option<usize>,
-        RejectReason,
-    ); 4] = [
+    let cases: [(bus::Tamper, RejectReason); 4] = [
         // Another address.
         (
             |b, n| {

@@ -173,9 +173,8 @@ impl<B: Backend> Bus<B> {
                         Some(f) => f(&mut buf, n),
                         None => Some(n),
                     };
-                    match n {
-                        Some(n) => self.put(&buf[..n], Some(k)),
-                        None => {}
+                    if let Some(n) = n {
+                        self.put(&buf[..n], Some(k));
                     }
                     sent = true;
                     break;
