@@ -436,9 +436,10 @@ async fn a_drop_and_an_insert_in_one_telegram_escape_about_one_in_256() {
         expected,
         rate
     );
-    assert_eq!(
-        t.accepted - t.escaped,
-        t.sent - t.faulted,
+    // Every clean telegram is accepted; a few faulted ones arrive unchanged (a character
+    // dropped and the same byte inserted in its place).
+    assert!(
+        t.accepted - t.escaped >= t.sent - t.faulted,
         "clean telegrams accepted"
     );
     assert!(t.escaped > 0, "the class exists");
