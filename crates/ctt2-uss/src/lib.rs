@@ -2,7 +2,7 @@
 //!
 //! * [`uss`]: the USS parameter channel (PKW: orders, answers, the plausibility check) and
 //!   process data (PZD), shared by both transports;
-//! * [`client`] (feature `tokio`): the master logic both transports share — orders to their
+//! * `client` (feature `tokio`): the master logic both transports share — orders to their
 //!   plausible answers, reads and writes, control through the state machine;
 //! * [`serial`]: USS on RS-485 — telegrams (STX, LGE, ADR, PKW, PZD, BCC), the framing on
 //!   drive-core's receiver, the sans-IO master and slave, the async master (feature `tokio`)
