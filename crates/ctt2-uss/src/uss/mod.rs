@@ -9,3 +9,6 @@ pub use pkw::{
     DriveError, Ind, Order, OrderKind, PKW_LEN, Pke, Pkw, PkwError, Plausibility, Reply, Storage,
 };
 pub use pzd::{PzdError, PzdIn, PzdOut};
+
+#[cfg(test)]
+mod tests;
