@@ -168,11 +168,20 @@ async fn refusals_are_typed_and_stuck_drives_give_up() {
             .await,
         Err(ClientError::Pkw(_))
     ));
-    let bad = Address {
-        pnu: 543,
-        element: Some(64),
-        set: 0,
-    };
-    assert!(matches!(stuck.read(bad).await, Err(ClientError::Pkw(_))));
+    // P102 has parameter sets: its elements end at 63. P543 has none: set 2 does not exist.
+    for bad in [
+        Address {
+            pnu: 102,
+            element: Some(64),
+            set: 0,
+        },
+        Address {
+            pnu: 543,
+            element: Some(1),
+            set: 1,
+        },
+    ] {
+        assert!(matches!(stuck.read(bad).await, Err(ClientError::Pkw(_))));
+    }
     assert_eq!(stuck.channel().submitted.len(), sent);
 }

@@ -6,7 +6,9 @@
 use drive_profile::nord::{ControlWord, StatusWord, Width};
 
 use super::DriveError;
-use super::pkw::{Ind, Order, OrderKind, Pke, Pkw, PkwError, Plausibility, Reply, Storage};
+use super::pkw::{
+    Ind, IndLayout, Order, OrderKind, Pke, Pkw, PkwError, Plausibility, Reply, Storage,
+};
 use super::pzd::{PzdError, PzdIn, PzdOut, position_from_words, position_to_words};
 
 /// 5.1.3 "Parameter ändern": P102 = 10 s in parameter set 3, with IND corrected as erratum E4
@@ -107,6 +109,29 @@ fn manual_4_6_1_2_ind_examples() {
     assert_eq!(Ind::subindex(0x57).sub(), 0x57);
     assert_eq!(Ind::new(64, 0), None);
     assert_eq!(Ind::new(0, 4), None);
+}
+
+/// 4.6.1.2: a parameter without parameter sets takes bits 8–15 as its sub-index; one with
+/// parameter sets has the set in bits 8–9 and the element in bits 10–15.
+#[test]
+fn ind_layout_follows_the_table() {
+    assert_eq!(IndLayout::of_pnu(102), IndLayout::ParameterSets); // P102 per parameter set
+    assert_eq!(IndLayout::of_pnu(543), IndLayout::Subindex); // P543 [-01]..[-03], no sets
+    assert_eq!(IndLayout::of_pnu(2000), IndLayout::Subindex); // not in the table
+    // P543 [-02]: sub-index 1 in bits 8–15.
+    assert_eq!(Ind::address(IndLayout::Subindex, 1, 0), Some(Ind(0x0100)));
+    assert_eq!(Ind(0x0100).split(IndLayout::Subindex, true), (1, 0));
+    assert_eq!(Ind(0x0100).split(IndLayout::Subindex, false), (0, 0));
+    assert_eq!(Ind::address(IndLayout::Subindex, 1, 1), None);
+    assert_eq!(Ind::address(IndLayout::Subindex, 255, 0), Some(Ind(0xFF00)));
+    // P102 set 3, and element [-06] of set 2 (the manual's first IND example).
+    assert_eq!(
+        Ind::address(IndLayout::ParameterSets, 0, 2),
+        Some(Ind(0x0200))
+    );
+    assert_eq!(Ind(0x1500).split(IndLayout::ParameterSets, true), (5, 1));
+    assert_eq!(Ind(0x1500).split(IndLayout::ParameterSets, false), (0, 1));
+    assert_eq!(Ind::address(IndLayout::ParameterSets, 64, 0), None);
 }
 
 #[test]
