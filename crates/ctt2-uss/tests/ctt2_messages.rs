@@ -2,12 +2,14 @@
 //! comment per byte), the length and index rules of 4.3.5, erratum E3 (157, and 177 as an
 //! alias), and property tests (round trips, decoders never panic).
 
+#![allow(clippy::unwrap_used, clippy::indexing_slicing, clippy::panic)]
+
+use ctt2_uss::ctt2::message::{code, error_code, ok_code, request_code};
 use ctt2_uss::ctt2::object::{DIAGNOSIS_OBJECT_LEN, ID_OBJECT_LEN};
 use ctt2_uss::ctt2::{
     Channel, DRIVE_ADDRESS, Data, DecodeError, DiagnosisCode, DiagnosisObject, EncodeError,
     ErrorCode, IdObject, MAX_DATA, ObjectError, Request, Response, StandardIndex,
 };
-use ctt2_uss::ctt2::message::{code, error_code, ok_code, request_code};
 use ctt2_uss::uss::{Ind, Pkw, PzdIn, PzdOut};
 use drive_profile::nord::{self, ControlWord, Ctt2MessageType, Ctt2Role, StatusWord};
 use proptest::prelude::*;
@@ -35,8 +37,14 @@ fn ok(kind: Ctt2MessageType, data: &[u8]) -> Response {
 fn codes_agree_with_the_generated_table() {
     use Ctt2MessageType::*;
     for kind in [StandardRead, NordRead, NordWrite, NordWriteRead] {
-        assert_eq!(Some(request_code(kind)), nord::ctt2_code(kind, Ctt2Role::Request));
-        assert_eq!(Some(ok_code(kind)), nord::ctt2_code(kind, Ctt2Role::ResponseOk));
+        assert_eq!(
+            Some(request_code(kind)),
+            nord::ctt2_code(kind, Ctt2Role::Request)
+        );
+        assert_eq!(
+            Some(ok_code(kind)),
+            nord::ctt2_code(kind, Ctt2Role::ResponseOk)
+        );
         assert_eq!(
             Some(error_code(kind)),
             nord::ctt2_code(kind, Ctt2Role::ResponseError)
@@ -57,7 +65,11 @@ fn codes_agree_with_the_generated_table() {
         assert_eq!(c.max_len(), row.max_len);
         assert_eq!(c.has_address(), row.address);
         for len in 0..=20u8 {
-            assert_eq!(c.write_len_ok(len), row.write_lengths.contains(&len), "{c:?} {len}");
+            assert_eq!(
+                c.write_len_ok(len),
+                row.write_lengths.contains(&len),
+                "{c:?} {len}"
+            );
         }
     }
     for e in 1..=5 {
@@ -179,7 +191,10 @@ fn manual_4_3_1_diagnosis_object() {
     let d = DiagnosisObject::decode(data.as_slice()).unwrap();
     assert_eq!(d, DiagnosisObject::new(DiagnosisCode::NoFault, 0, 45));
     assert_eq!(d.to_data().as_slice(), &answer[1..]);
-    assert_eq!(d.to_string(), "no fault, fault number 0, microcontroller at 45 °C");
+    assert_eq!(
+        d.to_string(),
+        "no fault, fault number 0, microcontroller at 45 °C"
+    );
     assert_eq!(DiagnosisCode::from_byte(255), DiagnosisCode::Fault);
     assert_eq!(DiagnosisCode::from_byte(7), DiagnosisCode::Other(7));
     assert_eq!(
@@ -418,7 +433,10 @@ fn manual_5_1_examples_in_ctt2() {
     let Response::Ok { data, .. } = Response::decode(&read_answer).unwrap() else {
         panic!()
     };
-    assert_eq!(data.to_pzd_in().unwrap(), PzdIn::new(StatusWord(0x0B31), &[0]));
+    assert_eq!(
+        data.to_pzd_in().unwrap(),
+        PzdIn::new(StatusWord(0x0B31), &[0])
+    );
 
     // 5.1.2: STW 047Fh, SW1 2000h; the answer 0B37h, IW1 2000h.
     let w = Request::NordWrite {
@@ -511,12 +529,19 @@ fn manual_4_3_5_request_errors() {
     let err = |b: &[u8]| Request::decode(b).unwrap_err();
     let answer = |b: &[u8]| enc_resp(&err(b).answer());
     // Error 1: invalid index.
-    assert_eq!(err(&[16, 2, 3]), DecodeError::InvalidIndex { code: 16, index: 2 });
+    assert_eq!(
+        err(&[16, 2, 3]),
+        DecodeError::InvalidIndex { code: 16, index: 2 }
+    );
     assert_eq!(answer(&[16, 3, 3]), [144, 1]);
     assert_eq!(answer(&[18, 0, 3]), [146, 1]);
     assert_eq!(answer(&[19, 5, 0]), [147, 1]);
     assert_eq!(answer(&[29, 48, 8, 8]), [157, 1]);
-    assert_eq!(answer(&[18, 46]), [146, 1], "index checked before the length");
+    assert_eq!(
+        answer(&[18, 46]),
+        [146, 1],
+        "index checked before the length"
+    );
     // Error 2: invalid length.
     assert_eq!(
         err(&[19, 47, 9, 0, 0, 0, 0, 0, 0, 0, 0, 0]),
@@ -527,7 +552,11 @@ fn manual_4_3_5_request_errors() {
         }
     );
     assert_eq!(answer(&[19, 4, 8, 1, 0, 0, 0, 0, 0, 0, 0]), [147, 2]);
-    assert_eq!(answer(&[19, 3, 4, 1, 4, 0x7E, 0]), [147, 2], "half a setpoint");
+    assert_eq!(
+        answer(&[19, 3, 4, 1, 4, 0x7E, 0]),
+        [147, 2],
+        "half a setpoint"
+    );
     assert_eq!(answer(&[19, 3, 1, 1]), [147, 2], "address without STW");
     assert_eq!(
         err(&[19, 3, 5, 1, 4, 0x7E]),
@@ -610,11 +639,15 @@ fn write_data(c: Channel) -> impl Strategy<Value = Data> {
 
 fn request() -> impl Strategy<Value = Request> {
     prop_oneof![
-        (prop_oneof![Just(StandardIndex::Id), Just(StandardIndex::Diagnosis)], any::<u8>())
+        (
+            prop_oneof![Just(StandardIndex::Id), Just(StandardIndex::Diagnosis)],
+            any::<u8>()
+        )
             .prop_map(|(index, len)| Request::StandardRead { index, len }),
         (channel(), any::<u8>()).prop_map(|(index, len)| Request::NordRead { index, len }),
-        channel().prop_flat_map(|c| write_data(c)
-            .prop_map(move |data| Request::NordWrite { index: c, data })),
+        channel().prop_flat_map(
+            |c| write_data(c).prop_map(move |data| Request::NordWrite { index: c, data })
+        ),
         (channel(), any::<u8>()).prop_flat_map(|(c, read_len)| write_data(c).prop_map(
             move |data| Request::NordWriteRead {
                 index: c,

@@ -4,6 +4,8 @@
 //! until the order is done), the process data sequences of 5.1.1 and 5.1.2 through
 //! `NordClient::drive_to`, and the BusIO bits acting as P480/P481 say.
 
+#![allow(clippy::unwrap_used, clippy::indexing_slicing, clippy::panic)]
+
 use std::time::Duration;
 
 use ctt2_uss::client::{Address, ClientConfig, NordClient};
