@@ -10,6 +10,8 @@
 //! * [`serial`]: USS on RS-485 — telegrams (STX, LGE, ADR, PKW, PZD, BCC), the framing on
 //!   drive-core's receiver, the sans-IO master and slave, the async master (feature `tokio`)
 //!   and simulated NORD drives on a line (feature `sim`);
+//! * `sim` (feature `sim`): what both simulated front-ends share — an order carried out on the
+//!   drive model `drive_sim::nord::SimulatedNord`.
 //!
 //! It builds on:
 //!
@@ -28,4 +30,6 @@
 pub mod client;
 pub mod ctt2;
 pub mod serial;
+#[cfg(feature = "sim")]
+pub mod sim;
 pub mod uss;

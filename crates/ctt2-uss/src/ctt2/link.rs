@@ -28,9 +28,9 @@ use super::master::Ctt2Link;
 use super::message::{MAX_RESPONSE, Request};
 use super::object::{DiagnosisCode, DiagnosisObject, IdObject};
 use super::slave::{Backend, DoubleSlave, SlaveConfig};
-use crate::uss::pkw::{DriveError, IndLayout, Order, OrderKind, Reply, Storage};
+use crate::uss::pkw::{Order, Reply};
 use crate::uss::pzd::{PzdIn, PzdOut};
-use drive_profile::nord::{StatusWord, Width};
+use drive_profile::nord::StatusWord;
 
 /// How long the simulated drive works on a parameter order by default (simulator choice: the
 /// manual only says "low priority").
@@ -126,12 +126,6 @@ impl SimulatedDoubleSlave {
     }
 }
 
-/// Array element and parameter set an order addresses (section 4.6.1.2, the one rule of
-/// [`IndLayout`]).
-fn address(order: &Order, array: bool) -> (u8, u8) {
-    order.ind().split(IndLayout::of_pnu(order.pnu()), array)
-}
-
 impl Backend for SimulatedDoubleSlave {
     fn id_object(&mut self, now: Instant) -> IdObject {
         self.drive.tick(now);
@@ -163,50 +157,7 @@ impl Backend for SimulatedDoubleSlave {
     }
 
     fn execute(&mut self, order: Order, now: Instant) -> Reply {
-        let pnu = order.pnu();
-        let refused = |e: drive_sim::nord::PkwRefusal| Reply::Error(DriveError(e.number()));
-        match order.kind() {
-            OrderKind::None => Reply::None,
-            OrderKind::Read { array } => {
-                let (element, set) = address(&order, array);
-                let width = match self.drive.is_double_word(pnu) {
-                    Some(true) => Width::DoubleWord,
-                    _ => Width::Word,
-                };
-                match self.drive.read(pnu, element, set, now) {
-                    Ok(value) => Reply::Value {
-                        width,
-                        array,
-                        value,
-                    },
-                    Err(e) => refused(e),
-                }
-            }
-            OrderKind::Write {
-                width,
-                array,
-                storage,
-                value,
-            } => {
-                let (element, set) = address(&order, array);
-                let eeprom = storage == Storage::Eeprom;
-                match self
-                    .drive
-                    .write_width(pnu, element, set, width, value, eeprom, now)
-                {
-                    Ok(()) => Reply::Value {
-                        width,
-                        array,
-                        value,
-                    },
-                    Err(e) => refused(e),
-                }
-            }
-            OrderKind::Count => match self.drive.array_len(pnu) {
-                Ok(n) => Reply::Count(u16::from(n)),
-                Err(e) => refused(e),
-            },
-        }
+        crate::sim::execute(&mut self.drive, &order, now)
     }
 
     fn pkw_time(&self, _order: &Order) -> Duration {

@@ -13,7 +13,7 @@
 //! | AK | model call | answer |
 //! |---|---|---|
 //! | 0 | none | AK 0 |
-//! | 1, 6 | `read(pnu, element, set)`: element and set by the IND rule of section 4.6.1.2 ([`IndLayout`]: set in bits 8–9 and element in bits 10–15 with parameter sets, else bits 8–15 the element; the element only for AK 6, 7, 8, 11, 12) | AK 1 / 4 with the value |
+//! | 1, 6 | `read(pnu, element, set)`: element and set by the IND rule of section 4.6.1.2 ([`IndLayout`](crate::uss::IndLayout): set in bits 8–9 and element in bits 10–15 with parameter sets, else bits 8–15 the element; the element only for AK 6, 7, 8, 11, 12) | AK 1 / 4 with the value |
 //! | 2, 3, 7, 8 | `write_width(…, eeprom = true)` (P560 decides whether EEPROM is written) | AK 1/2/4/5 repeating the value |
 //! | 11–14 | `write_width(…, eeprom = false)` | as above |
 //! | 9 | `array_len(pnu)` | AK 6 with the count |
@@ -62,12 +62,12 @@ use std::time::Duration;
 
 use drive_core::rt::{self, CharIo, Clock, Timebase};
 use drive_core::{Endpoint, Instant, LineSettings, RxChar};
-use drive_profile::nord::{State, Width};
+use drive_profile::nord::State;
 use drive_sim::nord::SimulatedNord;
 
 use super::slave::{Backend, Slave, SlaveConfig, SlaveEvent};
 use super::telegram::{Layout, MAX_TELEGRAM, UssAddress};
-use crate::uss::pkw::{DriveError, IndLayout, Order, OrderKind, Pkw, Reply, Storage};
+use crate::uss::pkw::{DriveError, Order, Pkw, Reply};
 
 /// How often the model is advanced while something in it runs on time (a ramp, a fault
 /// reaction), between telegrams.
@@ -92,61 +92,12 @@ impl NordBackend {
             State::OperationEnabled | State::QuickStopActive | State::FaultReactionActive
         ) || self.drive.actual_frequency() != 0.0
     }
-
-    fn run(&mut self, order: &Order, now: Instant) -> Reply {
-        let pnu = order.pnu();
-        let refused = |r: drive_sim::nord::PkwRefusal| Reply::Error(DriveError(r.number()));
-        // Element and set by the one IND rule of section 4.6.1.2 (`IndLayout`).
-        let address = |array: bool| order.ind().split(IndLayout::of_pnu(pnu), array);
-        match order.kind() {
-            OrderKind::None => Reply::None,
-            OrderKind::Read { array } => {
-                let (element, set) = address(array);
-                match self.drive.read(pnu, element, set, now) {
-                    Ok(value) => Reply::Value {
-                        width: match self.drive.is_double_word(pnu) {
-                            Some(true) => Width::DoubleWord,
-                            _ => Width::Word,
-                        },
-                        array,
-                        value,
-                    },
-                    Err(r) => refused(r),
-                }
-            }
-            OrderKind::Write {
-                width,
-                array,
-                storage,
-                value,
-            } => match self.drive.write_width(
-                pnu,
-                address(array).0,
-                address(array).1,
-                width,
-                value,
-                storage == Storage::Eeprom,
-                now,
-            ) {
-                Ok(()) => Reply::Value {
-                    width,
-                    array,
-                    value,
-                },
-                Err(r) => refused(r),
-            },
-            OrderKind::Count => match self.drive.array_len(pnu) {
-                Ok(n) => Reply::Count(u16::from(n)),
-                Err(r) => refused(r),
-            },
-        }
-    }
 }
 
 impl Backend for NordBackend {
     fn execute(&mut self, order: &Pkw, now: Instant) -> Pkw {
         let reply = match Order::from_pkw(order) {
-            Ok(o) => self.run(&o, now),
+            Ok(o) => crate::sim::execute(&mut self.drive, &o, now),
             Err(_) => Reply::Error(DriveError(INVALID_ORDER)),
         };
         reply.to_pkw(order.pke.pnu(), order.ind)
