@@ -185,3 +185,19 @@ async fn refusals_are_typed_and_stuck_drives_give_up() {
     }
     assert_eq!(stuck.channel().submitted.len(), sent);
 }
+
+/// Erratum E21: AK 7 fits every order, so the refusal of a write would pass for the answer to a
+/// read of the same parameter and index that follows it, while the drive still works on the
+/// read. The client separates any two orders on one PNU and IND with "no order".
+#[tokio::test]
+async fn a_refusal_is_not_taken_for_the_next_order_on_the_same_parameter() {
+    let mut c = client(2);
+    let at = Address::new(105);
+    assert!(matches!(
+        c.write(at, Width::Word, Storage::Eeprom, 5000).await,
+        Err(ClientError::Drive { .. })
+    ));
+    assert_eq!(c.read(at).await.unwrap(), 500);
+    let aks: Vec<u8> = c.channel().submitted.iter().map(|p| p.pke.ak()).collect();
+    assert_eq!(aks, [2, 0, 1]);
+}
