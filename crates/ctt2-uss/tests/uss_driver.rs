@@ -18,7 +18,7 @@ use std::time::Duration;
 
 use ctt2_uss::client::{Address, ClientConfig, ClientError, NordClient, ParameterChannel};
 use ctt2_uss::serial::driver::{DriverConfig, DriverError, UssMaster};
-use ctt2_uss::serial::sim::{SimulatedBus, SimulatedDrive};
+use ctt2_uss::serial::sim::{self, SimulatedBus, SimulatedDrive};
 use ctt2_uss::serial::{Layout, UssAddress};
 use ctt2_uss::uss::pkw::{Ind, Order, Pke, Pkw, Reply, Storage};
 use drive_core::LineSettings;
@@ -303,7 +303,7 @@ fn bus(addresses: &[u8], to: u8, baud: u32) -> (UssMaster<LinkEnd>, JoinHandle<S
     let line = LineSettings::new(baud);
     let (port, wire) = link::pair(LinkConfig::from_line(line));
     let list: Vec<UssAddress> = addresses.iter().map(|&a| addr(a)).collect();
-    let mut bus = SimulatedBus::new(&list, LAYOUT, line);
+    let mut bus = sim::bus(&list, LAYOUT, line);
     let sim = tokio::spawn(async move {
         bus.serve(wire).await.unwrap();
         bus
@@ -333,7 +333,7 @@ async fn drives_0_to_31_share_one_line() {
     drop(port);
     let bus = sim.await.unwrap();
     for (i, a) in [0u8, 1, 17, 31].into_iter().enumerate() {
-        let d = bus.drive(addr(a)).unwrap();
+        let d = bus.station(a).unwrap();
         assert_eq!(d.drive().ram_value(102, 0, 0), Some(1000 + i as i32));
         assert_eq!(d.stats().rejected, 0);
     }
@@ -362,13 +362,13 @@ async fn broadcast_is_executed_by_every_drive_and_answered_by_none() {
     drop(c);
     let bus = sim.await.unwrap();
     for a in [1u8, 2, 3] {
-        let d = bus.drive(addr(a)).unwrap();
+        let d = bus.station(a).unwrap();
         assert_eq!(d.drive().ram_value(102, 0, 0), Some(1234), "drive {a}");
         assert_eq!(d.stats().broadcasts, 1);
         assert_eq!(d.drive().eeprom_writes(), 0, "AK 14: RAM only");
     }
     assert_eq!(
-        bus.drive(addr(2)).unwrap().stats().telegrams,
+        bus.station(2).unwrap().stats().telegrams,
         0,
         "nobody answered"
     );
@@ -383,10 +383,10 @@ async fn a_mirror_telegram_comes_back_unchanged_and_executes_nothing() {
     assert_eq!(echo.pzd(), &[0, 0, 0, 0]);
     drop(m);
     let bus = sim.await.unwrap();
-    let d5 = bus.drive(addr(5)).unwrap();
+    let d5 = bus.station(5).unwrap();
     assert_eq!(d5.stats().mirrored, 1);
     assert_eq!((d5.stats().telegrams, d5.stats().orders), (0, 0));
-    assert_eq!(bus.drive(addr(6)).unwrap().stats().mirrored, 0);
+    assert_eq!(bus.station(6).unwrap().stats().mirrored, 0);
 }
 
 /// A port that logs every character it receives with its arrival time.
