@@ -2,36 +2,17 @@
 //! allocator sees no allocation while they run (this binary has no other tests, so no other
 //! thread allocates meanwhile).
 
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::sync::atomic::{AtomicUsize, Ordering};
-
 use bonfiglioli_modbus::frame::{Address, ExceptionCode, Request, Response, StartAddress};
 use bonfiglioli_modbus::framing::{
     MAX_FRAME, ModbusFraming, Mode, Receiver, RxEvent, Side, decode_frame, encode_request,
     encode_response,
 };
 use bonfiglioli_modbus::pdu::MAX_PDU;
+use drive_core::alloc_count::CountingAllocator;
 use drive_core::{Instant, LineSettings, RxChar};
 
-struct Counting;
-
-static ALLOCATIONS: AtomicUsize = AtomicUsize::new(0);
-
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        ALLOCATIONS.fetch_add(1, Ordering::SeqCst);
-        // SAFETY: forwarded unchanged to the system allocator.
-        unsafe { System.alloc(layout) }
-    }
-
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        // SAFETY: forwarded unchanged to the system allocator.
-        unsafe { System.dealloc(ptr, layout) }
-    }
-}
-
 #[global_allocator]
-static GLOBAL: Counting = Counting;
+static GLOBAL: CountingAllocator = CountingAllocator;
 
 #[test]
 fn nothing_allocates() {
@@ -53,7 +34,7 @@ fn nothing_allocates() {
         Receiver::new(ModbusFraming::new(Mode::Rtu, Side::Master, &line)),
         Receiver::new(ModbusFraming::new(Mode::Ascii, Side::Master, &line)),
     ];
-    let before = ALLOCATIONS.load(Ordering::SeqCst);
+    let before = CountingAllocator::count();
 
     let mut frames = 0usize;
     let mut t = 0u64;
@@ -87,7 +68,7 @@ fn nothing_allocates() {
         }
     }
 
-    let after = ALLOCATIONS.load(Ordering::SeqCst);
+    let after = CountingAllocator::count();
     assert_eq!(frames, 4, "every frame received");
     assert_eq!(
         after - before,

@@ -4,9 +4,6 @@
 
 #![allow(clippy::unwrap_used, clippy::indexing_slicing, clippy::panic)]
 
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::sync::atomic::{AtomicUsize, Ordering};
-
 use bonfiglioli_modbus::frame::{
     Address, DataSet, DiagSubFunction, Request, Response, StartAddress,
 };
@@ -16,39 +13,17 @@ use bonfiglioli_modbus::framing::{
 use bonfiglioli_modbus::master::{Master, MasterConfig, MasterEvent};
 use bonfiglioli_modbus::pdu::MAX_PDU;
 use bonfiglioli_modbus::slave::{Slave, SlaveConfig, Width};
+use drive_core::alloc_count::CountingAllocator;
 use drive_core::{Instant, LineSettings, RxChar};
 
 #[path = "../benches/common/bus.rs"]
 mod bus;
 
-struct Counting;
-
-static ALLOCATIONS: AtomicUsize = AtomicUsize::new(0);
-
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        ALLOCATIONS.fetch_add(1, Ordering::SeqCst);
-        // SAFETY: forwarded unchanged to the system allocator.
-        unsafe { System.alloc(layout) }
-    }
-
-    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        ALLOCATIONS.fetch_add(1, Ordering::SeqCst);
-        // SAFETY: forwarded unchanged to the system allocator.
-        unsafe { System.realloc(ptr, layout, new_size) }
-    }
-
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        // SAFETY: forwarded unchanged to the system allocator.
-        unsafe { System.dealloc(ptr, layout) }
-    }
-}
-
 #[global_allocator]
-static GLOBAL: Counting = Counting;
+static GLOBAL: CountingAllocator = CountingAllocator;
 
 fn allocations() -> usize {
-    ALLOCATIONS.load(Ordering::SeqCst)
+    CountingAllocator::count()
 }
 
 #[test]

@@ -4,8 +4,7 @@
 
 #![allow(clippy::unwrap_used, clippy::indexing_slicing, clippy::panic)]
 
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::sync::atomic::{AtomicUsize, Ordering};
+use drive_core::alloc_count::CountingAllocator;
 use std::time::Duration;
 
 use ctt2_uss::ctt2::{
@@ -16,25 +15,8 @@ use ctt2_uss::uss::{Ind, Order, PzdIn, PzdOut, Reply, Storage};
 use drive_core::Instant;
 use drive_profile::nord::{ControlWord, StatusWord, Width};
 
-struct Counting;
-
-static ALLOCATIONS: AtomicUsize = AtomicUsize::new(0);
-
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        ALLOCATIONS.fetch_add(1, Ordering::SeqCst);
-        // SAFETY: forwarded unchanged to the system allocator.
-        unsafe { System.alloc(layout) }
-    }
-
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        // SAFETY: forwarded unchanged to the system allocator.
-        unsafe { System.dealloc(ptr, layout) }
-    }
-}
-
 #[global_allocator]
-static GLOBAL: Counting = Counting;
+static GLOBAL: CountingAllocator = CountingAllocator;
 
 /// A drive that answers at once and echoes what it is told.
 struct Echo {
@@ -84,7 +66,7 @@ fn nothing_allocates() {
     )
     .unwrap();
     let mut slave = DoubleSlave::new(Echo { control: 0 }, SlaveConfig::default());
-    let before = ALLOCATIONS.load(Ordering::SeqCst);
+    let before = CountingAllocator::count();
 
     let requests = [
         Request::StandardRead {
@@ -140,7 +122,7 @@ fn nothing_allocates() {
     let _ = Request::decode(&[17, 0, 3]).unwrap_err().answer();
     let _ = Response::decode(&[177, 2]).unwrap();
 
-    let after = ALLOCATIONS.load(Ordering::SeqCst);
+    let after = CountingAllocator::count();
     assert_eq!(
         answers, 30,
         "every request answered (5 × 3, each with an error 5)"

@@ -13,35 +13,16 @@
 #[path = "uss_common/bus.rs"]
 mod bus;
 
-use std::alloc::{GlobalAlloc, Layout as AllocLayout, System};
-use std::sync::atomic::{AtomicUsize, Ordering};
-
 use ctt2_uss::serial::framing::{Side, UssFraming, UssReceiver};
 use ctt2_uss::serial::master::{Master, MasterConfig, MasterEvent};
 use ctt2_uss::serial::slave::{Slave, SlaveConfig};
 use ctt2_uss::serial::telegram::{Adr, Layout, MAX_TELEGRAM, Telegram, UssAddress};
 use ctt2_uss::uss::pkw::{Ind, Order};
+use drive_core::alloc_count::CountingAllocator;
 use drive_core::{Instant, LineSettings, RxChar, RxEvent};
 
-struct Counting;
-
-static ALLOCATIONS: AtomicUsize = AtomicUsize::new(0);
-
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: AllocLayout) -> *mut u8 {
-        ALLOCATIONS.fetch_add(1, Ordering::SeqCst);
-        // SAFETY: forwarded unchanged to the system allocator.
-        unsafe { System.alloc(layout) }
-    }
-
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: AllocLayout) {
-        // SAFETY: forwarded unchanged to the system allocator.
-        unsafe { System.dealloc(ptr, layout) }
-    }
-}
-
 #[global_allocator]
-static GLOBAL: Counting = Counting;
+static GLOBAL: CountingAllocator = CountingAllocator;
 
 #[test]
 fn nothing_allocates() {
@@ -62,7 +43,7 @@ fn nothing_allocates() {
             bus::Store::default(),
         )],
     );
-    let before = ALLOCATIONS.load(Ordering::SeqCst);
+    let before = CountingAllocator::count();
 
     let mut frames = 0usize;
     let mut t = 0u64;
@@ -100,7 +81,7 @@ fn nothing_allocates() {
         }));
     }
 
-    let after = ALLOCATIONS.load(Ordering::SeqCst);
+    let after = CountingAllocator::count();
     assert_eq!(frames, 3, "every telegram received");
     assert_eq!(answers, 100, "every read answered");
     assert_eq!(

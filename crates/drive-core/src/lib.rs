@@ -24,6 +24,8 @@
 #![cfg_attr(not(feature = "std"), no_std)]
 #![warn(missing_docs)]
 
+#[cfg(feature = "alloc-count")]
+pub mod alloc_count;
 pub mod char;
 pub mod endpoint;
 pub mod exchange;

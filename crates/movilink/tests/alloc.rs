@@ -2,34 +2,15 @@
 //! allocator sees no allocation while they run (this binary has no other tests, so no other
 //! thread allocates meanwhile).
 
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::sync::atomic::{AtomicUsize, Ordering};
-
+use drive_core::alloc_count::CountingAllocator;
 use movilink::timing::Instant;
 use movilink::{
     Address, Master, MasterConfig, MasterEvent, ParamChannel, PduType, Receiver, RequestContext,
     ReturnCode, RxChar, Slave, SlaveConfig, Telegram, decode, encode,
 };
 
-struct Counting;
-
-static ALLOCATIONS: AtomicUsize = AtomicUsize::new(0);
-
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        ALLOCATIONS.fetch_add(1, Ordering::SeqCst);
-        // SAFETY: forwarded unchanged to the system allocator.
-        unsafe { System.alloc(layout) }
-    }
-
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        // SAFETY: forwarded unchanged to the system allocator.
-        unsafe { System.dealloc(ptr, layout) }
-    }
-}
-
 #[global_allocator]
-static GLOBAL: Counting = Counting;
+static GLOBAL: CountingAllocator = CountingAllocator;
 
 struct Drive(u32);
 
@@ -49,7 +30,7 @@ fn nothing_allocates() {
     let mut master = Master::new(MasterConfig::default());
     let mut slave = Slave::new(SlaveConfig::new(a), Drive(0));
     let mut rx = Receiver::new(movilink::TelegramFraming::slave(a, Address::NO_GROUP));
-    let before = ALLOCATIONS.load(Ordering::SeqCst);
+    let before = CountingAllocator::count();
 
     let mut sum = 0usize;
     for (i, t) in PduType::ALL.into_iter().enumerate() {
@@ -103,7 +84,7 @@ fn nothing_allocates() {
         }
     }
 
-    let after = ALLOCATIONS.load(Ordering::SeqCst);
+    let after = CountingAllocator::count();
     assert_eq!(done, Some(Ok(5)));
     assert!(sum > 0);
     assert_eq!(
