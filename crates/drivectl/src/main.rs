@@ -15,6 +15,7 @@ mod demo;
 mod error;
 mod examples;
 mod movilink;
+mod nord;
 mod params;
 mod ports;
 
