@@ -2,8 +2,14 @@
 //!
 //! * [`uss`]: the USS parameter channel (PKW: orders, answers, the plausibility check) and
 //!   process data (PZD), shared by both transports;
+//! * [`ctt2`]: CTT2 over AS-Interface — messages, ID/diagnosis objects, PKW/PZD in channel
+//!   data, the double slave (sans-IO), AS-i addresses, BusIO bits and transfer times; with
+//!   feature `tokio` the CTT2 master over a user's AS-i link, with `sim` an in-memory link;
 //! * [`client`] (feature `tokio`): the master logic both transports share — orders to their
 //!   plausible answers, reads and writes, control through the state machine;
+//! * [`serial`]: USS on RS-485 — telegrams (STX, LGE, ADR, PKW, PZD, BCC), the framing on
+//!   drive-core's receiver, the sans-IO master and slave, the async master (feature `tokio`)
+//!   and simulated NORD drives on a line (feature `sim`);
 //!
 //! It builds on:
 //!
@@ -20,4 +26,6 @@
 
 #[cfg(feature = "tokio")]
 pub mod client;
+pub mod ctt2;
+pub mod serial;
 pub mod uss;

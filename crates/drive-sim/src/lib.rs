@@ -13,7 +13,10 @@
 //! * [`SimDrive`]: all of the above, advanced with [`SimDrive::tick`].
 //! * Family models on top: [`movidrive::Movidrive`] (SEW MOVIDRIVE) and
 //!   [`bonfiglioli::SimulatedBonfiglioli`] (Bonfiglioli ACT / ACU, parameters by number, data
-//!   set and width, refusals as Modbus exception + VABus error register).
+//!   set and width, refusals as Modbus exception + VABus error register) and
+//!   [`nord::SimulatedNord`] (NORD NORDAC LINK SK 270E/280E-FDS: parameters by PNU, array
+//!   element and parameter set, refusals as USS PWE2 error numbers, process data, AS-i BusIO
+//!   bits).
 //!
 //! # Time
 //!
@@ -90,6 +93,7 @@ mod drive;
 mod error;
 pub mod inject;
 pub mod movidrive;
+pub mod nord;
 pub mod ramp;
 pub mod state;
 pub mod store;

@@ -1,0 +1,420 @@
+//! An in-memory AS-i link to a simulated NORDAC LINK (feature `sim`): the double slave
+//! ([`DoubleSlave`]) in front of [`SimulatedDoubleSlave`] (the CTT2 front-end on
+//! [`drive_sim::nord::SimulatedNord`]), on an [`AsiNetwork`] whose size sets the CTT2 transfer
+//! time (section 4.4: 16 × 154 µs × (2 + slaves) per byte), on tokio's clock.
+//!
+//! [`SimLink`] is a [`Ctt2Link`], so a [`Ctt2Master`](super::master::Ctt2Master) and a
+//! [`NordClient`](crate::client::NordClient) run on it unchanged. A transaction takes the
+//! request's bytes × byte time, then the drive's answer time, then the answer's bytes × byte
+//! time. The link keeps that time exactly (tokio's timers tick in whole milliseconds, the byte
+//! time does not); [`SimLink::now`] is that time.
+//!
+//! Knobs for tests: [`SimLink::send`] and [`SimLink::receive`] separately (a second request
+//! before the first was answered gets error 5), [`SimulatedDoubleSlave::set_answer_time`]
+//! (slower than 200 ms: error 4), [`SimulatedDoubleSlave::set_pkw_time`] (how long the drive
+//! works on a parameter order), [`SimLink::exchange_busio`] (one AS-i cycle of the BusIO
+//! bits).
+
+use core::time::Duration;
+
+use drive_core::Instant;
+use drive_profile::nord;
+use drive_sim::nord::{CONFIGURATION_LEVEL, SimulatedNord};
+
+use super::asi::{
+    AsiAddress, AsiNetwork, Bank, BusIoIn, BusIoOut, DoubleSlaveAddress, DoubleSlaveId,
+    NetworkError, SlaveAddress,
+};
+use super::master::Ctt2Link;
+use super::message::{MAX_RESPONSE, Request};
+use super::object::{DiagnosisCode, DiagnosisObject, IdObject};
+use super::slave::{Backend, DoubleSlave, SlaveConfig};
+use crate::uss::pkw::{DriveError, Order, OrderKind, Reply, Storage};
+use crate::uss::pzd::{PzdIn, PzdOut};
+use drive_profile::nord::{StatusWord, Width};
+
+/// How long the simulated drive works on a parameter order by default (simulator choice: the
+/// manual only says "low priority").
+pub const SIM_PKW_TIME: Duration = Duration::from_millis(50);
+
+/// The ID object of the simulated drive (simulator values, except the manufacturer ID of the
+/// manual's example: 1, 137).
+pub const SIM_ID_OBJECT: [u8; 14] = [
+    1,                         // manufacturer ID, high byte (example 4.3.1)
+    137,                       // manufacturer ID, low byte
+    0x02,                      // device ID, high byte (simulator)
+    0x80,                      // device ID, low byte
+    0x07,                      // I/O configuration (profile S-7.A.x.x)
+    0x01,                      // AS-i mode (simulator)
+    0x10,                      // AS-i firmware version (simulator)
+    0x01,                      // drive firmware version
+    0x00,                      // drive firmware revision
+    0x00,                      // power, high byte (simulator: 0.55 kW in 10 W)
+    0x37,                      // power, low byte
+    0x01,                      // voltage range (simulator)
+    0x00,                      // configuration level, high byte
+    CONFIGURATION_LEVEL as u8, // configuration level, low byte (P744 of the simulated drive)
+];
+
+/// The microcontroller temperature the simulated drive reports (the manual's example: 45).
+pub const SIM_TEMPERATURE: u8 = 45;
+
+/// The simulated drive behind the double slave: [`SimulatedNord`] with the ID and diagnosis
+/// objects and the timing knobs.
+#[derive(Debug)]
+pub struct SimulatedDoubleSlave {
+    drive: SimulatedNord,
+    id: IdObject,
+    temperature: u8,
+    answer_time: Duration,
+    pkw_time: Duration,
+}
+
+impl Default for SimulatedDoubleSlave {
+    fn default() -> Self {
+        Self::new(SimulatedNord::new())
+    }
+}
+
+impl SimulatedDoubleSlave {
+    /// The double slave of `drive`, answering at once and working [`SIM_PKW_TIME`] on a
+    /// parameter order.
+    pub fn new(drive: SimulatedNord) -> Self {
+        Self {
+            drive,
+            id: IdObject::from_bytes(&SIM_ID_OBJECT),
+            temperature: SIM_TEMPERATURE,
+            answer_time: Duration::ZERO,
+            pkw_time: SIM_PKW_TIME,
+        }
+    }
+
+    /// The drive.
+    pub fn drive(&self) -> &SimulatedNord {
+        &self.drive
+    }
+
+    /// The drive, mutable.
+    pub fn drive_mut(&mut self) -> &mut SimulatedNord {
+        &mut self.drive
+    }
+
+    /// From a complete request to the start of the answer (longer than 200 ms: error 4).
+    pub fn set_answer_time(&mut self, t: Duration) {
+        self.answer_time = t;
+    }
+
+    /// How long the drive works on a parameter order.
+    pub fn set_pkw_time(&mut self, t: Duration) {
+        self.pkw_time = t;
+    }
+
+    /// The ID object reported.
+    pub fn set_id_object(&mut self, id: IdObject) {
+        self.id = id;
+    }
+
+    /// The microcontroller temperature reported.
+    pub fn set_temperature(&mut self, t: u8) {
+        self.temperature = t;
+    }
+
+    fn pzd_in(&self) -> PzdIn {
+        PzdIn::new(
+            StatusWord(self.drive.status_word()),
+            &self.drive.actual_values(),
+        )
+    }
+}
+
+/// Array element and parameter set an order addresses (section 4.6.1.2): a parameter-set
+/// parameter takes its set from IND bits 8–9 and, with an array order (AK 6, 7, 8, 11, 12), its
+/// element from bits 10–15; any other parameter takes bits 8–15 as its element, and only with
+/// an array order.
+fn address(order: &Order, array: bool) -> (u8, u8) {
+    let ind = order.ind();
+    let set_param = nord::by_index(order.pnu()).is_some_and(|p| p.parameter_set);
+    match (set_param, array) {
+        (true, true) => (ind.element(), ind.set()),
+        (true, false) => (0, ind.set()),
+        (false, true) => (ind.sub(), 0),
+        (false, false) => (0, 0),
+    }
+}
+
+impl Backend for SimulatedDoubleSlave {
+    fn id_object(&mut self, now: Instant) -> IdObject {
+        self.drive.tick(now);
+        self.id
+    }
+
+    fn diagnosis(&mut self, now: Instant) -> DiagnosisObject {
+        self.drive.tick(now);
+        let fault = self.drive.fault();
+        DiagnosisObject::new(
+            if fault == 0 {
+                DiagnosisCode::NoFault
+            } else {
+                DiagnosisCode::Fault
+            },
+            fault.min(255) as u8,
+            self.temperature,
+        )
+    }
+
+    fn process(&mut self, out: PzdOut, now: Instant) -> PzdIn {
+        self.drive.process(out.control().0, out.setpoints(), now);
+        self.pzd_in()
+    }
+
+    fn process_data(&mut self, now: Instant) -> PzdIn {
+        self.drive.tick(now);
+        self.pzd_in()
+    }
+
+    fn execute(&mut self, order: Order, now: Instant) -> Reply {
+        let pnu = order.pnu();
+        let refused = |e: drive_sim::nord::PkwRefusal| Reply::Error(DriveError(e.number()));
+        match order.kind() {
+            OrderKind::None => Reply::None,
+            OrderKind::Read { array } => {
+                let (element, set) = address(&order, array);
+                let width = match self.drive.is_double_word(pnu) {
+                    Some(true) => Width::DoubleWord,
+                    _ => Width::Word,
+                };
+                match self.drive.read(pnu, element, set, now) {
+                    Ok(value) => Reply::Value {
+                        width,
+                        array,
+                        value,
+                    },
+                    Err(e) => refused(e),
+                }
+            }
+            OrderKind::Write {
+                width,
+                array,
+                storage,
+                value,
+            } => {
+                let (element, set) = address(&order, array);
+                let eeprom = storage == Storage::Eeprom;
+                match self
+                    .drive
+                    .write_width(pnu, element, set, width, value, eeprom, now)
+                {
+                    Ok(()) => Reply::Value {
+                        width,
+                        array,
+                        value,
+                    },
+                    Err(e) => refused(e),
+                }
+            }
+            OrderKind::Count => match self.drive.array_len(pnu) {
+                Ok(n) => Reply::Count(u16::from(n)),
+                Err(e) => refused(e),
+            },
+        }
+    }
+
+    fn pkw_time(&self, _order: &Order) -> Duration {
+        self.pkw_time
+    }
+
+    fn answer_time(&self, _request: &Request) -> Duration {
+        self.answer_time
+    }
+}
+
+/// What can go wrong on a [`SimLink`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[non_exhaustive]
+pub enum SimLinkError {
+    /// [`SimLink::receive`] without a request waiting for its answer.
+    #[error("no request is waiting for an answer")]
+    NoRequest,
+    /// The answer buffer is too small.
+    #[error("answer buffer of {got} bytes is too small for {needed}")]
+    BufferTooSmall {
+        /// Bytes needed.
+        needed: usize,
+        /// Bytes available.
+        got: usize,
+    },
+}
+
+/// An AS-i link to one simulated double slave on an [`AsiNetwork`] (see the
+/// [module docs](self)).
+#[derive(Debug)]
+pub struct SimLink {
+    slave: DoubleSlave<SimulatedDoubleSlave>,
+    network: AsiNetwork,
+    id: DoubleSlaveId,
+    epoch: tokio::time::Instant,
+    clock: Instant,
+    waiting: usize,
+}
+
+/// tokio's timer resolution: the link's exact time is at most this far behind tokio's clock
+/// after a wait.
+const TIMER_RESOLUTION: Duration = Duration::from_millis(1);
+
+impl SimLink {
+    /// The double slave at 1A/1B on a network of `slaves` AS-i slaves in all (2–62; the
+    /// double slave counts 2, the others are extended slaves from 2A on).
+    pub fn new(drive: SimulatedDoubleSlave, slaves: u8) -> Result<Self, NetworkError> {
+        let mut network = AsiNetwork::new();
+        let a = |n, bank| AsiAddress::new(n, bank).ok_or(NetworkError::BadAddress(n));
+        let address = DoubleSlaveAddress {
+            first: a(1, Bank::A)?,
+            second: a(1, Bank::B)?,
+        };
+        let id = network.add_double_slave(address)?;
+        let mut others = slaves.saturating_sub(2);
+        'fill: for n in 2..=31 {
+            for bank in [Bank::A, Bank::B] {
+                if others == 0 {
+                    break 'fill;
+                }
+                network.add_slave(SlaveAddress::Extended(a(n, bank)?))?;
+                others -= 1;
+            }
+        }
+        if others > 0 {
+            return Err(NetworkError::Full);
+        }
+        Ok(Self::on_network(drive, network, id))
+    }
+
+    /// The double slave `id` of `network` (which must have it) is `drive`.
+    pub fn on_network(drive: SimulatedDoubleSlave, network: AsiNetwork, id: DoubleSlaveId) -> Self {
+        Self {
+            slave: DoubleSlave::new(drive, SlaveConfig::default()),
+            network,
+            id,
+            epoch: tokio::time::Instant::now(),
+            clock: Instant::ZERO,
+            waiting: 0,
+        }
+    }
+
+    /// The link's time: exact transfer times since the link was made, or tokio's clock when
+    /// the caller waited longer.
+    pub fn now(&mut self) -> Instant {
+        let elapsed = tokio::time::Instant::now().saturating_duration_since(self.epoch);
+        let tokio_now = Instant::from_duration(elapsed);
+        if tokio_now > self.clock.saturating_add(TIMER_RESOLUTION) {
+            self.clock = tokio_now;
+        }
+        self.clock
+    }
+
+    async fn wait(&mut self, d: Duration) {
+        let target = self.now().saturating_add(d);
+        tokio::time::sleep_until(self.epoch + target.as_duration()).await;
+        self.clock = target;
+    }
+
+    async fn wait_until(&mut self, t: Instant) {
+        let now = self.now();
+        if t > now {
+            self.wait(t.saturating_duration_since(now)).await;
+        }
+    }
+
+    /// The CTT2 transfer time per byte on this network.
+    pub fn byte_time(&self) -> Duration {
+        self.network.byte_time()
+    }
+
+    /// Transfer `request` to the double slave without waiting for its answer.
+    pub async fn send(&mut self, request: &[u8]) {
+        self.wait(self.network.transfer_time(request.len())).await;
+        let now = self.now();
+        self.slave.handle_request(request, now);
+        self.waiting += 1;
+    }
+
+    /// Wait for the next answer and transfer it into `answer`; returns its length.
+    pub async fn receive(&mut self, answer: &mut [u8]) -> Result<usize, SimLinkError> {
+        if self.waiting == 0 {
+            return Err(SimLinkError::NoRequest);
+        }
+        loop {
+            let now = self.now();
+            if let Some(response) = self.slave.poll_answer(now) {
+                self.waiting -= 1;
+                let mut buf = [0u8; MAX_RESPONSE];
+                let n = response.encode(&mut buf).unwrap_or(0);
+                let got = answer.len();
+                let dst = answer
+                    .get_mut(..n)
+                    .ok_or(SimLinkError::BufferTooSmall { needed: n, got })?;
+                dst.copy_from_slice(buf.get(..n).unwrap_or(&[]));
+                self.wait(self.network.transfer_time(n)).await;
+                return Ok(n);
+            }
+            match self.slave.poll_timeout() {
+                Some(t) => self.wait_until(t.later(now)).await,
+                None => return Err(SimLinkError::NoRequest),
+            }
+        }
+    }
+
+    /// One AS-i cycle of the BusIO bits: the master's `bits` to the drive, the drive's back.
+    pub fn exchange_busio(&mut self, bits: BusIoIn) -> Result<BusIoOut, NetworkError> {
+        let now = self.now();
+        self.network.set_outputs(self.id, bits)?;
+        let drive = self.slave.backend_mut().drive_mut();
+        self.network.exchange(self.id, |to_drive| {
+            drive.set_busio_in(to_drive.bits(), now);
+            BusIoOut::new(drive.busio_out())
+        })
+    }
+
+    /// The double slave.
+    pub fn slave(&self) -> &DoubleSlave<SimulatedDoubleSlave> {
+        &self.slave
+    }
+
+    /// The double slave, mutable.
+    pub fn slave_mut(&mut self) -> &mut DoubleSlave<SimulatedDoubleSlave> {
+        &mut self.slave
+    }
+
+    /// The simulated double slave (drive and knobs).
+    pub fn sim(&self) -> &SimulatedDoubleSlave {
+        self.slave.backend()
+    }
+
+    /// The simulated double slave, mutable.
+    pub fn sim_mut(&mut self) -> &mut SimulatedDoubleSlave {
+        self.slave.backend_mut()
+    }
+
+    /// The drive.
+    pub fn drive(&self) -> &SimulatedNord {
+        self.slave.backend().drive()
+    }
+
+    /// The drive, mutable.
+    pub fn drive_mut(&mut self) -> &mut SimulatedNord {
+        self.slave.backend_mut().drive_mut()
+    }
+
+    /// The network.
+    pub fn network(&self) -> &AsiNetwork {
+        &self.network
+    }
+}
+
+impl Ctt2Link for SimLink {
+    type Error = SimLinkError;
+
+    async fn transact(&mut self, request: &[u8], answer: &mut [u8]) -> Result<usize, SimLinkError> {
+        self.send(request).await;
+        self.receive(answer).await
+    }
+}
