@@ -118,10 +118,7 @@ fn three_word_pkw_carries_one_value_word() {
     };
     assert_eq!(
         Telegram::new(Adr::new(addr(7)), layout(3, 0), wide, &[]),
-        Err(TelegramError::PkwValueTooWide {
-            pwe1: 1,
-            pwe2: 0
-        })
+        Err(TelegramError::PkwValueTooWide { pwe1: 1, pwe2: 0 })
     );
 }
 
@@ -210,7 +207,10 @@ fn manual_5_1_1_in_uss_telegrams() {
         let zsw = StatusWord(t.pzd()[0]);
         assert_eq!(drive_profile::nord::NordStateMachine::decode(zsw.0), state);
     }
-    assert_eq!(ControlWord(request.pzd()[0]), drive_profile::nord::command::SHUTDOWN);
+    assert_eq!(
+        ControlWord(request.pzd()[0]),
+        drive_profile::nord::command::SHUTDOWN
+    );
 }
 
 /// 5.1.2: enable with 50 % setpoint: control word 047Fh, SW1 2000h; once there, status word
@@ -451,8 +451,13 @@ fn stx_needs_the_start_delay_before_it() {
         let ct = l.char_time().as_nanos() as u64;
         let delay = l.char_times(2, 1).as_nanos() as u64;
         let framing = UssFraming::new(Side::Slave(addr(7)), Layout::PKW4_PZD2, &l);
-        let t = Telegram::new(Adr::new(addr(7)), Layout::PKW4_PZD2, Pkw::default(), &[1, 2])
-            .unwrap();
+        let t = Telegram::new(
+            Adr::new(addr(7)),
+            Layout::PKW4_PZD2,
+            Pkw::default(),
+            &[1, 2],
+        )
+        .unwrap();
         let wire = encode(&t);
         // A character, then the telegram after the start delay minus 1 ns: the
         // STX is ignored (the line was not quiet long enough) and so is the rest.
@@ -479,7 +484,13 @@ fn a_gap_of_the_start_delay_breaks_the_telegram_off() {
     let l = line(19200);
     let ct = l.char_time().as_nanos() as u64;
     let framing = UssFraming::new(Side::Master, Layout::PKW4_PZD2, &l);
-    let t = Telegram::new(Adr::new(addr(7)), Layout::PKW4_PZD2, Pkw::default(), &[1, 2]).unwrap();
+    let t = Telegram::new(
+        Adr::new(addr(7)),
+        Layout::PKW4_PZD2,
+        Pkw::default(),
+        &[1, 2],
+    )
+    .unwrap();
     let wire = encode(&t);
     // 1.9 character times of silence after the 5th character: still one telegram (and within
     // the residual run time: 1.9 of 22.5 allowed extra characters).
@@ -498,7 +509,9 @@ fn a_gap_of_the_start_delay_breaks_the_telegram_off() {
     let evs = run(&mut rx, &cs);
     assert_eq!(
         evs[0],
-        RxEvent::Rejected(FrameError::Line(LineError::InterCharacterGap { received: 5 }))
+        RxEvent::Rejected(FrameError::Line(LineError::InterCharacterGap {
+            received: 5
+        }))
     );
     assert!(!evs.iter().any(|e| matches!(e, RxEvent::Frame(_))));
 }
@@ -508,7 +521,13 @@ fn a_telegram_is_accepted_only_after_the_start_delay_of_silence() {
     let l = line(9600);
     let ct = l.char_time().as_nanos() as u64;
     let framing = UssFraming::new(Side::Master, Layout::PKW4_PZD2, &l);
-    let t = Telegram::new(Adr::new(addr(7)), Layout::PKW4_PZD2, Pkw::default(), &[1, 2]).unwrap();
+    let t = Telegram::new(
+        Adr::new(addr(7)),
+        Layout::PKW4_PZD2,
+        Pkw::default(),
+        &[1, 2],
+    )
+    .unwrap();
     let wire = encode(&t);
     let mut rx = UssReceiver::new(framing);
     for c in chars(&wire, Instant::ZERO, ct) {
@@ -518,7 +537,10 @@ fn a_telegram_is_accepted_only_after_the_start_delay_of_silence() {
     let delay = l.char_times(2, 1).as_nanos() as u64;
     assert_eq!(rx.poll_timeout(), Some(end.add_nanos(delay)));
     assert_eq!(rx.handle_timeout(end.add_nanos(delay - 1)), None);
-    assert_eq!(rx.handle_timeout(end.add_nanos(delay)), Some(RxEvent::Frame(t)));
+    assert_eq!(
+        rx.handle_timeout(end.add_nanos(delay)),
+        Some(RxEvent::Frame(t))
+    );
     // An inserted character right after the BCC (the real telegram was longer than it said):
     // rejected, never accepted.
     let mut rx = UssReceiver::new(framing);
@@ -544,13 +566,25 @@ fn residual_run_time_is_checked() {
         timing.max_runtime(Layout::PKW4_PZD2),
         Some(Duration::from_nanos(ct * 45 / 2))
     );
-    assert_eq!(timing.with_runtime_percent(None).max_runtime(Layout::PKW4_PZD2), None);
     assert_eq!(
-        timing.with_max_char_gap(Duration::from_secs(1)).max_char_gap,
+        timing
+            .with_runtime_percent(None)
+            .max_runtime(Layout::PKW4_PZD2),
+        None
+    );
+    assert_eq!(
+        timing
+            .with_max_char_gap(Duration::from_secs(1))
+            .max_char_gap,
         timing.start_delay
     );
-    let request =
-        Telegram::new(Adr::new(addr(7)), Layout::PKW4_PZD2, Pkw::default(), &[1, 2]).unwrap();
+    let request = Telegram::new(
+        Adr::new(addr(7)),
+        Layout::PKW4_PZD2,
+        Pkw::default(),
+        &[1, 2],
+    )
+    .unwrap();
     // The answer trickles in: 1.5 character times of gap before each of the 15 characters
     // after STX, each below the gap limit, 22.5 characters of gaps in all (+ 15 characters):
     // over the limit.
@@ -591,7 +625,10 @@ fn a_slave_drops_other_addresses_at_adr_and_takes_broadcasts() {
     let to = |adr| Telegram::new(adr, Layout::PKW4_PZD2, Pkw::default(), &[1, 2]).unwrap();
     let mut rx = UssReceiver::new(framing);
     assert_eq!(
-        run(&mut rx, &chars(&encode(&to(Adr::new(addr(4)))), Instant::ZERO, ct)),
+        run(
+            &mut rx,
+            &chars(&encode(&to(Adr::new(addr(4)))), Instant::ZERO, ct)
+        ),
         vec![RxEvent::Rejected(FrameError::NotAddressed(Adr(4)))]
     );
     for adr in [Adr::new(addr(3)), Adr::broadcast(), Adr::mirror(addr(3))] {

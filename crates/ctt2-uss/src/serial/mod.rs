@@ -17,6 +17,8 @@
 pub mod driver;
 pub mod framing;
 pub mod master;
+#[cfg(feature = "sim")]
+pub mod sim;
 pub mod slave;
 pub mod telegram;
 
