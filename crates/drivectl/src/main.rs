@@ -19,7 +19,7 @@ mod nord;
 mod params;
 mod ports;
 
-use clap::{CommandFactory, Parser, Subcommand};
+use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 use std::process::ExitCode;
 
 /// Talk to SEW, NORD and Bonfiglioli frequency inverters over their own buses.
@@ -44,6 +44,10 @@ enum Command {
     Movilink(movilink::MovilinkArgs),
     /// Talk to a Bonfiglioli ACTIVE / ACTIVE Cube over Modbus RTU or ASCII.
     Bonfiglioli(bonfiglioli::BonfiglioliArgs),
+    /// Talk to a NORD NORDAC LINK over USS (RS-485).
+    Uss(nord::uss::UssArgs),
+    /// Talk to a NORD NORDAC LINK over CTT2 through an AS-i master (simulated: --sim).
+    Ctt2(nord::ctt2::Ctt2Args),
     /// Run simulated drives on a serial port or a new pseudo-terminal.
     #[command(subcommand, after_help = examples::SIM)]
     Sim(SimCommand),
@@ -66,6 +70,8 @@ enum SimCommand {
     Movilink(movilink::sim::SimArgs),
     /// Simulated Bonfiglioli ACT/ACU drive(s) answering Modbus RTU or ASCII.
     Bonfiglioli(bonfiglioli::sim::SimArgs),
+    /// Simulated NORD NORDAC LINK drive(s) answering USS.
+    Uss(nord::sim::SimArgs),
 }
 
 #[derive(Debug, Subcommand)]
@@ -150,10 +156,18 @@ fn json_requested() -> bool {
         .any(|a| a == "--json")
 }
 
+/// The command definitions, with the `ctt2` examples of the commands NORD shares.
+fn command() -> clap::Command {
+    nord::ctt2::with_help(Cli::command())
+}
+
 fn main() -> ExitCode {
     let json = json_requested();
     tool::output::json_messages(json);
-    let cli = match Cli::try_parse() {
+    let cli = match command()
+        .try_get_matches()
+        .and_then(|m| Cli::from_arg_matches(&m))
+    {
         Ok(cli) => cli,
         Err(e) if json && e.use_stderr() => {
             // A usage error of the command line, as one JSON object (its first line: clap adds
@@ -172,6 +186,9 @@ fn main() -> ExitCode {
         Command::Sim(SimCommand::Movilink(args)) => movilink::sim::run(&args),
         Command::Bonfiglioli(args) => bonfiglioli::run(&args),
         Command::Sim(SimCommand::Bonfiglioli(args)) => bonfiglioli::sim::run(&args),
+        Command::Uss(args) => nord::uss::run(&args),
+        Command::Ctt2(args) => nord::ctt2::run(&args),
+        Command::Sim(SimCommand::Uss(args)) => nord::sim::run(&args),
         Command::Decode(DecodeCommand::ModbusRtu { hex, file, json }) => {
             bonfiglioli::decode::run(false, &hex, file.as_deref(), json)
         }
@@ -183,8 +200,8 @@ fn main() -> ExitCode {
         }
         Command::Demo(args) => demo::run(&args),
         Command::Ports(args) => ports::run(&args),
-        Command::Completions(args) => completions::completions(&args, Cli::command()),
-        Command::Man(args) => completions::man(&args, Cli::command()),
+        Command::Completions(args) => completions::completions(&args, command()),
+        Command::Man(args) => completions::man(&args, command()),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -647,6 +647,9 @@ pub struct Session {
     pub identity: Map<String, Value>,
     /// The drive is simulated by this very process: it ends with the command.
     pub simulated: bool,
+    /// Setpoints and actual values the process data carry beside the control and status word
+    /// (0–3: a USS telegram's PZD words − 1; CTT2: 3).
+    pub actuals: u8,
 }
 
 /// The tool layer's EEPROM-wear refusal names `--volatile`; the NORD commands offer
@@ -898,7 +901,7 @@ where
     // Bit 10 clear: the drive does not evaluate this control word (section 4.5.1 footnote 2),
     // it only answers its status word and actual values.
     let answer = c
-        .process(ControlWord(0), &[], 3)
+        .process(ControlWord(0), &[], s.actuals)
         .await
         .map_err(link_error)?;
     let sw = answer.status();
@@ -1035,6 +1038,9 @@ where
     } else {
         0
     };
+    // SW1 and IW1, where the process data carry them.
+    let sw1_slot: &[u16] = if s.actuals > 0 { &[sw1] } else { &[] };
+    let iw = s.actuals.min(1);
     // P509 0 (control terminals or keypad): the drive does not take the bus control word.
     {
         let mut pc = NordParamClient::new(c, &s.key, s.identity.clone());
@@ -1052,7 +1058,7 @@ where
     );
     // First only look (bit 10 clear: the drive ignores this word).
     let mut answer = c
-        .process(ControlWord(0), &[], 1)
+        .process(ControlWord(0), &[], iw)
         .await
         .map_err(link_error)?;
     let start = answer.status().state();
@@ -1109,7 +1115,7 @@ where
             };
             let word = with_set(word);
             answer = c
-                .process(ControlWord(word), &[sw1], 1)
+                .process(ControlWord(word), sw1_slot, iw)
                 .await
                 .map_err(link_error)?;
             last = word;
@@ -1136,7 +1142,8 @@ where
     if interrupted {
         if runs(last) || state == State::OperationEnabled {
             let shutdown = with_set(command::SHUTDOWN.0);
-            return match c.process(ControlWord(shutdown), &[0], 1).await {
+            let zero: &[u16] = if s.actuals > 0 { &[0] } else { &[] };
+            return match c.process(ControlWord(shutdown), zero, iw).await {
                 Ok(a) => Err(CliError::failed(format!(
                     "interrupted: sent shutdown 0x{shutdown:04X} (braking ramp, then ready to \
                      switch on); the drive shows {}",

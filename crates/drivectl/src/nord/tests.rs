@@ -377,6 +377,7 @@ fn session() -> Session {
     Session {
         key: "fake 1".into(),
         again: "drivectl uss --port /dev/fake --addr 1".into(),
+        actuals: 3,
         ..Session::default()
     }
 }
