@@ -102,6 +102,61 @@ enum DecodeCommand {
         #[arg(long)]
         json: bool,
     },
+    /// A NORD CTT2 capture (AS-i): hex bytes, e.g. `13 2F 08 70 66 02 00 00 00 03 E8`.
+    ///
+    /// Bytes as for `decode movilink`. Requests (16, 18, 19, 29) and answers (80, 82, 83, 93,
+    /// 144, 146, 147, 157) are split by their codes and lengths; an answer's data are read as
+    /// the request before it asked (ID or diagnosis object, PZD or PKW channel). The PKW and
+    /// PZD data are explained with the NORD table (P102 in parameter set 3 = 10.00 s).
+    #[command(
+        verbatim_doc_comment,
+        after_help = "Examples:\n  drivectl decode ctt2 13 2F 08 70 66 02 00 00 00 03 E8 53 12 2F 08 52 40 66 02 00 00 00 03 E8\n  \
+                      drivectl decode ctt2 1D 03 05 05 01 04 7F 20 00 5D 01 0B 37 20 00 --json\n  \
+                      drivectl decode ctt2 --file capture.txt"
+    )]
+    Ctt2 {
+        /// The bytes; `-` reads a capture from standard input (as --file).
+        #[arg(required_unless_present = "file", conflicts_with = "file", num_args = 1..)]
+        hex: Vec<String>,
+        /// Read the capture from a file (lines, `#` comments, CR LF and a BOM are allowed).
+        #[arg(long, value_name = "PATH")]
+        file: Option<String>,
+        /// One JSON object per message.
+        #[arg(long)]
+        json: bool,
+    },
+    /// A NORD USS capture (RS-485): hex bytes, e.g. `02 0E 01 70 66 02 00 … 88`.
+    ///
+    /// Bytes as for `decode movilink`. Telegrams are split at STX (02h) by their LGE and the
+    /// BCC is checked. A telegram does not say who sent it: they alternate, the first is the
+    /// master's (--start drive turns that round; a broadcast gets no answer). The net data are
+    /// --pkw PKW words and the rest PZD words.
+    #[command(
+        verbatim_doc_comment,
+        after_help = "Examples:\n  drivectl decode uss 02 0E 01 70 66 02 00 00 00 03 E8 04 7E 00 00 88\n  \
+                      drivectl decode uss 02 0E 01 40 66 02 00 00 00 03 E8 0B 31 00 00 F8 --start drive --json\n  \
+                      drivectl decode uss --pkw 3 --pzd 2 --file capture.txt"
+    )]
+    Uss {
+        /// The bytes; `-` reads a capture from standard input (as --file).
+        #[arg(required_unless_present = "file", conflicts_with = "file", num_args = 1..)]
+        hex: Vec<String>,
+        /// Read the capture from a file (lines, `#` comments, CR LF and a BOM are allowed).
+        #[arg(long, value_name = "PATH")]
+        file: Option<String>,
+        /// PKW words of the telegrams: 0, 3 or 4.
+        #[arg(long, default_value_t = 4, value_parser = clap::value_parser!(u8).range(0..=4))]
+        pkw: u8,
+        /// PZD words of the telegrams (checked against LGE); default: the rest of the net data.
+        #[arg(long, value_parser = clap::value_parser!(u8).range(0..=16))]
+        pzd: Option<u8>,
+        /// Who sent the first telegram: master or drive (they alternate).
+        #[arg(long, default_value = "master", value_parser = ["master", "drive"])]
+        start: String,
+        /// One JSON object per telegram.
+        #[arg(long)]
+        json: bool,
+    },
     /// A Bonfiglioli Modbus RTU capture: hex bytes, e.g. `01 03 21 74 00 01 CE 2C`.
     ///
     /// Bytes as for `decode movilink`. RTU has no start character: a stream is split where a
@@ -195,6 +250,26 @@ fn main() -> ExitCode {
         Command::Decode(DecodeCommand::ModbusAscii { text, file, json }) => {
             bonfiglioli::decode::run(true, &text, file.as_deref(), json)
         }
+        Command::Decode(DecodeCommand::Ctt2 { hex, file, json }) => {
+            nord::decode::run(None, &hex, file.as_deref(), json)
+        }
+        Command::Decode(DecodeCommand::Uss {
+            hex,
+            file,
+            pkw,
+            pzd,
+            start,
+            json,
+        }) => nord::decode::run(
+            Some(nord::decode::UssLayout {
+                pkw,
+                pzd,
+                drive_first: start == "drive",
+            }),
+            &hex,
+            file.as_deref(),
+            json,
+        ),
         Command::Decode(DecodeCommand::Movilink { hex, file, json }) => {
             movilink::decode::run(&hex, file.as_deref(), json)
         }
