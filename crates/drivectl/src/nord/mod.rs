@@ -1166,7 +1166,9 @@ where
     } else {
         state == target
     };
-    print_control(s, a, answer, last, sw1, reached)?;
+    // Printed after the notes below are decided: a closed output pipe must not swallow the
+    // note that the motor runs.
+    let printed = print_control(s, a, answer, last, sw1, reached);
     if !reached {
         let running = state == State::OperationEnabled;
         return Err(CliError::failed(format!(
@@ -1197,7 +1199,7 @@ where
             s.again
         );
     }
-    Ok(())
+    printed
 }
 
 /// The word that keeps a drive in `target` once it is there.
