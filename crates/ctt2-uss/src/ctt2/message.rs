@@ -189,7 +189,8 @@ impl Channel {
     }
 }
 
-/// Up to [`MAX_DATA`] bytes held inline: the data of a write or of an answer.
+/// Up to [`MAX_DATA`] bytes held inline: the data of a write or of an answer (the bytes past
+/// the length are always 0).
 #[derive(Clone, Copy, PartialEq, Eq, Hash, Default)]
 pub struct Data {
     len: u8,
@@ -231,6 +232,10 @@ impl Data {
     /// The first `n` bytes (all of them if there are fewer).
     pub fn truncated(mut self, n: u8) -> Data {
         self.len = self.len.min(n);
+        // Bytes past the length stay 0, so that equal data compare equal.
+        if let Some(rest) = self.bytes.get_mut(usize::from(self.len)..) {
+            rest.fill(0);
+        }
         self
     }
 }

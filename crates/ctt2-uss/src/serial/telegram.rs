@@ -34,7 +34,7 @@
 
 use core::fmt;
 
-use crate::uss::pkw::{Ind, Pke, Pkw};
+use crate::uss::pkw::Pkw;
 
 /// Start of text, the first byte of every telegram.
 pub const STX: u8 = 0x02;
@@ -480,44 +480,39 @@ impl Telegram {
                 got,
             });
         };
-        let expected = body.iter().fold(0u8, |a, b| a ^ b);
+        let expected = bcc(body);
         if expected != got_bcc {
             return Err(FrameError::BadBcc {
                 expected,
                 got: got_bcc,
             });
         }
-        let adr = Adr(body.get(2).copied().unwrap_or(0));
-        let mut words = body
-            .get(3..)
-            .unwrap_or(&[])
-            .chunks_exact(2)
-            .map(|p| match *p {
-                [h, l] => u16::from_be_bytes([h, l]),
-                _ => 0,
-            });
-        let mut next = || words.next().unwrap_or(0);
+        let (adr, net) = match body {
+            [_, _, adr, net @ ..] => (Adr(*adr), net),
+            _ => (Adr(0), &[][..]),
+        };
+        let be = |b: &[u8], i: usize| match b.get(i..i + 2) {
+            Some(&[h, l]) => u16::from_be_bytes([h, l]),
+            _ => 0,
+        };
+        let k = 2 * usize::from(layout.pkw_words);
+        let (pkw_bytes, pzd_bytes) = net.split_at(k.min(net.len()));
         let pkw = match layout.pkw_words {
-            4 => Pkw {
-                pke: Pke(next()),
-                ind: Ind(next()),
-                pwe1: next(),
-                pwe2: next(),
+            4 => match pkw_bytes.first_chunk::<8>() {
+                Some(b) => Pkw::from_array(b),
+                None => Pkw::default(),
             },
             3 => {
-                let (pke, ind, pwe2) = (next(), next(), next());
-                Pkw {
-                    pke: Pke(pke),
-                    ind: Ind(ind),
-                    pwe1: sign_of(pwe2),
-                    pwe2,
-                }
+                let pwe2 = be(pkw_bytes, 4);
+                Pkw::from_words([be(pkw_bytes, 0), be(pkw_bytes, 2), sign_of(pwe2), pwe2])
             }
             _ => Pkw::default(),
         };
         let mut pzd = [0u16; MAX_PZD];
-        for slot in pzd.iter_mut().take(usize::from(layout.pzd_words)) {
-            *slot = next();
+        for (w, pair) in pzd.iter_mut().zip(pzd_bytes.chunks_exact(2)) {
+            if let [h, l] = *pair {
+                *w = u16::from_be_bytes([h, l]);
+            }
         }
         Ok(Telegram {
             adr,
@@ -540,6 +535,14 @@ impl fmt::Debug for Telegram {
 }
 
 /// The XOR of `bytes` (the BCC of a telegram is the XOR of every byte before it).
+#[inline]
 pub fn bcc(bytes: &[u8]) -> u8 {
-    bytes.iter().fold(0, |a, b| a ^ b)
+    // Eight bytes at a time, then the rest.
+    let chunks = bytes.chunks_exact(8);
+    let rest = chunks.remainder();
+    let wide = chunks.fold(0u64, |a, c| {
+        a ^ c.first_chunk::<8>().map_or(0, |c| u64::from_ne_bytes(*c))
+    });
+    let folded = wide.to_ne_bytes().iter().fold(0u8, |a, b| a ^ b);
+    rest.iter().fold(folded, |a, b| a ^ b)
 }

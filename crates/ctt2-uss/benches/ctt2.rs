@@ -1,0 +1,174 @@
+//! CTT2 codec and double-slave benchmarks:
+//!
+//! * `ctt2_codec/encode_pkw_write` and `decode_pkw_write`: the NORD write of example 5.1.3's
+//!   order on the PKW channel without address (`19 47 8` + 8 PKW bytes), including building
+//!   the channel data from the `Pkw` and reading it back (target ≤ 25 ns each);
+//! * `ctt2_codec/encode_pzd_answer` and `decode_pzd_answer`: a NORD read answer of the PZD
+//!   channel (`82`, address, ZSW, IW1–IW3) to and from `PzdIn` (target ≤ 25 ns each);
+//! * `ctt2_loop/pkw_read`: one PKW read as a master does it over the sans-IO double slave with
+//!   an instant backend: request encode, `handle_request`, `poll_answer`, answer encode, answer
+//!   decode, PKW out of the data (target ≥ 1 000 000 reads/s, i.e. ≤ 1 µs each).
+
+// Benchmark setup: a failing fixture means a broken benchmark, so panicking is the report.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic,
+    missing_docs
+)]
+
+use std::hint::black_box;
+
+use criterion::{Criterion, Throughput, criterion_group, criterion_main};
+use ctt2_uss::ctt2::{
+    Backend, Channel, Data, DiagnosisCode, DiagnosisObject, DoubleSlave, IdObject, MAX_REQUEST,
+    MAX_RESPONSE, Request, Response, SlaveConfig,
+};
+use ctt2_uss::uss::{Ind, Order, Pkw, PzdIn, PzdOut, Reply, Storage};
+use drive_core::Instant;
+use drive_profile::nord::{Ctt2MessageType, StatusWord, Width};
+
+/// A drive that answers at once.
+struct Instantly;
+
+impl Backend for Instantly {
+    fn id_object(&mut self, _now: Instant) -> IdObject {
+        IdObject::default()
+    }
+
+    fn diagnosis(&mut self, _now: Instant) -> DiagnosisObject {
+        DiagnosisObject::new(DiagnosisCode::NoFault, 0, 45)
+    }
+
+    fn process(&mut self, _out: PzdOut, _now: Instant) -> PzdIn {
+        PzdIn::new(StatusWord(0x0B37), &[0x2000, 0, 0])
+    }
+
+    fn process_data(&mut self, _now: Instant) -> PzdIn {
+        PzdIn::new(StatusWord(0x0B37), &[0x2000, 0, 0])
+    }
+
+    fn execute(&mut self, order: Order, _now: Instant) -> Reply {
+        Reply::Value {
+            width: Width::Word,
+            array: true,
+            value: i32::from(order.ind().0),
+        }
+    }
+}
+
+fn order() -> Pkw {
+    Order::write(
+        0x66,
+        Ind::new(0, 2).unwrap(),
+        Width::Word,
+        true,
+        Storage::Eeprom,
+        1000,
+    )
+    .unwrap()
+    .to_pkw()
+}
+
+fn codec(c: &mut Criterion) {
+    let mut g = c.benchmark_group("ctt2_codec");
+    g.throughput(Throughput::Elements(1));
+    let pkw = order();
+    let mut buf = [0u8; MAX_REQUEST];
+    g.bench_function("encode_pkw_write", |b| {
+        b.iter(|| {
+            let r = Request::NordWrite {
+                index: Channel::Pkw,
+                data: Data::from_pkw(Channel::Pkw, black_box(&pkw)).unwrap(),
+            };
+            black_box(r.encode(&mut buf).unwrap())
+        })
+    });
+    let n = Request::NordWrite {
+        index: Channel::Pkw,
+        data: Data::from_pkw(Channel::Pkw, &pkw).unwrap(),
+    }
+    .encode(&mut buf)
+    .unwrap();
+    let wire = buf;
+    g.bench_function("decode_pkw_write", |b| {
+        b.iter(|| {
+            let Request::NordWrite { index, data } =
+                Request::decode(black_box(&wire[..n])).unwrap()
+            else {
+                panic!()
+            };
+            black_box(data.to_pkw(index).unwrap())
+        })
+    });
+    let pzd = PzdIn::new(StatusWord(0x0B37), &[0x2000, 0x1234, 0xFFFF]);
+    let mut out = [0u8; MAX_RESPONSE];
+    g.bench_function("encode_pzd_answer", |b| {
+        b.iter(|| {
+            let r = Response::Ok {
+                kind: Ctt2MessageType::NordRead,
+                data: Data::from_pzd_in(black_box(&pzd)),
+            };
+            black_box(r.encode(&mut out).unwrap())
+        })
+    });
+    let m = Response::Ok {
+        kind: Ctt2MessageType::NordRead,
+        data: Data::from_pzd_in(&pzd),
+    }
+    .encode(&mut out)
+    .unwrap();
+    let answer = out;
+    g.bench_function("decode_pzd_answer", |b| {
+        b.iter(|| {
+            let Response::Ok { data, .. } = Response::decode(black_box(&answer[..m])).unwrap()
+            else {
+                panic!()
+            };
+            black_box(data.to_pzd_in().unwrap())
+        })
+    });
+    g.finish();
+}
+
+fn exchange(c: &mut Criterion) {
+    let mut g = c.benchmark_group("ctt2_loop");
+    g.throughput(Throughput::Elements(1));
+    let mut slave = DoubleSlave::new(Instantly, SlaveConfig::default());
+    // One order first, so that reads return a value.
+    let mut req = [0u8; MAX_REQUEST];
+    let n = Request::NordWrite {
+        index: Channel::Pkw,
+        data: Data::from_pkw(Channel::Pkw, &order()).unwrap(),
+    }
+    .encode(&mut req)
+    .unwrap();
+    slave.handle_request(&req[..n], Instant::ZERO);
+    assert!(slave.poll_answer(Instant::ZERO).is_some());
+    let read = Request::NordRead {
+        index: Channel::Pkw,
+        len: 8,
+    };
+    let mut t = 0u64;
+    g.bench_function("pkw_read", |b| {
+        b.iter(|| {
+            t += 1_000_000;
+            let now = Instant::from_nanos(t);
+            let mut req = [0u8; MAX_REQUEST];
+            let n = black_box(&read).encode(&mut req).unwrap();
+            slave.handle_request(&req[..n], now);
+            let a = slave.poll_answer(now).unwrap();
+            let mut wire = [0u8; MAX_RESPONSE];
+            let m = a.encode(&mut wire).unwrap();
+            let Response::Ok { data, .. } = Response::decode(&wire[..m]).unwrap() else {
+                panic!()
+            };
+            black_box(data.to_pkw(Channel::Pkw).unwrap())
+        })
+    });
+    g.finish();
+}
+
+criterion_group!(benches, codec, exchange);
+criterion_main!(benches);
