@@ -37,7 +37,10 @@ impl Sim {
             .read_line(&mut line)
             .expect("sim prints its pty path");
         let path = line.trim().to_owned();
-        assert!(path.starts_with("/dev/"), "first line is the pty path: {path:?}");
+        assert!(
+            path.starts_with("/dev/"),
+            "first line is the pty path: {path:?}"
+        );
         let state =
             std::env::temp_dir().join(format!("drivectl-nord-state-{}", path.replace('/', "_")));
         let _ = std::fs::remove_dir_all(&state);
@@ -46,11 +49,13 @@ impl Sim {
 
     /// The master's command line to the drive at `addr`.
     fn args(&self, addr: &str, args: &[&str]) -> Vec<String> {
-        ["uss", "--port", &self.path, "--parity", "none", "--addr", addr]
-            .iter()
-            .chain(args)
-            .map(|s| (*s).to_owned())
-            .collect()
+        [
+            "uss", "--port", &self.path, "--parity", "none", "--addr", addr,
+        ]
+        .iter()
+        .chain(args)
+        .map(|s| (*s).to_owned())
+        .collect()
     }
 
     fn command(&self, addr: &str, args: &[&str]) -> Command {
@@ -103,12 +108,23 @@ fn write_and_read_back_p102_in_parameter_set_3() {
     assert_eq!(psr(&v[0]), (json!(102), json!(0), json!(3), json!(1000)));
     let v = ok_json(&sim.run(&["--json", "read", "P102", "--set", "3"]));
     assert_eq!(psr(&v[0]), (json!(102), json!(0), json!(3), json!(1000)));
-    assert_eq!((v[0]["value"].as_f64(), &v[0]["unit"]), (Some(10.0), &json!("s")));
+    assert_eq!(
+        (v[0]["value"].as_f64(), &v[0]["unit"]),
+        (Some(10.0), &json!("s"))
+    );
     // The other sets keep their own values.
     let v = ok_json(&sim.run(&["--json", "read", "P102", "--set", "1"]));
     assert_ne!(v[0]["raw"], json!(1000));
     // 5.1.5: 2,5 s (decimal comma) in set 2 is raw 250.
-    let v = ok_json(&sim.run(&["--json", "write", "P102", "2,5", "--set", "2", "--no-eeprom"]));
+    let v = ok_json(&sim.run(&[
+        "--json",
+        "write",
+        "P102",
+        "2,5",
+        "--set",
+        "2",
+        "--no-eeprom",
+    ]));
     assert_eq!(psr(&v[0]), (json!(102), json!(0), json!(2), json!(250)));
     // Text output names the set.
     let o = sim.run(&["read", "P102", "--set", "3"]);
@@ -117,7 +133,9 @@ fn write_and_read_back_p102_in_parameter_set_3() {
     assert!(text.contains("10.00 s (raw 1000)"), "{text}");
     // Options after the subcommand.
     let o = Command::new(env!("CARGO_BIN_EXE_drivectl"))
-        .args(["uss", "read", "P102", "--set", "3", "--json", "--port", &sim.path])
+        .args([
+            "uss", "read", "P102", "--set", "3", "--json", "--port", &sim.path,
+        ])
         .args(["--parity", "none", "--addr", "1"])
         .output()
         .unwrap();
@@ -129,16 +147,31 @@ fn array_element_p543_02_is_read_and_written_by_its_element() {
     let sim = Sim::start(&["--addr", "1"]);
     let v = ok_json(&sim.run(&["--json", "read", "P543", "--array", "2"]));
     assert_eq!(
-        (&v[0]["parameter"], &v[0]["array"], &v[0]["set"], &v[0]["ind"]),
+        (
+            &v[0]["parameter"],
+            &v[0]["array"],
+            &v[0]["set"],
+            &v[0]["ind"]
+        ),
         (&json!(543), &json!(2), &json!(0), &json!("0x0100"))
     );
     assert_eq!(v[0]["name_en"], "bus actual value 2");
-    let v = ok_json(&sim.run(&["--json", "write", "P543", "8", "--array", "2", "--no-eeprom"]));
+    let v = ok_json(&sim.run(&[
+        "--json",
+        "write",
+        "P543",
+        "8",
+        "--array",
+        "2",
+        "--no-eeprom",
+    ]));
     assert_eq!((&v[0]["array"], &v[0]["raw"]), (&json!(2), &json!(8)));
     // The other elements are untouched, and `read P543` shows all three.
     let v = ok_json(&sim.run(&["--json", "read", "P543"]));
-    let elements: Vec<(Value, Value)> =
-        v.iter().map(|x| (x["array"].clone(), x["raw"].clone())).collect();
+    let elements: Vec<(Value, Value)> = v
+        .iter()
+        .map(|x| (x["array"].clone(), x["raw"].clone()))
+        .collect();
     assert_eq!(elements.len(), 3);
     assert_eq!(elements[1], (json!(2), json!(8)));
     assert_ne!(elements[0].1, json!(8));
@@ -155,7 +188,10 @@ fn refused_writes_send_nothing() {
     // Checked before the port opens: a port that does not exist is never reached.
     for (args, why) in [
         (&["write", "P102", "700", "--set", "2"][..], "outside"),
-        (&["write", "P102", "70000", "--raw", "--set", "2"], "does not fit"),
+        (
+            &["write", "P102", "70000", "--raw", "--set", "2"],
+            "does not fit",
+        ),
         (&["write", "P102", "1099511627776", "--raw"], "does not fit"),
         (&["write", "P102", "--5", "--raw"], "not an integer"),
         (&["write", "P102", "1", "--array", "1"], "no array"),
@@ -165,14 +201,23 @@ fn refused_writes_send_nothing() {
         (&["read", "P9999"], "no nord parameter"),
     ] {
         let o = Command::new(env!("CARGO_BIN_EXE_drivectl"))
-            .args(["uss", "--port", "/dev/drivectl-no-such-port", "--parity", "none"])
+            .args([
+                "uss",
+                "--port",
+                "/dev/drivectl-no-such-port",
+                "--parity",
+                "none",
+            ])
             .args(args)
             .output()
             .unwrap();
         assert_eq!(o.status.code(), Some(2), "{args:?}: {}", stderr(&o));
         let e = stderr(&o).to_lowercase();
         assert!(e.contains(&why.to_lowercase()), "{args:?}: {e}");
-        assert!(!e.contains("no-such-port"), "{args:?} reached the port: {e}");
+        assert!(
+            !e.contains("no-such-port"),
+            "{args:?} reached the port: {e}"
+        );
     }
     // Read-only P700: refused by the table before anything is sent.
     let o = sim.run(&["write", "P700", "5", "--array", "1"]);
@@ -181,7 +226,11 @@ fn refused_writes_send_nothing() {
     // Forced, the drive refuses it itself (PWE2 error 1), typed.
     let o = sim.run(&["write", "P700", "5", "--array", "1", "--force"]);
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
-    assert!(stderr(&o).contains("error 1: parameter value cannot be changed"), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("error 1: parameter value cannot be changed"),
+        "{}",
+        stderr(&o)
+    );
     let after = ok_json(&sim.run(&["--json", "read", "P102", "--set", "2"]))[0]["raw"].clone();
     assert_eq!(before, after);
     // With --json the error is a JSON object too.
@@ -228,13 +277,19 @@ fn enable_at_50_percent_runs_up_and_stop_brings_it_back() {
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(String::from_utf8_lossy(&o.stdout).contains("E operation enabled"));
     // The motor keeps running after drivectl ends, and drivectl says so.
-    assert!(stderr(&o).contains("the motor is enabled"), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("the motor is enabled"),
+        "{}",
+        stderr(&o)
+    );
     assert!(stderr(&o).contains("control stop"), "{}", stderr(&o));
     // Operation enabled, the frequency ramping toward 50 % (P102 2.00 s for 0 → P105).
     let first = status_until(&sim, 5, |v| v["actuals"][0]["percent"].as_f64() > Some(0.0));
     assert_eq!(first["state"], "E", "{first}");
     assert_eq!(first["actuals"][0]["unit"], "Hz");
-    let reached = status_until(&sim, 5, |v| v["actuals"][0]["percent"].as_f64() >= Some(49.9));
+    let reached = status_until(&sim, 5, |v| {
+        v["actuals"][0]["percent"].as_f64() >= Some(49.9)
+    });
     assert_eq!(reached["state"], "E", "{reached}");
     assert!(
         reached["actuals"][0]["value"].as_f64().unwrap() > 24.9,
@@ -252,7 +307,9 @@ fn enable_at_50_percent_runs_up_and_stop_brings_it_back() {
 fn scan_finds_the_drives_on_the_line() {
     let sim = Sim::start(&["--addr", "1", "--addr", "7"]);
     let o = Command::new(env!("CARGO_BIN_EXE_drivectl"))
-        .args(["uss", "--port", &sim.path, "--parity", "none", "scan", "--json"])
+        .args([
+            "uss", "--port", &sim.path, "--parity", "none", "scan", "--json",
+        ])
         .output()
         .unwrap();
     let found: Vec<Value> = ok_json(&o).iter().map(|v| v["address"].clone()).collect();
@@ -269,8 +326,17 @@ fn backup_and_restore_round_trip_every_set() {
     assert_eq!(v[0]["type"], "backup");
     let doc: Value = serde_json::from_str(&std::fs::read_to_string(&file).unwrap()).unwrap();
     let entries = doc["parameters"].as_array().unwrap();
-    let numbers: Vec<&str> = entries.iter().map(|e| e["number"].as_str().unwrap()).collect();
-    for label in ["P102 set 1", "P102 set 4", "P105 set 2", "P543 [-02]", "P480 [-12]"] {
+    let numbers: Vec<&str> = entries
+        .iter()
+        .map(|e| e["number"].as_str().unwrap())
+        .collect();
+    for label in [
+        "P102 set 1",
+        "P102 set 4",
+        "P105 set 2",
+        "P543 [-02]",
+        "P480 [-12]",
+    ] {
         assert!(numbers.contains(&label), "{label} in {numbers:?}");
     }
     assert_eq!(numbers.last(), Some(&"P560"), "P560 last");
@@ -281,12 +347,7 @@ fn backup_and_restore_round_trip_every_set() {
     );
     // Change it, then restore: the dry run shows the change, the restore writes it back.
     ok_json(&sim.run(&["--json", "write", "P102", "5", "--set", "3", "--no-eeprom"]));
-    let v = ok_json(&sim.run(&[
-        "--json",
-        "restore",
-        file.to_str().unwrap(),
-        "--dry-run",
-    ]));
+    let v = ok_json(&sim.run(&["--json", "restore", file.to_str().unwrap(), "--dry-run"]));
     assert!(
         v.iter()
             .any(|c| c["type"] == "change" && c["from_raw"] == 500 && c["to_raw"] == 1000),
@@ -326,9 +387,13 @@ fn ctrl_c_ends_watch_cleanly_and_a_stop_in_progress_says_what_was_sent() {
     // A long braking ramp (P102 = 20 s in set 1 is also the braking time): Ctrl-C while
     // `control stop` waits for it.
     ok_json(&sim.run(&["--json", "write", "P102", "20", "--no-eeprom"]));
-    assert!(sim.run(&["control", "enable", "--setpoint", "50"]).status.success());
+    assert!(
+        sim.run(&["control", "enable", "--setpoint", "50"])
+            .status
+            .success()
+    );
     status_until(&sim, 5, |v| v["actuals"][0]["percent"].as_f64() > Some(5.0));
-    let mut child = sim
+    let child = sim
         .command("1", &["control", "stop", "--wait", "60"])
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
@@ -342,7 +407,11 @@ fn ctrl_c_ends_watch_cleanly_and_a_stop_in_progress_says_what_was_sent() {
     let o = child.wait_with_output().unwrap();
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
     assert!(stderr(&o).contains("interrupted"), "{}", stderr(&o));
-    assert!(stderr(&o).contains("sent shutdown 0x047E"), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("sent shutdown 0x047E"),
+        "{}",
+        stderr(&o)
+    );
     // The drive ramps down: still E, the frequency falling.
     let v = status_until(&sim, 0, |_| true);
     assert_eq!(v["state"], "E", "{v}");
@@ -381,7 +450,11 @@ fn a_closed_pipe_ends_quietly_but_never_hides_a_running_motor() {
     // The status line cannot be written, the note that the motor runs still is.
     let o = into_closed_pipe(&sim, &["control", "enable", "--setpoint", "10"]);
     assert_eq!(o.status.code(), Some(141), "{}", stderr(&o));
-    assert!(stderr(&o).contains("the motor is enabled"), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("the motor is enabled"),
+        "{}",
+        stderr(&o)
+    );
     assert!(sim.run(&["control", "disable"]).status.success());
 }
 

@@ -46,8 +46,6 @@ pub const RAW_INDICES: RangeInclusive<u16> = 0..=2047;
 
 /// Parameter numbers (PNUs) of the table this command uses by name.
 pub mod param {
-    /// Acceleration time.
-    pub const ACCELERATION_TIME: u16 = 102;
     /// Maximum frequency: the 100 % of frequency setpoints and actual values.
     pub const MAXIMUM_FREQUENCY: u16 = 105;
     /// Torque current limit: the 100 % of current setpoints and actual values.
@@ -56,8 +54,6 @@ pub mod param {
     pub const CONTROL_WORD_SOURCE: u16 = 509;
     /// Bus actual values 1–3: what IW1–IW3 carry.
     pub const BUS_ACTUAL_VALUE: u16 = 543;
-    /// Function of bus setpoints 1–3: what SW1–SW3 mean.
-    pub const BUS_SETPOINT_FUNCTION: u16 = 546;
     /// Save to EEPROM (0 = RAM only, 1 = RAM and EEPROM).
     pub const SAVE_TO_EEPROM: u16 = 560;
     /// Present fault [-01], warning [-02], reason for switch-on disabled [-03].
