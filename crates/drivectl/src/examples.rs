@@ -24,6 +24,8 @@ Examples:
   drivectl params movidrive --search drehzahl        browse a parameter table
   drivectl ports                                     find the RS-485 adapter
   drivectl movilink --port /dev/ttyUSB0 --addr 1 read P000
+  drivectl uss --port /dev/ttyUSB0 --addr 1 read P102 --set 3   a NORD drive over USS
+  drivectl ctt2 --sim id                             a NORD drive over CTT2 (simulated AS-i)
   drivectl sim movilink --pty --addr 1 --parity none  a simulated drive to try things on
   drivectl completions bash > ~/.local/share/bash-completion/completions/drivectl
 Every command's --help has examples of its own.";

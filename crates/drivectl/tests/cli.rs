@@ -1179,6 +1179,60 @@ fn ctt2_sim_runs_the_commands_on_the_simulated_as_i_link() {
         "{}",
         stderr(&o)
     );
+    // A backup holds every array element and parameter set (the IND word as the manual's
+    // 4.6.1.2 forms it: sets in bits 8-9, a set parameter's element in bits 10-15, any other
+    // parameter's element in bits 8-15), P560 last; a restore writes a changed one back.
+    let dir = std::env::temp_dir().join(format!("drivectl-ctt2-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("nord.json");
+    let o = Command::new(env!("CARGO_BIN_EXE_drivectl"))
+        .args([
+            "ctt2",
+            "--sim",
+            "--fast",
+            "backup",
+            "--out",
+            file.to_str().unwrap(),
+        ])
+        .env("DRIVECTL_STATE_DIR", &dir)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let mut doc: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&file).unwrap()).unwrap();
+    let numbers: Vec<String> = doc["parameters"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|p| p["number"].as_str().unwrap().to_owned())
+        .collect();
+    assert_eq!(numbers.len(), 57, "{numbers:?}");
+    for label in ["P102 set 4", "P480 [-12]", "P543 [-03]", "P701 [-05]"] {
+        assert!(numbers.iter().any(|n| n == label), "{label}: {numbers:?}");
+    }
+    assert_eq!(numbers.last().map(String::as_str), Some("P560"));
+    for p in doc["parameters"].as_array_mut().unwrap() {
+        if p["number"] == "P102 set 3" {
+            p["raw"] = serde_json::json!(1000);
+        }
+    }
+    std::fs::write(&file, doc.to_string()).unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_drivectl"))
+        .args([
+            "ctt2",
+            "--sim",
+            "--fast",
+            "--json",
+            "restore",
+            file.to_str().unwrap(),
+        ])
+        .env("DRIVECTL_STATE_DIR", &dir)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v = json_lines(&o);
+    assert_eq!(v.last().unwrap()["written"], 1, "{v:?}");
+    let _ = std::fs::remove_dir_all(&dir);
     // 31 AS-i slaves: 81.312 ms per byte (section 4.4), counted on the virtual clock.
     let o = drivectl(&["ctt2", "--sim", "--fast", "--slaves", "31", "diag"]);
     assert!(stderr(&o).contains("81.312 ms per byte"), "{}", stderr(&o));

@@ -98,18 +98,14 @@ enum Ctt2Command {
 /// /dev/ttyUSB0 --addr 1`; below `drivectl ctt2 <command> --help` they read `drivectl ctt2
 /// --sim`.
 pub fn with_help(cmd: clap::Command) -> clap::Command {
-    cmd.mut_subcommand("ctt2", |ctt2| {
-        let names: Vec<String> = ctt2
-            .get_subcommands()
-            .map(|s| s.get_name().to_owned())
-            .collect();
-        names.iter().fold(ctt2, |c, name| {
-            c.mut_subcommand(name, |sub| {
-                match sub.get_after_help().map(ToString::to_string) {
-                    Some(h) => sub.after_help(h.replace(USS_PREFIX, "drivectl ctt2 --sim")),
-                    None => sub,
-                }
-            })
+    // `mut_subcommands` keeps the order of the commands in `--help`.
+    cmd.mut_subcommands(|c| {
+        if c.get_name() != "ctt2" {
+            return c;
+        }
+        c.mut_subcommands(|sub| match sub.get_after_help().map(ToString::to_string) {
+            Some(h) => sub.after_help(h.replace(USS_PREFIX, "drivectl ctt2 --sim")),
+            None => sub,
         })
     })
 }

@@ -865,7 +865,11 @@ fn actual_json(word: u16, function: Option<i64>, p105_hz: Option<f64>, p112: Opt
     });
     let (value, unit) = match function {
         Some(1 | 8) => (p105_hz.map(|r| nord::word_to_physical(word, r)), Some("Hz")),
-        Some(3) => (p112.map(|r| nord::word_to_physical(word, r)), Some("%")),
+        // The current's 100 % is P112 (itself in % of the rated current).
+        Some(3) => (
+            p112.map(|r| nord::word_to_physical(word, r)),
+            Some("% of rated current"),
+        ),
         _ => (None, None),
     };
     json!({"word": word, "hex": format!("0x{word:04X}"), "percent": percent,
