@@ -1114,12 +1114,14 @@ where
                     .unwrap_or_else(|| hold_word(target)),
             };
             let word = with_set(word);
+            // Sent, whether or not the answer comes back: a lost answer to 047Fh may leave the
+            // motor running.
+            last = word;
+            sent = true;
             answer = c
                 .process(ControlWord(word), sw1_slot, iw)
                 .await
                 .map_err(link_error)?;
-            last = word;
-            sent = true;
             tokio::select! {
                 () = tokio::time::sleep(CONTROL_PERIOD) => {}
                 () = stop.wait() => {}
@@ -1129,11 +1131,11 @@ where
     .await;
     if let Err(e) = run {
         if runs(last) {
-            errln!(
-                "drivectl: warning: the exchange failed after the drive was sent 0x{last:04X} \
-                 (enable operation): it may be running; stop it with `{} control stop`",
+            return Err(CliError::failed(format!(
+                "{e}; the drive was sent 0x{last:04X} (enable operation) and may be running: \
+                 stop it with `{} control stop`",
                 s.again
-            );
+            )));
         }
         return Err(e);
     }

@@ -444,6 +444,21 @@ async fn a_link_failure_while_enabling_says_the_drive_may_be_running() {
         .unwrap_err()
         .to_string();
     assert!(e.contains("no answer from the fake drive"), "{e}");
+    assert!(!e.contains("may be running"), "{e}");
+    // The answer to enable operation (047Fh, the 4th exchange) is lost: the drive may run.
+    let mut c = client(Fake {
+        process_dies_after: Some(3),
+        ..Fake::default()
+    });
+    let e = control(&mut c, &session(), &control_session("enable", Some(0x2000)))
+        .await
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("was sent 0x047F (enable operation) and may be running")
+            && e.contains("drivectl uss --port /dev/fake --addr 1 control stop"),
+        "{e}"
+    );
     // Which words let the motor run (bits 0-3: enable operation).
     assert!(runs(0x047F) && !runs(0x047E) && !runs(0x0477) && !runs(0x0402));
 }
