@@ -137,6 +137,9 @@ fn demo_runs() {
     assert!(o.status.success(), "{}", stderr(&o));
     let out = stdout(&o);
     assert!(out.contains("1000 1/min"), "{out}");
+    // The NORD CTT2 session reaches the manual's 5.1.2 answer and stops.
+    assert!(out.contains("ZSW 0x0B37, IW1 0x2000"), "{out}");
+    assert!(out.contains("C ready to switch on"), "{out}");
 }
 
 /// The keys of every object `params <family> --json` prints.

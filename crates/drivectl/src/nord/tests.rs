@@ -238,6 +238,7 @@ fn array_and_set_options_are_checked_against_the_table_before_anything_is_sent()
     // Outside the table nothing is known: the options make the IND word.
     let raw = one("900", Some(2), Some(3));
     assert_eq!((raw.param.is_none(), raw.sub), (true, 0x0600));
+    assert_eq!(raw.label(), "index 900 IND 0x0600");
 }
 
 #[test]

@@ -227,7 +227,9 @@ async fn scan<IO: CharIo>(master: UssMaster<IO>, args: &UssArgs, from: u8, to: u
         };
         let mut level = None;
         let mut answered = answer.is_some();
-        {
+        // Nothing answered the process telegram: nobody is there (without PZD the parameter
+        // read is the probe).
+        if answered || args.pzd == 0 {
             let mut pc = NordParamClient::new(&mut client, "", Map::new());
             let t744 = target_of(super::param::CONFIGURATION_LEVEL, None, None)?;
             match pc.read(&t744).await {

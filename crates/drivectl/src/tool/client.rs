@@ -184,6 +184,9 @@ impl Target {
             // `P102 set 3`).
             let (element, set) = nord_sub_parts(self.index, self.sub);
             let mut label = name;
+            if self.param.is_none() && self.sub != 0 {
+                label.push_str(&format!(" IND 0x{:04X}", self.sub));
+            }
             if let Some(e) = element {
                 label.push_str(&format!(" [-{e:02}]"));
             }
@@ -343,10 +346,10 @@ pub fn nord_sub(element: Option<u8>, set: Option<u8>) -> u16 {
 
 /// NORD: the array element and parameter set (1-based) of parameter `pnu`'s IND word `sub`,
 /// as the table describes the parameter (see [`nord_sub`]). Outside the table the IND bits
-/// cannot be told apart: a non-zero sub-index is shown as the element of bits 8–15.
+/// cannot be told apart: neither is known.
 pub fn nord_sub_parts(pnu: u16, sub: u16) -> (Option<u8>, Option<u8>) {
     let Some(p) = drive_profile::nord::by_index(pnu) else {
-        return ((sub != 0).then_some((sub >> 8) as u8 + 1), None);
+        return (None, None);
     };
     let set = p.parameter_set.then_some(((sub >> 8) & 3) as u8 + 1);
     let element = p.array_len.map(|_| {
