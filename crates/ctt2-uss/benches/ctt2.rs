@@ -8,6 +8,17 @@
 //! * `ctt2_loop/pkw_read`: one PKW read as a master does it over the sans-IO double slave with
 //!   an instant backend: request encode, `handle_request`, `poll_answer`, answer encode, answer
 //!   decode, PKW out of the data (target ≥ 1 000 000 reads/s, i.e. ≤ 1 µs each).
+//!
+//! On a busy machine the times jitter; the instruction counts do not. With `CTT2_CALLGRIND=OP,N`
+//! the binary runs operation OP (a benchmark name without the group, or `noop` for the loop
+//! itself) N times and exits, for
+//! `valgrind --tool=callgrind` ((count(N) − count(0)) / N is one operation):
+//!
+//! ```text
+//! cargo bench -p ctt2-uss --bench ctt2 --no-run
+//! CTT2_CALLGRIND=decode_pzd_answer,100000 valgrind --tool=callgrind \
+//!     --callgrind-out-file=/dev/null target/release/deps/ctt2-*
+//! ```
 
 // Benchmark setup: a failing fixture means a broken benchmark, so panicking is the report.
 #![allow(
@@ -20,7 +31,7 @@
 
 use std::hint::black_box;
 
-use criterion::{Criterion, Throughput, criterion_group, criterion_main};
+use criterion::{Criterion, Throughput, criterion_group};
 use ctt2_uss::ctt2::{
     Backend, Channel, Data, DiagnosisCode, DiagnosisObject, DoubleSlave, IdObject, MAX_REQUEST,
     MAX_RESPONSE, Request, Response, SlaveConfig,
@@ -170,5 +181,90 @@ fn exchange(c: &mut Criterion) {
     g.finish();
 }
 
+/// Run one operation `n` times (for callgrind).
+fn callgrind(op: &str, n: u64) {
+    let pkw = order();
+    let mut buf = [0u8; MAX_REQUEST];
+    let write = Request::NordWrite {
+        index: Channel::Pkw,
+        data: Data::from_pkw(Channel::Pkw, &pkw).unwrap(),
+    };
+    let wn = write.encode(&mut buf).unwrap();
+    let wire = buf;
+    let pzd = PzdIn::new(StatusWord(0x0B37), &[0x2000, 0x1234, 0xFFFF]);
+    let mut out = [0u8; MAX_RESPONSE];
+    let answer = Response::Ok {
+        kind: Ctt2MessageType::NordRead,
+        data: Data::from_pzd_in(&pzd),
+    };
+    let an = answer.encode(&mut out).unwrap();
+    let ans = out;
+    let mut slave = DoubleSlave::new(Instantly, SlaveConfig::default());
+    slave.handle_request(&wire[..wn], Instant::ZERO);
+    assert!(slave.poll_answer(Instant::ZERO).is_some());
+    let mut run: Box<dyn FnMut(u64)> = match op {
+        "encode_pkw_write" => Box::new(move |_| {
+            let r = Request::NordWrite {
+                index: Channel::Pkw,
+                data: Data::from_pkw(Channel::Pkw, black_box(&pkw)).unwrap(),
+            };
+            black_box(r.encode(&mut buf).unwrap());
+        }),
+        "decode_pkw_write" => Box::new(move |_| {
+            let Request::NordWrite { index, data } =
+                Request::decode(black_box(&wire[..wn])).unwrap()
+            else {
+                panic!()
+            };
+            black_box(data.to_pkw(index).unwrap());
+        }),
+        "encode_pzd_answer" => Box::new(move |_| {
+            let r = Response::Ok {
+                kind: Ctt2MessageType::NordRead,
+                data: Data::from_pzd_in(black_box(&pzd)),
+            };
+            black_box(r.encode(&mut out).unwrap());
+        }),
+        "decode_pzd_answer" => Box::new(move |_| {
+            let Response::Ok { data, .. } = Response::decode(black_box(&ans[..an])).unwrap() else {
+                panic!()
+            };
+            black_box(data.to_pzd_in().unwrap());
+        }),
+        "pkw_read" => Box::new(move |i| {
+            let now = Instant::from_nanos((i + 1) * 1_000_000);
+            let n = Request::NordRead {
+                index: Channel::Pkw,
+                len: 8,
+            }
+            .encode(&mut buf)
+            .unwrap();
+            slave.handle_request(&buf[..n], now);
+            let a = slave.poll_answer(now).unwrap();
+            let m = a.encode(&mut out).unwrap();
+            let Response::Ok { data, .. } = Response::decode(&out[..m]).unwrap() else {
+                panic!()
+            };
+            black_box(data.to_pkw(Channel::Pkw).unwrap());
+        }),
+        "noop" => Box::new(|i| {
+            black_box(i);
+        }),
+        other => panic!("unknown operation {other}"),
+    };
+    for i in 0..n {
+        run(i);
+    }
+}
+
 criterion_group!(benches, codec, exchange);
-criterion_main!(benches);
+
+fn main() {
+    if let Ok(spec) = std::env::var("CTT2_CALLGRIND") {
+        let (op, n) = spec.split_once(',').unwrap_or((&spec, "1"));
+        callgrind(op, n.parse().unwrap());
+        return;
+    }
+    benches();
+    Criterion::default().configure_from_args().final_summary();
+}

@@ -212,6 +212,19 @@ impl Data {
         Some(d)
     }
 
+    /// The first `len` bytes of `bytes` (the rest must be 0, as every caller in this crate
+    /// makes them).
+    pub(crate) const fn from_array(bytes: [u8; MAX_DATA], len: u8) -> Data {
+        Data {
+            len: if (len as usize) < MAX_DATA {
+                len
+            } else {
+                MAX_DATA as u8
+            },
+            bytes,
+        }
+    }
+
     /// The bytes.
     pub fn as_slice(&self) -> &[u8] {
         self.bytes
@@ -552,6 +565,48 @@ impl Request {
     /// Decode a whole request, checking what the double slave checks (section 4.3.5): the code
     /// (3), the index (1), then the lengths (2).
     pub fn decode(bytes: &[u8]) -> Result<Request, DecodeError> {
+        // The well-formed requests, straight; everything else through the checks below, which
+        // find the right error.
+        match *bytes {
+            [code::STANDARD_READ, index, len] => {
+                if let Some(index) = StandardIndex::from_index(index) {
+                    return Ok(Request::StandardRead { index, len });
+                }
+            }
+            [code::NORD_READ, index, len] => {
+                if let Some(index) = Channel::from_index(index) {
+                    return Ok(Request::NordRead { index, len });
+                }
+            }
+            [code::NORD_WRITE, index, len, ref data @ ..] => {
+                if let Some(index) = Channel::from_index(index)
+                    && data.len() == usize::from(len)
+                    && index.write_len_ok(len)
+                    && let Some(data) = Data::new(data)
+                {
+                    return Ok(Request::NordWrite { index, data });
+                }
+            }
+            [code::NORD_WRITE_READ, index, read_len, len, ref data @ ..] => {
+                if let Some(index) = Channel::from_index(index)
+                    && data.len() == usize::from(len)
+                    && index.write_len_ok(len)
+                    && let Some(data) = Data::new(data)
+                {
+                    return Ok(Request::NordWriteRead {
+                        index,
+                        read_len,
+                        data,
+                    });
+                }
+            }
+            _ => {}
+        }
+        Self::decode_checked(bytes)
+    }
+
+    /// The full checks, in the double slave's order.
+    fn decode_checked(bytes: &[u8]) -> Result<Request, DecodeError> {
         let (&code, rest) = bytes.split_first().ok_or(DecodeError::Empty)?;
         let got = sat(bytes.len());
         let kind = kind_of_request(code).ok_or(DecodeError::UnknownCode(code))?;

@@ -1,7 +1,7 @@
 //! The USS parameter channel (PKW: PKE, IND, PWE1, PWE2), BU 0255 section 4.6.1.
 //!
 //! * [`Pkw`]: the four raw words as they travel, big-endian (8 bytes; the serial framing may also
-//!   carry the 3-word form without PWE1, see [`Pkw::encode_words`]).
+//!   carry the 3-word form without PWE1, see [`crate::serial::telegram`]).
 //! * [`Pke`] (AK bits 12–15, SPM bit 11, PNU bits 0–10) and [`Ind`] (array element bits 10–15,
 //!   parameter set bits 8–9; bits 8–15 as one sub-index for parameters without sets).
 //! * [`Order`]: a typed master order (AK 0–14) and [`Reply`]: a typed drive answer (AK 0, 1, 2,
