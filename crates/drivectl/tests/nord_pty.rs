@@ -102,7 +102,9 @@ fn psr(v: &Value) -> (Value, Value, Value, Value) {
 
 #[test]
 fn write_and_read_back_p102_in_parameter_set_3() {
-    let sim = Sim::start(&["--addr", "1"]);
+    // The drive works 30 ms on every order, answering the previous one meanwhile: the master
+    // repeats its telegram until the answer fits (section 4.6.1.1).
+    let sim = Sim::start(&["--addr", "1", "--pkw-time", "30"]);
     // 5.1.3: P102 = 10 s in parameter set 3 is raw 1000 (3E8h).
     let v = ok_json(&sim.run(&["--json", "write", "P102", "10", "--set", "3"]));
     assert_eq!(psr(&v[0]), (json!(102), json!(0), json!(3), json!(1000)));
@@ -127,6 +129,18 @@ fn write_and_read_back_p102_in_parameter_set_3() {
     ]));
     assert_eq!(psr(&v[0]), (json!(102), json!(0), json!(2), json!(250)));
     // Text output names the set.
+    // A refused write, then a read of the same parameter: the read gets its own answer, not
+    // the refusal the drive keeps sending while it works on the read (erratum E21).
+    let o = sim.run(&[
+        "write",
+        "P102",
+        "400",
+        "--set",
+        "3",
+        "--force",
+        "--no-eeprom",
+    ]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
     let o = sim.run(&["read", "P102", "--set", "3"]);
     let text = String::from_utf8_lossy(&o.stdout);
     assert!(text.starts_with("P102 set 3 acceleration time"), "{text}");

@@ -301,13 +301,17 @@ async fn a_write_and_its_read_back_send_the_manuals_orders_and_wait_for_a_plausi
     assert_eq!(
         c.channel().orders(),
         [
+            // AK 0 first: the drive may still answer an earlier command's order (E21).
+            (0, 0, 0, 0),
             // AK 2 (word, EEPROM as P560 says) P102 = 66h, IND 0200h (set 3), 3E8h.
             (2, 0x66, 0x0200, 0x03E8),
-            // AK 1: read it back.
+            // AK 0 between two orders on one PNU and IND (E21), then AK 1: read it back.
+            (0, 0, 0, 0),
             (1, 0x66, 0x0200, 0),
             // AK 12 (array word, RAM only) P543 = 21Fh, IND 0100h ([-02]).
             (12, 0x21F, 0x0100, 3),
             // AK 6: read the element.
+            (0, 0, 0, 0),
             (6, 0x21F, 0x0100, 0),
             // AK 14 (word, RAM only), IND 0100h (set 2): 2.5 s as in 5.1.5.
             (14, 0x66, 0x0100, 0xFA),
@@ -484,4 +488,28 @@ fn backup_rows_cover_every_element_and_set_with_p560_last() {
         [0x0000, 0x0100, 0x0200]
     );
     assert_eq!(crate::tool::client::nord_subs(560), [0]);
+}
+
+#[tokio::test]
+async fn e21_a_read_after_a_refused_write_of_the_same_parameter_is_not_taken_for_refused() {
+    // A slow drive (two requests per order): the write of 400 s is refused (AK 7, error 2),
+    // and the drive keeps sending that answer until the read is done. AK 7 fits every order
+    // and PNU and IND are the same, so without "no order" in between the read would report
+    // the write's refusal (erratum E21).
+    let mut c = client(Fake {
+        delay: 2,
+        ..Fake::default()
+    });
+    c.channel_mut().values.insert((102, 0x0200), 1000);
+    let mut pc = NordParamClient::new(&mut c, "fake 1", Map::new());
+    let p102 = one("P102", None, Some(3));
+    assert!(matches!(
+        pc.write(&p102, 40_000, Persistence::Volatile).await,
+        Err(ClientError::Device(_))
+    ));
+    assert_eq!(pc.read(&p102).await.unwrap(), 1000);
+    // The same in a new command (a new client on the same line): the drive still answers the
+    // refused write.
+    let mut pc = NordParamClient::new(&mut c, "fake 1", Map::new());
+    assert_eq!(pc.read(&p102).await.unwrap(), 1000);
 }
