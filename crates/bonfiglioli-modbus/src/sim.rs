@@ -38,7 +38,7 @@
 
 use std::io;
 
-use drive_core::rt::{self, CharIo, Clock, Timebase};
+use drive_core::rt::{self, Bus, CharIo, Clock, Station, Timebase};
 use drive_core::{Endpoint, Instant, LineSettings, RxChar};
 use drive_sim::bonfiglioli::{self as model, SimulatedBonfiglioli, Variant};
 
@@ -250,68 +250,27 @@ impl Endpoint for SimulatedDrive {
     }
 }
 
-/// Several simulated drives on one line, each answering its own address.
-#[derive(Debug)]
-pub struct SimulatedBus {
-    drives: Vec<SimulatedDrive>,
-    clock: Clock,
-    time: Option<Timebase>,
-    line: LineSettings,
+/// Several simulated drives on one line, each answering its own address (parameter 1376): the
+/// runtime layer's [`Bus`]. Build one with [`bus`]; [`Bus::station`] finds a drive by its
+/// address.
+pub type SimulatedBus = Bus<SimulatedDrive>;
+
+/// Drives of `variant` at `addresses` (duplicates kept once) speaking `mode` on `line`.
+pub fn bus(addresses: &[u8], variant: Variant, mode: Mode, line: LineSettings) -> SimulatedBus {
+    Bus::new(
+        addresses
+            .iter()
+            .map(|&a| SimulatedDrive::new(a, variant, mode, line)),
+        line,
+    )
 }
 
-impl SimulatedBus {
-    /// Drives of `variant` at `addresses` (duplicates kept once) speaking `mode` on `line`.
-    pub fn new(addresses: &[u8], variant: Variant, mode: Mode, line: LineSettings) -> Self {
-        let mut drives: Vec<SimulatedDrive> = Vec::with_capacity(addresses.len());
-        for &a in addresses {
-            let d = SimulatedDrive::new(a, variant, mode, line);
-            if !drives.iter().any(|x| x.address() == d.address()) {
-                drives.push(d);
-            }
-        }
-        Self {
-            drives,
-            clock: Clock::Real,
-            time: None,
-            line,
-        }
+impl Station for SimulatedDrive {
+    fn address(&self) -> u8 {
+        SimulatedDrive::address(self).get()
     }
 
-    /// Serve requests on `io` until it closes (`Ok`) or fails.
-    pub async fn serve<IO: CharIo>(&mut self, io: IO) -> io::Result<()> {
-        let clock = self.clock;
-        let char_time = self.line.char_time();
-        let mut time = *self
-            .time
-            .get_or_insert_with(|| Timebase::new(clock, char_time));
-        let r = rt::serve(&mut self.drives, &mut time, io).await;
-        self.time = Some(time);
-        r
-    }
-
-    /// The drive at `address`.
-    pub fn drive(&self, address: u8) -> Option<&SimulatedDrive> {
-        self.drives.iter().find(|d| d.address().get() == address)
-    }
-
-    /// The drive at `address`, for changing.
-    pub fn drive_mut(&mut self, address: u8) -> Option<&mut SimulatedDrive> {
-        self.drives
-            .iter_mut()
-            .find(|d| d.address().get() == address)
-    }
-
-    /// All drives.
-    pub fn drives(&self) -> &[SimulatedDrive] {
-        &self.drives
-    }
-
-    /// [`Clock::Real`] (the default) or [`Clock::Virtual`].
-    pub fn set_clock(&mut self, clock: Clock) {
-        self.clock = clock;
-        self.time = self.time.map(|t| t.switched_to(clock));
-        for d in &mut self.drives {
-            d.set_clock(clock);
-        }
+    fn set_clock(&mut self, clock: Clock) {
+        SimulatedDrive::set_clock(self, clock);
     }
 }

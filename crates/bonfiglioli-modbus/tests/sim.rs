@@ -16,7 +16,7 @@ use std::time::Duration;
 use bonfiglioli_modbus::driver::{DriverConfig, DriverError, MasterDriver};
 use bonfiglioli_modbus::frame::{Address, DataSet, ExceptionCode, Request, Response, StartAddress};
 use bonfiglioli_modbus::framing::Mode;
-use bonfiglioli_modbus::sim::SimulatedBus;
+use bonfiglioli_modbus::sim::{self, SimulatedBus};
 use bonfiglioli_modbus::slave::Width;
 use drive_core::{LineSettings, Parity};
 use drive_profile::bonfiglioli::{AcuStateMachine, State};
@@ -42,7 +42,7 @@ fn bus(
     variant: Variant,
 ) -> (MasterDriver<LinkEnd>, tokio::task::JoinHandle<SimulatedBus>) {
     let (port, wire) = link::pair(LinkConfig::from_line(line(mode)));
-    let mut sim = SimulatedBus::new(&[1, 2], variant, mode, line(mode));
+    let mut sim = sim::bus(&[1, 2], variant, mode, line(mode));
     let task = tokio::spawn(async move {
         let _ = sim.serve(wire).await;
         sim
@@ -206,5 +206,5 @@ async fn a_new_modbus_address_takes_effect_at_once() {
     }
     drop(m);
     let sim = sim.await.unwrap();
-    assert!(sim.drive(17).is_some() && sim.drive(2).is_none());
+    assert!(sim.station(17).is_some() && sim.station(2).is_none());
 }

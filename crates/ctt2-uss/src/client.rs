@@ -25,7 +25,7 @@ use drive_profile::nord::{ControlWord, NordStateMachine, State, StatusWord, Widt
 use drive_profile::state::StateMachine;
 
 use crate::uss::DriveError;
-use crate::uss::pkw::{Ind, Order, Pkw, PkwError, Plausibility, Reply, Storage};
+use crate::uss::pkw::{Ind, IndLayout, Order, Pkw, PkwError, Plausibility, Reply, Storage};
 use crate::uss::pzd::{PzdIn, PzdOut};
 
 /// A transport's parameter channel.
@@ -197,10 +197,12 @@ impl Address {
         }
     }
 
-    /// The IND word.
+    /// The IND word, laid out as the table says the parameter needs ([`IndLayout::of_pnu`]:
+    /// element in bits 10–15 and set in bits 8–9 for a parameter with parameter sets, else the
+    /// element as the sub-index in bits 8–15).
     pub fn ind(&self) -> Result<Ind, PkwError> {
         let element = self.element.unwrap_or(0);
-        Ind::new(element, self.set).ok_or(PkwError::BadIndex {
+        Ind::address(IndLayout::of_pnu(self.pnu), element, self.set).ok_or(PkwError::BadIndex {
             element,
             set: self.set,
         })

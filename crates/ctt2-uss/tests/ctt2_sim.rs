@@ -472,9 +472,23 @@ async fn busio_bits_act_per_p480_p481() {
     let id = first_id(link);
     assert_eq!(link.network().inputs(id).unwrap(), out);
 
-    // P480 [-04] := 11, quick stop: a non-set array parameter, sub-index in IND bits 8..15.
-    let order = Order::write(0x1E0, Ind::subindex(3), Width::Word, true, Storage::Ram, 11).unwrap();
-    client.order(order).await.unwrap();
+    // P480 [-04] := 11, quick stop: a non-set array parameter, so NordClient puts the element
+    // into IND bits 8..15 as the sub-index (before IndLayout it put it into bits 10..15, and
+    // the drive wrote element [-01]).
+    let at = Address {
+        pnu: 480,
+        element: Some(3),
+        set: 0,
+    };
+    client
+        .write(at, Width::Word, Storage::Ram, 11)
+        .await
+        .unwrap();
+    assert_eq!(
+        client.channel().link().inner.drive().ram_value(480, 0, 0),
+        Some(1),
+        "element [-01] untouched"
+    );
     let link = &mut client.channel_mut().link_mut().inner;
     assert_eq!(link.drive().ram_value(480, 3, 0), Some(11));
     let mut out = link.exchange_busio(enable).unwrap(); // bit 4 = 0: quick stop

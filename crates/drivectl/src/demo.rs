@@ -162,7 +162,7 @@ async fn movilink_session() -> Result<()> {
     use drive_profile::sew::{ControlWord1, StatusWord1, index};
     use drive_transport::link::{LinkConfig, pair};
     use movilink::driver::{DriverConfig, MasterDriver};
-    use movilink::sim::SimulatedBus;
+    use movilink::sim;
     use movilink::{Address, PduType, Telegram};
     use std::time::Duration;
 
@@ -171,7 +171,7 @@ async fn movilink_session() -> Result<()> {
     )?;
     let (master_end, drive_end) = pair(LinkConfig::new(9600));
     let sim = tokio::spawn(async move {
-        let mut bus = SimulatedBus::new(&[1, 5]);
+        let mut bus = sim::bus(&[1, 5], movilink::timing::LINE);
         bus.serve(drive_end).await
     });
     let mut m = MasterDriver::new(master_end, DriverConfig::default());
@@ -273,7 +273,7 @@ async fn bonfiglioli_session() -> Result<()> {
     use bonfiglioli_modbus::driver::{DriverConfig, DriverError, MasterDriver};
     use bonfiglioli_modbus::frame::{Address, DataSet, DiagSubFunction};
     use bonfiglioli_modbus::framing::Mode;
-    use bonfiglioli_modbus::sim::SimulatedBus;
+    use bonfiglioli_modbus::sim;
     use bonfiglioli_modbus::slave::Width;
     use drive_profile::bonfiglioli::AcuStateMachine;
     use drive_sim::bonfiglioli::Variant;
@@ -289,7 +289,7 @@ async fn bonfiglioli_session() -> Result<()> {
         )?;
         let (master_end, drive_end) = pair(LinkConfig::from_line(line));
         let sim = tokio::spawn(async move {
-            let mut bus = SimulatedBus::new(&[1], Variant::Acu, mode, line);
+            let mut bus = sim::bus(&[1], Variant::Acu, mode, line);
             bus.serve(drive_end).await
         });
         let mut m = MasterDriver::new(master_end, DriverConfig::new(mode, line));

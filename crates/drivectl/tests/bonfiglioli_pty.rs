@@ -9,51 +9,42 @@
     clippy::panic
 )]
 
-use std::io::{BufRead, BufReader};
-use std::process::{Child, Command, Output, Stdio};
+mod common;
 
+use std::io::{BufRead, BufReader};
+use std::ops::Deref;
+use std::process::{Command, Output, Stdio};
+
+use common::{PtySim, ok_json, stderr};
+
+/// `drivectl sim bonfiglioli --pty` in one mode.
 struct Sim {
-    child: Child,
-    path: String,
+    pty: PtySim,
     mode: &'static str,
-    state: std::path::PathBuf,
+}
+
+impl Deref for Sim {
+    type Target = PtySim;
+    fn deref(&self) -> &PtySim {
+        &self.pty
+    }
 }
 
 impl Sim {
     fn start(mode: &'static str, extra: &[&str]) -> Sim {
-        let mut child = Command::new(env!("CARGO_BIN_EXE_drivectl"))
-            .args([
-                "sim",
-                "bonfiglioli",
-                "--pty",
-                "--parity",
-                "none",
-                "--mode",
-                mode,
-            ])
-            .args(extra)
-            .stdout(Stdio::piped())
-            .stderr(Stdio::null())
-            .spawn()
-            .expect("sim starts");
-        let stdout = child.stdout.take().expect("stdout");
-        let mut line = String::new();
-        BufReader::new(stdout)
-            .read_line(&mut line)
-            .expect("sim prints its pty path");
-        let path = line.trim().to_owned();
-        assert!(
-            path.starts_with("/dev/"),
-            "first line is the pty path: {path:?}"
-        );
-        let state =
-            std::env::temp_dir().join(format!("drivectl-bonf-state-{}", path.replace('/', "_")));
-        let _ = std::fs::remove_dir_all(&state);
-        Sim {
-            child,
-            path,
+        let mut args = vec![
+            "sim",
+            "bonfiglioli",
+            "--pty",
+            "--parity",
+            "none",
+            "--mode",
             mode,
-            state,
+        ];
+        args.extend_from_slice(extra);
+        Sim {
+            pty: PtySim::start(&args),
+            mode,
         }
     }
 
@@ -73,36 +64,8 @@ impl Sim {
             "1",
         ];
         all.extend_from_slice(args);
-        Command::new(env!("CARGO_BIN_EXE_drivectl"))
-            .args(&all)
-            .env("DRIVECTL_STATE_DIR", &self.state)
-            .output()
-            .expect("drivectl runs")
+        self.drivectl(&all)
     }
-}
-
-impl Drop for Sim {
-    fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-        let _ = std::fs::remove_dir_all(&self.state);
-    }
-}
-
-fn ok_json(o: &Output) -> Vec<serde_json::Value> {
-    assert!(
-        o.status.success(),
-        "stderr: {}",
-        String::from_utf8_lossy(&o.stderr)
-    );
-    String::from_utf8_lossy(&o.stdout)
-        .lines()
-        .map(|l| serde_json::from_str(l).unwrap_or_else(|e| panic!("not JSON: {l}: {e}")))
-        .collect()
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
 }
 
 fn everyday(mode: &'static str) {

@@ -9,14 +9,23 @@
     clippy::panic
 )]
 
-use std::io::{BufRead, BufReader};
-use std::os::unix::fs::FileTypeExt as _;
-use std::process::{Child, Command, Output, Stdio};
+mod common;
 
-struct Sim {
-    child: Child,
-    path: String,
-    state: std::path::PathBuf,
+use std::io::{BufRead, BufReader};
+use std::ops::Deref;
+use std::os::unix::fs::FileTypeExt as _;
+use std::process::{Command, Output, Stdio};
+
+use common::{PtySim, ok_json};
+
+/// `drivectl sim movilink --pty` with drives at the given addresses.
+struct Sim(PtySim);
+
+impl Deref for Sim {
+    type Target = PtySim;
+    fn deref(&self) -> &PtySim {
+        &self.0
+    }
 }
 
 impl Sim {
@@ -25,31 +34,13 @@ impl Sim {
     }
 
     fn start_with(addrs: &[u8], extra: &[&str]) -> Sim {
-        let mut cmd = Command::new(env!("CARGO_BIN_EXE_drivectl"));
-        cmd.args(["sim", "movilink", "--pty", "--parity", "none"]);
-        cmd.args(extra);
-        for a in addrs {
-            cmd.args(["--addr", &a.to_string()]);
+        let addrs: Vec<String> = addrs.iter().map(u8::to_string).collect();
+        let mut args = vec!["sim", "movilink", "--pty", "--parity", "none"];
+        args.extend_from_slice(extra);
+        for a in &addrs {
+            args.extend(["--addr", a.as_str()]);
         }
-        let mut child = cmd
-            .stdout(Stdio::piped())
-            .stderr(Stdio::null())
-            .spawn()
-            .expect("sim starts");
-        let stdout = child.stdout.take().expect("stdout");
-        let mut line = String::new();
-        BufReader::new(stdout)
-            .read_line(&mut line)
-            .expect("sim prints its pty path");
-        let path = line.trim().to_owned();
-        assert!(
-            path.starts_with("/dev/"),
-            "first line is the pty path: {path:?}"
-        );
-        // Each simulated drive gets its own EEPROM-write log.
-        let state = std::env::temp_dir().join(format!("drivectl-state-{}", path.replace('/', "_")));
-        let _ = std::fs::remove_dir_all(&state);
-        Sim { child, path, state }
+        Sim(PtySim::start(&args))
     }
 
     fn run(&self, addr: u8, args: &[&str]) -> Output {
@@ -58,32 +49,8 @@ impl Sim {
             "movilink", "--port", &self.path, "--parity", "none", "--addr", &a,
         ];
         all.extend_from_slice(args);
-        Command::new(env!("CARGO_BIN_EXE_drivectl"))
-            .args(&all)
-            .env("DRIVECTL_STATE_DIR", &self.state)
-            .output()
-            .expect("drivectl runs")
+        self.drivectl(&all)
     }
-}
-
-impl Drop for Sim {
-    fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-        let _ = std::fs::remove_dir_all(&self.state);
-    }
-}
-
-fn ok_json(o: &Output) -> Vec<serde_json::Value> {
-    assert!(
-        o.status.success(),
-        "stderr: {}",
-        String::from_utf8_lossy(&o.stderr)
-    );
-    String::from_utf8_lossy(&o.stdout)
-        .lines()
-        .map(|l| serde_json::from_str(l).unwrap_or_else(|e| panic!("not JSON: {l}: {e}")))
-        .collect()
 }
 
 #[test]
@@ -483,11 +450,7 @@ fn restore_right_after_an_eeprom_write_is_refused_before_writing() {
 
 /// `drivectl movilink …` with the given arguments only (no defaults from [`Sim::run`]).
 fn drivectl(sim: &Sim, args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_drivectl"))
-        .args(args)
-        .env("DRIVECTL_STATE_DIR", &sim.state)
-        .output()
-        .expect("drivectl runs")
+    sim.drivectl(args)
 }
 
 #[test]
@@ -596,7 +559,7 @@ fn issue7_timeout_and_gap_options_have_limits_named_in_help() {
 }
 
 fn stderr_of(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
+    common::stderr(o)
 }
 
 #[test]
@@ -1181,13 +1144,7 @@ fn issue7_22_scan_names_no_device_type_it_cannot_and_shows_the_rated_current() {
     );
 }
 
-/// Every line of standard error as a JSON object.
-fn stderr_json(o: &Output) -> Vec<serde_json::Value> {
-    stderr_of(o)
-        .lines()
-        .map(|l| serde_json::from_str(l).unwrap_or_else(|e| panic!("stderr not JSON: {l}: {e}")))
-        .collect()
-}
+use common::stderr_json;
 
 #[test]
 fn issue7_json_is_one_schema_per_kind_and_errors_are_json_too() {

@@ -42,7 +42,7 @@
 
 use std::io;
 
-use drive_core::rt::{self, CharIo, Clock, Timebase};
+use drive_core::rt::{self, Bus, CharIo, Clock, Station, Timebase};
 use drive_core::{Endpoint, Instant, LineSettings, RxChar};
 use drive_sim::movidrive::{BusSource, Movidrive};
 
@@ -211,78 +211,28 @@ fn config_of(drive: &Movidrive, current: SlaveConfig) -> SlaveConfig {
     }
 }
 
-/// Several simulated drives on one line, each answering its own address.
-#[derive(Debug)]
-pub struct SimulatedBus {
-    drives: Vec<SimulatedMovidrive>,
-    clock: Clock,
-    time: Option<Timebase>,
-    line: LineSettings,
+/// Several simulated MOVIDRIVEs on one line, each answering its own address (P810): the
+/// runtime layer's [`Bus`]. Build one with [`bus`]; [`Bus::station`] finds a drive by its
+/// address.
+pub type SimulatedBus = Bus<SimulatedMovidrive>;
+
+/// Drives at `addresses` (duplicates are kept once) on a line with `line`'s settings
+/// ([`LINE`]: 9600 8E1).
+pub fn bus(addresses: &[u8], line: LineSettings) -> SimulatedBus {
+    Bus::new(
+        addresses
+            .iter()
+            .map(|&a| SimulatedMovidrive::with_line(a, line)),
+        line,
+    )
 }
 
-impl SimulatedBus {
-    /// Drives at `addresses` (duplicates are kept once) on a 9600 8E1 line.
-    pub fn new(addresses: &[u8]) -> Self {
-        Self::with_line(addresses, LINE)
+impl Station for SimulatedMovidrive {
+    fn address(&self) -> u8 {
+        self.movidrive().address()
     }
 
-    /// Drives at `addresses` (duplicates are kept once) on a line with `line`'s settings.
-    pub fn with_line(addresses: &[u8], line: LineSettings) -> Self {
-        let mut drives: Vec<SimulatedMovidrive> = Vec::with_capacity(addresses.len());
-        for &a in addresses {
-            if !drives.iter().any(|d| d.movidrive().address() == a.min(99)) {
-                drives.push(SimulatedMovidrive::with_line(a, line));
-            }
-        }
-        Self {
-            drives,
-            clock: Clock::Real,
-            time: None,
-            line,
-        }
-    }
-
-    /// Serve requests on `io` until it closes (`Ok`) or fails; see
-    /// [`SimulatedMovidrive::serve`].
-    pub async fn serve<IO: CharIo>(&mut self, io: IO) -> io::Result<()> {
-        let clock = self.clock;
-        let char_time = self.line.char_time();
-        let mut time = *self
-            .time
-            .get_or_insert_with(|| Timebase::new(clock, char_time));
-        let r = rt::serve(&mut self.drives, &mut time, io).await;
-        self.time = Some(time);
-        r
-    }
-
-    /// The drive currently at `address` (P810).
-    pub fn drive(&self, address: u8) -> Option<&SimulatedMovidrive> {
-        self.drives
-            .iter()
-            .find(|d| d.movidrive().address() == address)
-    }
-
-    /// The drive currently at `address` (P810), for changing.
-    pub fn drive_mut(&mut self, address: u8) -> Option<&mut SimulatedMovidrive> {
-        self.drives
-            .iter_mut()
-            .find(|d| d.movidrive().address() == address)
-    }
-
-    /// All drives.
-    pub fn drives(&self) -> &[SimulatedMovidrive] {
-        &self.drives
-    }
-
-    /// The line's settings.
-    pub fn line(&self) -> LineSettings {
-        self.line
-    }
-
-    /// [`Clock::Real`] (tokio's clock, the default) or [`Clock::Virtual`] (waits for nothing).
-    pub fn set_clock(&mut self, clock: Clock) {
-        self.clock = clock;
-        // The slave keeps its line history: its time goes on from where it is.
-        self.time = self.time.map(|t| t.switched_to(clock));
+    fn set_clock(&mut self, clock: Clock) {
+        SimulatedMovidrive::set_clock(self, clock);
     }
 }

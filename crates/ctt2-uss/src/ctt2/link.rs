@@ -18,7 +18,6 @@
 use core::time::Duration;
 
 use drive_core::Instant;
-use drive_profile::nord;
 use drive_sim::nord::{CONFIGURATION_LEVEL, SimulatedNord};
 
 use super::asi::{
@@ -29,7 +28,7 @@ use super::master::Ctt2Link;
 use super::message::{MAX_RESPONSE, Request};
 use super::object::{DiagnosisCode, DiagnosisObject, IdObject};
 use super::slave::{Backend, DoubleSlave, SlaveConfig};
-use crate::uss::pkw::{DriveError, Order, OrderKind, Reply, Storage};
+use crate::uss::pkw::{DriveError, IndLayout, Order, OrderKind, Reply, Storage};
 use crate::uss::pzd::{PzdIn, PzdOut};
 use drive_profile::nord::{StatusWord, Width};
 
@@ -127,19 +126,10 @@ impl SimulatedDoubleSlave {
     }
 }
 
-/// Array element and parameter set an order addresses (section 4.6.1.2): a parameter-set
-/// parameter takes its set from IND bits 8–9 and, with an array order (AK 6, 7, 8, 11, 12), its
-/// element from bits 10–15; any other parameter takes bits 8–15 as its element, and only with
-/// an array order.
+/// Array element and parameter set an order addresses (section 4.6.1.2, the one rule of
+/// [`IndLayout`]).
 fn address(order: &Order, array: bool) -> (u8, u8) {
-    let ind = order.ind();
-    let set_param = nord::by_index(order.pnu()).is_some_and(|p| p.parameter_set);
-    match (set_param, array) {
-        (true, true) => (ind.element(), ind.set()),
-        (true, false) => (0, ind.set()),
-        (false, true) => (ind.sub(), 0),
-        (false, false) => (0, 0),
-    }
+    order.ind().split(IndLayout::of_pnu(order.pnu()), array)
 }
 
 impl Backend for SimulatedDoubleSlave {

@@ -12,19 +12,6 @@ use core::fmt;
 use super::message::{Channel, DRIVE_ADDRESS, Data, MAX_DATA};
 use crate::uss::pkw::{PKW_LEN, Pkw};
 use crate::uss::pzd::{PzdError, PzdIn, PzdOut};
-use drive_profile::nord::{ControlWord, StatusWord};
-
-/// The first word and 0–3 value words of process data (2, 4, 6 or 8 bytes, high byte first).
-fn words(b: &[u8]) -> Result<(u16, [u16; 3], usize), ObjectError> {
-    let w = |h: u8, l: u8| u16::from_be_bytes([h, l]);
-    Ok(match *b {
-        [a, b] => (w(a, b), [0; 3], 0),
-        [a, b, c, d] => (w(a, b), [w(c, d), 0, 0], 1),
-        [a, b, c, d, e, f] => (w(a, b), [w(c, d), w(e, f), 0], 2),
-        [a, b, c, d, e, f, g, h] => (w(a, b), [w(c, d), w(e, f), w(g, h)], 3),
-        _ => return Err(PzdError::BadLength(b.len().min(255) as u8).into()),
-    })
-}
 
 /// Why an object or a channel's data cannot be read or built.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, thiserror::Error)]
@@ -386,19 +373,11 @@ impl Data {
 
     /// The process data written (PZD channel: address, STW, 0–3 setpoints).
     pub fn to_pzd_out(&self) -> Result<PzdOut, ObjectError> {
-        let (first, values, n) = words(self.payload(Channel::Pzd)?)?;
-        Ok(PzdOut::new(
-            ControlWord(first),
-            values.get(..n).unwrap_or(&values),
-        ))
+        Ok(PzdOut::decode(self.payload(Channel::Pzd)?)?)
     }
 
     /// The process data read (PZD channel: address, ZSW, 0–3 actual values).
     pub fn to_pzd_in(&self) -> Result<PzdIn, ObjectError> {
-        let (first, values, n) = words(self.payload(Channel::Pzd)?)?;
-        Ok(PzdIn::new(
-            StatusWord(first),
-            values.get(..n).unwrap_or(&values),
-        ))
+        Ok(PzdIn::decode(self.payload(Channel::Pzd)?)?)
     }
 }

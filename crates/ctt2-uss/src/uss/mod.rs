@@ -6,6 +6,10 @@ pub mod pkw;
 pub mod pzd;
 
 pub use pkw::{
-    DriveError, Ind, Order, OrderKind, PKW_LEN, Pke, Pkw, PkwError, Plausibility, Reply, Storage,
+    DriveError, Ind, IndLayout, Order, OrderKind, PKW_LEN, Pke, Pkw, PkwError, Plausibility, Reply,
+    Storage,
 };
 pub use pzd::{PzdError, PzdIn, PzdOut};
+
+#[cfg(test)]
+mod tests;

@@ -69,11 +69,34 @@ impl fmt::Debug for Pke {
     }
 }
 
+/// How IND addresses a parameter's values (section 4.6.1.2).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum IndLayout {
+    /// A parameter with parameter sets: the set in bits 8–9, an array element in bits 10–15.
+    ParameterSets,
+    /// A parameter without parameter sets: bits 8–15 are one sub-index (the array element).
+    Subindex,
+}
+
+impl IndLayout {
+    /// The layout of parameter `pnu` by the table: [`IndLayout::ParameterSets`] for a
+    /// parameter with parameter sets, else [`IndLayout::Subindex`] (also for a PNU that is not in
+    /// the table).
+    pub fn of_pnu(pnu: u16) -> IndLayout {
+        if nord::by_index(pnu).is_some_and(|p| p.parameter_set) {
+            IndLayout::ParameterSets
+        } else {
+            IndLayout::Subindex
+        }
+    }
+}
+
 /// Parameter index IND (section 4.6.1.2).
 ///
-/// For parameters with parameter sets, bits 8–9 select the set (0 = set 1 … 3 = set 4); for
-/// arrays, bits 10–15 the element (0 = element [-01] … 63 = [-64]); for parameters without sets
-/// bits 8–15 form one sub-index. Bits 0–7 carry no information and are 0.
+/// For parameters with parameter sets, bits 8–9 select the set (0 = set 1 … 3 = set 4) and
+/// bits 10–15 an array element (0 = element [-01] … 63 = [-64]); for parameters without sets
+/// bits 8–15 form one sub-index, the array element ([`IndLayout`]). A sub-index takes effect
+/// only with the array orders (AK 6, 7, 8, 11, 12). Bits 0–7 carry no information and are 0.
 #[derive(Clone, Copy, PartialEq, Eq, Hash, Default)]
 pub struct Ind(pub u16);
 
@@ -93,6 +116,29 @@ impl Ind {
     /// IND with sub-index `sub` in bits 8–15 (parameters without parameter sets).
     pub const fn subindex(sub: u8) -> Ind {
         Ind((sub as u16) << 8)
+    }
+
+    /// IND for array element `element` (0-based) in parameter set `set` (0-based) of a
+    /// parameter with `layout`; `None` when they do not fit it (a set other than 0 without
+    /// parameter sets, an element above 63 with them).
+    pub const fn address(layout: IndLayout, element: u8, set: u8) -> Option<Ind> {
+        match layout {
+            IndLayout::ParameterSets => Ind::new(element, set),
+            IndLayout::Subindex if set == 0 => Some(Ind::subindex(element)),
+            IndLayout::Subindex => None,
+        }
+    }
+
+    /// The array element and parameter set (both 0-based) this IND addresses in a parameter
+    /// with `layout`, for an array order (`array`) or not: without an array order the element
+    /// is 0 whatever the IND says.
+    pub const fn split(self, layout: IndLayout, array: bool) -> (u8, u8) {
+        match (layout, array) {
+            (IndLayout::ParameterSets, true) => (self.element(), self.set()),
+            (IndLayout::ParameterSets, false) => (0, self.set()),
+            (IndLayout::Subindex, true) => (self.sub(), 0),
+            (IndLayout::Subindex, false) => (0, 0),
+        }
     }
 
     /// The array element field (bits 10–15, 0-based).
@@ -179,8 +225,12 @@ pub enum PkwError {
     /// A parameter number above 2047.
     #[error("parameter number {0} does not fit the 11-bit PNU (0 to 2047)")]
     BadPnu(u16),
-    /// An array element above 63 or a parameter set above 3 (0-based).
-    #[error("array element {element} / parameter set {set} do not fit IND (0 to 63 / 0 to 3)")]
+    /// An array element or parameter set IND cannot carry for the parameter (0-based: element
+    /// 0–63 and set 0–3 with parameter sets; element 0–255 and set 0 without).
+    #[error(
+        "array element {element} / parameter set {set} (0-based) do not fit IND: 0 to 63 / 0 to 3 \
+         for a parameter with parameter sets, 0 to 255 / 0 without"
+    )]
     BadIndex {
         /// The element asked for.
         element: u8,

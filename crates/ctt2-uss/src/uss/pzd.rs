@@ -38,26 +38,19 @@ struct Words {
 
 impl Words {
     fn decode(bytes: &[u8]) -> Result<Words, PzdError> {
-        let n = bytes.len();
-        if !(2..=8).contains(&n) || n % 2 != 0 {
-            return Err(PzdError::BadLength(n.min(255) as u8));
+        // Word `i` (byte offset), 0 past the end: no loop, no copy of a variable length.
+        let word = |i: usize| match bytes.get(i..i + 2) {
+            Some(&[high, low]) => u16::from_be_bytes([high, low]),
+            _ => 0,
+        };
+        match bytes.len() {
+            n @ (2 | 4 | 6 | 8) => Ok(Words {
+                first: word(0),
+                values: [word(2), word(4), word(6)],
+                count: (n / 2 - 1) as u8,
+            }),
+            n => Err(PzdError::BadLength(n.min(255) as u8)),
         }
-        let mut w = Words::default();
-        for (i, pair) in bytes.chunks_exact(2).enumerate() {
-            let word = pair
-                .first_chunk::<2>()
-                .map_or(0, |p| u16::from_be_bytes(*p));
-            match i.checked_sub(1) {
-                None => w.first = word,
-                Some(k) => {
-                    if let Some(slot) = w.values.get_mut(k) {
-                        *slot = word;
-                    }
-                }
-            }
-        }
-        w.count = (n / 2 - 1) as u8;
-        Ok(w)
     }
 
     fn len(&self) -> usize {

@@ -7,18 +7,21 @@
 //!   benchmarks of software overhead;
 //! * [`Port`]: a master's side of a line: transmit what a sans-IO [`Endpoint`] hands out, wait
 //!   for its deadlines or for characters and feed them;
-//! * [`serve`]: the serve loop of simulated devices ([`Endpoint`]s) on one line.
+//! * [`serve`]: the serve loop of simulated devices ([`Endpoint`]s) on one line, and [`Bus`]:
+//!   several simulated devices ([`Station`]s, endpoints with an address) served on one line.
 //!
 //! Serial ports are opened by `drive-transport`; this layer needs nothing but tokio, so a
 //! protocol crate's `tokio` feature does not pull in serial-port or libc dependencies.
 //!
 //! [`Endpoint`]: crate::Endpoint
 
+mod bus;
 mod clock;
 mod io;
 mod port;
 mod serve;
 
+pub use bus::{Bus, Station};
 pub use clock::{Clock, Timebase};
 pub use io::{
     CHUNK, CharIo, ReceivedChar, Stream, TIMER_RESOLUTION, Woken, read_or_sleep, write_all,

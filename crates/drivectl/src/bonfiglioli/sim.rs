@@ -3,7 +3,7 @@
 //! printed (first line of standard output) for other tools.
 
 use bonfiglioli_modbus::framing::Mode;
-use bonfiglioli_modbus::sim::SimulatedBus;
+use bonfiglioli_modbus::sim;
 use clap::Args;
 use drive_sim::bonfiglioli::Variant;
 
@@ -82,7 +82,7 @@ pub fn run(args: &SimArgs) -> Result<()> {
         line.baud,
         line.parity
     );
-    let mut bus = SimulatedBus::new(&args.addrs, variant, mode, line);
+    let mut bus = sim::bus(&args.addrs, variant, mode, line);
     crate::tool::line::runtime()?.block_on(simrun::serve(
         &mut bus,
         args.port.as_deref(),

@@ -6,7 +6,7 @@ use crate::error::Result;
 use crate::tool::line::LineArgs;
 use crate::tool::simrun;
 use clap::Args;
-use movilink::sim::SimulatedBus;
+use movilink::sim;
 use movilink::timing::LineTiming;
 
 /// Arguments of `drivectl sim movilink`.
@@ -52,7 +52,7 @@ pub fn run(args: &SimArgs) -> Result<()> {
         "simulated MOVIDRIVE at address {list} ({})",
         LineTiming::new(line)
     );
-    let mut bus = SimulatedBus::with_line(&args.addrs, line);
+    let mut bus = sim::bus(&args.addrs, line);
     crate::tool::line::runtime()?.block_on(simrun::serve(
         &mut bus,
         args.port.as_deref(),

@@ -6,7 +6,7 @@ use std::io;
 use std::ops::RangeInclusive;
 use std::time::Duration;
 
-use drive_core::rt::{CharIo, Stream};
+use drive_core::rt::{Bus, CharIo, Station, Stream};
 use drive_core::{LineSettings, Parity};
 use drive_transport::pty::PtyPair;
 
@@ -14,19 +14,14 @@ use super::line::open_settings;
 use crate::error::{CliError, Result};
 
 /// A simulated bus a protocol crate provides (`movilink::sim::SimulatedBus`,
-/// `bonfiglioli_modbus::sim::SimulatedBus`, …): it serves requests on a line until it closes.
+/// `bonfiglioli_modbus::sim::SimulatedBus`, …: the runtime layer's [`Bus`] of its simulated
+/// drives): it serves requests on a line until it closes.
 pub trait SimBus {
     /// Serve on `io` until it closes (`Ok`) or fails.
     fn serve_on<IO: CharIo>(&mut self, io: IO) -> impl Future<Output = io::Result<()>>;
 }
 
-impl SimBus for movilink::sim::SimulatedBus {
-    fn serve_on<IO: CharIo>(&mut self, io: IO) -> impl Future<Output = io::Result<()>> {
-        self.serve(io)
-    }
-}
-
-impl SimBus for bonfiglioli_modbus::sim::SimulatedBus {
+impl<S: Station> SimBus for Bus<S> {
     fn serve_on<IO: CharIo>(&mut self, io: IO) -> impl Future<Output = io::Result<()>> {
         self.serve(io)
     }

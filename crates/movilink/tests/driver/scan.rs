@@ -5,14 +5,14 @@ use std::time::Duration;
 use drive_sim::movidrive::UNIT_TYPE;
 use drive_transport::link::{self, LinkConfig};
 use movilink::driver::{DriverConfig, MasterDriver};
-use movilink::sim::SimulatedBus;
+use movilink::sim;
 
 use crate::common::addr;
 
 #[tokio::test(start_paused = true)]
 async fn probe_finds_exactly_the_drives_on_the_bus() {
     let (port, wire) = link::pair(LinkConfig::new(9600));
-    let mut bus = SimulatedBus::new(&[1, 5, 17]);
+    let mut bus = sim::bus(&[1, 5, 17], movilink::timing::LINE);
     let client = async move {
         let mut m = MasterDriver::new(port, DriverConfig::default());
         let start = tokio::time::Instant::now();
@@ -36,5 +36,5 @@ async fn probe_finds_exactly_the_drives_on_the_bus() {
     assert_eq!(stats.timeouts, 29);
     assert_eq!(stats.retries, 0);
     assert_eq!(stats.rejected, 0);
-    assert!(bus.drive(5).is_some() && bus.drive(6).is_none());
+    assert!(bus.station(5).is_some() && bus.station(6).is_none());
 }
