@@ -5,7 +5,7 @@
 //! * [`ctt2`]: CTT2 over AS-Interface — messages, ID/diagnosis objects, PKW/PZD in channel
 //!   data, the double slave (sans-IO), AS-i addresses, BusIO bits and transfer times; with
 //!   feature `tokio` the CTT2 master over a user's AS-i link, with `sim` an in-memory link;
-//! * [`client`] (feature `tokio`): the master logic both transports share — orders to their
+//! * `client` (feature `tokio`): the master logic both transports share — orders to their
 //!   plausible answers, reads and writes, control through the state machine;
 //! * [`serial`]: USS on RS-485 — telegrams (STX, LGE, ADR, PKW, PZD, BCC), the framing on
 //!   drive-core's receiver, the sans-IO master and slave, the async master (feature `tokio`)

@@ -151,12 +151,12 @@ async fn refusals_carry_the_manuals_error_numbers() {
         ),
         2
     );
-    // 3: P560 has no parameter sets.
-    let set2 = Address {
-        set: 1,
-        ..Address::new(560)
+    // 3: P546 has three elements, not six.
+    let sw6 = Address {
+        element: Some(5),
+        ..Address::new(546)
     };
-    assert_eq!(drive_error(c.read(set2).await), 3);
+    assert_eq!(drive_error(c.read(sw6).await), 3);
     // 6: P701 only resettable.
     let p701 = Address {
         element: Some(0),

@@ -13,7 +13,7 @@
 //! | AK | model call | answer |
 //! |---|---|---|
 //! | 0 | none | AK 0 |
-//! | 1, 6 | `read(pnu, element, set)`: the element from IND bits 10–15 for AK 6, 0 for AK 1 (section 4.6.1.2: a sub-index takes effect only with AK 6, 7, 8, 11, 12) | AK 1 / 4 with the value |
+//! | 1, 6 | `read(pnu, element, set)`: element and set by the IND rule of section 4.6.1.2 ([`IndLayout`]: set in bits 8–9 and element in bits 10–15 with parameter sets, else bits 8–15 the element; the element only for AK 6, 7, 8, 11, 12) | AK 1 / 4 with the value |
 //! | 2, 3, 7, 8 | `write_width(…, eeprom = true)` (P560 decides whether EEPROM is written) | AK 1/2/4/5 repeating the value |
 //! | 11–14 | `write_width(…, eeprom = false)` | as above |
 //! | 9 | `array_len(pnu)` | AK 6 with the count |
@@ -67,7 +67,7 @@ use drive_sim::nord::SimulatedNord;
 
 use super::slave::{Backend, Slave, SlaveConfig, SlaveEvent};
 use super::telegram::{Layout, MAX_TELEGRAM, UssAddress};
-use crate::uss::pkw::{DriveError, Order, OrderKind, Pkw, Reply, Storage};
+use crate::uss::pkw::{DriveError, IndLayout, Order, OrderKind, Pkw, Reply, Storage};
 
 /// How often the model is advanced while something in it runs on time (a ramp, a fault
 /// reaction), between telegrams.
@@ -94,14 +94,15 @@ impl NordBackend {
     }
 
     fn run(&mut self, order: &Order, now: Instant) -> Reply {
-        let ind = order.ind();
         let pnu = order.pnu();
         let refused = |r: drive_sim::nord::PkwRefusal| Reply::Error(DriveError(r.number()));
-        let element = |array: bool| if array { ind.element() } else { 0 };
+        // Element and set by the one IND rule of section 4.6.1.2 (`IndLayout`).
+        let address = |array: bool| order.ind().split(IndLayout::of_pnu(pnu), array);
         match order.kind() {
             OrderKind::None => Reply::None,
             OrderKind::Read { array } => {
-                match self.drive.read(pnu, element(array), ind.set(), now) {
+                let (element, set) = address(array);
+                match self.drive.read(pnu, element, set, now) {
                     Ok(value) => Reply::Value {
                         width: match self.drive.is_double_word(pnu) {
                             Some(true) => Width::DoubleWord,
@@ -120,8 +121,8 @@ impl NordBackend {
                 value,
             } => match self.drive.write_width(
                 pnu,
-                element(array),
-                ind.set(),
+                address(array).0,
+                address(array).1,
                 width,
                 value,
                 storage == Storage::Eeprom,

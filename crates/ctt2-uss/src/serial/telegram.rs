@@ -543,6 +543,8 @@ pub fn bcc(bytes: &[u8]) -> u8 {
     let wide = chunks.fold(0u64, |a, c| {
         a ^ c.first_chunk::<8>().map_or(0, |c| u64::from_ne_bytes(*c))
     });
-    let folded = wide.to_ne_bytes().iter().fold(0u8, |a, b| a ^ b);
+    let wide = wide ^ (wide >> 32);
+    let wide = wide ^ (wide >> 16);
+    let folded = (wide ^ (wide >> 8)) as u8;
     rest.iter().fold(folded, |a, b| a ^ b)
 }
