@@ -10,84 +10,46 @@
     clippy::panic
 )]
 
+mod common;
+
 use std::io::{BufRead, BufReader};
-use std::process::{Child, Command, Output, Stdio};
+use std::ops::Deref;
+use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
+use common::{PtySim, ok_json, stderr};
 use serde_json::{Value, json};
 
-struct Sim {
-    child: Child,
-    path: String,
-    state: std::path::PathBuf,
+/// `drivectl sim uss --pty --parity none …`.
+struct Sim(PtySim);
+
+impl Deref for Sim {
+    type Target = PtySim;
+    fn deref(&self) -> &PtySim {
+        &self.0
+    }
 }
 
 impl Sim {
     fn start(extra: &[&str]) -> Sim {
-        let mut child = Command::new(env!("CARGO_BIN_EXE_drivectl"))
-            .args(["sim", "uss", "--pty", "--parity", "none"])
-            .args(extra)
-            .stdout(Stdio::piped())
-            .stderr(Stdio::null())
-            .spawn()
-            .expect("sim starts");
-        let stdout = child.stdout.take().expect("stdout");
-        let mut line = String::new();
-        BufReader::new(stdout)
-            .read_line(&mut line)
-            .expect("sim prints its pty path");
-        let path = line.trim().to_owned();
-        assert!(
-            path.starts_with("/dev/"),
-            "first line is the pty path: {path:?}"
-        );
-        let state =
-            std::env::temp_dir().join(format!("drivectl-nord-state-{}", path.replace('/', "_")));
-        let _ = std::fs::remove_dir_all(&state);
-        Sim { child, path, state }
+        let mut args = vec!["sim", "uss", "--pty", "--parity", "none"];
+        args.extend_from_slice(extra);
+        Sim(PtySim::start(&args))
     }
 
-    /// The master's command line to the drive at `addr`.
-    fn args(&self, addr: &str, args: &[&str]) -> Vec<String> {
-        [
-            "uss", "--port", &self.path, "--parity", "none", "--addr", addr,
-        ]
-        .iter()
-        .chain(args)
-        .map(|s| (*s).to_owned())
-        .collect()
-    }
-
+    /// `drivectl uss` to the drive at `addr` with `args`, to be completed by the caller.
     fn command(&self, addr: &str, args: &[&str]) -> Command {
-        let mut c = Command::new(env!("CARGO_BIN_EXE_drivectl"));
-        c.args(self.args(addr, args))
-            .env("DRIVECTL_STATE_DIR", &self.state);
+        let mut c = self.0.command();
+        c.args([
+            "uss", "--port", &self.path, "--parity", "none", "--addr", addr,
+        ])
+        .args(args);
         c
     }
 
     fn run(&self, args: &[&str]) -> Output {
         self.command("1", args).output().expect("drivectl runs")
     }
-}
-
-impl Drop for Sim {
-    fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-        let _ = std::fs::remove_dir_all(&self.state);
-    }
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-fn ok_json(o: &Output) -> Vec<Value> {
-    assert!(o.status.success(), "stderr: {}", stderr(o));
-    String::from_utf8_lossy(&o.stdout)
-        .lines()
-        .map(|l| serde_json::from_str(l).unwrap_or_else(|e| panic!("not JSON: {l}: {e}")))
-        .collect()
 }
 
 /// The keys the issue names for `read --json`.

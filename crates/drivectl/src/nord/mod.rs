@@ -253,7 +253,7 @@ pub fn resolve(key: &str, sub: Sub, every_element: bool) -> Result<Vec<Target>> 
     }
     let Some(p) = t.param.and_then(|_| nord::by_index(t.index)) else {
         // Outside the table nothing can be checked: the IND word as the options say.
-        t.sub = nord_sub(sub.array, sub.set);
+        t.sub = nord_sub(t.index, sub.array, sub.set);
         return Ok(vec![t]);
     };
     let name = format!("{} {}", p.label(), p.name_en);
@@ -287,7 +287,7 @@ pub fn resolve(key: &str, sub: Sub, every_element: bool) -> Result<Vec<Target>> 
     Ok(elements
         .into_iter()
         .map(|e| Target {
-            sub: nord_sub(e, set),
+            sub: nord_sub(t.index, e, set),
             ..t
         })
         .collect())

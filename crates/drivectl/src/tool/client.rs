@@ -3,6 +3,7 @@
 
 use std::ops::RangeInclusive;
 
+use ctt2_uss::uss::pkw::{Ind, IndLayout};
 use drive_profile::family::{self, AnyParam};
 use drive_profile::guard;
 use drive_profile::{Family, ParamMeta, Persistence};
@@ -333,15 +334,21 @@ impl Target {
 }
 
 /// NORD: the IND word (BU 0255 section 4.6.1.2) of array element `element` and parameter set
-/// `set` (both 1-based, `None` where the parameter has none): a parameter with parameter sets
-/// takes the set in bits 8–9 and an element in bits 10–15; a parameter without sets takes the
-/// element as its sub-index in bits 8–15. A NORD [`Target::sub`] is this word.
-pub fn nord_sub(element: Option<u8>, set: Option<u8>) -> u16 {
-    let e = u16::from(element.unwrap_or(1).saturating_sub(1));
-    match set {
-        Some(s) => ((e & 0x3F) << 10) | (u16::from(s.saturating_sub(1) & 3) << 8),
-        None => (e & 0xFF) << 8,
-    }
+/// `set` (both 1-based, `None` where the parameter has none) of parameter `pnu`, laid out by
+/// `ctt2_uss`'s one rule ([`IndLayout`]): a parameter with parameter sets takes the set in bits
+/// 8–9 and an element in bits 10–15; a parameter without sets takes the element as its
+/// sub-index in bits 8–15. Outside the table a given set means the first layout. A NORD
+/// [`Target::sub`] is this word.
+pub fn nord_sub(pnu: u16, element: Option<u8>, set: Option<u8>) -> u16 {
+    let layout = if drive_profile::nord::by_index(pnu).is_some() {
+        IndLayout::of_pnu(pnu)
+    } else if set.is_some() {
+        IndLayout::ParameterSets
+    } else {
+        IndLayout::Subindex
+    };
+    let zero_based = |v: Option<u8>| v.unwrap_or(1).saturating_sub(1);
+    Ind::address(layout, zero_based(element), zero_based(set)).map_or(0, |i| i.0)
 }
 
 /// NORD: the array element and parameter set (1-based) of parameter `pnu`'s IND word `sub`,
@@ -351,15 +358,12 @@ pub fn nord_sub_parts(pnu: u16, sub: u16) -> (Option<u8>, Option<u8>) {
     let Some(p) = drive_profile::nord::by_index(pnu) else {
         return (None, None);
     };
-    let set = p.parameter_set.then_some(((sub >> 8) & 3) as u8 + 1);
-    let element = p.array_len.map(|_| {
-        if p.parameter_set {
-            (sub >> 10) as u8 + 1
-        } else {
-            (sub >> 8) as u8 + 1
-        }
-    });
-    (element, set)
+    let array = p.array_len.is_some();
+    let (element, set) = Ind(sub).split(IndLayout::of_pnu(pnu), array);
+    (
+        array.then_some(element + 1),
+        p.parameter_set.then_some(set + 1),
+    )
 }
 
 /// NORD: every IND word of parameter `pnu` in the table: each array element in each parameter
@@ -378,7 +382,7 @@ pub fn nord_subs(pnu: u16) -> Vec<u16> {
         .map_or_else(|| vec![None], |n| (1..=n).map(Some).collect());
     elements
         .iter()
-        .flat_map(|e| sets.iter().map(move |s| nord_sub(*e, *s)))
+        .flat_map(|e| sets.iter().map(move |s| nord_sub(pnu, *e, *s)))
         .collect()
 }
 
