@@ -984,7 +984,7 @@ fn the_decode_examples_in_help_are_valid_captures() {
 /// NORD BU 0255 5.1.3 (P102 := 10 s in parameter set 3) and 5.1.1/5.1.2 (the control
 /// sequence) carried in CTT2 messages and USS telegrams, explained by the binary.
 #[test]
-fn decode_ctt2_and_uss_the_manuals_5_1_telegrams() {
+fn nord_decode_ctt2_and_uss_the_manuals_5_1_telegrams() {
     let o = drivectl(&[
         "decode",
         "ctt2",
@@ -1148,7 +1148,7 @@ fn nord_bad_input_is_refused_before_anything_is_opened() {
 }
 
 #[test]
-fn ctt2_sim_runs_the_commands_on_the_simulated_as_i_link() {
+fn nord_ctt2_sim_runs_the_commands_on_the_simulated_as_i_link() {
     // The ID object (manufacturer 1, 137 as in 4.3.1) and the diagnosis object (45 °C).
     let o = drivectl(&["ctt2", "--sim", "--fast", "--json", "id"]);
     assert!(o.status.success(), "{}", stderr(&o));

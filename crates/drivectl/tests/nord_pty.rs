@@ -63,7 +63,7 @@ fn psr(v: &Value) -> (Value, Value, Value, Value) {
 }
 
 #[test]
-fn write_and_read_back_p102_in_parameter_set_3() {
+fn nord_write_and_read_back_p102_in_parameter_set_3() {
     // The drive works 30 ms on every order, answering the previous one meanwhile: the master
     // repeats its telegram until the answer fits (section 4.6.1.1).
     let sim = Sim::start(&["--addr", "1", "--pkw-time", "30"]);
@@ -119,7 +119,7 @@ fn write_and_read_back_p102_in_parameter_set_3() {
 }
 
 #[test]
-fn array_element_p543_02_is_read_and_written_by_its_element() {
+fn nord_array_element_p543_02_is_read_and_written_by_its_element() {
     let sim = Sim::start(&["--addr", "1"]);
     let v = ok_json(&sim.run(&["--json", "read", "P543", "--array", "2"]));
     assert_eq!(
@@ -158,7 +158,7 @@ fn array_element_p543_02_is_read_and_written_by_its_element() {
 }
 
 #[test]
-fn refused_writes_send_nothing() {
+fn nord_refused_writes_send_nothing() {
     let sim = Sim::start(&["--addr", "1"]);
     let before = ok_json(&sim.run(&["--json", "read", "P102", "--set", "2"]))[0]["raw"].clone();
     // Checked before the port opens: a port that does not exist is never reached.
@@ -216,7 +216,7 @@ fn refused_writes_send_nothing() {
 }
 
 #[test]
-fn no_eeprom_writes_are_never_held_back_and_the_wear_rule_offers_them() {
+fn nord_no_eeprom_writes_are_never_held_back_and_the_wear_rule_offers_them() {
     let sim = Sim::start(&["--addr", "1"]);
     ok_json(&sim.run(&["--json", "write", "P102", "1.5"]));
     // A second EEPROM write of the same parameter within a second: refused, with the way out.
@@ -244,7 +244,7 @@ fn status_until(sim: &Sim, secs: u64, ok: impl Fn(&Value) -> bool) -> Value {
 }
 
 #[test]
-fn enable_at_50_percent_runs_up_and_stop_brings_it_back() {
+fn nord_enable_at_50_percent_runs_up_and_stop_brings_it_back() {
     let sim = Sim::start(&["--addr", "1"]);
     // Power-on: switch-on disabled (B).
     let v = status_until(&sim, 0, |_| true);
@@ -280,7 +280,7 @@ fn enable_at_50_percent_runs_up_and_stop_brings_it_back() {
 }
 
 #[test]
-fn scan_finds_the_drives_on_the_line() {
+fn nord_scan_finds_the_drives_on_the_line() {
     let sim = Sim::start(&["--addr", "1", "--addr", "7"]);
     let o = Command::new(env!("CARGO_BIN_EXE_drivectl"))
         .args([
@@ -293,7 +293,7 @@ fn scan_finds_the_drives_on_the_line() {
 }
 
 #[test]
-fn backup_and_restore_round_trip_every_set() {
+fn nord_backup_and_restore_round_trip_every_set() {
     let sim = Sim::start(&["--addr", "1"]);
     let file = sim.state.with_extension("backup.json");
     let _ = std::fs::remove_file(&file);
@@ -340,7 +340,7 @@ fn backup_and_restore_round_trip_every_set() {
 }
 
 #[test]
-fn ctrl_c_ends_watch_cleanly_and_a_stop_in_progress_says_what_was_sent() {
+fn nord_ctrl_c_ends_watch_cleanly_and_a_stop_in_progress_says_what_was_sent() {
     let sim = Sim::start(&["--addr", "1"]);
     // Watch: Ctrl-C after two polls ends it with exit 0.
     let mut child = sim
@@ -417,7 +417,7 @@ fn into_closed_pipe(sim: &Sim, args: &[&str]) -> Output {
 }
 
 #[test]
-fn a_closed_pipe_ends_quietly_but_never_hides_a_running_motor() {
+fn nord_a_closed_pipe_ends_quietly_but_never_hides_a_running_motor() {
     let sim = Sim::start(&["--addr", "1"]);
     let o = into_closed_pipe(&sim, &["read", "P102", "P105"]);
     assert_eq!((o.status.code(), stderr(&o)), (Some(141), String::new()));
@@ -435,7 +435,7 @@ fn a_closed_pipe_ends_quietly_but_never_hides_a_running_motor() {
 }
 
 #[test]
-fn output_goes_only_to_regular_files() {
+fn nord_output_goes_only_to_regular_files() {
     let sim = Sim::start(&["--addr", "1"]);
     let o = sim.run(&["backup", "--out", "/dev/null"]);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
