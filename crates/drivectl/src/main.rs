@@ -15,10 +15,11 @@ mod demo;
 mod error;
 mod examples;
 mod movilink;
+mod nord;
 mod params;
 mod ports;
 
-use clap::{CommandFactory, Parser, Subcommand};
+use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 use std::process::ExitCode;
 
 /// Talk to SEW, NORD and Bonfiglioli frequency inverters over their own buses.
@@ -43,6 +44,10 @@ enum Command {
     Movilink(movilink::MovilinkArgs),
     /// Talk to a Bonfiglioli ACTIVE / ACTIVE Cube over Modbus RTU or ASCII.
     Bonfiglioli(bonfiglioli::BonfiglioliArgs),
+    /// Talk to a NORD NORDAC LINK over USS (RS-485).
+    Uss(nord::uss::UssArgs),
+    /// Talk to a NORD NORDAC LINK over CTT2 through an AS-i master (simulated: --sim).
+    Ctt2(nord::ctt2::Ctt2Args),
     /// Run simulated drives on a serial port or a new pseudo-terminal.
     #[command(subcommand, after_help = examples::SIM)]
     Sim(SimCommand),
@@ -65,6 +70,8 @@ enum SimCommand {
     Movilink(movilink::sim::SimArgs),
     /// Simulated Bonfiglioli ACT/ACU drive(s) answering Modbus RTU or ASCII.
     Bonfiglioli(bonfiglioli::sim::SimArgs),
+    /// Simulated NORD NORDAC LINK drive(s) answering USS.
+    Uss(nord::sim::SimArgs),
 }
 
 #[derive(Debug, Subcommand)]
@@ -92,6 +99,61 @@ enum DecodeCommand {
         file: Option<String>,
         /// One JSON object per telegram (`"type": "telegram"`) or skipped run of bytes
         /// (`"type": "error"`).
+        #[arg(long)]
+        json: bool,
+    },
+    /// A NORD CTT2 capture (AS-i): hex bytes, e.g. `13 2F 08 70 66 02 00 00 00 03 E8`.
+    ///
+    /// Bytes as for `decode movilink`. Requests (16, 18, 19, 29) and answers (80, 82, 83, 93,
+    /// 144, 146, 147, 157) are split by their codes and lengths; an answer's data are read as
+    /// the request before it asked (ID or diagnosis object, PZD or PKW channel). The PKW and
+    /// PZD data are explained with the NORD table (P102 in parameter set 3 = 10.00 s).
+    #[command(
+        verbatim_doc_comment,
+        after_help = "Examples:\n  drivectl decode ctt2 13 2F 08 70 66 02 00 00 00 03 E8 53 12 2F 08 52 40 66 02 00 00 00 03 E8\n  \
+                      drivectl decode ctt2 1D 03 05 05 01 04 7F 20 00 5D 01 0B 37 20 00 --json\n  \
+                      drivectl decode ctt2 --file capture.txt"
+    )]
+    Ctt2 {
+        /// The bytes; `-` reads a capture from standard input (as --file).
+        #[arg(required_unless_present = "file", conflicts_with = "file", num_args = 1..)]
+        hex: Vec<String>,
+        /// Read the capture from a file (lines, `#` comments, CR LF and a BOM are allowed).
+        #[arg(long, value_name = "PATH")]
+        file: Option<String>,
+        /// One JSON object per message.
+        #[arg(long)]
+        json: bool,
+    },
+    /// A NORD USS capture (RS-485): hex bytes, e.g. `02 0E 01 70 66 02 00 … 88`.
+    ///
+    /// Bytes as for `decode movilink`. Telegrams are split at STX (02h) by their LGE and the
+    /// BCC is checked. A telegram does not say who sent it: they alternate, the first is the
+    /// master's (--start drive turns that round; a broadcast gets no answer). The net data are
+    /// --pkw PKW words and the rest PZD words.
+    #[command(
+        verbatim_doc_comment,
+        after_help = "Examples:\n  drivectl decode uss 02 0E 01 70 66 02 00 00 00 03 E8 04 7E 00 00 88\n  \
+                      drivectl decode uss 02 0E 01 40 66 02 00 00 00 03 E8 0B 31 00 00 F8 --start drive --json\n  \
+                      drivectl decode uss --pkw 3 --pzd 2 --file capture.txt"
+    )]
+    Uss {
+        /// The bytes; `-` reads a capture from standard input (as --file).
+        #[arg(required_unless_present = "file", conflicts_with = "file", num_args = 1..)]
+        hex: Vec<String>,
+        /// Read the capture from a file (lines, `#` comments, CR LF and a BOM are allowed).
+        #[arg(long, value_name = "PATH")]
+        file: Option<String>,
+        /// PKW words of the telegrams: 0, 3 or 4.
+        #[arg(long, default_value_t = 4, value_parser = clap::value_parser!(u8).range(0..=4))]
+        pkw: u8,
+        /// PZD words of the telegrams (checked against LGE); default: the rest of the net data.
+        #[arg(long, value_parser = clap::value_parser!(u8).range(0..=16))]
+        pzd: Option<u8>,
+        /// Who sent the first telegram: master or drive (they alternate).
+        #[arg(long, default_value = "master", value_parser = ["master", "drive"])]
+        start: String,
+        /// One JSON object per telegram.
         #[arg(long)]
         json: bool,
     },
@@ -149,10 +211,18 @@ fn json_requested() -> bool {
         .any(|a| a == "--json")
 }
 
+/// The command definitions, with the `ctt2` examples of the commands NORD shares.
+fn command() -> clap::Command {
+    nord::ctt2::with_help(Cli::command())
+}
+
 fn main() -> ExitCode {
     let json = json_requested();
     tool::output::json_messages(json);
-    let cli = match Cli::try_parse() {
+    let cli = match command()
+        .try_get_matches()
+        .and_then(|m| Cli::from_arg_matches(&m))
+    {
         Ok(cli) => cli,
         Err(e) if json && e.use_stderr() => {
             // A usage error of the command line, as one JSON object (its first line: clap adds
@@ -171,19 +241,42 @@ fn main() -> ExitCode {
         Command::Sim(SimCommand::Movilink(args)) => movilink::sim::run(&args),
         Command::Bonfiglioli(args) => bonfiglioli::run(&args),
         Command::Sim(SimCommand::Bonfiglioli(args)) => bonfiglioli::sim::run(&args),
+        Command::Uss(args) => nord::uss::run(&args),
+        Command::Ctt2(args) => nord::ctt2::run(&args),
+        Command::Sim(SimCommand::Uss(args)) => nord::sim::run(&args),
         Command::Decode(DecodeCommand::ModbusRtu { hex, file, json }) => {
             bonfiglioli::decode::run(false, &hex, file.as_deref(), json)
         }
         Command::Decode(DecodeCommand::ModbusAscii { text, file, json }) => {
             bonfiglioli::decode::run(true, &text, file.as_deref(), json)
         }
+        Command::Decode(DecodeCommand::Ctt2 { hex, file, json }) => {
+            nord::decode::run(None, &hex, file.as_deref(), json)
+        }
+        Command::Decode(DecodeCommand::Uss {
+            hex,
+            file,
+            pkw,
+            pzd,
+            start,
+            json,
+        }) => nord::decode::run(
+            Some(nord::decode::UssLayout {
+                pkw,
+                pzd,
+                drive_first: start == "drive",
+            }),
+            &hex,
+            file.as_deref(),
+            json,
+        ),
         Command::Decode(DecodeCommand::Movilink { hex, file, json }) => {
             movilink::decode::run(&hex, file.as_deref(), json)
         }
         Command::Demo(args) => demo::run(&args),
         Command::Ports(args) => ports::run(&args),
-        Command::Completions(args) => completions::completions(&args, Cli::command()),
-        Command::Man(args) => completions::man(&args, Cli::command()),
+        Command::Completions(args) => completions::completions(&args, command()),
+        Command::Man(args) => completions::man(&args, command()),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -137,6 +137,9 @@ fn demo_runs() {
     assert!(o.status.success(), "{}", stderr(&o));
     let out = stdout(&o);
     assert!(out.contains("1000 1/min"), "{out}");
+    // The NORD CTT2 session reaches the manual's 5.1.2 answer and stops.
+    assert!(out.contains("ZSW 0x0B37, IW1 0x2000"), "{out}");
+    assert!(out.contains("C ready to switch on"), "{out}");
 }
 
 /// The keys of every object `params <family> --json` prints.
@@ -633,6 +636,29 @@ const COMMANDS_WITH_EXAMPLES: &[&[&str]] = &[
     &["sim", "bonfiglioli"],
     &["decode", "modbus-rtu"],
     &["decode", "modbus-ascii"],
+    &["uss"],
+    &["uss", "read"],
+    &["uss", "write"],
+    &["uss", "watch"],
+    &["uss", "status"],
+    &["uss", "control"],
+    &["uss", "backup"],
+    &["uss", "restore"],
+    &["uss", "scan"],
+    &["uss", "line"],
+    &["ctt2"],
+    &["ctt2", "read"],
+    &["ctt2", "write"],
+    &["ctt2", "watch"],
+    &["ctt2", "status"],
+    &["ctt2", "control"],
+    &["ctt2", "backup"],
+    &["ctt2", "restore"],
+    &["ctt2", "id"],
+    &["ctt2", "diag"],
+    &["sim", "uss"],
+    &["decode", "ctt2"],
+    &["decode", "uss"],
 ];
 
 #[test]
@@ -927,6 +953,8 @@ fn the_decode_examples_in_help_are_valid_captures() {
         &["decode"][..],
         &["decode", "modbus-rtu"],
         &["decode", "modbus-ascii"],
+        &["decode", "ctt2"],
+        &["decode", "uss"],
     ] {
         let help = stdout(&drivectl(&[cmd, &["--help"]].concat()));
         for line in help.lines().map(str::trim) {
@@ -950,5 +978,265 @@ fn the_decode_examples_in_help_are_valid_captures() {
             ran += 1;
         }
     }
-    assert!(ran >= 4, "only {ran} examples found");
+    assert!(ran >= 8, "only {ran} examples found");
+}
+
+/// NORD BU 0255 5.1.3 (P102 := 10 s in parameter set 3) and 5.1.1/5.1.2 (the control
+/// sequence) carried in CTT2 messages and USS telegrams, explained by the binary.
+#[test]
+fn nord_decode_ctt2_and_uss_the_manuals_5_1_telegrams() {
+    let o = drivectl(&[
+        "decode",
+        "ctt2",
+        "--json",
+        // NORD write on index 47 (2Fh), 8 bytes: PKE 70 66 (AK 7, P102), IND 02 00 (set 3,
+        // erratum E4), PWE 00 00 03 E8 (1000 = 10.00 s).
+        "13 2F 08 70 66 02 00 00 00 03 E8",
+        // Write answer OK, then NORD read of index 47 and its answer (AK 4, the value).
+        "53 12 2F 08 52 40 66 02 00 00 00 03 E8",
+        // 5.1.1/5.1.2 through write/read of the PZD channel (index 3): address 1, STW, SW1;
+        // answer address 1, ZSW, IW1.
+        "1D 03 05 05 01 04 7E 00 00 5D 01 0B 31 00 00",
+        "1D 03 05 05 01 04 7F 20 00 5D 01 0B 37 20 00",
+    ]);
+    assert!(o.status.success(), "{}{}", stdout(&o), stderr(&o));
+    let v = json_lines(&o);
+    assert_eq!(v.len(), 8);
+    assert_eq!(
+        (
+            &v[0]["parameter"],
+            &v[0]["set"],
+            &v[0]["raw"],
+            &v[0]["value"]
+        ),
+        (
+            &serde_json::json!(102),
+            &serde_json::json!(3),
+            &serde_json::json!(1000),
+            &serde_json::json!(10.0)
+        )
+    );
+    assert_eq!(
+        (&v[3]["ak"], &v[3]["raw"]),
+        (&serde_json::json!(4), &serde_json::json!(1000))
+    );
+    assert_eq!(v[5]["words"], serde_json::json!([0x0B31, 0]));
+    assert_eq!(v[6]["words"], serde_json::json!([0x047F, 0x2000]));
+    assert_eq!(v[7]["words"], serde_json::json!([0x0B37, 0x2000]));
+    // The same order in a USS telegram (STX, LGE 0Eh, ADR 1, PKW, STW 047E, SW1 0, BCC 88),
+    // then the drive's answer (BCC F8).
+    let o = drivectl(&[
+        "decode",
+        "uss",
+        "--json",
+        "02 0E 01 70 66 02 00 00 00 03 E8 04 7E 00 00 88",
+        "02 0E 01 40 66 02 00 00 00 03 E8 0B 31 00 00 F8",
+    ]);
+    assert!(o.status.success(), "{}{}", stdout(&o), stderr(&o));
+    let v = json_lines(&o);
+    assert_eq!(
+        (&v[0]["direction"], &v[1]["direction"]),
+        (&serde_json::json!("master"), &serde_json::json!("drive"))
+    );
+    assert_eq!(
+        (&v[0]["address"], &v[0]["raw"]),
+        (&serde_json::json!(1), &serde_json::json!(1000))
+    );
+    // A wrong BCC: invalid, exit 1, the right one named.
+    let o = drivectl(&[
+        "decode",
+        "uss",
+        "02 0E 01 70 66 02 00 00 00 03 E8 04 7E 00 00 89",
+    ]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stdout(&o).contains("expected 88h"), "{}", stdout(&o));
+}
+
+#[test]
+fn nord_bad_input_is_refused_before_anything_is_opened() {
+    for (args, code, what) in [
+        (&["uss", "read", "P102"][..], 2, "no serial port given"),
+        (&["ctt2", "read", "P102"], 2, "add --sim"),
+        (
+            &["uss", "--port", "/dev/x", "--addr", "32", "read", "P102"],
+            2,
+            "32",
+        ),
+        (
+            &["uss", "--port", "/dev/x", "--pkw", "2", "read", "P102"],
+            2,
+            "2",
+        ),
+        (
+            &["uss", "--port", "/dev/x", "write", "P102", "1e3"],
+            2,
+            "not a number",
+        ),
+        (
+            &["uss", "--port", "/dev/x", "write", "P102", "0x10"],
+            2,
+            "not a number",
+        ),
+        (
+            &[
+                "uss", "--port", "/dev/x", "write", "P102", "2.555", "--set", "1",
+            ],
+            2,
+            "cannot hold 2.555 exactly",
+        ),
+        (
+            &[
+                "uss",
+                "--port",
+                "/dev/x",
+                "control",
+                "enable",
+                "--setpoint",
+                "200",
+            ],
+            2,
+            "setpoint",
+        ),
+        (
+            &["uss", "--port", "/dev/x", "--pzd", "0", "status"],
+            2,
+            "--pzd 0",
+        ),
+        (
+            &[
+                "uss",
+                "--port",
+                "/dev/x",
+                "--timeout",
+                "1",
+                "--baud",
+                "4800",
+                "read",
+                "P102",
+            ],
+            2,
+            "start delay",
+        ),
+        (&["ctt2", "--sim", "--asi-address", "5B", "id"], 2, "1A…31A"),
+        (&["ctt2", "--sim", "--slaves", "63", "id"], 2, "63"),
+        (
+            &["sim", "uss", "--pty", "--addr", "32", "--parity", "none"],
+            2,
+            "0…31",
+        ),
+        (&["sim", "uss", "--pty"], 2, "parity even (the default)"),
+        (&["decode", "ctt2", "13 2F 0"], 2, "`0`"),
+        (&["ctt2", "--sim", "restore", "/dev/zero"], 2, "device node"),
+    ] {
+        let o = drivectl(args);
+        assert_eq!(o.status.code(), Some(code), "{args:?}: {}", stderr(&o));
+        assert!(stderr(&o).contains(what), "{args:?}: {}", stderr(&o));
+    }
+    // With --json the error is one JSON object.
+    let o = drivectl(&["uss", "--json", "read", "P102"]);
+    let e: serde_json::Value = serde_json::from_str(stderr(&o).trim()).unwrap();
+    assert_eq!(
+        (&e["type"], &e["exit_code"]),
+        (&serde_json::json!("error"), &serde_json::json!(2))
+    );
+    // The write help names the EEPROM-wear log and the RAM-only way.
+    let help = stdout(&drivectl(&["uss", "write", "--help"]));
+    assert!(
+        help.contains("eeprom-writes.json") && help.contains("--no-eeprom"),
+        "{help}"
+    );
+}
+
+#[test]
+fn nord_ctt2_sim_runs_the_commands_on_the_simulated_as_i_link() {
+    // The ID object (manufacturer 1, 137 as in 4.3.1) and the diagnosis object (45 °C).
+    let o = drivectl(&["ctt2", "--sim", "--fast", "--json", "id"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(json_lines(&o)[0]["manufacturer_id"], 0x0189);
+    let o = drivectl(&["ctt2", "--sim", "--fast", "--json", "diag"]);
+    assert_eq!(json_lines(&o)[0]["temperature_c"], 45);
+    // A parameter in a set, an array element, the state machine: within one run each.
+    let o = drivectl(&[
+        "ctt2", "--sim", "--fast", "--json", "read", "P102", "--set", "3",
+    ]);
+    assert_eq!(json_lines(&o)[0]["set"], 3);
+    let o = drivectl(&[
+        "ctt2", "--sim", "--fast", "--json", "read", "P543", "--array", "2",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(json_lines(&o)[0]["array"], 2);
+    let o = drivectl(&[
+        "ctt2",
+        "--sim",
+        "--fast",
+        "--json",
+        "control",
+        "enable",
+        "--setpoint",
+        "50",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(json_lines(&o)[0]["state"], "E");
+    assert!(
+        stderr(&o).contains("until this simulation ends"),
+        "{}",
+        stderr(&o)
+    );
+    // A backup holds every array element and parameter set (the IND word as the manual's
+    // 4.6.1.2 forms it: sets in bits 8-9, a set parameter's element in bits 10-15, any other
+    // parameter's element in bits 8-15), P560 last; a restore writes a changed one back.
+    let dir = std::env::temp_dir().join(format!("drivectl-ctt2-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("nord.json");
+    let o = Command::new(env!("CARGO_BIN_EXE_drivectl"))
+        .args([
+            "ctt2",
+            "--sim",
+            "--fast",
+            "backup",
+            "--out",
+            file.to_str().unwrap(),
+        ])
+        .env("DRIVECTL_STATE_DIR", &dir)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let mut doc: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&file).unwrap()).unwrap();
+    let numbers: Vec<String> = doc["parameters"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|p| p["number"].as_str().unwrap().to_owned())
+        .collect();
+    assert_eq!(numbers.len(), 57, "{numbers:?}");
+    for label in ["P102 set 4", "P480 [-12]", "P543 [-03]", "P701 [-05]"] {
+        assert!(numbers.iter().any(|n| n == label), "{label}: {numbers:?}");
+    }
+    assert_eq!(numbers.last().map(String::as_str), Some("P560"));
+    for p in doc["parameters"].as_array_mut().unwrap() {
+        if p["number"] == "P102 set 3" {
+            p["raw"] = serde_json::json!(1000);
+        }
+    }
+    std::fs::write(&file, doc.to_string()).unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_drivectl"))
+        .args([
+            "ctt2",
+            "--sim",
+            "--fast",
+            "--json",
+            "restore",
+            file.to_str().unwrap(),
+        ])
+        .env("DRIVECTL_STATE_DIR", &dir)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v = json_lines(&o);
+    assert_eq!(v.last().unwrap()["written"], 1, "{v:?}");
+    let _ = std::fs::remove_dir_all(&dir);
+    // 31 AS-i slaves: 81.312 ms per byte (section 4.4), counted on the virtual clock.
+    let o = drivectl(&["ctt2", "--sim", "--fast", "--slaves", "31", "diag"]);
+    assert!(stderr(&o).contains("81.312 ms per byte"), "{}", stderr(&o));
 }

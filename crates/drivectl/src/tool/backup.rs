@@ -42,10 +42,12 @@ const LEGACY_MOVILINK: &str = "drivebus-movilink-backup";
 /// The parameters a backup covers: numbered rows (SEW's fault-memory sub-entries share the
 /// index of their parent), one per bus index and sub-index; a data-set parameter
 /// ([`Access::DATA_SET`], Bonfiglioli) once per data set 1–4 (its sub-index is the data set;
-/// data set 0 addresses all four and is never saved or restored).
+/// data set 0 addresses all four and is never saved or restored); a NORD parameter once per
+/// array element and parameter set (its sub-index is the IND word), with P560 "save to EEPROM"
+/// last, so that a restore that turns it off does not send the values after it to RAM only.
 fn rows(family: Family) -> Vec<Target> {
     let mut seen = BTreeSet::new();
-    family::params(family)
+    let mut rows: Vec<Target> = family::params(family)
         .filter(|p| p.number().is_some())
         .filter(|p| seen.insert((p.bus_index(), p.sub_index().unwrap_or(0))))
         .flat_map(|p| {
@@ -54,12 +56,23 @@ fn rows(family: Family) -> Vec<Target> {
                 ..Target::of(p)
             })
         })
-        .collect()
+        .collect();
+    if family == Family::Nord {
+        rows.sort_by_key(|t| t.index == NORD_SAVE_TO_EEPROM);
+    }
+    rows
 }
 
-/// The sub-indices a backup holds of `p`: the data sets 1–4 of a data-set parameter, else its
-/// own sub-index.
+/// NORD P560 "save to EEPROM" (PNU 230h): 0 keeps every later parameter write in RAM only.
+const NORD_SAVE_TO_EEPROM: u16 = 0x230;
+
+/// The sub-indices a backup holds of `p`: the data sets 1–4 of a data-set parameter, every
+/// IND word of a NORD parameter (array elements × parameter sets), else its own sub-index.
 fn subs(p: AnyParam) -> Vec<u16> {
+    if p.family() == Family::Nord {
+        // Every array element in every parameter set: the IND word is the sub-index.
+        return super::client::nord_subs(p.bus_index());
+    }
     if p.access().contains(Access::DATA_SET) {
         vec![1, 2, 3, 4]
     } else {

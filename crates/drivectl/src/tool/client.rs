@@ -3,6 +3,7 @@
 
 use std::ops::RangeInclusive;
 
+use ctt2_uss::uss::pkw::{Ind, IndLayout};
 use drive_profile::family::{self, AnyParam};
 use drive_profile::guard;
 use drive_profile::{Family, ParamMeta, Persistence};
@@ -179,6 +180,21 @@ impl Target {
         // A Bonfiglioli data set other than 0 (all four) is part of the name.
         if self.family == Family::Bonfiglioli && self.sub != 0 {
             format!("{name} data set {}", self.sub)
+        } else if self.family == Family::Nord {
+            // NORD: the array element and the parameter set of the IND word (`P543 [-02]`,
+            // `P102 set 3`).
+            let (element, set) = nord_sub_parts(self.index, self.sub);
+            let mut label = name;
+            if self.param.is_none() && self.sub != 0 {
+                label.push_str(&format!(" IND 0x{:04X}", self.sub));
+            }
+            if let Some(e) = element {
+                label.push_str(&format!(" [-{e:02}]"));
+            }
+            if let Some(s) = set {
+                label.push_str(&format!(" set {s}"));
+            }
+            label
         } else {
             name
         }
@@ -315,6 +331,59 @@ impl Target {
             rounded_from: Some(x),
         })
     }
+}
+
+/// NORD: the IND word (BU 0255 section 4.6.1.2) of array element `element` and parameter set
+/// `set` (both 1-based, `None` where the parameter has none) of parameter `pnu`, laid out by
+/// `ctt2_uss`'s one rule ([`IndLayout`]): a parameter with parameter sets takes the set in bits
+/// 8–9 and an element in bits 10–15; a parameter without sets takes the element as its
+/// sub-index in bits 8–15. Outside the table a given set means the first layout. A NORD
+/// [`Target::sub`] is this word.
+pub fn nord_sub(pnu: u16, element: Option<u8>, set: Option<u8>) -> u16 {
+    let layout = if drive_profile::nord::by_index(pnu).is_some() {
+        IndLayout::of_pnu(pnu)
+    } else if set.is_some() {
+        IndLayout::ParameterSets
+    } else {
+        IndLayout::Subindex
+    };
+    let zero_based = |v: Option<u8>| v.unwrap_or(1).saturating_sub(1);
+    Ind::address(layout, zero_based(element), zero_based(set)).map_or(0, |i| i.0)
+}
+
+/// NORD: the array element and parameter set (1-based) of parameter `pnu`'s IND word `sub`,
+/// as the table describes the parameter (see [`nord_sub`]). Outside the table the IND bits
+/// cannot be told apart: neither is known.
+pub fn nord_sub_parts(pnu: u16, sub: u16) -> (Option<u8>, Option<u8>) {
+    let Some(p) = drive_profile::nord::by_index(pnu) else {
+        return (None, None);
+    };
+    let array = p.array_len.is_some();
+    let (element, set) = Ind(sub).split(IndLayout::of_pnu(pnu), array);
+    (
+        array.then_some(element + 1),
+        p.parameter_set.then_some(set + 1),
+    )
+}
+
+/// NORD: every IND word of parameter `pnu` in the table: each array element in each parameter
+/// set it has (a parameter with neither has just 0).
+pub fn nord_subs(pnu: u16) -> Vec<u16> {
+    let Some(p) = drive_profile::nord::by_index(pnu) else {
+        return vec![0];
+    };
+    let sets: Vec<Option<u8>> = if p.parameter_set {
+        (1..=4).map(Some).collect()
+    } else {
+        vec![None]
+    };
+    let elements: Vec<Option<u8>> = p
+        .array_len
+        .map_or_else(|| vec![None], |n| (1..=n).map(Some).collect());
+    elements
+        .iter()
+        .flat_map(|e| sets.iter().map(move |s| nord_sub(pnu, *e, *s)))
+        .collect()
 }
 
 /// How a value typed on the command line is read (the `write` options).

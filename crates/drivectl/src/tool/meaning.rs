@@ -39,6 +39,72 @@ pub fn meaning(p: AnyParam, raw: i64) -> Option<Meaning> {
     })
 }
 
+/// What `raw` of `t` means: [`meaning`] of its table entry, with what only the whole target
+/// knows (a NORD array element: P700 [-02] is a warning, [-03] a reason for switch-on
+/// disabled).
+pub fn meaning_of(t: &super::client::Target, raw: i64) -> Option<Meaning> {
+    let p = t.param?;
+    if p.family() == Family::Nord {
+        let (element, _) = super::client::nord_sub_parts(t.index, t.sub);
+        if let Some(m) = nord(p.bus_index(), element, raw) {
+            return Some(m);
+        }
+    }
+    meaning(p, raw)
+}
+
+/// NORD's information parameters (BU 0255 section 6): P700 present fault [-01], warning [-02]
+/// and reason for switch-on disabled [-03]; P701 the fault memory; P740/P741 the process data
+/// bus in/out, whose first word is the control/status word. The manual has no table of fault
+/// numbers: they are shown as numbers.
+fn nord(pnu: u16, element: Option<u8>, raw: i64) -> Option<Meaning> {
+    use drive_profile::nord::{ControlWord, StatusWord, state_info};
+    let word = u16::try_from(raw)
+        .ok()
+        .or_else(|| i16::try_from(raw).ok().map(|w| w as u16))?;
+    let text = match (pnu, element) {
+        (0x2BC, Some(1)) | (0x2BD, Some(_)) if word == 0 => "no fault".to_owned(),
+        (0x2BC, Some(1)) | (0x2BD, Some(_)) => format!("fault {word}"),
+        (0x2BC, Some(2)) if word == 0 => "no warning".to_owned(),
+        (0x2BC, Some(2)) => format!("warning {word}"),
+        (0x2BC, Some(3)) if word == 0 => "no reason (switch-on not disabled)".to_owned(),
+        (0x2BC, Some(3)) => format!("reason {word}"),
+        (0x2E4, _) => {
+            let bits: Vec<&str> = ControlWord(word).set_bits().map(|b| b.name_en).collect();
+            return Some(Meaning {
+                text: format!("control word: {}", bits.join(", ")),
+                decoded: Some(json!({"control_word": format!("0x{word:04X}"), "bits": bits})),
+            });
+        }
+        (0x2E5, _) => {
+            let sw = StatusWord(word);
+            let state = sw.state();
+            let info = state_info(state);
+            let bits: Vec<&str> = sw.set_bits().map(|b| b.name_en).collect();
+            return Some(Meaning {
+                text: format!(
+                    "status word: {} {} ({})",
+                    info.map_or('?', |i| i.letter),
+                    state.name_en(),
+                    bits.join(", ")
+                ),
+                decoded: Some(json!({
+                    "status_word": format!("0x{word:04X}"),
+                    "state": info.map(|i| i.letter.to_string()),
+                    "state_en": state.name_en(),
+                    "state_de": state.name_de(),
+                    "bits": bits,
+                })),
+            });
+        }
+        _ => return None,
+    };
+    Some(Meaning {
+        text,
+        decoded: None,
+    })
+}
+
 /// Bonfiglioli's current fault (260, "FXX YY" with its text) and warnings (270, bit-coded,
 /// several at once), as the manual's ch. 12 names them. The status word 411 differs between ACT
 /// and ACU, which the table does not tell apart: `drivectl bonfiglioli status` decodes it.

@@ -8,7 +8,7 @@ use drive_profile::ParamMeta;
 use serde_json::{Value, json};
 
 use super::client::Target;
-use super::meaning::{Meaning, meaning};
+use super::meaning::{Meaning, meaning_of};
 use crate::error::{CliError, Result};
 
 /// Write one piece of standard output. A reader that went away (`drivectl … | head`) is not an
@@ -128,7 +128,7 @@ pub fn trim_float(v: f64, decimals: u8) -> String {
 pub fn value_json(t: &Target, raw: i64) -> Value {
     match t.param {
         Some(p) => {
-            let m = meaning(p, raw);
+            let m = meaning_of(t, raw);
             json!({
                 "index": t.index, "number": p.label().to_string(), "name_de": p.name_de(),
                 "name_en": p.name_en(), "raw": raw, "value": p.to_physical(raw), "unit": p.unit(),
@@ -149,7 +149,7 @@ pub fn value_json(t: &Target, raw: i64) -> Value {
 /// (`0x0206: ready, PO data enabled, unit status 2 = no enable`), raw outside the table.
 pub fn value_text(t: &Target, raw: i64) -> String {
     match t.param {
-        Some(p) => match meaning(p, raw) {
+        Some(p) => match meaning_of(t, raw) {
             Some(Meaning {
                 text,
                 decoded: Some(_),

@@ -1,0 +1,1277 @@
+//! `drivectl uss …` and `drivectl ctt2 --sim …`: NORD NORDAC LINK (SK 270E-FDS, SK 280E-FDS)
+//! over USS on RS-485 or over CTT2 through an AS-i master.
+//!
+//! Both transports carry the same USS parameter channel (PKW) and process data (PZD), so every
+//! command here is written once, generic over `ctt2_uss::client::NordClient<C>` with `C` any
+//! transport implementing [`ParameterChannel`] and [`ProcessChannel`]: [`NordParamClient`] is
+//! the tool layer's [`ParamClient`]; read, write, watch, backup and restore are the tool
+//! layer's. What only NORD has lives here: array elements and parameter sets (`--array K`,
+//! `--set S`, 1-based as the manual counts them), `status` (status word with the state
+//! A–H, actual values in % and Hz, P700) and `control` (the state machine of section 4.5.3
+//! over process data).
+//!
+//! [`Target::sub`] of a NORD parameter is the IND word itself (section 4.6.1.2, see
+//! [`nord_sub`]): a parameter with parameter sets carries the set in bits 8–9 and an array
+//! element in bits 10–15; a parameter without sets carries its element in bits 8–15.
+
+pub mod ctt2;
+pub mod decode;
+pub mod sim;
+pub mod uss;
+
+use std::ops::RangeInclusive;
+use std::path::PathBuf;
+use std::time::Duration;
+
+use clap::{Args, Subcommand};
+use ctt2_uss::client::{self, NordClient, ParameterChannel, ProcessChannel};
+use ctt2_uss::uss::pkw::{Ind, Order, Reply, Storage};
+use ctt2_uss::uss::pzd::PzdIn;
+use drive_profile::nord::{self, ControlWord, NordStateMachine, State, StatusWord, Width, command};
+use drive_profile::{Family, Persistence};
+use serde_json::{Map, Value, json};
+
+use crate::error::{CliError, Result};
+use crate::tool::client::{
+    ClientError, DeviceError, DeviceErrorKind, ParamClient, Target, ValueText, nord_sub,
+    nord_sub_parts, parse_decimal,
+};
+use crate::tool::interrupt::Interrupt;
+use crate::tool::output::{physical_text, print_value, trim_float, value_json};
+use crate::tool::{backup, watch, write};
+
+/// Parameter numbers outside the table that may be read and written raw: the 11 bits of the
+/// PNU (PKE bits 0–10).
+pub const RAW_INDICES: RangeInclusive<u16> = 0..=2047;
+
+/// Parameter numbers (PNUs) of the table this command uses by name.
+pub mod param {
+    /// Maximum frequency: the 100 % of frequency setpoints and actual values.
+    pub const MAXIMUM_FREQUENCY: u16 = 105;
+    /// Torque current limit: the 100 % of current setpoints and actual values.
+    pub const CURRENT_LIMIT: u16 = 112;
+    /// Control word source (5 = AS-i).
+    pub const CONTROL_WORD_SOURCE: u16 = 509;
+    /// Bus actual values 1–3: what IW1–IW3 carry.
+    pub const BUS_ACTUAL_VALUE: u16 = 543;
+    /// Save to EEPROM (0 = RAM only, 1 = RAM and EEPROM).
+    pub const SAVE_TO_EEPROM: u16 = 560;
+    /// Present fault [-01], warning [-02], reason for switch-on disabled [-03].
+    pub const PRESENT_FAULT: u16 = 700;
+    /// Configuration level.
+    pub const CONFIGURATION_LEVEL: u16 = 744;
+}
+
+/// The tool layer's EEPROM-wear way out (`--volatile`) as the NORD commands offer it.
+const NO_EEPROM_HINT: &str = "--no-eeprom (AK 11–14: RAM only) or P560 save to EEPROM = 0";
+
+/// Examples below `drivectl uss|ctt2 write --help`; the `ctt2` help gets its own prefix
+/// ([`ctt2::with_help`]).
+const WRITE_HELP: &str = "\
+Examples:
+  drivectl uss --port /dev/ttyUSB0 --addr 1 write P102 10 --set 3       10.00 s in parameter set 3 (raw 1000)
+  drivectl uss --port /dev/ttyUSB0 --addr 1 write P102 2,5 --set 2      decimal comma: raw 250
+  drivectl uss --port /dev/ttyUSB0 --addr 1 write P543 3 --array 2      IW2 = current
+  drivectl uss --port /dev/ttyUSB0 --addr 1 write P102 1.5 --no-eeprom  RAM only (AK 14), for values that change often
+  drivectl uss --port /dev/ttyUSB0 --addr 1 write P102 1000 --raw --set 3
+
+Values are physical in the table's resolution (P102 0.01 s: 2.5 → raw 250) and checked against
+the table before anything is sent; a NORD parameter is a 16-bit word (BU 0255 ch. 6). The
+drive's EEPROM takes about 100 000 writes (ch. 4.1.2): values that change often go to RAM with
+--no-eeprom, or set P560 save to EEPROM = 0. EEPROM-wear log: non-volatile writes are
+remembered for a minute in eeprom-writes.json in $DRIVECTL_STATE_DIR, else
+$XDG_STATE_HOME/drivectl, else ~/.local/state/drivectl.";
+
+/// `--array` and `--set` of the parameter commands.
+#[derive(Debug, Args, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Sub {
+    /// Array element, 1-based as the manual counts them ([-01] = 1): P543 [-02] is --array 2.
+    /// Only for array parameters; `read` and `watch` of an array without it show every element.
+    #[arg(long, value_name = "K", value_parser = clap::value_parser!(u8).range(1..=64))]
+    pub array: Option<u8>,
+    /// Parameter set 1–4, only for parameters that have one value per set (P102, P105, P112);
+    /// default 1.
+    #[arg(long, value_name = "S", value_parser = clap::value_parser!(u8).range(1..=4))]
+    pub set: Option<u8>,
+}
+
+/// The commands `drivectl uss` and `drivectl ctt2` share.
+#[derive(Debug, Subcommand)]
+pub enum NordCommand {
+    /// Read parameters: value with unit and resolution (faults, control and status words
+    /// decoded) and the raw value; one line (or JSON object) per parameter, array element or
+    /// set.
+    ///
+    /// Every name, --array and --set is checked against the table before anything is sent. A
+    /// refusal of one parameter is reported for it and the others are still read (exit 1 at the
+    /// end); a link failure stops.
+    #[command(
+        after_help = "Examples:\n  drivectl uss --port /dev/ttyUSB0 --addr 1 read P102 --set 3\n  \
+        drivectl uss --port /dev/ttyUSB0 --addr 1 read P543 --array 2 --json\n  \
+        drivectl uss --port /dev/ttyUSB0 --addr 1 read P700              all three elements\n  \
+        drivectl uss --port /dev/ttyUSB0 --addr 1 read P105 P560 P744"
+    )]
+    Read {
+        /// Parameter numbers (P102 or 102; numbers outside the table are read raw).
+        #[arg(required = true, num_args = 1..)]
+        params: Vec<String>,
+        #[command(flatten)]
+        sub: Sub,
+    },
+    /// Write a parameter (checked against the table first), then read it back.
+    #[command(after_help = WRITE_HELP)]
+    Write {
+        /// Parameter number.
+        param: String,
+        /// Value in the parameter's unit (or raw with --raw).
+        #[arg(allow_hyphen_values = true)]
+        value: String,
+        #[command(flatten)]
+        sub: Sub,
+        /// Write to RAM only (AK 11–14: the way for values that change often; lost at
+        /// power-off).
+        #[arg(long)]
+        no_eeprom: bool,
+        /// VALUE is the raw bus value.
+        #[arg(long)]
+        raw: bool,
+        /// Skip the access/range/value-list/EEPROM-wear checks of the table (a value that does
+        /// not fit the parameter's 16 bits is never sent).
+        #[arg(long)]
+        force: bool,
+        /// Accept a physical value the parameter cannot hold exactly and write the nearest one.
+        #[arg(long)]
+        round: bool,
+    },
+    /// Poll parameters at a steady rhythm (as `drivectl movilink watch`). Ctrl-C ends it.
+    #[command(
+        after_help = "Examples:\n  drivectl uss --port /dev/ttyUSB0 --addr 1 watch P700 P740 P741\n  \
+        drivectl uss --port /dev/ttyUSB0 --addr 1 watch P102 --set 2 --interval 500 --count 20 --csv"
+    )]
+    Watch {
+        /// Parameter numbers.
+        #[arg(required = true, num_args = 1..)]
+        params: Vec<String>,
+        #[command(flatten)]
+        sub: Sub,
+        /// Milliseconds between the starts of two polls, 50–3600000.
+        #[arg(long, default_value_t = 1000, value_name = "MS",
+              value_parser = clap::value_parser!(u64)
+                  .range(watch::MIN_INTERVAL_MS..=watch::MAX_INTERVAL_MS))]
+        interval: u64,
+        /// Number of polls; 0 = until Ctrl-C.
+        #[arg(long, default_value_t = 0, value_name = "N")]
+        count: u64,
+        /// CSV: a header row, then one row per poll (not with --json).
+        #[arg(long, conflicts_with = "json")]
+        csv: bool,
+    },
+    /// The status word decoded (state A–H with its English and German name, every bit), the
+    /// actual values IW1–IW3 in % and as P543 says (frequency in Hz of P105), and P700 present
+    /// fault, warning and reason for switch-on disabled.
+    ///
+    /// The process data exchange that reads the status word sends a control word without bit
+    /// 10 ("control data valid"), which the drive ignores: `status` never changes the drive.
+    #[command(
+        after_help = "Examples:\n  drivectl uss --port /dev/ttyUSB0 --addr 1 status\n  drivectl uss --port /dev/ttyUSB0 --addr 1 status --json"
+    )]
+    Status,
+    /// Drive the state machine (section 4.5.3) over process data: enable (operation enabled,
+    /// SW1 = --setpoint), stop (shutdown: braking ramp, then ready to switch on), quick-stop
+    /// (quick stop, then switch-on disabled), disable (voltage off at once: the motor coasts)
+    /// or reset a fault (a 0→1 edge of bit 7).
+    ///
+    /// Ctrl-C or a failure while the drive is being enabled sends shutdown and says so; an
+    /// enabled drive keeps running after drivectl ends, and drivectl says how to stop it.
+    #[command(
+        after_help = "Examples:\n  drivectl uss --port /dev/ttyUSB0 --addr 1 control enable --setpoint 50     50 % of P105 clockwise\n  \
+        drivectl uss --port /dev/ttyUSB0 --addr 1 control enable --setpoint -25    counter-clockwise\n  \
+        drivectl uss --port /dev/ttyUSB0 --addr 1 control stop\n  \
+        drivectl uss --port /dev/ttyUSB0 --addr 1 control reset"
+    )]
+    Control {
+        /// What to do.
+        #[arg(value_parser = ["enable", "stop", "quick-stop", "disable", "reset"])]
+        action: String,
+        /// Setpoint SW1 in percent of P105 maximum frequency (4000h = 100 %; −200 < % < 200,
+        /// negative = counter-clockwise); sent with every control word. Default 0.
+        #[arg(long, allow_hyphen_values = true, value_name = "PERCENT")]
+        setpoint: Option<String>,
+        /// The parameter set the drive runs with (control word bits 14/15), 1–4.
+        #[arg(long, default_value_t = 1, value_name = "S", value_parser = clap::value_parser!(u8).range(1..=4))]
+        set: u8,
+        /// Give up waiting for the state after this many seconds, 1–600 (a stop waits for the
+        /// braking ramp).
+        #[arg(long, default_value_t = 30, value_name = "SECONDS", value_parser = clap::value_parser!(u64).range(1..=600))]
+        wait: u64,
+    },
+    /// Save every readable parameter in every array element and parameter set to a JSON file.
+    #[command(
+        after_help = "Examples:\n  drivectl uss --port /dev/ttyUSB0 --addr 1 backup --out drive1.json\n  drivectl uss --port /dev/ttyUSB0 --addr 1 backup --out drive1.json --overwrite"
+    )]
+    Backup {
+        /// Output file: a new regular file; checked before the first read.
+        #[arg(long)]
+        out: PathBuf,
+        /// Replace the output file if it exists.
+        #[arg(long)]
+        overwrite: bool,
+    },
+    /// Write a backup file back (every array element and parameter set; P560 last) and verify
+    /// every value.
+    #[command(
+        after_help = "Examples:\n  drivectl uss --port /dev/ttyUSB0 --addr 1 restore drive1.json --dry-run\n  drivectl uss --port /dev/ttyUSB0 --addr 1 restore drive1.json"
+    )]
+    Restore {
+        /// Backup file written by `backup`.
+        file: PathBuf,
+        /// Write even values the table check refuses (values that do not fit are refused).
+        #[arg(long)]
+        force: bool,
+        /// Show what would change (old → new) and write nothing.
+        #[arg(long)]
+        dry_run: bool,
+        /// Restore onto a drive whose identification differs from the file's.
+        #[arg(long)]
+        any_device: bool,
+    },
+}
+
+/// Resolve a NORD parameter (`P102`, `102`, a PNU outside the table for raw access) with its
+/// array element and parameter set. Checked against the table: `--set` only for parameters
+/// with parameter sets, `--array` only for arrays and within their length. An array without
+/// `--array` is every element when `every_element`, else refused.
+pub fn resolve(key: &str, sub: Sub, every_element: bool) -> Result<Vec<Target>> {
+    let mut t = Target::resolve(Family::Nord, key, RAW_INDICES)?;
+    // A PNU typed as a number (0x66) is the table's parameter too.
+    if t.param.is_none() {
+        if let Some(p) = drive_profile::family::lookup(Family::Nord, &t.index.to_string())
+            .filter(|p| p.bus_index() == t.index)
+        {
+            t = Target::of(p);
+        }
+    }
+    let Some(p) = t.param.and_then(|_| nord::by_index(t.index)) else {
+        // Outside the table nothing can be checked: the IND word as the options say.
+        t.sub = nord_sub(t.index, sub.array, sub.set);
+        return Ok(vec![t]);
+    };
+    let name = format!("{} {}", p.label(), p.name_en);
+    if sub.set.is_some() && !p.parameter_set {
+        return Err(CliError::usage(format!(
+            "{name} has no parameter sets: it takes no --set; nothing was sent"
+        )));
+    }
+    let set = p.parameter_set.then(|| sub.set.unwrap_or(1));
+    let elements: Vec<Option<u8>> = match (p.array_len, sub.array) {
+        (None, Some(_)) => {
+            return Err(CliError::usage(format!(
+                "{name} is no array: it takes no --array; nothing was sent"
+            )));
+        }
+        (None, None) => vec![None],
+        (Some(n), Some(k)) if k > n => {
+            return Err(CliError::usage(format!(
+                "{name} has the elements [-01]…[-{n:02}]: --array {k} is none of them (1…{n}); \
+                 nothing was sent"
+            )));
+        }
+        (Some(_), Some(k)) => vec![Some(k)],
+        (Some(n), None) if every_element => (1..=n).map(Some).collect(),
+        (Some(n), None) => {
+            return Err(CliError::usage(format!(
+                "{name} is an array of {n} elements: add --array 1…{n} ([-01] = 1)"
+            )));
+        }
+    };
+    Ok(elements
+        .into_iter()
+        .map(|e| Target {
+            sub: nord_sub(t.index, e, set),
+            ..t
+        })
+        .collect())
+}
+
+/// Resolve every name (arrays as all their elements).
+pub fn resolve_all(params: &[String], sub: Sub) -> Result<Vec<Target>> {
+    let mut all = Vec::new();
+    for p in params {
+        all.extend(resolve(p, sub, true)?);
+    }
+    Ok(all)
+}
+
+/// Whether `t` is an array element (AK 6, 7, 11, 12): the table says so, or `raw_array` (the
+/// user gave `--array`) outside the table.
+fn is_array(t: &Target, raw_array: bool) -> bool {
+    match t.param.and_then(|_| nord::by_index(t.index)) {
+        Some(p) => p.array_len.is_some(),
+        None => raw_array,
+    }
+}
+
+/// The raw value of a value read: a word of a parameter whose range does not go below zero
+/// is unsigned (whatever PWE1 says), any other keeps the sign the drive sent.
+pub fn raw_of(t: &Target, value: i32, width: Width) -> i64 {
+    let unsigned = t
+        .param
+        .and_then(|p| p.raw_range())
+        .is_some_and(|(lo, _)| lo >= 0);
+    match (width, unsigned) {
+        (Width::Word, true) => i64::from(value as u16),
+        (Width::DoubleWord, true) => i64::from(value as u32),
+        _ => i64::from(value),
+    }
+}
+
+/// A value as the 1-based element and set of `t` (0 where the parameter has none).
+fn element_and_set(t: &Target) -> (u8, u8) {
+    let (e, s) = nord_sub_parts(t.index, t.sub);
+    (e.unwrap_or(0), s.unwrap_or(0))
+}
+
+/// One value as JSON: the tool layer's keys plus `parameter` (the P number), `array` (the
+/// 1-based element, 0 for a parameter that is no array), `set` (the parameter set 1–4, 0 for
+/// a parameter without sets) and `ind` (the IND word sent); a named array element gives its
+/// own names.
+pub fn value_json_nord(t: &Target, raw: i64) -> Value {
+    let mut v = value_json(t, raw);
+    let (element, set) = element_and_set(t);
+    if let Value::Object(o) = &mut v {
+        o.insert("parameter".into(), t.index.into());
+        o.insert("array".into(), element.into());
+        o.insert("set".into(), set.into());
+        o.insert("ind".into(), format!("0x{:04X}", t.sub).into());
+        o.insert("label".into(), t.label().into());
+        if let Some(e) = nord::by_index(t.index)
+            .and_then(|p| p.element_info(element))
+            .filter(|e| !e.name_en.is_empty())
+        {
+            o.insert("name_de".into(), e.name_de.into());
+            o.insert("name_en".into(), e.name_en.into());
+        }
+    }
+    v
+}
+
+/// One value read: a line (`P102 set 3 acceleration time (PNU 102): 10.00 s (raw 1000)`) or
+/// a JSON object ([`value_json_nord`]).
+pub fn print_value_nord(t: &Target, raw: i64, json: bool) -> Result<()> {
+    if json {
+        return outln!("{}", value_json_nord(t, raw));
+    }
+    let (element, _) = element_and_set(t);
+    let Some(p) = t.param else {
+        return print_value(t, raw, false);
+    };
+    let name = nord::by_index(t.index)
+        .and_then(|n| n.element_info(element))
+        .filter(|e| !e.name_en.is_empty())
+        .map_or(p.name_en(), |e| e.name_en);
+    outln!(
+        "{} {name} (PNU {}): {} (raw {raw})",
+        t.label(),
+        t.index,
+        crate::tool::output::value_text(t, raw)
+    )
+}
+
+/// The order reading `t`: AK 1, or AK 6 for an array element.
+fn read_order(t: &Target, raw_array: bool) -> std::result::Result<Order, ClientError> {
+    let ind = Ind(t.sub);
+    if is_array(t, raw_array) {
+        Order::read_array(t.index, ind)
+    } else {
+        Order::read(t.index, ind)
+    }
+    .map_err(|e| ClientError::Link(format!("{}: {e}", t.label())))
+}
+
+/// The order writing `raw` to `t` as a word: AK 2/7 to EEPROM (as P560 says) or AK 14/12 to
+/// RAM only.
+fn write_order(
+    t: &Target,
+    raw: i64,
+    persistence: Persistence,
+    raw_array: bool,
+) -> std::result::Result<Order, ClientError> {
+    let storage = match persistence {
+        Persistence::Volatile => Storage::Ram,
+        Persistence::NonVolatile => Storage::Eeprom,
+    };
+    Order::write(
+        t.index,
+        Ind(t.sub),
+        Width::Word,
+        is_array(t, raw_array),
+        storage,
+        raw,
+    )
+    .map_err(|e| ClientError::Link(format!("{}: {e}; nothing was sent", t.label())))
+}
+
+/// What a PWE2 error number means for the tool: 0 (no such parameter) and 3 (no such element
+/// or set) are absent from this drive; everything else is a refusal.
+fn device_error_kind(error: u16) -> DeviceErrorKind {
+    match error {
+        0 | 3 => DeviceErrorKind::Absent,
+        _ => DeviceErrorKind::Refused,
+    }
+}
+
+/// The tool layer's error for a client error on `t`.
+pub fn client_error<E: std::fmt::Display>(t: &Target, e: client::ClientError<E>) -> ClientError {
+    match e {
+        client::ClientError::Drive { order, error } => {
+            let hint = match error.0 {
+                1 => " (read-only: the drive does not take writes to it)",
+                2 => " (the value is outside the drive's range)",
+                3 => " (the drive has no such array element or parameter set)",
+                4 => " (the drive says it is no array: leave out --array)",
+                _ => "",
+            };
+            ClientError::Device(DeviceError {
+                kind: device_error_kind(error.0),
+                message: format!(
+                    "{}: the drive refused AK {} ({}): {error}{hint}",
+                    t.label(),
+                    order.ak(),
+                    nord::ak_request(order.ak()).map_or("order", |r| r.function_en)
+                ),
+            })
+        }
+        other => ClientError::Link(format!("{}: {other}", t.label())),
+    }
+}
+
+/// A client error without a parameter (process data).
+fn link_error<E: std::fmt::Display>(e: client::ClientError<E>) -> CliError {
+    CliError::failed(e.to_string())
+}
+
+/// `NordClient` as the tool layer's [`ParamClient`]: one drive behind one transport.
+///
+/// The drive keeps answering its previous order until the new one is done, and the
+/// plausibility check cannot tell that answer from the new one's when both orders address the
+/// same PNU and IND (erratum E21: AK 7 fits every order, a write's echo fits a read). So before
+/// its first order — the drive may still answer an order of an earlier command — and before an
+/// order on the PNU and IND of the one before, the client sends "no order" (AK 0) and waits for
+/// its answer.
+#[derive(Debug)]
+pub struct NordParamClient<'a, C> {
+    client: &'a mut NordClient<C>,
+    key: String,
+    identity: Map<String, Value>,
+    raw_array: bool,
+    /// PNU and IND of the last order, `None` before the first.
+    last: Option<(u16, u16)>,
+}
+
+impl<'a, C> NordParamClient<'a, C> {
+    /// The drive behind `client`, named `key` in the EEPROM-wear log, identified in a backup by
+    /// `identity` (the transport's fields: address, ID object, …).
+    pub fn new(client: &'a mut NordClient<C>, key: &str, identity: Map<String, Value>) -> Self {
+        Self {
+            client,
+            key: key.to_owned(),
+            identity,
+            raw_array: false,
+            last: None,
+        }
+    }
+
+    /// Raw parameters (outside the table) are array elements (`--array` was given).
+    pub fn raw_array(mut self, array: bool) -> Self {
+        self.raw_array = array;
+        self
+    }
+}
+
+impl<C: ParameterChannel> NordParamClient<'_, C> {
+    /// Run `order` to its plausible answer, separated from an answer it could be confused with
+    /// (see the type's docs).
+    async fn order(
+        &mut self,
+        order: Order,
+    ) -> std::result::Result<Reply, client::ClientError<C::Error>> {
+        let key = (order.pnu(), order.ind().0);
+        if self.last.is_none_or(|k| k == key) {
+            self.client.order(Order::none()).await?;
+        }
+        self.last = Some(key);
+        self.client.order(order).await
+    }
+}
+
+impl<C: ParameterChannel> ParamClient for NordParamClient<'_, C> {
+    fn family(&self) -> Family {
+        Family::Nord
+    }
+
+    async fn drive_key(&mut self) -> std::result::Result<String, ClientError> {
+        Ok(self.key.clone())
+    }
+
+    async fn read(&mut self, target: &Target) -> std::result::Result<i64, ClientError> {
+        let order = read_order(target, self.raw_array)?;
+        match self.order(order).await {
+            Ok(Reply::Value { value, width, .. }) => Ok(raw_of(target, value, width)),
+            Ok(reply) => Err(ClientError::Link(format!(
+                "{}: unexpected answer {reply:?} to AK {}",
+                target.label(),
+                order.ak()
+            ))),
+            Err(e) => Err(client_error(target, e)),
+        }
+    }
+
+    async fn write(
+        &mut self,
+        target: &Target,
+        raw: i64,
+        persistence: Persistence,
+    ) -> std::result::Result<(), ClientError> {
+        let order = write_order(target, raw, persistence, self.raw_array)?;
+        match self.order(order).await {
+            Ok(Reply::Value { .. }) => Ok(()),
+            Ok(reply) => Err(ClientError::Link(format!(
+                "{}: unexpected answer {reply:?} to AK {}",
+                target.label(),
+                order.ak()
+            ))),
+            Err(e) => Err(client_error(target, e)),
+        }
+    }
+
+    async fn identify(&mut self) -> std::result::Result<Map<String, Value>, ClientError> {
+        let mut m = self.identity.clone();
+        let level = resolve_in(param::CONFIGURATION_LEVEL)?;
+        let configuration = match self.read(&level).await {
+            Ok(v) => Value::from(v),
+            Err(ClientError::Device(_)) => Value::Null,
+            Err(e) => return Err(e),
+        };
+        m.entry("device_type").or_insert(Value::Null);
+        m.entry("firmware").or_insert(Value::Null);
+        m.insert("configuration_level".into(), configuration);
+        Ok(m)
+    }
+}
+
+/// The target of a table parameter by number, no element, set 1.
+fn resolve_in(number: u16) -> std::result::Result<Target, ClientError> {
+    resolve(&number.to_string(), Sub::default(), true)
+        .ok()
+        .and_then(|v| v.into_iter().next())
+        .ok_or_else(|| ClientError::Link(format!("P{number} is not in the NORD table")))
+}
+
+/// The target of `number` with element `array` and set `set` (1-based).
+fn target_of(number: u16, array: Option<u8>, set: Option<u8>) -> Result<Target> {
+    resolve(&number.to_string(), Sub { array, set }, false)?
+        .into_iter()
+        .next()
+        .ok_or_else(|| CliError::failed(format!("P{number} is not in the NORD table")))
+}
+
+/// The value a write sends, checked without the drive.
+#[derive(Debug, Clone, Copy)]
+pub struct WriteValue {
+    /// The parameter with its element and set.
+    pub target: Target,
+    /// The raw value.
+    pub raw: i64,
+    /// What the user typed, when it was rounded (`--round`).
+    pub rounded_from: Option<f64>,
+}
+
+/// Resolve and parse a write: names, element, set, strict value, the 16-bit width (a NORD
+/// parameter is a word, BU 0255 ch. 6; outside the table too).
+pub fn write_value(param: &str, value: &str, sub: Sub, how: &ValueText) -> Result<WriteValue> {
+    let t = resolve(param, sub, false)?
+        .into_iter()
+        .next()
+        .ok_or_else(|| CliError::usage(format!("no NORD parameter `{param}`")))?;
+    let parsed = t.value_from_text(value, how)?;
+    t.check_width(parsed.raw)?;
+    let (lo, hi) = drive_profile::param::WIRE_16;
+    if !(lo..=hi).contains(&parsed.raw) {
+        return Err(CliError::usage(format!(
+            "value {} does not fit {}: a NORD parameter is a 16-bit word ({lo}…{hi}, BU 0255 \
+             ch. 6); nothing was sent",
+            parsed.raw,
+            t.label()
+        )));
+    }
+    Ok(WriteValue {
+        target: t,
+        raw: parsed.raw,
+        rounded_from: parsed.rounded_from,
+    })
+}
+
+/// A setpoint in percent as the SW1 word (4000h = 100 %), strictly parsed.
+pub fn setpoint_word(text: &str) -> Result<u16> {
+    let p = parse_decimal(text).ok_or_else(|| {
+        CliError::usage(format!(
+            "`{text}` is not a setpoint in percent (e.g. 50, -25 or 12,5)"
+        ))
+    })?;
+    nord::setpoint_from_percent(p).map_err(|e| {
+        CliError::usage(format!(
+            "setpoint {text} %: {e}; a setpoint is −200 % < value < 200 % (4000h = 100 %)"
+        ))
+    })
+}
+
+/// Everything a command can check without the drive, before the port is opened.
+pub fn precheck(cmd: &NordCommand) -> Result<()> {
+    match cmd {
+        NordCommand::Read { params, sub } | NordCommand::Watch { params, sub, .. } => {
+            resolve_all(params, *sub).map(drop)
+        }
+        NordCommand::Write {
+            param,
+            value,
+            sub,
+            raw,
+            force,
+            round,
+            ..
+        } => {
+            let how = ValueText {
+                raw: *raw,
+                force: *force,
+                round: *round,
+            };
+            write_value(param, value, *sub, &how).map(drop)
+        }
+        NordCommand::Control {
+            setpoint: Some(s), ..
+        } => setpoint_word(s).map(drop),
+        NordCommand::Restore { file, .. } => backup::check_file(file, Family::Nord, &[]),
+        _ => Ok(()),
+    }
+}
+
+/// What the transport tells the shared commands.
+#[derive(Debug, Clone, Default)]
+pub struct Session {
+    /// `--json`.
+    pub json: bool,
+    /// The drive's name in the EEPROM-wear log.
+    pub key: String,
+    /// The command line that reaches this drive again (`drivectl uss --port … --addr 1`), for
+    /// the notes that say how to stop a drive left running.
+    pub again: String,
+    /// Fields that identify the drive in a backup.
+    pub identity: Map<String, Value>,
+    /// The drive is simulated by this very process: it ends with the command.
+    pub simulated: bool,
+    /// Setpoints and actual values the process data carry beside the control and status word
+    /// (0–3: a USS telegram's PZD words − 1; CTT2: 3).
+    pub actuals: u8,
+}
+
+/// The tool layer's EEPROM-wear refusal names `--volatile`; the NORD commands offer
+/// `--no-eeprom` and P560.
+fn no_eeprom_hint<T>(r: Result<T>) -> Result<T> {
+    r.map_err(|e| {
+        let text = e.to_string();
+        if !text.contains("--volatile") {
+            return e;
+        }
+        let text = text.replace("--volatile", NO_EEPROM_HINT);
+        if e.exit_code() == 2 {
+            CliError::usage(text)
+        } else {
+            CliError::failed(text)
+        }
+    })
+}
+
+/// Run one of the shared commands on the drive behind `c`.
+pub async fn execute<C>(c: &mut NordClient<C>, s: &Session, cmd: &NordCommand) -> Result<()>
+where
+    C: ParameterChannel + ProcessChannel,
+{
+    let json = s.json;
+    match cmd {
+        NordCommand::Read { params, sub } => {
+            let targets = resolve_all(params, *sub)?;
+            let mut pc =
+                NordParamClient::new(c, &s.key, s.identity.clone()).raw_array(sub.array.is_some());
+            read_all(&mut pc, &targets, json).await
+        }
+        NordCommand::Watch {
+            params,
+            sub,
+            interval,
+            count,
+            csv,
+        } => {
+            let targets = resolve_all(params, *sub)?;
+            let options = watch::Options {
+                interval: Duration::from_millis(*interval),
+                count: *count,
+                format: watch::Format::choose(
+                    *csv,
+                    json,
+                    std::io::IsTerminal::is_terminal(&std::io::stdout()),
+                )?,
+            };
+            let mut pc =
+                NordParamClient::new(c, &s.key, s.identity.clone()).raw_array(sub.array.is_some());
+            watch::watch(
+                &mut pc,
+                &targets,
+                options,
+                &mut |text| out!("{text}"),
+                watch::ctrl_c(),
+            )
+            .await
+            .map(drop)
+        }
+        NordCommand::Write {
+            param,
+            value,
+            sub,
+            no_eeprom,
+            raw,
+            force,
+            round,
+        } => {
+            let how = ValueText {
+                raw: *raw,
+                force: *force,
+                round: *round,
+            };
+            let v = write_value(param, value, *sub, &how)?;
+            if let (Some(x), Some(p)) = (v.rounded_from, v.target.param) {
+                errln!(
+                    "drivectl: note: {} cannot hold {x} exactly; writing the nearest value it takes, {}",
+                    p.label(),
+                    physical_text(p, v.raw)
+                );
+            }
+            let request = write::WriteRequest {
+                target: v.target,
+                raw: v.raw,
+                persistence: if *no_eeprom {
+                    Persistence::Volatile
+                } else {
+                    Persistence::NonVolatile
+                },
+                force: *force,
+            };
+            let mut pc =
+                NordParamClient::new(c, &s.key, s.identity.clone()).raw_array(sub.array.is_some());
+            let done = no_eeprom_hint(write::write_checked(&mut pc, &request, false).await)?;
+            print_value_nord(&v.target, done.back, json)
+        }
+        NordCommand::Status => status(c, s).await,
+        NordCommand::Control {
+            action,
+            setpoint,
+            set,
+            wait,
+        } => {
+            let session = ControlSession {
+                action: action.as_str(),
+                setpoint: setpoint.as_deref().map(setpoint_word).transpose()?,
+                set: *set,
+                wait: Duration::from_secs(*wait),
+            };
+            control(c, s, &session).await
+        }
+        NordCommand::Backup { out, overwrite } => {
+            let mut pc = NordParamClient::new(c, &s.key, s.identity.clone());
+            let stop = Interrupt::install("the backup file was not written");
+            backup::backup(&mut pc, out, *overwrite, json, &stop).await
+        }
+        NordCommand::Restore {
+            file,
+            force,
+            dry_run,
+            any_device,
+        } => {
+            let mut pc = NordParamClient::new(c, &s.key, s.identity.clone());
+            if !*dry_run {
+                warn_ram_only(&mut pc).await;
+            }
+            let stop = Interrupt::install(
+                "the drive may be half restored; run the same restore again to finish it",
+            );
+            let opts = backup::RestoreOptions {
+                force: *force,
+                dry_run: *dry_run,
+                any_device: *any_device,
+            };
+            no_eeprom_hint(backup::restore(&mut pc, file, opts, json, &stop).await)
+        }
+    }
+}
+
+/// A restore writes with AK 2/7, which P560 = 0 keeps in RAM: say so before writing.
+async fn warn_ram_only<C: ParameterChannel>(pc: &mut NordParamClient<'_, C>) {
+    let Ok(t) = resolve_in(param::SAVE_TO_EEPROM) else {
+        return;
+    };
+    if let Ok(0) = pc.read(&t).await {
+        errln!(
+            "drivectl: warning: P560 save to EEPROM is 0 (RAM only) on this drive: the restored \
+             values are lost at power-off unless the file sets P560 to 1 (it is written last) or \
+             you write P560 1 afterwards"
+        );
+    }
+}
+
+/// `read`: one line or JSON object per target (the tool layer's `read::read_all` with the NORD
+/// keys and labels).
+async fn read_all<C: ParameterChannel>(
+    pc: &mut NordParamClient<'_, C>,
+    targets: &[Target],
+    json: bool,
+) -> Result<()> {
+    if let [t] = targets {
+        let raw = pc.read(t).await?;
+        return print_value_nord(t, raw, json);
+    }
+    let mut refused = Vec::new();
+    for (i, t) in targets.iter().enumerate() {
+        match pc.read(t).await {
+            Ok(raw) => print_value_nord(t, raw, json)?,
+            Err(ClientError::Device(d)) => {
+                errln!("drivectl: {d}");
+                refused.push(t.label());
+            }
+            Err(ClientError::Link(msg)) => {
+                let unread: Vec<String> = targets.iter().skip(i).map(Target::label).collect();
+                return Err(CliError::failed(format!(
+                    "{msg}; not read: {}",
+                    unread.join(", ")
+                )));
+            }
+        }
+    }
+    if refused.is_empty() {
+        return Ok(());
+    }
+    Err(CliError::failed(format!(
+        "{} of {} parameters could not be read: {} (the drive's answers are above)",
+        refused.len(),
+        targets.len(),
+        refused.join(", ")
+    )))
+}
+
+/// A state with the manual's letter and both names: `E operation enabled (Betrieb
+/// freigegeben)`.
+pub fn state_text(state: State) -> String {
+    match nord::state_info(state) {
+        Some(i) => format!("{} {} ({})", i.letter, i.name_en, i.name_de),
+        None => format!("? {} (no state of the manual)", state.name_en()),
+    }
+}
+
+/// The set bits of a status word by their English names.
+fn status_bits(sw: StatusWord) -> Vec<&'static str> {
+    sw.set_bits().map(|b| b.name_en).collect()
+}
+
+/// What one actual value means, from its P543 function (the simulator's subset of the public
+/// NORD documentation's list; 4000h = 100 % of P105 for frequencies, of P112 for current).
+fn actual_json(word: u16, function: Option<i64>, p105_hz: Option<f64>, p112: Option<f64>) -> Value {
+    let percent = nord::percent_from_word(word);
+    let name = function.and_then(|f| {
+        nord::by_index(param::BUS_ACTUAL_VALUE)
+            .and_then(|p| p.values.iter().find(|v| v.value == f))
+            .map(|v| v.en)
+    });
+    let (value, unit) = match function {
+        Some(1 | 8) => (p105_hz.map(|r| nord::word_to_physical(word, r)), Some("Hz")),
+        // The current's 100 % is P112 (itself in % of the rated current).
+        Some(3) => (
+            p112.map(|r| nord::word_to_physical(word, r)),
+            Some("% of rated current"),
+        ),
+        _ => (None, None),
+    };
+    json!({"word": word, "hex": format!("0x{word:04X}"), "percent": percent,
+           "function": function, "function_name": name, "value": value, "unit": unit})
+}
+
+fn actual_text(v: &Value) -> String {
+    let mut s = format!(
+        "{} = {} %",
+        v["hex"].as_str().unwrap_or(""),
+        trim_float(v["percent"].as_f64().unwrap_or(0.0), 2)
+    );
+    if let (Some(x), Some(unit)) = (v["value"].as_f64(), v["unit"].as_str()) {
+        s.push_str(&format!(" = {} {unit}", trim_float(x, 2)));
+    }
+    match (v["function"].as_i64(), v["function_name"].as_str()) {
+        (Some(f), Some(n)) => s.push_str(&format!(" (P543 function {f}: {n})")),
+        (Some(f), None) => s.push_str(&format!(" (P543 function {f})")),
+        _ => {}
+    }
+    s
+}
+
+/// `status`: see [`NordCommand::Status`].
+async fn status<C>(c: &mut NordClient<C>, s: &Session) -> Result<()>
+where
+    C: ParameterChannel + ProcessChannel,
+{
+    // Bit 10 clear: the drive does not evaluate this control word (section 4.5.1 footnote 2),
+    // it only answers its status word and actual values.
+    let answer = c
+        .process(ControlWord(0), &[], s.actuals)
+        .await
+        .map_err(link_error)?;
+    let sw = answer.status();
+    let state = sw.state();
+    let set = sw.parameter_set();
+    let mut pc = NordParamClient::new(c, &s.key, s.identity.clone());
+    let p105 = target_of(param::MAXIMUM_FREQUENCY, None, Some(set))?;
+    let p112 = target_of(param::CURRENT_LIMIT, None, Some(set))?;
+    let hz = read_physical(&mut pc, &p105).await?;
+    let current = read_physical(&mut pc, &p112).await?;
+    let mut actuals = Vec::new();
+    for (i, word) in answer.actuals().iter().enumerate() {
+        let t = target_of(param::BUS_ACTUAL_VALUE, Some(i as u8 + 1), None)?;
+        let function = read_optional(&mut pc, &t).await?;
+        actuals.push(actual_json(*word, function, hz, current));
+    }
+    let mut p700 = Vec::new();
+    for e in 1..=3 {
+        let t = target_of(param::PRESENT_FAULT, Some(e), None)?;
+        let v = read_optional(&mut pc, &t).await?;
+        let text = v
+            .and_then(|raw| crate::tool::meaning::meaning_of(&t, raw))
+            .map(|m| m.text);
+        p700.push((v, text));
+    }
+    let info = nord::state_info(state);
+    if s.json {
+        let p = |i: usize| p700.get(i).and_then(|(v, _)| *v);
+        return outln!(
+            "{}",
+            json!({
+                "status_word": sw.0, "hex": format!("0x{:04X}", sw.0),
+                "state": info.map(|i| i.letter.to_string()),
+                "state_en": state.name_en(), "state_de": state.name_de(),
+                "bits": status_bits(sw), "parameter_set": set,
+                "p105_hz": hz, "actuals": actuals,
+                "fault": p(0), "warning": p(1), "switch_on_disabled_reason": p(2),
+            })
+        );
+    }
+    outln!("status word 0x{:04X}: {}", sw.0, state_text(state))?;
+    outln!("  bits: {}", status_bits(sw).join(", "))?;
+    outln!(
+        "  parameter set {set}; P105 maximum frequency {} (the 100 % of frequencies)",
+        hz.map_or_else(
+            || "unreadable".to_owned(),
+            |h| format!("{} Hz", trim_float(h, 1))
+        )
+    )?;
+    for (i, a) in actuals.iter().enumerate() {
+        outln!("  actual value {} (IW{}): {}", i + 1, i + 1, actual_text(a))?;
+    }
+    let names = [
+        "present fault",
+        "present warning",
+        "reason for switch-on disabled",
+    ];
+    for (i, (v, text)) in p700.iter().enumerate() {
+        outln!(
+            "  P700 [-{:02}] {}: {}",
+            i + 1,
+            names.get(i).copied().unwrap_or(""),
+            match (v, text) {
+                (Some(_), Some(t)) => t.clone(),
+                (Some(v), None) => v.to_string(),
+                (None, _) => "unreadable".to_owned(),
+            }
+        )?;
+    }
+    Ok(())
+}
+
+/// A parameter's physical value, `None` when the drive refuses it (a link failure is an
+/// error).
+async fn read_physical<C: ParameterChannel>(
+    pc: &mut NordParamClient<'_, C>,
+    t: &Target,
+) -> Result<Option<f64>> {
+    Ok(read_optional(pc, t)
+        .await?
+        .and_then(|raw| t.param.map(|p| p.to_physical(raw))))
+}
+
+/// A raw value, `None` when the drive refuses it (a link failure is an error).
+async fn read_optional<C: ParameterChannel>(
+    pc: &mut NordParamClient<'_, C>,
+    t: &Target,
+) -> Result<Option<i64>> {
+    match pc.read(t).await {
+        Ok(v) => Ok(Some(v)),
+        Err(ClientError::Device(d)) => {
+            errln!("drivectl: warning: {d}");
+            Ok(None)
+        }
+        Err(e) => Err(e.into()),
+    }
+}
+
+/// What `control` was asked to do.
+#[derive(Debug, Clone, Copy)]
+struct ControlSession<'a> {
+    action: &'a str,
+    /// SW1, `None` = 0 %.
+    setpoint: Option<u16>,
+    /// Parameter set 1–4.
+    set: u8,
+    /// How long to wait for the state.
+    wait: Duration,
+}
+
+/// Whether control word `w` lets the motor run (bits 0–3 set: enable operation).
+fn runs(w: u16) -> bool {
+    w & 0x000F == 0x000F
+}
+
+/// Time between two process data exchanges while `control` waits for a state.
+const CONTROL_PERIOD: Duration = Duration::from_millis(50);
+
+/// `control`: see [`NordCommand::Control`].
+async fn control<C>(c: &mut NordClient<C>, s: &Session, a: &ControlSession<'_>) -> Result<()>
+where
+    C: ParameterChannel + ProcessChannel,
+{
+    let (target, fixed) = match a.action {
+        "enable" => (State::OperationEnabled, None),
+        "stop" => (State::ReadyToSwitchOn, None),
+        "quick-stop" => (State::SwitchOnDisabled, Some(command::QUICK_STOP.0)),
+        "disable" => (State::SwitchOnDisabled, Some(command::DISABLE_VOLTAGE.0)),
+        "reset" => (State::SwitchOnDisabled, None),
+        other => return Err(CliError::usage(format!("unknown control action `{other}`"))),
+    };
+    let sw1 = if a.action == "enable" {
+        a.setpoint.unwrap_or(0)
+    } else {
+        0
+    };
+    // SW1 and IW1, where the process data carry them.
+    let sw1_slot: &[u16] = if s.actuals > 0 { &[sw1] } else { &[] };
+    let iw = s.actuals.min(1);
+    // P509 0 (control terminals or keypad): the drive does not take the bus control word.
+    {
+        let mut pc = NordParamClient::new(c, &s.key, s.identity.clone());
+        let t = target_of(param::CONTROL_WORD_SOURCE, None, None)?;
+        if let Some(0) = read_optional(&mut pc, &t).await? {
+            errln!(
+                "drivectl: warning: P509 control word source is 0 (control terminals or \
+                 keypad): the drive may not act on the bus control word"
+            );
+        }
+    }
+    let with_set = |w: u16| ControlWord(w).with_parameter_set(a.set).map_or(w, |c| c.0);
+    let stop = Interrupt::install(
+        "the drive was NOT sent a stop and keeps the last control word it was sent",
+    );
+    // First only look (bit 10 clear: the drive ignores this word).
+    let mut answer = c
+        .process(ControlWord(0), &[], iw)
+        .await
+        .map_err(link_error)?;
+    let start = answer.status().state();
+    if a.action == "reset" && !matches!(start, State::Fault | State::FaultReactionActive) {
+        errln!(
+            "drivectl: note: the drive shows no fault ({})",
+            state_text(start)
+        );
+    }
+    if matches!(a.action, "enable" | "stop")
+        && matches!(start, State::Fault | State::FaultReactionActive)
+    {
+        return Err(CliError::failed(format!(
+            "the drive shows a fault ({}): read P700 (`{} status`) and reset it with `{} \
+             control reset` first",
+            state_text(start),
+            s.again,
+            s.again
+        )));
+    }
+    let in_fault = |st: State| matches!(st, State::Fault | State::FaultReactionActive);
+    if a.action == "reset" && !in_fault(start) {
+        // Nothing to reset: a word sent now could only change what the drive does.
+        return print_control(s, a, answer, 0, 0, true);
+    }
+    // The word the drive holds from before this command is not known: every word planned here
+    // has bit 7 = 0, so the fault reset that follows one of them is a rising edge.
+    let mut last: u16 = 0;
+    let mut sent = false;
+    let deadline = tokio::time::Instant::now() + a.wait;
+    let mut interrupted = false;
+    let run: std::result::Result<(), CliError> = async {
+        loop {
+            let state = answer.status().state();
+            let reached = if a.action == "reset" {
+                !in_fault(state)
+            } else {
+                state == target
+            };
+            if reached && sent {
+                return Ok(());
+            }
+            if stop.requested() {
+                interrupted = true;
+                return Ok(());
+            }
+            if sent && tokio::time::Instant::now() >= deadline {
+                return Ok(());
+            }
+            let word = match fixed {
+                Some(w) => w,
+                None => NordStateMachine::next_control(last, state, target)
+                    .unwrap_or_else(|| hold_word(target)),
+            };
+            let word = with_set(word);
+            // Sent, whether or not the answer comes back: a lost answer to 047Fh may leave the
+            // motor running.
+            last = word;
+            sent = true;
+            answer = c
+                .process(ControlWord(word), sw1_slot, iw)
+                .await
+                .map_err(link_error)?;
+            tokio::select! {
+                () = tokio::time::sleep(CONTROL_PERIOD) => {}
+                () = stop.wait() => {}
+            }
+        }
+    }
+    .await;
+    if let Err(e) = run {
+        if runs(last) {
+            return Err(CliError::failed(format!(
+                "{e}; the drive was sent 0x{last:04X} (enable operation) and may be running: \
+                 stop it with `{} control stop`",
+                s.again
+            )));
+        }
+        return Err(e);
+    }
+    let sw = answer.status();
+    let state = sw.state();
+    if interrupted {
+        if runs(last) || state == State::OperationEnabled {
+            let shutdown = with_set(command::SHUTDOWN.0);
+            let zero: &[u16] = if s.actuals > 0 { &[0] } else { &[] };
+            return match c.process(ControlWord(shutdown), zero, iw).await {
+                Ok(a) => Err(CliError::failed(format!(
+                    "interrupted: sent shutdown 0x{shutdown:04X} (braking ramp, then ready to \
+                     switch on); the drive shows {}",
+                    state_text(a.status().state())
+                ))),
+                Err(e) => Err(CliError::failed(format!(
+                    "interrupted, and the shutdown was not answered ({e}): the drive may still be \
+                     running; stop it with `{} control stop`",
+                    s.again
+                ))),
+            };
+        }
+        return Err(CliError::failed(format!(
+            "interrupted; the drive shows {} (last control word 0x{last:04X})",
+            state_text(state)
+        )));
+    }
+    let reached = if a.action == "reset" {
+        !in_fault(state)
+    } else {
+        state == target
+    };
+    // Printed after the notes below are decided: a closed output pipe must not swallow the
+    // note that the motor runs.
+    let printed = print_control(s, a, answer, last, sw1, reached);
+    if !reached {
+        let running = state == State::OperationEnabled;
+        return Err(CliError::failed(format!(
+            "the drive did not reach {} within {} s (it shows {}{}); check P509 control word \
+             source, P700 [-03] reason for switch-on disabled (`{} status`){}",
+            state_text(target),
+            a.wait.as_secs(),
+            state_text(state),
+            if running { ", still running" } else { "" },
+            s.again,
+            if running {
+                " and --wait for a long braking ramp"
+            } else {
+                ""
+            }
+        )));
+    }
+    if a.action == "enable" {
+        errln!(
+            "drivectl: note: the motor is enabled and follows SW1 = 0x{sw1:04X} ({} % of P105){}; \
+             stop it with `{} control stop` (or quick-stop / disable)",
+            trim_float(nord::percent_from_word(sw1), 2),
+            if s.simulated {
+                " until this simulation ends with the command"
+            } else {
+                " and keeps running after drivectl ends"
+            },
+            s.again
+        );
+    }
+    printed
+}
+
+/// The word that keeps a drive in `target` once it is there.
+fn hold_word(target: State) -> u16 {
+    match target {
+        State::OperationEnabled => command::ENABLE_OPERATION.0,
+        State::ReadyToSwitchOn => command::SHUTDOWN.0,
+        _ => command::DISABLE_VOLTAGE.0,
+    }
+}
+
+/// The outcome of `control`: the status word with its state and IW1.
+fn print_control(
+    s: &Session,
+    a: &ControlSession<'_>,
+    answer: PzdIn,
+    last: u16,
+    sw1: u16,
+    reached: bool,
+) -> Result<()> {
+    let sw = answer.status();
+    let state = sw.state();
+    let iw1 = answer.actuals().first().copied();
+    if s.json {
+        return outln!(
+            "{}",
+            json!({"action": a.action, "status_word": sw.0, "hex": format!("0x{:04X}", sw.0),
+                   "state": nord::state_info(state).map(|i| i.letter.to_string()),
+                   "state_en": state.name_en(), "state_de": state.name_de(),
+                   "reached": reached, "control_word": (last != 0).then_some(last),
+                   "setpoint": sw1, "setpoint_percent": nord::percent_from_word(sw1),
+                   "iw1": iw1, "iw1_percent": iw1.map(nord::percent_from_word)})
+        );
+    }
+    outln!(
+        "status word 0x{:04X}: {}{}",
+        sw.0,
+        state_text(state),
+        iw1.map_or_else(String::new, |w| format!(
+            "; IW1 0x{w:04X} = {} %",
+            trim_float(nord::percent_from_word(w), 2)
+        ))
+    )
+}
+
+#[cfg(test)]
+mod tests;

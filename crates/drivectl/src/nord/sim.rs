@@ -1,0 +1,91 @@
+//! `drivectl sim uss (--port PATH | --pty) [--addr N ...]`: simulated NORD drives answering USS
+//! on a serial port, or on a new pseudo-terminal whose path is printed (first line of standard
+//! output) for other tools.
+
+use std::time::Duration;
+
+use clap::Args;
+use ctt2_uss::serial::sim::SimulatedBus;
+use ctt2_uss::serial::{Layout, UssAddress};
+
+use crate::error::{CliError, Result};
+use crate::tool::line::LineArgs;
+use crate::tool::simrun;
+
+/// Examples below `drivectl sim uss --help`.
+const AFTER_HELP: &str = "\
+Examples:
+  drivectl sim uss --pty --parity none                     a NORD drive at USS address 0
+  drivectl sim uss --pty --parity none --addr 1 --addr 7   two drives on one line
+  drivectl sim uss --pty --parity none --pkw-time 30       orders take 30 ms (the master repeats)
+  drivectl sim uss --port /dev/ttyUSB1 --baud 38400        a real port (8E1)";
+
+/// Arguments of `drivectl sim uss`.
+#[derive(Debug, Args)]
+#[command(after_help = AFTER_HELP)]
+pub struct SimArgs {
+    /// Serve on this serial port.
+    #[arg(long, conflicts_with = "pty", required_unless_present = "pty")]
+    port: Option<String>,
+    /// Serve on a new pseudo-terminal and print its path; needs `--parity none` (a pty carries
+    /// no parity), on the master too.
+    #[arg(long)]
+    pty: bool,
+    /// USS address(es) 0…31; repeat for several drives on one line, each address once.
+    #[arg(long = "addr", default_value = "0")]
+    addrs: Vec<u8>,
+    #[command(flatten)]
+    line: LineArgs,
+    /// PKW words of every telegram: 3 or 4 (the master's --pkw must match).
+    #[arg(long, default_value_t = 4, value_parser = clap::value_parser!(u8).range(3..=4))]
+    pkw: u8,
+    /// PZD words of every telegram, 0–16 (the master's --pzd must match).
+    #[arg(long, default_value_t = 4, value_parser = clap::value_parser!(u8).range(0..=16))]
+    pzd: u8,
+    /// Milliseconds each drive works on a new parameter order, 0–10000, answering the previous
+    /// order meanwhile (the master repeats the telegram until the answer fits).
+    #[arg(long, default_value_t = 0, value_name = "MS", value_parser = clap::value_parser!(u64).range(0..=10_000))]
+    pkw_time: u64,
+}
+
+/// Check the arguments before anything is opened: addresses 0…31, each once; on a pty no
+/// parity.
+fn check(args: &SimArgs) -> Result<()> {
+    simrun::check_addresses(&args.addrs, 0..=31, "USS address")?;
+    simrun::check_pty_parity(args.pty, args.line.parity, " (the default)", "drivectl uss")
+}
+
+/// Run the simulated line until interrupted.
+pub fn run(args: &SimArgs) -> Result<()> {
+    check(args)?;
+    let layout = Layout::new(args.pkw, args.pzd)
+        .map_err(|e| CliError::usage(format!("--pkw/--pzd: {e}")))?;
+    let line = args.line.line();
+    let addrs: Vec<UssAddress> = args
+        .addrs
+        .iter()
+        .filter_map(|a| UssAddress::new(*a))
+        .collect();
+    let mut bus = SimulatedBus::new(&addrs, layout, line);
+    for a in &addrs {
+        if let Some(d) = bus.drive_mut(*a) {
+            d.set_processing_time(Duration::from_millis(args.pkw_time));
+        }
+    }
+    let list = args
+        .addrs
+        .iter()
+        .map(u8::to_string)
+        .collect::<Vec<_>>()
+        .join(", ");
+    let what = format!(
+        "simulated NORD drive(s) at USS address {list}, {} baud, parity {}, {} PKW + {} PZD words",
+        line.baud, line.parity, args.pkw, args.pzd
+    );
+    crate::tool::line::runtime()?.block_on(simrun::serve(
+        &mut bus,
+        args.port.as_deref(),
+        line,
+        &what,
+    ))
+}

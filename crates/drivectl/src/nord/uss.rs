@@ -1,0 +1,322 @@
+//! `drivectl uss --port PATH [--addr N] …`: a NORD drive over USS on RS-485 (or the pty of
+//! `drivectl sim uss --pty`).
+//!
+//! The shared NORD commands run on `ctt2_uss::serial::driver::UssMaster`; what only the serial
+//! line has lives here: the telegram layout (`--pkw 3|4`, `--pzd N`, the drive's setting), the
+//! address scan 0–31 and `line`.
+//!
+//! The line is 8E1 by default (the USS specification: 11-bit characters, even parity) at 9600
+//! baud: 9600 is the rate every USS drive supports and the specification's usual default; a
+//! NORD drive's USS baud rate is a setting of the drive (4800–38400 and, on some drives,
+//! higher), so match it with `--baud`.
+
+use std::time::Duration;
+
+use clap::{Args, Subcommand};
+use ctt2_uss::client::{ClientConfig, NordClient};
+use ctt2_uss::serial::driver::{DriverConfig, UssMaster};
+use ctt2_uss::serial::framing::UssTiming;
+use ctt2_uss::serial::{Layout, UssAddress};
+use drive_core::rt::{CharIo, Stream};
+use drive_profile::nord::ControlWord;
+use serde_json::{Map, Value, json};
+
+use super::{NordCommand, NordParamClient, Session, execute, precheck, state_text, target_of};
+use crate::error::{CliError, Result};
+use crate::tool::client::{ParamClient, canonical_port};
+use crate::tool::line::{LineArgs, MAX_TIMEOUT_MS, runtime};
+
+/// Below `drivectl uss --help`.
+const USS_HELP: &str = "\
+Examples:
+  drivectl uss --port /dev/ttyUSB0 --addr 1 read P102 --set 3
+  drivectl uss --port /dev/ttyUSB0 --addr 1 write P102 10 --set 3
+  drivectl uss --port /dev/ttyUSB0 --addr 1 control enable --setpoint 50
+  drivectl uss --port /dev/ttyUSB0 scan
+  drivectl uss read P700 --port /dev/ttyUSB0 --addr 1      options after the command work too
+
+The line: 8E1 (USS: 11-bit characters with even parity), 9600 baud by default; USS drives take
+4800, 9600, 19200 and 38400 baud, some 57600, 115200 or 187500: give the drive's rate with
+--baud. The telegram layout (--pkw, --pzd) is a setting of the drive too.
+Parameters, sets and arrays: `drivectl params nord show P102`.";
+
+/// Arguments of `drivectl uss`.
+#[derive(Debug, Args)]
+#[command(after_help = USS_HELP)]
+pub struct UssArgs {
+    /// Serial port, e.g. /dev/ttyUSB0 (or the pty printed by `drivectl sim uss --pty`). This
+    /// and every line option are accepted before or after the subcommand.
+    #[arg(long, global = true, default_value = "", hide_default_value = true)]
+    port: String,
+    #[command(flatten)]
+    line: LineArgs,
+    /// Response timeout in milliseconds, 1–60000: from the end of a telegram to the start of
+    /// its answer (USS allows a drive 20 ms; the default adds room for USB adapters).
+    #[arg(long, global = true, default_value_t = 50, value_parser = clap::value_parser!(u64).range(1..=MAX_TIMEOUT_MS))]
+    timeout: u64,
+    /// Retries after a timeout or a rejected answer, 0–255.
+    #[arg(long, global = true, default_value_t = 2)]
+    retries: u8,
+    /// USS address of the drive, 0–31.
+    #[arg(long, global = true, default_value_t = 0, value_parser = clap::value_parser!(u8).range(0..=31))]
+    addr: u8,
+    /// PKW words in every telegram: 4 (PKE, IND, PWE1, PWE2) or 3 (no PWE1), as the drive is
+    /// set.
+    #[arg(long, global = true, default_value_t = 4, value_parser = clap::value_parser!(u8).range(3..=4))]
+    pkw: u8,
+    /// PZD words in every telegram, 0–16, as the drive is set: the control/status word and
+    /// up to 3 setpoints/actual values (NORD: 4).
+    #[arg(long, global = true, default_value_t = 4, value_parser = clap::value_parser!(u8).range(0..=16))]
+    pzd: u8,
+    /// One JSON object per result.
+    #[arg(long, global = true)]
+    json: bool,
+    #[command(subcommand)]
+    command: UssCommand,
+}
+
+#[derive(Debug, Subcommand)]
+enum UssCommand {
+    #[command(flatten)]
+    Nord(NordCommand),
+    /// Find the drives that answer on the line: every USS address in the range gets one
+    /// telegram (no retries); a drive that answers is shown with its state and P744.
+    #[command(
+        after_help = "Examples:\n  drivectl uss --port /dev/ttyUSB0 scan\n  drivectl uss --port /dev/ttyUSB0 --baud 38400 scan --from 1 --to 8 --json"
+    )]
+    Scan {
+        /// First address.
+        #[arg(long, default_value_t = 0, value_parser = clap::value_parser!(u8).range(0..=31))]
+        from: u8,
+        /// Last address.
+        #[arg(long, default_value_t = 31, value_parser = clap::value_parser!(u8).range(0..=31))]
+        to: u8,
+    },
+    /// Show the line settings, the telegram layout and the USS times the master uses.
+    #[command(
+        after_help = "Examples:\n  drivectl uss --port /dev/ttyUSB0 line\n  drivectl uss --port /dev/ttyUSB0 --baud 38400 --pzd 2 line --json"
+    )]
+    Line,
+}
+
+/// The telegram layout of the options.
+fn layout(args: &UssArgs) -> Result<Layout> {
+    Layout::new(args.pkw, args.pzd).map_err(|e| CliError::usage(format!("--pkw/--pzd: {e}")))
+}
+
+/// The driver configuration of the options.
+fn driver_config(args: &UssArgs, address: UssAddress) -> Result<DriverConfig> {
+    let line = args.line.line();
+    let timing = UssTiming::from_line(&line);
+    let timeout = Duration::from_millis(args.timeout);
+    if timeout < timing.start_delay {
+        return Err(CliError::usage(format!(
+            "a response timeout of {} ms is shorter than the start delay a drive keeps before \
+             answering at {} baud ({:.2} ms): no answer could arrive in time; use --timeout {} \
+             or more",
+            args.timeout,
+            line.baud,
+            timing.start_delay.as_secs_f64() * 1e3,
+            timing.start_delay.as_micros().div_ceil(1000)
+        )));
+    }
+    Ok(DriverConfig {
+        response_timeout: timeout,
+        retries: args.retries,
+        ..DriverConfig::new(address, layout(args)?, line)
+    })
+}
+
+fn address(a: u8) -> Result<UssAddress> {
+    UssAddress::new(a).ok_or_else(|| CliError::usage(format!("--addr {a}: a USS address is 0…31")))
+}
+
+/// The command line that reaches the same drive again (for notes).
+fn again(args: &UssArgs) -> String {
+    let mut s = format!("drivectl uss --port {} --addr {}", args.port, args.addr);
+    if args.line.baud != 9600 {
+        s.push_str(&format!(" --baud {}", args.line.baud));
+    }
+    if args.line.parity != drive_core::Parity::Even {
+        s.push_str(&format!(" --parity {}", args.line.parity));
+    }
+    if args.pkw != 4 {
+        s.push_str(&format!(" --pkw {}", args.pkw));
+    }
+    if args.pzd != 4 {
+        s.push_str(&format!(" --pzd {}", args.pzd));
+    }
+    s
+}
+
+/// Run `drivectl uss`.
+pub fn run(args: &UssArgs) -> Result<()> {
+    if args.port.is_empty() {
+        return Err(CliError::usage(
+            "no serial port given; add --port PATH (e.g. /dev/ttyUSB0; `drivectl ports` lists them)",
+        ));
+    }
+    let config = driver_config(args, address(args.addr)?)?;
+    match &args.command {
+        UssCommand::Nord(cmd) => {
+            precheck(cmd)?;
+            check_pzd(cmd, args.pzd)?;
+        }
+        UssCommand::Scan { from, to } if from > to => {
+            return Err(CliError::usage(
+                "scan range must satisfy 0 ≤ --from ≤ --to ≤ 31",
+            ));
+        }
+        _ => {}
+    }
+    let rt = runtime()?;
+    rt.block_on(async {
+        let port = args.line.open(&args.port)?;
+        let master = UssMaster::new(Stream(port), config);
+        match &args.command {
+            UssCommand::Nord(cmd) => {
+                let mut identity = Map::new();
+                identity.insert("address".into(), args.addr.into());
+                let session = Session {
+                    json: args.json,
+                    key: format!("{} uss {}", canonical_port(&args.port), args.addr),
+                    again: again(args),
+                    identity,
+                    simulated: false,
+                    actuals: args.pzd.saturating_sub(1).min(3),
+                };
+                let mut client = NordClient::new(master, ClientConfig::default());
+                execute(&mut client, &session, cmd).await
+            }
+            UssCommand::Scan { from, to } => scan(master, args, *from, *to).await,
+            UssCommand::Line => line(&master, args),
+        }
+    })
+}
+
+/// `status` and `control` need process data: at least the status word.
+fn check_pzd(cmd: &NordCommand, pzd: u8) -> Result<()> {
+    match cmd {
+        NordCommand::Status | NordCommand::Control { .. } if pzd == 0 => Err(CliError::usage(
+            "the telegram layout has no PZD words (--pzd 0): status and control need process \
+             data; give the drive's PZD length with --pzd",
+        )),
+        _ => Ok(()),
+    }
+}
+
+/// `scan`: one telegram per address (no retries); for each drive that answers, its state and
+/// P744 configuration level.
+async fn scan<IO: CharIo>(master: UssMaster<IO>, args: &UssArgs, from: u8, to: u8) -> Result<()> {
+    let bar = crate::tool::backup::progress(usize::from(to - from) + 1, "scanning");
+    let mut io = master.into_inner();
+    let mut found = 0;
+    for a in from..=to {
+        bar.set_message(format!("address {a}"));
+        let config = DriverConfig {
+            retries: 0,
+            ..driver_config(args, address(a)?)?
+        };
+        let mut client = NordClient::new(UssMaster::new(io, config), ClientConfig::default());
+        // A process telegram without bit 10: the drive answers, and ignores it.
+        let actuals = args.pzd.saturating_sub(1).min(3);
+        let answer = if args.pzd > 0 {
+            client.process(ControlWord(0), &[], actuals).await.ok()
+        } else {
+            None
+        };
+        let mut level = None;
+        let mut answered = answer.is_some();
+        // Nothing answered the process telegram: nobody is there (without PZD the parameter
+        // read is the probe).
+        if answered || args.pzd == 0 {
+            let mut pc = NordParamClient::new(&mut client, "", Map::new());
+            let t744 = target_of(super::param::CONFIGURATION_LEVEL, None, None)?;
+            match pc.read(&t744).await {
+                Ok(v) => {
+                    level = Some(v);
+                    answered = true;
+                }
+                Err(crate::tool::client::ClientError::Device(_)) => answered = true,
+                Err(_) => {}
+            }
+        }
+        io = client.into_inner().into_inner();
+        bar.inc(1);
+        if !answered {
+            continue;
+        }
+        found += 1;
+        let status = answer.map(|a| a.status());
+        bar.suspend(|| -> Result<()> {
+            if args.json {
+                outln!(
+                    "{}",
+                    json!({"address": a,
+                           "status_word": status.map(|s| s.0),
+                           "state": status.and_then(|s| drive_profile::nord::state_info(s.state()))
+                               .map(|i| i.letter.to_string()),
+                           "state_en": status.map(|s| s.state().name_en()),
+                           "configuration_level": level})
+                )
+            } else {
+                outln!(
+                    "address {a:>2}: {}, P744 configuration level {}",
+                    status.map_or_else(
+                        || "status word unknown (no PZD)".to_owned(),
+                        |s| format!("status word 0x{:04X} = {}", s.0, state_text(s.state()))
+                    ),
+                    level.map_or_else(|| "unreadable".to_owned(), |v| v.to_string())
+                )
+            }
+        })?;
+    }
+    bar.finish_and_clear();
+    if !args.json {
+        outln!("{found} drive(s) answered between {from} and {to}")?;
+    }
+    Ok(())
+}
+
+/// `line`: the settings and times in use.
+fn line<IO: CharIo>(master: &UssMaster<IO>, args: &UssArgs) -> Result<()> {
+    let c = master.config();
+    let l = c.line;
+    let us = |d: Duration| d.as_nanos() as f64 / 1000.0;
+    let timing = c.timing;
+    let v: Value = json!({
+        "port": args.port, "baud": l.baud, "data_bits": l.data_bits,
+        "parity": l.parity.to_string(), "stop_bits": l.stop_bits.bits(),
+        "bits_per_char": l.bits_per_char(), "char_time_us": us(timing.char_time),
+        "start_delay_us": us(timing.start_delay), "max_char_gap_us": us(timing.max_char_gap),
+        "pkw_words": c.layout.pkw_words(), "pzd_words": c.layout.pzd_words(),
+        "telegram_bytes": c.layout.telegram_len(),
+        "response_timeout_ms": c.response_timeout.as_millis() as u64, "retries": c.retries,
+        "address": c.address.get(),
+    });
+    if args.json {
+        return outln!("{v}");
+    }
+    outln!(
+        "{} USS at {} baud, {} data bits, parity {}, {} stop bit(s) ({} bits per character): \
+         character time {:.1} µs, start delay {:.1} µs",
+        args.port,
+        l.baud,
+        l.data_bits,
+        l.parity,
+        l.stop_bits.bits(),
+        l.bits_per_char(),
+        us(timing.char_time),
+        us(timing.start_delay)
+    )?;
+    outln!(
+        "telegrams of {} PKW and {} PZD words ({} bytes) to address {}; response timeout {} ms, \
+         {} retries",
+        c.layout.pkw_words(),
+        c.layout.pzd_words(),
+        c.layout.telegram_len(),
+        c.address.get(),
+        c.response_timeout.as_millis(),
+        c.retries
+    )
+}
