@@ -12,8 +12,9 @@
 //!
 //! Two orders in a row on the same parameter and index cannot be told apart by their answers:
 //! the second one's first answer could be the first one's (an AK 7 refusal fits every order, a
-//! write's echo fits a read; erratum E21). The client therefore sends "no order" (AK 0) in
-//! between and waits for its answer (AK 0) before such an order.
+//! write's echo fits a read; erratum E21). The client therefore sends "no order" (AK 0) and
+//! waits for its answer (AK 0) before such an order, and before its first order, because the
+//! drive may still answer an order of an earlier session.
 //!
 //! On top of that: reads and writes of words, double words, array elements and parameter sets,
 //! the number of array elements, writes without EEPROM (AK 11–14), and control through the NORD
@@ -262,13 +263,18 @@ impl<C: ParameterChannel> NordClient<C> {
     /// Run one order to its plausible answer.
     pub async fn order(&mut self, order: Order) -> Result<Reply, ClientError<C::Error>> {
         let pkw = order.to_pkw();
-        let same_target = self
-            .last_order
-            .is_some_and(|last| last.pke.pnu() == pkw.pke.pnu() && last.ind == pkw.ind);
-        if same_target && order.ak() != 0 {
-            // Another order on the same PNU and IND: the previous order's answer (an AK 7 fits
-            // every order, a write's echo fits a read) would pass the check for this one, so
-            // make the drive answer "no order" in between (erratum E21).
+        let separate = match self.last_order {
+            // What the drive answers now is unknown: maybe an earlier session's order on the
+            // same PNU and IND.
+            None => true,
+            Some(last) => {
+                last.pke.ak() != 0 && last.pke.pnu() == pkw.pke.pnu() && last.ind == pkw.ind
+            }
+        };
+        if separate && order.ak() != 0 {
+            // The previous answer (an AK 7 fits every order, a write's echo fits a read) could
+            // pass the check for this order, so make the drive answer "no order" in between
+            // (erratum E21).
             Box::pin(self.order(Order::none())).await?;
         }
         self.last_order = Some(pkw);

@@ -454,18 +454,16 @@ fn link_error<E: std::fmt::Display>(e: client::ClientError<E>) -> CliError {
 ///
 /// The drive keeps answering its previous order until the new one is done, and the
 /// plausibility check cannot tell that answer from the new one's when both orders address the
-/// same PNU and IND (erratum E21: AK 7 fits every order, a write's echo fits a read). So before
-/// its first order — the drive may still answer an order of an earlier command — and before an
-/// order on the PNU and IND of the one before, the client sends "no order" (AK 0) and waits for
-/// its answer.
+/// same PNU and IND (erratum E21: AK 7 fits every order, a write's echo fits a read).
+/// `NordClient` therefore sends "no order" (AK 0) before its first order — the drive may still
+/// answer an order of an earlier command — and before an order on the PNU and IND of the one
+/// before.
 #[derive(Debug)]
 pub struct NordParamClient<'a, C> {
     client: &'a mut NordClient<C>,
     key: String,
     identity: Map<String, Value>,
     raw_array: bool,
-    /// PNU and IND of the last order, `None` before the first.
-    last: Option<(u16, u16)>,
 }
 
 impl<'a, C> NordParamClient<'a, C> {
@@ -477,7 +475,6 @@ impl<'a, C> NordParamClient<'a, C> {
             key: key.to_owned(),
             identity,
             raw_array: false,
-            last: None,
         }
     }
 
@@ -485,22 +482,6 @@ impl<'a, C> NordParamClient<'a, C> {
     pub fn raw_array(mut self, array: bool) -> Self {
         self.raw_array = array;
         self
-    }
-}
-
-impl<C: ParameterChannel> NordParamClient<'_, C> {
-    /// Run `order` to its plausible answer, separated from an answer it could be confused with
-    /// (see the type's docs).
-    async fn order(
-        &mut self,
-        order: Order,
-    ) -> std::result::Result<Reply, client::ClientError<C::Error>> {
-        let key = (order.pnu(), order.ind().0);
-        if self.last.is_none_or(|k| k == key) {
-            self.client.order(Order::none()).await?;
-        }
-        self.last = Some(key);
-        self.client.order(order).await
     }
 }
 
@@ -515,7 +496,7 @@ impl<C: ParameterChannel> ParamClient for NordParamClient<'_, C> {
 
     async fn read(&mut self, target: &Target) -> std::result::Result<i64, ClientError> {
         let order = read_order(target, self.raw_array)?;
-        match self.order(order).await {
+        match self.client.order(order).await {
             Ok(Reply::Value { value, width, .. }) => Ok(raw_of(target, value, width)),
             Ok(reply) => Err(ClientError::Link(format!(
                 "{}: unexpected answer {reply:?} to AK {}",
@@ -533,7 +514,7 @@ impl<C: ParameterChannel> ParamClient for NordParamClient<'_, C> {
         persistence: Persistence,
     ) -> std::result::Result<(), ClientError> {
         let order = write_order(target, raw, persistence, self.raw_array)?;
-        match self.order(order).await {
+        match self.client.order(order).await {
             Ok(Reply::Value { .. }) => Ok(()),
             Ok(reply) => Err(ClientError::Link(format!(
                 "{}: unexpected answer {reply:?} to AK {}",

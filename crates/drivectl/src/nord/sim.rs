@@ -5,7 +5,7 @@
 use std::time::Duration;
 
 use clap::Args;
-use ctt2_uss::serial::sim::SimulatedBus;
+use ctt2_uss::serial::sim;
 use ctt2_uss::serial::{Layout, UssAddress};
 
 use crate::error::{CliError, Result};
@@ -66,11 +66,9 @@ pub fn run(args: &SimArgs) -> Result<()> {
         .iter()
         .filter_map(|a| UssAddress::new(*a))
         .collect();
-    let mut bus = SimulatedBus::new(&addrs, layout, line);
-    for a in &addrs {
-        if let Some(d) = bus.drive_mut(*a) {
-            d.set_processing_time(Duration::from_millis(args.pkw_time));
-        }
+    let mut bus = sim::bus(&addrs, layout, line);
+    for d in bus.stations_mut() {
+        d.set_processing_time(Duration::from_millis(args.pkw_time));
     }
     let list = args
         .addrs

@@ -27,12 +27,6 @@ impl<S: Station> SimBus for Bus<S> {
     }
 }
 
-impl SimBus for ctt2_uss::serial::sim::SimulatedBus {
-    fn serve_on<IO: CharIo>(&mut self, io: IO) -> impl Future<Output = io::Result<()>> {
-        self.serve(io)
-    }
-}
-
 /// Each of `addrs` in `valid` and given once; `param` names the address parameter (`P810`,
 /// `parameter 1376`).
 pub fn check_addresses(addrs: &[u8], valid: RangeInclusive<u8>, param: &str) -> Result<()> {
