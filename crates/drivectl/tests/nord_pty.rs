@@ -441,3 +441,32 @@ fn nord_output_goes_only_to_regular_files() {
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     assert!(stderr(&o).contains("/dev/null"), "{}", stderr(&o));
 }
+
+/// With P560 = 0 the drive keeps every write in RAM: a second write within a second wears no
+/// EEPROM and is not refused as if it did (the refusal named P560 = 0 as the way out while
+/// P560 was already 0). P560 itself still counts as an EEPROM write.
+#[test]
+fn nord_p560_zero_writes_are_ram_only_and_not_held_back_by_the_wear_rule() {
+    let sim = Sim::start(&["--addr", "1"]);
+    ok_json(&sim.run(&["--json", "write", "P560", "0"]));
+    let first = sim.run(&["--json", "write", "P105", "40"]);
+    let v = ok_json(&first);
+    assert_eq!(v[0]["raw"], 400);
+    assert!(
+        stderr(&first).contains("P560"),
+        "says the value stays in RAM: {}",
+        stderr(&first)
+    );
+    let v = ok_json(&sim.run(&["--json", "write", "P105", "45"]));
+    assert_eq!(v[0]["raw"], 450);
+    // Back to RAM and EEPROM: P560 was written to EEPROM 1 s ago at most, so this write of
+    // P560 is held back, and after it P105 writes count again.
+    let o = sim.run(&["write", "P560", "1"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    std::thread::sleep(Duration::from_millis(1100));
+    ok_json(&sim.run(&["--json", "write", "P560", "1"]));
+    ok_json(&sim.run(&["--json", "write", "P105", "50"]));
+    let o = sim.run(&["write", "P105", "41"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("EEPROM"), "{}", stderr(&o));
+}

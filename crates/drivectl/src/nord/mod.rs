@@ -736,18 +736,19 @@ where
                     physical_text(p, v.raw)
                 );
             }
+            let mut pc =
+                NordParamClient::new(c, &s.key, s.identity.clone()).raw_array(sub.array.is_some());
+            let persistence = if *no_eeprom {
+                Persistence::Volatile
+            } else {
+                eeprom_or_ram(&mut pc, &v.target).await?
+            };
             let request = write::WriteRequest {
                 target: v.target,
                 raw: v.raw,
-                persistence: if *no_eeprom {
-                    Persistence::Volatile
-                } else {
-                    Persistence::NonVolatile
-                },
+                persistence,
                 force: *force,
             };
-            let mut pc =
-                NordParamClient::new(c, &s.key, s.identity.clone()).raw_array(sub.array.is_some());
             let done = no_eeprom_hint(write::write_checked(&mut pc, &request, false).await)?;
             print_value_nord(&v.target, done.back, json)
         }
@@ -791,6 +792,32 @@ where
             };
             no_eeprom_hint(backup::restore(&mut pc, file, opts, json, &stop).await)
         }
+    }
+}
+
+/// Where a write without `--no-eeprom` goes: to EEPROM as P560 says. With P560 = 0 the drive
+/// keeps it in RAM only, so it is a RAM-only write (AK 14/12, which does the same) that wears
+/// no EEPROM and is not held back by the EEPROM-wear rule; the user is told it is lost at
+/// power-off. P560 itself always counts as an EEPROM write.
+async fn eeprom_or_ram<C: ParameterChannel>(
+    pc: &mut NordParamClient<'_, C>,
+    target: &Target,
+) -> Result<Persistence> {
+    if target.index == param::SAVE_TO_EEPROM || target.param.is_none() {
+        return Ok(Persistence::NonVolatile);
+    }
+    let p560 = resolve_in(param::SAVE_TO_EEPROM)?;
+    match pc.read(&p560).await {
+        Ok(0) => {
+            errln!(
+                "drivectl: note: P560 save to EEPROM is 0 (RAM only) on this drive: {} is kept \
+                 in RAM and lost at power-off (write P560 = 1 to keep changes)",
+                target.label()
+            );
+            Ok(Persistence::Volatile)
+        }
+        Ok(_) => Ok(Persistence::NonVolatile),
+        Err(e) => Err(e.into()),
     }
 }
 

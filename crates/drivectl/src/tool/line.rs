@@ -10,10 +10,10 @@ use crate::error::{CliError, Result};
 /// Serial line settings. Every option is accepted before or after the subcommand.
 #[derive(Debug, Args, Clone)]
 pub struct LineArgs {
-    /// Baud rate in bit/s, 1–4000000 (MOVILINK: 9600); every pause and timeout follows it.
+    /// Baud rate in bit/s, 1–4000000 (the drive's rate); every pause and timeout follows it.
     #[arg(long, global = true, default_value_t = 9600, value_parser = clap::value_parser!(u32).range(1..=4_000_000))]
     pub baud: u32,
-    /// Parity: even (MOVILINK), odd or none (pseudo-terminals only accept none).
+    /// Parity: even, odd or none, as the drive is set (pseudo-terminals only accept none).
     #[arg(long, global = true, default_value = "even")]
     pub parity: Parity,
     /// Stop bits: 1 or 2.
