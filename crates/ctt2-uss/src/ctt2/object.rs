@@ -347,6 +347,7 @@ impl Data {
 
     /// The bytes after the drive address of an addressed channel (checked to be 1), or all of
     /// them.
+    #[inline]
     pub fn payload(&self, index: Channel) -> Result<&[u8], ObjectError> {
         let bytes = self.as_slice();
         if !index.has_address() {
@@ -377,6 +378,7 @@ impl Data {
     }
 
     /// The process data read (PZD channel: address, ZSW, 0–3 actual values).
+    #[inline]
     pub fn to_pzd_in(&self) -> Result<PzdIn, ObjectError> {
         Ok(PzdIn::decode(self.payload(Channel::Pzd)?)?)
     }

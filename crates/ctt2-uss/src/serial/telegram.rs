@@ -442,39 +442,33 @@ impl Telegram {
     #[inline]
     pub fn decode(bytes: &[u8], layout: Layout) -> Result<Telegram, FrameError> {
         let got = bytes.len().min(255) as u8;
-        let (&stx, rest) = bytes.split_first().ok_or(FrameError::Truncated {
-            needed: MIN_TELEGRAM as u8,
-            got,
-        })?;
-        if stx != STX {
-            return Err(FrameError::BadStx(stx));
-        }
-        let &lge = rest.first().ok_or(FrameError::Truncated {
-            needed: MIN_TELEGRAM as u8,
-            got,
-        })?;
+        let len = layout.telegram_len();
+        // Slice patterns and `get`, not `split_first`/`split_last` chains: they keep the slice in
+        // registers (the chains made the compiler spill and reload it in pieces, which cost more
+        // than the decode itself).
+        let lge = match *bytes {
+            [STX, lge, ..] => lge,
+            [stx, ..] if stx != STX => return Err(FrameError::BadStx(stx)),
+            _ => {
+                return Err(FrameError::Truncated {
+                    needed: MIN_TELEGRAM as u8,
+                    got,
+                });
+            }
+        };
         if lge != layout.lge() {
             return Err(FrameError::BadLength {
                 expected: layout.lge(),
                 got: lge,
             });
         }
-        let len = layout.telegram_len();
-        match bytes.len() {
-            n if n < len => {
-                return Err(FrameError::Truncated {
-                    needed: len as u8,
-                    got,
-                });
-            }
-            n if n > len => {
-                return Err(FrameError::TrailingBytes {
-                    extra: (n - len).min(255) as u8,
-                });
-            }
-            _ => {}
+        if bytes.len() > len {
+            return Err(FrameError::TrailingBytes {
+                extra: (bytes.len() - len).min(255) as u8,
+            });
         }
-        let Some((&got_bcc, body)) = bytes.split_last() else {
+        let (Some(body), Some(&got_bcc)) = (bytes.get(..len.saturating_sub(1)), bytes.get(len - 1))
+        else {
             return Err(FrameError::Truncated {
                 needed: len as u8,
                 got,

@@ -37,20 +37,22 @@ struct Words {
 }
 
 impl Words {
+    #[inline]
     fn decode(bytes: &[u8]) -> Result<Words, PzdError> {
-        // Word `i` (byte offset), 0 past the end: no loop, no copy of a variable length.
-        let word = |i: usize| match bytes.get(i..i + 2) {
-            Some(&[high, low]) => u16::from_be_bytes([high, low]),
-            _ => 0,
+        // One slice pattern per length: direct loads, no loop, no copy of a variable length.
+        let w = u16::from_be_bytes;
+        let (first, values, count) = match *bytes {
+            [a, b] => (w([a, b]), [0; MAX_VALUES], 0),
+            [a, b, c, d] => (w([a, b]), [w([c, d]), 0, 0], 1),
+            [a, b, c, d, e, f] => (w([a, b]), [w([c, d]), w([e, f]), 0], 2),
+            [a, b, c, d, e, f, g, h] => (w([a, b]), [w([c, d]), w([e, f]), w([g, h])], 3),
+            _ => return Err(PzdError::BadLength(bytes.len().min(255) as u8)),
         };
-        match bytes.len() {
-            n @ (2 | 4 | 6 | 8) => Ok(Words {
-                first: word(0),
-                values: [word(2), word(4), word(6)],
-                count: (n / 2 - 1) as u8,
-            }),
-            n => Err(PzdError::BadLength(n.min(255) as u8)),
-        }
+        Ok(Words {
+            first,
+            values,
+            count,
+        })
     }
 
     fn len(&self) -> usize {
@@ -163,6 +165,7 @@ impl PzdIn {
     }
 
     /// Decode 2, 4, 6 or 8 bytes.
+    #[inline]
     pub fn decode(bytes: &[u8]) -> Result<PzdIn, PzdError> {
         Words::decode(bytes).map(PzdIn)
     }
