@@ -30,13 +30,52 @@ use std::hint::black_box;
 
 use criterion::{Criterion, Throughput};
 use ctt2_uss::serial::master::{Master, MasterConfig, MasterEvent};
-use ctt2_uss::serial::slave::{Slave, SlaveConfig};
+use ctt2_uss::serial::slave::{Backend, Slave, SlaveConfig};
 use ctt2_uss::serial::telegram::{Adr, Layout, MAX_TELEGRAM, Telegram, UssAddress};
-use ctt2_uss::uss::pkw::{Ind, Order};
+use ctt2_uss::uss::DriveError;
+use ctt2_uss::uss::pkw::{Ind, Order, Pkw, Reply};
 use drive_core::LineSettings;
 
 #[path = "../tests/uss_common/bus.rs"]
 mod bus;
+
+/// The simulated NORDAC LINK (`drive_sim::nord::SimulatedNord`) as the slave's backend: the
+/// same model and order mapping (`ctt2_uss::sim::execute`) as `drivectl sim uss`, without its
+/// PKW processing time.
+#[derive(Debug)]
+struct Model(drive_sim::nord::SimulatedNord);
+
+impl Backend for Model {
+    fn execute(&mut self, order: &Pkw, now: drive_core::Instant) -> Pkw {
+        let reply = match Order::from_pkw(order) {
+            Ok(o) => ctt2_uss::sim::execute(&mut self.0, &o, now),
+            Err(_) => Reply::Error(DriveError(201)),
+        };
+        reply.to_pkw(order.pke.pnu(), order.ind)
+    }
+
+    fn process(&mut self, request: &[u16], answer: &mut [u16], now: drive_core::Instant) {
+        if let Some((&control, setpoints)) = request.split_first() {
+            self.0.process(control, setpoints, now);
+        }
+        let words = core::iter::once(self.0.status_word()).chain(self.0.actual_values());
+        for (a, w) in answer.iter_mut().zip(words) {
+            *a = w;
+        }
+    }
+}
+
+fn model_bus() -> bus::Bus<Model> {
+    let line = LineSettings::new(19200);
+    let a = UssAddress::new(7).unwrap();
+    bus::Bus::new(
+        Master::new(MasterConfig::new(line)),
+        vec![Slave::new(
+            SlaveConfig::new(a, Layout::PKW4_PZD2, line),
+            Model(drive_sim::nord::SimulatedNord::new()),
+        )],
+    )
+}
 
 fn telegram() -> Telegram {
     let order = Order::read(102, Ind::new(0, 2).unwrap()).unwrap().to_pkw();
@@ -63,7 +102,7 @@ fn new_bus() -> bus::Bus<bus::Store> {
 
 /// One read through master and slave; the value read.
 #[inline]
-fn read(bus: &mut bus::Bus<bus::Store>, t: Telegram) -> Option<u16> {
+fn read<B: Backend>(bus: &mut bus::Bus<B>, t: Telegram) -> Option<u16> {
     let now = bus.now;
     let _ = bus.master.send(black_box(t), now);
     let mut value = None;
@@ -100,6 +139,12 @@ fn exchange(c: &mut Criterion) {
     let mut g = c.benchmark_group("uss_exchange");
     g.throughput(Throughput::Elements(1));
     g.bench_function("pkw_read_master_slave", |b| b.iter(|| read(&mut bus, t)));
+    // The same against the simulated drive: P102 in parameter set 3 reads 200 (2.00 s).
+    let mut model = model_bus();
+    assert_eq!(read(&mut model, t), Some(200));
+    g.bench_function("pkw_read_master_simulated_nord", |b| {
+        b.iter(|| read(&mut model, t))
+    });
     g.finish();
 }
 

@@ -183,6 +183,7 @@
 
 mod control;
 mod params;
+mod settings;
 #[cfg(test)]
 mod tests;
 
@@ -200,6 +201,7 @@ use crate::store::{ParamStore, Persistence, StoreOptions};
 use drive_core::Instant;
 
 use params::sub;
+use settings::Settings;
 
 /// The BusIO In / control-bit functions of P480 the simulated drive implements (the drive's
 /// digital-input functions, public NORD documentation BU 0250; check on a real drive).
@@ -390,6 +392,8 @@ fn refusal(e: SimError) -> PkwRefusal {
 /// A simulated NORDAC LINK SK 270E/280E-FDS (see the module docs).
 pub struct SimulatedNord {
     store: ParamStore,
+    /// What the process-data path reads of `store`, refreshed whenever it changes.
+    settings: Settings,
     ramp: Ramp,
     state: State,
     /// The last valid control word (bit 10 set); `None` before the first.
@@ -441,6 +445,7 @@ impl SimulatedNord {
         };
         let store = ParamStore::from_rows(params::rows(), options);
         let mut drive = SimulatedNord {
+            settings: Settings::load(&store),
             store,
             ramp: Ramp::default(),
             state: State::NotReadyToSwitchOn,
@@ -533,6 +538,7 @@ impl SimulatedNord {
         self.store
             .write(pnu, sub(element, set), i64::from(value), persistence, now)
             .map_err(refusal)?;
+        self.settings = Settings::load(&self.store);
         self.evaluate(now);
         Ok(())
     }
@@ -587,6 +593,7 @@ impl SimulatedNord {
     /// them) are kept; write counters too.
     pub fn restart(&mut self, now: Instant) {
         self.store.restart();
+        self.settings = Settings::load(&self.store);
         self.ramp.reset(now);
         self.stw = None;
         self.bus_in = 0;
@@ -626,14 +633,17 @@ impl SimulatedNord {
 
     /// Element `element` of a parameter that is not set-dependent (0 where missing).
     fn element(&self, number: u16, element: u8) -> i64 {
-        self.store.read(number, sub(element, 0)).unwrap_or(0)
+        self.settings
+            .element(number, element)
+            .unwrap_or_else(|| self.store.read(number, sub(element, 0)).unwrap_or(0))
     }
 
     /// A parameter-set parameter in the active set (0 where missing).
     fn active(&self, number: u16) -> i64 {
-        self.store
-            .read(number, sub(0, self.active_set_index()))
-            .unwrap_or(0)
+        let set = self.active_set_index();
+        self.settings
+            .in_set(number, set)
+            .unwrap_or_else(|| self.store.read(number, sub(0, set)).unwrap_or(0))
     }
 
     /// Live values of the information parameters; `None` for stored parameters.

@@ -801,3 +801,56 @@ proptest! {
         }
     }
 }
+
+/// The cached settings of the process-data path always equal the store: after writes to RAM
+/// and EEPROM, refused writes, RAM-only writes lost by a restart.
+#[test]
+fn cached_settings_follow_every_write_and_restart() {
+    let mut d = SimulatedNord::new();
+    let same = |d: &SimulatedNord| {
+        for (number, len) in [
+            (480u16, 12u8),
+            (481, 10),
+            (543, 3),
+            (546, 3),
+            (509, 1),
+            (560, 1),
+        ] {
+            for e in 0..len {
+                assert_eq!(
+                    d.settings.element(number, e),
+                    Some(d.store.read(number, super::params::sub(e, 0)).unwrap_or(0)),
+                    "P{number} [{e}]"
+                );
+            }
+        }
+        for number in [102u16, 105, 112] {
+            for set in 0..4 {
+                assert_eq!(
+                    d.settings.in_set(number, set),
+                    Some(
+                        d.store
+                            .read(number, super::params::sub(0, set))
+                            .unwrap_or(0)
+                    ),
+                    "P{number} set {set}"
+                );
+            }
+        }
+    };
+    same(&d);
+    let t = Instant::from_millis(1);
+    d.write(480, 3, 0, 11, true, t).unwrap();
+    d.write(105, 0, 2, 400, false, t).unwrap(); // RAM only: lost at restart
+    d.write(102, 0, 1, 150, true, t).unwrap();
+    assert!(d.write(105, 0, 0, 100_000, true, t).is_err()); // refused: nothing changes
+    same(&d);
+    assert_eq!(d.settings.in_set(105, 2), Some(400));
+    d.restart(Instant::from_millis(2));
+    same(&d);
+    assert_eq!(
+        d.settings.in_set(105, 2),
+        d.eeprom_value(105, 0, 2).map(i64::from)
+    );
+    assert_eq!(d.settings.in_set(102, 1), Some(150));
+}
