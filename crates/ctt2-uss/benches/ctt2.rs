@@ -32,13 +32,15 @@
 use std::hint::black_box;
 
 use criterion::{Criterion, Throughput, criterion_group};
+use ctt2_uss::ctt2::link::SimulatedDoubleSlave;
 use ctt2_uss::ctt2::{
     Backend, Channel, Data, DiagnosisCode, DiagnosisObject, DoubleSlave, IdObject, MAX_REQUEST,
     MAX_RESPONSE, Request, Response, SlaveConfig,
 };
-use ctt2_uss::uss::{Ind, Order, Pkw, PzdIn, PzdOut, Reply, Storage};
+use ctt2_uss::uss::{Ind, Order, Pkw, Plausibility, PzdIn, PzdOut, Reply, Storage};
 use drive_core::Instant;
 use drive_profile::nord::{Ctt2MessageType, StatusWord, Width};
+use drive_sim::nord::SimulatedNord;
 
 /// A drive that answers at once.
 struct Instantly;
@@ -177,6 +179,49 @@ fn exchange(c: &mut Criterion) {
             };
             black_box(data.to_pkw(Channel::Pkw).unwrap())
         })
+    });
+
+    // A whole PKW read against the simulated NORDAC LINK (the model of `drivectl ctt2 --sim`,
+    // no PKW processing time): the order (AK 1, P102 set 3) as a NORD write, then a NORD read
+    // of the parameter channel, its answer decoded and checked as the master does.
+    let mut model = SimulatedDoubleSlave::new(SimulatedNord::new());
+    model.set_pkw_time(core::time::Duration::ZERO);
+    let mut slave = DoubleSlave::new(model, SlaveConfig::default());
+    let read_order = Order::read(102, Ind::new(0, 2).unwrap()).unwrap();
+    let mut write = [0u8; MAX_REQUEST];
+    let wn = Request::NordWrite {
+        index: Channel::Pkw,
+        data: Data::from_pkw(Channel::Pkw, &read_order.to_pkw()).unwrap(),
+    }
+    .encode(&mut write)
+    .unwrap();
+    let mut t = 0u64;
+    let mut order_and_read = |slave: &mut DoubleSlave<SimulatedDoubleSlave>| {
+        t += 1_000_000;
+        let now = Instant::from_nanos(t);
+        slave.handle_request(black_box(&write[..wn]), now);
+        slave.poll_answer(now).unwrap();
+        let mut req = [0u8; MAX_REQUEST];
+        let n = black_box(&read).encode(&mut req).unwrap();
+        slave.handle_request(&req[..n], now);
+        let a = slave.poll_answer(now).unwrap();
+        let mut wire = [0u8; MAX_RESPONSE];
+        let m = a.encode(&mut wire).unwrap();
+        let Response::Ok { data, .. } = Response::decode(&wire[..m]).unwrap() else {
+            panic!()
+        };
+        read_order.check(&data.to_pkw(Channel::Pkw).unwrap())
+    };
+    assert_eq!(
+        order_and_read(&mut slave),
+        Plausibility::Answer(Reply::Value {
+            width: Width::Word,
+            array: false,
+            value: 200
+        })
+    );
+    g.bench_function("pkw_order_and_read_simulated_nord", |b| {
+        b.iter(|| black_box(order_and_read(&mut slave)))
     });
     g.finish();
 }
