@@ -1177,11 +1177,13 @@ fn nord_ctt2_sim_runs_the_commands_on_the_simulated_as_i_link() {
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
     assert_eq!(json_lines(&o)[0]["state"], "E");
+    // The simulated drive ends with the command: no advice to stop a motor that is gone.
     assert!(
-        stderr(&o).contains("until this simulation ends"),
+        stderr(&o).contains("until the simulation ended with the command"),
         "{}",
         stderr(&o)
     );
+    assert!(!stderr(&o).contains("control stop"), "{}", stderr(&o));
     // A backup holds every array element and parameter set (the IND word as the manual's
     // 4.6.1.2 forms it: sets in bits 8-9, a set parameter's element in bits 10-15, any other
     // parameter's element in bits 8-15), P560 last; a restore writes a changed one back.

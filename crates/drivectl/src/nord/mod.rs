@@ -1223,17 +1223,21 @@ where
         )));
     }
     if a.action == "enable" {
-        errln!(
-            "drivectl: note: the motor is enabled and follows SW1 = 0x{sw1:04X} ({} % of P105){}; \
-             stop it with `{} control stop` (or quick-stop / disable)",
-            trim_float(nord::percent_from_word(sw1), 2),
-            if s.simulated {
-                " until this simulation ends with the command"
-            } else {
-                " and keeps running after drivectl ends"
-            },
-            s.again
-        );
+        let percent = trim_float(nord::percent_from_word(sw1), 4);
+        if s.simulated {
+            // The simulated drive ends with this command: there is nothing left to stop.
+            errln!(
+                "drivectl: note: the simulated motor was enabled and followed SW1 = 0x{sw1:04X} \
+                 ({percent} % of P105) until the simulation ended with the command"
+            );
+        } else {
+            errln!(
+                "drivectl: note: the motor is enabled and follows SW1 = 0x{sw1:04X} ({percent} % \
+                 of P105) and keeps running after drivectl ends; stop it with `{} control stop` \
+                 (or quick-stop / disable)",
+                s.again
+            );
+        }
     }
     printed
 }
