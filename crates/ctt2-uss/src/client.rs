@@ -379,25 +379,32 @@ impl<C: ProcessChannel> NordClient<C> {
     }
 
     /// Move the drive to `target` through the state machine of section 4.5.3, sending
-    /// `setpoints` with every control word; `set` selects the parameter set (0-based, bits
-    /// 14/15). Returns the last answer once the status word shows `target`. A fault is reset
-    /// with a rising edge of bit 7 ([`NordStateMachine::next_control`]).
+    /// `setpoints` with every control word (and as many actual values back, at most three);
+    /// `set` selects the parameter set (0-based, bits 14/15; above 3 it is refused before
+    /// anything is sent). Returns the last answer once the status word shows `target`. A fault
+    /// is reset with a rising edge of bit 7 ([`NordStateMachine::next_control`]).
     pub async fn drive_to(
         &mut self,
         target: State,
         setpoints: &[u16],
         set: u8,
     ) -> Result<PzdIn, ClientError<C::Error>> {
+        if set > 3 {
+            // Bits 14/15 carry parameter sets 1–4 only.
+            return Err(ClientError::Pkw(PkwError::BadIndex { element: 0, set }));
+        }
         let with_set = |w: u16| {
             ControlWord(w)
                 .with_parameter_set(set + 1)
                 .unwrap_or(ControlWord(w))
         };
+        // As many actual values back as setpoints go out (at most three).
+        let actuals = setpoints.len().min(crate::uss::pzd::MAX_VALUES) as u8;
         // The first exchange only reads the state: keep the drive where it is if we know what
         // was sent, else send "disable voltage" only if the drive is in no state we can hold.
         let mut last = self.last_control;
         let mut answer = self
-            .process(with_set(hold_word(last)), setpoints, setpoints.len() as u8)
+            .process(with_set(hold_word(last)), setpoints, actuals)
             .await?;
         for _ in 0..self.config.max_steps {
             let current = NordStateMachine::decode(answer.status().0);
@@ -408,9 +415,7 @@ impl<C: ProcessChannel> NordClient<C> {
                 break;
             };
             last = word;
-            answer = self
-                .process(with_set(word), setpoints, setpoints.len() as u8)
-                .await?;
+            answer = self.process(with_set(word), setpoints, actuals).await?;
         }
         let status = answer.status();
         Err(ClientError::StateNotReached {

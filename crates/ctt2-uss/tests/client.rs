@@ -5,10 +5,13 @@
 
 use std::collections::HashMap;
 
-use ctt2_uss::client::{Address, ClientConfig, ClientError, NordClient, ParameterChannel};
+use ctt2_uss::client::{
+    Address, ClientConfig, ClientError, NordClient, ParameterChannel, ProcessChannel,
+};
 use ctt2_uss::uss::DriveError;
 use ctt2_uss::uss::pkw::{Order, OrderKind, Pkw, Reply, Storage};
-use drive_profile::nord::Width;
+use ctt2_uss::uss::pzd::{PzdIn, PzdOut};
+use drive_profile::nord::{State, StatusWord, Width};
 
 #[derive(Debug, thiserror::Error)]
 #[error("fake transport error")]
@@ -85,6 +88,16 @@ impl ParameterChannel for LaggingDrive {
 
     async fn poll(&mut self, _order: Pkw) -> Result<Pkw, FakeError> {
         Ok(self.step())
+    }
+}
+
+impl ProcessChannel for LaggingDrive {
+    type Error = FakeError;
+
+    async fn exchange_process(&mut self, _out: PzdOut, _actuals: u8) -> Result<PzdIn, FakeError> {
+        self.requests += 1;
+        let actuals = [0u16; 3];
+        Ok(PzdIn::new(StatusWord(0x0B70), &actuals[..3]))
     }
 }
 
@@ -203,4 +216,23 @@ async fn a_refusal_is_not_taken_for_the_next_order_on_the_same_parameter() {
     assert_eq!(c.read(at).await.unwrap(), 500);
     let aks: Vec<u8> = c.channel().submitted.iter().map(|p| p.pke.ak()).collect();
     assert_eq!(aks, [0, 2, 0, 1]);
+}
+
+/// A parameter set beyond 4 is refused before any control word is sent (it used to fall back
+/// to set 1 silently).
+#[tokio::test]
+async fn drive_to_refuses_a_parameter_set_past_4() {
+    let mut c = client(0);
+    assert!(matches!(
+        c.drive_to(State::OperationEnabled, &[0x2000], 4).await,
+        Err(ClientError::Pkw(_))
+    ));
+    assert_eq!(c.channel().requests, 0);
+    // Set 4 (3, 0-based) is fine: the fake drive stays in switch-on disabled, so the state is
+    // not reached, but control words were sent.
+    assert!(matches!(
+        c.drive_to(State::OperationEnabled, &[0x2000], 3).await,
+        Err(ClientError::StateNotReached { .. })
+    ));
+    assert!(c.channel().requests > 0);
 }

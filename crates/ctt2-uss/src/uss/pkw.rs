@@ -280,7 +280,7 @@ impl Pkw {
             Some(b) => Ok(Pkw::from_array(b)),
             None => Err(PkwError::Truncated {
                 needed: PKW_LEN as u8,
-                got: bytes.len() as u8,
+                got: bytes.len().min(255) as u8,
             }),
         }
     }
