@@ -12,7 +12,6 @@ pub mod sim;
 
 use std::collections::HashMap;
 use std::ops::RangeInclusive;
-use std::path::PathBuf;
 use std::time::Duration;
 
 use bonfiglioli_modbus::driver::{CharIo, DriverConfig, DriverError, MasterDriver, Stream};
@@ -235,17 +234,8 @@ enum BonfiglioliCommand {
         params: Vec<String>,
         #[command(flatten)]
         access: Access,
-        /// Milliseconds between the starts of two polls, 50–3600000.
-        #[arg(long, default_value_t = 1000, value_name = "MS",
-              value_parser = clap::value_parser!(u64)
-                  .range(watch::MIN_INTERVAL_MS..=watch::MAX_INTERVAL_MS))]
-        interval: u64,
-        /// Number of polls; 0 = until Ctrl-C.
-        #[arg(long, default_value_t = 0, value_name = "N")]
-        count: u64,
-        /// CSV: a header row, then one row per poll (not with --json).
-        #[arg(long, conflicts_with = "json")]
-        csv: bool,
+        #[command(flatten)]
+        watch: watch::WatchArgs,
     },
     /// The diagnostic counters of function code 8, named; --clear sets them to zero first.
     #[command(
@@ -303,31 +293,12 @@ enum BonfiglioliCommand {
     #[command(
         after_help = "Examples:\n  drivectl bonfiglioli --port /dev/ttyUSB0 --addr 1 backup --out drive1.json\n  drivectl bonfiglioli --port /dev/ttyUSB0 --addr 1 backup --out drive1.json --overwrite"
     )]
-    Backup {
-        /// Output file: a new regular file; checked before the first read.
-        #[arg(long)]
-        out: PathBuf,
-        /// Replace the output file if it exists.
-        #[arg(long)]
-        overwrite: bool,
-    },
+    Backup(backup::BackupArgs),
     /// Write a backup file back (data sets 1–4, never 0) and verify every value.
     #[command(
         after_help = "Examples:\n  drivectl bonfiglioli --port /dev/ttyUSB0 --addr 1 restore drive1.json --dry-run\n  drivectl bonfiglioli --port /dev/ttyUSB0 --addr 1 restore drive1.json"
     )]
-    Restore {
-        /// Backup file written by `backup`.
-        file: PathBuf,
-        /// Write even values the table check refuses (values that do not fit are refused).
-        #[arg(long)]
-        force: bool,
-        /// Show what would change (old → new) and write nothing.
-        #[arg(long)]
-        dry_run: bool,
-        /// Restore onto a drive whose identification differs from the file's.
-        #[arg(long)]
-        any_device: bool,
-    },
+    Restore(backup::RestoreArgs),
 }
 
 /// How the width of a parameter without a data type is found.
@@ -843,8 +814,8 @@ fn precheck(args: &BonfiglioliArgs) -> Result<()> {
             write_value(param, value, *access, &how).map(drop)
         }
         BonfiglioliCommand::Control { freq: Some(f), .. } => freq_raw(f).map(drop),
-        BonfiglioliCommand::Restore { file, .. } => {
-            backup::check_file(file, Family::Bonfiglioli, NOT_RESTORED)
+        BonfiglioliCommand::Restore(r) => {
+            backup::check_file(&r.file, Family::Bonfiglioli, NOT_RESTORED)
         }
         BonfiglioliCommand::Scan { from, to } if *from == 0 || from > to || *to > 247 => Err(
             CliError::usage("scan range must satisfy 1 ≤ --from ≤ --to ≤ 247"),
@@ -874,20 +845,10 @@ async fn execute<IO: CharIo>(m: &mut MasterDriver<IO>, args: &BonfiglioliArgs) -
         BonfiglioliCommand::Watch {
             params,
             access,
-            interval,
-            count,
-            csv,
+            watch: watch_args,
         } => {
             let targets = resolve_all(params, *access)?;
-            let options = watch::Options {
-                interval: Duration::from_millis(*interval),
-                count: *count,
-                format: watch::Format::choose(
-                    *csv,
-                    json,
-                    std::io::IsTerminal::is_terminal(&std::io::stdout()),
-                )?,
-            };
+            let options = watch_args.options(json)?;
             let mut c = BonfiglioliClient::new(m, address(args.addr)?, &args.port, access.width());
             watch::watch(
                 &mut c,
@@ -1000,29 +961,20 @@ async fn execute<IO: CharIo>(m: &mut MasterDriver<IO>, args: &BonfiglioliArgs) -
             }
             Ok(())
         }
-        BonfiglioliCommand::Backup { out, overwrite } => {
+        BonfiglioliCommand::Backup(b) => {
             let mut c = BonfiglioliClient::new(m, address(args.addr)?, &args.port, None).probing();
             let stop = Interrupt::install("the backup file was not written");
-            backup::backup(&mut c, out, *overwrite, json, &stop).await?;
+            backup::backup(&mut c, &b.out, b.overwrite, json, &stop).await?;
             note_probed(c.probed());
             Ok(())
         }
-        BonfiglioliCommand::Restore {
-            file,
-            force,
-            dry_run,
-            any_device,
-        } => {
+        BonfiglioliCommand::Restore(r) => {
             let mut c = BonfiglioliClient::new(m, address(args.addr)?, &args.port, None).probing();
             let stop = Interrupt::install(
                 "the drive may be half restored; run the same restore again to finish it",
             );
-            let opts = backup::RestoreOptions {
-                force: *force,
-                dry_run: *dry_run,
-                any_device: *any_device,
-            };
-            let r = backup::restore(&mut c, file, opts, json, &stop).await;
+            let opts = r.options();
+            let r = backup::restore(&mut c, &r.file, opts, json, &stop).await;
             note_probed(c.probed());
             r
         }

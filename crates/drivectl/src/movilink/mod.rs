@@ -15,7 +15,6 @@ use movilink::driver::{CharIo, DriverConfig, DriverError, MasterDriver, Stream};
 use movilink::{Address, ParamChannel, PduType, ReturnCode, Telegram};
 use serde_json::{Map, Value, json};
 use std::ops::RangeInclusive;
-use std::path::PathBuf;
 use std::time::Duration;
 
 use crate::error::{CliError, Result};
@@ -114,17 +113,8 @@ enum MovilinkCommand {
         /// Indices (8318, 0x207E) or menu numbers (P000).
         #[arg(required = true, num_args = 1..)]
         params: Vec<String>,
-        /// Milliseconds between the starts of two polls, 50–3600000.
-        #[arg(long, default_value_t = 1000, value_name = "MS",
-              value_parser = clap::value_parser!(u64)
-                  .range(watch::MIN_INTERVAL_MS..=watch::MAX_INTERVAL_MS))]
-        interval: u64,
-        /// Number of polls; 0 = until Ctrl-C.
-        #[arg(long, default_value_t = 0, value_name = "N")]
-        count: u64,
-        /// CSV: a header row, then one row of physical values per poll (not with --json).
-        #[arg(long, conflicts_with = "json")]
-        csv: bool,
+        #[command(flatten)]
+        watch: watch::WatchArgs,
     },
     /// Write a parameter (checked against the table first).
     #[command(after_help = WRITE_HELP)]
@@ -220,34 +210,14 @@ enum MovilinkCommand {
     #[command(
         after_help = "Examples:\n  drivectl movilink --port /dev/ttyUSB0 --addr 1 backup --out drive1.json\n  drivectl movilink --port /dev/ttyUSB0 --addr 1 backup --out drive1.json --overwrite"
     )]
-    Backup {
-        /// Output file: a new regular file (a symlink is followed to one); checked before the
-        /// first read.
-        #[arg(long)]
-        out: PathBuf,
-        /// Replace the output file if it exists.
-        #[arg(long)]
-        overwrite: bool,
-    },
+    Backup(backup::BackupArgs),
     /// Write a backup file back to the drive and verify every value. Everything is checked
     /// before the first write; Ctrl-C stops after the write in progress and lists what was
     /// written; running it again finishes it.
     #[command(
         after_help = "Examples:\n  drivectl movilink --port /dev/ttyUSB0 --addr 1 restore drive1.json --dry-run    what would change\n  drivectl movilink --port /dev/ttyUSB0 --addr 1 restore drive1.json"
     )]
-    Restore {
-        /// Backup file written by `backup`.
-        file: PathBuf,
-        /// Write even values the table check refuses (values that do not fit are refused).
-        #[arg(long)]
-        force: bool,
-        /// Show what would change (old → new) and write nothing.
-        #[arg(long)]
-        dry_run: bool,
-        /// Restore onto a drive whose device type differs from the file's.
-        #[arg(long)]
-        any_device: bool,
-    },
+    Restore(backup::RestoreArgs),
 }
 
 /// The MOVILINK driver as the tool layer's [`ParamClient`]: acyclic PARAM + 0PD services on
@@ -581,9 +551,7 @@ fn precheck(command: &MovilinkCommand) -> Result<()> {
             };
             resolve(param)?.value_from_text(value, &how).map(|_| ())
         }
-        MovilinkCommand::Restore { file, .. } => {
-            backup::check_file(file, Family::Movidrive, NOT_RESTORED)
-        }
+        MovilinkCommand::Restore(r) => backup::check_file(&r.file, Family::Movidrive, NOT_RESTORED),
         _ => Ok(()),
     }
 }
@@ -601,23 +569,13 @@ async fn execute<IO: CharIo>(m: &mut MasterDriver<IO>, args: &MovilinkArgs) -> R
         }
         MovilinkCommand::Watch {
             params,
-            interval,
-            count,
-            csv,
+            watch: watch_args,
         } => {
             let targets = params
                 .iter()
                 .map(|p| resolve(p))
                 .collect::<Result<Vec<_>>>()?;
-            let options = watch::Options {
-                interval: Duration::from_millis(*interval),
-                count: *count,
-                format: watch::Format::choose(
-                    *csv,
-                    json,
-                    std::io::IsTerminal::is_terminal(&std::io::stdout()),
-                )?,
-            };
+            let options = watch_args.options(json)?;
             let mut client = MovilinkClient::new(m, address(args.addr)?, &args.port);
             watch::watch(
                 &mut client,
@@ -728,27 +686,18 @@ async fn execute<IO: CharIo>(m: &mut MasterDriver<IO>, args: &MovilinkArgs) -> R
             }
             Ok(())
         }
-        MovilinkCommand::Backup { out, overwrite } => {
+        MovilinkCommand::Backup(b) => {
             let mut client = MovilinkClient::new(m, address(args.addr)?, &args.port);
             let stop = Interrupt::install("the backup file was not written");
-            backup::backup(&mut client, out, *overwrite, json, &stop).await
+            backup::backup(&mut client, &b.out, b.overwrite, json, &stop).await
         }
-        MovilinkCommand::Restore {
-            file,
-            force,
-            dry_run,
-            any_device,
-        } => {
+        MovilinkCommand::Restore(r) => {
             let mut client = MovilinkClient::new(m, address(args.addr)?, &args.port);
             let stop = Interrupt::install(
                 "the drive may be half restored; run the same restore again to finish it",
             );
-            let opts = backup::RestoreOptions {
-                force: *force,
-                dry_run: *dry_run,
-                any_device: *any_device,
-            };
-            backup::restore(&mut client, file, opts, json, &stop).await
+            let opts = r.options();
+            backup::restore(&mut client, &r.file, opts, json, &stop).await
         }
     }
 }

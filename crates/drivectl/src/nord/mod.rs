@@ -20,7 +20,6 @@ pub mod sim;
 pub mod uss;
 
 use std::ops::RangeInclusive;
-use std::path::PathBuf;
 use std::time::Duration;
 
 use clap::{Args, Subcommand};
@@ -154,17 +153,8 @@ pub enum NordCommand {
         params: Vec<String>,
         #[command(flatten)]
         sub: Sub,
-        /// Milliseconds between the starts of two polls, 50–3600000.
-        #[arg(long, default_value_t = 1000, value_name = "MS",
-              value_parser = clap::value_parser!(u64)
-                  .range(watch::MIN_INTERVAL_MS..=watch::MAX_INTERVAL_MS))]
-        interval: u64,
-        /// Number of polls; 0 = until Ctrl-C.
-        #[arg(long, default_value_t = 0, value_name = "N")]
-        count: u64,
-        /// CSV: a header row, then one row per poll (not with --json).
-        #[arg(long, conflicts_with = "json")]
-        csv: bool,
+        #[command(flatten)]
+        watch: watch::WatchArgs,
     },
     /// The status word decoded (state A–H with its English and German name, every bit), the
     /// actual values IW1–IW3 in % and as P543 says (frequency in Hz of P105), and P700 present
@@ -209,32 +199,13 @@ pub enum NordCommand {
     #[command(
         after_help = "Examples:\n  drivectl uss --port /dev/ttyUSB0 --addr 1 backup --out drive1.json\n  drivectl uss --port /dev/ttyUSB0 --addr 1 backup --out drive1.json --overwrite"
     )]
-    Backup {
-        /// Output file: a new regular file; checked before the first read.
-        #[arg(long)]
-        out: PathBuf,
-        /// Replace the output file if it exists.
-        #[arg(long)]
-        overwrite: bool,
-    },
+    Backup(backup::BackupArgs),
     /// Write a backup file back (every array element and parameter set; P560 last) and verify
     /// every value.
     #[command(
         after_help = "Examples:\n  drivectl uss --port /dev/ttyUSB0 --addr 1 restore drive1.json --dry-run\n  drivectl uss --port /dev/ttyUSB0 --addr 1 restore drive1.json"
     )]
-    Restore {
-        /// Backup file written by `backup`.
-        file: PathBuf,
-        /// Write even values the table check refuses (values that do not fit are refused).
-        #[arg(long)]
-        force: bool,
-        /// Show what would change (old → new) and write nothing.
-        #[arg(long)]
-        dry_run: bool,
-        /// Restore onto a drive whose identification differs from the file's.
-        #[arg(long)]
-        any_device: bool,
-    },
+    Restore(backup::RestoreArgs),
 }
 
 /// Resolve a NORD parameter (`P102`, `102`, a PNU outside the table for raw access) with its
@@ -631,7 +602,7 @@ pub fn precheck(cmd: &NordCommand) -> Result<()> {
         NordCommand::Control {
             setpoint: Some(s), ..
         } => setpoint_word(s).map(drop),
-        NordCommand::Restore { file, .. } => backup::check_file(file, Family::Nord, &[]),
+        NordCommand::Restore(r) => backup::check_file(&r.file, Family::Nord, &[]),
         _ => Ok(()),
     }
 }
@@ -688,20 +659,10 @@ where
         NordCommand::Watch {
             params,
             sub,
-            interval,
-            count,
-            csv,
+            watch: watch_args,
         } => {
             let targets = resolve_all(params, *sub)?;
-            let options = watch::Options {
-                interval: Duration::from_millis(*interval),
-                count: *count,
-                format: watch::Format::choose(
-                    *csv,
-                    json,
-                    std::io::IsTerminal::is_terminal(&std::io::stdout()),
-                )?,
-            };
+            let options = watch_args.options(json)?;
             let mut pc =
                 NordParamClient::new(c, &s.key, s.identity.clone()).raw_array(sub.array.is_some());
             watch::watch(
@@ -767,30 +728,21 @@ where
             };
             control(c, s, &session).await
         }
-        NordCommand::Backup { out, overwrite } => {
+        NordCommand::Backup(b) => {
             let mut pc = NordParamClient::new(c, &s.key, s.identity.clone());
             let stop = Interrupt::install("the backup file was not written");
-            backup::backup(&mut pc, out, *overwrite, json, &stop).await
+            backup::backup(&mut pc, &b.out, b.overwrite, json, &stop).await
         }
-        NordCommand::Restore {
-            file,
-            force,
-            dry_run,
-            any_device,
-        } => {
+        NordCommand::Restore(r) => {
             let mut pc = NordParamClient::new(c, &s.key, s.identity.clone());
-            if !*dry_run {
+            if !r.dry_run {
                 warn_ram_only(&mut pc).await;
             }
             let stop = Interrupt::install(
                 "the drive may be half restored; run the same restore again to finish it",
             );
-            let opts = backup::RestoreOptions {
-                force: *force,
-                dry_run: *dry_run,
-                any_device: *any_device,
-            };
-            no_eeprom_hint(backup::restore(&mut pc, file, opts, json, &stop).await)
+            let opts = r.options();
+            no_eeprom_hint(backup::restore(&mut pc, &r.file, opts, json, &stop).await)
         }
     }
 }

@@ -309,6 +309,46 @@ pub fn check_file(file: &Path, family: Family, not_restored: &[u16]) -> Result<(
     load(file, family, not_restored).map(|_| ())
 }
 
+/// The arguments of every family's `backup` command.
+#[derive(Debug, Clone, clap::Args)]
+pub struct BackupArgs {
+    /// Output file: a new regular file (a symlink is followed to one); checked before the
+    /// first read.
+    #[arg(long)]
+    pub out: std::path::PathBuf,
+    /// Replace the output file if it exists.
+    #[arg(long)]
+    pub overwrite: bool,
+}
+
+/// The arguments of every family's `restore` command.
+#[derive(Debug, Clone, clap::Args)]
+pub struct RestoreArgs {
+    /// Backup file written by `backup`.
+    pub file: std::path::PathBuf,
+    /// Write even values the table check refuses (values that do not fit are refused).
+    #[arg(long)]
+    pub force: bool,
+    /// Show what would change (old → new) and write nothing.
+    #[arg(long)]
+    pub dry_run: bool,
+    /// Restore onto a drive whose identification (device type, firmware) differs from the
+    /// file's.
+    #[arg(long)]
+    pub any_device: bool,
+}
+
+impl RestoreArgs {
+    /// How `restore` runs.
+    pub fn options(&self) -> RestoreOptions {
+        RestoreOptions {
+            force: self.force,
+            dry_run: self.dry_run,
+            any_device: self.any_device,
+        }
+    }
+}
+
 /// How `restore` was asked to run.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct RestoreOptions {

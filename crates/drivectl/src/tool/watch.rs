@@ -31,6 +31,37 @@ pub const MIN_INTERVAL_MS: u64 = 50;
 /// The longest interval between polls, in milliseconds (one hour).
 pub const MAX_INTERVAL_MS: u64 = 3_600_000;
 
+/// The options of every family's `watch` command.
+#[derive(Debug, Clone, Copy, clap::Args)]
+pub struct WatchArgs {
+    /// Milliseconds between the starts of two polls, 50–3600000.
+    #[arg(long, default_value_t = 1000, value_name = "MS",
+          value_parser = clap::value_parser!(u64).range(MIN_INTERVAL_MS..=MAX_INTERVAL_MS))]
+    pub interval: u64,
+    /// Number of polls; 0 = until Ctrl-C.
+    #[arg(long, default_value_t = 0, value_name = "N")]
+    pub count: u64,
+    /// CSV: a header row, then one row of physical values per poll (not with --json).
+    #[arg(long, conflicts_with = "json")]
+    pub csv: bool,
+}
+
+impl WatchArgs {
+    /// The watch options these arguments ask for (the format from `--csv`, `--json` and whether
+    /// standard output is a terminal).
+    pub fn options(&self, json: bool) -> Result<Options> {
+        Ok(Options {
+            interval: Duration::from_millis(self.interval),
+            count: self.count,
+            format: Format::choose(
+                self.csv,
+                json,
+                std::io::IsTerminal::is_terminal(&std::io::stdout()),
+            )?,
+        })
+    }
+}
+
 /// How the samples are written.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Format {
