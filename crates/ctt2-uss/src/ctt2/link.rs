@@ -18,6 +18,7 @@
 use core::time::Duration;
 
 use drive_core::Instant;
+use drive_core::rt::{Clock, TIMER_RESOLUTION, Timebase};
 use drive_sim::nord::{CONFIGURATION_LEVEL, SimulatedNord};
 
 use super::asi::{
@@ -193,14 +194,12 @@ pub struct SimLink {
     slave: DoubleSlave<SimulatedDoubleSlave>,
     network: AsiNetwork,
     id: DoubleSlaveId,
-    epoch: tokio::time::Instant,
+    /// tokio's clock seen as the link's [`Instant`]s (the runtime layer's time base).
+    time: Timebase,
+    /// The link's exact time: advanced by the transfer times it waits for.
     clock: Instant,
     waiting: usize,
 }
-
-/// tokio's timer resolution: the link's exact time is at most this far behind tokio's clock
-/// after a wait.
-const TIMER_RESOLUTION: Duration = Duration::from_millis(1);
 
 impl SimLink {
     /// The double slave at 1A/1B on a network of `slaves` AS-i slaves in all (2–62; the
@@ -231,11 +230,12 @@ impl SimLink {
 
     /// The double slave `id` of `network` (which must have it) is `drive`.
     pub fn on_network(drive: SimulatedDoubleSlave, network: AsiNetwork, id: DoubleSlaveId) -> Self {
+        let time = Timebase::new(Clock::Real, network.byte_time());
         Self {
             slave: DoubleSlave::new(drive, SlaveConfig::default()),
             network,
+            time,
             id,
-            epoch: tokio::time::Instant::now(),
             clock: Instant::ZERO,
             waiting: 0,
         }
@@ -244,8 +244,8 @@ impl SimLink {
     /// The link's time: exact transfer times since the link was made, or tokio's clock when
     /// the caller waited longer.
     pub fn now(&mut self) -> Instant {
-        let elapsed = tokio::time::Instant::now().saturating_duration_since(self.epoch);
-        let tokio_now = Instant::from_duration(elapsed);
+        let tokio_now = self.time.now();
+        // tokio's timers end up to one tick late: within that the link's exact time stands.
         if tokio_now > self.clock.saturating_add(TIMER_RESOLUTION) {
             self.clock = tokio_now;
         }
@@ -254,7 +254,7 @@ impl SimLink {
 
     async fn wait(&mut self, d: Duration) {
         let target = self.now().saturating_add(d);
-        tokio::time::sleep_until(self.epoch + target.as_duration()).await;
+        tokio::time::sleep_until(self.time.to_tokio(target)).await;
         self.clock = target;
     }
 
