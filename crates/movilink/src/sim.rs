@@ -42,7 +42,7 @@
 
 use std::io;
 
-use drive_core::rt::{self, Bus, CharIo, Clock, Station, Timebase};
+use drive_core::rt::{self, Bus, CharIo, Clock, LineTime, Station};
 use drive_core::{Endpoint, Instant, LineSettings, RxChar};
 use drive_sim::movidrive::{BusSource, Movidrive};
 
@@ -92,9 +92,8 @@ impl Backend for DriveBackend {
 #[derive(Debug)]
 pub struct SimulatedMovidrive {
     slave: Slave<DriveBackend>,
-    clock: Clock,
-    /// The time base of the serve loop, kept across [`SimulatedMovidrive::serve`] calls.
-    time: Option<Timebase>,
+    /// The clock and time of the serve loop, kept across [`SimulatedMovidrive::serve`] calls.
+    line: LineTime,
 }
 
 impl SimulatedMovidrive {
@@ -115,8 +114,7 @@ impl SimulatedMovidrive {
         };
         Self {
             slave: Slave::new(config, DriveBackend { drive }),
-            clock: Clock::Real,
-            time: None,
+            line: LineTime::new(),
         }
     }
 
@@ -138,26 +136,15 @@ impl SimulatedMovidrive {
 
     /// [`Clock::Real`] (tokio's clock, the default) or [`Clock::Virtual`] (waits for nothing).
     pub fn set_clock(&mut self, clock: Clock) {
-        self.clock = clock;
         // The slave keeps its line history: its time goes on from where it is.
-        self.time = self.time.map(|t| t.switched_to(clock));
+        self.line.set_clock(clock);
     }
 
     /// Serve requests on `io` until it closes (`Ok`) or fails. Answers only correct
     /// telegrams addressed to the drive (own address and 254; its group and 255 are executed
     /// without an answer) and follows P810/P811/P812/P833 as they are written.
     pub async fn serve<IO: CharIo>(&mut self, io: IO) -> io::Result<()> {
-        let mut time = self.timebase();
-        let r = rt::serve(std::slice::from_mut(self), &mut time, io).await;
-        self.time = Some(time);
-        r
-    }
-
-    fn timebase(&mut self) -> Timebase {
-        let char_time = self.slave.config().timing.char_time;
-        *self
-            .time
-            .get_or_insert_with(|| Timebase::new(self.clock, char_time))
+        rt::serve_alone(self, io).await
     }
 
     /// Handle the slave's events: follow P810/P811 when they were written.
@@ -232,7 +219,11 @@ impl Station for SimulatedMovidrive {
         self.movidrive().address()
     }
 
-    fn set_clock(&mut self, clock: Clock) {
-        SimulatedMovidrive::set_clock(self, clock);
+    fn char_time(&self) -> core::time::Duration {
+        self.slave.config().timing.char_time
+    }
+
+    fn line_time(&mut self) -> &mut LineTime {
+        &mut self.line
     }
 }

@@ -60,7 +60,7 @@
 use std::io;
 use std::time::Duration;
 
-use drive_core::rt::{self, Bus, CharIo, Clock, Station, Timebase};
+use drive_core::rt::{self, Bus, CharIo, Clock, LineTime, Station};
 use drive_core::{Endpoint, Instant, LineSettings, RxChar};
 use drive_profile::nord::State;
 use drive_sim::nord::SimulatedNord;
@@ -154,8 +154,8 @@ pub struct SimStats {
 pub struct SimulatedDrive {
     slave: Slave<NordBackend>,
     stats: SimStats,
-    clock: Clock,
-    time: Option<Timebase>,
+    /// The clock and time of the serve loop, kept across serves.
+    line: LineTime,
 }
 
 impl SimulatedDrive {
@@ -174,8 +174,7 @@ impl SimulatedDrive {
         SimulatedDrive {
             slave: Slave::new(config, backend),
             stats: SimStats::default(),
-            clock: Clock::Real,
-            time: None,
+            line: LineTime::new(),
         }
     }
 
@@ -222,20 +221,12 @@ impl SimulatedDrive {
 
     /// [`Clock::Real`] (tokio's clock, the default) or [`Clock::Virtual`] (waits for nothing).
     pub fn set_clock(&mut self, clock: Clock) {
-        self.clock = clock;
-        self.time = self.time.map(|t| t.switched_to(clock));
+        self.line.set_clock(clock);
     }
 
     /// Serve telegrams on `io` until it closes (`Ok`) or fails.
     pub async fn serve<IO: CharIo>(&mut self, io: IO) -> io::Result<()> {
-        let char_time = self.slave.config().line.char_time();
-        let clock = self.clock;
-        let mut time = *self
-            .time
-            .get_or_insert_with(|| Timebase::new(clock, char_time));
-        let r = rt::serve(std::slice::from_mut(self), &mut time, io).await;
-        self.time = Some(time);
-        r
+        rt::serve_alone(self, io).await
     }
 
     fn drain_events(&mut self) {
@@ -304,7 +295,11 @@ impl Station for SimulatedDrive {
         SimulatedDrive::address(self).get()
     }
 
-    fn set_clock(&mut self, clock: Clock) {
-        SimulatedDrive::set_clock(self, clock);
+    fn char_time(&self) -> core::time::Duration {
+        self.slave.config().line.char_time()
+    }
+
+    fn line_time(&mut self) -> &mut LineTime {
+        &mut self.line
     }
 }

@@ -1,5 +1,7 @@
-//! Several simulated devices on one line: what every protocol's simulated bus is.
+//! Simulated devices on a line: one alone ([`serve_alone`]) or several ([`Bus`]), and the line
+//! time they keep between serves ([`LineTime`]). What every protocol's simulator is.
 
+use core::time::Duration;
 use std::io;
 use std::vec::Vec;
 
@@ -9,17 +11,81 @@ use super::serve::serve;
 use crate::endpoint::Endpoint;
 use crate::line::LineSettings;
 
-/// A simulated device that can share a line with others: an [`Endpoint`] with an address.
+/// The clock a simulated device (or bus) is served on, and its time base once it has been
+/// served: a second serve goes on where the first stopped, and a clock switch keeps the time
+/// (the device keeps its line history).
+#[derive(Debug, Clone, Copy, Default)]
+pub struct LineTime {
+    clock: Clock,
+    time: Option<Timebase>,
+}
+
+impl LineTime {
+    /// [`Clock::Real`], not served yet.
+    pub const fn new() -> Self {
+        Self {
+            clock: Clock::Real,
+            time: None,
+        }
+    }
+
+    /// The clock.
+    pub fn clock(&self) -> Clock {
+        self.clock
+    }
+
+    /// Serve on `clock` from now on, the time going on from where it is.
+    pub fn set_clock(&mut self, clock: Clock) {
+        self.clock = clock;
+        self.time = self.time.map(|t| t.switched_to(clock));
+    }
+
+    /// Serve `stations` on `io` (see [`serve`]) with this line time, created on first use for
+    /// a line with `char_time`, and kept for the next serve.
+    pub async fn serve<S: Endpoint, IO: CharIo>(
+        &mut self,
+        stations: &mut [S],
+        char_time: Duration,
+        io: IO,
+    ) -> io::Result<()> {
+        let clock = self.clock;
+        let mut time = *self
+            .time
+            .get_or_insert_with(|| Timebase::new(clock, char_time));
+        let r = serve(stations, &mut time, io).await;
+        self.time = Some(time);
+        r
+    }
+}
+
+/// A simulated device that can share a line with others: an [`Endpoint`] with an address and
+/// its own [`LineTime`] for when it is served alone.
 pub trait Station: Endpoint {
     /// The address the device answers now (it may change when the device's address parameter
     /// is written).
     fn address(&self) -> u8;
 
-    /// Run the device's own timers on `clock` from now on (the default does nothing, for
-    /// devices that have none).
+    /// The character time of the device's line.
+    fn char_time(&self) -> Duration;
+
+    /// The device's line time for serving it alone.
+    fn line_time(&mut self) -> &mut LineTime;
+
+    /// Run the device (alone, and its own timers) on `clock` from now on.
     fn set_clock(&mut self, clock: Clock) {
-        let _ = clock;
+        self.line_time().set_clock(clock);
     }
+}
+
+/// Serve `station` alone on `io` until it closes (`Ok`) or fails, with its own line time.
+pub async fn serve_alone<S: Station, IO: CharIo>(station: &mut S, io: IO) -> io::Result<()> {
+    let mut line = *station.line_time();
+    let char_time = station.char_time();
+    let r = line
+        .serve(core::slice::from_mut(station), char_time, io)
+        .await;
+    *station.line_time() = line;
+    r
 }
 
 /// Simulated devices on one line, each answering its own address, served by [`serve`].
@@ -29,8 +95,7 @@ pub trait Station: Endpoint {
 #[derive(Debug)]
 pub struct Bus<S> {
     stations: Vec<S>,
-    clock: Clock,
-    time: Option<Timebase>,
+    time: LineTime,
     line: LineSettings,
 }
 
@@ -46,22 +111,16 @@ impl<S: Station> Bus<S> {
         }
         Self {
             stations: kept,
-            clock: Clock::Real,
-            time: None,
+            time: LineTime::new(),
             line,
         }
     }
 
     /// Serve requests on `io` until it closes (`Ok`) or fails.
     pub async fn serve<IO: CharIo>(&mut self, io: IO) -> io::Result<()> {
-        let clock = self.clock;
-        let char_time = self.line.char_time();
-        let mut time = *self
-            .time
-            .get_or_insert_with(|| Timebase::new(clock, char_time));
-        let r = serve(&mut self.stations, &mut time, io).await;
-        self.time = Some(time);
-        r
+        self.time
+            .serve(&mut self.stations, self.line.char_time(), io)
+            .await
     }
 
     /// The station that answers `address` now.
@@ -93,8 +152,7 @@ impl<S: Station> Bus<S> {
     /// for the line and every station. The line keeps its history: its time goes on from where
     /// it is.
     pub fn set_clock(&mut self, clock: Clock) {
-        self.clock = clock;
-        self.time = self.time.map(|t| t.switched_to(clock));
+        self.time.set_clock(clock);
         for s in &mut self.stations {
             s.set_clock(clock);
         }

@@ -21,7 +21,7 @@ mod io;
 mod port;
 mod serve;
 
-pub use bus::{Bus, Station};
+pub use bus::{Bus, LineTime, Station, serve_alone};
 pub use clock::{Clock, Timebase};
 pub use io::{
     CHUNK, CharIo, ReceivedChar, Stream, TIMER_RESOLUTION, Woken, read_or_sleep, write_all,
