@@ -14,7 +14,7 @@
 use std::time::Duration;
 
 use drive_core::framing::{FrameTiming, Framing, LineError, Progress, Start};
-use drive_core::rt::{Clock, Port, Stream, Timebase, serve};
+use drive_core::rt::{Clock, Failed, Flow, Port, Stream, Tally, Timebase, serve};
 use drive_core::{
     Endpoint, Exchange, ExchangeConfig, ExchangeEvent, Instant, LineSettings, Receiver, RxChar,
     RxEvent, Verdict,
@@ -191,23 +191,43 @@ impl Endpoint for Master {
     }
 }
 
+/// One request through the port's transaction loop ([`Port::transact`]): the answer, or the
+/// attempts after which the master gave up; and what the loop counted.
 async fn run<IO: drive_core::rt::CharIo>(
     port: &mut Port<IO>,
     m: &mut Master,
-) -> Result<([u8; 8], usize), u16> {
+) -> (Result<([u8; 8], usize), u16>, Tally) {
     let mut buf = [0u8; 16];
-    loop {
-        if let Some(r) = m.result {
-            return r;
+    let mut tally = Tally::default();
+    let r = port
+        .transact(
+            m,
+            &mut buf,
+            &mut tally,
+            |m| {
+                m.result.take().map(|r| match r {
+                    Ok(frame) => Flow::<_, LineError>::Done(frame),
+                    Err(attempts) => Flow::GaveUp { attempts },
+                })
+            },
+            |m, now| m.x.abort(now),
+        )
+        .await;
+    let r = match r {
+        Ok(frame) => Ok(frame),
+        Err(Failed::NoAnswer {
+            attempts,
+            last_reject,
+        }) => {
+            assert_eq!(last_reject, None, "nothing answered at all");
+            Err(u16::try_from(attempts).unwrap())
         }
-        if port.transmit(m, &mut buf).await.unwrap().is_some() {
-            continue;
-        }
-        assert!(port.wait(m).await.unwrap(), "line closed");
-    }
+        Err(Failed::Io(e)) => panic!("{e}"),
+    };
+    (r, tally)
 }
 
-async fn session(clock: Clock) -> (Vec<Result<([u8; 8], usize), u16>>, u32) {
+async fn session(clock: Clock) -> (Vec<(Result<([u8; 8], usize), u16>, Tally)>, u32) {
     let line = LineSettings::new(19200);
     let toy = Toy { line };
     let (a, b) = tokio::io::duplex(256);
@@ -250,20 +270,27 @@ async fn session(clock: Clock) -> (Vec<Result<([u8; 8], usize), u16>>, u32) {
 #[tokio::test(start_paused = true)]
 async fn a_master_and_two_stations_of_another_protocol_on_the_real_clock() {
     let (results, requests) = session(Clock::Real).await;
-    assert_eq!(results[0].unwrap().0[..3], [3, 11, 21]);
-    assert_eq!(results[1].unwrap().0[..3], [7, 2, 3]);
+    assert_eq!(results[0].0.unwrap().0[..3], [3, 11, 21]);
+    assert_eq!(results[1].0.unwrap().0[..3], [7, 2, 3]);
     // Nobody at 9: given up after 1 retry.
-    assert_eq!(results[2], Err(2));
+    assert_eq!(results[2].0, Err(2));
     assert_eq!(requests, 2);
+    // The loop counted one transmission for each answered request, two for the last.
+    let tallies: Vec<(u32, u32, u32)> = results
+        .iter()
+        .map(|(_, t)| (t.sent, t.retries(), t.rejected))
+        .collect();
+    assert_eq!(tallies, [(1, 0, 0), (1, 0, 0), (2, 1, 0)]);
 }
 
 #[tokio::test]
 async fn the_same_session_on_the_virtual_clock() {
     let (results, requests) = session(Clock::Virtual).await;
-    assert_eq!(results[0].unwrap().0[..3], [3, 11, 21]);
-    assert_eq!(results[1].unwrap().0[..3], [7, 2, 3]);
-    assert_eq!(results[2], Err(2));
+    assert_eq!(results[0].0.unwrap().0[..3], [3, 11, 21]);
+    assert_eq!(results[1].0.unwrap().0[..3], [7, 2, 3]);
+    assert_eq!(results[2].0, Err(2));
     assert_eq!(requests, 2);
+    assert_eq!(results[2].1.sent, 2);
 }
 
 // ----- The port's waiting rules, on a line whose received characters are scripted -----
@@ -447,7 +474,7 @@ async fn the_virtual_clock_measures_a_gap_limit_from_the_last_character() {
     });
     let mut port = Port::new(Scripted::new(script), Clock::Virtual, line.char_time());
     master.send(3, &[0, 1, 2, 3, 4, 5], port.now());
-    let result = run(&mut port, &mut master).await;
+    let (result, _) = run(&mut port, &mut master).await;
     assert_eq!(
         result.map(|r| r.0[..7].to_vec()),
         Ok(vec![3, 1, 2, 3, 4, 5, 6])

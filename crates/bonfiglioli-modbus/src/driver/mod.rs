@@ -12,15 +12,15 @@ mod error;
 use std::time::Duration;
 
 use drive_core::LineSettings;
-use drive_core::rt::Step;
 pub use drive_core::rt::{CharIo, Clock, Port, ReceivedChar, Stream};
+use drive_core::rt::{Failed, Flow, Tally};
 
 pub use self::error::DriverError;
 use crate::frame::{
     Address, DataSet, DiagSubFunction, ExceptionCode, Request, Response, StartAddress,
 };
 use crate::framing::{MAX_FRAME, Mode};
-use crate::master::{Master, MasterConfig, MasterEvent, RejectReason};
+use crate::master::{Master, MasterConfig, MasterEvent};
 use crate::slave::Width;
 
 /// The VABus SST error register (ch. 6.6): reading it returns and clears the cause of the last
@@ -137,55 +137,52 @@ impl<IO: CharIo> MasterDriver<IO> {
             .send(address, request, now)
             .map_err(DriverError::InvalidRequest)?;
         self.stats.transactions += 1;
-        let mut sent: u32 = 0;
-        let mut last_reject: Option<RejectReason> = None;
         let mut buf = [0u8; MAX_FRAME];
-        loop {
-            while let Some(event) = self.master.poll_event() {
-                match event {
-                    MasterEvent::Response(r) => {
-                        if matches!(r, Response::Exception { .. }) {
-                            self.stats.exceptions += 1;
-                        }
-                        return Ok(Some(r));
-                    }
-                    MasterEvent::Sent => return Ok(None),
-                    MasterEvent::Rejected(reason) => {
-                        self.stats.rejected += 1;
-                        last_reject = Some(reason);
-                    }
-                    MasterEvent::Timeout { attempts } => {
-                        let attempts = u32::from(attempts);
-                        let address = address.get();
-                        return Err(match last_reject {
-                            Some(reason) => DriverError::Corrupt {
-                                address,
-                                reason,
-                                attempts,
-                            },
-                            None => {
-                                self.stats.timeouts += 1;
-                                DriverError::Timeout { address, attempts }
+        let mut tally = Tally::default();
+        let exceptions = &mut self.stats.exceptions;
+        let r = self
+            .port
+            .transact(
+                &mut self.master,
+                &mut buf,
+                &mut tally,
+                |m| {
+                    m.poll_event().map(|event| match event {
+                        MasterEvent::Response(r) => {
+                            if matches!(r, Response::Exception { .. }) {
+                                *exceptions += 1;
                             }
-                        });
-                    }
-                }
+                            Flow::Done(Some(r))
+                        }
+                        MasterEvent::Sent => Flow::Done(None),
+                        MasterEvent::Rejected(reason) => Flow::Rejected(reason),
+                        MasterEvent::Timeout { attempts } => Flow::GaveUp { attempts },
+                    })
+                },
+                |m, now| m.abort(now),
+            )
+            .await;
+        self.stats.retries += u64::from(tally.retries());
+        self.stats.rejected += u64::from(tally.rejected);
+        let address = address.get();
+        r.map_err(|failed| match failed {
+            Failed::NoAnswer {
+                attempts,
+                last_reject: Some(reason),
+            } => DriverError::Corrupt {
+                address,
+                reason,
+                attempts,
+            },
+            Failed::NoAnswer {
+                attempts,
+                last_reject: None,
+            } => {
+                self.stats.timeouts += 1;
+                DriverError::Timeout { address, attempts }
             }
-            match self.port.step(&mut self.master, &mut buf).await {
-                Ok(Step::Sent(_)) => {
-                    if sent > 0 {
-                        self.stats.retries += 1;
-                    }
-                    sent = sent.saturating_add(1);
-                    last_reject = None;
-                }
-                Ok(Step::Waited) => {}
-                Err(e) => {
-                    self.master.abort(self.port.now());
-                    return Err(DriverError::Io(e));
-                }
-            }
-        }
+            Failed::Io(e) => DriverError::Io(e),
+        })
     }
 
     async fn call(&mut self, address: Address, request: Request) -> Result<Response, DriverError> {

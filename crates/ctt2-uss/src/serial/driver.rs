@@ -24,8 +24,8 @@
 use std::time::Duration;
 
 use drive_core::LineSettings;
-use drive_core::rt::Step;
 pub use drive_core::rt::{CharIo, Clock, Port};
+use drive_core::rt::{Failed, Flow, Tally};
 
 use super::framing::UssTiming;
 use super::master::{Master, MasterConfig, MasterEvent, RejectReason, SendError};
@@ -213,50 +213,46 @@ impl<IO: CharIo> UssMaster<IO> {
         while self.master.poll_event().is_some() {}
         self.master.send(telegram, now)?;
         self.stats.transactions += 1;
-        let mut sent: u32 = 0;
-        let mut last_reject: Option<RejectReason> = None;
         let mut buf = [0u8; MAX_TELEGRAM];
         let address = telegram.adr().address().get();
-        loop {
-            while let Some(event) = self.master.poll_event() {
-                match event {
-                    MasterEvent::Response(t) => return Ok(Some(t)),
-                    MasterEvent::Sent => return Ok(None),
-                    MasterEvent::Rejected(reason) => {
-                        self.stats.rejected += 1;
-                        last_reject = Some(reason);
-                    }
-                    MasterEvent::Timeout { attempts } => {
-                        let attempts = u32::from(attempts);
-                        return Err(match last_reject {
-                            Some(reason) => DriverError::Rejected {
-                                address,
-                                reason,
-                                attempts,
-                            },
-                            None => {
-                                self.stats.timeouts += 1;
-                                DriverError::Timeout { address, attempts }
-                            }
-                        });
-                    }
-                }
+        let mut tally = Tally::default();
+        let r = self
+            .port
+            .transact(
+                &mut self.master,
+                &mut buf,
+                &mut tally,
+                |m| {
+                    m.poll_event().map(|event| match event {
+                        MasterEvent::Response(t) => Flow::Done(Some(t)),
+                        MasterEvent::Sent => Flow::Done(None),
+                        MasterEvent::Rejected(reason) => Flow::Rejected(reason),
+                        MasterEvent::Timeout { attempts } => Flow::GaveUp { attempts },
+                    })
+                },
+                |m, now| m.abort(now),
+            )
+            .await;
+        self.stats.retries += u64::from(tally.retries());
+        self.stats.rejected += u64::from(tally.rejected);
+        r.map_err(|failed| match failed {
+            Failed::NoAnswer {
+                attempts,
+                last_reject: Some(reason),
+            } => DriverError::Rejected {
+                address,
+                reason,
+                attempts,
+            },
+            Failed::NoAnswer {
+                attempts,
+                last_reject: None,
+            } => {
+                self.stats.timeouts += 1;
+                DriverError::Timeout { address, attempts }
             }
-            match self.port.step(&mut self.master, &mut buf).await {
-                Ok(Step::Sent(_)) => {
-                    if sent > 0 {
-                        self.stats.retries += 1;
-                    }
-                    sent = sent.saturating_add(1);
-                    last_reject = None;
-                }
-                Ok(Step::Waited) => {}
-                Err(e) => {
-                    self.master.abort(self.port.now());
-                    return Err(DriverError::Io(e));
-                }
-            }
-        }
+            Failed::Io(e) => DriverError::Io(e),
+        })
     }
 
     /// One telegram with `pkw` and the current process data to the drive; its answer.

@@ -27,5 +27,5 @@ pub use io::{
     CHUNK, CharIo, ReceivedChar, Stream, TIMER_RESOLUTION, Woken, read_or_sleep, write_all,
     write_all_at,
 };
-pub use port::{Port, Step};
+pub use port::{Failed, Flow, Port, Step, Tally};
 pub use serve::serve;

@@ -255,6 +255,52 @@ impl<IO: CharIo> Port<IO> {
         }
     }
 
+    /// A master's whole transaction, the loop every protocol's driver runs around
+    /// [`Port::step`]: `next` drains the master's events one at a time and says what each means
+    /// ([`Flow`]); the transaction ends with the first [`Flow::Done`], or when the master gives
+    /// up ([`Failed::NoAnswer`], with the reason the last answer was rejected if one came after
+    /// the last transmission), or when the port fails (`abort` drops the master's request,
+    /// [`Failed::Io`]). `tally` counts transmissions and rejected answers for the driver's
+    /// statistics.
+    pub async fn transact<E: Endpoint, T, R>(
+        &mut self,
+        master: &mut E,
+        buf: &mut [u8],
+        tally: &mut Tally,
+        mut next: impl FnMut(&mut E) -> Option<Flow<T, R>>,
+        abort: impl FnOnce(&mut E, Instant),
+    ) -> Result<T, Failed<R>> {
+        let mut last_reject = None;
+        loop {
+            while let Some(flow) = next(master) {
+                match flow {
+                    Flow::Done(t) => return Ok(t),
+                    Flow::Rejected(reason) => {
+                        tally.rejected = tally.rejected.saturating_add(1);
+                        last_reject = Some(reason);
+                    }
+                    Flow::GaveUp { attempts } => {
+                        return Err(Failed::NoAnswer {
+                            attempts: u32::from(attempts),
+                            last_reject,
+                        });
+                    }
+                }
+            }
+            match self.step(master, buf).await {
+                Ok(Step::Sent(_)) => {
+                    tally.sent = tally.sent.saturating_add(1);
+                    last_reject = None;
+                }
+                Ok(Step::Waited) => {}
+                Err(e) => {
+                    abort(master, self.now());
+                    return Err(Failed::Io(e));
+                }
+            }
+        }
+    }
+
     /// After a failed write: let what did get out leave the line (best effort, at most 1 s).
     pub async fn settle(&mut self) {
         let io = &mut self.io;
@@ -284,4 +330,51 @@ pub enum Step {
     Sent(usize),
     /// Time passed or characters arrived; the endpoint was told.
     Waited,
+}
+
+/// What a master's event means to [`Port::transact`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Flow<T, R> {
+    /// The transaction is complete with this result (an answer, or nothing for a request
+    /// nobody answers).
+    Done(T),
+    /// An answer was not taken (the master retries or gives up).
+    Rejected(R),
+    /// The master gave up after `attempts` transmissions.
+    GaveUp {
+        /// Transmissions made.
+        attempts: u16,
+    },
+}
+
+/// Why [`Port::transact`] ended without a result.
+#[derive(Debug)]
+pub enum Failed<R> {
+    /// The master gave up: no answer was taken after `attempts` transmissions;
+    /// `last_reject` is why the last answer after the last transmission was rejected (none
+    /// came: a timeout).
+    NoAnswer {
+        /// Transmissions made.
+        attempts: u32,
+        /// The last rejection after the last transmission.
+        last_reject: Option<R>,
+    },
+    /// The port failed; the master's request was aborted.
+    Io(io::Error),
+}
+
+/// What [`Port::transact`] counted.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash)]
+pub struct Tally {
+    /// Transmissions (the first and every retry).
+    pub sent: u32,
+    /// Answers not taken.
+    pub rejected: u32,
+}
+
+impl Tally {
+    /// Retransmissions: every transmission after the first.
+    pub fn retries(&self) -> u32 {
+        self.sent.saturating_sub(1)
+    }
 }
