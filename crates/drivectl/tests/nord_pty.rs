@@ -470,3 +470,34 @@ fn nord_p560_zero_writes_are_ram_only_and_not_held_back_by_the_wear_rule() {
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     assert!(stderr(&o).contains("EEPROM"), "{}", stderr(&o));
 }
+
+/// A second Ctrl-C ends a backup at once, and still leaves no temporary file behind (it did:
+/// the immediate exit skipped the clean-up of the first).
+#[test]
+fn nord_a_second_ctrl_c_during_a_backup_leaves_no_temporary_file() {
+    // Orders take 400 ms: the first Ctrl-C waits for the exchange in progress, the second
+    // comes meanwhile.
+    let sim = Sim::start(&["--addr", "1", "--pkw-time", "400"]);
+    let dir = std::env::temp_dir().join(format!("drivectl-nord-int-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let out = dir.join("b.json");
+    let child = sim
+        .command("1", &["backup", "--out", out.to_str().unwrap()])
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(Duration::from_millis(1500));
+    let pid = child.id().to_string();
+    for _ in 0..2 {
+        Command::new("kill").args(["-INT", &pid]).status().unwrap();
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    let o = child.wait_with_output().unwrap();
+    assert_eq!(o.status.code(), Some(130), "{}", stderr(&o));
+    assert!(stderr(&o).contains("stopped at once"), "{}", stderr(&o));
+    let left: Vec<_> = std::fs::read_dir(&dir).unwrap().collect();
+    assert!(left.is_empty(), "left behind: {left:?}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}

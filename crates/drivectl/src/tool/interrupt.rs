@@ -5,7 +5,7 @@
 //! flag that the work checks between exchanges (an exchange in flight is finished, so the
 //! drive's state stays known); a second Ctrl-C ends the process at once with `at_once`'s
 //! message (exit 130), for an exchange that would take long (a long `--timeout` with many
-//! `--retries`).
+//! `--retries`); the temporary files of output files not written yet are removed first.
 
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -34,6 +34,8 @@ impl Interrupt {
                 "drivectl: note: interrupted; finishing the exchange in progress (Ctrl-C again stops at once)"
             );
             if tokio::signal::ctrl_c().await.is_ok() {
+                // The drops that remove a backup's temporary file do not run on this exit.
+                super::outfile::remove_temporary_files();
                 errln!("drivectl: stopped at once: {at_once}");
                 std::process::exit(130);
             }

@@ -6,13 +6,36 @@
 //! `overwrite`. It creates the temporary file in the target's directory right away, so an
 //! unwritable directory is reported at once. [`OutputFile::commit`] writes the text, checks the
 //! path again (it may have changed during the work) and renames the temporary file into place;
-//! a prepared file that is dropped uncommitted (an error, Ctrl-C) removes its temporary file.
+//! a prepared file that is dropped uncommitted (an error, Ctrl-C) removes its temporary file,
+//! and so does a second Ctrl-C, which ends the process at once ([`remove_temporary_files`]).
 
 use std::fs::{File, OpenOptions};
 use std::io::Write as _;
 use std::path::{Path, PathBuf};
+use std::sync::Mutex;
 
 use crate::error::{CliError, Result};
+
+/// The temporary files of the prepared, uncommitted output files of this process: a second
+/// Ctrl-C ends the process at once, without the drops that would remove them
+/// ([`remove_temporary_files`]).
+static TEMPORARY: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
+
+fn forget(tmp: &Path) {
+    if let Ok(mut list) = TEMPORARY.lock() {
+        list.retain(|p| p != tmp);
+    }
+}
+
+/// Remove the temporary files of every output file not committed yet: for an exit that skips
+/// their drops (a second Ctrl-C).
+pub fn remove_temporary_files() {
+    if let Ok(mut list) = TEMPORARY.lock() {
+        for p in list.drain(..) {
+            let _ = std::fs::remove_file(p);
+        }
+    }
+}
 
 /// A file being written: a temporary file next to its final path.
 #[derive(Debug)]
@@ -95,6 +118,9 @@ impl OutputFile {
                     path.display()
                 ))
             })?;
+        if let Ok(mut list) = TEMPORARY.lock() {
+            list.push(tmp.clone());
+        }
         Ok(Self {
             shown: path.to_path_buf(),
             target,
@@ -122,6 +148,7 @@ impl OutputFile {
             ));
         }
         std::fs::rename(&self.tmp, &self.target).map_err(|e| fail(&e))?;
+        forget(&self.tmp);
         self.tmp = PathBuf::new();
         Ok(())
     }
@@ -131,6 +158,7 @@ impl Drop for OutputFile {
     fn drop(&mut self) {
         if !self.tmp.as_os_str().is_empty() {
             let _ = std::fs::remove_file(&self.tmp);
+            forget(&self.tmp);
         }
     }
 }
