@@ -11,6 +11,8 @@
 //! * [`framing`]: the [`Framing`] description and the generic [`Receiver`] (idle gap starts a
 //!   frame, gap limit inside a frame, end confirmed by silence, resynchronisation);
 //! * [`Endpoint`]: the interface of every sans-IO master and slave to what drives it;
+//! * [`can`]: classical CAN: [`can::CanFrame`] (an `embedded-can` frame), bit rates, frame
+//!   lengths with bit stuffing, and [`can::CanEndpoint`], the interface of a sans-IO CAN node;
 //! * [`gate`]: [`TxGate`], when the next frame may start on a half-duplex bus;
 //! * [`exchange`]: [`Exchange`], the master's transaction skeleton (attempts, retries, give-up,
 //!   late answers);
@@ -26,6 +28,7 @@
 
 #[cfg(feature = "alloc-count")]
 pub mod alloc_count;
+pub mod can;
 pub mod char;
 pub mod endpoint;
 pub mod exchange;

@@ -1,18 +1,20 @@
-//! `sbus-can`: SEW SBus, MOVILINK over CAN, for MOVIDRIVE drives, sans-IO.
+//! `sbus-can`: SEW SBus, MOVILINK over CAN, for MOVIDRIVE drives, sans-IO (SEW serial
+//! communication manual ch. 5 and 6.1).
 //!
-//! The crate will hold SBus's frame types, their codec to and from CAN frames and the master
-//! and slave state machines. It is a placeholder for now: the protocol arrives with its own
-//! issue.
+//! * [`ids`]: the identifiers of every telegram from the SBus address (P813), group address
+//!   (P814) and synchronisation identifier (P817);
+//! * [`telegram`]: the telegrams on CAN frames: SYNC, process data (three words) and the 8-byte
+//!   parameter channel shared with MOVILINK ([`drive_profile::sew::ParamChannel`]).
 //!
-//! What it builds on is in place:
-//!
-//! * [`drive_core`]: the one time type ([`Instant`](drive_core::Instant)), the
-//!   [`Endpoint`](drive_core::Endpoint) interface of every sans-IO master and slave and the
-//!   transaction skeleton ([`Exchange`](drive_core::Exchange));
-//! * [`drive_profile::sew`]: SEW's parameter channel, services, return codes and control/status
-//!   words, shared with MOVILINK and the simulated MOVIDRIVE.
-//!
-//! Like every protocol crate of drivebus it is sans-IO (no I/O, no clock: time is an argument)
-//! and `no_std` without its default `std` feature.
+//! Frames are [`drive_core::can::CanFrame`], an [`embedded_can::Frame`](drive_core::can::Frame),
+//! so any `embedded-can` driver can carry them. Like every protocol crate of drivebus this one
+//! is sans-IO (no I/O, no clock: time is an argument) and `no_std` without its default `std`
+//! feature.
 #![cfg_attr(not(feature = "std"), no_std)]
 #![warn(missing_docs)]
+
+pub mod ids;
+pub mod telegram;
+
+pub use ids::{Address, Kind};
+pub use telegram::{DecodeError, ProcessData, Telegram};

@@ -7,6 +7,7 @@
 //!   benchmarks of software overhead;
 //! * [`Port`]: a master's side of a line: transmit what a sans-IO [`Endpoint`] hands out, wait
 //!   for its deadlines or for characters and feed them;
+//! * [`CanIo`]: a CAN interface (frames, not characters) for the CAN masters and drives;
 //! * [`serve`]: the serve loop of simulated devices ([`Endpoint`]s) on one line, and [`Bus`]:
 //!   several simulated devices ([`Station`]s, endpoints with an address) served on one line.
 //!
@@ -16,12 +17,14 @@
 //! [`Endpoint`]: crate::Endpoint
 
 mod bus;
+mod can;
 mod clock;
 mod io;
 mod port;
 mod serve;
 
 pub use bus::{Bus, LineTime, Station, serve_alone};
+pub use can::{CanIo, ReceivedFrame, recv_frame, send_frame};
 pub use clock::{Clock, Timebase};
 pub use io::{
     CHUNK, CharIo, ReceivedChar, Stream, TIMER_RESOLUTION, Woken, read_or_sleep, write_all,
