@@ -435,13 +435,13 @@ impl LinkBus {
 
     /// Close the books on the last telegram of direction `d`.
     fn finish(&mut self, d: usize) {
-        if let Some(w) = self.last[d].take() {
-            if !w.judged {
-                if w.faulted {
-                    self.stats[d].lost += 1;
-                } else {
-                    self.stats[d].clean_failed += 1;
-                }
+        if let Some(w) = self.last[d].take()
+            && !w.judged
+        {
+            if w.faulted {
+                self.stats[d].lost += 1;
+            } else {
+                self.stats[d].clean_failed += 1;
             }
         }
     }

@@ -514,8 +514,9 @@ fn frame(byte: u8) -> u16 {
 fn uart(frame: u16) -> (u8, bool) {
     let byte = (frame >> 1) as u8;
     let parity = frame >> 9 & 1;
-    let ok =
-        frame & 1 == 0 && frame >> 10 & 1 == 1 && (byte.count_ones() + u32::from(parity)) % 2 == 0;
+    let ok = frame & 1 == 0
+        && frame >> 10 & 1 == 1
+        && (byte.count_ones() + u32::from(parity)).is_multiple_of(2);
     (byte, ok)
 }
 

@@ -203,10 +203,10 @@ impl SimulatedDrive {
                     .and_then(|a| u8::try_from(a).ok())
                     .and_then(Address::new)
                     .filter(|a| !a.is_broadcast());
-                if let Some(a) = wanted {
-                    if a != self.slave.config().address {
-                        self.slave.set_address(a);
-                    }
+                if let Some(a) = wanted
+                    && a != self.slave.config().address
+                {
+                    self.slave.set_address(a);
                 }
             }
         }

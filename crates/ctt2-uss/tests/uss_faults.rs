@@ -282,7 +282,7 @@ fn expected_escape_rate(p: f64, k: u32) -> f64 {
         }
         let data = ((m >> 1) & 0xFF) as u8;
         let parity = (m >> 9) & 1;
-        if (data.count_ones() + u32::from(parity)) % 2 == 0 {
+        if (data.count_ones() + u32::from(parity)).is_multiple_of(2) {
             patterns.push((data, 1.0 / subsets));
         }
     }

@@ -727,11 +727,10 @@ proptest! {
                 let wire = encode(&f);
                 prop_assert!(seen.windows(wire.len()).any(|w| w == wire.as_slice()));
             }
-            if let Some(at) = rx.poll_timeout() {
-                if at <= t {
+            if let Some(at) = rx.poll_timeout()
+                && at <= t {
                     let _ = rx.handle_timeout(t);
                 }
-            }
         }
     }
 }

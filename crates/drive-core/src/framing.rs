@@ -324,23 +324,21 @@ impl<F: Framing, const N: usize> Receiver<F, N> {
     pub fn handle_char(&mut self, c: RxChar) -> Option<RxEvent<F::Frame, F::Error>> {
         // The common case, a character in the middle of a frame whose length is known, takes
         // the short way.
-        if let (&State::Receiving { len, expected }, Some(prev)) = (&self.state, self.last) {
-            if c.error.is_none()
-                && len + 1 < expected
-                && c.time >= prev
-                && self.gap(prev, c.time) < self.ns.max_gap
-                && !self.framing.restarts(c.byte)
-            {
-                if let Some(slot) = self.buf.get_mut(len) {
-                    *slot = c.byte;
-                    self.state = State::Receiving {
-                        len: len + 1,
-                        expected,
-                    };
-                    self.last = Some(c.time);
-                    return None;
-                }
-            }
+        if let (&State::Receiving { len, expected }, Some(prev)) = (&self.state, self.last)
+            && c.error.is_none()
+            && len + 1 < expected
+            && c.time >= prev
+            && self.gap(prev, c.time) < self.ns.max_gap
+            && !self.framing.restarts(c.byte)
+            && let Some(slot) = self.buf.get_mut(len)
+        {
+            *slot = c.byte;
+            self.state = State::Receiving {
+                len: len + 1,
+                expected,
+            };
+            self.last = Some(c.time);
+            return None;
         }
         // (A left-over event means the receiver is not receiving: the short way never skips
         // one.)

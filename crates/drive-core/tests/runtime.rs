@@ -90,20 +90,20 @@ struct Station {
 
 impl Endpoint for Station {
     fn handle_char(&mut self, c: RxChar) {
-        if let Some(RxEvent::Frame((payload, n))) = self.rx.handle_char(c) {
-            if payload[0] == self.address {
-                self.requests += 1;
-                let mut reply = [0u8; 8];
-                reply[0] = self.address;
-                for i in 1..n {
-                    reply[i] = payload[i].wrapping_add(1);
-                }
-                let mut buf = [0u8; 16];
-                let len = encode(self.address, &reply[1..n], &mut buf);
-                // Answer after two character times of silence.
-                let due = c.time + self.rx.timing().start_gap;
-                self.answer = Some((buf, len, due));
+        if let Some(RxEvent::Frame((payload, n))) = self.rx.handle_char(c)
+            && payload[0] == self.address
+        {
+            self.requests += 1;
+            let mut reply = [0u8; 8];
+            reply[0] = self.address;
+            for i in 1..n {
+                reply[i] = payload[i].wrapping_add(1);
             }
+            let mut buf = [0u8; 16];
+            let len = encode(self.address, &reply[1..n], &mut buf);
+            // Answer after two character times of silence.
+            let due = c.time + self.rx.timing().start_gap;
+            self.answer = Some((buf, len, due));
         }
     }
     fn handle_timeout(&mut self, now: Instant) {

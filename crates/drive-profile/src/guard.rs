@@ -228,24 +228,24 @@ impl WriteGuard {
                     allowed: allowed_values(param),
                 });
             }
-        } else if let Some((min, max)) = param.raw_range() {
-            if !param.in_range(raw) {
-                return Err(GuardError::OutOfRange {
-                    label,
-                    name,
-                    raw,
-                    min,
-                    max,
-                    physical: physical_range(param, min, max),
-                });
-            }
+        } else if let Some((min, max)) = param.raw_range()
+            && !param.in_range(raw)
+        {
+            return Err(GuardError::OutOfRange {
+                label,
+                name,
+                raw,
+                min,
+                max,
+                physical: physical_range(param, min, max),
+            });
         }
-        if persistence == Persistence::NonVolatile {
-            if let Some(&last) = self.last_nv.get(&key(param)) {
-                let since = now.saturating_duration_since(last);
-                if since < MIN_NV_INTERVAL {
-                    return Err(GuardError::TooFrequent { label, name, since });
-                }
+        if persistence == Persistence::NonVolatile
+            && let Some(&last) = self.last_nv.get(&key(param))
+        {
+            let since = now.saturating_duration_since(last);
+            if since < MIN_NV_INTERVAL {
+                return Err(GuardError::TooFrequent { label, name, since });
             }
         }
         Ok(())

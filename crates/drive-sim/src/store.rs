@@ -397,15 +397,14 @@ impl ParamStore {
             .filter(|(s, _)| all || **s == sub)
             .map(|(_, c)| c)
             .collect();
-        if to_eeprom {
-            if let Some(limit) = endurance {
-                if let Some(worn) = targets.iter().find(|c| backed(c) && c.nv_writes >= limit) {
-                    return Err(SimError::EepromWornOut {
-                        index,
-                        writes: worn.nv_writes,
-                    });
-                }
-            }
+        if to_eeprom
+            && let Some(limit) = endurance
+            && let Some(worn) = targets.iter().find(|c| backed(c) && c.nv_writes >= limit)
+        {
+            return Err(SimError::EepromWornOut {
+                index,
+                writes: worn.nv_writes,
+            });
         }
         for cell in &mut targets {
             cell.ram = raw;

@@ -152,12 +152,12 @@ fn list(family: Family, search: Option<&str>, json: bool) -> Result<()> {
         .into_iter()
         .filter(|p| search.is_none_or(|t| p.name_matches(t)))
         .collect();
-    if params.is_empty() {
-        if let Some(t) = search {
-            return Err(CliError::usage(format!(
-                "no {family} parameter name contains `{t}` (German or English); try a shorter term"
-            )));
-        }
+    if params.is_empty()
+        && let Some(t) = search
+    {
+        return Err(CliError::usage(format!(
+            "no {family} parameter name contains `{t}` (German or English); try a shorter term"
+        )));
     }
     let mut out = String::new();
     if json {

@@ -315,11 +315,11 @@ impl<B: Backend> Slave<B> {
         });
         let mut input = [0u16; 3];
         let words = pdu_type.pd_words();
-        if words > 0 {
-            if let Some(input) = input.get_mut(..words) {
-                self.backend
-                    .process_data(&ctx, request.process_data(), input);
-            }
+        if words > 0
+            && let Some(input) = input.get_mut(..words)
+        {
+            self.backend
+                .process_data(&ctx, request.process_data(), input);
         }
         if answered {
             let reply_address =

@@ -200,15 +200,16 @@ impl<IO: CharIo> MasterDriver<IO> {
     /// VABus error register (unless that read fails too).
     async fn device_error(&mut self, address: Address, code: ExceptionCode) -> DriverError {
         let mut vabus = None;
-        if code == ExceptionCode::SLAVE_DEVICE_FAILURE && self.config.read_error_register {
-            if let Some(start) = StartAddress::new(DataSet::ALL, ERROR_REGISTER) {
-                let timeout = self.config.response_timeout;
-                if let Ok(Some(Response::ReadWord { value })) = self
-                    .transact(address, Request::ReadWord { start, count: 1 }, timeout)
-                    .await
-                {
-                    vabus = Some(value);
-                }
+        if code == ExceptionCode::SLAVE_DEVICE_FAILURE
+            && self.config.read_error_register
+            && let Some(start) = StartAddress::new(DataSet::ALL, ERROR_REGISTER)
+        {
+            let timeout = self.config.response_timeout;
+            if let Ok(Some(Response::ReadWord { value })) = self
+                .transact(address, Request::ReadWord { start, count: 1 }, timeout)
+                .await
+            {
+                vabus = Some(value);
             }
         }
         DriverError::Device {

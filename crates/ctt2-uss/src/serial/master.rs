@@ -216,10 +216,10 @@ impl Master {
             if adr.is_mirror() {
                 return Err(SendError::BroadcastMirror);
             }
-            if let Some(pkw) = telegram.pkw() {
-                if !broadcastable(&pkw) {
-                    return Err(SendError::BroadcastOrder(pkw.pke.ak()));
-                }
+            if let Some(pkw) = telegram.pkw()
+                && !broadcastable(&pkw)
+            {
+                return Err(SendError::BroadcastOrder(pkw.pke.ak()));
             }
         }
         self.exchange.begin(now).map_err(|_| SendError::Busy)?;

@@ -250,15 +250,15 @@ impl<B: Backend> Slave<B> {
         }
         let now = self.now;
         self.finish_due();
-        if let Some(order) = request.pkw() {
-            if self.work.map(|w| w.order) != Some(order) {
-                let due = now + self.backend.processing_time(&order);
-                self.work = Some(Work {
-                    order,
-                    due: Some(due),
-                });
-                self.finish_due();
-            }
+        if let Some(order) = request.pkw()
+            && self.work.map(|w| w.order) != Some(order)
+        {
+            let due = now + self.backend.processing_time(&order);
+            self.work = Some(Work {
+                order,
+                due: Some(due),
+            });
+            self.finish_due();
         }
         let mut pzd = [0u16; MAX_PZD];
         let words = request.pzd().len();

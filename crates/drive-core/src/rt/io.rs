@@ -222,10 +222,10 @@ pub async fn read_or_sleep<IO: CharIo + ?Sized>(
         if let Poll::Ready(r) = io.poll_read_chars(cx, buf) {
             return Poll::Ready(r.map(Woken::Read));
         }
-        if let Some(s) = sleep.as_mut() {
-            if s.as_mut().poll(cx).is_ready() {
-                return Poll::Ready(Ok(Woken::Timer));
-            }
+        if let Some(s) = sleep.as_mut()
+            && s.as_mut().poll(cx).is_ready()
+        {
+            return Poll::Ready(Ok(Woken::Timer));
         }
         Poll::Pending
     })

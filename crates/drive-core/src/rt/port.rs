@@ -196,10 +196,10 @@ impl<IO: CharIo> Port<IO> {
                         error: c.error,
                     });
                 }
-                if self.time.clock() == Clock::Virtual {
-                    if let Some(at) = self.last_rx {
-                        self.anchor = Some((at, self.time.now()));
-                    }
+                if self.time.clock() == Clock::Virtual
+                    && let Some(at) = self.last_rx
+                {
+                    self.anchor = Some((at, self.time.now()));
                 }
                 Ok(true)
             }

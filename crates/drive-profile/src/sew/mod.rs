@@ -264,10 +264,10 @@ impl ParamMeta for Param {
         write_number(f, base.a)?;
         f.write_str(", B = ")?;
         write_number(f, base.b)?;
-        if let Some(d) = self.display_conversion_index {
-            if d != self.conversion_index {
-                write!(f, "; shown in {} (conversion index {d})", self.display_unit)?;
-            }
+        if let Some(d) = self.display_conversion_index
+            && d != self.conversion_index
+        {
+            write!(f, "; shown in {} (conversion index {d})", self.display_unit)?;
         }
         Ok(())
     }

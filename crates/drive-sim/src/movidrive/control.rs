@@ -74,11 +74,11 @@ impl Movidrive {
             Some(TimeoutReaction::RapidStopWarning) => Some((Command::QuickStop, ramp)),
             _ => None,
         };
-        if let Some((r, r_ramp)) = reaction {
-            if severity(r) >= severity(command) {
-                command = r;
-                ramp = r_ramp;
-            }
+        if let Some((r, r_ramp)) = reaction
+            && severity(r) >= severity(command)
+        {
+            command = r;
+            ramp = r_ramp;
         }
         (command, ramp)
     }

@@ -140,16 +140,16 @@ impl Movidrive {
             i64::from(data)
         };
         let row = sew::all_by_index(index).find(|p| p.index == index);
-        if let Some(p) = row.filter(|p| !p.ranges.is_empty()) {
-            if p.raw_range().is_some_and(|(lo, hi)| lo <= raw && raw <= hi) {
-                match p.snap(raw) {
-                    Some(snapped) => raw = snapped,
-                    // In a gap between range segments: invalid, once access is granted.
-                    None => {
-                        return Err(self
-                            .access_refusal(index)
-                            .unwrap_or(ReturnCode::INVALID_VALUE));
-                    }
+        if let Some(p) = row.filter(|p| !p.ranges.is_empty())
+            && p.raw_range().is_some_and(|(lo, hi)| lo <= raw && raw <= hi)
+        {
+            match p.snap(raw) {
+                Some(snapped) => raw = snapped,
+                // In a gap between range segments: invalid, once access is granted.
+                None => {
+                    return Err(self
+                        .access_refusal(index)
+                        .unwrap_or(ReturnCode::INVALID_VALUE));
                 }
             }
         }

@@ -99,11 +99,11 @@ impl Movidrive {
     /// Mirror actual values into the display parameters.
     pub(super) fn publish(&mut self, now: Instant) {
         let rpm = self.drive.actual_speed();
-        if let Some((t, last_rpm)) = self.last_update {
-            if now > t {
-                let secs = now.saturating_duration_since(t).as_secs_f64();
-                self.position += (rpm + last_rpm) / 2.0 / 60.0 * secs * INC_PER_REV;
-            }
+        if let Some((t, last_rpm)) = self.last_update
+            && now > t
+        {
+            let secs = now.saturating_duration_since(t).as_secs_f64();
+            self.position += (rpm + last_rpm) / 2.0 / 60.0 * secs * INC_PER_REV;
         }
         let t = self.last_update.map_or(now, |(t, _)| t.max(now));
         self.last_update = Some((t, rpm));

@@ -149,16 +149,14 @@ proptest! {
                         })
                         .collect();
                     let result = d.write(index, sub, raw, persistence, now);
-                    if let Ok(Some(max)) = d.store().max_raw(index, sub) {
-                        if raw > max {
+                    if let Ok(Some(max)) = d.store().max_raw(index, sub)
+                        && raw > max {
                             prop_assert!(result.is_err());
                         }
-                    }
-                    if let Ok(Some(min)) = d.store().min_raw(index, sub) {
-                        if raw < min {
+                    if let Ok(Some(min)) = d.store().min_raw(index, sub)
+                        && raw < min {
                             prop_assert!(result.is_err());
                         }
-                    }
                     if result.is_err() {
                         // the write itself may advance the ramp (actual speed cell), nothing else
                         for (k, old) in keys.iter().zip(&snapshot) {

@@ -514,11 +514,11 @@ impl<IO: CharIo> ParamClient for BonfiglioliClient<'_, IO> {
 
     fn follow_link_change(&mut self, target: &Target, raw: i64) -> String {
         let note = self.link_change(target, raw);
-        if target.index == param::ADDRESS {
-            if let Some(a) = u8::try_from(raw).ok().and_then(Address::new) {
-                self.address = a;
-                self.key = None;
-            }
+        if target.index == param::ADDRESS
+            && let Some(a) = u8::try_from(raw).ok().and_then(Address::new)
+        {
+            self.address = a;
+            self.key = None;
         }
         note
     }
@@ -742,13 +742,13 @@ fn write_value(param: &str, value: &str, access: Access, how: &ValueText) -> Res
     check_width_known(&t, access.width())?;
     let parsed = t.value_from_text(value, how)?;
     t.check_width(parsed.raw)?;
-    if let Some(w) = access.width() {
-        if data_of(w, parsed.raw).is_none() {
-            return Err(CliError::usage(format!(
-                "value {} does not fit 16 bits (--word: -32768…65535); nothing was sent",
-                parsed.raw
-            )));
-        }
+    if let Some(w) = access.width()
+        && data_of(w, parsed.raw).is_none()
+    {
+        return Err(CliError::usage(format!(
+            "value {} does not fit 16 bits (--word: -32768…65535); nothing was sent",
+            parsed.raw
+        )));
     }
     Ok(WriteValue {
         target: t,

@@ -547,7 +547,7 @@ fn explain_channel(m: &mut Message, bytes: &[u8], at: usize, index: u8, to_drive
     let rest = bytes.len().saturating_sub(at);
     if index == 3 {
         explain_pzd(m, bytes, at, rest / 2, to_drive);
-        if rest % 2 != 0 {
+        if !rest.is_multiple_of(2) {
             m.fail("process data of half a word".to_owned());
         }
     } else if rest >= 8 {

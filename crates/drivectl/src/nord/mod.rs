@@ -215,12 +215,11 @@ pub enum NordCommand {
 pub fn resolve(key: &str, sub: Sub, every_element: bool) -> Result<Vec<Target>> {
     let mut t = Target::resolve(Family::Nord, key, RAW_INDICES)?;
     // A PNU typed as a number (0x66) is the table's parameter too.
-    if t.param.is_none() {
-        if let Some(p) = drive_profile::family::lookup(Family::Nord, &t.index.to_string())
+    if t.param.is_none()
+        && let Some(p) = drive_profile::family::lookup(Family::Nord, &t.index.to_string())
             .filter(|p| p.bus_index() == t.index)
-        {
-            t = Target::of(p);
-        }
+    {
+        t = Target::of(p);
     }
     let Some(p) = t.param.and_then(|_| nord::by_index(t.index)) else {
         // Outside the table nothing can be checked: the IND word as the options say.

@@ -83,10 +83,10 @@ impl Fake {
                 if !p.access.is_writable() {
                     return Reply::Error(DriveError(1));
                 }
-                if let Some((lo, hi)) = p.raw_range {
-                    if i64::from(value) < lo || i64::from(value) > hi {
-                        return Reply::Error(DriveError(2));
-                    }
+                if let Some((lo, hi)) = p.raw_range
+                    && (i64::from(value) < lo || i64::from(value) > hi)
+                {
+                    return Reply::Error(DriveError(2));
                 }
                 self.values.insert(key, value);
                 Reply::Value {

@@ -67,10 +67,10 @@ impl ParamClient for FakeClient {
             return Err(ClientError::Link("no answer from drive 1".into()));
         }
         self.written.push((t.index, raw, persistence));
-        if let Some((n, stop)) = &self.interrupt_after {
-            if self.written.len() >= *n {
-                stop.set();
-            }
+        if let Some((n, stop)) = &self.interrupt_after
+            && self.written.len() >= *n
+        {
+            stop.set();
         }
         Ok(())
     }

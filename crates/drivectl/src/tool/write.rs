@@ -121,10 +121,10 @@ pub async fn write_checked<C: ParamClient>(
 /// Enter a sent write into the EEPROM-wear log of drive `drive_key` (non-volatile writes of
 /// table parameters only).
 pub fn record(drive_key: &str, req: &WriteRequest) -> Result<()> {
-    if req.persistence == Persistence::NonVolatile {
-        if let Some(param) = req.target.param {
-            wear::record(drive_key, param)?;
-        }
+    if req.persistence == Persistence::NonVolatile
+        && let Some(param) = req.target.param
+    {
+        wear::record(drive_key, param)?;
     }
     Ok(())
 }

@@ -192,14 +192,14 @@ pub(super) fn read_params(path: &Path) -> Result<Vec<Param>> {
         {
             return Err(row.err(format!("min {lo} is greater than max {hi}")));
         }
-        if let Some(d) = default {
-            if min.is_some_and(|lo| d < lo) || max.is_some_and(|hi| d > hi) {
-                return Err(row.err(format!(
-                    "default {d} is outside the range {}…{}",
-                    min.map_or("".into(), |v| v.to_string()),
-                    max.map_or("".into(), |v| v.to_string())
-                )));
-            }
+        if let Some(d) = default
+            && (min.is_some_and(|lo| d < lo) || max.is_some_and(|hi| d > hi))
+        {
+            return Err(row.err(format!(
+                "default {d} is outside the range {}…{}",
+                min.map_or("".into(), |v| v.to_string()),
+                max.map_or("".into(), |v| v.to_string())
+            )));
         }
         if ts_text == "range" {
             let needs_32 = min.is_some_and(|v| v < i64::from(i16::MIN))

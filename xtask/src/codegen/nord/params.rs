@@ -154,10 +154,10 @@ pub fn read_params(path: &Path) -> Result<Vec<ParamRow>> {
             (None, None) => None,
             _ => return Err(row.err("give both min and max, or neither")),
         };
-        if let (Some(d), Some((lo, hi))) = (default, raw_range) {
-            if !(lo..=hi).contains(&d) {
-                return Err(row.err(format!("default (raw {d}) is outside raw {lo}..{hi}")));
-            }
+        if let (Some(d), Some((lo, hi))) = (default, raw_range)
+            && !(lo..=hi).contains(&d)
+        {
+            return Err(row.err(format!("default (raw {d}) is outside raw {lo}..{hi}")));
         }
         let read_only = match row.req("access")? {
             "RO" => true,
@@ -262,10 +262,10 @@ pub fn read_param_values(path: &Path, params: &mut [ParamRow]) -> Result<()> {
         if p.values.iter().any(|x| x.0 == v) {
             return Err(row.err(format!("value {v} of P{} appears twice", p.number)));
         }
-        if let Some((lo, hi)) = p.raw_range {
-            if !(lo..=hi).contains(&v) {
-                return Err(row.err(format!("value {v} is outside the raw range {lo}..{hi}")));
-            }
+        if let Some((lo, hi)) = p.raw_range
+            && !(lo..=hi).contains(&v)
+        {
+            return Err(row.err(format!("value {v} is outside the raw range {lo}..{hi}")));
         }
         row.req("source")?;
         p.values

@@ -226,10 +226,10 @@ pub(super) fn read_params(
         if !groups.iter().any(|g| g.code == group) {
             return Err(row.err(format!("unknown group `{group}`")));
         }
-        if let Some(m) = menu.or(parent) {
-            if !group.starts_with(&format!("{:02}", m / 10)) {
-                return Err(row.err(format!("menu {m:03} does not belong to group `{group}`")));
-            }
+        if let Some(m) = menu.or(parent)
+            && !group.starts_with(&format!("{:02}", m / 10))
+        {
+            return Err(row.err(format!("menu {m:03} does not belong to group `{group}`")));
         }
         let index = row.int("index")?;
         if !(INDEX_MIN..=INDEX_MAX).contains(&index) {
@@ -243,10 +243,10 @@ pub(super) fn read_params(
             )));
         }
         let index2 = row.opt_int("index2")?;
-        if let Some(i2) = index2 {
-            if !(INDEX_MIN..=INDEX_MAX).contains(&i2) || i2 == index {
-                return Err(row.err(format!("index2 {i2} is not a second MOVILINK index")));
-            }
+        if let Some(i2) = index2
+            && (!(INDEX_MIN..=INDEX_MAX).contains(&i2) || i2 == index)
+        {
+            return Err(row.err(format!("index2 {i2} is not a second MOVILINK index")));
         }
         let size = row.int("size_index")?;
         let size_units: Vec<&Unit> = units.iter().filter(|u| u.size == size).collect();

@@ -245,10 +245,10 @@ pub(super) fn read_units(dir: &Path, conv: &Conversions) -> Result<Vec<Unit>> {
                     prev.quantity_de, u.quantity_de
                 )));
             }
-            if let Some(last) = out.last() {
-                if last.size != size {
-                    return Err(row.err(format!("rows of size index {size} must be contiguous")));
-                }
+            if let Some(last) = out.last()
+                && last.size != size
+            {
+                return Err(row.err(format!("rows of size index {size} must be contiguous")));
             }
         } else if out.last().is_some_and(|l| l.size > size) {
             return Err(row.err(format!("size index {size} out of ascending order")));
