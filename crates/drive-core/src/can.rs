@@ -60,13 +60,11 @@ impl CanFrame {
     /// A data frame with identifier `id` and the first `len` bytes of `data` (`len` above 8
     /// counts as 8; bytes beyond `len` are cleared). Infallible, for encoders that know their
     /// length.
-    pub const fn from_array(id: Id, data: [u8; 8], len: usize) -> Self {
-        let dlc = if len > 8 { 8 } else { len };
+    pub fn from_array(id: Id, data: [u8; 8], len: usize) -> Self {
+        let dlc = len.min(8);
         let mut bytes = [0u8; 8];
-        let mut i = 0;
-        while i < dlc {
-            bytes[i] = data[i];
-            i += 1;
+        for (to, from) in bytes.iter_mut().zip(data).take(dlc) {
+            *to = from;
         }
         Self {
             id,
@@ -251,7 +249,7 @@ impl Bitrate {
 
 impl fmt::Display for Bitrate {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        if self.0 % 1000 == 0 {
+        if self.0.is_multiple_of(1000) {
             write!(f, "{} kbit/s", self.0 / 1000)
         } else {
             write!(f, "{} bit/s", self.0)
@@ -409,7 +407,7 @@ mod tests {
     fn worst_case_is_never_exceeded() {
         // Exhaustive over lengths and a spread of identifiers and data patterns.
         let patterns = [0x00u8, 0xFF, 0x0F, 0xF0, 0x55, 0xAA, 0x78, 0x87];
-            for len in 0..=8usize {
+        for len in 0..=8usize {
             for id in (0u16..2048).step_by(7) {
                 for p in patterns {
                     let data = [p; 8];
