@@ -18,6 +18,8 @@ mod movilink;
 mod nord;
 mod params;
 mod ports;
+mod sbus;
+mod sew;
 
 use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 use std::process::ExitCode;
@@ -44,6 +46,9 @@ enum Command {
     Movilink(movilink::MovilinkArgs),
     /// Talk to a Bonfiglioli ACTIVE / ACTIVE Cube over Modbus RTU or ASCII.
     Bonfiglioli(bonfiglioli::BonfiglioliArgs),
+    /// Talk to a SEW MOVIDRIVE over SBus (MOVILINK over CAN): identifiers, ID plans, and (with
+    /// --iface) the drive.
+    Sbus(sbus::SbusArgs),
     /// Talk to a NORD NORDAC LINK over USS (RS-485).
     Uss(nord::uss::UssArgs),
     /// Talk to a NORD NORDAC LINK over CTT2 through an AS-i master (simulated: --sim).
@@ -157,6 +162,35 @@ enum DecodeCommand {
         #[arg(long)]
         json: bool,
     },
+    /// An SBus frame (CAN identifier and data bytes), e.g. `--id 523 31 00 20 7E 00 00 00 00`.
+    ///
+    /// Data bytes as for `decode movilink`, at most 8. The identifier names the telegram
+    /// (manual ch. 5.1: 8 × address + 3 … + 518); the sync identifier is --sync-id (P817); any
+    /// other identifier is a variable telegram (shown as two 32-bit variables in MOTOROLA and
+    /// INTEL byte order) or another protocol.
+    #[command(
+        verbatim_doc_comment,
+        after_help = "Examples:\n  drivectl decode sbus --id 523 31 00 20 7E 00 00 00 00\n  \
+                      drivectl decode sbus --id 0x10B 00 06 13 88 00 00 --json\n  \
+                      drivectl decode sbus --id 1024 55 66 77 88 11 22 33 44"
+    )]
+    Sbus {
+        /// The CAN identifier: decimal, 0x… or …h; 0–2047 (or 29 bits with --extended).
+        #[arg(long, allow_hyphen_values = true)]
+        id: String,
+        /// The identifier is an extended (29-bit) one (SBus uses none).
+        #[arg(long)]
+        extended: bool,
+        /// The data bytes (0–8).
+        #[arg(num_args = 0..)]
+        hex: Vec<String>,
+        /// The sync identifier (P817), 0–2047.
+        #[arg(long, default_value_t = 0, value_parser = clap::value_parser!(u16).range(0..=2047))]
+        sync_id: u16,
+        /// One JSON object.
+        #[arg(long)]
+        json: bool,
+    },
     /// A Bonfiglioli Modbus RTU capture: hex bytes, e.g. `01 03 21 74 00 01 CE 2C`.
     ///
     /// Bytes as for `decode movilink`. RTU has no start character: a stream is split where a
@@ -241,6 +275,7 @@ fn main() -> ExitCode {
         Command::Sim(SimCommand::Movilink(args)) => movilink::sim::run(&args),
         Command::Bonfiglioli(args) => bonfiglioli::run(&args),
         Command::Sim(SimCommand::Bonfiglioli(args)) => bonfiglioli::sim::run(&args),
+        Command::Sbus(args) => sbus::run(&args),
         Command::Uss(args) => nord::uss::run(&args),
         Command::Ctt2(args) => nord::ctt2::run(&args),
         Command::Sim(SimCommand::Uss(args)) => nord::sim::run(&args),
@@ -270,6 +305,13 @@ fn main() -> ExitCode {
             file.as_deref(),
             json,
         ),
+        Command::Decode(DecodeCommand::Sbus {
+            id,
+            extended,
+            hex,
+            sync_id,
+            json,
+        }) => sbus::decode::run_frame(&id, extended, &hex, sync_id, json),
         Command::Decode(DecodeCommand::Movilink { hex, file, json }) => {
             movilink::decode::run(&hex, file.as_deref(), json)
         }

@@ -235,7 +235,7 @@ pub fn read_capture(path: &str) -> Result<Capture> {
     parse_text(&text, &source)
 }
 
-fn hex(bytes: &[u8]) -> String {
+pub(crate) fn hex(bytes: &[u8]) -> String {
     bytes
         .iter()
         .map(|b| format!("{b:02X}"))
@@ -265,11 +265,11 @@ pub fn split(capture: &Capture) -> Vec<Item> {
         if let Some(n) = framed {
             let mut e = explain(rest.get(..n).unwrap_or(rest));
             let mut n = n;
-            if let Some(b) = next_line(p).filter(|&b| b < p + n) {
-                if e.error.is_some() {
-                    n = b - p;
-                    e = explain(rest.get(..n).unwrap_or(rest));
-                }
+            if let Some(b) = next_line(p).filter(|&b| b < p + n)
+                && e.error.is_some()
+            {
+                n = b - p;
+                e = explain(rest.get(..n).unwrap_or(rest));
             }
             e.offset = p;
             for f in &mut e.fields {
@@ -495,7 +495,7 @@ pub fn explain(bytes: &[u8]) -> Explained {
 
 /// The channel's data as the parameter's raw value: unsigned where the parameter's range
 /// starts at zero or above, else signed (as `read` reports it).
-fn raw_value(index: u16, data: u32) -> i64 {
+pub(crate) fn raw_value(index: u16, data: u32) -> i64 {
     match sew::by_index(index).map(|q| q.wire_range()) {
         Some((lo, _)) if lo >= 0 => i64::from(data),
         _ => i64::from(data as i32),
@@ -503,7 +503,7 @@ fn raw_value(index: u16, data: u32) -> i64 {
 }
 
 /// The default process-data meaning of P870–P875 (factory settings), as a hint.
-fn pd_hint(request: bool, word: usize, v: u16) -> String {
+pub(crate) fn pd_hint(request: bool, word: usize, v: u16) -> String {
     match (request, word) {
         (true, 0) => format!("control word 1 by default (P870){}", control_word_hint(v)),
         (true, 1) => format!(
@@ -533,7 +533,7 @@ fn status_word_hint(v: u16) -> String {
     if s.is_empty() { s } else { format!(": {s}") }
 }
 
-fn explain_param(
+pub(crate) fn explain_param(
     p: &ParamChannel,
     response: bool,
     at: usize,

@@ -10,18 +10,16 @@ pub mod sim;
 
 use clap::{Args, Subcommand};
 use drive_profile::sew::{self, ControlWord1, StatusWord1, index};
-use drive_profile::{Access, Family, Persistence};
+use drive_profile::{Family, Persistence};
 use movilink::driver::{CharIo, DriverConfig, DriverError, MasterDriver, Stream};
-use movilink::{Address, ParamChannel, PduType, ReturnCode, Telegram};
-use serde_json::{Map, Value, json};
+use movilink::{Address, ParamChannel, PduType, Telegram};
+use serde_json::json;
 use std::ops::RangeInclusive;
 use std::time::Duration;
 
 use crate::error::{CliError, Result};
-use crate::tool::client::{
-    ClientError, DeviceError, DeviceErrorKind, ParamClient, Target, ValueText, canonical_port,
-    parse_int,
-};
+use crate::sew::{SewClient, SewLink, data_of, device_error};
+use crate::tool::client::{ClientError, ParamClient, Target, ValueText, canonical_port, parse_int};
 use crate::tool::interrupt::Interrupt;
 use crate::tool::line::{LineArgs, MasterArgs, runtime};
 use crate::tool::output::{physical_text, print_value, trim_float};
@@ -220,27 +218,29 @@ enum MovilinkCommand {
     Restore(backup::RestoreArgs),
 }
 
-/// The MOVILINK driver as the tool layer's [`ParamClient`]: acyclic PARAM + 0PD services on
-/// one drive.
+/// The MOVILINK driver as a way to one MOVIDRIVE's parameter channel (acyclic PARAM + 0PD
+/// services); the tool layer's client is [`SewClient`] on it.
 #[derive(Debug)]
-pub struct MovilinkClient<'a, IO> {
+pub struct MovilinkLink<'a, IO> {
     driver: &'a mut MasterDriver<IO>,
     address: Address,
     port: String,
-    /// The drive's key for the EEPROM-wear log, once known.
-    key: Option<String>,
 }
 
-impl<'a, IO: CharIo> MovilinkClient<'a, IO> {
-    /// The drive at `address` behind `driver` on `port`.
-    pub fn new(driver: &'a mut MasterDriver<IO>, address: Address, port: &str) -> Self {
-        Self {
-            driver,
-            address,
-            port: port.to_owned(),
-            key: None,
-        }
-    }
+/// The tool layer's client of a MOVIDRIVE over MOVILINK.
+pub type MovilinkClient<'a, IO> = SewClient<MovilinkLink<'a, IO>>;
+
+/// The client of the drive at `address` behind `driver` on `port`.
+pub fn client<'a, IO: CharIo>(
+    driver: &'a mut MasterDriver<IO>,
+    address: Address,
+    port: &str,
+) -> MovilinkClient<'a, IO> {
+    SewClient::new(MovilinkLink {
+        driver,
+        address,
+        port: port.to_owned(),
+    })
 }
 
 /// The settings of the RS-485 link a MOVILINK master talks over: P810 address, P811 group
@@ -251,48 +251,12 @@ pub const LINK_SETTINGS: &[u16] = &[
     index::RS485_TIMEOUT,
 ];
 
-/// The 32-bit data of a raw value (it has passed the width check: signed or unsigned 32 bits).
-fn data_of(raw: i64) -> u32 {
-    raw as u32
-}
-
-/// A raw value of 32-bit data: signed where the parameter's range goes below zero, else
-/// unsigned (as the drive reads it); signed outside the table.
-pub fn raw_of(t: &Target, data: u32) -> i64 {
-    match t.param.map(|p| p.wire_range()) {
-        Some((lo, _)) if lo >= 0 => i64::from(data),
-        _ => i64::from(data as i32),
-    }
-}
+pub use crate::sew::raw_of;
 
 fn client_error(e: DriverError) -> ClientError {
     match e {
-        DriverError::Device(code) => ClientError::Device(DeviceError {
-            kind: device_error_kind(code),
-            message: e.to_string(),
-        }),
+        DriverError::Device(code) => device_error(code, e.to_string()),
         other => ClientError::Link(other.to_string()),
-    }
-}
-
-/// How often a service answered with "internal communication error" (6/2) is sent in all: the
-/// manual says to repeat it, and to power-cycle the drive when it persists.
-const SERVICE_ATTEMPTS: u32 = 3;
-
-/// What a SEW return code means for the tool layer.
-fn device_error_kind(code: ReturnCode) -> DeviceErrorKind {
-    if [
-        ReturnCode::ILLEGAL_INDEX,
-        ReturnCode::NOT_IMPLEMENTED,
-        ReturnCode::OPTION_CARD_MISSING,
-    ]
-    .contains(&code)
-    {
-        DeviceErrorKind::Absent
-    } else if (code.error_class, code.error_code) == (6, 2) {
-        DeviceErrorKind::Transient
-    } else {
-        DeviceErrorKind::Refused
     }
 }
 
@@ -309,26 +273,30 @@ pub const NOT_RESTORED: &[u16] = &[
     index::MANUAL_RESET,
 ];
 
-impl<IO: CharIo> ParamClient for MovilinkClient<'_, IO> {
-    fn family(&self) -> Family {
-        Family::Movidrive
+impl<IO: CharIo> SewLink for MovilinkLink<'_, IO> {
+    async fn service(&mut self, request: ParamChannel) -> std::result::Result<u32, ClientError> {
+        self.driver
+            .param(self.address, PduType::PARAM_0PD_ACYCLIC, request)
+            .await
+            .map(|p| p.data)
+            .map_err(client_error)
     }
 
-    async fn drive_key(&mut self) -> std::result::Result<String, ClientError> {
-        if let Some(k) = &self.key {
-            return Ok(k.clone());
-        }
+    fn bus_key(&self) -> String {
+        canonical_port(&self.port)
+    }
+
+    async fn drive_address(&mut self) -> std::result::Result<String, ClientError> {
         // Point-to-point (254) reaches whichever drive is connected: its own address (P810)
         // names it. Groups and broadcast are keyed by their address.
-        let address = if self.address.get() == 254 {
-            let a = self.read(&resolve_index(index::RS485_ADDRESS)).await?;
-            format!("{a}")
+        if self.address.get() == 254 {
+            let a = self
+                .service(ParamChannel::read(index::RS485_ADDRESS))
+                .await?;
+            Ok(format!("{a}"))
         } else {
-            self.address.get().to_string()
-        };
-        let key = format!("{} {address}", canonical_port(&self.port));
-        self.key = Some(key.clone());
-        Ok(key)
+            Ok(self.address.get().to_string())
+        }
     }
 
     fn link_settings(&self) -> &'static [u16] {
@@ -364,11 +332,11 @@ impl<IO: CharIo> ParamClient for MovilinkClient<'_, IO> {
 
     fn follow_link_change(&mut self, target: &Target, raw: i64) -> String {
         let note = self.link_change(target, raw);
-        if target.index == index::RS485_ADDRESS && self.address.get() != 254 {
-            if let Some(a) = u8::try_from(raw).ok().and_then(Address::new) {
-                self.address = a;
-                self.key = None;
-            }
+        if target.index == index::RS485_ADDRESS
+            && self.address.get() != 254
+            && let Some(a) = u8::try_from(raw).ok().and_then(Address::new)
+        {
+            self.address = a;
         }
         note
     }
@@ -377,80 +345,9 @@ impl<IO: CharIo> ParamClient for MovilinkClient<'_, IO> {
         NOT_RESTORED
     }
 
-    async fn read(&mut self, target: &Target) -> std::result::Result<i64, ClientError> {
-        let mut attempts = 0;
-        loop {
-            attempts += 1;
-            match self.driver.read(self.address, target.index).await {
-                Ok(data) => return Ok(raw_of(target, data)),
-                Err(e) => match client_error(e) {
-                    // The manual: "repeat the read or write service".
-                    ClientError::Device(d)
-                        if d.kind == DeviceErrorKind::Transient && attempts < SERVICE_ATTEMPTS => {}
-                    other => return Err(other),
-                },
-            }
-        }
+    fn address_number(&self) -> u8 {
+        self.address.get()
     }
-
-    async fn write(
-        &mut self,
-        target: &Target,
-        raw: i64,
-        persistence: Persistence,
-    ) -> std::result::Result<(), ClientError> {
-        let data = data_of(raw);
-        let mut attempts = 0;
-        loop {
-            attempts += 1;
-            let sent = match persistence {
-                Persistence::Volatile => {
-                    self.driver
-                        .write_volatile(self.address, target.index, data)
-                        .await
-                }
-                Persistence::NonVolatile => {
-                    self.driver.write(self.address, target.index, data).await
-                }
-            };
-            match sent.map_err(client_error) {
-                Err(ClientError::Device(d))
-                    if d.kind == DeviceErrorKind::Transient && attempts < SERVICE_ATTEMPTS => {}
-                done => return done,
-            }
-        }
-    }
-
-    async fn identify(&mut self) -> std::result::Result<Map<String, Value>, ClientError> {
-        let device_type = self
-            .driver
-            .read(self.address, index::UNIT_TYPE)
-            .await
-            .map_err(client_error)?;
-        let firmware = self
-            .driver
-            .read(self.address, index::FIRMWARE)
-            .await
-            .map_err(client_error)?;
-        let mut m = Map::new();
-        m.insert("address".into(), self.address.get().into());
-        m.insert("device_type".into(), device_type.into());
-        m.insert("firmware".into(), firmware.into());
-        Ok(m)
-    }
-}
-
-/// The target of a MOVIDRIVE index from the table.
-fn resolve_index(i: u16) -> Target {
-    drive_profile::family::lookup(Family::Movidrive, &i.to_string()).map_or(
-        Target {
-            family: Family::Movidrive,
-            index: i,
-            sub: 0,
-            param: None,
-        },
-        Target::of,
-    )
 }
 
 /// Resolve a MOVIDRIVE parameter: `P813`, `813`, `8600`, `0x2198`; indices outside the table
@@ -564,7 +461,7 @@ async fn execute<IO: CharIo>(m: &mut MasterDriver<IO>, args: &MovilinkArgs) -> R
                 .iter()
                 .map(|p| resolve(p))
                 .collect::<Result<Vec<_>>>()?;
-            let mut client = MovilinkClient::new(m, address(args.addr)?, &args.port);
+            let mut client = client(m, address(args.addr)?, &args.port);
             read::read_all(&mut client, &targets, json).await
         }
         MovilinkCommand::Watch {
@@ -576,7 +473,7 @@ async fn execute<IO: CharIo>(m: &mut MasterDriver<IO>, args: &MovilinkArgs) -> R
                 .map(|p| resolve(p))
                 .collect::<Result<Vec<_>>>()?;
             let options = watch_args.options(json)?;
-            let mut client = MovilinkClient::new(m, address(args.addr)?, &args.port);
+            let mut client = client(m, address(args.addr)?, &args.port);
             watch::watch(
                 &mut client,
                 &targets,
@@ -624,7 +521,7 @@ async fn execute<IO: CharIo>(m: &mut MasterDriver<IO>, args: &MovilinkArgs) -> R
             if !addr.expects_response() {
                 return write_unanswered(m, addr, &args.port, &request, *yes, json).await;
             }
-            let mut client = MovilinkClient::new(m, addr, &args.port);
+            let mut client = client(m, addr, &args.port);
             let done = write::write_checked(&mut client, &request, *yes).await?;
             if let Some(note) = &done.link_note {
                 errln!("drivectl: note: {note}");
@@ -633,7 +530,12 @@ async fn execute<IO: CharIo>(m: &mut MasterDriver<IO>, args: &MovilinkArgs) -> R
             Ok(())
         }
         MovilinkCommand::Info { param } => {
-            info(m, address(args.addr)?, resolve(param)?, json).await
+            let mut link = MovilinkLink {
+                driver: m,
+                address: address(args.addr)?,
+                port: args.port.clone(),
+            };
+            crate::sew::info(&mut link, resolve(param)?, json).await
         }
         MovilinkCommand::Scan { from, to } => scan(m, *from, *to, args.master.timeout, json).await,
         MovilinkCommand::Pd {
@@ -687,12 +589,12 @@ async fn execute<IO: CharIo>(m: &mut MasterDriver<IO>, args: &MovilinkArgs) -> R
             Ok(())
         }
         MovilinkCommand::Backup(b) => {
-            let mut client = MovilinkClient::new(m, address(args.addr)?, &args.port);
+            let mut client = client(m, address(args.addr)?, &args.port);
             let stop = Interrupt::install("the backup file was not written");
             backup::backup(&mut client, &b.out, b.overwrite, json, &stop).await
         }
         MovilinkCommand::Restore(r) => {
-            let mut client = MovilinkClient::new(m, address(args.addr)?, &args.port);
+            let mut client = client(m, address(args.addr)?, &args.port);
             let stop = Interrupt::install(
                 "the drive may be half restored; run the same restore again to finish it",
             );
@@ -713,7 +615,7 @@ async fn write_unanswered<IO: CharIo>(
     json: bool,
 ) -> Result<()> {
     // The drives of a group share the wear log entry of the group address.
-    let mut client = MovilinkClient::new(m, addr, port);
+    let mut client = client(m, addr, port);
     write::check_link_setting(&client, request, yes)?;
     let drive_key = client.drive_key().await?;
     if let Some(warning) = write::check(&mut client, request).await? {
@@ -752,71 +654,6 @@ async fn write_unanswered<IO: CharIo>(
                 "group"
             },
             addr.get()
-        )?;
-    }
-    Ok(())
-}
-
-async fn info<IO: CharIo>(
-    m: &mut MasterDriver<IO>,
-    addr: Address,
-    t: Target,
-    json: bool,
-) -> Result<()> {
-    let min = m.read_minimum(addr, t.index).await.map_err(driver_error)?;
-    let max = m.read_maximum(addr, t.index).await.map_err(driver_error)?;
-    let default = m.read_default(addr, t.index).await.map_err(driver_error)?;
-    let scale = m.read_scale(addr, t.index).await.map_err(driver_error)?;
-    let attr = m
-        .read_attribute(addr, t.index)
-        .await
-        .map_err(driver_error)?;
-    let access = Access::from_bits_truncate(attr.attributes as u8);
-    let show = |data: u32| {
-        let v = raw_of(&t, data);
-        t.param
-            .map_or_else(|| v.to_string(), |p| physical_text(p, v))
-    };
-    let size_name = sew::size_name(scale.size_index).unwrap_or("unknown quantity");
-    let physical = |raw: i64| t.param.map_or(raw as f64, |p| p.to_physical(raw));
-    if json {
-        outln!(
-            "{}",
-            json!({
-                // The keys of `params … --json` where they mean the same: raw values plain,
-                // physical ones as `*_value` in the table's unit.
-                "index": t.index,
-                "number": t.param.map(|p| p.label().to_string()),
-                "name_de": t.param.map(|p| p.name_de()),
-                "name_en": t.param.map(|p| p.name_en()),
-                "unit": t.param.map(|p| p.unit()),
-                "range": {
-                    "min": raw_of(&t, min), "max": raw_of(&t, max),
-                    "min_value": physical(raw_of(&t, min)), "max_value": physical(raw_of(&t, max)),
-                },
-                "default": raw_of(&t, default), "default_value": physical(raw_of(&t, default)),
-                "size_index": scale.size_index, "conversion_index": scale.conversion_index,
-                "quantity": size_name,
-                "next_index": attr.next_index, "attributes": attr.attributes, "access": access.to_string(),
-            })
-        )?;
-    } else {
-        let name = t
-            .param
-            .map_or_else(String::new, |p| format!("{} {} ", p.label(), p.name_en()));
-        outln!("{name}(index {})", t.index)?;
-        outln!("  minimum    {}", show(min))?;
-        outln!("  maximum    {}", show(max))?;
-        outln!("  default    {}", show(default))?;
-        outln!(
-            "  scale      size index {} ({size_name}), conversion index {}",
-            scale.size_index,
-            scale.conversion_index
-        )?;
-        outln!(
-            "  attributes 0x{:04X} ({access}), next index {}",
-            attr.attributes,
-            attr.next_index
         )?;
     }
     Ok(())
@@ -1108,9 +945,11 @@ fn print_pd(addr: Address, pdu: PduType, out: &[u16], pi: &[u16], json: bool) ->
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::sew::{SERVICE_ATTEMPTS, device_error_kind};
+    use crate::tool::client::DeviceErrorKind;
     use drive_core::rt::{Timebase, serve};
     use movilink::driver::Clock;
-    use movilink::{Backend, RequestContext, Slave, SlaveConfig};
+    use movilink::{Backend, RequestContext, ReturnCode, Slave, SlaveConfig};
 
     /// A drive whose first `failures` parameter services answer "internal communication
     /// error" (6/2), then 1234.
@@ -1158,9 +997,7 @@ mod tests {
             };
             let mut driver = MasterDriver::new(Stream(a), config);
             let target = resolve("P130").unwrap();
-            let r = MovilinkClient::new(&mut driver, drive, "test")
-                .read(&target)
-                .await;
+            let r = client(&mut driver, drive, "test").read(&target).await;
             drop(driver);
             (r, station.await.unwrap())
         })

@@ -1,0 +1,491 @@
+//! `drivectl decode sbus`: explain SBus frames field by field, one frame (`--id ID HEX…`) or a
+//! candump log (`--log FILE`).
+//!
+//! A frame on an SBus MOVILINK identifier is decoded with `sbus_can::telegram` (the parameter
+//! channel with the MOVIDRIVE table, process data with the factory meanings of P870–P875); a
+//! frame on the sync identifier (`--sync-id`, P817, 0 by default) is the SYNC; any other
+//! identifier is a variable telegram (free identifier, ch. 5.5) or another protocol, shown with
+//! its two 32-bit variables in both byte orders.
+
+use drive_core::can::{CanFrame, Frame, Id};
+use drive_profile::sew::ParamChannel;
+use sbus_can::ids::Kind;
+use sbus_can::telegram::{DecodeError, ProcessData, Telegram};
+use serde_json::{Map, Value, json};
+
+use crate::error::{CliError, Result};
+use crate::movilink::decode::{Field, explain_param, hex, pd_hint, raw_value};
+
+/// The explanation of one frame.
+#[derive(Debug, Clone)]
+pub struct Explained {
+    /// The frame.
+    pub frame: CanFrame,
+    /// What the identifier names: `parameter request`, `SYNC`, `variable telegram`, …
+    pub kind: String,
+    /// How the identifier is formed (`8 × 33 + 3 = 267`), if it is an SBus one.
+    pub formed: Option<String>,
+    /// The SBus address or group address.
+    pub address: Option<u8>,
+    /// Whether the address is a group address.
+    pub group: bool,
+    /// The parameter channel's index and service, and the raw value (not for an error answer).
+    pub index: Option<u16>,
+    /// The service's name.
+    pub service: Option<&'static str>,
+    /// The data as the parameter's raw value.
+    pub raw: Option<i64>,
+    /// A return code's text, when the status bit is set.
+    pub return_code: Option<String>,
+    /// Process data words.
+    pub words: Vec<u16>,
+    /// The fields in order.
+    pub fields: Vec<Field>,
+    /// What is wrong with the frame for SBus, if anything.
+    pub error: Option<String>,
+}
+
+fn field(fields: &mut Vec<Field>, offset: usize, bytes: &[u8], name: &str, meaning: String) {
+    fields.push(Field {
+        offset,
+        bytes: hex(bytes),
+        name: name.to_owned(),
+        meaning,
+    });
+}
+
+/// The two 32-bit variables of a variable telegram in MOTOROLA and INTEL byte order (ch. 5.5:
+/// 8 bytes `55 66 77 88 11 22 33 44` are DataLow 11223344h, DataHigh 55667788h in MOTOROLA;
+/// `44 33 22 11 88 77 66 55` the same in INTEL). Fewer than 8 bytes: the bytes are the low end
+/// of the 64-bit value DataHigh:DataLow, so up to 4 bytes are DataLow alone.
+pub fn variables(data: &[u8]) -> (u64, u64) {
+    let mut motorola = 0u64;
+    for b in data {
+        motorola = (motorola << 8) | u64::from(*b);
+    }
+    let mut intel = 0u64;
+    for b in data.iter().rev() {
+        intel = (intel << 8) | u64::from(*b);
+    }
+    (motorola, intel)
+}
+
+fn split64(v: u64) -> String {
+    format!(
+        "DataLow {:08X}h, DataHigh {:08X}h",
+        v as u32,
+        (v >> 32) as u32
+    )
+}
+
+/// Explain `frame` with `sync_id` as the synchronisation identifier (P817).
+pub fn explain(frame: &CanFrame, sync_id: u16) -> Explained {
+    let mut e = Explained {
+        frame: *frame,
+        kind: String::new(),
+        formed: None,
+        address: None,
+        group: false,
+        index: None,
+        service: None,
+        raw: None,
+        return_code: None,
+        words: Vec::new(),
+        fields: Vec::new(),
+        error: None,
+    };
+    let data = frame.data();
+    match Telegram::decode(frame, sync_id) {
+        Ok(Telegram::Sync) => {
+            e.kind = "SYNC".into();
+            e.formed = Some(format!("the sync identifier (P817 = {sync_id})"));
+            if !data.is_empty() {
+                field(
+                    &mut e.fields,
+                    0,
+                    data,
+                    "data",
+                    "not defined by the manual (drivebus sends the SYNC without data)".into(),
+                );
+            }
+        }
+        Ok(t) => explain_telegram(&mut e, &t, data),
+        Err(DecodeError::NotSbus { id }) => {
+            e.kind = "variable telegram or other protocol".into();
+            e.formed = Some(if id & 0x400 != 0 {
+                "no SBus MOVILINK identifier: bit 10 is set (reserved, 0 in SBus)".to_string()
+            } else {
+                format!(
+                    "no SBus MOVILINK identifier: function {} (bits 0–2; SBus uses 3–6)",
+                    id & 7
+                )
+            });
+            if !data.is_empty() {
+                let (m, i) = variables(data);
+                field(
+                    &mut e.fields,
+                    0,
+                    data,
+                    "variables",
+                    format!("MOTOROLA: {}; INTEL: {}", split64(m), split64(i)),
+                );
+            }
+        }
+        Err(err) => {
+            e.kind = match Kind::classify(frame.standard_id().unwrap_or(u16::MAX)) {
+                Some((k, _)) => k.name().to_owned(),
+                None => "not SBus".to_owned(),
+            };
+            if let Some((k, a)) = frame.standard_id().and_then(Kind::classify) {
+                e.formed = Some(formed(k, a.get()));
+                e.address = Some(a.get());
+                e.group = k.is_group();
+            }
+            if !data.is_empty() {
+                field(&mut e.fields, 0, data, "data", "not decoded".into());
+            }
+            e.error = Some(err.to_string());
+        }
+    }
+    e
+}
+
+fn formed(kind: Kind, address: u8) -> String {
+    let who = if kind.is_group() {
+        "group address"
+    } else {
+        "SBus address"
+    };
+    let param = if kind.is_parameter() { " + 512" } else { "" };
+    format!(
+        "8 × {who} {address}{param} + {} = {}",
+        kind.function(),
+        kind.id(sbus_can::Address::new(address).unwrap_or_default())
+    )
+}
+
+fn explain_telegram(e: &mut Explained, t: &Telegram, data: &[u8]) {
+    let Some((kind, address)) = t.kind() else {
+        return;
+    };
+    e.kind = kind.name().to_owned();
+    e.formed = Some(formed(kind, address.get()));
+    e.address = Some(address.get());
+    e.group = kind.is_group();
+    match *t {
+        Telegram::ParamRequest { channel, .. }
+        | Telegram::ParamResponse { channel, .. }
+        | Telegram::GroupParamRequest { channel, .. } => {
+            let response = matches!(t, Telegram::ParamResponse { .. });
+            explain_channel(e, &channel, response, kind);
+        }
+        Telegram::ProcessOutput {
+            data: ProcessData(w),
+            ..
+        }
+        | Telegram::ProcessInput {
+            data: ProcessData(w),
+            ..
+        }
+        | Telegram::GroupProcessOutput {
+            data: ProcessData(w),
+            ..
+        } => {
+            let request = !kind.from_drive();
+            e.words = w.to_vec();
+            let prefix = if request { "PO" } else { "PI" };
+            for (i, v) in w.iter().enumerate() {
+                let at = 2 * i;
+                field(
+                    &mut e.fields,
+                    at,
+                    data.get(at..at + 2).unwrap_or(&[]),
+                    &format!("{prefix}{}", i + 1),
+                    format!("{v} (0x{v:04X}): {}", pd_hint(request, i, *v)),
+                );
+            }
+        }
+        Telegram::Sync => {}
+    }
+}
+
+fn explain_channel(e: &mut Explained, ch: &ParamChannel, response: bool, kind: Kind) {
+    let raw: [u8; 8] = ch.to_bytes();
+    let mut fields = Vec::new();
+    explain_param(ch, response, 0, &raw, &mut |at, bytes, name, meaning| {
+        field(&mut fields, at, bytes, name, meaning);
+    });
+    // SBus's meaning of the handshake bit (ch. 5.2), instead of MOVILINK's cyclic handshake.
+    if let Some(m) = fields.first_mut() {
+        let sync = if ch.management.handshake() {
+            "handshake 1 (answer after the next SYNC)"
+        } else {
+            "handshake 0 (answer at once)"
+        };
+        m.meaning = m
+            .meaning
+            .replace("handshake 1", sync)
+            .replace("handshake 0", sync);
+    }
+    e.fields = fields;
+    e.index = Some(ch.index);
+    e.service = ch.service().map(|s| s.name());
+    match ch.result() {
+        Ok(d) => e.raw = Some(raw_value(ch.index, d)),
+        Err(rc) => {
+            e.return_code = Some(format!(
+                "error class {}, error code {}, additional code 0x{:04X}: {}",
+                rc.error_class,
+                rc.error_code,
+                rc.additional_code,
+                rc.describe()
+            ))
+        }
+    }
+    if kind == Kind::GroupParamRequest && !ch.service().is_some_and(|s| s.is_write()) {
+        e.error = Some(
+            "a group parameter request carries write services only (ch. 5.1): the drives ignore it"
+                .into(),
+        );
+    }
+    if ch.management.service().is_none() {
+        e.error = Some(format!(
+            "undefined service code {}: a drive answers class 5, code 5 (ch. 5.2)",
+            ch.management.service_code()
+        ));
+    }
+}
+
+/// The JSON object of one explained frame.
+pub fn to_json(e: &Explained, line: Option<usize>, time: Option<(u64, &str)>) -> Value {
+    let mut m = Map::new();
+    m.insert("type".into(), "frame".into());
+    if let Some(l) = line {
+        m.insert("line".into(), l.into());
+    }
+    if let Some((t_us, iface)) = time {
+        m.insert(
+            "time".into(),
+            format!("{}.{:06}", t_us / 1_000_000, t_us % 1_000_000).into(),
+        );
+        m.insert("interface".into(), iface.into());
+    }
+    m.insert("id".into(), e.frame.raw_id().into());
+    m.insert("extended".into(), e.frame.is_extended().into());
+    m.insert("remote".into(), e.frame.is_remote_frame().into());
+    m.insert("data".into(), hex(e.frame.data()).into());
+    m.insert("kind".into(), e.kind.clone().into());
+    m.insert("formed".into(), json!(e.formed));
+    if let Some(a) = e.address {
+        m.insert(if e.group { "group" } else { "address" }.into(), a.into());
+    }
+    if let Some(i) = e.index {
+        m.insert("index".into(), i.into());
+        m.insert("service".into(), json!(e.service));
+    }
+    if let Some(r) = e.raw {
+        m.insert("raw".into(), r.into());
+    }
+    if let Some(rc) = &e.return_code {
+        m.insert("return_code".into(), rc.clone().into());
+    }
+    if !e.words.is_empty() {
+        m.insert("words".into(), json!(e.words));
+    }
+    m.insert(
+        "fields".into(),
+        Value::Array(
+            e.fields
+                .iter()
+                .map(|f| {
+                    json!({"offset": f.offset, "bytes": f.bytes, "name": f.name, "meaning": f.meaning})
+                })
+                .collect(),
+        ),
+    );
+    m.insert("error".into(), json!(e.error));
+    Value::Object(m)
+}
+
+/// The text lines of one explained frame.
+pub fn to_text(e: &Explained, place: &str) -> String {
+    let mut out = format!(
+        "{place}{}  {}{}\n",
+        e.frame,
+        e.kind,
+        e.error
+            .as_deref()
+            .map_or_else(String::new, |er| format!(": INVALID ({er})"))
+    );
+    if let Some(f) = &e.formed {
+        out.push_str(&format!("  identifier {}: {f}\n", e.frame.raw_id()));
+    }
+    for f in &e.fields {
+        out.push_str(&format!(
+            "  byte {:<2} {:<24} {:<10} {}\n",
+            f.offset, f.bytes, f.name, f.meaning
+        ));
+    }
+    out
+}
+
+/// Parse an identifier: decimal, `0x…` or `…h` hexadecimal; 0–2047 (11 bits) unless
+/// `extended`, then 0–1FFFFFFFh.
+pub fn parse_id(text: &str, extended: bool) -> Result<Id> {
+    let t = text.trim();
+    let value = if let Some(h) = t.strip_prefix("0x").or_else(|| t.strip_prefix("0X")) {
+        u32::from_str_radix(h, 16)
+    } else if let Some(h) = t.strip_suffix('h').or_else(|| t.strip_suffix('H')) {
+        u32::from_str_radix(h, 16)
+    } else {
+        t.parse::<u32>()
+    };
+    let value = value.map_err(|_| {
+        CliError::usage(format!(
+            "--id {text}: not a number (decimal, 0x… or …h hexadecimal)"
+        ))
+    })?;
+    if extended {
+        drive_core::can::ExtendedId::new(value)
+            .map(Id::Extended)
+            .ok_or_else(|| {
+                CliError::usage(format!(
+                    "--id {text}: an extended identifier is 0…1FFFFFFFh (29 bits)"
+                ))
+            })
+    } else {
+        u16::try_from(value)
+            .ok()
+            .and_then(drive_core::can::StandardId::new)
+            .map(Id::Standard)
+            .ok_or_else(|| {
+                CliError::usage(format!(
+                    "--id {text}: a standard identifier is 0…2047 (11 bits; SBus uses only these); \
+                     --extended for a 29-bit one"
+                ))
+            })
+    }
+}
+
+/// Run `drivectl decode sbus --id ID HEX…`.
+pub fn run_frame(
+    id: &str,
+    extended: bool,
+    hex_args: &[String],
+    sync_id: u16,
+    json: bool,
+) -> Result<()> {
+    let id = parse_id(id, extended)?;
+    let bytes = crate::movilink::decode::parse_hex(hex_args)?;
+    let frame = CanFrame::data_frame(id, &bytes).ok_or_else(|| {
+        CliError::usage(format!(
+            "{} data bytes: a CAN frame carries 0…8",
+            bytes.len()
+        ))
+    })?;
+    let e = explain(&frame, sync_id);
+    if json {
+        outln!("{}", to_json(&e, None, None))?;
+    } else {
+        out!("{}", to_text(&e, ""))?;
+    }
+    match &e.error {
+        Some(er) => Err(CliError::failed(format!(
+            "the frame is no valid SBus telegram: {er}"
+        ))),
+        None => Ok(()),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn frame(id: u16, data: &[u8]) -> CanFrame {
+        CanFrame::standard(id, data).unwrap()
+    }
+
+    #[test]
+    fn manual_5_3_read_of_8318() {
+        let e = explain(&frame(523, &[0x31, 0, 0x20, 0x7E, 0, 0, 0, 0]), 0);
+        assert_eq!(e.kind, "parameter request");
+        assert_eq!(e.address, Some(1));
+        assert_eq!(e.index, Some(8318));
+        assert_eq!(
+            e.formed.as_deref(),
+            Some("8 × SBus address 1 + 512 + 3 = 523")
+        );
+        assert!(
+            e.fields[0].meaning.contains("answer at once"),
+            "{:?}",
+            e.fields[0]
+        );
+        let r = explain(&frame(524, &[0x71, 0, 0x20, 0x7E, 0, 0x0F, 0x42, 0x40]), 0);
+        assert_eq!(r.kind, "parameter response");
+        assert_eq!(r.raw, Some(1_000_000));
+        assert!(r.fields[0].meaning.contains("after the next SYNC"));
+        assert!(r.error.is_none());
+    }
+
+    #[test]
+    fn process_data_sync_and_errors() {
+        let e = explain(&frame(267, &[0, 6, 0x13, 0x88, 0, 0]), 0);
+        assert_eq!(e.kind, "process output data (PO)");
+        assert_eq!(e.words, [6, 5000, 0]);
+        assert!(
+            e.fields[1].meaning.contains("1000 1/min"),
+            "{:?}",
+            e.fields[1]
+        );
+        let s = explain(&frame(0, &[]), 0);
+        assert_eq!(s.kind, "SYNC");
+        let bad = explain(&frame(267, &[0, 6]), 0);
+        assert!(bad.error.as_deref().unwrap().contains("expected 6"));
+        let group_read = explain(&frame(8 * 2 + 518, &[0x31, 0, 0x20, 0x7E, 0, 0, 0, 0]), 0);
+        assert!(
+            group_read
+                .error
+                .as_deref()
+                .unwrap()
+                .contains("write services only")
+        );
+        let wrong = explain(&frame(523, &[0x3F, 0, 0x20, 0x7E, 0, 0, 0, 0]), 0);
+        assert!(wrong.error.as_deref().unwrap().contains("class 5, code 5"));
+    }
+
+    /// The manual's variable telegram (ch. 5.5) in both byte orders.
+    #[test]
+    fn variables_of_the_manual() {
+        let (m, _) = variables(&[0x55, 0x66, 0x77, 0x88, 0x11, 0x22, 0x33, 0x44]);
+        assert_eq!(split64(m), "DataLow 11223344h, DataHigh 55667788h");
+        let (_, i) = variables(&[0x44, 0x33, 0x22, 0x11, 0x88, 0x77, 0x66, 0x55]);
+        assert_eq!(split64(i), "DataLow 11223344h, DataHigh 55667788h");
+        let e = explain(
+            &frame(1024, &[0x55, 0x66, 0x77, 0x88, 0x11, 0x22, 0x33, 0x44]),
+            0,
+        );
+        assert_eq!(e.kind, "variable telegram or other protocol");
+        assert!(
+            e.fields[0]
+                .meaning
+                .starts_with("MOTOROLA: DataLow 11223344h")
+        );
+    }
+
+    #[test]
+    fn identifiers_parse_strictly() {
+        assert_eq!(
+            parse_id("0x10B", false).unwrap(),
+            Id::Standard(drive_core::can::StandardId::new(267).unwrap())
+        );
+        assert_eq!(
+            parse_id("10Bh", false).unwrap(),
+            parse_id("267", false).unwrap()
+        );
+        assert!(parse_id("2048", false).is_err());
+        assert!(parse_id("4294967296", false).is_err());
+        assert!(parse_id("-1", false).is_err());
+        assert!(parse_id("0x1FFFFFFF", true).is_ok());
+        assert!(parse_id("0x20000000", true).is_err());
+    }
+}

@@ -1,0 +1,246 @@
+//! What `drivectl movilink` and `drivectl sbus` share: a MOVIDRIVE's parameter channel is the
+//! same on RS-485 and on CAN (the same services, return codes and parameter table), so the
+//! tool layer's [`ParamClient`] for a MOVIDRIVE is written once, on [`SewLink`], and each bus
+//! gives only its way to the drive: the MOVILINK master on a serial line, the SBus master on a
+//! CAN interface.
+
+use drive_profile::sew::{self, ParamChannel, ReturnCode, index};
+use drive_profile::{Access, Family, Persistence};
+use serde_json::{Map, Value, json};
+
+use crate::error::Result;
+use crate::tool::client::{ClientError, DeviceError, DeviceErrorKind, ParamClient, Target};
+use crate::tool::output::physical_text;
+
+/// One MOVIDRIVE's parameter channel over some bus.
+pub trait SewLink {
+    /// Run `request` (a parameter service) on the drive: the answer's data, a refusal of the
+    /// drive ([`device_error`]) or a link failure.
+    async fn service(&mut self, request: ParamChannel) -> std::result::Result<u32, ClientError>;
+
+    /// The bus the drive is on, for the EEPROM-wear log: a serial port's or CAN interface's
+    /// canonical name (see `tool::client::canonical_port`).
+    fn bus_key(&self) -> String;
+
+    /// The drive's own address for the EEPROM-wear log (a point-to-point address is resolved
+    /// by asking the drive).
+    async fn drive_address(&mut self) -> std::result::Result<String, ClientError>;
+
+    /// Indices of the drive's settings for this bus (address, timeouts): writing one needs
+    /// confirmation.
+    fn link_settings(&self) -> &'static [u16];
+
+    /// Indices a restore over this bus never writes.
+    fn not_restored(&self) -> &'static [u16];
+
+    /// What writing `raw` to the link setting `target` does, for a person.
+    fn link_change(&self, target: &Target, raw: i64) -> String;
+
+    /// The link setting `target` was written with `raw`: follow it where possible.
+    fn follow_link_change(&mut self, target: &Target, raw: i64) -> String {
+        self.link_change(target, raw)
+    }
+
+    /// The drive's address as a number, for `identify`.
+    fn address_number(&self) -> u8;
+}
+
+/// The tool layer's client for a MOVIDRIVE on any [`SewLink`].
+#[derive(Debug)]
+pub struct SewClient<L> {
+    /// The way to the drive.
+    pub link: L,
+    /// The drive's key for the EEPROM-wear log, once known.
+    key: Option<String>,
+}
+
+impl<L> SewClient<L> {
+    /// The client of the drive behind `link`.
+    pub fn new(link: L) -> Self {
+        Self { link, key: None }
+    }
+}
+
+/// How often a service answered with "internal communication error" (6/2) is sent in all: the
+/// manual says to repeat it, and to power-cycle the drive when it persists.
+pub const SERVICE_ATTEMPTS: u32 = 3;
+
+/// What a SEW return code means for the tool layer.
+pub fn device_error_kind(code: ReturnCode) -> DeviceErrorKind {
+    if [
+        ReturnCode::ILLEGAL_INDEX,
+        ReturnCode::NOT_IMPLEMENTED,
+        ReturnCode::OPTION_CARD_MISSING,
+    ]
+    .contains(&code)
+    {
+        DeviceErrorKind::Absent
+    } else if (code.error_class, code.error_code) == (6, 2) {
+        DeviceErrorKind::Transient
+    } else {
+        DeviceErrorKind::Refused
+    }
+}
+
+/// The tool layer's error of a drive's refusal `code`, with `message` for a person.
+pub fn device_error(code: ReturnCode, message: String) -> ClientError {
+    ClientError::Device(DeviceError {
+        kind: device_error_kind(code),
+        message,
+    })
+}
+
+/// The 32-bit data of a raw value (it has passed the width check: signed or unsigned 32 bits).
+pub fn data_of(raw: i64) -> u32 {
+    raw as u32
+}
+
+/// A raw value of 32-bit data: signed where the parameter's range goes below zero, else
+/// unsigned (as the drive reads it); signed outside the table.
+pub fn raw_of(t: &Target, data: u32) -> i64 {
+    match t.param.map(|p| p.wire_range()) {
+        Some((lo, _)) if lo >= 0 => i64::from(data),
+        _ => i64::from(data as i32),
+    }
+}
+
+impl<L: SewLink> SewClient<L> {
+    /// `request`, repeated while the drive answers "internal communication error".
+    async fn service(&mut self, request: ParamChannel) -> std::result::Result<u32, ClientError> {
+        let mut attempts = 0;
+        loop {
+            attempts += 1;
+            match self.link.service(request).await {
+                // The manual: "repeat the read or write service".
+                Err(ClientError::Device(d))
+                    if d.kind == DeviceErrorKind::Transient && attempts < SERVICE_ATTEMPTS => {}
+                done => return done,
+            }
+        }
+    }
+}
+
+impl<L: SewLink> ParamClient for SewClient<L> {
+    fn family(&self) -> Family {
+        Family::Movidrive
+    }
+
+    async fn drive_key(&mut self) -> std::result::Result<String, ClientError> {
+        if let Some(k) = &self.key {
+            return Ok(k.clone());
+        }
+        let address = self.link.drive_address().await?;
+        let key = format!("{} {address}", self.link.bus_key());
+        self.key = Some(key.clone());
+        Ok(key)
+    }
+
+    fn link_settings(&self) -> &'static [u16] {
+        self.link.link_settings()
+    }
+
+    fn link_change(&self, target: &Target, raw: i64) -> String {
+        self.link.link_change(target, raw)
+    }
+
+    fn follow_link_change(&mut self, target: &Target, raw: i64) -> String {
+        let before = self.link.address_number();
+        let note = self.link.follow_link_change(target, raw);
+        if self.link.address_number() != before {
+            self.key = None;
+        }
+        note
+    }
+
+    fn not_restored(&self) -> &'static [u16] {
+        self.link.not_restored()
+    }
+
+    async fn read(&mut self, target: &Target) -> std::result::Result<i64, ClientError> {
+        let data = self.service(ParamChannel::read(target.index)).await?;
+        Ok(raw_of(target, data))
+    }
+
+    async fn write(
+        &mut self,
+        target: &Target,
+        raw: i64,
+        persistence: Persistence,
+    ) -> std::result::Result<(), ClientError> {
+        let data = data_of(raw);
+        let request = match persistence {
+            Persistence::Volatile => ParamChannel::write_volatile(target.index, data),
+            Persistence::NonVolatile => ParamChannel::write(target.index, data),
+        };
+        self.service(request).await.map(drop)
+    }
+
+    async fn identify(&mut self) -> std::result::Result<Map<String, Value>, ClientError> {
+        let device_type = self.service(ParamChannel::read(index::UNIT_TYPE)).await?;
+        let firmware = self.service(ParamChannel::read(index::FIRMWARE)).await?;
+        let mut m = Map::new();
+        m.insert("address".into(), self.link.address_number().into());
+        m.insert("device_type".into(), device_type.into());
+        m.insert("firmware".into(), firmware.into());
+        Ok(m)
+    }
+}
+
+/// `info`: minimum, maximum, default, scale and attributes of `t`.
+pub async fn info<L: SewLink>(link: &mut L, t: Target, json: bool) -> Result<()> {
+    let min = link.service(ParamChannel::read_minimum(t.index)).await?;
+    let max = link.service(ParamChannel::read_maximum(t.index)).await?;
+    let default = link.service(ParamChannel::read_default(t.index)).await?;
+    let scale = sew::ScaleInfo::from_data(link.service(ParamChannel::read_scale(t.index)).await?);
+    let attr =
+        sew::AttributeInfo::from_data(link.service(ParamChannel::read_attribute(t.index)).await?);
+    let access = Access::from_bits_truncate(attr.attributes as u8);
+    let show = |data: u32| {
+        let v = raw_of(&t, data);
+        t.param
+            .map_or_else(|| v.to_string(), |p| physical_text(p, v))
+    };
+    let size_name = sew::size_name(scale.size_index).unwrap_or("unknown quantity");
+    let physical = |raw: i64| t.param.map_or(raw as f64, |p| p.to_physical(raw));
+    if json {
+        outln!(
+            "{}",
+            json!({
+                // The keys of `params … --json` where they mean the same: raw values plain,
+                // physical ones as `*_value` in the table's unit.
+                "index": t.index,
+                "number": t.param.map(|p| p.label().to_string()),
+                "name_de": t.param.map(|p| p.name_de()),
+                "name_en": t.param.map(|p| p.name_en()),
+                "unit": t.param.map(|p| p.unit()),
+                "range": {
+                    "min": raw_of(&t, min), "max": raw_of(&t, max),
+                    "min_value": physical(raw_of(&t, min)), "max_value": physical(raw_of(&t, max)),
+                },
+                "default": raw_of(&t, default), "default_value": physical(raw_of(&t, default)),
+                "size_index": scale.size_index, "conversion_index": scale.conversion_index,
+                "quantity": size_name,
+                "next_index": attr.next_index, "attributes": attr.attributes, "access": access.to_string(),
+            })
+        )?;
+    } else {
+        let name = t
+            .param
+            .map_or_else(String::new, |p| format!("{} {} ", p.label(), p.name_en()));
+        outln!("{name}(index {})", t.index)?;
+        outln!("  minimum    {}", show(min))?;
+        outln!("  maximum    {}", show(max))?;
+        outln!("  default    {}", show(default))?;
+        outln!(
+            "  scale      size index {} ({size_name}), conversion index {}",
+            scale.size_index,
+            scale.conversion_index
+        )?;
+        outln!(
+            "  attributes 0x{:04X} ({access}), next index {}",
+            attr.attributes,
+            attr.next_index
+        )?;
+    }
+    Ok(())
+}
