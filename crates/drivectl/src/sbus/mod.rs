@@ -5,6 +5,7 @@
 //! drives).
 
 pub mod decode;
+pub mod iface;
 
 use clap::{Args, Subcommand};
 use sbus_can::ids::{Address, Direction, SlaveIds};
