@@ -4,7 +4,12 @@
 //! * [`ids`]: the identifiers of every telegram from the SBus address (P813), group address
 //!   (P814) and synchronisation identifier (P817);
 //! * [`telegram`]: the telegrams on CAN frames: SYNC, process data (three words) and the 8-byte
-//!   parameter channel shared with MOVILINK ([`drive_profile::sew::ParamChannel`]).
+//!   parameter channel shared with MOVILINK ([`drive_profile::sew::ParamChannel`]);
+//! * [`slave`]: the drive's side, a sans-IO [`Slave`](slave::Slave) on a [`Backend`](slave::Backend)
+//!   (the drive), with the timing of ch. 5.1/5.2 (answers at once or after the SYNC, the PO
+//!   sync window, group telegrams never answered);
+//! * `sim` (feature `sim`): the simulated MOVIDRIVE on SBus, one drive or several behind one
+//!   CAN interface, on `drive-sim`'s drive model.
 //!
 //! Frames are [`drive_core::can::CanFrame`], an [`embedded_can::Frame`](drive_core::can::Frame),
 //! so any `embedded-can` driver can carry them. Like every protocol crate of drivebus this one
@@ -14,6 +19,9 @@
 #![warn(missing_docs)]
 
 pub mod ids;
+#[cfg(feature = "sim")]
+pub mod sim;
+pub mod slave;
 pub mod telegram;
 
 pub use ids::{Address, Kind};

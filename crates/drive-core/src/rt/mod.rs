@@ -18,6 +18,7 @@
 
 mod bus;
 mod can;
+pub mod can_serve;
 mod clock;
 mod io;
 mod port;

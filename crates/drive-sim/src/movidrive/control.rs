@@ -1,5 +1,5 @@
-//! The control word's commands, the ramps, the RS-485 timeout monitor (P812, reaction P833) and
-//! the fault memory.
+//! The control word's commands, the ramps, the RS-485 timeout monitor (P812, reaction P833), the
+//! reactions every link monitor shares (RS-485 and SBus) and the fault memory.
 
 use std::time::Duration;
 
@@ -19,7 +19,10 @@ impl Movidrive {
         self.update(now);
         self.last_cyclic = Some(now);
         self.held = false;
-        if self.warning.is_some() {
+        if self
+            .warning
+            .is_some_and(|(_, fault)| fault == FAULT_RS485_TIMEOUT)
+        {
             self.warning = None;
         }
         self.update(now);
@@ -45,7 +48,7 @@ impl Movidrive {
 
     /// The active timeout warning, if any (warning reactions and "display fault").
     pub fn timeout_warning(&self) -> Option<TimeoutReaction> {
-        self.warning
+        self.warning.map(|(reaction, _)| reaction)
     }
 
     /// What the control word, the safe state and a timeout warning ask for.
@@ -62,11 +65,11 @@ impl Movidrive {
             BasicCommand::Stop => Command::Stop,
             BasicCommand::Enable => Command::Enable,
         };
-        if self.held && command == Command::Enable {
+        if (self.held || self.sbus_held()) && command == Command::Enable {
             command = Command::Stop;
         }
         let mut ramp = QuickRamp::Rapid;
-        let reaction = match self.warning {
+        let reaction = match self.timeout_warning() {
             Some(TimeoutReaction::ImmediateStopWarning) => Some((Command::Inhibit, ramp)),
             Some(TimeoutReaction::EmergencyStopWarning) => {
                 Some((Command::QuickStop, QuickRamp::Emergency))
@@ -132,6 +135,7 @@ impl Movidrive {
     /// Bring everything up to `now`.
     pub(super) fn update(&mut self, now: Instant) {
         self.check_timeout(now);
+        self.check_sbus_timeout(now);
         self.apply_control(now);
         self.drive.tick(now);
         self.publish(now);
@@ -150,12 +154,22 @@ impl Movidrive {
             return;
         }
         let deadline = last + timeout;
-        // Motion up to the deadline under the old control.
+        self.last_cyclic = None;
+        let reaction = self.rs485_timeout_reaction();
+        self.link_timeout(reaction, FAULT_RS485_TIMEOUT, deadline);
+    }
+
+    /// A link monitor (RS-485 P812, SBus P815) fired at `deadline`: motion up to the deadline
+    /// under the old control, then `reaction` with fault number `fault`. Shared by both links.
+    pub(super) fn link_timeout(
+        &mut self,
+        reaction: TimeoutReaction,
+        fault: u16,
+        deadline: Instant,
+    ) {
         self.apply_control(deadline);
         self.drive.tick(deadline);
         self.publish(deadline);
-        self.last_cyclic = None;
-        let reaction = self.rs485_timeout_reaction();
         match reaction {
             TimeoutReaction::NoResponse => {}
             TimeoutReaction::ImmediateStopFault
@@ -173,15 +187,15 @@ impl Movidrive {
                     self.drive.set_fault_reaction(fr);
                     let cfg = self.ramp_config(ramp, self.setpoint_rpm());
                     self.drive.set_ramp_config(cfg, deadline);
-                    self.drive.raise_fault(FAULT_RS485_TIMEOUT, deadline);
-                    self.record_fault(FAULT_RS485_TIMEOUT);
+                    self.drive.raise_fault(fault, deadline);
+                    self.record_fault(fault);
                 }
             }
             TimeoutReaction::DisplayFault
             | TimeoutReaction::ImmediateStopWarning
             | TimeoutReaction::EmergencyStopWarning
             | TimeoutReaction::RapidStopWarning => {
-                self.warning = Some(reaction);
+                self.warning = Some((reaction, fault));
             }
         }
         self.apply_control(deadline);
@@ -228,6 +242,8 @@ impl Movidrive {
                 self.held = true;
                 self.last_cyclic = None;
             }
+            self.sbus_awaiting = true;
+            self.sbus_last = None;
         }
     }
 

@@ -22,6 +22,9 @@
 //!   integrator switchover, bit 5 parameter set switchover, bit 6 fault reset (rising edge).
 //! * **Ramps** per P130–P137 (parameter set 1) and P140–P147 (set 2), reference 3000 1/min.
 //! * **RS-485 timeout** per P812 (ms, 0 = off) with the P833 reaction; fault number 43.
+//! * **SBus** (`sbus.rs`): P813–P817 live, the SBus timeout P815 with the P836 reaction
+//!   (fault 47, the same reaction machinery as RS-485), master-slave operation (P750/P751,
+//!   P100 = MASTER-SBus).
 //!
 //! Time is always an argument ([`Instant`]); nothing reads a clock. The model lives in
 //! `mod.rs` (the device, identity, power), `services.rs` (parameter services), `process.rs`
@@ -60,10 +63,12 @@ use drive_core::Instant;
 mod control;
 mod process;
 mod profile;
+mod sbus;
 mod services;
 mod status;
 
 pub use profile::{BusSource, PiFunction, PoFunction, TimeoutReaction};
+pub use sbus::{FAULT_SBUS_TIMEOUT, MasterSlave, MasterSlaveError};
 pub use services::{attribute_byte, return_code};
 
 use profile::{PO_WORDS, QuickRamp};
@@ -99,8 +104,14 @@ pub struct Movidrive {
     /// After power-on / fault reset with the monitor on: enable is held off until the first
     /// cyclic request telegram.
     held: bool,
-    /// Active timeout warning (warning reactions and "display fault").
-    warning: Option<TimeoutReaction>,
+    /// Active timeout warning (warning reactions and "display fault") and its fault number
+    /// (43 RS-485, 47 SBus).
+    warning: Option<(TimeoutReaction, u16)>,
+    /// Time of the last SBus process data since the SBus monitor (P815) was (re-)armed.
+    sbus_last: Option<Instant>,
+    /// After power-on / fault reset: with the SBus monitor on, enable is held off until the
+    /// first SBus process data (display "t", ch. 6.1).
+    sbus_awaiting: bool,
     /// The ramp of a running fault reaction with quick stop.
     fault_ramp: QuickRamp,
     /// Actual position in increments (integrated from the speed).
@@ -116,6 +127,7 @@ impl fmt::Debug for Movidrive {
             .field("po", &self.po)
             .field("held", &self.held)
             .field("warning", &self.warning)
+            .field("sbus_last", &self.sbus_last)
             .field("last_cyclic", &self.last_cyclic)
             .field("drive", &self.drive)
             .finish_non_exhaustive()
@@ -162,6 +174,8 @@ impl Movidrive {
             last_cyclic: None,
             held: false,
             warning: None,
+            sbus_last: None,
+            sbus_awaiting: true,
             fault_ramp: QuickRamp::Rapid,
             position: 0.0,
             last_update: None,
@@ -222,7 +236,7 @@ impl Movidrive {
     }
 
     /// Power cycle at `now`: RAM ← EEPROM, controller inhibit, standstill, PO buffer cleared;
-    /// held in the safe state if the RS-485 timeout monitor is on.
+    /// held in the safe state if the RS-485 or SBus timeout monitor is on.
     pub fn restart(&mut self, now: Instant) {
         self.drive.restart(now);
         let store = self.drive.store_mut();
@@ -234,6 +248,8 @@ impl Movidrive {
         self.last_cyclic = None;
         self.warning = None;
         self.held = self.rs485_timeout().is_some();
+        self.sbus_last = None;
+        self.sbus_awaiting = true;
         self.last_update = None;
         self.update(now);
     }

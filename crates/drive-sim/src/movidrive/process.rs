@@ -91,14 +91,27 @@ impl Movidrive {
     }
 
     pub(super) fn setpoint_from_bus(&self) -> bool {
-        matches!(self.value(index::SETPOINT_SOURCE), 2 | 3 | 10)
+        matches!(self.value(index::SETPOINT_SOURCE), 2 | 3 | 10) || self.master_slave_slave()
     }
 
+    /// P101 = RS485, fieldbus or SBus; or a master-slave slave (P100 = MASTER-SBus), which
+    /// takes the master's control word.
     pub(super) fn control_from_bus(&self) -> bool {
-        matches!(self.value(index::CONTROL_SOURCE), 1..=3)
+        matches!(self.value(index::CONTROL_SOURCE), 1..=3) || self.master_slave_slave()
     }
 
+    /// What PO word `slot` carries: P870–P872, or for a master-slave slave the assignment the
+    /// firmware makes (PO1 control word 1, PO2 speed, PO3 IPOS PO data).
     pub(super) fn po_function(&self, slot: u16) -> Option<PoFunction> {
+        if self.master_slave_slave() {
+            return [
+                PoFunction::ControlWord1,
+                PoFunction::Speed,
+                PoFunction::IposData,
+            ]
+            .get(usize::from(slot))
+            .copied();
+        }
         PoFunction::from_raw(self.value(index::PO1_DESCRIPTION + slot))
     }
 

@@ -4,7 +4,7 @@
 use drive_profile::sew::{StatusWord1, UnitStatus, index};
 
 use super::profile::{INC_PER_REV, LOAD_PERCENT, MAGNETISING_PERCENT};
-use super::{DC_LINK_VOLTAGE_MV, FAULT_RS485_TIMEOUT, Movidrive, RATED_CURRENT_MA};
+use super::{DC_LINK_VOLTAGE_MV, Movidrive, RATED_CURRENT_MA};
 use crate::drive::SimDrive;
 use crate::state::{DriveState, FaultReaction};
 use drive_core::Instant;
@@ -30,12 +30,12 @@ impl Movidrive {
         brake_released | do01 | do02 | self.basic_status_block().bits()
     }
 
-    /// The fault number shown (drive fault, or a timeout warning's 43).
+    /// The fault number shown (drive fault, or a timeout warning's 43 or 47).
     pub fn fault_number(&self) -> Option<u16> {
         self.drive
             .state()
             .fault_code()
-            .or(self.warning.map(|_| FAULT_RS485_TIMEOUT))
+            .or(self.warning.map(|(_, fault)| fault))
     }
 
     /// Whether the output stage is enabled (status word 1 bit 0): enabled, or still

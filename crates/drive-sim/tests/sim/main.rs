@@ -12,6 +12,7 @@ mod bonfiglioli;
 mod drive;
 mod inject;
 mod movidrive;
+mod movidrive_sbus;
 mod props;
 mod ramp;
 mod sew;

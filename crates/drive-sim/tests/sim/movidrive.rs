@@ -628,9 +628,11 @@ fn terminal_control_keeps_the_drive_inhibited() {
     d.tick(ms(2000));
     assert_eq!(d.status_word_1(), 0x0407);
     assert_rpm(&d, 0.0);
-    // SBus as source works the same
+    // SBus as source works the same, with the SBus monitor off (P815 = 0; its factory
+    // setting, 100 ms, would hold the drive until SBus process data and then fault it, F47)
     let mut d = Movidrive::new(1);
     d.set_bus_control(BusSource::SBus, ms(0));
+    write(&mut d, index::SBUS_TIMEOUT, 0, ms(0)).unwrap();
     d.process_output(&[ControlWord1::ENABLE.bits(), 5000], ms(0));
     d.tick(ms(1000));
     assert_rpm(&d, 1000.0);

@@ -1,0 +1,101 @@
+//! The serve loop of sans-IO CAN participants ([`CanEndpoint`]s: simulated drives) on one
+//! [`CanIo`]: frames in, frames out, deadlines from [`CanEndpoint::poll_timeout`], on tokio's
+//! clock (paused in tests).
+
+use core::future::Future;
+use core::pin::Pin;
+use core::task::Poll;
+use std::future::poll_fn;
+use std::io;
+use std::vec::Vec;
+
+use tokio::time::{Instant as TokioInstant, Sleep};
+
+use super::can::{CanIo, ReceivedFrame, send_frame};
+use crate::can::{CanEndpoint, CanFrame};
+use crate::time::Instant;
+
+/// Serve `endpoints` (several simulated nodes behind one CAN interface) on `io` until it
+/// closes (`Ok`) or fails. Endpoint time is tokio's time since `epoch`.
+///
+/// * Every received frame goes to every endpoint with its arrival time.
+/// * Whatever an endpoint has due is sent at once, in endpoint order, and handed to the
+///   **other** endpoints with the time it was taken by the interface: nodes behind one
+///   interface hear each other as on a bus (a master-slave master's group telegram reaches
+///   the slaves served beside it). The interface must not echo a node's own frames back (a
+///   SocketCAN socket does not by default; an slcan adapter does not).
+/// * Deadlines: the loop sleeps until the earliest [`CanEndpoint::poll_timeout`] and then
+///   tells every endpoint the time it woke (tokio's timers tick in 1 ms steps, so a deadline
+///   is met on the first tick at or after it, never before).
+pub async fn serve_can<E: CanEndpoint, IO: CanIo>(
+    endpoints: &mut [E],
+    epoch: TokioInstant,
+    mut io: IO,
+) -> io::Result<()> {
+    let at = |t: TokioInstant| Instant::from_duration(t.saturating_duration_since(epoch));
+    let mut sleep: Pin<Box<Sleep>> = Box::pin(tokio::time::sleep_until(epoch));
+    let mut armed_at = epoch;
+    let mut outgoing: Vec<CanFrame> = Vec::new();
+    loop {
+        // Send what is due; what one endpoint sends, the others hear, and may answer.
+        loop {
+            let now = at(TokioInstant::now());
+            let mut sent = false;
+            for i in 0..endpoints.len() {
+                outgoing.clear();
+                if let Some(e) = endpoints.get_mut(i) {
+                    while let Some(f) = e.poll_transmit(now) {
+                        outgoing.push(f);
+                    }
+                }
+                for f in &outgoing {
+                    send_frame(&mut io, f).await?;
+                    let t = at(TokioInstant::now());
+                    for (j, other) in endpoints.iter_mut().enumerate() {
+                        if j != i {
+                            other.handle_frame(f, t);
+                        }
+                    }
+                    sent = true;
+                }
+            }
+            if !sent {
+                break;
+            }
+        }
+        let deadline = endpoints.iter().filter_map(|e| e.poll_timeout()).min();
+        if let Some(d) = deadline {
+            let when = epoch + d.as_duration();
+            if when != armed_at {
+                sleep.as_mut().reset(when);
+                armed_at = when;
+            }
+        }
+        let event = poll_fn(|cx| {
+            if let Poll::Ready(r) = io.poll_recv(cx) {
+                return Poll::Ready(Some(r));
+            }
+            if deadline.is_some() && sleep.as_mut().poll(cx).is_ready() {
+                return Poll::Ready(None);
+            }
+            Poll::Pending
+        })
+        .await;
+        match event {
+            Some(Ok(ReceivedFrame { frame, at: t })) => {
+                let t = at(t);
+                for e in endpoints.iter_mut() {
+                    e.handle_frame(&frame, t);
+                }
+            }
+            Some(Err(e)) if e.kind() == io::ErrorKind::UnexpectedEof => return Ok(()),
+            Some(Err(e)) => return Err(e),
+            None => {
+                let now = at(TokioInstant::now());
+                for e in endpoints.iter_mut() {
+                    e.handle_timeout(now);
+                }
+            }
+        }
+    }
+}
