@@ -4,7 +4,12 @@
 //! * [`ids`]: the identifiers of every telegram from the SBus address (P813), group address
 //!   (P814) and synchronisation identifier (P817);
 //! * [`telegram`]: the telegrams on CAN frames: SYNC, process data (three words) and the 8-byte
-//!   parameter channel shared with MOVILINK ([`drive_profile::sew::ParamChannel`]).
+//!   parameter channel shared with MOVILINK ([`drive_profile::sew::ParamChannel`]);
+//! * [`master`]: the sans-IO SBus master (parameter services in both handshake modes, group
+//!   writes, process data, the SYNC producer, scan), a [`CanEndpoint`](drive_core::can::CanEndpoint);
+//! * [`movlnk`]: the IPOSplus MOVLNK command (ch. 5.3) as typed data, and [`movlnk::MovlnkMaster`],
+//!   the drive as SBus master;
+//! * `driver` (feature `tokio`): `SbusMaster`, the async master over any `drive_core::rt::CanIo`.
 //!
 //! Frames are [`drive_core::can::CanFrame`], an [`embedded_can::Frame`](drive_core::can::Frame),
 //! so any `embedded-can` driver can carry them. Like every protocol crate of drivebus this one
@@ -13,7 +18,11 @@
 #![cfg_attr(not(feature = "std"), no_std)]
 #![warn(missing_docs)]
 
+#[cfg(feature = "tokio")]
+pub mod driver;
 pub mod ids;
+pub mod master;
+pub mod movlnk;
 pub mod telegram;
 
 pub use ids::{Address, Kind};
