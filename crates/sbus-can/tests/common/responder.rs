@@ -24,6 +24,8 @@ pub struct Responder {
     pub status: u16,
     /// Last PO received.
     pub po: ProcessData,
+    /// PI reported instead of (status, PO2 echoed, 0).
+    pub pi: Option<ProcessData>,
     /// Answers held for the next SYNC.
     pub held: Queue<CanFrame, 4>,
     pub out: Queue<CanFrame, 8>,
@@ -46,6 +48,7 @@ impl Responder {
             ],
             status: 0x0407,
             po: ProcessData::default(),
+            pi: None,
             held: Queue::new(),
             out: Queue::new(),
             requests: 0,
@@ -83,7 +86,8 @@ impl Responder {
     }
 
     fn pi(&self) -> ProcessData {
-        ProcessData([self.status, self.po.0[1], 0])
+        self.pi
+            .unwrap_or(ProcessData([self.status, self.po.0[1], 0]))
     }
 }
 
