@@ -356,6 +356,9 @@ struct Job {
     /// A PO-sync telegram: sent in the cycle's window.
     po_window: bool,
     attempts: u16,
+    /// When the first attempt was handed out: a frame received before it answers an earlier
+    /// request, whenever it is processed.
+    first_sent: Instant,
     phase: Phase,
 }
 
@@ -384,6 +387,8 @@ pub struct Master {
     next_sync: Option<Instant>,
     /// The last SYNC sent or seen.
     last_sync: Option<Instant>,
+    /// The receive time of the frame being handled.
+    rx_at: Instant,
 }
 
 impl Master {
@@ -400,6 +405,7 @@ impl Master {
             now: Instant::ZERO,
             hold_until: Instant::ZERO,
             last_sync: None,
+            rx_at: Instant::ZERO,
         }
     }
 
@@ -627,14 +633,18 @@ impl Master {
             sync_mode,
             po_window,
             attempts: 0,
+            first_sent: Instant::MAX,
             phase: Phase::Queued,
         });
         Ok(())
     }
 
-    /// Feed one frame received at `now`.
+    /// Feed one frame received at `now` (the end of its last bit). A response received before
+    /// the request in flight was first handed out is never its answer, even if it is fed
+    /// later (an interface's queue read after the request was sent).
     pub fn handle_frame(&mut self, frame: &CanFrame, now: Instant) {
         self.advance(now);
+        self.rx_at = now;
         let telegram = match Telegram::decode(frame, self.config.sync_id) {
             Ok(t) => t,
             Err(DecodeError::NotSbus { .. }) => {
@@ -680,7 +690,8 @@ impl Master {
             }
             return;
         }
-        let Some(job) = self.job.filter(|j| j.attempts > 0) else {
+        let rx_at = self.rx_at;
+        let Some(job) = self.job.filter(|j| j.attempts > 0 && rx_at >= j.first_sent) else {
             self.stats.rejected.unsolicited += 1;
             return;
         };
@@ -709,8 +720,11 @@ impl Master {
             Some(Job {
                 expect: Expect::ProcessInput { address: a },
                 attempts,
+                first_sent,
                 ..
-            }) if a == address && attempts > 0 => self.finish(Ok(Answer::ProcessInput(data))),
+            }) if a == address && attempts > 0 && self.rx_at >= first_sent => {
+                self.finish(Ok(Answer::ProcessInput(data)));
+            }
             _ => self.stats.rejected.unsolicited += 1,
         }
     }
@@ -823,6 +837,7 @@ impl Master {
     fn transmit(&mut self, mut job: Job) -> CanFrame {
         if job.attempts == 0 {
             self.stats.transactions += 1;
+            job.first_sent = self.now;
         }
         job.attempts = job.attempts.saturating_add(1);
         let frame = job.frame;

@@ -262,10 +262,10 @@ fn mismatching_response_is_rejected_not_taken() {
     assert_eq!((s.rejected.mismatch, s.retries, s.timeouts), (3, 2, 1));
 }
 
-/// SB-E45 (the late-answer rule): a late answer to an abandoned request is not taken as the
+/// A late answer to an abandoned request is not taken as the
 /// answer to the next, different request, nor to the same one asked again.
 #[test]
-fn late_answer_to_earlier_request_is_not_taken_sb_e45() {
+fn late_answer_to_earlier_request_is_not_taken() {
     let config = MasterConfig {
         retries: 0,
         timeout: Duration::from_millis(10),
