@@ -8,7 +8,7 @@
 //! What it does:
 //!
 //! * **parameter services** to one drive ([`Master::param`]): every
-//!   [`Service`](drive_profile::sew::Service), in both handshake modes ([`Handshake`]). The
+//!   [`Service`], in both handshake modes ([`Handshake`]). The
 //!   answer is the parameter response (8a + 516) of that address with the same service code,
 //!   subindex and index ([`ParamChannel::is_answered_by`]); any other response is a counted
 //!   rejection ([`Rejections::mismatch`]), never the answer. The status bit makes the answer a
