@@ -10,6 +10,11 @@
 //!   sync window, group telegrams never answered);
 //! * `sim` (feature `sim`): the simulated MOVIDRIVE on SBus, one drive or several behind one
 //!   CAN interface, on `drive-sim`'s drive model.
+//! * [`master`]: the sans-IO SBus master (parameter services in both handshake modes, group
+//!   writes, process data, the SYNC producer, scan), a [`CanEndpoint`](drive_core::can::CanEndpoint);
+//! * [`movlnk`]: the IPOSplus MOVLNK command (ch. 5.3) as typed data, and [`movlnk::MovlnkMaster`],
+//!   the drive as SBus master;
+//! * `driver` (feature `tokio`): `SbusMaster`, the async master over any `drive_core::rt::CanIo`.
 //!
 //! Frames are [`drive_core::can::CanFrame`], an [`embedded_can::Frame`](drive_core::can::Frame),
 //! so any `embedded-can` driver can carry them. Like every protocol crate of drivebus this one
@@ -18,10 +23,14 @@
 #![cfg_attr(not(feature = "std"), no_std)]
 #![warn(missing_docs)]
 
+#[cfg(feature = "tokio")]
+pub mod driver;
 pub mod ids;
 #[cfg(feature = "sim")]
 pub mod sim;
 pub mod slave;
+pub mod master;
+pub mod movlnk;
 pub mod telegram;
 
 pub use ids::{Address, Kind};
