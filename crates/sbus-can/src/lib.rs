@@ -4,7 +4,12 @@
 //! * [`ids`]: the identifiers of every telegram from the SBus address (P813), group address
 //!   (P814) and synchronisation identifier (P817);
 //! * [`telegram`]: the telegrams on CAN frames: SYNC, process data (three words) and the 8-byte
-//!   parameter channel shared with MOVILINK ([`drive_profile::sew::ParamChannel`]).
+//!   parameter channel shared with MOVILINK ([`drive_profile::sew::ParamChannel`]);
+//! * [`variable`]: variable telegrams (IPOS variables on free identifiers, MOTOROLA and INTEL
+//!   byte order) and [`variable::VariableNode`], one device's cyclic, acyclic and receive
+//!   objects as a sans-IO CAN endpoint;
+//! * [`busload`]: the bus-load model (worst-case frame lengths) behind a cyclic object's
+//!   free-capacity result.
 //!
 //! Frames are [`drive_core::can::CanFrame`], an [`embedded_can::Frame`](drive_core::can::Frame),
 //! so any `embedded-can` driver can carry them. Like every protocol crate of drivebus this one
@@ -13,8 +18,10 @@
 #![cfg_attr(not(feature = "std"), no_std)]
 #![warn(missing_docs)]
 
+pub mod busload;
 pub mod ids;
 pub mod telegram;
+pub mod variable;
 
 pub use ids::{Address, Kind};
 pub use telegram::{DecodeError, ProcessData, Telegram};
