@@ -143,7 +143,13 @@ impl Kind {
     /// assert_eq!(Kind::ParamResponse.id(a), 780);
     /// ```
     pub const fn id(self, a: Address) -> u16 {
-        8 * a.0 as u16 + self.function() + if self.is_parameter() { PARAMETER_BIT } else { 0 }
+        8 * a.0 as u16
+            + self.function()
+            + if self.is_parameter() {
+                PARAMETER_BIT
+            } else {
+                0
+            }
     }
 
     /// The kind and address of the SBus MOVILINK identifier `id`; `None` for any other

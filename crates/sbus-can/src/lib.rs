@@ -9,7 +9,9 @@
 //!   byte order) and [`variable::VariableNode`], one device's cyclic, acyclic and receive
 //!   objects as a sans-IO CAN endpoint;
 //! * [`busload`]: the bus-load model (worst-case frame lengths) behind a cyclic object's
-//!   free-capacity result.
+//!   free-capacity result;
+//! * `plan` (feature `std`): the identifier plan checker for a whole bus (the rules of
+//!   ch. 5.5, sync identifier, addresses, object limits).
 //!
 //! Frames are [`drive_core::can::CanFrame`], an [`embedded_can::Frame`](drive_core::can::Frame),
 //! so any `embedded-can` driver can carry them. Like every protocol crate of drivebus this one
@@ -20,6 +22,8 @@
 
 pub mod busload;
 pub mod ids;
+#[cfg(feature = "std")]
+pub mod plan;
 pub mod telegram;
 pub mod variable;
 

@@ -404,14 +404,13 @@ mod tests {
             Err(DecodeError::NotSbus { id: 0 })
         );
         assert_eq!(Telegram::Sync.encode(1000).raw_id(), 1000);
-        let remote =
-            CanFrame::remote_frame(StandardId::new(267).unwrap(), 6).unwrap();
+        let remote = CanFrame::remote_frame(StandardId::new(267).unwrap(), 6).unwrap();
         assert_eq!(
             Telegram::decode(&remote, 0),
             Err(DecodeError::Remote { id: 267 })
         );
-        let ext = CanFrame::data_frame(drive_core::can::ExtendedId::new(267).unwrap(), &[0; 6])
-            .unwrap();
+        let ext =
+            CanFrame::data_frame(drive_core::can::ExtendedId::new(267).unwrap(), &[0; 6]).unwrap();
         assert_eq!(
             Telegram::decode(&ext, 0),
             Err(DecodeError::ExtendedId { id: 267 })
@@ -449,7 +448,8 @@ mod tests {
             }),
             (addr.clone(), pd.clone())
                 .prop_map(|(address, data)| Telegram::ProcessInput { address, data }),
-            (addr.clone(), pd).prop_map(|(group, data)| Telegram::GroupProcessOutput { group, data }),
+            (addr.clone(), pd)
+                .prop_map(|(group, data)| Telegram::GroupProcessOutput { group, data }),
             (addr.clone(), ch.clone())
                 .prop_map(|(address, channel)| Telegram::ParamRequest { address, channel }),
             (addr.clone(), ch.clone())
