@@ -207,7 +207,7 @@ fn rule_1_one_transmitter_per_id() {
 }
 
 #[test]
-fn rule_2_and_received_as_movilink() {
+fn rule_2_and_received_as_movilink_sb_e13() {
     let mut p = manual_example();
     // Device 1 receives 12 (its own PI from address 1) as a variable: rule 2.
     p.devices[0].objects.push(obj(12, ObjectKind::Receive));
