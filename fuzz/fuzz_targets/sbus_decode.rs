@@ -25,7 +25,12 @@ fn byte(data: &[u8], i: usize) -> u8 {
 }
 
 fn be32(data: &[u8], i: usize) -> u32 {
-    u32::from_be_bytes([byte(data, i), byte(data, i + 1), byte(data, i + 2), byte(data, i + 3)])
+    u32::from_be_bytes([
+        byte(data, i),
+        byte(data, i + 1),
+        byte(data, i + 2),
+        byte(data, i + 3),
+    ])
 }
 
 fn be16(data: &[u8], i: usize) -> u16 {
@@ -127,11 +132,18 @@ fuzz_target!(|data: &[u8]| {
         let addr = Address::new(b(0) & 0x3F).unwrap();
         let group = Address::new(b(1) & 0x3F).unwrap();
         let mut d = if b(0) & 0x80 != 0 {
-            Device { name: format!("node {i}"), ..Device::default() }
+            Device {
+                name: format!("node {i}"),
+                ..Device::default()
+            }
         } else {
             Device::slave(
                 format!("node {i}"),
-                SlaveIds { address: addr, group, sync_id: u16::from_be_bytes([b(2), b(3)]) & 0x7FF },
+                SlaveIds {
+                    address: addr,
+                    group,
+                    sync_id: u16::from_be_bytes([b(2), b(3)]) & 0x7FF,
+                },
             )
         };
         let t = Address::new(b(4) & 0x3F).unwrap();
@@ -144,14 +156,24 @@ fuzz_target!(|data: &[u8]| {
         let kind = match b(7) & 3 {
             0 => ObjectKind::Receive,
             1 => ObjectKind::Acyclic,
-            _ => ObjectKind::Cyclic { cycle_ms: u32::from(b(7) >> 2), offset_ms: u32::from(b(1)) },
+            _ => ObjectKind::Cyclic {
+                cycle_ms: u32::from(b(7) >> 2),
+                offset_ms: u32::from(b(1)),
+            },
         };
-        d.objects.push(Object { id: u16::from_be_bytes([b(5), b(6)]), len: u32::from(b(7) >> 2), kind });
+        d.objects.push(Object {
+            id: u16::from_be_bytes([b(5), b(6)]),
+            len: u32::from(b(7) >> 2),
+            kind,
+        });
         let _ = d.movilink_uses();
         let _ = d.check_objects();
         devices.push(d);
     }
-    let plan = Plan { bitrate: Bitrate::K250, devices };
+    let plan = Plan {
+        bitrate: Bitrate::K250,
+        devices,
+    };
     for v in plan.check() {
         let _ = v.to_string();
     }
