@@ -9,12 +9,19 @@
 //!   (the drive), with the timing of ch. 5.1/5.2 (answers at once or after the SYNC, the PO
 //!   sync window, group telegrams never answered);
 //! * `sim` (feature `sim`): the simulated MOVIDRIVE on SBus, one drive or several behind one
-//!   CAN interface, on `drive-sim`'s drive model.
+//!   CAN interface, on `drive-sim`'s drive model;
 //! * [`master`]: the sans-IO SBus master (parameter services in both handshake modes, group
 //!   writes, process data, the SYNC producer, scan), a [`CanEndpoint`](drive_core::can::CanEndpoint);
 //! * [`movlnk`]: the IPOSplus MOVLNK command (ch. 5.3) as typed data, and [`movlnk::MovlnkMaster`],
 //!   the drive as SBus master;
 //! * `driver` (feature `tokio`): `SbusMaster`, the async master over any `drive_core::rt::CanIo`.
+//! * [`variable`]: variable telegrams (IPOS variables on free identifiers, MOTOROLA and INTEL
+//!   byte order) and [`variable::VariableNode`], one device's cyclic, acyclic and receive
+//!   objects as a sans-IO CAN endpoint;
+//! * [`busload`]: the bus-load model (worst-case frame lengths) behind a cyclic object's
+//!   free-capacity result;
+//! * `plan` (feature `std`): the identifier plan checker for a whole bus (the rules of
+//!   ch. 5.5, sync identifier, addresses, object limits).
 //!
 //! Frames are [`drive_core::can::CanFrame`], an [`embedded_can::Frame`](drive_core::can::Frame),
 //! so any `embedded-can` driver can carry them. Like every protocol crate of drivebus this one
@@ -23,15 +30,19 @@
 #![cfg_attr(not(feature = "std"), no_std)]
 #![warn(missing_docs)]
 
+pub mod busload;
 #[cfg(feature = "tokio")]
 pub mod driver;
 pub mod ids;
+pub mod master;
+pub mod movlnk;
+#[cfg(feature = "std")]
+pub mod plan;
 #[cfg(feature = "sim")]
 pub mod sim;
 pub mod slave;
-pub mod master;
-pub mod movlnk;
 pub mod telegram;
+pub mod variable;
 
 pub use ids::{Address, Kind};
 pub use telegram::{DecodeError, ProcessData, Telegram};
