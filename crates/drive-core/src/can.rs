@@ -60,12 +60,15 @@ impl CanFrame {
     /// A data frame with identifier `id` and the first `len` bytes of `data` (`len` above 8
     /// counts as 8; bytes beyond `len` are cleared). Infallible, for encoders that know their
     /// length.
-    pub fn from_array(id: Id, data: [u8; 8], len: usize) -> Self {
-        let dlc = len.min(8);
-        let mut bytes = [0u8; 8];
-        for (to, from) in bytes.iter_mut().zip(data).take(dlc) {
-            *to = from;
-        }
+    pub const fn from_array(id: Id, data: [u8; 8], len: usize) -> Self {
+        let dlc = if len > 8 { 8 } else { len };
+        // Keep the first `dlc` bytes: one mask on the 64-bit word, no loop.
+        let keep = if dlc == 0 {
+            0
+        } else {
+            u64::MAX << (8 * (8 - dlc))
+        };
+        let bytes = (u64::from_be_bytes(data) & keep).to_be_bytes();
         Self {
             id,
             remote: false,
@@ -442,6 +445,19 @@ mod tests {
         let mut s = BitString::new();
         s.push(1, 1);
         assert_eq!(crc15(&s), 0x4599);
+    }
+
+    #[test]
+    fn from_array_keeps_only_its_length() {
+        let id = Id::Standard(StandardId::new(5).unwrap());
+        let data = [1, 2, 3, 4, 5, 6, 7, 8];
+        for len in 0..=10 {
+            let f = CanFrame::from_array(id, data, len);
+            let n = len.min(8);
+            assert_eq!(f.data(), &data[..n]);
+            assert!(f.data_array()[n..].iter().all(|b| *b == 0), "{len}");
+            assert_eq!(f, CanFrame::data_frame(id, &data[..n]).unwrap());
+        }
     }
 
     #[test]

@@ -77,6 +77,9 @@ enum SimCommand {
     Bonfiglioli(bonfiglioli::sim::SimArgs),
     /// Simulated NORD NORDAC LINK drive(s) answering USS.
     Uss(nord::sim::SimArgs),
+    /// Simulated MOVIDRIVE(s) on SBus (CAN): behind a simulated slcan adapter on a pty, or on
+    /// a CAN interface.
+    Sbus(sbus::sim::SimArgs),
 }
 
 #[derive(Debug, Subcommand)]
@@ -279,6 +282,7 @@ fn main() -> ExitCode {
         Command::Uss(args) => nord::uss::run(&args),
         Command::Ctt2(args) => nord::ctt2::run(&args),
         Command::Sim(SimCommand::Uss(args)) => nord::sim::run(&args),
+        Command::Sim(SimCommand::Sbus(args)) => sbus::sim::run(&args),
         Command::Decode(DecodeCommand::ModbusRtu { hex, file, json }) => {
             bonfiglioli::decode::run(false, &hex, file.as_deref(), json)
         }

@@ -2,23 +2,56 @@
 //!
 //! `ids` and `plan` need no bus; the bus commands talk through `--iface` (a SocketCAN
 //! interface, an slcan adapter on a serial port, or the built-in virtual bus with simulated
-//! drives).
+//! drives) with `sbus_can::driver::SbusMaster`. The parameter commands are MOVILINK's, on the
+//! shared MOVIDRIVE client ([`crate::sew`]): the same table, checks, wear log, backup and
+//! restore; what is SBus's own (identifiers, process data always three words, SYNC, groups)
+//! lives here.
 
 pub mod decode;
 pub mod iface;
+pub mod link;
+pub mod pd;
+pub mod plan;
+pub mod sim;
+
+use std::time::Duration;
 
 use clap::{Args, Subcommand};
+use drive_profile::{Family, Persistence};
+use sbus_can::driver::SbusMaster;
 use sbus_can::ids::{Address, Direction, SlaveIds};
+use sbus_can::master::{Handshake, MasterConfig};
 use serde_json::json;
 
 use crate::error::{CliError, Result};
+use crate::movilink::resolve;
+use crate::sew::{SewClient, data_of};
+use crate::tool::backup;
+use crate::tool::client::{ParamClient, ValueText};
+use crate::tool::interrupt::Interrupt;
+use crate::tool::output::{physical_text, print_value};
+use crate::tool::{read, watch, write};
+
+use self::iface::Iface;
+use self::link::{NOT_RESTORED, SbusLink, driver_error, open, virtual_addresses};
+
+/// The longest response timeout (ms).
+const MAX_TIMEOUT_MS: u64 = 60_000;
 
 /// Below `drivectl sbus --help`.
 const SBUS_HELP: &str = "\
 Examples:
+  drivectl sbus --iface can0 --addr 1 read P000 P130
+  drivectl sbus --iface slcan:/dev/ttyACM0@500k --addr 1 write P130 0.5 --volatile
+  drivectl sbus --iface virtual --addr 1 read 8318 --json      simulated drives, no hardware
+  drivectl sbus --iface can0 scan
+  drivectl sbus --iface can0 --addr 1 pd --out 0x0006,5000,0 --count 50
   drivectl sbus ids --addr 33                       the identifiers drive 33 uses (267, 268, …)
-  drivectl sbus ids --addr 1 --group 2 --json
+  drivectl sbus plan bus.toml                       check a bus's identifier plan
 
+--iface: a SocketCAN interface (can0, vcan0: `ip link set can0 up type can bitrate 500000`),
+slcan:PATH[@BITRATE] (an slcan/Lawicel USB-CAN adapter; 500k, the SBus factory setting, by
+default) or virtual (simulated MOVIDRIVEs at SBus addresses 1 and 2, and --addr).
 Identifiers (manual ch. 5.1): PO 8a+3, PI 8a+4, PO sync 8a+5, group PO 8g+6, parameter request
 8a+515, response 8a+516, group parameter request 8g+518; SYNC on P817 (0 by default).";
 
@@ -26,6 +59,31 @@ Identifiers (manual ch. 5.1): PO 8a+3, PI 8a+4, PO sync 8a+5, group PO 8g+6, par
 #[derive(Debug, Args)]
 #[command(after_help = SBUS_HELP)]
 pub struct SbusArgs {
+    /// CAN interface: can0 (SocketCAN), slcan:PATH[@BITRATE] (an slcan USB-CAN adapter) or
+    /// virtual (simulated drives in this process). Accepted before or after the subcommand.
+    #[arg(long, global = true, default_value = "", hide_default_value = true)]
+    iface: String,
+    /// SBus address of the drive (P813), 0–63.
+    #[arg(long, global = true, default_value_t = 0, value_parser = clap::value_parser!(u8).range(0..=63))]
+    addr: u8,
+    /// Response timeout per attempt in milliseconds, 1–60000 (a drive answers within 1 ms;
+    /// the default leaves room for USB adapters).
+    #[arg(long, global = true, default_value_t = 50, value_parser = clap::value_parser!(u64).range(1..=MAX_TIMEOUT_MS))]
+    timeout: u64,
+    /// Retries after a timeout, 0–255.
+    #[arg(long, global = true, default_value_t = 2)]
+    retries: u8,
+    /// Handshake mode of the parameter services: async (the drive answers at once) or sync
+    /// (it answers after the next SYNC, which drivectl sends).
+    #[arg(long, global = true, default_value = "async", value_parser = ["async", "sync"])]
+    handshake: String,
+    /// The SYNC identifier (P817), 0–2047.
+    #[arg(long, global = true, default_value_t = 0, value_parser = clap::value_parser!(u16).range(0..=2047))]
+    sync_id: u16,
+    /// Bit rate of --iface virtual (125k, 250k, 500k, 1M); slcan takes it from the
+    /// interface (slcan:PATH@BITRATE), SocketCAN from `ip link`.
+    #[arg(long, global = true, default_value = "500k")]
+    bitrate: String,
     /// One JSON object per result.
     #[arg(long, global = true)]
     json: bool,
@@ -35,43 +93,444 @@ pub struct SbusArgs {
 
 #[derive(Debug, Subcommand)]
 enum SbusCommand {
+    /// Read parameters: value with unit and scaling, and the raw value; one line (or JSON
+    /// object) per parameter, in the order given.
+    ///
+    /// Every name is checked before the interface is opened. A drive's refusal of one
+    /// parameter is reported for it and the others are still read (exit 1 at the end).
+    #[command(
+        after_help = "Examples:\n  drivectl sbus --iface can0 --addr 1 read P000\n  \
+        drivectl sbus --iface can0 --addr 1 --handshake sync read P000 P130 8318 --json"
+    )]
+    Read {
+        /// Indices (8318, 0x207E) or menu numbers (P000).
+        #[arg(required = true, num_args = 1..)]
+        params: Vec<String>,
+    },
+    /// Poll parameters at a steady rhythm, every row with its time (RFC 3339, UTC); Ctrl-C ends
+    /// it (exit 0).
+    #[command(
+        after_help = "Examples:\n  drivectl sbus --iface can0 --addr 1 watch P000 P004\n  \
+        drivectl sbus --iface can0 --addr 1 watch P000 --interval 200 --count 50 --csv > speed.csv"
+    )]
+    Watch {
+        /// Indices or menu numbers.
+        #[arg(required = true, num_args = 1..)]
+        params: Vec<String>,
+        #[command(flatten)]
+        watch: watch::WatchArgs,
+    },
+    /// Write a parameter (checked against the table first); --group writes to every drive of
+    /// an SBus group (write services only, never answered).
+    #[command(
+        after_help = "Examples:\n  drivectl sbus --iface can0 --addr 1 write P130 0.5 --volatile\n  \
+        drivectl sbus --iface can0 --addr 1 write 8470 500 --raw\n  \
+        drivectl sbus --iface can0 write P130 0.5 --volatile --group 2      every drive with P814 = 2\n\n\
+        EEPROM: the non-volatile write service stores every write in the drive's EEPROM, which\n\
+        wears out; a write repeated soon after is refused unless --volatile (RAM only) or --force."
+    )]
+    Write {
+        /// Index or menu number.
+        param: String,
+        /// Value in the parameter's unit (or raw with --raw).
+        #[arg(allow_hyphen_values = true)]
+        value: String,
+        /// VALUE is the raw bus value.
+        #[arg(long)]
+        raw: bool,
+        /// Write to RAM only (the service for frequent writes; lost at power-off).
+        #[arg(long)]
+        volatile: bool,
+        /// Skip the table's access/range/value-list/EEPROM-wear checks (a value that does not
+        /// fit the parameter's 32 bits is never sent).
+        #[arg(long)]
+        force: bool,
+        /// Write the nearest value the parameter can hold, saying so.
+        #[arg(long)]
+        round: bool,
+        /// Confirm a write of the drive's SBus settings (P813–P817).
+        #[arg(long)]
+        yes: bool,
+        /// Write to every drive of this SBus group (P814), 0–63, instead of --addr.
+        #[arg(long, value_parser = clap::value_parser!(u8).range(0..=63))]
+        group: Option<u8>,
+    },
+    /// Minimum, maximum, default, scale and attributes of a parameter.
+    #[command(
+        after_help = "Examples:\n  drivectl sbus --iface can0 --addr 1 info P130\n  drivectl sbus --iface can0 --addr 1 info 8470 --json"
+    )]
+    Info {
+        /// Index or menu number.
+        param: String,
+    },
+    /// Find the drives on the bus: every SBus address of the range is asked for P070 (unit
+    /// type) at once; the ones that answer are listed with their firmware.
+    #[command(
+        after_help = "Examples:\n  drivectl sbus --iface can0 scan\n  drivectl sbus --iface can0 scan --from 1 --to 16 --json"
+    )]
+    Scan {
+        /// First address.
+        #[arg(long, default_value_t = 0, value_parser = clap::value_parser!(u8).range(0..=63))]
+        from: u8,
+        /// Last address.
+        #[arg(long, default_value_t = 63, value_parser = clap::value_parser!(u8).range(0..=63))]
+        to: u8,
+    },
+    /// Exchange process data (always three words on SBus) and decode the status; at the end
+    /// the drive is stopped unless --keep-running.
+    #[command(
+        after_help = "Examples:\n  drivectl sbus --iface can0 --addr 1 pd --out 0x0006,5000,0 --count 50     enable, 1000 1/min for 5 s, then stop\n  \
+        drivectl sbus --iface can0 --addr 1 pd --out 0x0006,5000,0 --sync --count 0      PO sync every 5 ms cycle until Ctrl-C\n  \
+        drivectl sbus --iface can0 pd --group 2 --out 0x0006,3000,0 --count 20            every drive of group 2, no answers"
+    )]
+    Pd(pd::PdArgs),
+    /// Send SYNC telegrams (P817) every --period ms: the time base of synchronous process
+    /// data and sync-mode parameter answers (ch. 5.1).
+    #[command(
+        after_help = "Examples:\n  drivectl sbus --iface can0 sync --period 5 --count 200\n  drivectl sbus --iface can0 --sync-id 1000 sync      until Ctrl-C"
+    )]
+    Sync(pd::SyncArgs),
+    /// Save all readable parameters to a JSON file.
+    #[command(
+        after_help = "Examples:\n  drivectl sbus --iface can0 --addr 1 backup --out drive1.json\n  drivectl sbus --iface can0 --addr 1 backup --out drive1.json --overwrite"
+    )]
+    Backup(backup::BackupArgs),
+    /// Write a backup file back to the drive and verify every value (P813, P816 and P817 are
+    /// never written: they would cut the bus).
+    #[command(
+        after_help = "Examples:\n  drivectl sbus --iface can0 --addr 1 restore drive1.json --dry-run    what would change\n  drivectl sbus --iface can0 --addr 1 restore drive1.json"
+    )]
+    Restore(backup::RestoreArgs),
     /// The CAN identifiers a drive uses as an SBus slave, from its SBus address (P813), group
     /// address (P814) and sync identifier (P817), with who sends each.
     #[command(
         after_help = "Examples:\n  drivectl sbus ids --addr 33\n  drivectl sbus ids --addr 1 --group 2 --sync-id 1000 --json"
     )]
     Ids {
-        /// SBus address (P813), 0–63.
-        #[arg(long, value_parser = clap::value_parser!(u8).range(0..=63))]
-        addr: u8,
         /// SBus group address (P814), 0–63.
         #[arg(long, default_value_t = 0, value_parser = clap::value_parser!(u8).range(0..=63))]
         group: u8,
-        /// SBus synchronisation identifier (P817), 0–2047.
-        #[arg(long, default_value_t = 0, value_parser = clap::value_parser!(u16).range(0..=2047))]
-        sync_id: u16,
+    },
+    /// Check the identifier plan of a whole bus (TOML file): the two rules of ch. 5.5, sync
+    /// identifier collisions, duplicate addresses, object limits and bus load.
+    #[command(
+        after_help = "Examples:\n  drivectl sbus plan bus.toml\n  drivectl sbus plan bus.toml --forbidden --json\n\n\
+        The file: bitrate = \"500k\"; one [[device]] per node with name, address (P813; leave\n\
+        out for a PLC), group (P814), sync_id (P817), master_of = [\"address 1\", \"group 2\"],\n\
+        sends_sync = ID, and [[device.object]] tables (id, kind = cyclic|acyclic|receive,\n\
+        cycle_ms, offset_ms, len 0–8, format = motorola|intel)."
+    )]
+    Plan {
+        /// The plan file (`-`: standard input).
+        file: String,
+        /// Also list each device's forbidden variable identifiers.
+        #[arg(long)]
+        forbidden: bool,
     },
 }
 
 /// Run `drivectl sbus`.
 pub fn run(args: &SbusArgs) -> Result<()> {
     match &args.command {
-        SbusCommand::Ids {
-            addr,
-            group,
-            sync_id,
-        } => ids(*addr, *group, *sync_id, args.json),
+        SbusCommand::Ids { group } => return ids(args.addr, *group, args.sync_id, args.json),
+        SbusCommand::Plan { file, forbidden } => return plan::run(file, *forbidden, args.json),
+        _ => {}
+    }
+    let iface = Iface::parse(&args.iface)?;
+    let bitrate = iface::parse_bitrate(&args.bitrate)?;
+    precheck(&args.command)?;
+    let config = master_config(args);
+    let rt = crate::tool::line::runtime()?;
+    rt.block_on(async {
+        let (io, sim) = open(&iface, bitrate, &virtual_addresses(args.addr)).await?;
+        let mut master = SbusMaster::new(io, config);
+        let result = execute(&mut master, args, &iface).await;
+        drop(master);
+        if let Some(task) = sim {
+            task.abort();
+        }
+        result
+    })
+}
+
+fn handshake(args: &SbusArgs) -> Handshake {
+    if args.handshake == "sync" {
+        Handshake::Sync
+    } else {
+        Handshake::Async
     }
 }
 
-fn address(a: u8, what: &str) -> Result<Address> {
-    Address::new(a).ok_or_else(|| CliError::usage(format!("{what} {a}: SBus addresses are 0…63")))
+fn master_config(args: &SbusArgs) -> MasterConfig {
+    MasterConfig {
+        timeout: Duration::from_millis(args.timeout),
+        retries: args.retries,
+        sync_id: args.sync_id,
+        handshake: handshake(args),
+        ..MasterConfig::default()
+    }
+}
+
+/// What can be checked without the bus is checked before the interface is opened.
+fn precheck(command: &SbusCommand) -> Result<()> {
+    match command {
+        SbusCommand::Read { params } | SbusCommand::Watch { params, .. } => {
+            params.iter().try_for_each(|p| resolve(p).map(|_| ()))
+        }
+        SbusCommand::Info { param } => resolve(param).map(|_| ()),
+        SbusCommand::Write {
+            param,
+            value,
+            raw,
+            force,
+            round,
+            ..
+        } => {
+            let how = ValueText {
+                raw: *raw,
+                force: *force,
+                round: *round,
+            };
+            resolve(param)?.value_from_text(value, &how).map(|_| ())
+        }
+        SbusCommand::Scan { from, to } if from > to => Err(CliError::usage(format!(
+            "scan --from {from} --to {to}: the range must satisfy 0 ≤ --from ≤ --to ≤ 63"
+        ))),
+        SbusCommand::Pd(p) => p.check().map(drop),
+        SbusCommand::Restore(r) => backup::check_file(&r.file, Family::Movidrive, NOT_RESTORED),
+        _ => Ok(()),
+    }
+}
+
+fn address(a: u8) -> Result<Address> {
+    Address::new(a).ok_or_else(|| CliError::usage(format!("--addr {a}: SBus addresses are 0…63")))
+}
+
+async fn execute<C: drive_core::rt::CanIo>(
+    m: &mut SbusMaster<C>,
+    args: &SbusArgs,
+    iface: &Iface,
+) -> Result<()> {
+    let json = args.json;
+    let addr = address(args.addr)?;
+    let link = |m| SbusLink {
+        master: m,
+        address: addr,
+        handshake: handshake(args),
+        iface: iface.name(),
+    };
+    match &args.command {
+        SbusCommand::Read { params } => {
+            let targets = params
+                .iter()
+                .map(|p| resolve(p))
+                .collect::<Result<Vec<_>>>()?;
+            let mut client = SewClient::new(link(m));
+            read::read_all(&mut client, &targets, json).await
+        }
+        SbusCommand::Watch {
+            params,
+            watch: watch_args,
+        } => {
+            let targets = params
+                .iter()
+                .map(|p| resolve(p))
+                .collect::<Result<Vec<_>>>()?;
+            let options = watch_args.options(json)?;
+            let mut client = SewClient::new(link(m));
+            watch::watch(
+                &mut client,
+                &targets,
+                options,
+                &mut |s| out!("{s}"),
+                watch::ctrl_c(),
+            )
+            .await
+            .map(drop)
+        }
+        SbusCommand::Write {
+            param,
+            value,
+            raw,
+            volatile,
+            force,
+            round,
+            yes,
+            group,
+        } => {
+            let t = resolve(param)?;
+            let how = ValueText {
+                raw: *raw,
+                force: *force,
+                round: *round,
+            };
+            let parsed = t.value_from_text(value, &how)?;
+            if let (Some(x), Some(p)) = (parsed.rounded_from, t.param) {
+                errln!(
+                    "drivectl: note: {} cannot hold {x} exactly; writing the nearest value it takes, {}",
+                    p.label(),
+                    physical_text(p, parsed.raw)
+                );
+            }
+            let request = write::WriteRequest {
+                target: t,
+                raw: parsed.raw,
+                persistence: if *volatile {
+                    Persistence::Volatile
+                } else {
+                    Persistence::NonVolatile
+                },
+                force: *force,
+            };
+            if let Some(g) = group {
+                return group_write(m, address(*g)?, iface, &request, *yes, json).await;
+            }
+            let mut client = SewClient::new(link(m));
+            let done = write::write_checked(&mut client, &request, *yes).await?;
+            if let Some(note) = &done.link_note {
+                errln!("drivectl: note: {note}");
+            }
+            print_value(&t, done.back, json)?;
+            Ok(())
+        }
+        SbusCommand::Info { param } => {
+            let mut l = link(m);
+            crate::sew::info(&mut l, resolve(param)?, json).await
+        }
+        SbusCommand::Scan { from, to } => scan(m, *from, *to, json).await,
+        SbusCommand::Pd(p) => pd::pd(m, addr, p, json).await,
+        SbusCommand::Sync(s) => pd::sync(m, s, args.sync_id, json).await,
+        SbusCommand::Backup(b) => {
+            let mut client = SewClient::new(link(m));
+            let stop = Interrupt::install("the backup file was not written");
+            backup::backup(&mut client, &b.out, b.overwrite, json, &stop).await
+        }
+        SbusCommand::Restore(r) => {
+            let mut client = SewClient::new(link(m));
+            let stop = Interrupt::install(
+                "the drive may be half restored; run the same restore again to finish it",
+            );
+            backup::restore(&mut client, &r.file, r.options(), json, &stop).await
+        }
+        SbusCommand::Ids { .. } | SbusCommand::Plan { .. } => Ok(()),
+    }
+}
+
+/// A write to an SBus group: every drive with that P814 executes it, none answers (ch. 5.1),
+/// so there is nothing to read back.
+async fn group_write<C: drive_core::rt::CanIo>(
+    m: &mut SbusMaster<C>,
+    group: Address,
+    iface: &Iface,
+    request: &write::WriteRequest,
+    yes: bool,
+    json: bool,
+) -> Result<()> {
+    // The drives of a group share the wear log entry of the group.
+    let mut client = SewClient::new(SbusLink {
+        master: m,
+        address: group,
+        handshake: Handshake::Async,
+        iface: format!("{} group", iface.name()),
+    });
+    write::check_link_setting(&client, request, yes)?;
+    let drive_key = client.drive_key().await?;
+    if let Some(warning) = write::check(&mut client, request).await? {
+        errln!("drivectl: warning: {warning}");
+    }
+    let t = request.target;
+    let data = data_of(request.raw);
+    let channel = match request.persistence {
+        Persistence::Volatile => drive_profile::sew::ParamChannel::write_volatile(t.index, data),
+        Persistence::NonVolatile => drive_profile::sew::ParamChannel::write(t.index, data),
+    };
+    client
+        .link
+        .master
+        .group_write(group, channel)
+        .await
+        .map_err(driver_error)?;
+    if let Err(e) = write::record(&drive_key, request) {
+        errln!("drivectl: warning: {e}");
+    }
+    if json {
+        outln!(
+            "{}",
+            json!({"index": t.index, "number": t.param.map(|p| p.label().to_string()),
+                   "name_de": t.param.map(|p| p.name_de()), "name_en": t.param.map(|p| p.name_en()),
+                   "raw": request.raw, "group": group.get(), "answered": false})
+        )?;
+    } else {
+        outln!(
+            "sent index {} = raw {} to SBus group {} (never answered by design)",
+            t.index,
+            request.raw,
+            group.get()
+        )?;
+    }
+    Ok(())
+}
+
+async fn scan<C: drive_core::rt::CanIo>(
+    m: &mut SbusMaster<C>,
+    from: u8,
+    to: u8,
+    json: bool,
+) -> Result<()> {
+    let hits = m
+        .scan(address(from)?, address(to)?)
+        .await
+        .map_err(driver_error)?;
+    let mut found = 0;
+    for hit in hits {
+        let a = hit.address;
+        let firmware = m
+            .read(a, drive_profile::sew::index::FIRMWARE)
+            .await
+            .ok();
+        found += 1;
+        match hit.unit_type {
+            Ok(device_type) => {
+                if json {
+                    outln!(
+                        "{}",
+                        json!({"address": a.get(), "device_type": device_type,
+                               "device_type_name": drive_profile::sew::device::designation(device_type),
+                               "firmware": firmware})
+                    )?;
+                } else {
+                    outln!(
+                        "address {:>2}: device type {device_type}, firmware {}",
+                        a.get(),
+                        firmware.map_or_else(
+                            || "unreadable".to_owned(),
+                            crate::movilink::firmware_text
+                        )
+                    )?;
+                }
+            }
+            Err(code) => {
+                if json {
+                    outln!(
+                        "{}",
+                        json!({"address": a.get(), "device_type": null, "refused": code.to_string()})
+                    )?;
+                } else {
+                    outln!("address {:>2}: answers, refuses P070 ({code})", a.get())?;
+                }
+            }
+        }
+    }
+    if !json {
+        outln!("{found} drive(s) answered between {from} and {to}")?;
+    }
+    Ok(())
 }
 
 fn ids(addr: u8, group: u8, sync_id: u16, json: bool) -> Result<()> {
     let ids = SlaveIds {
-        address: address(addr, "--addr")?,
-        group: address(group, "--group")?,
+        address: address(addr)?,
+        group: address(group)?,
         sync_id,
     };
     for u in ids.uses() {
