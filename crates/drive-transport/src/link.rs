@@ -599,11 +599,11 @@ impl LinkEnd {
                 let Some(front) = rx.queue.front().copied() else {
                     break;
                 };
-                if let Some(at) = front.at {
-                    if at > *now.get_or_insert_with(Instant::now) {
-                        wait_until = Some(at);
-                        break;
-                    }
+                if let Some(at) = front.at
+                    && at > *now.get_or_insert_with(Instant::now)
+                {
+                    wait_until = Some(at);
+                    break;
                 }
                 rx.queue.pop_front();
                 sink(front);
