@@ -89,6 +89,46 @@ pub enum TransportError {
         source: io::Error,
     },
 
+    /// A SocketCAN interface of that name does not exist.
+    #[error("CAN interface {name} not found: {hint}")]
+    CanInterfaceNotFound {
+        /// The interface name.
+        name: String,
+        /// How to create or bring up the interface.
+        hint: String,
+    },
+
+    /// An slcan adapter has no `S` code for this bit rate.
+    #[error(
+        "slcan adapters cannot run at {bitrate} bit/s; the bit rates with an S code are 10, 20, 50, 100, 125, 250, 500, 800 and 1000 kbit/s"
+    )]
+    SlcanBitrate {
+        /// The bit rate asked for, in bit/s.
+        bitrate: u32,
+    },
+
+    /// An slcan adapter answered a set-up command with BEL (error).
+    #[error(
+        "the slcan adapter on {path} refused the command {command} (answered BEL); check that no other program uses it and that it speaks slcan"
+    )]
+    SlcanRefused {
+        /// The port.
+        path: String,
+        /// The command, e.g. `"S6 (500 kbit/s)"`.
+        command: String,
+    },
+
+    /// An slcan adapter did not answer a set-up command.
+    #[error(
+        "no answer from an slcan adapter on {path} to the command {command}; check that this is an slcan (Lawicel) adapter and its firmware"
+    )]
+    SlcanNoAnswer {
+        /// The port.
+        path: String,
+        /// The command without its `\r`.
+        command: String,
+    },
+
     /// An I/O error that fits no other variant.
     #[error("i/o error: {0}")]
     Io(#[from] io::Error),
@@ -143,7 +183,12 @@ impl TransportError {
             TransportError::PermissionDenied { .. } => io::ErrorKind::PermissionDenied,
             TransportError::Busy { .. } => io::ErrorKind::ResourceBusy,
             TransportError::Unsupported { .. } => io::ErrorKind::Unsupported,
-            TransportError::InvalidConfig { .. } => io::ErrorKind::InvalidInput,
+            TransportError::InvalidConfig { .. } | TransportError::SlcanBitrate { .. } => {
+                io::ErrorKind::InvalidInput
+            }
+            TransportError::CanInterfaceNotFound { .. } => io::ErrorKind::NotFound,
+            TransportError::SlcanRefused { .. } => io::ErrorKind::Other,
+            TransportError::SlcanNoAnswer { .. } => io::ErrorKind::TimedOut,
             TransportError::Setting { source, .. }
             | TransportError::Open { source, .. }
             | TransportError::Pty { source, .. }

@@ -11,7 +11,10 @@
 //!   programs can open;
 //! - [`link`]: an in-memory full-duplex line with a wire-time model (characters take
 //!   `bits / baud` on tokio's clock), per-character parity flags and deterministic fault
-//!   injection.
+//!   injection;
+//! - [`can`]: CAN transports, each a [`CanIo`](drive_core::rt::CanIo): an in-memory virtual bus
+//!   with arbitration and frame times, slcan adapters (and a simulated one), SocketCAN and
+//!   candump logs (Linux).
 //!
 //! # Example
 //!
@@ -60,6 +63,7 @@
 #![warn(missing_docs)]
 #![deny(unsafe_code)]
 
+pub mod can;
 mod error;
 pub mod link;
 pub mod ports;

@@ -8,6 +8,13 @@
     clippy::panic
 )]
 
+#[cfg(target_os = "linux")]
+mod can_candump;
+#[cfg(target_os = "linux")]
+mod can_slcan;
+#[cfg(target_os = "linux")]
+mod can_socketcan;
+mod can_virtual;
 mod link;
 #[cfg(target_os = "linux")]
 mod pty_serial;
