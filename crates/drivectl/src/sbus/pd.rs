@@ -1,0 +1,333 @@
+//! `drivectl sbus pd` and `drivectl sbus sync`: process data (three words, ch. 5.1) and the
+//! SYNC producer.
+
+use std::time::Duration;
+
+use clap::Args;
+use drive_core::rt::CanIo;
+use drive_profile::sew::{self, ControlWord1, StatusWord1, index};
+use sbus_can::driver::SbusMaster;
+use sbus_can::ids::Address;
+use sbus_can::telegram::ProcessData;
+use serde_json::json;
+
+use crate::error::{CliError, Result};
+use crate::sbus::link::driver_error;
+use crate::tool::client::parse_int;
+use crate::tool::interrupt::Interrupt;
+use crate::tool::output::trim_float;
+
+/// Arguments of `drivectl sbus pd`.
+#[derive(Debug, Args)]
+pub struct PdArgs {
+    /// The three process output words PO1,PO2,PO3 (SBus always carries three), e.g.
+    /// 0x0006,5000,0; each −32768…65535.
+    #[arg(long, value_delimiter = ',', required = true, allow_hyphen_values = true)]
+    out: Vec<String>,
+    /// Number of exchanges; 0 runs until Ctrl-C.
+    #[arg(long, default_value_t = 1)]
+    count: u32,
+    /// Milliseconds between exchanges, 1–60000 (with --sync: rounded up to whole 5 ms cycles).
+    #[arg(long, default_value_t = 100, value_parser = clap::value_parser!(u64).range(1..=60_000))]
+    interval: u64,
+    /// Synchronous process data: the PO sync telegram (8a+5), taken by the drive at the next
+    /// SYNC, which drivectl sends; the PI comes in the first millisecond after it.
+    #[arg(long, conflicts_with = "group")]
+    sync: bool,
+    /// Send the words to every drive of this SBus group (P814) as group process data (8g+6):
+    /// no drive answers.
+    #[arg(long, value_parser = clap::value_parser!(u8).range(0..=63))]
+    group: Option<u8>,
+    /// Leave the drive as the last exchange left it. Without it, `pd` ends (after --count, on
+    /// Ctrl-C, on an error or a closed output pipe) by sending the control word slot the
+    /// --stop command.
+    #[arg(long)]
+    keep_running: bool,
+    /// How `pd` stops the drive at its end: `ramp` (control word 0x0002) or `inhibit`
+    /// (0x0001: controller inhibit, the motor coasts).
+    #[arg(long, default_value = "ramp", value_parser = ["ramp", "inhibit"])]
+    stop: String,
+}
+
+impl PdArgs {
+    /// The three words, checked: each −32768…65535 (a negative word is its two's complement).
+    pub fn check(&self) -> Result<[u16; 3]> {
+        if self.out.len() != 3 {
+            return Err(CliError::usage(format!(
+                "--out gave {} word(s): SBus process data are always three words (PO1,PO2,PO3)",
+                self.out.len()
+            )));
+        }
+        let mut words = [0u16; 3];
+        for (w, text) in words.iter_mut().zip(&self.out) {
+            let v = parse_int(text)
+                .filter(|v| (-32768..=65535).contains(v))
+                .ok_or_else(|| {
+                    CliError::usage(format!(
+                        "--out `{text}` is not a 16-bit word (−32768…65535, or 0x0000…0xFFFF)"
+                    ))
+                })?;
+            *w = v as u16;
+        }
+        Ok(words)
+    }
+}
+
+/// Arguments of `drivectl sbus sync`.
+#[derive(Debug, Args)]
+pub struct SyncArgs {
+    /// Milliseconds between two SYNC telegrams, 1–60000 (SBus's cycle is 5 ms).
+    #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u64).range(1..=60_000))]
+    period: u64,
+    /// Number of SYNC telegrams; 0 sends until Ctrl-C.
+    #[arg(long, default_value_t = 0)]
+    count: u32,
+}
+
+/// Where the drive takes its control word among the process output words (P870–P872 = control
+/// word 1 or 2); warns when the drive has no SBus timeout (P815 = 0) or ignores PO data (P876).
+async fn preflight<C: CanIo>(m: &mut SbusMaster<C>, addr: Address, stopping: bool) -> Vec<usize> {
+    let mut slots = Vec::new();
+    for (slot, i) in [index::PO1_DESCRIPTION, 8305, 8306].into_iter().enumerate() {
+        match m.read(addr, i).await {
+            // 9 = control word 1, 10 = control word 2.
+            Ok(9 | 10) => slots.push(slot),
+            Ok(_) => {}
+            Err(e) => errln!(
+                "drivectl: warning: cannot read the setpoint description of PO{} ({e})",
+                slot + 1
+            ),
+        }
+    }
+    if stopping && slots.is_empty() {
+        errln!(
+            "drivectl: warning: no process output word of this drive is a control word \
+             (P870–P872): drivectl cannot stop it over process data when pd ends"
+        );
+    }
+    match m.read(addr, index::SBUS_TIMEOUT).await {
+        Ok(0) => errln!(
+            "drivectl: warning: the drive's SBus timeout P815 is 0 (off): it keeps running when \
+             the master goes quiet{}",
+            if stopping {
+                ""
+            } else {
+                " (and --keep-running leaves it running)"
+            }
+        ),
+        Ok(_) => {}
+        Err(e) => errln!("drivectl: warning: cannot read the SBus timeout P815 ({e})"),
+    }
+    if let Ok(0) = m.read(addr, index::PO_DATA_ENABLE).await {
+        errln!(
+            "drivectl: warning: P876 PO data enable is off: the drive ignores process output data"
+        );
+    }
+    slots
+}
+
+/// Run `pd`.
+pub async fn pd<C: CanIo>(
+    m: &mut SbusMaster<C>,
+    addr: Address,
+    args: &PdArgs,
+    json: bool,
+) -> Result<()> {
+    let words = args.check()?;
+    let end = match (args.keep_running, args.stop.as_str()) {
+        (true, _) => None,
+        (false, "inhibit") => Some(ControlWord1::INHIBIT),
+        (false, _) => Some(ControlWord1::STOP),
+    };
+    let group = args
+        .group
+        .map(|g| {
+            Address::new(g).ok_or_else(|| CliError::usage(format!("--group {g}: 0…63")))
+        })
+        .transpose()?;
+    // A group has no answers to read the control word slots from: the factory setting (PO1 =
+    // control word 1) is assumed, and said.
+    let slots = match group {
+        Some(_) => {
+            if end.is_some() {
+                errln!(
+                    "drivectl: note: a group does not answer; the stop at the end goes to PO1, \
+                     the factory setting's control word (P870)"
+                );
+            }
+            vec![0]
+        }
+        None => preflight(m, addr, end.is_some()).await,
+    };
+    let stop = Interrupt::install("the drive was NOT sent a stop and may still be running");
+    let stop_words = end.filter(|_| !slots.is_empty()).map(|cmd| {
+        let mut w = words;
+        for &i in &slots {
+            if let Some(x) = w.get_mut(i) {
+                *x = (*x & 0xFF00) | cmd.bits();
+            }
+        }
+        (w, cmd)
+    });
+    let period = if args.sync {
+        // Whole 5 ms cycles.
+        Duration::from_millis(args.interval.div_ceil(5).max(1) * 5)
+    } else {
+        Duration::from_millis(args.interval)
+    };
+    let result: Result<()> = async {
+        let mut done = 0u32;
+        while args.count == 0 || done < args.count {
+            if done > 0 {
+                tokio::select! {
+                    () = tokio::time::sleep(period) => {}
+                    () = stop.wait() => {}
+                }
+            }
+            if stop.requested() {
+                break;
+            }
+            done = done.saturating_add(1);
+            exchange(m, addr, group, args.sync, words, json).await?;
+        }
+        Ok(())
+    }
+    .await;
+    if let Some((w, cmd)) = stop_words {
+        match exchange_quiet(m, addr, group, args.sync, w).await {
+            Ok(pi) => {
+                let status = pi
+                    .map(|p| StatusWord1::from_bits(p.0[0]).to_string())
+                    .unwrap_or_else(|| "no answer by design (group)".to_owned());
+                errln!(
+                    "drivectl: note: sent {} (control word 0x{:04X}) at the end; the drive reports: {status}",
+                    cmd.command().name(),
+                    w.get(slots.first().copied().unwrap_or(0)).copied().unwrap_or(0)
+                );
+            }
+            Err(e) => {
+                errln!(
+                    "drivectl: warning: the stop at the end was not answered ({e}): the drive may \
+                     still be running"
+                );
+                return result.and(Err(e));
+            }
+        }
+    }
+    if end.is_none() {
+        errln!("drivectl: note: the drive was left as the last exchange set it (--keep-running)");
+    }
+    result
+}
+
+async fn exchange_quiet<C: CanIo>(
+    m: &mut SbusMaster<C>,
+    addr: Address,
+    group: Option<Address>,
+    sync: bool,
+    words: [u16; 3],
+) -> Result<Option<ProcessData>> {
+    let po = ProcessData(words);
+    match group {
+        Some(g) => m
+            .group_process_data(g, po)
+            .await
+            .map(|()| None)
+            .map_err(driver_error),
+        None if sync => m
+            .process_data_sync(addr, po)
+            .await
+            .map(Some)
+            .map_err(driver_error),
+        None => m.process_data(addr, po).await.map(Some).map_err(driver_error),
+    }
+}
+
+async fn exchange<C: CanIo>(
+    m: &mut SbusMaster<C>,
+    addr: Address,
+    group: Option<Address>,
+    sync: bool,
+    words: [u16; 3],
+    json: bool,
+) -> Result<()> {
+    let pi = exchange_quiet(m, addr, group, sync, words).await?;
+    let time = crate::tool::watch::timestamp(std::time::SystemTime::now());
+    match (pi, group) {
+        (Some(ProcessData(pi)), _) => {
+            let status = StatusWord1::from_bits(pi[0]).to_string();
+            if json {
+                outln!(
+                    "{}",
+                    json!({"type": "pd", "time": time, "address": addr.get(),
+                           "sync": sync, "out": words, "in": pi, "status": status})
+                )
+            } else {
+                outln!(
+                    "PI 0x{:04X} 0x{:04X} 0x{:04X}: {status}, speed {} 1/min",
+                    pi[0],
+                    pi[1],
+                    pi[2],
+                    trim_float(sew::speed_from_word(pi[1]), 1)
+                )
+            }
+        }
+        (None, Some(g)) => {
+            if json {
+                outln!(
+                    "{}",
+                    json!({"type": "pd", "time": time, "group": g.get(), "out": words, "in": null})
+                )
+            } else {
+                outln!(
+                    "GPO 0x{:04X} 0x{:04X} 0x{:04X} to group {} (never answered by design)",
+                    words[0],
+                    words[1],
+                    words[2],
+                    g.get()
+                )
+            }
+        }
+        (None, None) => Ok(()),
+    }
+}
+
+/// Run `sync`: SYNC every `period` ms, `count` times (0: until Ctrl-C).
+pub async fn sync<C: CanIo>(
+    m: &mut SbusMaster<C>,
+    args: &SyncArgs,
+    sync_id: u16,
+    json: bool,
+) -> Result<()> {
+    let stop = Interrupt::install("the SYNC telegrams stopped");
+    let period = Duration::from_millis(args.period);
+    let mut ticker = tokio::time::interval(period);
+    ticker.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
+    let started = tokio::time::Instant::now();
+    let mut sent = 0u32;
+    while args.count == 0 || sent < args.count {
+        tokio::select! {
+            _ = ticker.tick() => {}
+            () = stop.wait() => {}
+        }
+        if stop.requested() {
+            break;
+        }
+        m.sync().await.map_err(driver_error)?;
+        sent = sent.saturating_add(1);
+    }
+    let elapsed = started.elapsed();
+    if json {
+        outln!(
+            "{}",
+            json!({"type": "sync", "sync_id": sync_id, "sent": sent, "period_ms": args.period,
+                   "elapsed_ms": elapsed.as_millis() as u64})
+        )
+    } else {
+        outln!(
+            "sent {sent} SYNC telegram(s) on identifier {sync_id} every {} ms ({:.1} s)",
+            args.period,
+            elapsed.as_secs_f64()
+        )
+    }
+}
