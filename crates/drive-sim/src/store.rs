@@ -101,6 +101,9 @@ impl Default for OperatingCondition {
 #[derive(Clone, Copy)]
 struct Cell {
     sub: u16,
+    /// `meta.access()`, kept at hand for the write paths (the row is `'static`, so it never
+    /// changes).
+    access: Access,
     meta: Meta,
     default: Option<i64>,
     range: Option<(i64, i64)>,
@@ -120,6 +123,7 @@ impl Cell {
         let initial = default.unwrap_or(0);
         Cell {
             sub,
+            access: meta.access(),
             meta,
             default,
             range: meta.raw_range(),
@@ -429,7 +433,7 @@ impl ParamStore {
             .unwrap_or(self.options.value_lists_exhaustive);
         let condition = self.condition;
         let first = *self.cell(index, sub)?;
-        let access = first.meta.access();
+        let access = first.access;
 
         if !access.is_writable() {
             return Err(SimError::ReadOnly { index });
@@ -538,15 +542,20 @@ impl ParamStore {
 
     /// [`ParamStore::set_internal`] for one sub-index.
     pub fn set_internal_sub(&mut self, index: u16, sub: u16, raw: i64) -> Result<(), SimError> {
-        self.cell(index, sub)?;
         let (all, cells) = self.entry_mut(index, sub)?;
+        let mut found = false;
         for cell in cells.iter_mut().filter(|c| all || c.sub == sub) {
+            found = true;
             cell.ram = raw;
-            if cell.meta.access().contains(Access::NON_VOLATILE) {
+            if cell.access.contains(Access::NON_VOLATILE) {
                 cell.eeprom = raw;
             }
         }
-        Ok(())
+        if found {
+            Ok(())
+        } else {
+            Err(SimError::UnknownSubIndex { index, sub })
+        }
     }
 
     /// Factory setting: every writable cell's RAM value returns to its default; with
@@ -556,7 +565,7 @@ impl ParamStore {
     pub fn reset_to_defaults(&mut self, persistence: Persistence, now: Instant) {
         let eeprom_for_unflagged = self.options.eeprom_for_unflagged;
         for cell in &mut self.cells {
-            if !cell.meta.access().is_writable() {
+            if !cell.access.is_writable() {
                 continue;
             }
             let default = cell.default.unwrap_or(0);
@@ -623,6 +632,6 @@ impl ParamStore {
 }
 
 fn backed(eeprom_for_unflagged: bool, cell: &Cell) -> bool {
-    let access = cell.meta.access();
+    let access = cell.access;
     access.contains(Access::NON_VOLATILE) || (eeprom_for_unflagged && access.is_writable())
 }

@@ -531,3 +531,29 @@ fn a_second_index_below_between_and_above_the_table_keeps_every_value() {
     assert_eq!(s.read(8311, 0), Ok(2500));
     assert_eq!(s.len(), before.len() + 3);
 }
+
+#[test]
+fn set_internal_of_an_unknown_sub_index_is_refused_and_changes_nothing() {
+    let mut s = store();
+    assert_eq!(
+        s.set_internal_sub(RAMP_UP, 3, 1),
+        Err(SimError::UnknownSubIndex {
+            index: RAMP_UP,
+            sub: 3
+        })
+    );
+    assert_eq!(
+        s.set_internal_sub(DATA_SET, 5, 1),
+        Err(SimError::UnknownSubIndex {
+            index: DATA_SET,
+            sub: 5
+        })
+    );
+    assert_eq!(s.read(RAMP_UP, 0), Ok(2000));
+    assert_eq!(s.read(DATA_SET, 0), Ok(1500));
+    // Sub-index 0 of a data-set parameter sets every data set.
+    s.set_internal_sub(DATA_SET, 0, 7).unwrap();
+    for ds in 1..=4 {
+        assert_eq!(s.read(DATA_SET, ds), Ok(7));
+    }
+}
