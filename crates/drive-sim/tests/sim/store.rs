@@ -468,3 +468,92 @@ fn stores_can_combine_tables() {
     assert_eq!(s.read(VOLATILE_RW, 0), Ok(3));
     assert_eq!(s.meta(VOLATILE_RW, 0).unwrap().bus_index(), VOLATILE_RW);
 }
+
+#[test]
+fn indices_outside_and_between_the_table_are_unknown() {
+    // The store finds an index through a table of slots from its lowest to its highest index
+    // (372 … 9000 here): below, above and in the gaps nothing may be found.
+    let s = store();
+    for index in [
+        0,
+        1,
+        DATA_SET - 1,
+        ARRAY + 1,
+        8319,
+        NO_DEFAULT + 1,
+        u16::MAX,
+    ] {
+        assert_eq!(s.read(index, 0), Err(SimError::UnknownIndex { index }));
+        assert!(!s.contains(index));
+    }
+    assert_eq!(s.read(DATA_SET, 1), Ok(1500));
+    assert_eq!(s.read(NO_DEFAULT, 0), Ok(0));
+}
+
+#[test]
+fn a_second_index_below_between_and_above_the_table_keeps_every_value() {
+    let mut s = store();
+    s.write(RAMP_UP, 0, 1234, NV, T0).unwrap();
+    s.write(DATA_SET, 3, 700, NV, T0).unwrap();
+    s.write(ARRAY, 1, 55, V, T0).unwrap();
+    let before: Vec<_> = s.keys().map(|(i, sub)| (i, sub, s.read(i, sub))).collect();
+    let meta = s.meta(RAMP_UP, 0).unwrap();
+    // Below the lowest index, between two indices, above the highest.
+    for (index, default) in [(0, Some(1)), (8311, None), (u16::MAX, Some(3))] {
+        s.add_second_index(index, meta, default).unwrap();
+    }
+    assert_eq!(s.read(0, 0), Ok(1));
+    assert_eq!(s.read(8311, 0), Ok(0));
+    assert_eq!(s.read(u16::MAX, 0), Ok(3));
+    for (i, sub, value) in &before {
+        assert_eq!(s.read(*i, *sub), *value, "{i}.{sub}");
+    }
+    assert_eq!(s.len(), before.len() + 3);
+    let keys: Vec<_> = s.keys().collect();
+    assert!(keys.windows(2).all(|w| w[0] < w[1]));
+    assert_eq!(keys.first(), Some(&(0, 0)));
+    assert_eq!(keys.last(), Some(&(u16::MAX, 0)));
+    // Writes reach the right cell after the cells moved.
+    s.write(8311, 0, 2500, NV, T0).unwrap();
+    assert_eq!(s.read(8311, 0), Ok(2500));
+    assert_eq!(s.nv_writes(8311, 0), Ok(1));
+    assert_eq!(s.read(RAMP_UP, 0), Ok(1234));
+    assert_eq!(s.nv_writes(RAMP_UP, 0), Ok(1));
+    assert_eq!(s.read(DATA_SET, 3), Ok(700));
+    // An index in use is refused and changes nothing.
+    assert_eq!(
+        s.add_second_index(8311, meta, None),
+        Err(SimError::ValueNotAllowed {
+            index: 8311,
+            value: 8311
+        })
+    );
+    assert_eq!(s.read(8311, 0), Ok(2500));
+    assert_eq!(s.len(), before.len() + 3);
+}
+
+#[test]
+fn set_internal_of_an_unknown_sub_index_is_refused_and_changes_nothing() {
+    let mut s = store();
+    assert_eq!(
+        s.set_internal_sub(RAMP_UP, 3, 1),
+        Err(SimError::UnknownSubIndex {
+            index: RAMP_UP,
+            sub: 3
+        })
+    );
+    assert_eq!(
+        s.set_internal_sub(DATA_SET, 5, 1),
+        Err(SimError::UnknownSubIndex {
+            index: DATA_SET,
+            sub: 5
+        })
+    );
+    assert_eq!(s.read(RAMP_UP, 0), Ok(2000));
+    assert_eq!(s.read(DATA_SET, 0), Ok(1500));
+    // Sub-index 0 of a data-set parameter sets every data set.
+    s.set_internal_sub(DATA_SET, 0, 7).unwrap();
+    for ds in 1..=4 {
+        assert_eq!(s.read(DATA_SET, ds), Ok(7));
+    }
+}
