@@ -165,7 +165,8 @@ enum DecodeCommand {
         #[arg(long)]
         json: bool,
     },
-    /// An SBus frame (CAN identifier and data bytes), e.g. `--id 523 31 00 20 7E 00 00 00 00`.
+    /// An SBus frame (CAN identifier and data bytes), e.g. `--id 523 31 00 20 7E 00 00 00 00`,
+    /// or a candump log (`--log FILE`: lines `(seconds.micros) iface ID#DATA`).
     ///
     /// Data bytes as for `decode movilink`, at most 8. The identifier names the telegram
     /// (manual ch. 5.1: 8 × address + 3 … + 518); the sync identifier is --sync-id (P817); any
@@ -175,12 +176,22 @@ enum DecodeCommand {
         verbatim_doc_comment,
         after_help = "Examples:\n  drivectl decode sbus --id 523 31 00 20 7E 00 00 00 00\n  \
                       drivectl decode sbus --id 0x10B 00 06 13 88 00 00 --json\n  \
-                      drivectl decode sbus --id 1024 55 66 77 88 11 22 33 44"
+                      drivectl decode sbus --id 1024 55 66 77 88 11 22 33 44\n  \
+                      candump -l can0; drivectl decode sbus --log candump-2026-11-26_101010.log"
     )]
     Sbus {
         /// The CAN identifier: decimal, 0x… or …h; 0–2047 (or 29 bits with --extended).
-        #[arg(long, allow_hyphen_values = true)]
-        id: String,
+        #[arg(
+            long,
+            allow_hyphen_values = true,
+            required_unless_present = "log",
+            conflicts_with = "log"
+        )]
+        id: Option<String>,
+        /// A candump log file (`-`: standard input); a UTF-8 BOM and CR LF line ends are
+        /// allowed.
+        #[arg(long, value_name = "FILE", conflicts_with_all = ["hex", "extended"])]
+        log: Option<String>,
         /// The identifier is an extended (29-bit) one (SBus uses none).
         #[arg(long)]
         extended: bool,
@@ -310,12 +321,19 @@ fn main() -> ExitCode {
             json,
         ),
         Command::Decode(DecodeCommand::Sbus {
+            log: Some(log),
+            sync_id,
+            json,
+            ..
+        }) => sbus::decode::run_log(&log, sync_id, json),
+        Command::Decode(DecodeCommand::Sbus {
             id,
             extended,
             hex,
             sync_id,
             json,
-        }) => sbus::decode::run_frame(&id, extended, &hex, sync_id, json),
+            log: None,
+        }) => sbus::decode::run_frame(id.as_deref(), extended, &hex, sync_id, json),
         Command::Decode(DecodeCommand::Movilink { hex, file, json }) => {
             movilink::decode::run(&hex, file.as_deref(), json)
         }

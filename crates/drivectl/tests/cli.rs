@@ -659,6 +659,20 @@ const COMMANDS_WITH_EXAMPLES: &[&[&str]] = &[
     &["sim", "uss"],
     &["decode", "ctt2"],
     &["decode", "uss"],
+    &["sbus"],
+    &["sbus", "read"],
+    &["sbus", "watch"],
+    &["sbus", "write"],
+    &["sbus", "info"],
+    &["sbus", "scan"],
+    &["sbus", "pd"],
+    &["sbus", "sync"],
+    &["sbus", "backup"],
+    &["sbus", "restore"],
+    &["sbus", "ids"],
+    &["sbus", "plan"],
+    &["sim", "sbus"],
+    &["decode", "sbus"],
 ];
 
 #[test]
@@ -1241,4 +1255,104 @@ fn nord_ctt2_sim_runs_the_commands_on_the_simulated_as_i_link() {
     // 31 AS-i slaves: 81.312 ms per byte (section 4.4), counted on the virtual clock.
     let o = drivectl(&["ctt2", "--sim", "--fast", "--slaves", "31", "diag"]);
     assert!(stderr(&o).contains("81.312 ms per byte"), "{}", stderr(&o));
+}
+
+/// Manual ch. 5.6: the identifiers of the drive at SBus address 33.
+#[test]
+fn issue10_sbus_ids_reproduce_the_manual_table() {
+    let o = drivectl(&["sbus", "ids", "--addr", "33", "--json"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let ids: Vec<i64> = json_lines(&o)
+        .iter()
+        .map(|v| v["id"].as_i64().unwrap())
+        .collect();
+    assert_eq!(ids, [779, 780, 267, 268, 269, 518, 6, 0]);
+    let o = drivectl(&["sbus", "ids", "--addr", "64"]);
+    assert_eq!(o.status.code(), Some(2));
+}
+
+#[test]
+fn issue10_decode_sbus_frames_and_logs() {
+    let o = drivectl(&[
+        "decode", "sbus", "--id", "524", "31", "00", "20", "7E", "00", "0F", "42", "40", "--json",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v = &json_lines(&o)[0];
+    assert_eq!(v["index"], 8318);
+    assert_eq!(v["raw"], 1_000_000);
+    assert_eq!(v["address"], 1);
+    // Nine bytes, an identifier past 11 bits: usage errors.
+    let o = drivectl(&[
+        "decode", "sbus", "--id", "1", "0", "1", "2", "3", "4", "5", "6", "7", "8",
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    let o = drivectl(&["decode", "sbus", "--id", "2048"]);
+    assert_eq!(o.status.code(), Some(2));
+    // A candump log saved by Notepad: BOM and CR LF.
+    let dir = std::env::temp_dir().join(format!("drivectl-sbus-log-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let log = dir.join("capture.log");
+    std::fs::write(
+        &log,
+        "\u{feff}(1735270496.916858) can0 20B#3100207E00000000\r\n(1735270496.917100) can0 20C#3100207E000F4240\r\n",
+    )
+    .unwrap();
+    let o = drivectl(&["decode", "sbus", "--log", log.to_str().unwrap(), "--json"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v = json_lines(&o);
+    assert_eq!(v.len(), 2);
+    assert_eq!(v[1]["raw"], 1_000_000);
+    assert_eq!(v[1]["time"], "1735270496.917100");
+    // A line that is no record: named with its number, exit 1.
+    std::fs::write(&log, "(1.000000) can0 000#\ngarbage\n").unwrap();
+    let o = drivectl(&["decode", "sbus", "--log", log.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stdout(&o).contains("line 2"), "{}", stdout(&o));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn issue10_sbus_plan_checks_the_manual_example() {
+    let dir = std::env::temp_dir().join(format!("drivectl-sbus-plan-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let plan = dir.join("bus.toml");
+    let manual = "bitrate = \"500k\"\n[[device]]\nname = \"device 1\"\naddress = 0\nmaster_of = [\"address 1\", \"group 2\"]\n[[device]]\nname = \"device 2\"\naddress = 1\ngroup = 2\n";
+    std::fs::write(&plan, manual).unwrap();
+    let o = drivectl(&[
+        "sbus",
+        "plan",
+        plan.to_str().unwrap(),
+        "--forbidden",
+        "--json",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v = json_lines(&o);
+    assert_eq!(v[1]["device"], "device 2");
+    assert_eq!(
+        v[1]["transmit"],
+        serde_json::json!([523, 524, 11, 12, 13, 534, 22, 0, 516, 4])
+    );
+    // Device 2 sends a variable telegram on 515, device 1's parameter request identifier.
+    let bad =
+        format!("{manual}[[device.object]]\nid = 515\nkind = \"cyclic\"\ncycle_ms = 10\nlen = 8\n");
+    std::fs::write(&plan, bad).unwrap();
+    let o = drivectl(&["sbus", "plan", plan.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(1), "{}", stdout(&o));
+    assert!(stdout(&o).contains("515"), "{}", stdout(&o));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn issue10_sbus_read_json_on_the_virtual_bus() {
+    let o = drivectl(&[
+        "sbus", "--iface", "virtual", "--addr", "1", "read", "8318", "--json",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v = &json_lines(&o)[0];
+    assert_eq!(v["index"], 8318);
+    assert_eq!(v["raw"], 0);
+    // No interface: a usage error saying what to give, before anything is opened.
+    let o = drivectl(&["sbus", "read", "P000"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("--iface"), "{}", stderr(&o));
 }

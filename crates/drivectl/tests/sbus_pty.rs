@@ -65,14 +65,25 @@ fn write_volatile_then_read_back_on_the_other_drive_too() {
     let w = sim.run(&["write", "P130", "0.7", "--volatile", "--json"]);
     let v = ok_json(&w);
     assert_eq!(v[0]["raw"], 700, "{}", stderr(&w));
-    assert_eq!(ok_json(&sim.run(&["read", "P130", "--json"]))[0]["raw"], 700);
+    assert_eq!(
+        ok_json(&sim.run(&["read", "P130", "--json"]))[0]["raw"],
+        700
+    );
     // Drive 2 is another drive: untouched.
     assert_ne!(
         ok_json(&sim.at("2", &["read", "P130", "--json"]))[0]["raw"],
         700
     );
     // A group write reaches both (group 0 is the factory P814), unanswered.
-    let g = sim.run(&["write", "P130", "0.9", "--volatile", "--group", "0", "--json"]);
+    let g = sim.run(&[
+        "write",
+        "P130",
+        "0.9",
+        "--volatile",
+        "--group",
+        "0",
+        "--json",
+    ]);
     let v = ok_json(&g);
     assert_eq!(v[0]["answered"], false);
     for a in ["1", "2"] {
@@ -121,7 +132,13 @@ fn pd_enables_the_drive_and_stops_it_at_the_end() {
     assert!(err.contains("at the end"), "{err}");
     // Synchronous process data: PO sync and SYNC.
     let s = sim.run(&[
-        "pd", "--out", "0x0006,5000,0", "--count", "3", "--sync", "--json",
+        "pd",
+        "--out",
+        "0x0006,5000,0",
+        "--count",
+        "3",
+        "--sync",
+        "--json",
     ]);
     let v = ok_json(&s);
     assert_eq!(v.len(), 3);
@@ -160,7 +177,10 @@ fn bad_input_is_refused_before_the_bus_is_touched() {
         (vec!["--addr", "64", "read", "P000"], "64"),
         (vec!["pd", "--out", "1,2"], "three words"),
         (vec!["pd", "--out", "1,2,70000"], "16-bit"),
-        (vec!["write", "P130", "1099511627776", "--raw"], "1099511627776"),
+        (
+            vec!["write", "P130", "1099511627776", "--raw"],
+            "1099511627776",
+        ),
         (vec!["read", "P9999"], "P9999"),
         (vec!["--handshake", "fast", "read", "P000"], "fast"),
     ] {

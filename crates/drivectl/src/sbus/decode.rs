@@ -369,13 +369,20 @@ pub fn parse_id(text: &str, extended: bool) -> Result<Id> {
 
 /// Run `drivectl decode sbus --id ID HEX…`.
 pub fn run_frame(
-    id: &str,
+    id: Option<&str>,
     extended: bool,
     hex_args: &[String],
     sync_id: u16,
     json: bool,
 ) -> Result<()> {
-    let id = parse_id(id, extended)?;
+    let id = parse_id(
+        id.ok_or_else(|| {
+            CliError::usage(
+                "give the frame's identifier (--id ID HEX…) or a candump log (--log FILE)",
+            )
+        })?,
+        extended,
+    )?;
     let bytes = crate::movilink::decode::parse_hex(hex_args)?;
     let frame = CanFrame::data_frame(id, &bytes).ok_or_else(|| {
         CliError::usage(format!(
@@ -395,6 +402,69 @@ pub fn run_frame(
         ))),
         None => Ok(()),
     }
+}
+
+/// The most a log file may have (a day of a busy 1 Mbit/s bus is far more; split it).
+const LOG_LIMIT: u64 = 256 << 20;
+
+/// Run `drivectl decode sbus --log FILE`: every record of a candump log (`-`: standard input)
+/// explained; a line that is no record is reported with its number and the rest is read on.
+pub fn run_log(path: &str, sync_id: u16, json: bool) -> Result<()> {
+    use drive_transport::can::candump::LogReader;
+    let bytes = crate::tool::infile::read_limited(std::path::Path::new(path), true, LOG_LIMIT)?;
+    let mut frames = 0usize;
+    let mut invalid = 0usize;
+    let mut unreadable = 0usize;
+    for item in LogReader::new(bytes.as_slice()) {
+        match item {
+            Ok(r) => {
+                frames += 1;
+                let e = explain(&r.frame, sync_id);
+                if e.error.is_some() {
+                    invalid += 1;
+                }
+                if json {
+                    outln!(
+                        "{}",
+                        to_json(&e, None, Some((r.t_us, r.interface.as_str())))
+                    )?;
+                } else {
+                    let place = format!(
+                        "({}.{:06}) {} ",
+                        r.t_us / 1_000_000,
+                        r.t_us % 1_000_000,
+                        r.interface
+                    );
+                    out!("{}", to_text(&e, &place))?;
+                }
+            }
+            Err(e) => {
+                unreadable += 1;
+                if json {
+                    outln!(
+                        "{}",
+                        json!({"type": "error", "line": e.line, "error": e.kind.to_string()})
+                    )?;
+                } else {
+                    outln!("{path}: {e}")?;
+                }
+            }
+        }
+    }
+    if !json {
+        outln!("{frames} frame(s), {invalid} not valid SBus, {unreadable} unreadable line(s)")?;
+    }
+    if frames == 0 && unreadable == 0 {
+        return Err(CliError::usage(format!(
+            "{path}: no candump records (lines like `(1735270496.916858) can0 20B#3100207E00000000`)"
+        )));
+    }
+    if unreadable > 0 {
+        return Err(CliError::failed(format!(
+            "{unreadable} line(s) of {path} are no candump records"
+        )));
+    }
+    Ok(())
 }
 
 #[cfg(test)]

@@ -27,9 +27,6 @@ pub enum Iface {
     Virtual,
 }
 
-/// The bit rates SBus drives take (P816).
-pub const SBUS_BITRATES: [Bitrate; 4] = [Bitrate::K125, Bitrate::K250, Bitrate::K500, Bitrate::M1];
-
 /// Parse a bit rate: `500k`, `1M`, `500000`, `500kbit`.
 pub fn parse_bitrate(text: &str) -> Result<Bitrate> {
     let t = text.trim().to_ascii_lowercase();
@@ -74,6 +71,9 @@ impl Iface {
                 Some((p, b)) => (p, parse_bitrate(b)?),
                 None => (rest, Bitrate::K500),
             };
+            if let Err(e) = drive_transport::can::slcan::s_code(bitrate) {
+                return Err(CliError::usage(format!("--iface {t}: {e}")));
+            }
             if path.is_empty() {
                 return Err(CliError::usage(format!(
                     "--iface {t}: no serial port after slcan: (e.g. slcan:/dev/ttyACM0@500k)"

@@ -12,8 +12,8 @@ use sbus_can::master::Handshake;
 use sbus_can::sim::SimulatedSbusBus;
 
 use crate::error::{CliError, Result};
-use crate::sew::{SewLink, device_error};
 use crate::sbus::iface::Iface;
+use crate::sew::{SewLink, device_error};
 use crate::tool::client::{ClientError, Target};
 use crate::tool::output::physical_text;
 
@@ -100,9 +100,9 @@ impl<C: CanIo> SewLink for SbusLink<'_, C> {
                 "the drive will answer at SBus address {raw}, no longer at {} (use --addr {raw})",
                 self.address.get()
             ),
-            SBUS_GROUP_ADDRESS => format!(
-                "the drive will take group telegrams to group {raw} (8g+6 and 8g+518)"
-            ),
+            SBUS_GROUP_ADDRESS => {
+                format!("the drive will take group telegrams to group {raw} (8g+6 and 8g+518)")
+            }
             SBUS_TIMEOUT if raw == 0 => "the drive will no longer watch the SBus for a timeout \
                  (0 s): a master that stops leaves it running"
                 .to_owned(),

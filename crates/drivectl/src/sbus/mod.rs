@@ -484,10 +484,7 @@ async fn scan<C: drive_core::rt::CanIo>(
     let mut found = 0;
     for hit in hits {
         let a = hit.address;
-        let firmware = m
-            .read(a, drive_profile::sew::index::FIRMWARE)
-            .await
-            .ok();
+        let firmware = m.read(a, drive_profile::sew::index::FIRMWARE).await.ok();
         found += 1;
         match hit.unit_type {
             Ok(device_type) => {

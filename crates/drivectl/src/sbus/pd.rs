@@ -22,7 +22,12 @@ use crate::tool::output::trim_float;
 pub struct PdArgs {
     /// The three process output words PO1,PO2,PO3 (SBus always carries three), e.g.
     /// 0x0006,5000,0; each −32768…65535.
-    #[arg(long, value_delimiter = ',', required = true, allow_hyphen_values = true)]
+    #[arg(
+        long,
+        value_delimiter = ',',
+        required = true,
+        allow_hyphen_values = true
+    )]
     out: Vec<String>,
     /// Number of exchanges; 0 runs until Ctrl-C.
     #[arg(long, default_value_t = 1)]
@@ -141,9 +146,7 @@ pub async fn pd<C: CanIo>(
     };
     let group = args
         .group
-        .map(|g| {
-            Address::new(g).ok_or_else(|| CliError::usage(format!("--group {g}: 0…63")))
-        })
+        .map(|g| Address::new(g).ok_or_else(|| CliError::usage(format!("--group {g}: 0…63"))))
         .transpose()?;
     // A group has no answers to read the control word slots from: the factory setting (PO1 =
     // control word 1) is assumed, and said.
@@ -202,7 +205,9 @@ pub async fn pd<C: CanIo>(
                 errln!(
                     "drivectl: note: sent {} (control word 0x{:04X}) at the end; the drive reports: {status}",
                     cmd.command().name(),
-                    w.get(slots.first().copied().unwrap_or(0)).copied().unwrap_or(0)
+                    w.get(slots.first().copied().unwrap_or(0))
+                        .copied()
+                        .unwrap_or(0)
                 );
             }
             Err(e) => {
@@ -239,7 +244,11 @@ async fn exchange_quiet<C: CanIo>(
             .await
             .map(Some)
             .map_err(driver_error),
-        None => m.process_data(addr, po).await.map(Some).map_err(driver_error),
+        None => m
+            .process_data(addr, po)
+            .await
+            .map(Some)
+            .map_err(driver_error),
     }
 }
 

@@ -201,8 +201,8 @@ fn sync_id(device: &str, id: u16) -> Result<u16> {
 /// Run `drivectl sbus plan FILE`.
 pub fn run(path: &str, forbidden: bool, json: bool) -> Result<()> {
     let bytes = crate::tool::infile::read_limited(Path::new(path), true, PLAN_LIMIT)?;
-    let text = String::from_utf8(bytes)
-        .map_err(|_| CliError::usage(format!("{path}: not UTF-8 text")))?;
+    let text =
+        String::from_utf8(bytes).map_err(|_| CliError::usage(format!("{path}: not UTF-8 text")))?;
     let plan = parse(&text, path)?;
     if forbidden {
         for (i, d) in plan.devices.iter().enumerate() {
@@ -253,10 +253,7 @@ pub fn run(path: &str, forbidden: bool, json: bool) -> Result<()> {
 }
 
 fn list(ids: &[u16]) -> String {
-    ids.iter()
-        .map(u16::to_string)
-        .collect::<Vec<_>>()
-        .join(" ")
+    ids.iter().map(u16::to_string).collect::<Vec<_>>().join(" ")
 }
 
 #[cfg(test)]
@@ -303,7 +300,10 @@ group = 2
         for (text, needle) in [
             ("[[device]]\nname = \"x\"\naddress = 64\n", "0…63"),
             ("[[device]]\nname = \"x\"\naddress = 300\n", "t:"),
-            ("[[device]]\nname = \"x\"\nmaster_of = [\"slave 1\"]\n", "address N"),
+            (
+                "[[device]]\nname = \"x\"\nmaster_of = [\"slave 1\"]\n",
+                "address N",
+            ),
             ("bitrate = \"2M\"\n", "bit rate"),
             ("[[device]]\nname = \"x\"\nadress = 1\n", "adress"),
             (
