@@ -214,3 +214,59 @@ fn a_wrong_bit_rate_is_named() {
     ]);
     assert!(ok.status.success(), "{}", stderr(&ok));
 }
+
+#[test]
+fn watch_polls_and_capture_logs_every_frame() {
+    let sim = Sim::start(&[]);
+    let v = ok_json(&sim.run(&[
+        "watch",
+        "P000",
+        "P130",
+        "--interval",
+        "50",
+        "--count",
+        "3",
+        "--json",
+    ]));
+    assert_eq!(v.len(), 3, "{v:?}");
+    let dir = std::env::temp_dir().join(format!("sbus-capture-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let log = dir.join("session.log");
+    let log_s = log.to_str().unwrap();
+    let o = sim.run(&["--capture", log_s, "read", "P000", "P130"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = std::fs::read_to_string(&log).unwrap();
+    // Two requests (8a+515 = 523 = 20Bh) and two answers (524 = 20Ch).
+    assert_eq!(text.lines().count(), 4, "{text}");
+    assert!(text.lines().all(|l| l.contains(" slcan0 ")), "{text}");
+    assert_eq!(text.matches("20B#31").count(), 2);
+    assert_eq!(text.matches("20C#31").count(), 2);
+    // The log decodes, and is not replaced unasked.
+    let d = sim.drivectl(&["decode", "sbus", "--log", log_s, "--json"]);
+    assert_eq!(ok_json(&d).len(), 4);
+    let again = sim.run(&["--capture", log_s, "read", "P000"]);
+    assert_eq!(again.status.code(), Some(2), "{}", stderr(&again));
+    assert_eq!(std::fs::read_to_string(&log).unwrap(), text);
+    // A failed session is captured too: the retries to a missing drive.
+    let missing = dir.join("missing.log");
+    let o = sim.at(
+        "9",
+        &[
+            "--timeout",
+            "5",
+            "--retries",
+            "1",
+            "--capture",
+            missing.to_str().unwrap(),
+            "read",
+            "P000",
+        ],
+    );
+    assert_eq!(o.status.code(), Some(1));
+    assert_eq!(
+        std::fs::read_to_string(&missing).unwrap().lines().count(),
+        2
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -94,6 +94,15 @@ impl Iface {
         Ok(Iface::SocketCan(t.to_owned()))
     }
 
+    /// The interface's name in a candump log (one token: `can0`, `slcan0`, `virtual0`).
+    pub fn log_name(&self) -> String {
+        match self {
+            Iface::SocketCan(n) => n.clone(),
+            Iface::Slcan { .. } => "slcan0".to_owned(),
+            Iface::Virtual => "virtual0".to_owned(),
+        }
+    }
+
     /// How the interface is named for a person and for the EEPROM-wear log.
     pub fn name(&self) -> String {
         match self {

@@ -29,8 +29,10 @@ use crate::sew::{SewClient, data_of};
 use crate::tool::backup;
 use crate::tool::client::{ParamClient, ValueText};
 use crate::tool::interrupt::Interrupt;
+use crate::tool::outfile::OutputFile;
 use crate::tool::output::{physical_text, print_value};
 use crate::tool::{read, watch, write};
+use drive_transport::can::candump::Capture;
 
 use self::iface::Iface;
 use self::link::{NOT_RESTORED, SbusLink, driver_error, open, virtual_addresses};
@@ -48,6 +50,7 @@ Examples:
   drivectl sbus --iface can0 --addr 1 pd --out 0x0006,5000,0 --count 50
   drivectl sbus ids --addr 33                       the identifiers drive 33 uses (267, 268, …)
   drivectl sbus plan bus.toml                       check a bus's identifier plan
+  drivectl sbus --iface can0 --addr 1 --capture s.log read P000   candump log of the session
 
 --iface: a SocketCAN interface (can0, vcan0: `ip link set can0 up type can bitrate 500000`),
 slcan:PATH[@BITRATE] (an slcan/Lawicel USB-CAN adapter; 500k, the SBus factory setting, by
@@ -84,6 +87,14 @@ pub struct SbusArgs {
     /// interface (slcan:PATH@BITRATE), SocketCAN from `ip link`.
     #[arg(long, global = true, default_value = "500k")]
     bitrate: String,
+    /// Record every frame sent and received to this candump log (`(seconds.micros) iface
+    /// ID#DATA`; `drivectl decode sbus --log FILE` explains it). Written when the command ends,
+    /// also on an error or Ctrl-C; a new regular file (or --overwrite).
+    #[arg(long, global = true, value_name = "FILE")]
+    capture: Option<std::path::PathBuf>,
+    /// Replace the --capture file if it exists.
+    #[arg(long, global = true, requires = "capture")]
+    overwrite: bool,
     /// One JSON object per result.
     #[arg(long, global = true)]
     json: bool,
@@ -240,17 +251,60 @@ pub fn run(args: &SbusArgs) -> Result<()> {
     let bitrate = iface::parse_bitrate(&args.bitrate)?;
     precheck(&args.command)?;
     let config = master_config(args);
+    // The capture file is checked (and its temporary file created) before the bus is opened.
+    let capture = args
+        .capture
+        .as_deref()
+        .map(|p| OutputFile::prepare(p, args.overwrite))
+        .transpose()?;
     let rt = crate::tool::line::runtime()?;
     rt.block_on(async {
         let (io, sim) = open(&iface, bitrate, &virtual_addresses(args.addr)).await?;
-        let mut master = SbusMaster::new(io, config);
-        let result = execute(&mut master, args, &iface).await;
-        drop(master);
+        let result = match capture {
+            None => {
+                let mut master = SbusMaster::new(io, config);
+                execute(&mut master, args, &iface).await
+            }
+            Some(file) => {
+                let log = Capture::new(io, Vec::new(), iface.log_name());
+                let mut master = SbusMaster::new(log, config);
+                let result = execute(&mut master, args, &iface).await;
+                let kept = save_capture(master.into_inner(), file, args.capture.as_deref());
+                // The command's own error comes first; a failed capture is reported after it.
+                match (result, kept) {
+                    (Err(e), Err(c)) => {
+                        errln!("drivectl: warning: {c}");
+                        Err(e)
+                    }
+                    (r, k) => r.and(k),
+                }
+            }
+        };
         if let Some(task) = sim {
             task.abort();
         }
         result
     })
+}
+
+/// Write the capture log of a finished command.
+fn save_capture<C: drive_core::rt::CanIo>(
+    capture: Capture<C, Vec<u8>>,
+    file: OutputFile,
+    path: Option<&std::path::Path>,
+) -> Result<()> {
+    let records = capture.records();
+    let (_, log) = capture
+        .finish()
+        .map_err(|e| CliError::failed(format!("the capture log was not written: {e}")))?;
+    let text = String::from_utf8(log)
+        .map_err(|_| CliError::failed("the capture log was not written: not text"))?;
+    file.commit(&text)?;
+    errln!(
+        "drivectl: note: {records} frame(s) captured to {}",
+        path.map_or_else(String::new, |p| p.display().to_string())
+    );
+    Ok(())
 }
 
 fn handshake(args: &SbusArgs) -> Handshake {
