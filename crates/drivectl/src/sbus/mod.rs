@@ -62,7 +62,7 @@ Identifiers (manual ch. 5.1): PO 8a+3, PI 8a+4, PO sync 8a+5, group PO 8g+6, par
 #[derive(Debug, Args)]
 #[command(after_help = SBUS_HELP)]
 pub struct SbusArgs {
-    /// CAN interface: can0 (SocketCAN), slcan:PATH[@BITRATE] (an slcan USB-CAN adapter) or
+    /// CAN interface: can0 (SocketCAN), slcan:PATH or slcan:PATH@BITRATE (an slcan USB-CAN adapter) or
     /// virtual (simulated drives in this process). Accepted before or after the subcommand.
     #[arg(long, global = true, default_value = "", hide_default_value = true)]
     iface: String,

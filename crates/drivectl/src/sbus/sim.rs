@@ -22,7 +22,7 @@ use crate::tool::simrun;
     after_help = "Examples:\n  drivectl sim sbus --pty --addr 1 --addr 2          prints the pty; then:\n  drivectl sbus --iface slcan:/dev/pts/3 --addr 1 read P000\n  drivectl sim sbus --iface vcan0 --addr 5            on a SocketCAN interface"
 )]
 pub struct SimArgs {
-    /// Serve on this CAN interface: can0/vcan0 (SocketCAN) or slcan:PATH[@BITRATE].
+    /// Serve on this CAN interface: can0/vcan0 (SocketCAN), slcan:PATH or slcan:PATH@BITRATE.
     #[arg(long, conflicts_with = "pty", required_unless_present = "pty")]
     iface: Option<String>,
     /// Serve behind a simulated slcan adapter on a new pseudo-terminal and print its path.
