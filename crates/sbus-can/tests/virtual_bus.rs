@@ -21,20 +21,27 @@
     clippy::panic
 )]
 
+use std::future::Future;
 use std::io;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
+use std::task::{Context, Poll};
 use std::time::Duration;
 
-use drive_core::can::{Bitrate, Frame};
-use drive_core::rt::{ReceivedFrame, recv_frame};
+use drive_core::SplitMix64;
+use drive_core::can::{Bitrate, CanFrame, Frame};
+use drive_core::rt::{CanIo, ReceivedFrame, recv_frame};
 use drive_profile::sew::{ParamChannel, index};
 use drive_sim::movidrive::FAULT_SBUS_TIMEOUT;
-use drive_transport::can::virtual_bus::{BusConfig, VirtualBus, VirtualNode};
+use drive_transport::can::virtual_bus::{BusConfig, BusFault, BusFaults, VirtualBus, VirtualNode};
 use sbus_can::Address;
-use sbus_can::driver::SbusMaster;
+use sbus_can::driver::{DriverError, SbusMaster};
 use sbus_can::master::{Handshake, MasterConfig};
 use sbus_can::sim::{SimulatedSbusBus, SimulatedSbusDrive};
 use sbus_can::telegram::ProcessData;
+use sbus_can::variable::{
+    CyclicTiming, Format, Len, NodeConfig, ObjectNo, SetupResult, VariableNode, Variables,
+};
 use tokio::task::JoinHandle;
 use tokio::time::Instant as TokioInstant;
 
@@ -359,4 +366,471 @@ async fn master_slave_group_telegram_every_millisecond_on_the_bus() {
         assert!((got - want).abs() < 0.2, "drive {d}: {got} 1/min");
     }
     rig.finish().await;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Fault injection
+// ---------------------------------------------------------------------------------------------
+
+/// The drives' node, served only while a step runs: `poll_recv` ends the serve (as the end of
+/// the bus would) once the step's master call is done, so that the test can look at the drive
+/// models between steps. Nothing is lost: frames that arrive meanwhile wait in the node's
+/// queue with their `at` stamps, and the drives' time goes on across serves.
+struct Pausable<'a> {
+    node: &'a mut VirtualNode,
+    stop: &'a AtomicBool,
+}
+
+impl CanIo for Pausable<'_> {
+    fn poll_recv(&mut self, cx: &mut Context<'_>) -> Poll<io::Result<ReceivedFrame>> {
+        if self.stop.load(Ordering::Relaxed) {
+            return Poll::Ready(Err(io::ErrorKind::UnexpectedEof.into()));
+        }
+        self.node.poll_recv(cx)
+    }
+
+    fn poll_send(&mut self, cx: &mut Context<'_>, frame: &CanFrame) -> Poll<io::Result<()>> {
+        self.node.poll_send(cx, frame)
+    }
+
+    fn poll_send_at(
+        &mut self,
+        cx: &mut Context<'_>,
+        frame: &CanFrame,
+        start: TokioInstant,
+    ) -> Poll<io::Result<()>> {
+        self.node.poll_send_at(cx, frame, start)
+    }
+}
+
+/// Runs the master call `op` while the drives are served; returns once both are done (the
+/// drives finish a frame they are sending, e.g. a delayed answer).
+async fn step<T>(
+    drives: &mut SimulatedSbusBus,
+    node: &mut VirtualNode,
+    op: impl Future<Output = T>,
+) -> T {
+    let stop = AtomicBool::new(false);
+    let (r, served) = tokio::join!(
+        async {
+            let r = op.await;
+            stop.store(true, Ordering::Relaxed);
+            tokio::task::yield_now().await;
+            r
+        },
+        drives.serve(Pausable { node, stop: &stop })
+    );
+    served.unwrap();
+    r
+}
+
+/// Parameters the campaign writes (RW ramps, steps of 10 up to 1 s) and reads.
+const RAMPS: [u16; 5] = [
+    index::RAMP_T11_UP_CW,
+    index::RAMP_T11_DOWN_CW,
+    index::RAMP_T11_UP_CCW,
+    index::RAMP_T11_DOWN_CCW,
+    index::RAMP_T12,
+];
+
+/// A valid ramp value no other drive can hold: 10 × (4j + address) ms.
+fn ramp_value(rng: &mut SplitMix64, address: u8) -> u32 {
+    10 * (4 * (rng.next_u64() % 25) as u32 + u32::from(address))
+}
+
+/// The model's value of `index` in drive `d` now.
+fn model(drives: &mut SimulatedSbusBus, d: u8, index: u16) -> u32 {
+    drives
+        .drive_mut(d)
+        .unwrap()
+        .movidrive_mut()
+        .param(&ParamChannel::read(index), drive_core::Instant::ZERO)
+        .unwrap()
+}
+
+/// The model's process input words of drive `d` now.
+fn model_pi(drives: &SimulatedSbusBus, d: u8) -> [u16; 3] {
+    let mut pi = [0; 3];
+    drives.drive(d).unwrap().movidrive().process_input(&mut pi);
+    pi
+}
+
+/// Counts of one campaign.
+#[derive(Debug, Default, Clone, Copy)]
+struct Counts {
+    operations: u64,
+    reads: u64,
+    writes: u64,
+    exchanges: u64,
+    timeouts: u64,
+    retries: u64,
+    dropped: u64,
+    corrupted: u64,
+    delayed: u64,
+    unsolicited: u64,
+    mismatched: u64,
+}
+
+/// Every error must be a timeout naming the drive and all attempts.
+fn check_timeout(e: &DriverError, d: u8, attempts: u16) {
+    match e {
+        DriverError::Timeout {
+            address,
+            attempts: n,
+            ..
+        } if address.get() == d && *n == attempts => {
+            let text = e.to_string();
+            assert!(
+                text.contains(&format!("address {d} after {attempts} attempts")),
+                "{text}"
+            );
+        }
+        other => panic!("drive {d}: {other:?}"),
+    }
+}
+
+/// The PO each drive gets: drive 1 enabled, 2 and 3 not; with their PI mapped differently
+/// (P874/P875) no drive's PI can pass for another's.
+const PO: [[u16; 3]; 3] = [[6, 0, 0], [0, 0, 0], [0, 0, 0]];
+
+/// One seeded campaign of `ops` operations with random drops, destroyed frames (retransmitted
+/// by the controller) and delayed requests on both nodes.
+async fn campaign(seed: u64, ops: u64, delay_by: Duration) -> Counts {
+    let faults = BusFaults {
+        seed,
+        drop: 0.12,
+        corrupt: 0.05,
+        delay: 0.05,
+        delay_by,
+        one_shot: false,
+    };
+    let bus = VirtualBus::with_config(k500());
+    let mut drives = SimulatedSbusBus::new(&[1, 2, 3]);
+    let mut rng = SplitMix64::new(seed ^ 0x5EED);
+    for d in 1..=3u8 {
+        let drive = drives.drive_mut(d).unwrap();
+        set(drive, index::SBUS_TIMEOUT, 0);
+        set(drive, index::SBUS_GROUP_ADDRESS, 10 + u32::from(d));
+        for i in RAMPS {
+            let v = ramp_value(&mut rng, d);
+            set(drive, i, v);
+        }
+    }
+    // P875 PI3 = status word 1 in drive 2, P874 PI2 = status word 1 in drive 3.
+    set(drives.drive_mut(2).unwrap(), index::PI1_DESCRIPTION + 2, 6);
+    set(drives.drive_mut(3).unwrap(), index::PI1_DESCRIPTION + 1, 6);
+    let mut node = bus.node();
+    let mut master = SbusMaster::new(bus.node(), MasterConfig::default());
+    // Warm-up without faults: each drive in its state; their PIs differ.
+    for d in 1..=3u8 {
+        let po = ProcessData(PO[usize::from(d - 1)]);
+        step(&mut drives, &mut node, master.process_data(a(d), po))
+            .await
+            .unwrap();
+    }
+    tokio::time::sleep(Duration::from_millis(5)).await;
+    let pis: Vec<[u16; 3]> = (1..=3).map(|d| model_pi(&drives, d)).collect();
+    assert!(
+        pis[0] != pis[1] && pis[1] != pis[2] && pis[0] != pis[2],
+        "{pis:04X?}"
+    );
+    bus.set_faults(faults);
+
+    let attempts = u16::from(master.config().retries) + 1;
+    let mut c = Counts::default();
+    for _ in 0..ops {
+        c.operations += 1;
+        let d = 1 + (rng.next_u64() % 3) as u8;
+        match rng.next_u64() % 10 {
+            // Reads of parameters the test knows: the drive's address, group, a ramp; one in
+            // three in sync mode.
+            0..=3 => {
+                c.reads += 1;
+                let i = match rng.next_u64() % 4 {
+                    0 => index::SBUS_ADDRESS,
+                    1 => index::SBUS_GROUP_ADDRESS,
+                    _ => RAMPS[(rng.next_u64() % 5) as usize],
+                };
+                let hs = if rng.next_u64().is_multiple_of(3) {
+                    Handshake::Sync
+                } else {
+                    Handshake::Async
+                };
+                let r = step(
+                    &mut drives,
+                    &mut node,
+                    master.param_with(a(d), ParamChannel::read(i), hs),
+                )
+                .await;
+                match r {
+                    Ok(ch) => assert_eq!(ch.data, model(&mut drives, d, i), "drive {d} index {i}"),
+                    Err(e) => {
+                        check_timeout(&e, d, attempts);
+                        c.timeouts += 1;
+                    }
+                }
+            }
+            // A random valid value, then a read of it.
+            4..=6 => {
+                c.writes += 1;
+                let i = RAMPS[(rng.next_u64() % 5) as usize];
+                let v = ramp_value(&mut rng, d);
+                let before = model(&mut drives, d, i);
+                let w = step(&mut drives, &mut node, master.write_volatile(a(d), i, v)).await;
+                let now = model(&mut drives, d, i);
+                match w {
+                    Ok(()) => assert_eq!(now, v, "drive {d} index {i}: write taken"),
+                    Err(e) => {
+                        // Lost answers: the drive may have executed it, or not.
+                        check_timeout(&e, d, attempts);
+                        assert!(now == v || now == before, "drive {d} index {i}: {now}");
+                        c.timeouts += 1;
+                    }
+                }
+                let r = step(&mut drives, &mut node, master.read(a(d), i)).await;
+                c.reads += 1;
+                match r {
+                    Ok(got) => assert_eq!(got, model(&mut drives, d, i), "drive {d} index {i}"),
+                    Err(e) => {
+                        check_timeout(&e, d, attempts);
+                        c.timeouts += 1;
+                    }
+                }
+            }
+            // Process data: the PI is this drive's, now.
+            _ => {
+                c.exchanges += 1;
+                let po = ProcessData(PO[usize::from(d - 1)]);
+                let r = step(&mut drives, &mut node, master.process_data(a(d), po)).await;
+                match r {
+                    Ok(pi) => assert_eq!(pi.0, model_pi(&drives, d), "drive {d}"),
+                    Err(e) => {
+                        check_timeout(&e, d, attempts);
+                        c.timeouts += 1;
+                    }
+                }
+            }
+        }
+    }
+    let stats = master.stats();
+    assert_eq!(stats.timeouts, c.timeouts);
+    assert_eq!(stats.drive_errors, 0);
+    c.retries = stats.retries;
+    c.unsolicited = stats.rejected.unsolicited;
+    c.mismatched = stats.rejected.mismatch;
+    let nodes = [node.stats(), master.get_ref().stats()];
+    c.dropped = nodes.iter().map(|n| n.dropped).sum();
+    c.corrupted = nodes.iter().map(|n| n.corrupted).sum();
+    c.delayed = nodes.iter().map(|n| n.delayed).sum();
+    c
+}
+
+/// The issue's "lost and corrupted frames, late answers: no wrong value": four seeds of 300
+/// operations each, delays shorter and longer than the 50 ms timeout.
+#[tokio::test(start_paused = true)]
+async fn fault_campaign_never_reports_a_wrong_value() {
+    let mut total = Counts::default();
+    for (seed, delay_ms) in [(1u64, 5u64), (2, 30), (3, 70), (4, 120)] {
+        let c = campaign(seed, 300, Duration::from_millis(delay_ms)).await;
+        println!("seed {seed}, delay {delay_ms} ms: {c:?}");
+        assert!(c.timeouts > 0 && c.retries > 0, "seed {seed}: {c:?}");
+        assert!(
+            c.dropped > 0 && c.corrupted > 0 && c.delayed > 0,
+            "seed {seed}: {c:?}"
+        );
+        total.operations += c.operations;
+        total.reads += c.reads;
+        total.writes += c.writes;
+        total.exchanges += c.exchanges;
+        total.timeouts += c.timeouts;
+        total.retries += c.retries;
+        total.dropped += c.dropped;
+        total.corrupted += c.corrupted;
+        total.delayed += c.delayed;
+        total.unsolicited += c.unsolicited;
+        total.mismatched += c.mismatched;
+    }
+    println!("total: {total:?}");
+}
+
+/// Late answers on the bus (the drive's answer held back by its controller with one-shot
+/// delays): one arriving while the retry of the same request waits answers that request (the
+/// same service, index and drive: the right value) and the retry's answer is not taken by the
+/// next request; one arriving after the request was given up is never taken for a later
+/// request, whether the master waits its late guard or (guard 0) has sent the next request.
+#[tokio::test(start_paused = true)]
+async fn late_answers_are_never_taken_for_a_later_request() {
+    const RAMP: u16 = index::RAMP_T11_UP_CW;
+    const OTHER: u16 = index::RAMP_T11_DOWN_CW;
+    let bus = VirtualBus::new(Bitrate::K500);
+    let mut drives = SimulatedSbusBus::new(&[1, 2, 3]);
+    set(drives.drive_mut(1).unwrap(), RAMP, 500);
+    set(drives.drive_mut(1).unwrap(), OTHER, 800);
+    let mut node = bus.node();
+    let mut master = SbusMaster::new(bus.node(), MasterConfig::default());
+
+    // 1. Delayed past the 50 ms timeout: it comes while the retry waits.
+    node.inject(BusFault::Delay(Duration::from_millis(70)));
+    let t0 = TokioInstant::now();
+    let v = step(&mut drives, &mut node, master.read(a(1), RAMP)).await;
+    assert_eq!(v.unwrap(), 500);
+    assert!(t0.elapsed() >= Duration::from_millis(70));
+    assert_eq!(master.stats().retries, 1);
+    step(
+        &mut drives,
+        &mut node,
+        master.write_volatile(a(1), RAMP, 600),
+    )
+    .await
+    .unwrap();
+    let v = step(&mut drives, &mut node, master.read(a(1), RAMP)).await;
+    assert_eq!(v.unwrap(), 600, "not the retry's answer 500");
+    let r = master.stats().rejected;
+    assert_eq!(r.unsolicited + r.mismatch, 1, "{r:?}");
+
+    // 2. Given up (one attempt), then the late answer (RAMP = 600) during the master's late
+    //    guard: counted, and the next write and read are the drive's.
+    master.set_retries(0);
+    node.inject(BusFault::Delay(Duration::from_millis(80)));
+    let e = step(&mut drives, &mut node, master.read(a(1), RAMP))
+        .await
+        .unwrap_err();
+    check_timeout(&e, 1, 1);
+    step(
+        &mut drives,
+        &mut node,
+        master.write_volatile(a(1), RAMP, 700),
+    )
+    .await
+    .unwrap();
+    let v = step(&mut drives, &mut node, master.read(a(1), RAMP)).await;
+    assert_eq!(v.unwrap(), 700);
+    let after_guard = master.stats().rejected;
+    assert_eq!(
+        after_guard.unsolicited + after_guard.mismatch,
+        2,
+        "{after_guard:?}"
+    );
+
+    // 3. No late guard: the next request (another index) is on the bus when the late answer
+    //    comes; it is not its answer.
+    let mut unguarded = SbusMaster::new(
+        master.into_inner(),
+        MasterConfig {
+            retries: 0,
+            late_guard: Duration::ZERO,
+            ..MasterConfig::default()
+        },
+    );
+    node.inject(BusFault::Delay(Duration::from_millis(80)));
+    let (e, v) = step(&mut drives, &mut node, async {
+        let e = unguarded.read(a(1), RAMP).await;
+        (e, unguarded.read(a(1), OTHER).await)
+    })
+    .await;
+    check_timeout(&e.unwrap_err(), 1, 1);
+    assert_eq!(v.unwrap(), 800, "not the late answer 700 of index {RAMP}");
+    assert_eq!(unguarded.stats().rejected.mismatch, 1);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Bus load
+// ---------------------------------------------------------------------------------------------
+
+/// Cyclic objects of the bus-load test: (object number, cycle ms, offset ms, bytes, format).
+const OBJECTS: [(u16, u32, u32, u8, Format); 6] = [
+    (1024, 5, 0, 8, Format::Motorola),
+    (1025, 5, 2, 4, Format::Intel),
+    (1026, 9, 0, 2, Format::Motorola),
+    (1027, 10, 0, 8, Format::Intel),
+    (1028, 20, 10, 8, Format::Motorola),
+    (1029, 100, 50, 0, Format::Motorola),
+];
+
+/// Bits of a standard data frame of `len` bytes without a single stuff bit, intermission
+/// included: SOF, 11 identifier bits, RTR, IDE, r0, 4 DLC bits, the data, 15 CRC bits, CRC
+/// delimiter, ACK slot and delimiter, 7 EOF bits, 3 intermission bits.
+fn unstuffed_bits(len: usize) -> u64 {
+    47 + 8 * len as u64
+}
+
+/// Measured bus time of one simulated second of a variable-telegram node (six cyclic objects,
+/// served by `serve_can` on its own node) at each P816 rate, from the frames' real lengths
+/// (`CanFrame::bits`), against the worst-case model of `busload`: measured ≤ modelled, and
+/// measured ≥ the same frames without stuff bits (the difference is stuffing only).
+#[tokio::test(start_paused = true)]
+async fn bus_load_measured_against_the_model() {
+    let data = Variables {
+        low: 0x1122_3344,
+        high: 0x5566_7788,
+    };
+    for rate in sbus_can::busload::SBUS_BITRATES {
+        let bus = VirtualBus::new(rate);
+        let (log, observer) = observe(&bus);
+        let mut vn = VariableNode::new(NodeConfig::new(rate));
+        for (object, cycle, offset, bytes, format) in OBJECTS {
+            let r = vn.define_cyclic(
+                ObjectNo::new(object).unwrap(),
+                CyclicTiming::new(cycle, offset).unwrap(),
+                Len::new(bytes, format).unwrap(),
+                data,
+            );
+            assert!(
+                matches!(r, Ok(SetupResult::FreeCapacity(_))),
+                "{rate:?}: {r:?}"
+            );
+        }
+        let model = vn.load();
+        let node = bus.node();
+        let t0 = TokioInstant::now();
+        vn.start(drive_core::Instant::ZERO);
+        let sender = tokio::spawn(async move {
+            let mut eps = [vn];
+            let _ = drive_core::rt::can_serve::serve_can(&mut eps, t0, node).await;
+        });
+        tokio::time::sleep(Duration::from_millis(1001)).await;
+        sender.abort();
+        let _ = sender.await;
+        observer.abort();
+        let _ = observer.await;
+        let log = log.lock().unwrap().clone();
+        let second = t0 + Duration::from_secs(1);
+        let frames: Vec<_> = log
+            .iter()
+            .filter(|f| f.at - f.frame.duration(rate) < second)
+            .collect();
+        // Due at offset + k × cycle: every one in the second went out, none skipped.
+        for (object, cycle, offset, ..) in OBJECTS {
+            let n = frames
+                .iter()
+                .filter(|f| f.frame.raw_id() == u32::from(object))
+                .count();
+            assert_eq!(
+                n as u32,
+                (1000 - offset).div_ceil(cycle),
+                "object {object} at {rate:?}"
+            );
+        }
+        let bits: u64 = frames.iter().map(|f| u64::from(f.frame.bits())).sum();
+        let floor: u64 = frames.iter().map(|f| unstuffed_bits(f.frame.dlc())).sum();
+        let bps = u64::from(rate.bits_per_second());
+        // Parts per million of the second.
+        let measured_ppm = bits * 1_000_000 / bps;
+        let floor_ppm = floor * 1_000_000 / bps;
+        println!(
+            "{:>4} kbit/s: {} frames, {bits} bits on the wire = {:.3} % measured; model {:.3} % \
+             (free capacity {:?}); without stuff bits {:.3} %",
+            bps / 1000,
+            frames.len(),
+            measured_ppm as f64 / 1e4,
+            model.percent(),
+            model.free_capacity(),
+            floor_ppm as f64 / 1e4,
+        );
+        assert!(
+            measured_ppm <= model.ppm(),
+            "{rate:?}: measured above the model"
+        );
+        assert!(floor_ppm <= measured_ppm);
+    }
 }
