@@ -31,7 +31,7 @@ use std::time::Duration;
 
 use drive_core::Instant;
 pub use drive_core::rt::{CanIo, ReceivedFrame};
-use drive_core::rt::{Clock, Timebase, recv_frame, send_frame};
+use drive_core::rt::{Clock, Timebase, recv_frame, send_frame_at};
 use drive_profile::sew::{AttributeInfo, ParamChannel, ReturnCode, ScaleInfo};
 
 use crate::ids::Address;
@@ -429,7 +429,11 @@ impl<C: CanIo> SbusMaster<C> {
                 return Ok(Some(ev));
             }
             if let Some(frame) = self.master.poll_transmit(now) {
-                send_frame(&mut self.io, &frame).await.map_err(io_error)?;
+                // Scheduled for the master's time (a deadline, not tokio's later tick).
+                let start = self.timebase.to_tokio(now);
+                send_frame_at(&mut self.io, &frame, start)
+                    .await
+                    .map_err(io_error)?;
                 if let Some(ev) = self.master.poll_event() {
                     return Ok(Some(ev));
                 }

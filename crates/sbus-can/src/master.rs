@@ -530,8 +530,10 @@ impl Master {
     }
 
     /// Synchronised process output data to `address` (8a + 5): sent in the cycle's window
-    /// (2.5 ms after a SYNC to 0.5 ms before the next) while SYNCs run, taken by the drive at
-    /// the next SYNC and answered with its process input data in the first millisecond.
+    /// (2.5 ms after a SYNC to 0.5 ms before the next), taken by the drive at the next SYNC and
+    /// answered with its process input data in the first millisecond. With no cycle running,
+    /// a master that produces SYNC sends one first (a drive drops a PO sync seen before any
+    /// SYNC); with [`SyncProducer::External`] it goes out at once.
     pub fn process_data_sync(
         &mut self,
         address: Address,
@@ -828,8 +830,19 @@ impl Master {
         if job.phase != Phase::Queued {
             return None;
         }
-        if job.po_window && self.po_window_opens().is_some_and(|t| t > self.now) {
-            return None;
+        if job.po_window {
+            match self.po_window_opens() {
+                Some(opens) if opens > self.now => return None,
+                Some(_) => {}
+                // No cycle running and this master produces SYNC: a drive drops a PO sync
+                // that comes before any SYNC, so the cycle starts now and the telegram goes
+                // out in its window.
+                None if self.config.sync_producer != SyncProducer::External => {
+                    self.next_sync = Some(self.now);
+                    return self.poll_sync();
+                }
+                None => {}
+            }
         }
         Some(self.transmit(job))
     }

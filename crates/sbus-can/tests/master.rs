@@ -408,7 +408,9 @@ fn process_data_async_and_sync() {
     );
     assert_eq!(b.log[0].2.to_string(), "00B#000613880000");
     assert_eq!(b.log[1].2.raw_id(), 12);
-    // Synchronised: 8a + 5, PI after the next SYNC.
+    // Synchronised: 8a + 5, PI after the next SYNC. No cycle runs yet: the master sends a
+    // SYNC first (the simulated drive, like a real one, drops a PO sync before any SYNC; found
+    // end to end in tests/virtual_bus.rs).
     let t = b.now;
     b.master
         .process_data_sync(a(1), ProcessData([6, 4000, 0]), t)
@@ -416,7 +418,7 @@ fn process_data_async_and_sync() {
     let ev = done(b.run(Duration::from_millis(10)));
     assert_eq!(ev, Ok(Answer::ProcessInput(ProcessData([0x0407, 4000, 0]))));
     let ids: Vec<u32> = b.log[2..].iter().map(|(_, _, f)| f.raw_id()).collect();
-    assert_eq!(ids, [13, 0, 12]);
+    assert_eq!(ids, [0, 13, 0, 12]);
 }
 
 /// SB-E30: the PO-sync window of ch. 5.1 is 2.5 ms … 4.5 ms after a SYNC (the manual prints

@@ -30,6 +30,25 @@ pub trait CanIo: Send {
     /// Poll to send `frame`; `Ready(Ok(()))` once the interface has taken it (on the virtual
     /// bus: once it has won arbitration and left the wire).
     fn poll_send(&mut self, cx: &mut Context<'_>, frame: &CanFrame) -> Poll<io::Result<()>>;
+
+    /// Poll to send `frame` as the protocol scheduled it: to start at `start` on tokio's clock,
+    /// which may lie a little in the past (the timer that woke the sender ends on tokio's next
+    /// tick, [`TIMER_RESOLUTION`](super::TIMER_RESOLUTION), after the instant the protocol
+    /// asked for). Pass the same `start` on every poll of one frame.
+    ///
+    /// A real interface cannot send in the past: the default ignores `start` and calls
+    /// [`CanIo::poll_send`]. The virtual bus of `drive-transport` lets the frame compete for
+    /// the bus from `start` (never more than that resolution back), so an answer starts when
+    /// the request ends and a periodic frame keeps its period, not the late wake-up.
+    fn poll_send_at(
+        &mut self,
+        cx: &mut Context<'_>,
+        frame: &CanFrame,
+        start: TokioInstant,
+    ) -> Poll<io::Result<()>> {
+        let _ = start;
+        self.poll_send(cx, frame)
+    }
 }
 
 /// Receive the next frame from `io`.
@@ -42,6 +61,15 @@ pub async fn send_frame<C: CanIo + ?Sized>(io: &mut C, frame: &CanFrame) -> io::
     poll_fn(|cx| io.poll_send(cx, frame)).await
 }
 
+/// Send `frame` on `io` as scheduled to start at `start` (see [`CanIo::poll_send_at`]).
+pub async fn send_frame_at<C: CanIo + ?Sized>(
+    io: &mut C,
+    frame: &CanFrame,
+    start: TokioInstant,
+) -> io::Result<()> {
+    poll_fn(|cx| io.poll_send_at(cx, frame, start)).await
+}
+
 impl<C: CanIo + ?Sized> CanIo for Box<C> {
     fn poll_recv(&mut self, cx: &mut Context<'_>) -> Poll<io::Result<ReceivedFrame>> {
         (**self).poll_recv(cx)
@@ -49,5 +77,14 @@ impl<C: CanIo + ?Sized> CanIo for Box<C> {
 
     fn poll_send(&mut self, cx: &mut Context<'_>, frame: &CanFrame) -> Poll<io::Result<()>> {
         (**self).poll_send(cx, frame)
+    }
+
+    fn poll_send_at(
+        &mut self,
+        cx: &mut Context<'_>,
+        frame: &CanFrame,
+        start: TokioInstant,
+    ) -> Poll<io::Result<()>> {
+        (**self).poll_send_at(cx, frame, start)
     }
 }

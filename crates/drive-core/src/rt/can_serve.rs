@@ -11,7 +11,8 @@ use std::vec::Vec;
 
 use tokio::time::{Instant as TokioInstant, Sleep};
 
-use super::can::{CanIo, ReceivedFrame, send_frame};
+use super::TIMER_RESOLUTION;
+use super::can::{CanIo, ReceivedFrame, send_frame_at};
 use crate::can::{CanEndpoint, CanFrame};
 use crate::time::Instant;
 
@@ -24,9 +25,14 @@ use crate::time::Instant;
 ///   interface hear each other as on a bus (a master-slave master's group telegram reaches
 ///   the slaves served beside it). The interface must not echo a node's own frames back (a
 ///   SocketCAN socket does not by default; an slcan adapter does not).
-/// * Deadlines: the loop sleeps until the earliest [`CanEndpoint::poll_timeout`] and then
-///   tells every endpoint the time it woke (tokio's timers tick in 1 ms steps, so a deadline
-///   is met on the first tick at or after it, never before).
+/// * Deadlines: the loop sleeps until the earliest [`CanEndpoint::poll_timeout`] (tokio's
+///   timers tick in 1 ms steps, so it wakes on the first tick at or after it, never before)
+///   and then tells every endpoint the deadline itself as the time, at most
+///   [`TIMER_RESOLUTION`] back (a later wake-up, a busy task, counts from its own time).
+/// * Endpoints are polled for frames at the time of the event that woke the loop (a frame's
+///   last bit, a deadline), and their frames are sent scheduled for that instant
+///   ([`CanIo::poll_send_at`]): on the virtual bus an answer starts when its request ended
+///   and a 1 ms telegram keeps its period, not tokio's tick.
 pub async fn serve_can<E: CanEndpoint, IO: CanIo>(
     endpoints: &mut [E],
     epoch: TokioInstant,
@@ -36,10 +42,18 @@ pub async fn serve_can<E: CanEndpoint, IO: CanIo>(
     let mut sleep: Pin<Box<Sleep>> = Box::pin(tokio::time::sleep_until(epoch));
     let mut armed_at = epoch;
     let mut outgoing: Vec<CanFrame> = Vec::new();
+    // The time of the event being handled: a received frame's last bit, a deadline met, never
+    // more than the timer resolution behind tokio's clock.
+    let mut woke = at(TokioInstant::now());
+    let recent = |t: Instant, woke: Instant| {
+        let now = TokioInstant::now();
+        let floor = at(now.checked_sub(TIMER_RESOLUTION).unwrap_or(now));
+        t.later(woke).later(floor).min(at(now))
+    };
     loop {
         // Send what is due; what one endpoint sends, the others hear, and may answer.
         loop {
-            let now = at(TokioInstant::now());
+            let now = recent(woke, woke);
             let mut sent = false;
             for i in 0..endpoints.len() {
                 outgoing.clear();
@@ -49,13 +63,14 @@ pub async fn serve_can<E: CanEndpoint, IO: CanIo>(
                     }
                 }
                 for f in &outgoing {
-                    send_frame(&mut io, f).await?;
+                    send_frame_at(&mut io, f, epoch + now.as_duration()).await?;
                     let t = at(TokioInstant::now());
                     for (j, other) in endpoints.iter_mut().enumerate() {
                         if j != i {
                             other.handle_frame(f, t);
                         }
                     }
+                    woke = recent(t, woke);
                     sent = true;
                 }
             }
@@ -87,14 +102,16 @@ pub async fn serve_can<E: CanEndpoint, IO: CanIo>(
                 for e in endpoints.iter_mut() {
                     e.handle_frame(&frame, t);
                 }
+                woke = recent(t, woke);
             }
             Some(Err(e)) if e.kind() == io::ErrorKind::UnexpectedEof => return Ok(()),
             Some(Err(e)) => return Err(e),
             None => {
-                let now = at(TokioInstant::now());
+                let now = recent(deadline.unwrap_or(woke), woke);
                 for e in endpoints.iter_mut() {
                     e.handle_timeout(now);
                 }
+                woke = now;
             }
         }
     }

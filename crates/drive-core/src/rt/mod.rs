@@ -25,7 +25,7 @@ mod port;
 mod serve;
 
 pub use bus::{Bus, LineTime, Station, serve_alone};
-pub use can::{CanIo, ReceivedFrame, recv_frame, send_frame};
+pub use can::{CanIo, ReceivedFrame, recv_frame, send_frame, send_frame_at};
 pub use clock::{Clock, Timebase};
 pub use io::{
     CHUNK, CharIo, ReceivedChar, Stream, TIMER_RESOLUTION, Woken, read_or_sleep, write_all,

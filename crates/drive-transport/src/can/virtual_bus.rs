@@ -30,7 +30,11 @@
 //! A node that sends again right after its previous frame completed gets its next frame
 //! backdated to that frame's end (at most 1 ms, [`TIMER_RESOLUTION`]), as a controller with the
 //! next frame already in its transmit buffer would: back-to-back frames from one node are
-//! back-to-back on the wire despite the millisecond wake-ups.
+//! back-to-back on the wire despite the millisecond wake-ups. A sender that knows when its
+//! frame is due says so with [`CanIo::poll_send_at`] (the serve loop of simulated drives and
+//! the SBus master do): the frame competes from that instant (at most 1 ms back) instead, so
+//! an answer starts when its request ended and a periodic frame keeps its period even when
+//! the previous one was delayed by arbitration.
 //!
 //! # Untimed mode (benchmarks)
 //!
@@ -542,8 +546,15 @@ impl VirtualNode {
         self.with_node(|n| n.rx.len()).unwrap_or(0)
     }
 
-    /// Registers `frame` as this node's frame in flight.
-    fn request(state: &mut BusState, index: usize, frame: &CanFrame, now: Instant) {
+    /// Registers `frame` as this node's frame in flight; `start`: the instant its sender
+    /// scheduled it ([`CanIo::poll_send_at`]).
+    fn request(
+        state: &mut BusState,
+        index: usize,
+        frame: &CanFrame,
+        now: Instant,
+        start: Option<Instant>,
+    ) {
         let faults = state.config.faults;
         let active = state.faults_active;
         let mut drop = false;
@@ -572,11 +583,14 @@ impl VirtualNode {
         };
         // Backdate a request right after this node's own completed frame (module docs).
         let limit = now.checked_sub(TIMER_RESOLUTION).unwrap_or(now);
-        let requested = node
-            .last_end
-            .filter(|end| *end >= limit && *end <= now)
-            .unwrap_or(now)
-            + delay;
+        let requested = match start {
+            // Where the sender scheduled it, at most the timer resolution back.
+            Some(start) => start.clamp(limit, now),
+            None => node
+                .last_end
+                .filter(|end| *end >= limit && *end <= now)
+                .unwrap_or(now),
+        } + delay;
         if !delay.is_zero() {
             node.stats.delayed += 1;
         }
@@ -711,6 +725,29 @@ impl CanIo for VirtualNode {
     }
 
     fn poll_send(&mut self, cx: &mut Context<'_>, frame: &CanFrame) -> Poll<io::Result<()>> {
+        self.poll_send_from(cx, frame, None)
+    }
+
+    /// The frame competes for the bus from `start` (at most [`TIMER_RESOLUTION`] back)
+    /// instead of the instant of the call or the end of this node's previous frame: an
+    /// answer starts when its request ended, a periodic frame keeps its period.
+    fn poll_send_at(
+        &mut self,
+        cx: &mut Context<'_>,
+        frame: &CanFrame,
+        start: Instant,
+    ) -> Poll<io::Result<()>> {
+        self.poll_send_from(cx, frame, Some(start))
+    }
+}
+
+impl VirtualNode {
+    fn poll_send_from(
+        &mut self,
+        cx: &mut Context<'_>,
+        frame: &CanFrame,
+        start: Option<Instant>,
+    ) -> Poll<io::Result<()>> {
         loop {
             let mut state = lock(&self.state);
             let index = self.index;
@@ -730,7 +767,7 @@ impl CanIo for VirtualNode {
                 .and_then(Option::as_ref)
                 .is_some_and(|n| n.tx.is_some());
             if !has_tx {
-                Self::request(&mut state, index, frame, now);
+                Self::request(&mut state, index, frame, now, start);
             }
             state.settle(now);
             let next_decision = state.next_decision();
