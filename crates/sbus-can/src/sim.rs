@@ -523,6 +523,17 @@ impl<IO: CanIo> CanIo for WithMailbox<'_, IO> {
     fn poll_send(&mut self, cx: &mut Context<'_>, frame: &CanFrame) -> Poll<io::Result<()>> {
         self.io.poll_send(cx, frame)
     }
+
+    // Forwarded, not left to the default: the interface underneath may place a frame at its
+    // intended start (the virtual bus does), which the default would lose.
+    fn poll_send_at(
+        &mut self,
+        cx: &mut Context<'_>,
+        frame: &CanFrame,
+        start: TokioInstant,
+    ) -> Poll<io::Result<()>> {
+        self.io.poll_send_at(cx, frame, start)
+    }
 }
 
 /// Several simulated MOVIDRIVEs behind one CAN interface, each answering its own SBus address.

@@ -341,6 +341,19 @@ impl<C: CanIo, W: Write + Send> CanIo for Capture<C, W> {
         self.record(*frame, Instant::now())?;
         Poll::Ready(Ok(()))
     }
+
+    // Forwarded, not left to the default: the transport underneath may place the frame at its
+    // intended start (the virtual bus does).
+    fn poll_send_at(
+        &mut self,
+        cx: &mut Context<'_>,
+        frame: &CanFrame,
+        start: Instant,
+    ) -> Poll<io::Result<()>> {
+        std::task::ready!(self.io.poll_send_at(cx, frame, start))?;
+        self.record(*frame, Instant::now())?;
+        Poll::Ready(Ok(()))
+    }
 }
 
 /// What [`replay`] did.

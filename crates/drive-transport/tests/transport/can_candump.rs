@@ -163,6 +163,26 @@ async fn capture_logs_received_and_sent_frames_with_exact_times() {
     assert_eq!(recs[1].interface, "vcan0");
 }
 
+/// A capture does not lose a frame's intended start: the virtual bus places a frame sent with
+/// `send_frame_at` at its start, and so must a capture wrapped around it (it did not forward
+/// `poll_send_at`, so the frame went out at the late wake-up instead).
+#[tokio::test(start_paused = true)]
+async fn capture_keeps_the_intended_start_of_a_frame() {
+    let bus = VirtualBus::new(Bitrate::K500);
+    let (a, mut b) = (bus.node(), bus.node());
+    let mut cap = Capture::new(a, Vec::new(), "vcan0");
+    let start = Instant::now();
+    tokio::time::advance(Duration::from_micros(700)).await;
+    let f = CanFrame::standard(0x10C, &[0, 7, 0, 0, 0, 0]).unwrap();
+    drive_core::rt::send_frame_at(&mut cap, &f, start)
+        .await
+        .unwrap();
+    let got = recv_frame(&mut b).await.unwrap();
+    assert_eq!(got.frame, f);
+    assert_eq!(got.at - start, f.duration(Bitrate::K500));
+    assert_eq!(cap.records(), 1);
+}
+
 #[tokio::test(start_paused = true)]
 async fn replay_keeps_the_relative_timing() {
     let bus = VirtualBus::new(Bitrate::K500);
