@@ -889,6 +889,11 @@ impl Master {
 
     /// When the PO-sync window of the current cycle opens (`None`: no cycle running, send at
     /// once). Past the window's end, the next cycle's window.
+    ///
+    /// A drive checks the window against the last SYNC it received. Past that SYNC's window the
+    /// next window follows the next SYNC really sent: this master's own next SYNC when it
+    /// produces them (none scheduled: no cycle is running), or, with an external producer, the
+    /// next one on its grid.
     fn po_window_opens(&self) -> Option<Instant> {
         let last = self.last_sync?;
         let period = duration_nanos(self.config.sync_period);
@@ -897,6 +902,17 @@ impl Master {
             .saturating_sub(duration_nanos(PO_SYNC_WINDOW_END_BEFORE))
             .max(start);
         let since = self.now.nanos_since(last);
+        if since < start {
+            return Some(last.add_nanos(start));
+        }
+        if since <= end {
+            return Some(self.now);
+        }
+        if self.config.sync_producer != SyncProducer::External {
+            return self
+                .next_sync
+                .map(|next| next.later(self.now).add_nanos(start));
+        }
         if since > period.saturating_mul(2) {
             return None; // the cycle stopped
         }

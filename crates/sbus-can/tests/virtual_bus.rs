@@ -260,6 +260,39 @@ async fn process_data_async_and_sync_timing() {
     );
 }
 
+/// PO sync again and again, with SYNCs running between the calls (`sync_for`) and without:
+/// every one is taken in its window at the first attempt (a master that measured its window from
+/// the SYNC it handed out, while the drive measures from the SYNC it received, or that sent a
+/// PO sync before any SYNC, lost attempts to the drive's window check).
+#[tokio::test(start_paused = true)]
+async fn repeated_po_sync_is_always_taken_at_the_first_attempt() {
+    let mut rig = Rig::new(
+        k500(),
+        SimulatedSbusBus::new(&[1, 2]),
+        MasterConfig::default(),
+    );
+    for i in 0..40u16 {
+        let speed = 100 * i;
+        let pi = rig
+            .master
+            .process_data_sync(a(1 + (i % 2) as u8), ProcessData([6, speed, 0]))
+            .await
+            .unwrap();
+        assert_eq!(pi.0[0] >> 8, 4, "call {i}: enabled, {:04X}h", pi.0[0]);
+        if i % 3 == 0 {
+            rig.master
+                .sync_for(Duration::from_millis(40))
+                .await
+                .unwrap();
+        } else if i % 3 == 1 {
+            tokio::time::sleep(Duration::from_millis(7)).await;
+        }
+    }
+    let stats = rig.master.stats();
+    assert_eq!((stats.retries, stats.timeouts), (0, 0), "{stats:?}");
+    rig.finish().await;
+}
+
 /// P815 (100 ms, factory setting) with P836 emergency stop / fault: drive 1, enabled by process
 /// data and then left without any, gets F47 100 ms after the end of its last PO (checked
 /// through the bus: status word P010 and fault P080); drive 2 with P815 = 0 keeps running.
