@@ -374,7 +374,7 @@ async fn sbus_session() -> Result<()> {
     if let (Some(q), Some(r)) = (req, resp) {
         outln!(
             "  read P000 of drive 1, handshake bit 0 (answer at once): {} 1/min, answer {:.3} ms \
-             after the request (frame ends; the simulators wake on tokio's 1 ms timer ticks)",
+             after the request (frame end to frame end: the answer's own frame time)",
             p000.data as i32 / 1000,
             gap(q.at, r.at)
         )?;
