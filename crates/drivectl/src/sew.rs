@@ -244,3 +244,268 @@ pub async fn info<L: SewLink>(link: &mut L, t: Target, json: bool) -> Result<()>
     }
     Ok(())
 }
+
+/// `read`: every name resolved first (a mistyped one is an error before anything is sent),
+/// then one line (or JSON object) per parameter.
+pub async fn read<L: SewLink>(link: L, params: &[String], json: bool) -> Result<()> {
+    let targets = resolve_all(params)?;
+    crate::tool::read::read_all(&mut SewClient::new(link), &targets, json).await
+}
+
+/// `watch`: the parameters polled at a steady rhythm until `--count` or Ctrl-C.
+pub async fn watch<L: SewLink>(
+    link: L,
+    params: &[String],
+    args: &crate::tool::watch::WatchArgs,
+    json: bool,
+) -> Result<()> {
+    use crate::tool::watch;
+    let targets = resolve_all(params)?;
+    let options = args.options(json)?;
+    watch::watch(
+        &mut SewClient::new(link),
+        &targets,
+        options,
+        &mut |s| out!("{s}"),
+        watch::ctrl_c(),
+    )
+    .await
+    .map(drop)
+}
+
+fn resolve_all(params: &[String]) -> Result<Vec<Target>> {
+    params.iter().map(|p| crate::movilink::resolve(p)).collect()
+}
+
+/// What `write` was given on the command line.
+#[derive(Debug, Clone, Copy)]
+pub struct WriteText<'a> {
+    /// Index or menu number.
+    pub param: &'a str,
+    /// The value as typed.
+    pub value: &'a str,
+    /// `--raw`.
+    pub raw: bool,
+    /// `--volatile`.
+    pub volatile: bool,
+    /// `--force`.
+    pub force: bool,
+    /// `--round`.
+    pub round: bool,
+}
+
+/// The checked write request of `write`'s options; a rounded value is said.
+pub fn write_request(w: WriteText<'_>) -> Result<crate::tool::write::WriteRequest> {
+    let t = crate::movilink::resolve(w.param)?;
+    let how = crate::tool::client::ValueText {
+        raw: w.raw,
+        force: w.force,
+        round: w.round,
+    };
+    let parsed = t.value_from_text(w.value, &how)?;
+    if let (Some(x), Some(p)) = (parsed.rounded_from, t.param) {
+        errln!(
+            "drivectl: note: {} cannot hold {x} exactly; writing the nearest value it takes, {}",
+            p.label(),
+            physical_text(p, parsed.raw)
+        );
+    }
+    Ok(crate::tool::write::WriteRequest {
+        target: t,
+        raw: parsed.raw,
+        persistence: if w.volatile {
+            Persistence::Volatile
+        } else {
+            Persistence::NonVolatile
+        },
+        force: w.force,
+    })
+}
+
+/// `write` to one drive: the one write path (checks, wear log, read-back at the followed
+/// address), then the value as read back.
+pub async fn write<L: SewLink>(
+    link: L,
+    request: &crate::tool::write::WriteRequest,
+    yes: bool,
+    json: bool,
+) -> Result<()> {
+    let done = crate::tool::write::write_checked(&mut SewClient::new(link), request, yes).await?;
+    if let Some(note) = &done.link_note {
+        errln!("drivectl: note: {note}");
+    }
+    crate::tool::output::print_value(&request.target, done.back, json)
+}
+
+/// Where an unanswered write goes, for the output: the text (`group 2`, `broadcast`) and the
+/// JSON key and number (`"group": 2`, `"address": 255`).
+#[derive(Debug, Clone)]
+pub struct Unanswered {
+    /// For a person.
+    pub text: String,
+    /// The JSON key.
+    pub key: &'static str,
+    /// The number under it.
+    pub number: u8,
+}
+
+/// A write that every drive addressed executes and none answers (a group, a broadcast): the
+/// same checks and wear log as an answered write, then `send` puts it on the bus; there is
+/// nothing to read back. The drives of a group share the wear-log entry of the group.
+pub async fn write_unanswered<L, F>(
+    link: L,
+    request: &crate::tool::write::WriteRequest,
+    yes: bool,
+    json: bool,
+    to: Unanswered,
+    send: F,
+) -> Result<()>
+where
+    L: SewLink,
+    F: AsyncFnOnce(&mut L, ParamChannel) -> Result<()>,
+{
+    use crate::tool::write;
+    let mut client = SewClient::new(link);
+    write::check_link_setting(&client, request, yes)?;
+    let drive_key = client.drive_key().await?;
+    if let Some(warning) = write::check(&mut client, request).await? {
+        errln!("drivectl: warning: {warning}");
+    }
+    let t = request.target;
+    let data = data_of(request.raw);
+    let channel = match request.persistence {
+        Persistence::Volatile => ParamChannel::write_volatile(t.index, data),
+        Persistence::NonVolatile => ParamChannel::write(t.index, data),
+    };
+    send(&mut client.link, channel).await?;
+    if let Err(e) = write::record(&drive_key, request) {
+        errln!("drivectl: warning: {e}");
+    }
+    if json {
+        let mut m = Map::new();
+        m.insert("index".into(), t.index.into());
+        m.insert(
+            "number".into(),
+            json!(t.param.map(|p| p.label().to_string())),
+        );
+        m.insert("name_de".into(), json!(t.param.map(|p| p.name_de())));
+        m.insert("name_en".into(), json!(t.param.map(|p| p.name_en())));
+        m.insert("raw".into(), request.raw.into());
+        m.insert(to.key.into(), to.number.into());
+        m.insert("answered".into(), false.into());
+        outln!("{}", Value::Object(m))?;
+    } else {
+        outln!(
+            "sent index {} = raw {} to {} (never answered by design)",
+            t.index,
+            request.raw,
+            to.text
+        )?;
+    }
+    Ok(())
+}
+
+/// `backup`: every readable parameter to a JSON file.
+pub async fn backup<L: SewLink>(
+    link: L,
+    args: &crate::tool::backup::BackupArgs,
+    json: bool,
+) -> Result<()> {
+    let stop = crate::tool::interrupt::Interrupt::install("the backup file was not written");
+    crate::tool::backup::backup(
+        &mut SewClient::new(link),
+        &args.out,
+        args.overwrite,
+        json,
+        &stop,
+    )
+    .await
+}
+
+/// `restore`: a backup file written back and verified.
+pub async fn restore<L: SewLink>(
+    link: L,
+    args: &crate::tool::backup::RestoreArgs,
+    json: bool,
+) -> Result<()> {
+    let stop = crate::tool::interrupt::Interrupt::install(
+        "the drive may be half restored; run the same restore again to finish it",
+    );
+    crate::tool::backup::restore(
+        &mut SewClient::new(link),
+        &args.file,
+        args.options(),
+        json,
+        &stop,
+    )
+    .await
+}
+
+/// Before process data: where the drive takes its control word among the process output words
+/// (the slots whose setpoint description P870–P872 is control word 1 or 2), with a warning when
+/// there is none and `stopping`, when the bus's timeout (`timeout`: P812 RS-485, P815 SBus) is
+/// 0 (off), or when P876 PO data enable is off. A parameter the drive does not answer gets a
+/// warning, not an error: the session itself says what is wrong.
+pub async fn pd_preflight<L: SewLink>(
+    link: &mut L,
+    words: usize,
+    stopping: bool,
+    timeout: (u16, &str),
+) -> Vec<usize> {
+    let mut slots = Vec::new();
+    for (slot, i) in [index::PO1_DESCRIPTION, 8305, 8306]
+        .into_iter()
+        .enumerate()
+        .take(words)
+    {
+        match link.service(ParamChannel::read(i)).await {
+            // 9 = control word 1, 10 = control word 2.
+            Ok(9 | 10) => slots.push(slot),
+            Ok(_) => {}
+            Err(e) => errln!(
+                "drivectl: warning: cannot read the setpoint description of PO{} ({})",
+                slot + 1,
+                client_error_text(&e)
+            ),
+        }
+    }
+    if stopping && slots.is_empty() {
+        errln!(
+            "drivectl: warning: no process output word of this drive is a control word \
+             (P870–P872): drivectl cannot stop it over process data when pd ends"
+        );
+    }
+    let (timeout_index, timeout_name) = timeout;
+    match link.service(ParamChannel::read(timeout_index)).await {
+        Ok(0) => errln!(
+            "drivectl: warning: the drive's {timeout_name} is 0 (off): it keeps running when the \
+             master goes quiet{}",
+            if stopping {
+                ""
+            } else {
+                " (and --keep-running leaves it running)"
+            }
+        ),
+        Ok(_) => {}
+        Err(e) => errln!(
+            "drivectl: warning: cannot read the {timeout_name} ({})",
+            client_error_text(&e)
+        ),
+    }
+    if let Ok(0) = link
+        .service(ParamChannel::read(index::PO_DATA_ENABLE))
+        .await
+    {
+        errln!(
+            "drivectl: warning: P876 PO data enable is off: the drive ignores process output data"
+        );
+    }
+    slots
+}
+
+fn client_error_text(e: &ClientError) -> &str {
+    match e {
+        ClientError::Device(d) => &d.message,
+        ClientError::Link(m) => m,
+    }
+}

@@ -1,16 +1,17 @@
 //! `drivectl movilink …`: talk to a MOVIDRIVE over MOVILINK (RS-485 / RS-232).
 //!
-//! A thin mapping onto the tool layer: [`MovilinkClient`] is the [`ParamClient`] of the
-//! `movilink` driver; reads, writes, backup and restore are the tool layer's. What only MOVILINK
-//! has lives here: min/max/default/scale/attributes (`info`), the address scan, process data
-//! exchanges and group/broadcast writes.
+//! A thin mapping: [`MovilinkLink`] is the `movilink` driver as a [`SewLink`], the way to a
+//! MOVIDRIVE that SBus has too; read, watch, write, info, backup, restore and the process-data
+//! preflight are `crate::sew`'s, shared with `drivectl sbus`. What only MOVILINK has lives here:
+//! the address rules (254 point-to-point, groups 101–199, broadcast 255), the address scan,
+//! PDU types for process data, `line`.
 
 pub mod decode;
 pub mod sim;
 
 use clap::{Args, Subcommand};
+use drive_profile::Family;
 use drive_profile::sew::{self, ControlWord1, StatusWord1, index};
-use drive_profile::{Family, Persistence};
 use movilink::driver::{CharIo, DriverConfig, DriverError, MasterDriver, Stream};
 use movilink::{Address, ParamChannel, PduType, Telegram};
 use serde_json::json;
@@ -18,12 +19,12 @@ use std::ops::RangeInclusive;
 use std::time::Duration;
 
 use crate::error::{CliError, Result};
-use crate::sew::{SewClient, SewLink, data_of, device_error};
-use crate::tool::client::{ClientError, ParamClient, Target, ValueText, canonical_port, parse_int};
+use crate::sew::{SewLink, device_error};
+use crate::tool::client::{ClientError, Target, ValueText, canonical_port, parse_int};
 use crate::tool::interrupt::Interrupt;
 use crate::tool::line::{LineArgs, MasterArgs, runtime};
-use crate::tool::output::{physical_text, print_value, trim_float};
-use crate::tool::{backup, read, watch, write};
+use crate::tool::output::{physical_text, trim_float};
+use crate::tool::{backup, watch, write};
 
 /// Indices outside the table that may be read and written raw (MOVIDRIVE indices start at
 /// 8300; numbers below 1000 are menu numbers).
@@ -227,20 +228,17 @@ pub struct MovilinkLink<'a, IO> {
     port: String,
 }
 
-/// The tool layer's client of a MOVIDRIVE over MOVILINK.
-pub type MovilinkClient<'a, IO> = SewClient<MovilinkLink<'a, IO>>;
-
-/// The client of the drive at `address` behind `driver` on `port`.
-pub fn client<'a, IO: CharIo>(
+/// The way to the drive at `address` behind `driver` on `port`.
+fn link<'a, IO>(
     driver: &'a mut MasterDriver<IO>,
     address: Address,
     port: &str,
-) -> MovilinkClient<'a, IO> {
-    SewClient::new(MovilinkLink {
+) -> MovilinkLink<'a, IO> {
+    MovilinkLink {
         driver,
         address,
         port: port.to_owned(),
-    })
+    }
 }
 
 /// The settings of the RS-485 link a MOVILINK master talks over: P810 address, P811 group
@@ -457,32 +455,14 @@ async fn execute<IO: CharIo>(m: &mut MasterDriver<IO>, args: &MovilinkArgs) -> R
     let json = args.json;
     match &args.command {
         MovilinkCommand::Read { params } => {
-            let targets = params
-                .iter()
-                .map(|p| resolve(p))
-                .collect::<Result<Vec<_>>>()?;
-            let mut client = client(m, address(args.addr)?, &args.port);
-            read::read_all(&mut client, &targets, json).await
+            crate::sew::read(link(m, address(args.addr)?, &args.port), params, json).await
         }
         MovilinkCommand::Watch {
             params,
             watch: watch_args,
         } => {
-            let targets = params
-                .iter()
-                .map(|p| resolve(p))
-                .collect::<Result<Vec<_>>>()?;
-            let options = watch_args.options(json)?;
-            let mut client = client(m, address(args.addr)?, &args.port);
-            watch::watch(
-                &mut client,
-                &targets,
-                options,
-                &mut |s| out!("{s}"),
-                watch::ctrl_c(),
-            )
-            .await
-            .map(drop)
+            let l = link(m, address(args.addr)?, &args.port);
+            crate::sew::watch(l, params, watch_args, json).await
         }
         MovilinkCommand::Write {
             param,
@@ -493,49 +473,23 @@ async fn execute<IO: CharIo>(m: &mut MasterDriver<IO>, args: &MovilinkArgs) -> R
             round,
             yes,
         } => {
-            let t = resolve(param)?;
-            let how = ValueText {
+            let request = crate::sew::write_request(crate::sew::WriteText {
+                param,
+                value,
                 raw: *raw,
+                volatile: *volatile,
                 force: *force,
                 round: *round,
-            };
-            let parsed = t.value_from_text(value, &how)?;
-            if let (Some(x), Some(p)) = (parsed.rounded_from, t.param) {
-                errln!(
-                    "drivectl: note: {} cannot hold {x} exactly; writing the nearest value it takes, {}",
-                    p.label(),
-                    physical_text(p, parsed.raw)
-                );
-            }
-            let request = write::WriteRequest {
-                target: t,
-                raw: parsed.raw,
-                persistence: if *volatile {
-                    Persistence::Volatile
-                } else {
-                    Persistence::NonVolatile
-                },
-                force: *force,
-            };
+            })?;
             let addr = any_address(args.addr)?;
             if !addr.expects_response() {
                 return write_unanswered(m, addr, &args.port, &request, *yes, json).await;
             }
-            let mut client = client(m, addr, &args.port);
-            let done = write::write_checked(&mut client, &request, *yes).await?;
-            if let Some(note) = &done.link_note {
-                errln!("drivectl: note: {note}");
-            }
-            print_value(&t, done.back, json)?;
-            Ok(())
+            crate::sew::write(link(m, addr, &args.port), &request, *yes, json).await
         }
         MovilinkCommand::Info { param } => {
-            let mut link = MovilinkLink {
-                driver: m,
-                address: address(args.addr)?,
-                port: args.port.clone(),
-            };
-            crate::sew::info(&mut link, resolve(param)?, json).await
+            let mut l = link(m, address(args.addr)?, &args.port);
+            crate::sew::info(&mut l, resolve(param)?, json).await
         }
         MovilinkCommand::Scan { from, to } => scan(m, *from, *to, args.master.timeout, json).await,
         MovilinkCommand::Pd {
@@ -589,17 +543,10 @@ async fn execute<IO: CharIo>(m: &mut MasterDriver<IO>, args: &MovilinkArgs) -> R
             Ok(())
         }
         MovilinkCommand::Backup(b) => {
-            let mut client = client(m, address(args.addr)?, &args.port);
-            let stop = Interrupt::install("the backup file was not written");
-            backup::backup(&mut client, &b.out, b.overwrite, json, &stop).await
+            crate::sew::backup(link(m, address(args.addr)?, &args.port), b, json).await
         }
         MovilinkCommand::Restore(r) => {
-            let mut client = client(m, address(args.addr)?, &args.port);
-            let stop = Interrupt::install(
-                "the drive may be half restored; run the same restore again to finish it",
-            );
-            let opts = r.options();
-            backup::restore(&mut client, &r.file, opts, json, &stop).await
+            crate::sew::restore(link(m, address(args.addr)?, &args.port), r, json).await
         }
     }
 }
@@ -614,49 +561,28 @@ async fn write_unanswered<IO: CharIo>(
     yes: bool,
     json: bool,
 ) -> Result<()> {
-    // The drives of a group share the wear log entry of the group address.
-    let mut client = client(m, addr, port);
-    write::check_link_setting(&client, request, yes)?;
-    let drive_key = client.drive_key().await?;
-    if let Some(warning) = write::check(&mut client, request).await? {
-        errln!("drivectl: warning: {warning}");
-    }
-    let t = request.target;
-    let data = data_of(request.raw);
-    let channel = match request.persistence {
-        Persistence::Volatile => ParamChannel::write_volatile(t.index, data),
-        Persistence::NonVolatile => ParamChannel::write(t.index, data),
+    let to = crate::sew::Unanswered {
+        text: if addr.is_broadcast() {
+            format!("broadcast {}", addr.get())
+        } else {
+            format!("group {}", addr.get())
+        },
+        key: "address",
+        number: addr.get(),
     };
-    let telegram = Telegram::request(addr, PduType::PARAM_0PD_ACYCLIC).with_param(channel);
-    m.send_unanswered(telegram).await.map_err(driver_error)?;
-    // Keep the line idle for the broadcast spacing before this process lets go of the port, so
-    // the next telegram (perhaps from the next drivectl run) cannot follow sooner than the
-    // 25 ms the drives need.
-    tokio::time::sleep(movilink::timing::BROADCAST_SPACING).await;
-    if let Err(e) = write::record(&drive_key, request) {
-        errln!("drivectl: warning: {e}");
-    }
-    if json {
-        outln!(
-            "{}",
-            json!({"index": t.index, "number": t.param.map(|p| p.label().to_string()),
-                   "name_de": t.param.map(|p| p.name_de()), "name_en": t.param.map(|p| p.name_en()),
-                   "raw": request.raw, "address": addr.get(), "answered": false})
-        )?;
-    } else {
-        outln!(
-            "sent index {} = raw {} to {} {} (never answered by design)",
-            t.index,
-            request.raw,
-            if addr.is_broadcast() {
-                "broadcast"
-            } else {
-                "group"
-            },
-            addr.get()
-        )?;
-    }
-    Ok(())
+    let send = async |l: &mut MovilinkLink<'_, IO>, channel: ParamChannel| -> Result<()> {
+        let telegram = Telegram::request(l.address, PduType::PARAM_0PD_ACYCLIC).with_param(channel);
+        l.driver
+            .send_unanswered(telegram)
+            .await
+            .map_err(driver_error)?;
+        // Keep the line idle for the broadcast spacing before this process lets go of the
+        // port, so the next telegram (perhaps from the next drivectl run) cannot follow sooner
+        // than the 25 ms the drives need.
+        tokio::time::sleep(movilink::timing::BROADCAST_SPACING).await;
+        Ok(())
+    };
+    crate::sew::write_unanswered(link(m, addr, port), request, yes, json, to, send).await
 }
 
 async fn scan<IO: CharIo>(
@@ -751,61 +677,6 @@ struct PdSession<'a> {
     json: bool,
 }
 
-/// Where the drive takes its control word among the process output words: the slots whose
-/// setpoint description (P870–P872) is control word 1 or 2. Also warns when the drive has no
-/// RS-485 timeout (P812 = 0) or ignores PO data (P876 = 0). A drive that does not answer these
-/// reads gets a warning, not an error: the session itself says what is wrong.
-async fn pd_preflight<IO: CharIo>(
-    m: &mut MasterDriver<IO>,
-    addr: Address,
-    words: usize,
-    stopping: bool,
-) -> Vec<usize> {
-    let mut slots = Vec::new();
-    for (slot, index) in [index::PO1_DESCRIPTION, 8305, 8306]
-        .into_iter()
-        .enumerate()
-        .take(words)
-    {
-        match m.read(addr, index).await {
-            // 9 = control word 1, 10 = control word 2.
-            Ok(9 | 10) => slots.push(slot),
-            Ok(_) => {}
-            Err(e) => {
-                errln!(
-                    "drivectl: warning: cannot read the setpoint description of PO{} ({e})",
-                    slot + 1
-                );
-            }
-        }
-    }
-    if stopping && slots.is_empty() {
-        errln!(
-            "drivectl: warning: no process output word of this drive is a control word \
-             (P870–P872): drivectl cannot stop it over process data when pd ends"
-        );
-    }
-    match m.read(addr, index::RS485_TIMEOUT).await {
-        Ok(0) => errln!(
-            "drivectl: warning: the drive's RS-485 timeout P812 is 0 (off): it keeps running \
-             when the master goes quiet{}",
-            if stopping {
-                ""
-            } else {
-                " (and --keep-running leaves it running)"
-            }
-        ),
-        Ok(_) => {}
-        Err(e) => errln!("drivectl: warning: cannot read the RS-485 timeout P812 ({e})"),
-    }
-    if let Ok(0) = m.read(addr, index::PO_DATA_ENABLE).await {
-        errln!(
-            "drivectl: warning: P876 PO data enable is off: the drive ignores process output data"
-        );
-    }
-    slots
-}
-
 async fn pd<IO: CharIo>(m: &mut MasterDriver<IO>, pdu_type: &str, s: &PdSession<'_>) -> Result<()> {
     let (addr, json) = (s.addr, s.json);
     let pdu = parse_int(pdu_type)
@@ -836,7 +707,13 @@ async fn pd<IO: CharIo>(m: &mut MasterDriver<IO>, pdu_type: &str, s: &PdSession<
             words.len()
         )));
     }
-    let slots = pd_preflight(m, addr, words.len(), s.end.is_some()).await;
+    let slots = crate::sew::pd_preflight(
+        &mut link(m, addr, ""),
+        words.len(),
+        s.end.is_some(),
+        (index::RS485_TIMEOUT, "RS-485 timeout P812"),
+    )
+    .await;
     let stop = Interrupt::install("the drive was NOT sent a stop and may still be running");
     // The stop telegram: the control word slots get the stop command (their high byte kept),
     // every other word stays as it was.
@@ -947,6 +824,7 @@ mod tests {
     use super::*;
     use crate::sew::{SERVICE_ATTEMPTS, device_error_kind};
     use crate::tool::client::DeviceErrorKind;
+    use crate::tool::client::ParamClient;
     use drive_core::rt::{Timebase, serve};
     use movilink::driver::Clock;
     use movilink::{Backend, RequestContext, ReturnCode, Slave, SlaveConfig};
@@ -997,7 +875,9 @@ mod tests {
             };
             let mut driver = MasterDriver::new(Stream(a), config);
             let target = resolve("P130").unwrap();
-            let r = client(&mut driver, drive, "test").read(&target).await;
+            let r = crate::sew::SewClient::new(link(&mut driver, drive, "test"))
+                .read(&target)
+                .await;
             drop(driver);
             (r, station.await.unwrap())
         })

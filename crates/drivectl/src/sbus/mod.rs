@@ -17,7 +17,7 @@ pub mod sim;
 use std::time::Duration;
 
 use clap::{Args, Subcommand};
-use drive_profile::{Family, Persistence};
+use drive_profile::Family;
 use sbus_can::driver::SbusMaster;
 use sbus_can::ids::{Address, Direction, SlaveIds};
 use sbus_can::master::{Handshake, MasterConfig};
@@ -25,13 +25,10 @@ use serde_json::json;
 
 use crate::error::{CliError, Result};
 use crate::movilink::resolve;
-use crate::sew::{SewClient, data_of};
 use crate::tool::backup;
-use crate::tool::client::{ParamClient, ValueText};
-use crate::tool::interrupt::Interrupt;
+use crate::tool::client::ValueText;
 use crate::tool::outfile::OutputFile;
-use crate::tool::output::{physical_text, print_value};
-use crate::tool::{read, watch, write};
+use crate::tool::{watch, write};
 use drive_transport::can::candump::Capture;
 
 use self::iface::Iface;
@@ -374,34 +371,11 @@ async fn execute<C: drive_core::rt::CanIo>(
         iface: iface.name(),
     };
     match &args.command {
-        SbusCommand::Read { params } => {
-            let targets = params
-                .iter()
-                .map(|p| resolve(p))
-                .collect::<Result<Vec<_>>>()?;
-            let mut client = SewClient::new(link(m));
-            read::read_all(&mut client, &targets, json).await
-        }
+        SbusCommand::Read { params } => crate::sew::read(link(m), params, json).await,
         SbusCommand::Watch {
             params,
             watch: watch_args,
-        } => {
-            let targets = params
-                .iter()
-                .map(|p| resolve(p))
-                .collect::<Result<Vec<_>>>()?;
-            let options = watch_args.options(json)?;
-            let mut client = SewClient::new(link(m));
-            watch::watch(
-                &mut client,
-                &targets,
-                options,
-                &mut |s| out!("{s}"),
-                watch::ctrl_c(),
-            )
-            .await
-            .map(drop)
-        }
+        } => crate::sew::watch(link(m), params, watch_args, json).await,
         SbusCommand::Write {
             param,
             value,
@@ -412,40 +386,18 @@ async fn execute<C: drive_core::rt::CanIo>(
             yes,
             group,
         } => {
-            let t = resolve(param)?;
-            let how = ValueText {
+            let request = crate::sew::write_request(crate::sew::WriteText {
+                param,
+                value,
                 raw: *raw,
+                volatile: *volatile,
                 force: *force,
                 round: *round,
-            };
-            let parsed = t.value_from_text(value, &how)?;
-            if let (Some(x), Some(p)) = (parsed.rounded_from, t.param) {
-                errln!(
-                    "drivectl: note: {} cannot hold {x} exactly; writing the nearest value it takes, {}",
-                    p.label(),
-                    physical_text(p, parsed.raw)
-                );
+            })?;
+            match group {
+                Some(g) => group_write(m, address(*g)?, iface, &request, *yes, json).await,
+                None => crate::sew::write(link(m), &request, *yes, json).await,
             }
-            let request = write::WriteRequest {
-                target: t,
-                raw: parsed.raw,
-                persistence: if *volatile {
-                    Persistence::Volatile
-                } else {
-                    Persistence::NonVolatile
-                },
-                force: *force,
-            };
-            if let Some(g) = group {
-                return group_write(m, address(*g)?, iface, &request, *yes, json).await;
-            }
-            let mut client = SewClient::new(link(m));
-            let done = write::write_checked(&mut client, &request, *yes).await?;
-            if let Some(note) = &done.link_note {
-                errln!("drivectl: note: {note}");
-            }
-            print_value(&t, done.back, json)?;
-            Ok(())
         }
         SbusCommand::Info { param } => {
             let mut l = link(m);
@@ -454,24 +406,15 @@ async fn execute<C: drive_core::rt::CanIo>(
         SbusCommand::Scan { from, to } => scan(m, *from, *to, json).await,
         SbusCommand::Pd(p) => pd::pd(m, addr, p, json).await,
         SbusCommand::Sync(s) => pd::sync(m, s, args.sync_id, json).await,
-        SbusCommand::Backup(b) => {
-            let mut client = SewClient::new(link(m));
-            let stop = Interrupt::install("the backup file was not written");
-            backup::backup(&mut client, &b.out, b.overwrite, json, &stop).await
-        }
-        SbusCommand::Restore(r) => {
-            let mut client = SewClient::new(link(m));
-            let stop = Interrupt::install(
-                "the drive may be half restored; run the same restore again to finish it",
-            );
-            backup::restore(&mut client, &r.file, r.options(), json, &stop).await
-        }
+        SbusCommand::Backup(b) => crate::sew::backup(link(m), b, json).await,
+        SbusCommand::Restore(r) => crate::sew::restore(link(m), r, json).await,
         SbusCommand::Ids { .. } | SbusCommand::Plan { .. } => Ok(()),
     }
 }
 
 /// A write to an SBus group: every drive with that P814 executes it, none answers (ch. 5.1),
-/// so there is nothing to read back.
+/// so there is nothing to read back; the drives of a group share the wear-log entry of the
+/// group.
 async fn group_write<C: drive_core::rt::CanIo>(
     m: &mut SbusMaster<C>,
     group: Address,
@@ -480,49 +423,24 @@ async fn group_write<C: drive_core::rt::CanIo>(
     yes: bool,
     json: bool,
 ) -> Result<()> {
-    // The drives of a group share the wear log entry of the group.
-    let mut client = SewClient::new(SbusLink {
+    let l = SbusLink {
         master: m,
         address: group,
         handshake: Handshake::Async,
         iface: format!("{} group", iface.name()),
-    });
-    write::check_link_setting(&client, request, yes)?;
-    let drive_key = client.drive_key().await?;
-    if let Some(warning) = write::check(&mut client, request).await? {
-        errln!("drivectl: warning: {warning}");
-    }
-    let t = request.target;
-    let data = data_of(request.raw);
-    let channel = match request.persistence {
-        Persistence::Volatile => drive_profile::sew::ParamChannel::write_volatile(t.index, data),
-        Persistence::NonVolatile => drive_profile::sew::ParamChannel::write(t.index, data),
     };
-    client
-        .link
-        .master
-        .group_write(group, channel)
-        .await
-        .map_err(driver_error)?;
-    if let Err(e) = write::record(&drive_key, request) {
-        errln!("drivectl: warning: {e}");
-    }
-    if json {
-        outln!(
-            "{}",
-            json!({"index": t.index, "number": t.param.map(|p| p.label().to_string()),
-                   "name_de": t.param.map(|p| p.name_de()), "name_en": t.param.map(|p| p.name_en()),
-                   "raw": request.raw, "group": group.get(), "answered": false})
-        )?;
-    } else {
-        outln!(
-            "sent index {} = raw {} to SBus group {} (never answered by design)",
-            t.index,
-            request.raw,
-            group.get()
-        )?;
-    }
-    Ok(())
+    let to = crate::sew::Unanswered {
+        text: format!("SBus group {}", group.get()),
+        key: "group",
+        number: group.get(),
+    };
+    let send = async |l: &mut SbusLink<'_, C>, channel| -> Result<()> {
+        l.master
+            .group_write(l.address, channel)
+            .await
+            .map_err(driver_error)
+    };
+    crate::sew::write_unanswered(l, request, yes, json, to, send).await
 }
 
 async fn scan<C: drive_core::rt::CanIo>(

@@ -89,48 +89,6 @@ pub struct SyncArgs {
     count: u32,
 }
 
-/// Where the drive takes its control word among the process output words (P870–P872 = control
-/// word 1 or 2); warns when the drive has no SBus timeout (P815 = 0) or ignores PO data (P876).
-async fn preflight<C: CanIo>(m: &mut SbusMaster<C>, addr: Address, stopping: bool) -> Vec<usize> {
-    let mut slots = Vec::new();
-    for (slot, i) in [index::PO1_DESCRIPTION, 8305, 8306].into_iter().enumerate() {
-        match m.read(addr, i).await {
-            // 9 = control word 1, 10 = control word 2.
-            Ok(9 | 10) => slots.push(slot),
-            Ok(_) => {}
-            Err(e) => errln!(
-                "drivectl: warning: cannot read the setpoint description of PO{} ({e})",
-                slot + 1
-            ),
-        }
-    }
-    if stopping && slots.is_empty() {
-        errln!(
-            "drivectl: warning: no process output word of this drive is a control word \
-             (P870–P872): drivectl cannot stop it over process data when pd ends"
-        );
-    }
-    match m.read(addr, index::SBUS_TIMEOUT).await {
-        Ok(0) => errln!(
-            "drivectl: warning: the drive's SBus timeout P815 is 0 (off): it keeps running when \
-             the master goes quiet{}",
-            if stopping {
-                ""
-            } else {
-                " (and --keep-running leaves it running)"
-            }
-        ),
-        Ok(_) => {}
-        Err(e) => errln!("drivectl: warning: cannot read the SBus timeout P815 ({e})"),
-    }
-    if let Ok(0) = m.read(addr, index::PO_DATA_ENABLE).await {
-        errln!(
-            "drivectl: warning: P876 PO data enable is off: the drive ignores process output data"
-        );
-    }
-    slots
-}
-
 /// Run `pd`.
 pub async fn pd<C: CanIo>(
     m: &mut SbusMaster<C>,
@@ -160,7 +118,21 @@ pub async fn pd<C: CanIo>(
             }
             vec![0]
         }
-        None => preflight(m, addr, end.is_some()).await,
+        None => {
+            let mut l = crate::sbus::link::SbusLink {
+                master: m,
+                address: addr,
+                handshake: sbus_can::master::Handshake::Async,
+                iface: String::new(),
+            };
+            crate::sew::pd_preflight(
+                &mut l,
+                3,
+                end.is_some(),
+                (index::SBUS_TIMEOUT, "SBus timeout P815"),
+            )
+            .await
+        }
     };
     let stop = Interrupt::install("the drive was NOT sent a stop and may still be running");
     let stop_words = end.filter(|_| !slots.is_empty()).map(|cmd| {
