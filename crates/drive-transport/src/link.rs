@@ -634,8 +634,9 @@ impl LinkEnd {
     }
 }
 
-/// Polls a reusable timer set to `deadline`.
-fn poll_sleep(
+/// Polls a reusable timer set to `deadline` (the wire model, the virtual CAN bus and the slcan
+/// port all wait this way).
+pub(crate) fn poll_sleep(
     sleep: &mut Option<Pin<Box<Sleep>>>,
     deadline: Instant,
     cx: &mut Context<'_>,

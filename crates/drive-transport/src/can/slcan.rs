@@ -30,8 +30,9 @@
 //!   and answers BEL to transmits, as an adapter that never gets an acknowledge would fail.
 //! * [`encode`], [`parse_frame`] and [`s_code`]: the line codec, no allocation.
 
+use crate::link::poll_sleep;
 use std::collections::VecDeque;
-use std::future::{Future as _, poll_fn};
+use std::future::poll_fn;
 use std::io;
 use std::pin::Pin;
 use std::task::{Context, Poll, ready};
@@ -534,24 +535,6 @@ impl<S: AsyncRead + AsyncWrite + Unpin + Send> SlcanPort<S> {
         self.stats.rejected += 1;
         self.stats.last_rejection = Some(r);
     }
-}
-
-/// Polls a reusable timer set to `deadline`.
-fn poll_sleep(
-    sleep: &mut Option<Pin<Box<Sleep>>>,
-    deadline: Instant,
-    cx: &mut Context<'_>,
-) -> Poll<()> {
-    let timer = match sleep {
-        Some(timer) => {
-            if timer.deadline() != deadline {
-                timer.as_mut().reset(deadline);
-            }
-            timer
-        }
-        None => sleep.insert(Box::pin(tokio::time::sleep_until(deadline))),
-    };
-    timer.as_mut().poll(cx)
 }
 
 impl<S: AsyncRead + AsyncWrite + Unpin + Send> CanIo for SlcanPort<S> {

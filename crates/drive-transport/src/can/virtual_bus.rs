@@ -72,8 +72,8 @@
 //! attached and no [`VirtualBus`] handle is left that could attach one (and it has read
 //! everything it had received). A node that sends then gets [`io::ErrorKind::BrokenPipe`].
 
+use crate::link::poll_sleep;
 use std::collections::VecDeque;
-use std::future::Future as _;
 use std::io;
 use std::pin::Pin;
 use std::sync::{Arc, Mutex, MutexGuard};
@@ -660,24 +660,6 @@ fn eof() -> io::Error {
         io::ErrorKind::UnexpectedEof,
         "the virtual CAN bus has ended: no other node is attached",
     )
-}
-
-/// Polls a reusable timer set to `deadline` (`None`: no timer needed).
-fn poll_sleep(
-    sleep: &mut Option<Pin<Box<Sleep>>>,
-    deadline: Instant,
-    cx: &mut Context<'_>,
-) -> Poll<()> {
-    let timer = match sleep {
-        Some(timer) => {
-            if timer.deadline() != deadline {
-                timer.as_mut().reset(deadline);
-            }
-            timer
-        }
-        None => sleep.insert(Box::pin(tokio::time::sleep_until(deadline))),
-    };
-    timer.as_mut().poll(cx)
 }
 
 /// One nanosecond after `t`: a decision at `t` is taken once the clock has passed it.
