@@ -9,7 +9,6 @@ use clap::Args;
 use drive_core::can::Bitrate;
 use drive_transport::can::slcan::SlcanAdapter;
 use drive_transport::can::virtual_bus::VirtualBus;
-use drive_transport::pty::PtyPair;
 use sbus_can::sim::SimulatedSbusBus;
 
 use crate::error::{CliError, Result};
@@ -112,16 +111,7 @@ pub fn run(args: &SimArgs) -> Result<()> {
 async fn serve_pty(mut bus: SimulatedSbusBus, bitrate: Bitrate, what: &str) -> Result<()> {
     let can = VirtualBus::new(bitrate);
     let drives = can.node();
-    let mut pair = PtyPair::open().map_err(|e| CliError::failed(e.to_string()))?;
-    let path = pair.slave_path().to_path_buf();
-    // Keep the slave side open ourselves, so the adapter never sees a hang-up between two
-    // clients (each drivectl run opens and closes the pty).
-    let _keep = std::fs::OpenOptions::new()
-        .read(true)
-        .write(true)
-        .open(&path)
-        .map_err(|e| CliError::failed(format!("cannot open {}: {e}", path.display())))?;
-    outln!("{}", path.display())?;
+    let (mut pair, path, _keep) = crate::tool::simrun::sim_pty()?;
     errln!(
         "{what} on a virtual CAN bus at {bitrate} behind an slcan adapter on {} (open it with \
          --iface slcan:{}@{}k); Ctrl-C stops",

@@ -66,6 +66,22 @@ pub fn check_pty_parity(pty: bool, parity: Parity, default_note: &str, master: &
     )))
 }
 
+/// A new pseudo-terminal for a simulator: its slave side kept open by this process, so the
+/// simulator never sees a hang-up between two clients (each drivectl run opens and closes the
+/// pty), and its path printed as the first line of standard output. Keep the returned file as
+/// long as the pty is served.
+pub fn sim_pty() -> Result<(PtyPair, std::path::PathBuf, std::fs::File)> {
+    let pair = PtyPair::open().map_err(|e| CliError::failed(e.to_string()))?;
+    let path = pair.slave_path().to_path_buf();
+    let keep = std::fs::OpenOptions::new()
+        .read(true)
+        .write(true)
+        .open(&path)
+        .map_err(|e| CliError::failed(format!("cannot open {}: {e}", path.display())))?;
+    outln!("{}", path.display())?;
+    Ok((pair, path, keep))
+}
+
 /// Serve `bus` on the serial port `port` with `settings`, or (`None`) on a new pseudo-terminal
 /// whose path is printed first, until interrupted. `what` says what is simulated, for the
 /// message on standard error.
@@ -83,16 +99,7 @@ pub async fn serve<B: SimBus>(
             .await
             .map_err(|e| CliError::failed(format!("serving {path}: {e}")));
     }
-    let mut pair = PtyPair::open().map_err(|e| CliError::failed(e.to_string()))?;
-    let path = pair.slave_path().to_path_buf();
-    // Keep the slave side open ourselves, so the master side never sees a hang-up between two
-    // clients (each drivectl run opens and closes the pty).
-    let _keep = std::fs::OpenOptions::new()
-        .read(true)
-        .write(true)
-        .open(&path)
-        .map_err(|e| CliError::failed(format!("cannot open {}: {e}", path.display())))?;
-    outln!("{}", path.display())?;
+    let (mut pair, path, _keep) = sim_pty()?;
     errln!("{what} on {}; Ctrl-C stops", path.display());
     loop {
         if let Err(e) = bus.serve_on(Stream(pair.master())).await {
