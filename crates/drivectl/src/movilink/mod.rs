@@ -220,7 +220,7 @@ enum MovilinkCommand {
 }
 
 /// The MOVILINK driver as a way to one MOVIDRIVE's parameter channel (acyclic PARAM + 0PD
-/// services); the tool layer's client is [`SewClient`] on it.
+/// services); the tool layer's client is [`SewClient`](crate::sew::SewClient) on it.
 #[derive(Debug)]
 pub struct MovilinkLink<'a, IO> {
     driver: &'a mut MasterDriver<IO>,
