@@ -395,7 +395,7 @@ mod tests {
     }
 
     #[test]
-    fn sync_id_and_refusals() {
+    fn sync_id_and_refusals_sb_e3() {
         let sync = CanFrame::standard(0, &[]).unwrap();
         assert_eq!(Telegram::decode(&sync, 0), Ok(Telegram::Sync));
         // With P817 = 1000 the frame on 0 is nothing of SBus's.
@@ -404,6 +404,15 @@ mod tests {
             Err(DecodeError::NotSbus { id: 0 })
         );
         assert_eq!(Telegram::Sync.encode(1000).raw_id(), 1000);
+        // SB-E3: the parameter identifiers follow the SBus address, not the sync identifier.
+        for sync in [0, 1000, 2047] {
+            let req = Telegram::ParamRequest {
+                address: a(1),
+                channel: ParamChannel::read(8318),
+            };
+            assert_eq!(req.encode(sync).raw_id(), 523);
+            assert_eq!(Telegram::decode(&req.encode(sync), sync), Ok(req));
+        }
         let remote = CanFrame::remote_frame(StandardId::new(267).unwrap(), 6).unwrap();
         assert_eq!(
             Telegram::decode(&remote, 0),
