@@ -270,3 +270,70 @@ fn watch_polls_and_capture_logs_every_frame() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// A long session's capture is streamed to its temporary file as the frames come (memory stays
+/// bounded), and Ctrl-C still ends it with the stop sent and the log in place.
+#[test]
+fn a_capture_is_streamed_and_kept_after_ctrl_c() {
+    let sim = Sim::start(&[]);
+    let dir = std::env::temp_dir().join(format!("sbus-stream-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let log = dir.join("long.log");
+    let iface = format!("slcan:{}", sim.path);
+    let child = sim
+        .command()
+        .args(["sbus", "--iface", &iface, "--addr", "1", "--capture"])
+        .arg(&log)
+        .args([
+            "pd",
+            "--out",
+            "0x0006,1000,0",
+            "--count",
+            "0",
+            "--interval",
+            "10",
+        ])
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    // The temporary file next to the log fills while the session runs.
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(10);
+    let streamed = loop {
+        let tmp: u64 = std::fs::read_dir(&dir)
+            .unwrap()
+            .filter_map(|e| e.ok())
+            .filter(|e| e.file_name().to_string_lossy().ends_with(".tmp"))
+            .map(|e| e.metadata().unwrap().len())
+            .sum();
+        if tmp > 2000 || std::time::Instant::now() > deadline {
+            break tmp;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    };
+    assert!(
+        streamed > 2000,
+        "the capture is not written as it goes: {streamed} bytes"
+    );
+    assert!(!log.exists(), "the log takes its name only at the end");
+    let status = std::process::Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let out = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(0), "{err}");
+    assert!(err.contains("sent stop"), "{err}");
+    let text = std::fs::read_to_string(&log).unwrap();
+    assert!(text.lines().count() > 20, "{}", text.lines().count());
+    // No temporary file left behind.
+    let left: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .filter_map(|e| e.ok())
+        .filter(|e| e.file_name().to_string_lossy().ends_with(".tmp"))
+        .collect();
+    assert!(left.is_empty(), "{left:?}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -85,8 +85,9 @@ pub struct SbusArgs {
     #[arg(long, global = true, default_value = "500k")]
     bitrate: String,
     /// Record every frame sent and received to this candump log (`(seconds.micros) iface
-    /// ID#DATA`; `drivectl decode sbus --log FILE` explains it). Written when the command ends,
-    /// also on an error or Ctrl-C; a new regular file (or --overwrite).
+    /// ID#DATA`; `drivectl decode sbus --log FILE` explains it). Written as the frames come to
+    /// a temporary file that takes the name when the command ends, also on an error or Ctrl-C;
+    /// a new regular file (or --overwrite).
     #[arg(long, global = true, value_name = "FILE")]
     capture: Option<std::path::PathBuf>,
     /// Replace the --capture file if it exists.
@@ -263,7 +264,10 @@ pub fn run(args: &SbusArgs) -> Result<()> {
                 execute(&mut master, args, &iface).await
             }
             Some(file) => {
-                let log = Capture::new(io, Vec::new(), iface.log_name());
+                // Streamed to the temporary file as the frames come (memory stays bounded over a
+                // long `pd` or `watch`), renamed into place at the end.
+                let writer = std::io::BufWriter::new(file.writer()?);
+                let log = Capture::new(io, writer, iface.log_name());
                 let mut master = SbusMaster::new(log, config);
                 let result = execute(&mut master, args, &iface).await;
                 let kept = save_capture(master.into_inner(), file, args.capture.as_deref());
@@ -284,9 +288,9 @@ pub fn run(args: &SbusArgs) -> Result<()> {
     })
 }
 
-/// Write the capture log of a finished command.
+/// Finish the capture log of a finished command: flushed, then moved into place.
 fn save_capture<C: drive_core::rt::CanIo>(
-    capture: Capture<C, Vec<u8>>,
+    capture: Capture<C, std::io::BufWriter<std::fs::File>>,
     file: OutputFile,
     path: Option<&std::path::Path>,
 ) -> Result<()> {
@@ -294,9 +298,8 @@ fn save_capture<C: drive_core::rt::CanIo>(
     let (_, log) = capture
         .finish()
         .map_err(|e| CliError::failed(format!("the capture log was not written: {e}")))?;
-    let text = String::from_utf8(log)
-        .map_err(|_| CliError::failed("the capture log was not written: not text"))?;
-    file.commit(&text)?;
+    drop(log);
+    file.commit("")?;
     errln!(
         "drivectl: note: {records} frame(s) captured to {}",
         path.map_or_else(String::new, |p| p.display().to_string())

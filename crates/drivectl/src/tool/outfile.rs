@@ -130,6 +130,16 @@ impl OutputFile {
         })
     }
 
+    /// A handle on the temporary file, for output written as the work goes (a capture log);
+    /// [`OutputFile::commit`] with no more text then moves it into place.
+    pub fn writer(&self) -> Result<File> {
+        self.file
+            .as_ref()
+            .ok_or_else(|| CliError::failed(format!("{}: already written", self.shown.display())))?
+            .try_clone()
+            .map_err(|e| CliError::failed(format!("cannot write {}: {e}", self.shown.display())))
+    }
+
     /// Write `text` and move the file into place.
     pub fn commit(mut self, text: &str) -> Result<()> {
         let fail = |e: &dyn std::fmt::Display| {
