@@ -14,6 +14,7 @@ mod completions;
 mod demo;
 mod error;
 mod examples;
+mod gateway;
 mod movilink;
 mod nord;
 mod params;
@@ -49,6 +50,8 @@ enum Command {
     /// Talk to a SEW MOVIDRIVE over SBus (MOVILINK over CAN): identifiers, ID plans, and (with
     /// --iface) the drive.
     Sbus(sbus::SbusArgs),
+    /// Put every drive of a plant on an MQTT broker: polls, statuses, guarded writes, metrics.
+    Gateway(gateway::GatewayArgs),
     /// Talk to a NORD NORDAC LINK over USS (RS-485).
     Uss(nord::uss::UssArgs),
     /// Talk to a NORD NORDAC LINK over CTT2 through an AS-i master (simulated: --sim).
@@ -290,6 +293,7 @@ fn main() -> ExitCode {
         Command::Bonfiglioli(args) => bonfiglioli::run(&args),
         Command::Sim(SimCommand::Bonfiglioli(args)) => bonfiglioli::sim::run(&args),
         Command::Sbus(args) => sbus::run(&args),
+        Command::Gateway(args) => gateway::run(&args),
         Command::Uss(args) => nord::uss::run(&args),
         Command::Ctt2(args) => nord::ctt2::run(&args),
         Command::Sim(SimCommand::Uss(args)) => nord::sim::run(&args),

@@ -1,0 +1,85 @@
+//! A bus as the gateway drives it: [`BusAccess`] is what each protocol gives (its drives'
+//! parameter clients, process data, fault status and the wire time of its transactions), and
+//! [`BusContext`] is what the gateway gives a bus task.
+
+use std::sync::Arc;
+use std::time::Duration;
+
+use tokio::sync::mpsc;
+
+use super::config::Bus;
+use super::metrics::Metrics;
+use super::model::{BusIx, SetRequest, Update};
+use crate::tool::client::{ClientError, ParamClient};
+
+/// The kinds of transaction a bus task runs, for wire time and metrics.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Op {
+    /// One parameter read.
+    Read,
+    /// One parameter write (without the read-back, which is a [`Op::Read`]).
+    Write,
+    /// One process-data exchange of `n` output words.
+    ProcessData(u8),
+}
+
+impl Op {
+    /// The metrics label.
+    pub fn label(self) -> &'static str {
+        match self {
+            Op::Read => "read",
+            Op::Write => "write",
+            Op::ProcessData(_) => "process_data",
+        }
+    }
+}
+
+/// What the bus's link counted since the last [`BusAccess::take_tally`].
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct LinkTally {
+    /// Attempts repeated after a failed one.
+    pub retries: u64,
+    /// Received frames refused, by reason (`checksum`, `framing`, `wrong_address`, …).
+    pub rejected: Vec<(&'static str, u64)>,
+}
+
+/// One bus's way to its drives: what a protocol gives the gateway. One value owns the bus
+/// (its port and master); the gateway runs one transaction at a time on it.
+pub trait BusAccess {
+    /// The tool layer's client of one drive (read, guarded write, identify).
+    type Client<'a>: ParamClient
+    where
+        Self: 'a;
+
+    /// The drive at `address` as a [`ParamClient`].
+    fn client(&mut self, address: u8) -> Self::Client<'_>;
+
+    /// Exchange process data with the drive at `address`: send `out`, return its input
+    /// words.
+    async fn process_data(&mut self, address: u8, out: &[u16]) -> Result<Vec<u16>, ClientError>;
+
+    /// The drive's fault, decoded (`None`: no fault). One transaction.
+    async fn fault(&mut self, address: u8) -> Result<Option<String>, ClientError>;
+
+    /// The time one transaction of `op` occupies the wire: request, the drive's answer and
+    /// the pauses the protocol requires, at the bus's line settings (no timeouts, no retries).
+    fn wire_time(&self, op: Op) -> Duration;
+
+    /// What the link counted since the last call.
+    fn take_tally(&mut self) -> LinkTally;
+}
+
+/// What a bus task gets from the gateway.
+#[derive(Debug)]
+pub struct BusContext {
+    /// The bus's index in the plant.
+    pub ix: BusIx,
+    /// Its configuration.
+    pub bus: Bus,
+    /// Where it reports values, statuses and figures.
+    pub updates: mpsc::Sender<Update>,
+    /// Writes for its drives.
+    pub sets: mpsc::Receiver<SetRequest>,
+    /// The metrics registry.
+    pub metrics: Arc<Metrics>,
+}

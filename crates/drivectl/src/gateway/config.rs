@@ -1,0 +1,808 @@
+//! The gateway's configuration file (`plant.toml`): what it reads as TOML ([`File`]), and the
+//! checked plant it runs ([`Plant`]).
+//!
+//! Every name, address, parameter and period is checked when the file is loaded, before any
+//! port or broker is touched; an error names the file, the bus and drive, and what to write.
+
+use std::collections::HashSet;
+use std::time::Duration;
+
+use drive_profile::Family;
+use drive_transport::serial::{Parity, StopBits};
+use serde::Deserialize;
+
+use crate::error::{CliError, Result};
+use crate::tool::client::Target;
+
+/// The file as written.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct File {
+    /// `[gateway]`.
+    pub gateway: GatewayFile,
+    /// `[[bus]]`.
+    #[serde(default, rename = "bus")]
+    pub buses: Vec<BusFile>,
+}
+
+/// `[gateway]`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GatewayFile {
+    /// The gateway's name: the second level of every topic.
+    pub name: String,
+    /// `mqtt://host:port` or `mqtts://[user@]host:port`.
+    pub broker: String,
+    /// MQTT client identifier (default `drivebus-<name>`).
+    pub client_id: Option<String>,
+    /// Broker user name (also in the broker URL as `user@`).
+    pub username: Option<String>,
+    /// A file holding the broker password (first line), never the password itself.
+    pub password_file: Option<String>,
+    /// PEM file of the CA that signed the broker's certificate (`mqtts`; default: the
+    /// system's roots).
+    pub ca_file: Option<String>,
+    /// PEM client certificate (and `client_key`) for certificate authentication.
+    pub client_cert: Option<String>,
+    /// PEM private key of `client_cert`.
+    pub client_key: Option<String>,
+    /// Topic prefix (default `drivebus`).
+    pub prefix: Option<String>,
+    /// Republish every value at least this often, changed or not (default 60 s).
+    pub heartbeat: Option<String>,
+    /// A `set` whose `ts` is older than this is refused as stale (default 10 s).
+    pub max_set_age: Option<String>,
+    /// `host:port` of the Prometheus endpoint (default `127.0.0.1:9464`; `off` for none).
+    pub metrics: Option<String>,
+    /// MQTT keep-alive (default 30 s).
+    pub keep_alive: Option<String>,
+}
+
+/// `[[bus]]`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BusFile {
+    /// The bus's name: the third level of its topics.
+    pub name: String,
+    /// `movilink`, `sbus`, `uss`, `modbus-rtu` or `modbus-ascii`.
+    pub protocol: String,
+    /// Serial port (MOVILINK, USS, Modbus).
+    pub port: Option<String>,
+    /// CAN interface for SBus: `can0` or `slcan:PATH[@BITRATE]`.
+    pub iface: Option<String>,
+    /// Baud rate (serial buses; default: the protocol's factory setting).
+    pub baud: Option<u32>,
+    /// `even`, `odd` or `none` (default: the protocol's).
+    pub parity: Option<String>,
+    /// 1 or 2.
+    pub stop_bits: Option<u8>,
+    /// CAN bit rate for SBus on slcan or the simulated bus (default 500k).
+    pub bitrate: Option<String>,
+    /// Response timeout of one attempt (default: the protocol's).
+    pub timeout: Option<String>,
+    /// Retries after a failed attempt (default 1).
+    pub retries: Option<u8>,
+    /// Run this bus against simulated drives even without `--simulate`.
+    #[serde(default)]
+    pub simulate: bool,
+    /// `[[bus.drive]]`.
+    #[serde(default, rename = "drive")]
+    pub drives: Vec<DriveFile>,
+}
+
+/// `[[bus.drive]]`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DriveFile {
+    /// The drive's name: the fourth level of its topics.
+    pub name: String,
+    /// Bus address.
+    pub address: u8,
+    /// `movidrive`, `nord` or `bonfiglioli`: must match the protocol when given.
+    pub family: Option<String>,
+    /// `[[bus.drive.param]]`.
+    #[serde(default, rename = "param")]
+    pub params: Vec<ParamFile>,
+    /// `[bus.drive.process_data]`.
+    pub process_data: Option<ProcessDataFile>,
+}
+
+/// `[[bus.drive.param]]`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ParamFile {
+    /// The parameter as `drivectl` names it (`P130`, `8318`, `P102`, `420`).
+    pub param: String,
+    /// Topic name (default: the parameter key with `/`, `+`, `#` and spaces replaced).
+    pub name: Option<String>,
+    /// Poll period; without one the parameter is read only after a write.
+    pub period: Option<String>,
+    /// May be set through `…/set`.
+    #[serde(default)]
+    pub writable: bool,
+    /// Bonfiglioli data set 0–9 (default 0; 5–9 are the RAM images of 0–4).
+    pub data_set: Option<u8>,
+    /// NORD array element, 1-based as the manual counts them (`P543 [-02]` is 2).
+    pub array: Option<u8>,
+    /// NORD parameter set 1–4 (parameters with one value per set).
+    pub set: Option<u8>,
+    /// Writes go to EEPROM (guarded against wear) instead of RAM.
+    #[serde(default)]
+    pub eeprom: bool,
+}
+
+/// `[bus.drive.process_data]`: the gateway exchanges process data with the drive as its
+/// controller (MOVILINK, SBus, USS).
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ProcessDataFile {
+    /// Cycle period.
+    pub period: String,
+    /// The output words sent every cycle (control word first).
+    pub out: Vec<u16>,
+}
+
+/// The protocol of a bus.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Protocol {
+    /// SEW MOVILINK over RS-485.
+    Movilink,
+    /// SEW SBus over CAN.
+    Sbus,
+    /// NORD USS over RS-485.
+    Uss,
+    /// Bonfiglioli Modbus RTU.
+    ModbusRtu,
+    /// Bonfiglioli Modbus ASCII.
+    ModbusAscii,
+}
+
+impl Protocol {
+    /// All protocols, in the order the example config lists them.
+    pub const ALL: [Protocol; 5] = [
+        Protocol::Movilink,
+        Protocol::Sbus,
+        Protocol::Uss,
+        Protocol::ModbusRtu,
+        Protocol::ModbusAscii,
+    ];
+
+    /// The name in the config file.
+    pub fn name(self) -> &'static str {
+        match self {
+            Protocol::Movilink => "movilink",
+            Protocol::Sbus => "sbus",
+            Protocol::Uss => "uss",
+            Protocol::ModbusRtu => "modbus-rtu",
+            Protocol::ModbusAscii => "modbus-ascii",
+        }
+    }
+
+    /// The drive family this protocol talks to.
+    pub fn family(self) -> Family {
+        match self {
+            Protocol::Movilink | Protocol::Sbus => Family::Movidrive,
+            Protocol::Uss => Family::Nord,
+            Protocol::ModbusRtu | Protocol::ModbusAscii => Family::Bonfiglioli,
+        }
+    }
+
+    /// Valid addresses of a drive.
+    pub fn addresses(self) -> std::ops::RangeInclusive<u8> {
+        match self {
+            Protocol::Movilink => 0..=99,
+            Protocol::Sbus => 0..=63,
+            Protocol::Uss => 0..=31,
+            Protocol::ModbusRtu | Protocol::ModbusAscii => 1..=247,
+        }
+    }
+
+    /// Whether the gateway can exchange process data on this protocol.
+    pub fn has_process_data(self) -> bool {
+        matches!(self, Protocol::Movilink | Protocol::Sbus | Protocol::Uss)
+    }
+
+    /// Default line settings: baud, parity (the drives' factory settings).
+    fn default_line(self) -> (u32, Parity) {
+        match self {
+            Protocol::Movilink => (9600, Parity::Even),
+            Protocol::Uss => (9600, Parity::Even),
+            Protocol::ModbusRtu | Protocol::ModbusAscii => (9600, Parity::None),
+            Protocol::Sbus => (0, Parity::None),
+        }
+    }
+
+    /// Resolve a `[[bus.drive.param]]` as the family's commands do (`drivectl movilink read
+    /// P130`, `drivectl uss read P543 --array 2`, `drivectl bonfiglioli read 420`).
+    fn resolve(self, p: &ParamFile) -> Result<Target> {
+        let family_only =
+            |what: &str, fam: &str| CliError::usage(format!("{what} is for {fam} parameters only"));
+        match self.family() {
+            Family::Nord => {
+                if p.data_set.is_some() {
+                    return Err(family_only("data_set", "Bonfiglioli"));
+                }
+                let sub = crate::nord::Sub {
+                    array: p.array,
+                    set: p.set,
+                };
+                let mut all = crate::nord::resolve(&p.param, sub, false)?;
+                if all.len() != 1 {
+                    return Err(CliError::usage(format!(
+                        "{} is an array: give array = K (1-based element)",
+                        p.param
+                    )));
+                }
+                all.pop().ok_or_else(|| CliError::usage("no parameter"))
+            }
+            Family::Bonfiglioli => {
+                if p.array.is_some() || p.set.is_some() {
+                    return Err(family_only("array and set", "NORD"));
+                }
+                let ds = p.data_set.unwrap_or(0);
+                if ds > 9 {
+                    return Err(CliError::usage(format!("data_set = {ds}: give 0–9")));
+                }
+                crate::bonfiglioli::resolve(&p.param, ds)
+            }
+            _ => {
+                if p.data_set.is_some() || p.array.is_some() || p.set.is_some() {
+                    return Err(family_only(
+                        "data_set, array and set",
+                        "Bonfiglioli or NORD",
+                    ));
+                }
+                crate::movilink::resolve(&p.param)
+            }
+        }
+    }
+
+    fn parse(text: &str) -> Option<Protocol> {
+        Protocol::ALL.into_iter().find(|p| p.name() == text.trim())
+    }
+}
+
+/// Where a bus's frames go.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Endpoint {
+    /// A serial port with its line settings.
+    Serial {
+        /// Device path.
+        path: String,
+        /// Line settings (8 data bits).
+        line: drive_core::LineSettings,
+    },
+    /// A CAN interface (`can0`, `slcan:…`), SBus.
+    Can {
+        /// The interface as `drivectl sbus --iface` takes it.
+        iface: String,
+    },
+    /// Simulated drives in this process on the wire model (serial: at `line`; CAN: at
+    /// `bitrate` bit/s).
+    Simulated {
+        /// Line settings of the wire model (serial buses).
+        line: drive_core::LineSettings,
+        /// CAN bit rate (SBus).
+        bitrate: u32,
+    },
+}
+
+/// The checked plant.
+#[derive(Debug, Clone)]
+pub struct Plant {
+    /// Gateway settings.
+    pub gateway: Gateway,
+    /// Its buses.
+    pub buses: Vec<Bus>,
+}
+
+/// Checked `[gateway]`.
+#[derive(Debug, Clone)]
+pub struct Gateway {
+    /// Name (topic level 2).
+    pub name: String,
+    /// Topic prefix (level 1).
+    pub prefix: String,
+    /// Broker URL as given (`mqtt://` or `mqtts://`).
+    pub broker: String,
+    /// MQTT client id.
+    pub client_id: String,
+    /// User name.
+    pub username: Option<String>,
+    /// Password file.
+    pub password_file: Option<String>,
+    /// CA file.
+    pub ca_file: Option<String>,
+    /// Client certificate and key.
+    pub client_cert: Option<(String, String)>,
+    /// Heartbeat.
+    pub heartbeat: Duration,
+    /// Oldest `set` executed.
+    pub max_set_age: Duration,
+    /// Metrics endpoint (`None`: off).
+    pub metrics: Option<std::net::SocketAddr>,
+    /// Keep-alive.
+    pub keep_alive: Duration,
+}
+
+/// A checked bus.
+#[derive(Debug, Clone)]
+pub struct Bus {
+    /// Name (topic level 3).
+    pub name: String,
+    /// Protocol.
+    pub protocol: Protocol,
+    /// Where the frames go.
+    pub endpoint: Endpoint,
+    /// Response timeout per attempt.
+    pub timeout: Duration,
+    /// Retries after a failed attempt.
+    pub retries: u8,
+    /// Its drives.
+    pub drives: Vec<Drive>,
+}
+
+/// A checked drive.
+#[derive(Debug, Clone)]
+pub struct Drive {
+    /// Name (topic level 4).
+    pub name: String,
+    /// Bus address.
+    pub address: u8,
+    /// Family (from the protocol).
+    pub family: Family,
+    /// Parameters it publishes or takes.
+    pub points: Vec<Point>,
+    /// Process data exchanged cyclically.
+    pub process_data: Option<ProcessData>,
+}
+
+/// One parameter of a drive on the broker.
+#[derive(Debug, Clone)]
+pub struct Point {
+    /// Topic name (level 5).
+    pub name: String,
+    /// The parameter.
+    pub target: Target,
+    /// Poll period (`None`: read after writes only).
+    pub period: Option<Duration>,
+    /// Settable through `…/set`.
+    pub writable: bool,
+    /// Writes go to EEPROM.
+    pub eeprom: bool,
+}
+
+/// Process data of a drive.
+#[derive(Debug, Clone)]
+pub struct ProcessData {
+    /// Cycle period.
+    pub period: Duration,
+    /// Output words.
+    pub out: Vec<u16>,
+}
+
+/// The largest config file read (a plant of thousands of drives is far below it).
+const CONFIG_LIMIT: u64 = 16 << 20;
+
+/// Parse a duration: `250ms`, `5s`, `2m`, `1h`, `500us` (a bare number is refused: the unit
+/// is never guessed).
+pub fn parse_duration(text: &str) -> Option<Duration> {
+    let t = text.trim();
+    let split = t.find(|c: char| !c.is_ascii_digit() && c != '.')?;
+    let (num, unit) = t.split_at(split);
+    let v: f64 = num.parse().ok()?;
+    let secs = match unit.trim() {
+        "us" | "µs" => v / 1e6,
+        "ms" => v / 1e3,
+        "s" => v,
+        "m" | "min" => v * 60.0,
+        "h" => v * 3600.0,
+        _ => return None,
+    };
+    if !secs.is_finite() || !(0.0..=86_400.0 * 365.0).contains(&secs) {
+        return None;
+    }
+    Some(Duration::from_secs_f64(secs))
+}
+
+/// Check a broker URL: `mqtt://host[:port]` or `mqtts://[user@]host[:port]` (no password in
+/// the URL: it would show in `ps` and in the shell history; use `password_file`).
+pub fn check_broker(url: &str) -> std::result::Result<String, String> {
+    let url = url.trim();
+    let rest = url
+        .strip_prefix("mqtt://")
+        .or_else(|| url.strip_prefix("mqtts://"))
+        .ok_or_else(|| format!("{url:?}: give mqtt://host:port or mqtts://[user@]host:port"))?;
+    let host_port = match rest.rsplit_once('@') {
+        Some((user, hp)) => {
+            if user.contains(':') {
+                return Err(format!(
+                    "{url:?}: no password in the URL (it shows in `ps` and the shell history); \
+                     put it in the file password_file names"
+                ));
+            }
+            hp
+        }
+        None => rest,
+    };
+    let host_port = host_port.trim_end_matches('/');
+    if host_port.is_empty() || host_port.contains('/') {
+        return Err(format!(
+            "{url:?}: give mqtt://host:port or mqtts://[user@]host:port"
+        ));
+    }
+    if let Some((_, port)) = host_port.rsplit_once(':')
+        && !host_port.ends_with(']')
+        && port.parse::<u16>().map_or(true, |p| p == 0)
+    {
+        return Err(format!("{url:?}: port {port:?}: give 1–65535"));
+    }
+    Ok(url.to_owned())
+}
+
+/// A name usable as one topic level: no `/`, `+`, `#`, no control characters, not empty,
+/// at most 64 bytes.
+pub fn topic_level_ok(name: &str) -> bool {
+    !name.is_empty()
+        && name.len() <= 64
+        && !name
+            .chars()
+            .any(|c| matches!(c, '/' | '+' | '#') || c.is_control() || c.is_whitespace())
+}
+
+impl Plant {
+    /// Read and check `path` (`-`: standard input).
+    pub fn load(path: &str) -> Result<Plant> {
+        let bytes =
+            crate::tool::infile::read_limited(std::path::Path::new(path), true, CONFIG_LIMIT)?;
+        let text = String::from_utf8(bytes)
+            .map_err(|_| CliError::usage(format!("{path}: not UTF-8 text")))?;
+        // A file saved by Notepad starts with a byte-order mark; TOML does not allow one.
+        Self::parse(text.strip_prefix('\u{feff}').unwrap_or(&text), path)
+    }
+
+    /// Check the text of a config file; `origin` names it in errors.
+    pub fn parse(text: &str, origin: &str) -> Result<Plant> {
+        let file: File = toml::from_str(text)
+            .map_err(|e| CliError::usage(format!("{origin}: {}", e.to_string().trim_end())))?;
+        check(file).map_err(|m| CliError::usage(format!("{origin}: {m}")))
+    }
+}
+
+fn duration(
+    what: &str,
+    text: Option<&str>,
+    default: Duration,
+) -> std::result::Result<Duration, String> {
+    match text {
+        None => Ok(default),
+        Some(t) => parse_duration(t).ok_or_else(|| {
+            format!("{what} = \"{t}\": give a duration like \"250ms\", \"5s\" or \"2m\"")
+        }),
+    }
+}
+
+fn check(file: File) -> std::result::Result<Plant, String> {
+    let g = file.gateway;
+    if !topic_level_ok(&g.name) {
+        return Err(format!(
+            "[gateway] name = {:?}: a topic level needs 1–64 characters without '/', '+', '#' or spaces",
+            g.name
+        ));
+    }
+    let prefix = g.prefix.clone().unwrap_or_else(|| "drivebus".to_owned());
+    if prefix.split('/').any(|l| !topic_level_ok(l)) {
+        return Err(format!(
+            "[gateway] prefix = {prefix:?}: topic levels without '+', '#' or spaces"
+        ));
+    }
+    let broker = check_broker(&g.broker).map_err(|e| format!("[gateway] broker: {e}"))?;
+    let client_cert = match (g.client_cert, g.client_key) {
+        (Some(c), Some(k)) => Some((c, k)),
+        (None, None) => None,
+        _ => return Err("[gateway] client_cert and client_key go together".to_owned()),
+    };
+    let metrics = match g.metrics.as_deref().map(str::trim) {
+        Some("off") => None,
+        None => Some(std::net::SocketAddr::from(([127, 0, 0, 1], 9464))),
+        Some(a) => Some(a.parse().map_err(|_| {
+            format!(
+                "[gateway] metrics = {a:?}: give host:port such as \"127.0.0.1:9464\", or \"off\""
+            )
+        })?),
+    };
+    let heartbeat = duration(
+        "[gateway] heartbeat",
+        g.heartbeat.as_deref(),
+        Duration::from_secs(60),
+    )?;
+    let max_set_age = duration(
+        "[gateway] max_set_age",
+        g.max_set_age.as_deref(),
+        Duration::from_secs(10),
+    )?;
+    let keep_alive = duration(
+        "[gateway] keep_alive",
+        g.keep_alive.as_deref(),
+        Duration::from_secs(30),
+    )?;
+    if keep_alive < Duration::from_secs(5) {
+        return Err("[gateway] keep_alive: at least 5s".to_owned());
+    }
+    if heartbeat < Duration::from_secs(1) {
+        return Err("[gateway] heartbeat: at least 1s".to_owned());
+    }
+    let gateway = Gateway {
+        client_id: g
+            .client_id
+            .unwrap_or_else(|| format!("drivebus-{}", g.name)),
+        name: g.name,
+        prefix,
+        broker,
+        username: g.username,
+        password_file: g.password_file,
+        ca_file: g.ca_file,
+        client_cert,
+        heartbeat,
+        max_set_age,
+        metrics,
+        keep_alive,
+    };
+    if file.buses.is_empty() {
+        return Err("no [[bus]]: a gateway needs at least one bus".to_owned());
+    }
+    let mut names = HashSet::new();
+    let mut buses = Vec::new();
+    for b in file.buses {
+        let bus = check_bus(b)?;
+        if !names.insert(bus.name.clone()) {
+            return Err(format!("bus {:?} is named twice", bus.name));
+        }
+        buses.push(bus);
+    }
+    let mut ports = HashSet::new();
+    for b in &buses {
+        let key = match &b.endpoint {
+            Endpoint::Serial { path, .. } => crate::tool::client::canonical_port(path),
+            Endpoint::Can { iface } => iface.clone(),
+            Endpoint::Simulated { .. } => continue,
+        };
+        if !ports.insert(key.clone()) {
+            return Err(format!(
+                "bus {:?}: {key} is already another bus's: one port, one bus",
+                b.name
+            ));
+        }
+    }
+    Ok(Plant { gateway, buses })
+}
+
+fn check_bus(b: BusFile) -> std::result::Result<Bus, String> {
+    let at = format!("bus {:?}", b.name);
+    if !topic_level_ok(&b.name) {
+        return Err(format!(
+            "{at}: a topic level needs 1–64 characters without '/', '+', '#' or spaces"
+        ));
+    }
+    let protocol = Protocol::parse(&b.protocol).ok_or_else(|| {
+        format!(
+            "{at}: protocol = {:?}: give one of movilink, sbus, uss, modbus-rtu, modbus-ascii",
+            b.protocol
+        )
+    })?;
+    let (baud0, parity0) = protocol.default_line();
+    let parity = match b.parity.as_deref() {
+        None => parity0,
+        Some("even") => Parity::Even,
+        Some("odd") => Parity::Odd,
+        Some("none") => Parity::None,
+        Some(p) => return Err(format!("{at}: parity = {p:?}: give even, odd or none")),
+    };
+    let stop = match b.stop_bits {
+        None | Some(1) => StopBits::One,
+        Some(2) => StopBits::Two,
+        Some(n) => return Err(format!("{at}: stop_bits = {n}: give 1 or 2")),
+    };
+    let baud = b.baud.unwrap_or(baud0);
+    if protocol != Protocol::Sbus && !(1..=4_000_000).contains(&baud) {
+        return Err(format!("{at}: baud = {baud}: give 1–4000000"));
+    }
+    let line = drive_core::LineSettings::new(baud.max(1))
+        .with_parity(parity)
+        .with_stop_bits(stop);
+    let bitrate = match &b.bitrate {
+        None => 500_000,
+        Some(t) => crate::sbus::iface::parse_bitrate(t)
+            .map_err(|e| format!("{at}: {e}"))?
+            .bits_per_second(),
+    };
+    let endpoint = if b.simulate {
+        Endpoint::Simulated { line, bitrate }
+    } else if protocol == Protocol::Sbus {
+        if b.port.is_some() {
+            return Err(format!(
+                "{at}: SBus runs on a CAN interface: give iface = \"can0\" or \"slcan:/dev/ttyACM0\""
+            ));
+        }
+        let iface = b.iface.ok_or_else(|| {
+            format!("{at}: give iface = \"can0\" or \"slcan:PATH\" (or simulate = true)")
+        })?;
+        crate::sbus::iface::Iface::parse(&iface).map_err(|e| format!("{at}: {e}"))?;
+        Endpoint::Can { iface }
+    } else {
+        if b.iface.is_some() {
+            return Err(format!(
+                "{at}: {} runs on a serial port: give port = \"/dev/ttyUSB0\"",
+                protocol.name()
+            ));
+        }
+        let path = b
+            .port
+            .ok_or_else(|| format!("{at}: give port = \"/dev/ttyUSB0\" (or simulate = true)"))?;
+        Endpoint::Serial { path, line }
+    };
+    let timeout = duration(
+        &format!("{at}: timeout"),
+        b.timeout.as_deref(),
+        default_timeout(protocol),
+    )?;
+    if timeout.is_zero() || timeout > Duration::from_secs(60) {
+        return Err(format!("{at}: timeout: give 1ms–60s"));
+    }
+    let retries = b.retries.unwrap_or(1);
+    if retries > 10 {
+        return Err(format!("{at}: retries = {retries}: give 0–10"));
+    }
+    if b.drives.is_empty() {
+        return Err(format!("{at}: no [[bus.drive]]"));
+    }
+    let mut drives = Vec::new();
+    let mut addrs = HashSet::new();
+    let mut dnames = HashSet::new();
+    for d in b.drives {
+        let drive = check_drive(&at, protocol, d)?;
+        if !addrs.insert(drive.address) {
+            return Err(format!("{at}: two drives at address {}", drive.address));
+        }
+        if !dnames.insert(drive.name.clone()) {
+            return Err(format!("{at}: drive {:?} is named twice", drive.name));
+        }
+        drives.push(drive);
+    }
+    Ok(Bus {
+        name: b.name,
+        protocol,
+        endpoint,
+        timeout,
+        retries,
+        drives,
+    })
+}
+
+/// The response timeout a bus gets when the config gives none.
+pub fn default_timeout(p: Protocol) -> Duration {
+    match p {
+        Protocol::Sbus => Duration::from_millis(50),
+        _ => Duration::from_millis(100),
+    }
+}
+
+fn check_drive(bus: &str, protocol: Protocol, d: DriveFile) -> std::result::Result<Drive, String> {
+    let at = format!("{bus}, drive {:?}", d.name);
+    if !topic_level_ok(&d.name) {
+        return Err(format!(
+            "{at}: a topic level needs 1–64 characters without '/', '+', '#' or spaces"
+        ));
+    }
+    let family = protocol.family();
+    if let Some(f) = &d.family
+        && !f.eq_ignore_ascii_case(&family.to_string())
+    {
+        return Err(format!(
+            "{at}: family = {f:?}, but {} talks to {family} drives",
+            protocol.name()
+        ));
+    }
+    let r = protocol.addresses();
+    if !r.contains(&d.address) {
+        return Err(format!(
+            "{at}: address = {}: {} drives have addresses {}–{}",
+            d.address,
+            protocol.name(),
+            r.start(),
+            r.end()
+        ));
+    }
+    let mut points = Vec::new();
+    let mut names = HashSet::new();
+    for p in d.params {
+        let target = protocol.resolve(&p).map_err(|e| format!("{at}: {e}"))?;
+        let name = p.name.clone().unwrap_or_else(|| {
+            p.param
+                .trim()
+                .chars()
+                .map(|c| {
+                    if topic_level_ok(&c.to_string()) {
+                        c
+                    } else {
+                        '_'
+                    }
+                })
+                .collect()
+        });
+        if !topic_level_ok(&name) || matches!(name.as_str(), "status" | "pd" | "set" | "result") {
+            return Err(format!(
+                "{at}: parameter name {name:?}: one topic level, not status, pd, set or result"
+            ));
+        }
+        if !names.insert(name.clone()) {
+            return Err(format!("{at}: {name:?} is listed twice"));
+        }
+        let period = match &p.period {
+            None => None,
+            Some(t) => {
+                let v = parse_duration(t).ok_or_else(|| {
+                    format!(
+                        "{at}, {name}: period = {t:?}: give a duration like \"500ms\" or \"5s\""
+                    )
+                })?;
+                if v < Duration::from_millis(1) {
+                    return Err(format!("{at}, {name}: period: at least 1ms"));
+                }
+                Some(v)
+            }
+        };
+        if period.is_none() && !p.writable {
+            return Err(format!(
+                "{at}, {name}: neither polled (period) nor writable: nothing to do"
+            ));
+        }
+        points.push(Point {
+            name,
+            target,
+            period,
+            writable: p.writable,
+            eeprom: p.eeprom,
+        });
+    }
+    let process_data = match d.process_data {
+        None => None,
+        Some(pd) => {
+            if !protocol.has_process_data() {
+                return Err(format!(
+                    "{at}: {} has no process data; poll parameters instead",
+                    protocol.name()
+                ));
+            }
+            let period = parse_duration(&pd.period)
+                .filter(|p| *p >= Duration::from_millis(1))
+                .ok_or_else(|| {
+                    format!(
+                        "{at}: process_data period = {:?}: give 1ms or more",
+                        pd.period
+                    )
+                })?;
+            let max = match protocol {
+                Protocol::Uss => 16,
+                _ => 3,
+            };
+            if pd.out.is_empty() || pd.out.len() > max {
+                return Err(format!("{at}: process_data out: 1–{max} words"));
+            }
+            Some(ProcessData {
+                period,
+                out: pd.out,
+            })
+        }
+    };
+    if points.is_empty() && process_data.is_none() {
+        return Err(format!("{at}: no [[bus.drive.param]] and no process data"));
+    }
+    Ok(Drive {
+        name: d.name,
+        address: d.address,
+        family,
+        points,
+        process_data,
+    })
+}

@@ -1,0 +1,148 @@
+//! `drivectl gateway`: every drive of a plant on an MQTT broker.
+//!
+//! One task per bus ([`task`]: a scheduler that knows every transaction's wire time), one
+//! MQTT task ([`mqtt`]: values, statuses, guarded writes), the Prometheus endpoint
+//! ([`metrics`]). All run on one thread (a `LocalSet`): the work is waiting on wires, and a
+//! bus's client futures need not be `Send`. See `docs/deploying.md`.
+
+pub mod bus;
+pub mod config;
+pub mod families;
+pub mod metrics;
+pub mod model;
+pub mod mqtt;
+pub mod schedule;
+pub mod task;
+
+use std::sync::Arc;
+
+use clap::Args;
+use tokio::sync::mpsc;
+
+use crate::error::{CliError, Result};
+use config::{Endpoint, Plant};
+
+/// `drivectl gateway`.
+#[derive(Debug, Args)]
+#[command(
+    after_help = "Examples:\n  drivectl gateway --example-config > plant.toml\n  drivectl gateway --config plant.toml --simulate\n  drivectl gateway --config plant.toml --broker mqtts://gw1@broker.plant.local:8883\n  drivectl gateway --config plant.toml --check"
+)]
+pub struct GatewayArgs {
+    /// The plant's config file (TOML; `-`: standard input).
+    #[arg(long, required_unless_present = "example_config")]
+    pub config: Option<String>,
+    /// The broker, overriding the config's: mqtt://host:port or mqtts://[user@]host:port.
+    #[arg(long)]
+    pub broker: Option<String>,
+    /// Run every bus against simulated drives (each family's simulator on the wire model).
+    #[arg(long)]
+    pub simulate: bool,
+    /// Print a commented example config (runs as it is with --simulate) and exit.
+    #[arg(long, conflicts_with_all = ["config", "broker", "simulate", "check"])]
+    pub example_config: bool,
+    /// Check the config, print each bus's wire demand, and exit.
+    #[arg(long)]
+    pub check: bool,
+    /// Log format: text or json (logs go to standard error).
+    #[arg(long, default_value = "text", value_parser = ["text", "json"])]
+    pub log_format: String,
+    /// Log level: error, warn, info, debug or trace.
+    #[arg(long, default_value = "info", value_parser = ["error", "warn", "info", "debug", "trace"])]
+    pub log_level: String,
+}
+
+/// Run `drivectl gateway`.
+pub fn run(args: &GatewayArgs) -> Result<()> {
+    if args.example_config {
+        return crate::tool::output::emit(format_args!("{}", families::EXAMPLE_CONFIG));
+    }
+    let path = args.config.as_deref().unwrap_or("-");
+    let mut plant = Plant::load(path)?;
+    if let Some(b) = &args.broker {
+        plant.gateway.broker = config::check_broker(b).map_err(CliError::usage)?;
+    }
+    if args.simulate {
+        for bus in &mut plant.buses {
+            if !matches!(bus.endpoint, Endpoint::Simulated { .. }) {
+                bus.endpoint = families::simulated_endpoint(bus);
+            }
+        }
+    }
+    if args.check {
+        return families::print_check(&plant);
+    }
+    init_logs(&args.log_format, &args.log_level);
+    let rt = tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()
+        .map_err(|e| CliError::failed(format!("cannot start the runtime: {e}")))?;
+    let local = tokio::task::LocalSet::new();
+    local.block_on(&rt, serve(plant))
+}
+
+/// The gateway's tasks for `plant`, until Ctrl-C or SIGTERM.
+pub async fn serve(plant: Plant) -> Result<()> {
+    let plant = Arc::new(plant);
+    let metrics = Arc::new(metrics::Metrics::new(&plant));
+    // Prepared before anything else starts, so that a bad certificate or password file is
+    // an error before a bus is opened.
+    let mqtt = mqtt::Mqtt::prepare(&plant)?;
+    let (update_tx, update_rx) = mpsc::channel(4096);
+    let mut set_txs = Vec::new();
+    for (ix, bus) in plant.buses.iter().enumerate() {
+        let (set_tx, set_rx) = mpsc::channel(64);
+        set_txs.push(set_tx);
+        let ctx = bus::BusContext {
+            ix,
+            bus: bus.clone(),
+            updates: update_tx.clone(),
+            sets: set_rx,
+            metrics: metrics.clone(),
+        };
+        tokio::task::spawn_local(families::run_bus(ctx));
+    }
+    drop(update_tx);
+    if let Some(addr) = plant.gateway.metrics {
+        let listener = metrics::bind(addr).await?;
+        tokio::task::spawn_local(metrics::serve(listener, metrics.clone()));
+    }
+    let shutdown = shutdown_signal();
+    mqtt.run(update_rx, set_txs, metrics, shutdown).await
+}
+
+/// Resolves at Ctrl-C or SIGTERM (systemd's stop).
+async fn shutdown_signal() {
+    let term = async {
+        match tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate()) {
+            Ok(mut s) => {
+                s.recv().await;
+            }
+            Err(_) => std::future::pending::<()>().await,
+        }
+    };
+    tokio::select! {
+        _ = tokio::signal::ctrl_c() => {}
+        () = term => {}
+    }
+}
+
+/// Structured logs on standard error.
+fn init_logs(format: &str, level: &str) {
+    let level = match level {
+        "error" => tracing::Level::ERROR,
+        "warn" => tracing::Level::WARN,
+        "debug" => tracing::Level::DEBUG,
+        "trace" => tracing::Level::TRACE,
+        _ => tracing::Level::INFO,
+    };
+    let builder = tracing_subscriber::fmt()
+        .with_max_level(level)
+        .with_writer(std::io::stderr)
+        .with_target(false);
+    // A second initialisation (tests running `serve` twice) keeps the first.
+    let _ = if format == "json" {
+        builder.json().try_init()
+    } else {
+        builder.try_init()
+    };
+}

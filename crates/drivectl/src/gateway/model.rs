@@ -1,0 +1,160 @@
+//! What flows between the gateway's tasks: bus tasks report [`Update`]s to the MQTT task, the
+//! MQTT task hands [`SetRequest`]s to a bus task and gets a [`SetOutcome`] back.
+//!
+//! Drives and points are named by their indices in the [`Plant`](super::config::Plant)
+//! (`bus`, `drive`, `point`), so nothing is allocated per value on the way.
+
+use std::time::{Duration, SystemTime};
+
+use tokio::sync::oneshot;
+
+/// Index of a bus in the plant.
+pub type BusIx = usize;
+/// Index of a drive in its bus.
+pub type DriveIx = usize;
+/// Index of a point (parameter) in its drive.
+pub type PointIx = usize;
+
+/// A drive's state as the gateway sees it.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum DriveStatus {
+    /// Answering.
+    Online,
+    /// Did not answer (after the bus's retries); polled again after a back-off.
+    Timeout,
+    /// Answering, in fault: the decoded fault text.
+    Fault(String),
+}
+
+impl DriveStatus {
+    /// The `state` field of the status topic.
+    pub fn state(&self) -> &'static str {
+        match self {
+            DriveStatus::Online => "online",
+            DriveStatus::Timeout => "timeout",
+            DriveStatus::Fault(_) => "fault",
+        }
+    }
+}
+
+/// A bus's figures since the gateway started (published on the bus status topic and as
+/// metrics).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct BusFigures {
+    /// Share of the elapsed time the wire was busy with the gateway's transactions (0–1),
+    /// from the wire time of every transaction.
+    pub utilisation: f64,
+    /// Share the configured polls ask for (0–1; above 1 the polls are stretched).
+    pub demand: f64,
+    /// Transactions done (answered or not).
+    pub transactions: u64,
+    /// Transactions without an answer after all attempts.
+    pub timeouts: u64,
+    /// Repeated attempts.
+    pub retries: u64,
+    /// Polls that started later than one period after they were due.
+    pub late_polls: u64,
+}
+
+/// What a bus task reports.
+#[derive(Debug, Clone)]
+pub enum Update {
+    /// A parameter's value was read.
+    Value {
+        /// Bus.
+        bus: BusIx,
+        /// Drive.
+        drive: DriveIx,
+        /// Point.
+        point: PointIx,
+        /// Raw value from the drive.
+        raw: i64,
+        /// When it was read.
+        at: SystemTime,
+    },
+    /// Process input words were exchanged.
+    ProcessData {
+        /// Bus.
+        bus: BusIx,
+        /// Drive.
+        drive: DriveIx,
+        /// Input words, as many as configured out words (USS: as the telegram has).
+        words: Vec<u16>,
+        /// When.
+        at: SystemTime,
+    },
+    /// A drive's status changed.
+    Status {
+        /// Bus.
+        bus: BusIx,
+        /// Drive.
+        drive: DriveIx,
+        /// New status.
+        status: DriveStatus,
+        /// When.
+        at: SystemTime,
+    },
+    /// A bus's figures (every few seconds).
+    Figures {
+        /// Bus.
+        bus: BusIx,
+        /// The figures.
+        figures: BusFigures,
+    },
+}
+
+/// A write asked for on `…/set`, checked against the config (writable) but not yet against
+/// the drive's table (the bus task runs the write guard).
+#[derive(Debug)]
+pub struct SetRequest {
+    /// Drive.
+    pub drive: DriveIx,
+    /// Point.
+    pub point: PointIx,
+    /// The value as sent.
+    pub value: SetValue,
+    /// When the gateway received it (the bus task refuses it once older than
+    /// `max_set_age`).
+    pub received: tokio::time::Instant,
+    /// How long it may wait for the bus.
+    pub max_age: Duration,
+    /// The answer.
+    pub reply: oneshot::Sender<SetOutcome>,
+}
+
+/// The value of a `set`.
+#[derive(Debug, Clone, PartialEq)]
+pub enum SetValue {
+    /// `{"value": …}`: in the parameter's unit (number or value-list text).
+    Value(serde_json::Value),
+    /// `{"raw": …}`: the raw bus value.
+    Raw(i64),
+}
+
+/// The answer to a [`SetRequest`].
+#[derive(Debug, Clone, PartialEq)]
+pub enum SetOutcome {
+    /// Written; the value read back.
+    Written {
+        /// Raw value read back after the write.
+        raw: i64,
+    },
+    /// Refused before anything was sent (guard, not writable, stale, drive offline).
+    Refused {
+        /// Machine-readable reason: `not_writable`, `range`, `access`, `value_list`,
+        /// `width`, `wear`, `stale`, `retained`, `offline`, `expired`, `bad_request`.
+        reason: &'static str,
+        /// For a person.
+        message: String,
+    },
+    /// The drive refused it (its answer, decoded).
+    DeviceRefused {
+        /// The drive's answer.
+        message: String,
+    },
+    /// The bus failed during the write: whether it was written is unknown.
+    LinkFailed {
+        /// What failed.
+        message: String,
+    },
+}

@@ -1,0 +1,1 @@
+//! The bus scheduler (sans-IO). INTERFACE STUB.
