@@ -82,6 +82,9 @@ pub struct BusFile {
     pub timeout: Option<String>,
     /// Retries after a failed attempt (default 1).
     pub retries: Option<u8>,
+    /// How often each drive's fault status is read (default 5 s); any answer also shows the
+    /// drive is online.
+    pub status_period: Option<String>,
     /// Run this bus against simulated drives even without `--simulate`.
     #[serde(default)]
     pub simulate: bool,
@@ -338,6 +341,8 @@ pub struct Bus {
     pub timeout: Duration,
     /// Retries after a failed attempt.
     pub retries: u8,
+    /// How often each drive's fault status is read.
+    pub status_period: Duration,
     /// Its drives.
     pub drives: Vec<Drive>,
 }
@@ -653,6 +658,14 @@ fn check_bus(b: BusFile) -> std::result::Result<Bus, String> {
     if retries > 10 {
         return Err(format!("{at}: retries = {retries}: give 0–10"));
     }
+    let status_period = duration(
+        &format!("{at}: status_period"),
+        b.status_period.as_deref(),
+        Duration::from_secs(5),
+    )?;
+    if status_period < Duration::from_millis(100) {
+        return Err(format!("{at}: status_period: at least 100ms"));
+    }
     if b.drives.is_empty() {
         return Err(format!("{at}: no [[bus.drive]]"));
     }
@@ -675,6 +688,7 @@ fn check_bus(b: BusFile) -> std::result::Result<Bus, String> {
         endpoint,
         timeout,
         retries,
+        status_period,
         drives,
     })
 }
