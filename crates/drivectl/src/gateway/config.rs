@@ -820,3 +820,203 @@ fn check_drive(bus: &str, protocol: Protocol, d: DriveFile) -> std::result::Resu
         process_data,
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const MINIMAL: &str = r#"
+[gateway]
+name = "gw1"
+broker = "mqtt://127.0.0.1:1883"
+
+[[bus]]
+name = "line1"
+protocol = "movilink"
+port = "/dev/ttyUSB0"
+
+[[bus.drive]]
+name = "conveyor"
+address = 1
+
+[[bus.drive.param]]
+param = "P130"
+period = "1s"
+writable = true
+"#;
+
+    fn err(text: &str) -> String {
+        match Plant::parse(text, "plant.toml") {
+            Ok(_) => panic!("accepted:\n{text}"),
+            Err(e) => e.to_string(),
+        }
+    }
+
+    fn with(replace: &str, by: &str) -> String {
+        assert!(MINIMAL.contains(replace), "{replace}");
+        MINIMAL.replace(replace, by)
+    }
+
+    #[test]
+    fn a_minimal_config_gets_the_documented_defaults() {
+        let p = Plant::parse(MINIMAL, "plant.toml").unwrap();
+        assert_eq!(p.gateway.prefix, "drivebus");
+        assert_eq!(p.gateway.client_id, "drivebus-gw1");
+        assert_eq!(p.gateway.heartbeat, Duration::from_secs(60));
+        assert_eq!(p.gateway.max_set_age, Duration::from_secs(10));
+        assert_eq!(p.gateway.metrics, Some("127.0.0.1:9464".parse().unwrap()));
+        let b = &p.buses[0];
+        assert_eq!(b.protocol, Protocol::Movilink);
+        assert_eq!(b.timeout, Duration::from_millis(100));
+        assert_eq!(b.retries, 1);
+        assert_eq!(b.status_period, Duration::from_secs(5));
+        match &b.endpoint {
+            Endpoint::Serial { path, line } => {
+                assert_eq!(path, "/dev/ttyUSB0");
+                assert_eq!(line.baud, 9600);
+                assert_eq!(line.parity, Parity::Even);
+            }
+            other => panic!("{other:?}"),
+        }
+        let d = &b.drives[0];
+        assert_eq!(d.family, Family::Movidrive);
+        let pt = &d.points[0];
+        assert_eq!(pt.name, "P130");
+        assert_eq!(pt.target.index, 8470, "P130 ramp t11 up CW is index 8470");
+        assert_eq!(pt.period, Some(Duration::from_secs(1)));
+        assert!(pt.writable && !pt.eeprom);
+    }
+
+    #[test]
+    fn durations_need_a_unit() {
+        assert_eq!(parse_duration("250ms"), Some(Duration::from_millis(250)));
+        assert_eq!(parse_duration(" 5s "), Some(Duration::from_secs(5)));
+        assert_eq!(parse_duration("1.5s"), Some(Duration::from_millis(1500)));
+        assert_eq!(parse_duration("2m"), Some(Duration::from_secs(120)));
+        assert_eq!(parse_duration("500us"), Some(Duration::from_micros(500)));
+        for bad in ["5", "", "s", "-1s", "1e400s", "5 parsecs", "NaNs", "1.2.3s"] {
+            assert_eq!(parse_duration(bad), None, "{bad}");
+        }
+    }
+
+    #[test]
+    fn every_mistake_is_named_with_what_to_write() {
+        let cases = [
+            (with("name = \"gw1\"", "name = \"gw/1\""), "topic level"),
+            (
+                with("mqtt://127.0.0.1:1883", "http://x"),
+                "mqtt://host:port",
+            ),
+            (
+                with("mqtt://127.0.0.1:1883", "mqtt://u:secret@h:1883"),
+                "no password in the URL",
+            ),
+            (with("mqtt://127.0.0.1:1883", "mqtt://h:99999"), "1–65535"),
+            (
+                with("protocol = \"movilink\"", "protocol = \"profibus\""),
+                "movilink, sbus",
+            ),
+            (with("address = 1", "address = 100"), "addresses 0–99"),
+            (with("period = \"1s\"", "period = \"1\""), "give a duration"),
+            (
+                with("param = \"P130\"", "param = \"P9999\""),
+                "no movidrive parameter",
+            ),
+            (
+                with("writable = true", "writable = false\nperiod2 = 1"),
+                "unknown field",
+            ),
+            (
+                with("port = \"/dev/ttyUSB0\"", "iface = \"can0\""),
+                "serial port",
+            ),
+            (
+                with(
+                    "[[bus.drive.param]]",
+                    "[bus.drive.process_data]\nperiod = \"20ms\"\nout = [1,2,3,4]\n[[bus.drive.param]]",
+                ),
+                "1–3 words",
+            ),
+        ];
+        for (text, needle) in cases {
+            let e = err(&text);
+            assert!(e.starts_with("plant.toml: "), "{e}");
+            assert!(e.contains(needle), "`{needle}` not in: {e}");
+        }
+    }
+
+    #[test]
+    fn two_buses_on_one_port_are_refused_also_through_a_symlink() {
+        let dir = std::env::temp_dir().join(format!("gwcfg-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let real = dir.join("ttyREAL");
+        std::fs::write(&real, "").unwrap();
+        let link = dir.join("ttyLINK");
+        let _ = std::fs::remove_file(&link);
+        std::os::unix::fs::symlink(&real, &link).unwrap();
+        let second = MINIMAL
+            .split("[[bus]]")
+            .nth(1)
+            .unwrap()
+            .replace("line1", "line2")
+            .replace("/dev/ttyUSB0", link.to_str().unwrap());
+        let text = format!(
+            "{}\n[[bus]]{second}",
+            MINIMAL.replace("/dev/ttyUSB0", real.to_str().unwrap())
+        );
+        let e = err(&text);
+        assert!(e.contains("one port, one bus"), "{e}");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn duplicates_are_refused() {
+        let two_drives = MINIMAL.replace(
+            "[[bus.drive]]",
+            "[[bus.drive]]\nname = \"other\"\naddress = 1\n[[bus.drive.param]]\nparam = \"P000\"\nperiod = \"1s\"\n\n[[bus.drive]]",
+        );
+        assert!(err(&two_drives).contains("two drives at address 1"));
+        let two_points =
+            format!("{MINIMAL}\n[[bus.drive.param]]\nparam = \"P130\"\nperiod = \"2s\"\n");
+        assert!(err(&two_points).contains("listed twice"));
+        let reserved = with("period = \"1s\"", "period = \"1s\"\nname = \"status\"");
+        assert!(err(&reserved).contains("not status"));
+    }
+
+    #[test]
+    fn a_notepad_file_with_bom_and_crlf_loads() {
+        let dir = std::env::temp_dir().join(format!("gwcfg-bom-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let f = dir.join("plant.toml");
+        std::fs::write(&f, format!("\u{feff}{}", MINIMAL.replace('\n', "\r\n"))).unwrap();
+        let p = Plant::load(f.to_str().unwrap()).unwrap();
+        assert_eq!(p.buses[0].drives[0].points[0].name, "P130");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn a_device_node_is_not_read_as_a_config() {
+        let e = Plant::load("/dev/zero").unwrap_err().to_string();
+        assert!(e.contains("device node"), "{e}");
+    }
+
+    #[test]
+    fn family_specific_keys_follow_the_protocol() {
+        let nord = MINIMAL
+            .replace("\"movilink\"", "\"uss\"")
+            .replace("P130", "P102")
+            .replace("writable = true", "writable = true\nset = 2");
+        let p = Plant::parse(&nord, "p").unwrap();
+        assert_eq!(p.buses[0].drives[0].family, Family::Nord);
+        let bonf = MINIMAL
+            .replace("\"movilink\"", "\"modbus-rtu\"")
+            .replace("P130", "420")
+            .replace("writable = true", "writable = true\ndata_set = 7");
+        let p = Plant::parse(&bonf, "p").unwrap();
+        assert_eq!(p.buses[0].drives[0].points[0].target.sub, 7);
+        let wrong = MINIMAL.replace("writable = true", "writable = true\ndata_set = 1");
+        assert!(err(&wrong).contains("for Bonfiglioli or NORD parameters only"));
+        let fam = MINIMAL.replace("address = 1", "address = 1\nfamily = \"nord\"");
+        assert!(err(&fam).contains("movilink talks to"));
+    }
+}
