@@ -601,3 +601,18 @@ fn head_end_finds_either_terminator() {
     assert_eq!(head_end(b"GET / HTTP/1.1\n\nrest"), Some(16));
     assert_eq!(head_end(b"GET / HTTP/1.1\r\nHost: x\r\n"), None);
 }
+
+#[test]
+fn the_deployment_pages_config_is_accepted() {
+    // docs/deploying.md shows a cabinet's config: it must pass the same checks as a real one.
+    let page = include_str!("../../../../../docs/deploying.md");
+    let block = page
+        .split("```toml\n")
+        .nth(1)
+        .and_then(|b| b.split("```").next())
+        .unwrap();
+    assert!(block.contains("[gateway]"), "{block}");
+    let plant = Plant::parse(block, "docs/deploying.md").unwrap();
+    assert_eq!(plant.gateway.name, "cabinet-12");
+    assert_eq!(plant.buses[0].drives[0].points.len(), 2);
+}
