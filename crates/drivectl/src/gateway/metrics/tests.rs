@@ -546,7 +546,14 @@ async fn a_client_that_sends_nothing_gets_408_after_5_s() {
 
 #[tokio::test]
 async fn the_17th_connection_gets_503_and_is_served_when_one_ends() {
-    let (addr, _) = endpoint(Limits::default()).await;
+    // The default 16 places; a long head timeout, so that a slow machine cannot free a place
+    // by timing a held connection out during the test.
+    let limits = Limits {
+        head_timeout: Duration::from_secs(120),
+        ..Limits::default()
+    };
+    assert_eq!(limits.max_connections, 16);
+    let (addr, _) = endpoint(limits).await;
     let mut held = Vec::new();
     for _ in 0..16 {
         held.push(TcpStream::connect(addr).await.unwrap());
