@@ -1,19 +1,339 @@
 //! Prometheus metrics of the gateway and the `/metrics` endpoint.
 //!
-//! INTERFACE STUB: the signatures below are what the bus tasks and the MQTT task call.
+//! [`Metrics`] holds one registry (the `prometheus-client` crate) with these families:
+//!
+//! | metric | labels |
+//! |---|---|
+//! | `drivebus_transactions_total` | `bus`, `drive`, `op`, `outcome` |
+//! | `drivebus_transaction_seconds` (histogram, 0.5 ms … 2 s) | `bus`, `drive`, `op` |
+//! | `drivebus_retries_total` | `bus` |
+//! | `drivebus_rejected_frames_total` | `bus`, `reason` ([`REJECT_REASONS`]) |
+//! | `drivebus_bus_utilisation`, `drivebus_bus_demand` | `bus` |
+//! | `drivebus_drive_up` | `bus`, `drive`, `state` (1 for the current state, 0 for the others) |
+//! | `drivebus_broker_connected` | |
+//! | `drivebus_mqtt_published_total` | `kind` ([`PUBLISH_KINDS`]) |
+//! | `drivebus_sets_total` | `outcome` ([`SET_OUTCOMES`]) |
+//! | `drivebus_build_info` | `version` |
+//!
+//! Label values are the config's bus and drive names and fixed lists: nothing a drive or the
+//! broker sends can add a series. An unknown rejection reason or `set` outcome is counted as
+//! `other`; a metric call naming a bus or drive the plant does not have is dropped.
+//!
+//! The handles of every (bus, drive, op) are built in [`Metrics::new`], so a transaction looks
+//! its handles up by name (or by index, [`Metrics::transaction_at`]) and allocates nothing.
+//!
+//! The endpoint ([`bind`], [`serve`]) is a small HTTP/1.1 responder written here rather than
+//! hyper: it has one route, answers one request per connection and closes it, and the
+//! gateway would otherwise pull in hyper's dependency tree for that. It answers `GET /metrics`
+//! in the OpenMetrics text format (`application/openmetrics-text; version=1.0.0`, the format
+//! `prometheus-client` writes natively and Prometheus asks for first), `GET /` with a one-line
+//! pointer, other paths with 404 and other methods with 405. A request head is at most
+//! 8 KiB (431) and must arrive within 5 s (408); at most 16 connections are served at once,
+//! the next ones get 503 at once.
 
+use std::collections::HashMap;
+use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
+use std::sync::{Arc, OnceLock};
 use std::time::Duration;
 
+use prometheus_client::encoding::text;
+use prometheus_client::metrics::counter::Counter;
+use prometheus_client::metrics::family::Family;
+use prometheus_client::metrics::gauge::Gauge;
+use prometheus_client::metrics::histogram::Histogram;
+use prometheus_client::metrics::info::Info;
+use prometheus_client::registry::{Registry, Unit};
+use tokio::io::{AsyncReadExt, AsyncWriteExt};
+use tokio::net::{TcpListener, TcpStream};
+use tokio::sync::{OwnedSemaphorePermit, Semaphore};
+
 use super::config::Plant;
+use super::model::{BusIx, DriveIx};
+
+/// The `op` label of a transaction, in the order of the pre-built handles.
+pub const OPS: [&str; 3] = ["read", "write", "process_data"];
+
+/// The `outcome` label of a transaction.
+pub const OUTCOMES: [&str; 4] = ["ok", "timeout", "device_error", "link_error"];
+
+/// The `state` label of `drivebus_drive_up`.
+pub const STATES: [&str; 3] = ["online", "timeout", "fault"];
+
+/// The `reason` label of `drivebus_rejected_frames_total`; any other reason a link reports is
+/// counted as `other`.
+pub const REJECT_REASONS: [&str; 10] = [
+    "checksum",
+    "framing",
+    "line",
+    "gap",
+    "wrong_address",
+    "wrong_function",
+    "wrong_layout",
+    "echo",
+    "late",
+    "other",
+];
+
+/// The `outcome` label of `drivebus_sets_total`: `written`, `device_refused`, `link_failed` and
+/// the refusal reasons of [`SetOutcome::Refused`](super::model::SetOutcome::Refused); any
+/// other is counted as `other`.
+pub const SET_OUTCOMES: [&str; 15] = [
+    "written",
+    "device_refused",
+    "link_failed",
+    "not_writable",
+    "range",
+    "access",
+    "value_list",
+    "width",
+    "wear",
+    "stale",
+    "retained",
+    "offline",
+    "expired",
+    "bad_request",
+    "other",
+];
+
+/// The `kind` label of `drivebus_mqtt_published_total` counted without a lookup in the
+/// family (another `&'static str` kind is counted too, through the family).
+pub const PUBLISH_KINDS: [&str; 6] = ["value", "pd", "status", "result", "figures", "gateway"];
+
+/// Upper bounds of the latency histogram, in seconds: a MOVILINK read at 9600 baud takes
+/// about 25 ms, an SBus one under 1 ms, a timeout with retries up to a few hundred ms.
+pub const LATENCY_BUCKETS: [f64; 13] = [
+    0.0005, 0.001, 0.002, 0.005, 0.01, 0.02, 0.05, 0.1, 0.2, 0.3, 0.5, 1.0, 2.0,
+];
+
+/// The `Content-Type` of `GET /metrics`.
+pub const CONTENT_TYPE: &str = "application/openmetrics-text; version=1.0.0; charset=utf-8";
+
+type Labels = Vec<(&'static str, String)>;
+type F64Gauge = Gauge<f64, AtomicU64>;
+
+fn new_histogram() -> Histogram {
+    Histogram::new(LATENCY_BUCKETS)
+}
+
+/// One drive's handles for one op.
+#[derive(Debug)]
+struct OpHandles {
+    /// By [`OUTCOMES`].
+    outcomes: [Counter; 4],
+    latency: Histogram,
+}
+
+#[derive(Debug)]
+struct DriveHandles {
+    /// By [`OPS`]; built in `new` for the ops the drive's config uses, at first use for the
+    /// others.
+    ops: [OnceLock<OpHandles>; 3],
+    /// By [`STATES`].
+    up: [Gauge; 3],
+}
+
+#[derive(Debug)]
+struct BusHandles {
+    name: String,
+    drive_names: Vec<String>,
+    drive_ix: HashMap<String, DriveIx>,
+    drives: Vec<DriveHandles>,
+    retries: Counter,
+    /// By [`REJECT_REASONS`].
+    rejected: Vec<Counter>,
+    utilisation: F64Gauge,
+    demand: F64Gauge,
+}
 
 /// The gateway's metrics registry.
 #[derive(Debug)]
-pub struct Metrics {}
+pub struct Metrics {
+    registry: Registry,
+    buses: Vec<BusHandles>,
+    bus_ix: HashMap<String, BusIx>,
+    transactions: Family<Labels, Counter>,
+    latency: Family<Labels, Histogram, fn() -> Histogram>,
+    broker: Gauge,
+    published_family: Family<Labels, Counter>,
+    /// By [`PUBLISH_KINDS`].
+    published: Vec<Counter>,
+    /// By [`SET_OUTCOMES`].
+    sets: Vec<Counter>,
+    /// Size of the last exposition (the next one reserves it).
+    last_size: AtomicUsize,
+}
+
+fn position(list: &[&str], item: &str) -> Option<usize> {
+    list.iter().position(|x| *x == item)
+}
 
 impl Metrics {
     /// A registry for `plant`'s buses and drives.
-    pub fn new(_plant: &Plant) -> Self {
-        Self {}
+    pub fn new(plant: &Plant) -> Self {
+        let mut registry = Registry::default();
+        let transactions = Family::<Labels, Counter>::default();
+        let latency = Family::<Labels, Histogram, fn() -> Histogram>::new_with_constructor(
+            new_histogram as fn() -> Histogram,
+        );
+        let retries = Family::<Labels, Counter>::default();
+        let rejected = Family::<Labels, Counter>::default();
+        let utilisation = Family::<Labels, F64Gauge>::default();
+        let demand = Family::<Labels, F64Gauge>::default();
+        let up = Family::<Labels, Gauge>::default();
+        let broker = Gauge::default();
+        let published_family = Family::<Labels, Counter>::default();
+        let sets = Family::<Labels, Counter>::default();
+
+        let mut buses = Vec::with_capacity(plant.buses.len());
+        let mut bus_ix = HashMap::with_capacity(plant.buses.len());
+        for (bi, bus) in plant.buses.iter().enumerate() {
+            let b = || vec![("bus", bus.name.clone())];
+            let mut drives = Vec::with_capacity(bus.drives.len());
+            let mut drive_ix = HashMap::with_capacity(bus.drives.len());
+            for (di, drive) in bus.drives.iter().enumerate() {
+                let handles = DriveHandles {
+                    ops: Default::default(),
+                    up: STATES.map(|s| {
+                        up.get_or_create_owned(&vec![
+                            ("bus", bus.name.clone()),
+                            ("drive", drive.name.clone()),
+                            ("state", s.to_owned()),
+                        ])
+                    }),
+                };
+                // Zero series for what the drive does, so that rate() works from the start.
+                let used = [
+                    true,
+                    drive.points.iter().any(|p| p.writable),
+                    drive.process_data.is_some(),
+                ];
+                for (op, slot) in handles.ops.iter().enumerate() {
+                    if used.get(op).copied().unwrap_or(false) {
+                        let h = op_handles(&transactions, &latency, &bus.name, &drive.name, op);
+                        let _ = slot.set(h);
+                    }
+                }
+                drives.push(handles);
+                drive_ix.insert(drive.name.clone(), di);
+            }
+            buses.push(BusHandles {
+                name: bus.name.clone(),
+                drive_names: bus.drives.iter().map(|d| d.name.clone()).collect(),
+                drive_ix,
+                drives,
+                retries: retries.get_or_create_owned(&b()),
+                rejected: REJECT_REASONS
+                    .iter()
+                    .map(|r| {
+                        rejected.get_or_create_owned(&vec![
+                            ("bus", bus.name.clone()),
+                            ("reason", (*r).to_owned()),
+                        ])
+                    })
+                    .collect(),
+                utilisation: utilisation.get_or_create_owned(&b()),
+                demand: demand.get_or_create_owned(&b()),
+            });
+            bus_ix.insert(bus.name.clone(), bi);
+        }
+        let published = PUBLISH_KINDS
+            .iter()
+            .map(|k| published_family.get_or_create_owned(&vec![("kind", (*k).to_owned())]))
+            .collect();
+        let set_counters = SET_OUTCOMES
+            .iter()
+            .map(|o| sets.get_or_create_owned(&vec![("outcome", (*o).to_owned())]))
+            .collect();
+
+        registry.register(
+            "drivebus_transactions",
+            "Transactions with a drive by op and outcome",
+            transactions.clone(),
+        );
+        registry.register_with_unit(
+            "drivebus_transaction",
+            "Time from a request to its answer or the give-up",
+            Unit::Seconds,
+            latency.clone(),
+        );
+        registry.register(
+            "drivebus_retries",
+            "Attempts repeated after a failed one",
+            retries,
+        );
+        registry.register(
+            "drivebus_rejected_frames",
+            "Received frames refused, by reason",
+            rejected,
+        );
+        registry.register(
+            "drivebus_bus_utilisation",
+            "Share of the time the wire was busy with the gateway's transactions (0-1)",
+            utilisation,
+        );
+        registry.register(
+            "drivebus_bus_demand",
+            "Share of the wire the configured polls ask for (above 1 the polls are stretched)",
+            demand,
+        );
+        registry.register(
+            "drivebus_drive_up",
+            "1 for the drive's current state, 0 for the others (all 0 before the first answer or timeout)",
+            up,
+        );
+        registry.register(
+            "drivebus_broker_connected",
+            "1 while the MQTT broker connection is up",
+            broker.clone(),
+        );
+        registry.register(
+            "drivebus_mqtt_published",
+            "MQTT messages published, by kind",
+            published_family.clone(),
+        );
+        registry.register("drivebus_sets", "set messages by outcome", sets);
+        registry.register(
+            "drivebus_build",
+            "The drivectl version running the gateway",
+            Info::new(vec![("version", env!("CARGO_PKG_VERSION"))]),
+        );
+        Self {
+            registry,
+            buses,
+            bus_ix,
+            transactions,
+            latency,
+            broker,
+            published_family,
+            published,
+            sets: set_counters,
+            last_size: AtomicUsize::new(0),
+        }
+    }
+
+    fn bus(&self, bus: &str) -> Option<&BusHandles> {
+        let found = self
+            .bus_ix
+            .get(bus)
+            .and_then(|&ix| self.buses.get(ix))
+            .filter(|b| b.name == bus);
+        if found.is_none() {
+            tracing::debug!(bus, "metrics for a bus the plant does not have: dropped");
+        }
+        found
+    }
+
+    fn drive(&self, bus: &str, drive: &str) -> Option<(BusIx, DriveIx)> {
+        let b = self.bus_ix.get(bus).copied()?;
+        let d = self.buses.get(b)?.drive_ix.get(drive).copied();
+        if d.is_none() {
+            tracing::debug!(
+                bus,
+                drive,
+                "metrics for a drive the plant does not have: dropped"
+            );
+        }
+        Some((b, d?))
     }
 
     /// One transaction on `bus` with `drive`: `op` is `read`, `write`, `process_data`;
@@ -21,38 +341,181 @@ impl Metrics {
     /// request to the answer or the give-up.
     pub fn transaction(
         &self,
-        _bus: &str,
-        _drive: &str,
-        _op: &'static str,
-        _outcome: &'static str,
-        _latency: Duration,
+        bus: &str,
+        drive: &str,
+        op: &'static str,
+        outcome: &'static str,
+        latency: Duration,
     ) {
+        if let Some((b, d)) = self.drive(bus, drive) {
+            self.transaction_at(b, d, op, outcome, latency);
+        }
+    }
+
+    /// [`Metrics::transaction`] with the bus and drive by their indices in the plant (no
+    /// name lookup).
+    pub fn transaction_at(
+        &self,
+        bus: BusIx,
+        drive: DriveIx,
+        op: &'static str,
+        outcome: &'static str,
+        latency: Duration,
+    ) {
+        let Some(b) = self.buses.get(bus) else {
+            return;
+        };
+        let (Some(d), Some(name)) = (b.drives.get(drive), b.drive_names.get(drive)) else {
+            return;
+        };
+        let secs = latency.as_secs_f64();
+        let (Some(opi), Some(oi)) = (position(&OPS, op), position(&OUTCOMES, outcome)) else {
+            // A label outside the lists: a `&'static str` of this program, so the series
+            // stay few; counted through the families (this allocates).
+            let mut labels = vec![
+                ("bus", b.name.clone()),
+                ("drive", name.clone()),
+                ("op", op.to_owned()),
+            ];
+            self.latency.get_or_create(&labels).observe(secs);
+            labels.push(("outcome", outcome.to_owned()));
+            self.transactions.get_or_create(&labels).inc();
+            return;
+        };
+        let Some(slot) = d.ops.get(opi) else {
+            return;
+        };
+        let h =
+            slot.get_or_init(|| op_handles(&self.transactions, &self.latency, &b.name, name, opi));
+        if let Some(c) = h.outcomes.get(oi) {
+            c.inc();
+        }
+        h.latency.observe(secs);
     }
 
     /// Repeated attempts on `bus`.
-    pub fn retries(&self, _bus: &str, _n: u64) {}
+    pub fn retries(&self, bus: &str, n: u64) {
+        if let Some(b) = self.bus(bus) {
+            b.retries.inc_by(n);
+        }
+    }
 
-    /// Received frames refused on `bus` for `reason`.
-    pub fn rejected(&self, _bus: &str, _reason: &str, _n: u64) {}
+    /// Received frames refused on `bus` for `reason` (one of [`REJECT_REASONS`]; any other is
+    /// counted as `other`).
+    pub fn rejected(&self, bus: &str, reason: &str, n: u64) {
+        let Some(b) = self.bus(bus) else {
+            return;
+        };
+        let i = position(&REJECT_REASONS, reason).unwrap_or_else(|| {
+            tracing::debug!(
+                bus,
+                reason,
+                "rejection reason outside the list: counted as other"
+            );
+            REJECT_REASONS.len() - 1
+        });
+        if let Some(c) = b.rejected.get(i) {
+            c.inc_by(n);
+        }
+    }
 
-    /// The bus's wire utilisation (0–1) and the share its polls ask for.
-    pub fn utilisation(&self, _bus: &str, _utilisation: f64, _demand: f64) {}
+    /// The bus's wire utilisation (0–1) and the share its polls ask for (0 or more; above 1
+    /// the polls are stretched). A value that is not a finite number leaves the gauge as it
+    /// was.
+    pub fn utilisation(&self, bus: &str, utilisation: f64, demand: f64) {
+        let Some(b) = self.bus(bus) else {
+            return;
+        };
+        if utilisation.is_finite() {
+            b.utilisation.set(utilisation.clamp(0.0, 1.0));
+        }
+        if demand.is_finite() {
+            b.demand.set(demand.max(0.0));
+        }
+    }
 
     /// A drive's status (`online`, `timeout`, `fault`).
-    pub fn drive_status(&self, _bus: &str, _drive: &str, _state: &'static str) {}
+    pub fn drive_status(&self, bus: &str, drive: &str, state: &'static str) {
+        let Some((b, d)) = self.drive(bus, drive) else {
+            return;
+        };
+        let Some(h) = self.buses.get(b).and_then(|b| b.drives.get(d)) else {
+            return;
+        };
+        if position(&STATES, state).is_none() {
+            tracing::debug!(bus, drive, state, "drive state outside the list: ignored");
+            return;
+        }
+        for (s, g) in STATES.iter().zip(&h.up) {
+            g.set(i64::from(*s == state));
+        }
+    }
 
     /// The broker connection is up or down.
-    pub fn broker_connected(&self, _up: bool) {}
+    pub fn broker_connected(&self, up: bool) {
+        self.broker.set(i64::from(up));
+    }
 
     /// MQTT messages published (`kind`: value, status, result, figures).
-    pub fn published(&self, _kind: &'static str) {}
+    pub fn published(&self, kind: &'static str) {
+        match position(&PUBLISH_KINDS, kind).and_then(|i| self.published.get(i)) {
+            Some(c) => {
+                c.inc();
+            }
+            None => {
+                self.published_family
+                    .get_or_create(&vec![("kind", kind.to_owned())])
+                    .inc();
+            }
+        }
+    }
 
-    /// `set` messages by outcome (`written`, a refusal reason, `device_refused`, `link_failed`).
-    pub fn set_outcome(&self, _outcome: &str) {}
+    /// `set` messages by outcome (`written`, a refusal reason, `device_refused`, `link_failed`;
+    /// [`SET_OUTCOMES`], any other is counted as `other`).
+    pub fn set_outcome(&self, outcome: &str) {
+        let i = position(&SET_OUTCOMES, outcome).unwrap_or_else(|| {
+            tracing::debug!(outcome, "set outcome outside the list: counted as other");
+            SET_OUTCOMES.len() - 1
+        });
+        if let Some(c) = self.sets.get(i) {
+            c.inc();
+        }
+    }
 
-    /// The text exposition.
+    /// The text exposition (OpenMetrics, [`CONTENT_TYPE`]); empty if it cannot be written.
     pub fn encode(&self) -> String {
-        String::new()
+        self.try_encode().unwrap_or_default()
+    }
+
+    /// The text exposition, or why it could not be written.
+    pub fn try_encode(&self) -> Result<String, std::fmt::Error> {
+        let mut out = String::with_capacity(self.last_size.load(Ordering::Relaxed) + 1024);
+        text::encode(&mut out, &self.registry)?;
+        self.last_size.store(out.len(), Ordering::Relaxed);
+        Ok(out)
+    }
+}
+
+fn op_handles(
+    transactions: &Family<Labels, Counter>,
+    latency: &Family<Labels, Histogram, fn() -> Histogram>,
+    bus: &str,
+    drive: &str,
+    op: usize,
+) -> OpHandles {
+    let op = OPS.get(op).copied().unwrap_or("read");
+    let base = vec![
+        ("bus", bus.to_owned()),
+        ("drive", drive.to_owned()),
+        ("op", op.to_owned()),
+    ];
+    OpHandles {
+        outcomes: OUTCOMES.map(|o| {
+            let mut labels = base.clone();
+            labels.push(("outcome", o.to_owned()));
+            transactions.get_or_create_owned(&labels)
+        }),
+        latency: latency.get_or_create_owned(&base),
     }
 }
 
@@ -66,5 +529,243 @@ pub async fn bind(addr: std::net::SocketAddr) -> crate::error::Result<tokio::net
     })
 }
 
+/// The endpoint's limits.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Limits {
+    /// Largest request head (request line and headers) read; a longer one gets 431.
+    pub max_head: usize,
+    /// Time a client has, from its connection, to send the request head; then 408.
+    pub head_timeout: Duration,
+    /// Time the answer may take to be taken by the client; then the connection is dropped.
+    pub write_timeout: Duration,
+    /// Connections served at once; the next ones get 503 at once.
+    pub max_connections: usize,
+}
+
+impl Default for Limits {
+    fn default() -> Self {
+        Limits {
+            max_head: 8 * 1024,
+            head_timeout: Duration::from_secs(5),
+            write_timeout: Duration::from_secs(10),
+            max_connections: 16,
+        }
+    }
+}
+
+/// After the answer, what the client still sends is read and dropped for at most this long
+/// (closing with unread data would reset the connection and could lose the answer).
+const LINGER: Duration = Duration::from_millis(500);
+/// … and at most this much.
+const LINGER_BYTES: usize = 64 * 1024;
+
+/// The answer to a connection over the limit: written without waiting, then closed.
+const BUSY: &[u8] = b"HTTP/1.1 503 Service Unavailable\r\nContent-Type: text/plain; charset=utf-8\r\nContent-Length: 38\r\nRetry-After: 1\r\nConnection: close\r\n\r\ntoo many connections to /metrics now\r\n";
+
 /// Serve `GET /metrics` on `listener` until the task is dropped.
-pub async fn serve(_listener: tokio::net::TcpListener, _metrics: std::sync::Arc<Metrics>) {}
+pub async fn serve(listener: tokio::net::TcpListener, metrics: std::sync::Arc<Metrics>) {
+    serve_with(listener, metrics, Limits::default()).await;
+}
+
+/// [`serve`] with other [`Limits`].
+pub async fn serve_with(listener: TcpListener, metrics: Arc<Metrics>, limits: Limits) {
+    let permits = Arc::new(Semaphore::new(limits.max_connections));
+    // Dropping the set (this task ends) ends every connection.
+    let mut connections = tokio::task::JoinSet::new();
+    loop {
+        while connections.try_join_next().is_some() {}
+        let (stream, peer) = match listener.accept().await {
+            Ok(s) => s,
+            Err(e) => {
+                // Out of file descriptors and the like: wait instead of spinning.
+                tracing::warn!(error = %e, "metrics endpoint: cannot accept a connection");
+                tokio::time::sleep(Duration::from_millis(100)).await;
+                continue;
+            }
+        };
+        match permits.clone().try_acquire_owned() {
+            Ok(permit) => {
+                connections.spawn(connection(stream, metrics.clone(), limits, permit));
+            }
+            Err(_) => {
+                tracing::debug!(%peer, "metrics endpoint: over the connection limit, 503");
+                // A fresh socket's send buffer takes these few bytes at once; if not, the
+                // client just sees the connection closed.
+                let _ = stream.try_write(BUSY);
+            }
+        }
+    }
+}
+
+/// Why a request head was not read.
+#[derive(Debug, PartialEq, Eq)]
+enum HeadError {
+    /// Longer than the limit.
+    TooLarge,
+    /// The client closed or the socket failed before the head was complete.
+    Closed,
+}
+
+/// Read up to the blank line ending the head (at most `max` bytes).
+async fn read_head(stream: &mut TcpStream, max: usize) -> Result<Vec<u8>, HeadError> {
+    let mut buf = vec![0u8; max];
+    let mut len = 0;
+    loop {
+        let Some(free) = buf.get_mut(len..) else {
+            return Err(HeadError::TooLarge);
+        };
+        if free.is_empty() {
+            return Err(HeadError::TooLarge);
+        }
+        let n = match stream.read(free).await {
+            Ok(0) | Err(_) => return Err(HeadError::Closed),
+            Ok(n) => n,
+        };
+        // Search from a little before the new bytes: the terminator may straddle two reads.
+        let from = len.saturating_sub(3);
+        len += n;
+        let filled = buf.get(..len).unwrap_or_default();
+        if let Some(end) = head_end(filled.get(from..).unwrap_or_default()) {
+            buf.truncate(from + end);
+            return Ok(buf);
+        }
+    }
+}
+
+/// Where the head ends (`\r\n\r\n`, or `\n\n` from a sloppy client) in `bytes`.
+fn head_end(bytes: &[u8]) -> Option<usize> {
+    let crlf = bytes
+        .windows(4)
+        .position(|w| w == b"\r\n\r\n")
+        .map(|i| i + 4);
+    let lf = bytes.windows(2).position(|w| w == b"\n\n").map(|i| i + 2);
+    match (crlf, lf) {
+        (Some(a), Some(b)) => Some(a.min(b)),
+        (a, b) => a.or(b),
+    }
+}
+
+/// An answer: status line, content type, body.
+#[derive(Debug, PartialEq, Eq)]
+struct Response {
+    status: &'static str,
+    content_type: &'static str,
+    extra: &'static str,
+    body: String,
+}
+
+impl Response {
+    fn text(status: &'static str, body: &str) -> Response {
+        Response {
+            status,
+            content_type: "text/plain; charset=utf-8",
+            extra: "",
+            body: format!("{body}\n"),
+        }
+    }
+
+    fn head(&self) -> String {
+        format!(
+            "HTTP/1.1 {}\r\nContent-Type: {}\r\nContent-Length: {}\r\n{}Connection: close\r\n\r\n",
+            self.status,
+            self.content_type,
+            self.body.len(),
+            self.extra
+        )
+    }
+}
+
+/// The answer to a request head.
+async fn route(head: &[u8], metrics: &Arc<Metrics>) -> Response {
+    let line_end = head.iter().position(|&b| b == b'\n').unwrap_or(head.len());
+    let line = head.get(..line_end).unwrap_or_default();
+    let line = std::str::from_utf8(line)
+        .unwrap_or("")
+        .trim_end_matches('\r');
+    let mut parts = line.split(' ');
+    let (Some(method), Some(target), Some(version), None) =
+        (parts.next(), parts.next(), parts.next(), parts.next())
+    else {
+        return Response::text("400 Bad Request", "bad request line");
+    };
+    if !matches!(version, "HTTP/1.0" | "HTTP/1.1")
+        || method.is_empty()
+        || !method.bytes().all(|b| b.is_ascii_uppercase())
+    {
+        return Response::text("400 Bad Request", "bad request line");
+    }
+    if method != "GET" {
+        let mut r = Response::text("405 Method Not Allowed", "only GET");
+        r.extra = "Allow: GET\r\n";
+        return r;
+    }
+    let path = target.split_once('?').map_or(target, |(p, _)| p);
+    match path {
+        "/metrics" => {
+            // Written on a blocking thread: a plant of thousands of drives takes
+            // milliseconds, which the bus tasks on the gateway's one thread should not wait.
+            let m = metrics.clone();
+            match tokio::task::spawn_blocking(move || m.try_encode()).await {
+                Ok(Ok(body)) => Response {
+                    status: "200 OK",
+                    content_type: CONTENT_TYPE,
+                    extra: "",
+                    body,
+                },
+                _ => Response::text(
+                    "500 Internal Server Error",
+                    "the metrics could not be written",
+                ),
+            }
+        }
+        "/" => Response::text("200 OK", "drivectl gateway: Prometheus metrics at /metrics"),
+        _ => Response::text("404 Not Found", "not found; the metrics are at /metrics"),
+    }
+}
+
+/// One connection: read the head, answer, close.
+async fn connection(
+    mut stream: TcpStream,
+    metrics: Arc<Metrics>,
+    limits: Limits,
+    permit: OwnedSemaphorePermit,
+) {
+    let deadline = tokio::time::Instant::now() + limits.head_timeout;
+    let response =
+        match tokio::time::timeout_at(deadline, read_head(&mut stream, limits.max_head)).await {
+            Err(_) => Response::text("408 Request Timeout", "the request head came too slowly"),
+            Ok(Err(HeadError::TooLarge)) => Response::text(
+                "431 Request Header Fields Too Large",
+                &format!("the request head is over {} bytes", limits.max_head),
+            ),
+            Ok(Err(HeadError::Closed)) => return,
+            Ok(Ok(head)) => route(&head, &metrics).await,
+        };
+    tracing::debug!(status = response.status, "metrics endpoint");
+    let sent = tokio::time::timeout(limits.write_timeout, async {
+        stream.write_all(response.head().as_bytes()).await?;
+        stream.write_all(response.body.as_bytes()).await?;
+        stream.shutdown().await
+    })
+    .await;
+    if !matches!(sent, Ok(Ok(()))) {
+        return;
+    }
+    // Lingering close: take what the client still sends (the rest of an oversized head)
+    // so that closing does not reset the connection before it has read the answer.
+    let _ = tokio::time::timeout(LINGER, async {
+        let mut sink = [0u8; 1024];
+        let mut total = 0;
+        while total < LINGER_BYTES {
+            match stream.read(&mut sink).await {
+                Ok(0) | Err(_) => break,
+                Ok(n) => total += n,
+            }
+        }
+    })
+    .await;
+    drop(permit);
+}
+
+#[cfg(test)]
+mod tests;
