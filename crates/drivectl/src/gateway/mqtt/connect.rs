@@ -243,7 +243,11 @@ pub fn options(g: &Gateway) -> Result<(MqttOptions, BrokerUrl)> {
         ));
     }
     let mut o = MqttOptions::new(g.client_id.clone(), url.host.clone(), url.port);
-    o.set_keep_alive(g.keep_alive.max(Duration::from_secs(1)));
+    // MQTT carries the keep-alive in 16 bits of seconds: a longer one would be cut.
+    o.set_keep_alive(g.keep_alive.clamp(
+        Duration::from_secs(1),
+        Duration::from_secs(u64::from(u16::MAX)),
+    ));
     o.set_clean_session(true);
     o.set_max_packet_size(MAX_INCOMING_PACKET, MAX_INCOMING_PACKET);
     o.set_last_will(LastWill::new(
@@ -386,5 +390,9 @@ mod tests {
         assert_eq!(&will.message[..], b"offline");
         assert!(will.retain && will.qos == QoS::AtLeastOnce);
         assert!(o.clean_session());
+        assert_eq!(o.keep_alive(), Duration::from_secs(30));
+        // Longer than MQTT's 16 bits of seconds: the longest there is, not a cut value.
+        let (o, _) = options(&gateway("mqtt://h", "keep_alive = \"24h\"")).unwrap();
+        assert_eq!(o.keep_alive(), Duration::from_secs(65535));
     }
 }
