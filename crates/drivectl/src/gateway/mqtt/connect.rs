@@ -1,0 +1,398 @@
+//! The broker connection's options, built once before anything opens: the broker URL, the
+//! user and the password file, TLS (rustls on the ring provider, server verification against
+//! `ca_file` or the system's roots, client certificates), the last-will.
+
+use std::io::Read as _;
+use std::path::Path;
+use std::sync::Arc;
+use std::time::Duration;
+
+use rumqttc::{LastWill, MqttOptions, QoS, TlsConfiguration, Transport};
+use rustls::pki_types::pem::PemObject as _;
+use rustls::pki_types::{CertificateDer, PrivateKeyDer};
+
+use super::super::config::Gateway;
+use crate::error::{CliError, Result};
+
+/// The largest password, certificate or key file read (a PEM bundle of the system's roots is
+/// about 200 KiB).
+const FILE_LIMIT: u64 = 4 << 20;
+
+/// The largest MQTT packet taken from the broker. A larger one ends the connection (rumqttc
+/// refuses it), so the limit is far above the 4 KiB a `set` may carry: a client cannot make
+/// the gateway reconnect in a loop with a large retained message on a `set` topic short of
+/// this size.
+pub const MAX_INCOMING_PACKET: usize = 1 << 20;
+
+/// The broker's address as the URL gives it.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct BrokerUrl {
+    /// `mqtts://`.
+    pub tls: bool,
+    /// The user before `@`.
+    pub user: Option<String>,
+    /// Host name or address (an IPv6 address keeps its brackets).
+    pub host: String,
+    /// Port (1883, or 8883 with TLS, when the URL gives none).
+    pub port: u16,
+}
+
+/// Parse `mqtt://host[:port]` or `mqtts://[user@]host[:port]`.
+pub fn parse_url(url: &str) -> std::result::Result<BrokerUrl, String> {
+    let url = url.trim();
+    let bad = || format!("broker {url:?}: give mqtt://host:port or mqtts://[user@]host:port");
+    let (tls, rest) = if let Some(r) = url.strip_prefix("mqtts://") {
+        (true, r)
+    } else if let Some(r) = url.strip_prefix("mqtt://") {
+        (false, r)
+    } else {
+        return Err(bad());
+    };
+    let rest = rest.trim_end_matches('/');
+    let (user, host_port) = match rest.rsplit_once('@') {
+        Some((u, hp)) => {
+            if u.is_empty() || u.contains(':') {
+                return Err(format!(
+                    "broker {url:?}: give the user as user@host (the password goes in \
+                     password_file, never in the URL)"
+                ));
+            }
+            (Some(u.to_owned()), hp)
+        }
+        None => (None, rest),
+    };
+    let default_port = if tls { 8883 } else { 1883 };
+    // `[v6]:port`, `[v6]`, `host:port`, `host`.
+    let (host, port) = if host_port.starts_with('[') {
+        match host_port.split_once(']') {
+            Some((h, "")) => (format!("{h}]"), None),
+            Some((h, p)) => (format!("{h}]"), Some(p.strip_prefix(':').ok_or_else(bad)?)),
+            None => return Err(bad()),
+        }
+    } else {
+        match host_port.rsplit_once(':') {
+            Some((h, p)) => (h.to_owned(), Some(p)),
+            None => (host_port.to_owned(), None),
+        }
+    };
+    if host.is_empty() || host == "[]" || host.contains('/') {
+        return Err(bad());
+    }
+    let port = match port {
+        None => default_port,
+        Some(p) => match p.parse::<u16>() {
+            Ok(n) if n != 0 => n,
+            _ => return Err(format!("broker {url:?}: port {p:?}: give 1–65535")),
+        },
+    };
+    Ok(BrokerUrl {
+        tls,
+        user,
+        host,
+        port,
+    })
+}
+
+/// A small file read whole: a regular file only (never a device node or a FIFO, which could
+/// block the start for ever), at most [`FILE_LIMIT`] bytes. `what` names the config key.
+fn read_file(path: &str, what: &str) -> Result<Vec<u8>> {
+    let fail = |why: String| {
+        CliError::usage(format!(
+            "[gateway] {what} = {path:?}: {why}; give a readable regular file"
+        ))
+    };
+    let meta = std::fs::metadata(path).map_err(|e| fail(format!("cannot read it: {e}")))?;
+    if !meta.is_file() {
+        return Err(fail(if meta.is_dir() {
+            "a directory".to_owned()
+        } else {
+            "not a regular file (a device node, FIFO or socket)".to_owned()
+        }));
+    }
+    let mut buf = Vec::new();
+    std::fs::File::open(Path::new(path))
+        .and_then(|f| f.take(FILE_LIMIT + 1).read_to_end(&mut buf))
+        .map_err(|e| fail(format!("cannot read it: {e}")))?;
+    if buf.len() as u64 > FILE_LIMIT {
+        return Err(fail(format!("larger than {} MiB", FILE_LIMIT >> 20)));
+    }
+    Ok(buf)
+}
+
+/// The password in `path`: its first line, without a byte-order mark or CR LF. An empty
+/// password is refused (a file saved empty by mistake would log in as nobody knows whom).
+pub fn read_password(path: &str) -> Result<String> {
+    let bytes = read_file(path, "password_file")?;
+    let text = String::from_utf8(bytes).map_err(|_| {
+        CliError::usage(format!(
+            "[gateway] password_file = {path:?}: not UTF-8 text; write the password on its \
+             first line"
+        ))
+    })?;
+    let text = text.strip_prefix('\u{feff}').unwrap_or(&text);
+    let line = text.split('\n').next().unwrap_or("");
+    let line = line.strip_suffix('\r').unwrap_or(line);
+    if line.is_empty() {
+        return Err(CliError::usage(format!(
+            "[gateway] password_file = {path:?}: the first line is empty; write the password \
+             on it"
+        )));
+    }
+    Ok(line.to_owned())
+}
+
+fn certificates(path: &str, what: &str) -> Result<Vec<CertificateDer<'static>>> {
+    let pem = read_file(path, what)?;
+    let certs = CertificateDer::pem_slice_iter(&pem)
+        .collect::<std::result::Result<Vec<_>, _>>()
+        .map_err(|e| {
+            CliError::usage(format!(
+                "[gateway] {what} = {path:?}: not a PEM certificate file ({e})"
+            ))
+        })?;
+    if certs.is_empty() {
+        return Err(CliError::usage(format!(
+            "[gateway] {what} = {path:?}: no certificate in it; give a PEM file with \
+             -----BEGIN CERTIFICATE-----"
+        )));
+    }
+    Ok(certs)
+}
+
+/// The rustls client configuration: server verification against `ca_file` (or the system's
+/// roots), a client certificate when configured.
+fn tls_config(g: &Gateway) -> Result<rustls::ClientConfig> {
+    let mut roots = rustls::RootCertStore::empty();
+    match &g.ca_file {
+        Some(path) => {
+            for c in certificates(path, "ca_file")? {
+                roots.add(c).map_err(|e| {
+                    CliError::usage(format!(
+                        "[gateway] ca_file = {path:?}: a certificate in it is not a usable CA \
+                         ({e})"
+                    ))
+                })?;
+            }
+        }
+        None => {
+            let found = rustls_native_certs::load_native_certs();
+            for c in found.certs {
+                // A system root rustls cannot parse is skipped, as browsers do.
+                let _ = roots.add(c);
+            }
+            if roots.is_empty() {
+                return Err(CliError::usage(format!(
+                    "mqtts: no CA certificates found on this system{}; give [gateway] ca_file \
+                     (the PEM of the CA that signed the broker's certificate) or install the \
+                     ca-certificates package",
+                    found
+                        .errors
+                        .first()
+                        .map(|e| format!(" ({e})"))
+                        .unwrap_or_default()
+                )));
+            }
+        }
+    }
+    let builder = rustls::ClientConfig::builder_with_provider(Arc::new(
+        rustls::crypto::ring::default_provider(),
+    ))
+    .with_safe_default_protocol_versions()
+    .map_err(|e| CliError::failed(format!("TLS set-up: {e}")))?
+    .with_root_certificates(roots);
+    match &g.client_cert {
+        None => Ok(builder.with_no_client_auth()),
+        Some((cert, key)) => {
+            let chain = certificates(cert, "client_cert")?;
+            let key_pem = read_file(key, "client_key")?;
+            let key_der = PrivateKeyDer::from_pem_slice(&key_pem).map_err(|e| {
+                CliError::usage(format!(
+                    "[gateway] client_key = {key:?}: no PEM private key in it ({e})"
+                ))
+            })?;
+            builder.with_client_auth_cert(chain, key_der).map_err(|e| {
+                CliError::usage(format!(
+                    "[gateway] client_cert = {cert:?} and client_key = {key:?} do not go \
+                     together: {e}"
+                ))
+            })
+        }
+    }
+}
+
+/// The topic of the gateway's own status.
+pub fn gateway_status_topic(g: &Gateway) -> String {
+    format!("{}/{}/status", g.prefix, g.name)
+}
+
+/// Everything the connection needs, read now: a missing or bad file is an error here.
+pub fn options(g: &Gateway) -> Result<(MqttOptions, BrokerUrl)> {
+    let url = parse_url(&g.broker).map_err(|e| CliError::usage(format!("[gateway] {e}")))?;
+    if !url.tls && (g.ca_file.is_some() || g.client_cert.is_some()) {
+        return Err(CliError::usage(format!(
+            "[gateway] ca_file and client_cert are for TLS: the broker {:?} is mqtt://; use \
+             mqtts://",
+            g.broker
+        )));
+    }
+    let user = url.user.clone().or_else(|| g.username.clone());
+    let password = g.password_file.as_deref().map(read_password).transpose()?;
+    if password.is_some() && user.is_none() {
+        return Err(CliError::usage(
+            "[gateway] password_file without a user: give username, or user@ in the broker URL",
+        ));
+    }
+    let mut o = MqttOptions::new(g.client_id.clone(), url.host.clone(), url.port);
+    // MQTT carries the keep-alive in 16 bits of seconds: a longer one would be cut.
+    o.set_keep_alive(g.keep_alive.clamp(
+        Duration::from_secs(1),
+        Duration::from_secs(u64::from(u16::MAX)),
+    ));
+    o.set_clean_session(true);
+    o.set_max_packet_size(MAX_INCOMING_PACKET, MAX_INCOMING_PACKET);
+    o.set_last_will(LastWill::new(
+        gateway_status_topic(g),
+        "offline",
+        QoS::AtLeastOnce,
+        true,
+    ));
+    if let Some(u) = user {
+        o.set_credentials(u, password.unwrap_or_default());
+    }
+    if url.tls {
+        let config = tls_config(g)?;
+        o.set_transport(Transport::tls_with_config(TlsConfiguration::Rustls(
+            Arc::new(config),
+        )));
+    }
+    Ok((o, url))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn urls() {
+        let u = parse_url("mqtts://gw1@broker.plant.local").unwrap();
+        assert_eq!(
+            u,
+            BrokerUrl {
+                tls: true,
+                user: Some("gw1".into()),
+                host: "broker.plant.local".into(),
+                port: 8883
+            }
+        );
+        let u = parse_url("mqtt://10.0.0.5:1884/").unwrap();
+        assert_eq!(
+            (u.tls, u.user, u.host.as_str(), u.port),
+            (false, None, "10.0.0.5", 1884)
+        );
+        assert_eq!(parse_url("mqtt://h").unwrap().port, 1883);
+        let u = parse_url("mqtt://[::1]:1999").unwrap();
+        assert_eq!((u.host.as_str(), u.port), ("[::1]", 1999));
+        assert_eq!(parse_url("mqtts://[::1]").unwrap().port, 8883);
+        for bad in [
+            "http://h",
+            "mqtt://",
+            "mqtt://h:0",
+            "mqtt://h:99999",
+            "mqtt://h:x",
+            "mqtts://u:pw@h",
+            "mqtt://@h",
+            "mqtt://[::1",
+            "mqtt://[::1]x",
+            "mqtt://h/x",
+        ] {
+            assert!(parse_url(bad).is_err(), "{bad}");
+        }
+        assert!(
+            parse_url("mqtts://u:pw@h")
+                .unwrap_err()
+                .contains("password_file")
+        );
+    }
+
+    fn temp(name: &str, bytes: &[u8]) -> String {
+        let dir = std::env::temp_dir().join(format!("drivebus-mqtt-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let p = dir.join(name);
+        std::fs::write(&p, bytes).unwrap();
+        p.display().to_string()
+    }
+
+    #[test]
+    fn password_file_first_line_without_bom_and_cr() {
+        assert_eq!(read_password(&temp("pw1", b"s3cret\n")).unwrap(), "s3cret");
+        assert_eq!(
+            read_password(&temp("pw2", "\u{feff}s3 cret\r\nsecond\r\n".as_bytes())).unwrap(),
+            "s3 cret"
+        );
+        assert_eq!(read_password(&temp("pw3", b"nonl")).unwrap(), "nonl");
+        for (name, bytes) in [("pw4", &b""[..]), ("pw5", b"\r\nx"), ("pw6", b"\xff\xfe")] {
+            let p = temp(name, bytes);
+            let e = read_password(&p).unwrap_err().to_string();
+            assert!(e.contains(&p) && e.contains("password_file"), "{e}");
+        }
+        for p in ["/dev/null", "/nonexistent/pw", "/tmp"] {
+            let e = read_password(p).unwrap_err().to_string();
+            assert!(e.contains(p) && e.contains("regular file"), "{e}");
+        }
+    }
+
+    fn gateway(broker: &str, extra: &str) -> Gateway {
+        let text = format!(
+            "[gateway]\nname = \"gw\"\nbroker = \"{broker}\"\n{extra}\n[[bus]]\nname = \"b\"\n\
+             protocol = \"movilink\"\nsimulate = true\n[[bus.drive]]\nname = \"d\"\naddress = 1\n\
+             [[bus.drive.param]]\nparam = \"P130\"\nperiod = \"1s\"\n"
+        );
+        crate::gateway::config::Plant::parse(&text, "test")
+            .unwrap()
+            .gateway
+    }
+
+    #[test]
+    fn file_errors_name_the_file_and_key() {
+        let e = options(&gateway("mqtts://h", "ca_file = \"/nonexistent/ca.pem\""))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("ca_file") && e.contains("/nonexistent/ca.pem"),
+            "{e}"
+        );
+        let not_pem = temp("notpem", b"hello\n");
+        let e = options(&gateway("mqtts://h", &format!("ca_file = \"{not_pem}\"")))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("ca_file") && e.contains("no certificate"), "{e}");
+        let e = options(&gateway("mqtt://h", &format!("ca_file = \"{not_pem}\"")))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("mqtts://"), "{e}");
+        let pw = temp("pw7", b"x\n");
+        let e = options(&gateway("mqtt://h", &format!("password_file = \"{pw}\"")))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("username"), "{e}");
+        let (o, _) = options(&gateway(
+            "mqtt://u@h:1",
+            &format!("password_file = \"{pw}\""),
+        ))
+        .unwrap();
+        let login = o.credentials().unwrap();
+        assert_eq!(
+            (login.username.as_str(), login.password.as_str()),
+            ("u", "x")
+        );
+        let will = o.last_will().unwrap();
+        assert_eq!(will.topic, "drivebus/gw/status");
+        assert_eq!(&will.message[..], b"offline");
+        assert!(will.retain && will.qos == QoS::AtLeastOnce);
+        assert!(o.clean_session());
+        assert_eq!(o.keep_alive(), Duration::from_secs(30));
+        // Longer than MQTT's 16 bits of seconds: the longest there is, not a cut value.
+        let (o, _) = options(&gateway("mqtt://h", "keep_alive = \"24h\"")).unwrap();
+        assert_eq!(o.keep_alive(), Duration::from_secs(65535));
+    }
+}

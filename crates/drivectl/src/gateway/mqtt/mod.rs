@@ -1,0 +1,721 @@
+//! The MQTT side of the gateway: one task publishes what the bus tasks report and hands the
+//! `set`s it receives to them (`docs/gateway.md`, "MQTT").
+//!
+//! - [`connect`]: the broker URL, password file, TLS and last-will, read at
+//!   [`Mqtt::prepare`], before any bus opens.
+//! - [`outbox`]: the latest payload of every retained topic, what is still to be published,
+//!   results waiting for the broker (sans-IO).
+//! - [`payload`]: the JSON of every topic and the `set` messages.
+//! - here: the task. rumqttc's event loop runs in its own local task (never cancelled halfway
+//!   through a write), reconnecting with a back-off of 0.5 s doubling to 30 s; the MQTT task
+//!   owns the client and publishes only while connected, through the client's bounded queue
+//!   (`try_publish`): while the broker is away nothing is queued but the latest payload of each
+//!   topic, all republished at the next ConnAck.
+
+pub mod connect;
+pub mod outbox;
+pub mod payload;
+
+#[cfg(test)]
+mod tests;
+
+use std::collections::HashMap;
+use std::sync::Arc;
+use std::time::{Duration, SystemTime};
+
+use rumqttc::{
+    AsyncClient, ConnectionError, Event, EventLoop, Incoming, MqttOptions, Outgoing, QoS,
+};
+use tokio::sync::{mpsc, oneshot, watch};
+use tokio::time::Instant;
+
+use super::config::Plant;
+use super::metrics::Metrics;
+use super::model::{DriveStatus, SetOutcome, SetRequest, Update};
+use crate::error::Result;
+use outbox::{Outbox, ResultMsg};
+
+/// How far in the future a `set`'s `ts` may be (clock skew between sender and gateway).
+pub const MAX_SET_FUTURE: Duration = Duration::from_secs(5);
+/// The first wait before reconnecting; it doubles after each failure.
+pub const BACKOFF_FIRST: Duration = Duration::from_millis(500);
+/// The longest wait before reconnecting.
+pub const BACKOFF_MAX: Duration = Duration::from_secs(30);
+/// How long the shutdown waits for `offline` and the disconnect to go out.
+pub const SHUTDOWN_FLUSH: Duration = Duration::from_secs(2);
+/// The client's request queue (messages handed to it and not yet written).
+const CLIENT_QUEUE: usize = 128;
+/// How long a `set` may wait for its bus task's answer beyond `max_set_age` before it is
+/// answered `link_failed` (a bus task that never answers must not keep it for ever).
+const ANSWER_GRACE: Duration = Duration::from_secs(60);
+
+/// Reconnection back-off: 0.5 s doubling to 30 s, back to 0.5 s at each ConnAck.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Backoff {
+    next: Duration,
+}
+
+impl Default for Backoff {
+    fn default() -> Self {
+        Backoff {
+            next: BACKOFF_FIRST,
+        }
+    }
+}
+
+impl Backoff {
+    /// The wait after a failure (the next one is twice as long, up to [`BACKOFF_MAX`]).
+    pub fn failed(&mut self) -> Duration {
+        let wait = self.next;
+        self.next = (self.next * 2).min(BACKOFF_MAX);
+        wait
+    }
+
+    /// Connected: the next failure waits [`BACKOFF_FIRST`] again.
+    pub fn reset(&mut self) {
+        self.next = BACKOFF_FIRST;
+    }
+}
+
+/// The broker connection as the gateway sees it (for tests and status displays).
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct BrokerState {
+    /// Connected now.
+    pub connected: bool,
+    /// The `set` subscription is acknowledged on this connection.
+    pub subscribed: bool,
+    /// ConnAcks received since the start.
+    pub connects: u64,
+    /// Failed attempts and lost connections since the start.
+    pub failures: u64,
+    /// Why the last attempt failed or the connection was lost.
+    pub last_error: Option<String>,
+}
+
+/// The prepared MQTT client (TLS material and password read, options built).
+#[derive(Debug)]
+pub struct Mqtt {
+    plant: Arc<Plant>,
+    options: MqttOptions,
+    /// The broker URL as configured (for logs).
+    broker: String,
+    state: watch::Sender<BrokerState>,
+}
+
+/// What the event-loop task reports.
+#[derive(Debug)]
+enum Link {
+    Event(Event),
+    Down { error: String, retry_in: Duration },
+}
+
+/// A finished `set`, from its waiting task.
+#[derive(Debug)]
+struct Done {
+    bus: usize,
+    drive: usize,
+    point: usize,
+    outcome: SetOutcome,
+    id: Option<serde_json::Value>,
+}
+
+impl Mqtt {
+    /// Build the client's options from `plant` (reads the password, CA and certificate files).
+    pub fn prepare(plant: &Arc<Plant>) -> Result<Mqtt> {
+        let (options, _url) = connect::options(&plant.gateway)?;
+        Ok(Mqtt {
+            plant: plant.clone(),
+            options,
+            broker: plant.gateway.broker.clone(),
+            state: watch::channel(BrokerState::default()).0,
+        })
+    }
+
+    /// The broker connection's state, updated as it changes.
+    #[allow(dead_code, reason = "for the tests and a later status display")]
+    pub fn broker_state(&self) -> watch::Receiver<BrokerState> {
+        self.state.subscribe()
+    }
+
+    /// Connect (and reconnect) to the broker, publish `updates`, hand `set`s to the bus
+    /// tasks (`sets[bus]`), until `shutdown` resolves; then publish the gateway's `offline`
+    /// and disconnect.
+    pub async fn run(
+        self,
+        mut updates: mpsc::Receiver<Update>,
+        sets: Vec<mpsc::Sender<SetRequest>>,
+        metrics: Arc<Metrics>,
+        shutdown: impl std::future::Future<Output = ()>,
+    ) -> Result<()> {
+        let (client, eventloop) = AsyncClient::new(self.options.clone(), CLIENT_QUEUE);
+        let (link_tx, mut link_rx) = mpsc::channel(256);
+        // Aborted when `run` ends or is dropped: the connection never outlives the task.
+        let driver = AbortOnDrop(tokio::task::spawn_local(drive(eventloop, link_tx)));
+        let (done_tx, mut done_rx) = mpsc::unbounded_channel();
+        let mut task = Task {
+            plant: self.plant.clone(),
+            outbox: Outbox::new(&self.plant),
+            names: Names::new(&self.plant),
+            client,
+            sets,
+            metrics,
+            done_tx,
+            connected: false,
+            state: self.state,
+            broker: self.broker,
+            unknown_sets: 0,
+        };
+        metrics_connected(&task.metrics, false);
+        tokio::pin!(shutdown);
+        let mut updates_open = true;
+        loop {
+            tokio::select! {
+                biased;
+                () = &mut shutdown => break,
+                link = link_rx.recv() => match link {
+                    Some(Link::Event(e)) => task.event(e),
+                    Some(Link::Down { error, retry_in }) => task.down(error, retry_in),
+                    None => break,
+                },
+                Some(done) = done_rx.recv() => task.done(done),
+                u = updates.recv(), if updates_open => match u {
+                    Some(u) => {
+                        if !task.outbox.update(u, Instant::now(), &task.plant) {
+                            tracing::debug!("an update named no topic of the plant");
+                        }
+                    }
+                    None => {
+                        updates_open = false;
+                        tracing::warn!("every bus task has ended; the broker connection stays up");
+                    }
+                },
+            }
+            task.flush();
+        }
+        task.shutdown(&mut link_rx).await;
+        drop(driver);
+        Ok(())
+    }
+}
+
+/// Aborts its task when dropped.
+#[derive(Debug)]
+struct AbortOnDrop(tokio::task::JoinHandle<()>);
+
+impl Drop for AbortOnDrop {
+    fn drop(&mut self) {
+        self.0.abort();
+    }
+}
+
+fn metrics_connected(m: &Metrics, up: bool) {
+    m.broker_connected(up);
+}
+
+/// Runs rumqttc's event loop: every event to the MQTT task; after a failure, waits the
+/// back-off and polls again (which reconnects).
+async fn drive(mut el: EventLoop, tx: mpsc::Sender<Link>) {
+    let mut backoff = Backoff::default();
+    loop {
+        match el.poll().await {
+            Ok(ev) => {
+                if matches!(ev, Event::Incoming(Incoming::ConnAck(_))) {
+                    backoff.reset();
+                }
+                if tx.send(Link::Event(ev)).await.is_err() {
+                    return;
+                }
+            }
+            Err(e) => {
+                let retry_in = backoff.failed();
+                let error = describe(&e);
+                if tx.send(Link::Down { error, retry_in }).await.is_err() {
+                    return;
+                }
+                tokio::time::sleep(retry_in).await;
+            }
+        }
+    }
+}
+
+/// A connection error for a person: what failed and what to change.
+pub fn describe(e: &ConnectionError) -> String {
+    use rumqttc::ConnectReturnCode as C;
+    match e {
+        ConnectionError::ConnectionRefused(C::BadUserNamePassword) => {
+            "the broker refused the user name or password: check username (or user@ in the \
+             broker URL) and the password in password_file"
+                .to_owned()
+        }
+        ConnectionError::ConnectionRefused(C::NotAuthorized) => {
+            "the broker refused the connection as not authorised: check username (or user@ in \
+             the broker URL), the password in password_file, client_cert, and the broker's \
+             access rules"
+                .to_owned()
+        }
+        ConnectionError::ConnectionRefused(C::BadClientId) => {
+            "the broker refused the client id: set [gateway] client_id".to_owned()
+        }
+        ConnectionError::ConnectionRefused(code) => {
+            format!("the broker refused the connection ({code:?})")
+        }
+        ConnectionError::Tls(t) => format!(
+            "TLS: {t}; check ca_file (the CA that signed the broker's certificate), that the \
+             broker URL's host is a name in the certificate, and client_cert/client_key"
+        ),
+        ConnectionError::Io(io) if io.kind() == std::io::ErrorKind::ConnectionRefused => {
+            format!("{io}: is the broker running at the configured host and port?")
+        }
+        ConnectionError::Io(io) => {
+            let text = io.to_string();
+            if text.contains("certificate") || text.contains("Certificate") {
+                format!(
+                    "TLS: {text}; check ca_file (the CA that signed the broker's certificate) \
+                     and that the broker URL's host is a name in the certificate"
+                )
+            } else {
+                format!("i/o: {text}")
+            }
+        }
+        ConnectionError::NetworkTimeout => {
+            "no answer from the broker in time (network, firewall, or a TLS port spoken to \
+             as plain mqtt://?)"
+                .to_owned()
+        }
+        other => other.to_string(),
+    }
+}
+
+/// Topic names → indices, built once.
+#[derive(Debug)]
+struct Names {
+    /// `<prefix>/<gw>/`.
+    base: String,
+    /// `bus/drive/point` → indices.
+    points: HashMap<String, (usize, usize, usize)>,
+    /// The gateway's status topic.
+    status: String,
+    /// The subscription.
+    set_filter: String,
+}
+
+impl Names {
+    fn new(plant: &Plant) -> Names {
+        let g = &plant.gateway;
+        let base = format!("{}/{}/", g.prefix, g.name);
+        let mut points = HashMap::new();
+        for (b, bus) in plant.buses.iter().enumerate() {
+            for (d, drive) in bus.drives.iter().enumerate() {
+                for (p, point) in drive.points.iter().enumerate() {
+                    points.insert(
+                        format!("{}/{}/{}", bus.name, drive.name, point.name),
+                        (b, d, p),
+                    );
+                }
+            }
+        }
+        Names {
+            set_filter: format!("{base}+/+/+/set"),
+            status: connect::gateway_status_topic(g),
+            base,
+            points,
+        }
+    }
+
+    /// The point a `…/set` topic names.
+    fn set_target(&self, topic: &str) -> Option<(usize, usize, usize)> {
+        let rest = topic.strip_prefix(&self.base)?.strip_suffix("/set")?;
+        self.points.get(rest).copied()
+    }
+}
+
+/// The MQTT task's state.
+struct Task {
+    plant: Arc<Plant>,
+    outbox: Outbox,
+    names: Names,
+    client: AsyncClient,
+    sets: Vec<mpsc::Sender<SetRequest>>,
+    metrics: Arc<Metrics>,
+    done_tx: mpsc::UnboundedSender<Done>,
+    connected: bool,
+    state: watch::Sender<BrokerState>,
+    broker: String,
+    unknown_sets: u64,
+}
+
+impl Task {
+    fn event(&mut self, e: Event) {
+        match e {
+            Event::Incoming(Incoming::ConnAck(_)) => self.connack(),
+            Event::Incoming(Incoming::Publish(p)) => self.incoming(p),
+            Event::Incoming(Incoming::PubAck(a)) => self.outbox.acked(a.pkid),
+            Event::Incoming(Incoming::SubAck(_)) => {
+                self.state.send_modify(|s| s.subscribed = true);
+            }
+            Event::Outgoing(Outgoing::Publish(pkid)) => self.outbox.sent_publish(pkid),
+            _ => {}
+        }
+    }
+
+    fn connack(&mut self) {
+        self.connected = true;
+        tracing::info!(broker = %self.broker, "connected to the broker");
+        metrics_connected(&self.metrics, true);
+        self.state.send_modify(|s| {
+            s.connected = true;
+            s.connects += 1;
+        });
+        self.outbox.connected();
+        // A fresh connection's queue is empty: these fit.
+        if let Err(e) =
+            self.client
+                .try_publish(&self.names.status, QoS::AtLeastOnce, true, "online")
+        {
+            tracing::warn!(error = %e, "cannot publish the gateway's online status");
+        } else {
+            self.outbox.handed_other();
+        }
+        if let Err(e) = self
+            .client
+            .try_subscribe(&self.names.set_filter, QoS::AtLeastOnce)
+        {
+            tracing::warn!(error = %e, "cannot subscribe to the set topics");
+        }
+    }
+
+    fn down(&mut self, error: String, retry_in: Duration) {
+        if self.connected {
+            tracing::warn!(broker = %self.broker, %error, retry_in_ms = retry_in.as_millis() as u64,
+                "lost the broker connection; reconnecting");
+        } else {
+            tracing::warn!(broker = %self.broker, %error, retry_in_ms = retry_in.as_millis() as u64,
+                "cannot connect to the broker; retrying");
+        }
+        self.connected = false;
+        metrics_connected(&self.metrics, false);
+        self.outbox.disconnected();
+        self.state.send_modify(|s| {
+            s.connected = false;
+            s.subscribed = false;
+            s.failures += 1;
+            s.last_error = Some(error);
+        });
+    }
+
+    fn flush(&mut self) {
+        if !self.connected {
+            return;
+        }
+        let client = &self.client;
+        let metrics = &self.metrics;
+        self.outbox.flush(Instant::now(), |m| {
+            match client.try_publish(m.topic, QoS::AtLeastOnce, m.retain, m.payload.as_bytes()) {
+                Ok(()) => {
+                    metrics.published(m.kind);
+                    true
+                }
+                Err(_) => false,
+            }
+        });
+    }
+
+    fn result(
+        &mut self,
+        bus: usize,
+        drive: usize,
+        point: usize,
+        outcome: &SetOutcome,
+        id: Option<&serde_json::Value>,
+    ) {
+        let label = match outcome {
+            SetOutcome::Written { .. } => "written",
+            SetOutcome::Refused { reason, .. } => reason,
+            SetOutcome::DeviceRefused { .. } => "device_refused",
+            SetOutcome::LinkFailed { .. } => "link_failed",
+        };
+        self.metrics.set_outcome(label);
+        let Some((b, d, p)) = self.plant.buses.get(bus).and_then(|b| {
+            let d = b.drives.get(drive)?;
+            Some((b, d, d.points.get(point)?))
+        }) else {
+            return;
+        };
+        let topic = format!("{}{}/{}/{}/result", self.names.base, b.name, d.name, p.name);
+        let payload = payload::result(outcome, &p.target, id, payload::millis(SystemTime::now()));
+        tracing::info!(%topic, outcome = label, "set answered");
+        if self.outbox.push_result(ResultMsg { topic, payload }) {
+            tracing::warn!("more results waiting for the broker than kept: dropped the oldest");
+        }
+    }
+
+    fn done(&mut self, d: Done) {
+        self.result(d.bus, d.drive, d.point, &d.outcome, d.id.as_ref());
+    }
+
+    fn incoming(&mut self, p: rumqttc::Publish) {
+        if p.payload.is_empty() {
+            // The deletion of a retained message (the gateway clears retained sets itself).
+            return;
+        }
+        let Some((bus, drive, point)) = self.names.set_target(&p.topic) else {
+            self.unknown_sets += 1;
+            self.metrics.set_outcome("unknown_topic");
+            tracing::warn!(topic = %p.topic, "a set for no writable point of this gateway: ignored");
+            return;
+        };
+        if p.retain {
+            // Cleared (an empty retained message deletes it), so that it is not refused again
+            // at every reconnection.
+            match self
+                .client
+                .try_publish(&p.topic, QoS::AtLeastOnce, true, Vec::new())
+            {
+                Ok(()) => self.outbox.handed_other(),
+                Err(e) => {
+                    tracing::warn!(topic = %p.topic, error = %e, "cannot clear a retained set")
+                }
+            }
+        }
+        let refuse =
+            |reason: &'static str, message: String| SetOutcome::Refused { reason, message };
+        let msg = match payload::parse_set(&p.payload) {
+            Ok(m) => m,
+            Err(bad) => {
+                let outcome = if p.retain {
+                    refuse("retained", retained_text())
+                } else {
+                    refuse("bad_request", bad.message)
+                };
+                self.result(bus, drive, point, &outcome, bad.id.as_ref());
+                return;
+            }
+        };
+        match self.check(bus, drive, point, &msg, p.retain) {
+            Err(outcome) => self.result(bus, drive, point, &outcome, msg.id.as_ref()),
+            Ok(max_age) => self.send(bus, drive, point, msg, max_age),
+        }
+    }
+
+    /// Whether the set may go to the bus: its remaining age, or the refusal.
+    fn check(
+        &self,
+        bus: usize,
+        drive: usize,
+        point: usize,
+        msg: &payload::SetMessage,
+        retained: bool,
+    ) -> std::result::Result<Duration, SetOutcome> {
+        let refuse =
+            |reason: &'static str, message: String| SetOutcome::Refused { reason, message };
+        if retained {
+            return Err(refuse("retained", retained_text()));
+        }
+        let max = self.plant.gateway.max_set_age;
+        let mut max_age = max;
+        if let Some(ts) = msg.ts {
+            let now = i128::from(payload::millis(SystemTime::now()));
+            let age_ms = now - i128::from(ts);
+            if age_ms > max.as_millis() as i128 {
+                return Err(refuse(
+                    "stale",
+                    format!(
+                        "sent {} ms ago (ts), more than max_set_age = {} ms: not executed",
+                        age_ms,
+                        max.as_millis()
+                    ),
+                ));
+            }
+            if -age_ms > MAX_SET_FUTURE.as_millis() as i128 {
+                return Err(refuse(
+                    "stale",
+                    format!(
+                        "ts is {} ms in the future: check the sender's clock (at most {} ms \
+                         ahead is taken)",
+                        -age_ms,
+                        MAX_SET_FUTURE.as_millis()
+                    ),
+                ));
+            }
+            let age = Duration::from_millis(u64::try_from(age_ms.max(0)).unwrap_or(u64::MAX));
+            max_age = max.saturating_sub(age);
+        }
+        let writable = self
+            .plant
+            .buses
+            .get(bus)
+            .and_then(|b| b.drives.get(drive))
+            .and_then(|d| d.points.get(point))
+            .is_some_and(|p| p.writable);
+        if !writable {
+            return Err(refuse(
+                "not_writable",
+                "this point is not writable: the gateway's config must say writable = true for \
+                 it"
+                .to_owned(),
+            ));
+        }
+        if self.outbox.status(bus, drive) == Some(&DriveStatus::Timeout) {
+            return Err(refuse(
+                "offline",
+                "the drive does not answer (status timeout): not sent".to_owned(),
+            ));
+        }
+        Ok(max_age)
+    }
+
+    fn send(
+        &mut self,
+        bus: usize,
+        drive: usize,
+        point: usize,
+        msg: payload::SetMessage,
+        max_age: Duration,
+    ) {
+        let (reply, answer) = oneshot::channel();
+        let req = SetRequest {
+            drive,
+            point,
+            value: msg.value,
+            received: Instant::now(),
+            max_age,
+            reply,
+        };
+        let Some(tx) = self.sets.get(bus) else {
+            return;
+        };
+        match tx.try_send(req) {
+            Ok(()) => {
+                let done = self.done_tx.clone();
+                let id = msg.id;
+                tokio::task::spawn_local(async move {
+                    let outcome = match tokio::time::timeout(max_age + ANSWER_GRACE, answer).await {
+                        Ok(Ok(o)) => o,
+                        Ok(Err(_)) => SetOutcome::Refused {
+                            reason: "expired",
+                            message: "the bus task ended without executing it".to_owned(),
+                        },
+                        Err(_) => SetOutcome::LinkFailed {
+                            message: format!(
+                                "no answer from the bus task within {} s: whether it was \
+                                 written is unknown",
+                                (max_age + ANSWER_GRACE).as_secs()
+                            ),
+                        },
+                    };
+                    let _ = done.send(Done {
+                        bus,
+                        drive,
+                        point,
+                        outcome,
+                        id,
+                    });
+                });
+            }
+            Err(mpsc::error::TrySendError::Full(_)) => {
+                let outcome = SetOutcome::Refused {
+                    reason: "busy",
+                    message: "the bus has too many writes waiting: not queued; send it again \
+                              later"
+                        .to_owned(),
+                };
+                self.result(bus, drive, point, &outcome, msg.id.as_ref());
+            }
+            Err(mpsc::error::TrySendError::Closed(_)) => {
+                let outcome = SetOutcome::Refused {
+                    reason: "offline",
+                    message: "the bus task has ended: not sent".to_owned(),
+                };
+                self.result(bus, drive, point, &outcome, msg.id.as_ref());
+            }
+        }
+    }
+
+    /// Publish `offline` (retained) and disconnect, waiting at most [`SHUTDOWN_FLUSH`].
+    async fn shutdown(&mut self, link_rx: &mut mpsc::Receiver<Link>) {
+        if !self.connected {
+            return;
+        }
+        let deadline = Instant::now() + SHUTDOWN_FLUSH;
+        let handed = async {
+            self.client
+                .publish(&self.names.status, QoS::AtLeastOnce, true, "offline")
+                .await?;
+            self.client.disconnect().await
+        };
+        match tokio::time::timeout_at(deadline, handed).await {
+            Ok(Ok(())) => {}
+            Ok(Err(e)) => {
+                tracing::warn!(error = %e, "cannot publish offline at shutdown");
+                return;
+            }
+            Err(_) => {
+                tracing::warn!("the broker did not take offline in time at shutdown");
+                return;
+            }
+        }
+        loop {
+            match tokio::time::timeout_at(deadline, link_rx.recv()).await {
+                Ok(Some(Link::Event(Event::Outgoing(Outgoing::Disconnect)))) => break,
+                Ok(Some(Link::Event(_))) => {}
+                Ok(Some(Link::Down { .. }) | None) => break,
+                Err(_) => {
+                    tracing::warn!("shutdown: the disconnect did not go out in time");
+                    break;
+                }
+            }
+        }
+        tracing::info!("disconnected from the broker");
+        metrics_connected(&self.metrics, false);
+    }
+}
+
+fn retained_text() -> String {
+    "a retained set is never executed (it would move the machine again at every reconnection); \
+     publish sets with retain = false"
+        .to_owned()
+}
+
+#[cfg(test)]
+mod unit_tests {
+    use super::*;
+
+    #[test]
+    fn backoff_doubles_to_30s_and_resets() {
+        let mut b = Backoff::default();
+        let waits: Vec<u64> = (0..9).map(|_| b.failed().as_millis() as u64).collect();
+        assert_eq!(
+            waits,
+            [500, 1000, 2000, 4000, 8000, 16000, 30000, 30000, 30000]
+        );
+        b.reset();
+        assert_eq!(b.failed(), BACKOFF_FIRST);
+    }
+
+    #[test]
+    fn set_topics_by_name() {
+        let plant = Plant::parse(
+            "[gateway]\nname = \"gw\"\nbroker = \"mqtt://h\"\nprefix = \"plant/a\"\n\
+             [[bus]]\nname = \"b\"\nprotocol = \"movilink\"\nsimulate = true\n\
+             [[bus.drive]]\nname = \"d\"\naddress = 1\n\
+             [[bus.drive.param]]\nparam = \"P130\"\nperiod = \"1s\"\n\
+             [[bus.drive.param]]\nparam = \"P700\"\nname = \"mode\"\nwritable = true\n",
+            "test",
+        )
+        .unwrap();
+        let n = Names::new(&plant);
+        assert_eq!(n.set_filter, "plant/a/gw/+/+/+/set");
+        assert_eq!(n.set_target("plant/a/gw/b/d/P130/set"), Some((0, 0, 0)));
+        assert_eq!(n.set_target("plant/a/gw/b/d/mode/set"), Some((0, 0, 1)));
+        for bad in [
+            "plant/a/gw/b/d/P700/set",
+            "plant/a/gw/b/d/mode",
+            "plant/a/gw/b/x/mode/set",
+            "plant/a/gx/b/d/mode/set",
+            "plant/a/gw/b/d/mode/set/set",
+            "",
+        ] {
+            assert_eq!(n.set_target(bad), None, "{bad}");
+        }
+    }
+}

@@ -1,0 +1,570 @@
+//! What the MQTT task has to publish, without I/O: the latest payload of every retained topic
+//! (one per topic, so an outage costs no memory beyond the plant's topics), which of them are
+//! still to be sent, results waiting for the broker (bounded), and which results the broker
+//! has not acknowledged yet (sent again after a reconnection). Time is an argument.
+
+use std::collections::{HashMap, VecDeque};
+use std::time::Duration;
+
+use tokio::time::Instant;
+
+use super::super::config::Plant;
+use super::super::model::{DriveStatus, Update};
+use super::payload;
+
+/// Results kept while the broker is away; past this the oldest are dropped (and logged).
+pub const MAX_RESULTS: usize = 1024;
+
+/// What a retained topic carries (for metrics).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Kind {
+    /// A parameter's value.
+    Value,
+    /// A drive's status.
+    Status,
+    /// Process data.
+    ProcessData,
+    /// A bus's figures.
+    Figures,
+}
+
+impl Kind {
+    /// The metrics label.
+    pub fn label(self) -> &'static str {
+        match self {
+            Kind::Value => "value",
+            Kind::Status => "status",
+            Kind::ProcessData => "pd",
+            Kind::Figures => "figures",
+        }
+    }
+}
+
+/// One retained topic.
+#[derive(Debug)]
+struct Slot {
+    topic: String,
+    kind: Kind,
+    /// The latest payload (`None`: nothing known yet).
+    payload: Option<String>,
+    /// Still to be published.
+    dirty: bool,
+    /// When it was last handed to the client.
+    published: Option<Instant>,
+    /// The raw value last published (values).
+    raw: Option<i64>,
+    /// The input words last published (process data).
+    words: Option<Vec<u16>>,
+}
+
+/// A result to publish (not retained).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct ResultMsg {
+    /// `…/result`.
+    pub topic: String,
+    /// Its JSON.
+    pub payload: String,
+}
+
+/// A message handed to the client, in the order the client sends them.
+#[derive(Debug)]
+enum Sent {
+    Other,
+    Result(ResultMsg),
+}
+
+/// One message for the client.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Out<'a> {
+    /// Topic.
+    pub topic: &'a str,
+    /// Payload.
+    pub payload: &'a str,
+    /// Retained.
+    pub retain: bool,
+    /// Metrics label (`value`, `status`, `pd`, `figures`, `result`).
+    pub kind: &'static str,
+}
+
+/// The publishing state of the gateway's topics.
+#[derive(Debug)]
+pub struct Outbox {
+    slots: Vec<Slot>,
+    /// Slot of each bus's status; a drive's slots follow: status, pd, then its points.
+    bus_slot: Vec<usize>,
+    drive_slot: Vec<Vec<usize>>,
+    /// Process output words of each drive (for the pd topic).
+    pd_out: Vec<Vec<Vec<u16>>>,
+    statuses: Vec<Vec<Option<DriveStatus>>>,
+    queue: VecDeque<usize>,
+    results: VecDeque<ResultMsg>,
+    /// Handed to the client, not yet seen going out.
+    sent: VecDeque<Sent>,
+    /// Sent with this packet id, not yet acknowledged.
+    inflight: HashMap<u16, ResultMsg>,
+    heartbeat: Duration,
+    /// Results dropped because the bound was reached.
+    pub dropped_results: u64,
+}
+
+impl Outbox {
+    /// The topics of `plant`, nothing known yet.
+    pub fn new(plant: &Plant) -> Outbox {
+        let g = &plant.gateway;
+        let mut slots = Vec::new();
+        let mut bus_slot = Vec::new();
+        let mut drive_slot = Vec::new();
+        let mut pd_out = Vec::new();
+        let mut statuses = Vec::new();
+        let slot = |topic: String, kind: Kind| Slot {
+            topic,
+            kind,
+            payload: None,
+            dirty: false,
+            published: None,
+            raw: None,
+            words: None,
+        };
+        for bus in &plant.buses {
+            let base = format!("{}/{}/{}", g.prefix, g.name, bus.name);
+            bus_slot.push(slots.len());
+            slots.push(slot(format!("{base}/status"), Kind::Figures));
+            let mut ds = Vec::new();
+            let mut outs = Vec::new();
+            for d in &bus.drives {
+                ds.push(slots.len());
+                slots.push(slot(format!("{base}/{}/status", d.name), Kind::Status));
+                slots.push(slot(format!("{base}/{}/pd", d.name), Kind::ProcessData));
+                for p in &d.points {
+                    slots.push(slot(format!("{base}/{}/{}", d.name, p.name), Kind::Value));
+                }
+                outs.push(
+                    d.process_data
+                        .as_ref()
+                        .map(|pd| pd.out.clone())
+                        .unwrap_or_default(),
+                );
+            }
+            statuses.push(vec![None; bus.drives.len()]);
+            drive_slot.push(ds);
+            pd_out.push(outs);
+        }
+        Outbox {
+            slots,
+            bus_slot,
+            drive_slot,
+            pd_out,
+            statuses,
+            queue: VecDeque::new(),
+            results: VecDeque::new(),
+            sent: VecDeque::new(),
+            inflight: HashMap::new(),
+            heartbeat: g.heartbeat,
+            dropped_results: 0,
+        }
+    }
+
+    fn drive_base(&self, bus: usize, drive: usize) -> Option<usize> {
+        self.drive_slot.get(bus)?.get(drive).copied()
+    }
+
+    fn mark(&mut self, ix: usize) {
+        if let Some(s) = self.slots.get_mut(ix)
+            && !s.dirty
+        {
+            s.dirty = true;
+            self.queue.push_back(ix);
+        }
+    }
+
+    /// Take an update from a bus task at `now`: a value or process data is to be published
+    /// when it changed or its last publication is a heartbeat old; a status or figures always.
+    /// False when the update names no topic of the plant.
+    pub fn update(&mut self, u: Update, now: Instant, plant: &Plant) -> bool {
+        let heartbeat = self.heartbeat;
+        let due = |s: &Slot| {
+            s.published
+                .is_none_or(|t| now.duration_since(t) >= heartbeat)
+        };
+        match u {
+            Update::Value {
+                bus,
+                drive,
+                point,
+                raw,
+                at,
+            } => {
+                let Some(target) = plant
+                    .buses
+                    .get(bus)
+                    .and_then(|b| b.drives.get(drive))
+                    .and_then(|d| d.points.get(point))
+                    .map(|p| p.target)
+                else {
+                    return false;
+                };
+                let Some(ix) = self.drive_base(bus, drive).map(|b| b + 2 + point) else {
+                    return false;
+                };
+                let Some(s) = self.slots.get_mut(ix) else {
+                    return false;
+                };
+                if s.raw != Some(raw) || s.payload.is_none() || due(s) {
+                    s.raw = Some(raw);
+                    s.payload = Some(payload::value(&target, raw, payload::millis(at)));
+                    self.mark(ix);
+                }
+                true
+            }
+            Update::ProcessData {
+                bus,
+                drive,
+                words,
+                at,
+            } => {
+                let Some(ix) = self.drive_base(bus, drive).map(|b| b + 1) else {
+                    return false;
+                };
+                let out = self
+                    .pd_out
+                    .get(bus)
+                    .and_then(|b| b.get(drive))
+                    .map_or(&[][..], Vec::as_slice);
+                let Some(s) = self.slots.get_mut(ix) else {
+                    return false;
+                };
+                if s.words.as_deref() != Some(words.as_slice()) || due(s) {
+                    s.payload = Some(payload::process_data(&words, out, payload::millis(at)));
+                    s.words = Some(words);
+                    self.mark(ix);
+                }
+                true
+            }
+            Update::Status {
+                bus,
+                drive,
+                status,
+                at,
+            } => {
+                let Some(ix) = self.drive_base(bus, drive) else {
+                    return false;
+                };
+                let Some(s) = self.slots.get_mut(ix) else {
+                    return false;
+                };
+                s.payload = Some(payload::status(&status, payload::millis(at)));
+                if let Some(st) = self.statuses.get_mut(bus).and_then(|b| b.get_mut(drive)) {
+                    *st = Some(status);
+                }
+                self.mark(ix);
+                true
+            }
+            Update::Figures { bus, figures } => {
+                let Some(&ix) = self.bus_slot.get(bus) else {
+                    return false;
+                };
+                let Some(s) = self.slots.get_mut(ix) else {
+                    return false;
+                };
+                let ts = payload::millis(std::time::SystemTime::now());
+                s.payload = Some(payload::figures(&figures, ts));
+                self.mark(ix);
+                true
+            }
+        }
+    }
+
+    /// The drive's last reported status.
+    pub fn status(&self, bus: usize, drive: usize) -> Option<&DriveStatus> {
+        self.statuses.get(bus)?.get(drive)?.as_ref()
+    }
+
+    /// Queue a result (the oldest is dropped past [`MAX_RESULTS`]); true if one was dropped.
+    pub fn push_result(&mut self, r: ResultMsg) -> bool {
+        self.results.push_back(r);
+        if self.results.len() > MAX_RESULTS {
+            self.results.pop_front();
+            self.dropped_results += 1;
+            return true;
+        }
+        false
+    }
+
+    /// A (new) connection is up: every known payload is to be published again; what was
+    /// handed to the client and not acknowledged is forgotten by the client (clean session),
+    /// so its results are queued again, first.
+    pub fn connected(&mut self) {
+        self.requeue_unacknowledged();
+        self.queue.clear();
+        for s in &mut self.slots {
+            s.dirty = false;
+        }
+        for ix in 0..self.slots.len() {
+            if self.slots.get(ix).is_some_and(|s| s.payload.is_some()) {
+                self.mark(ix);
+            }
+        }
+    }
+
+    /// The connection is down: results not acknowledged are queued again (the client drops
+    /// what it had at the next clean session).
+    pub fn disconnected(&mut self) {
+        self.requeue_unacknowledged();
+    }
+
+    fn requeue_unacknowledged(&mut self) {
+        let mut again: Vec<ResultMsg> = Vec::new();
+        let mut ids: Vec<u16> = self.inflight.keys().copied().collect();
+        ids.sort_unstable();
+        again.extend(ids.into_iter().filter_map(|id| self.inflight.remove(&id)));
+        again.extend(self.sent.drain(..).filter_map(|s| match s {
+            Sent::Result(r) => Some(r),
+            Sent::Other => None,
+        }));
+        for r in again.into_iter().rev() {
+            self.results.push_front(r);
+        }
+        while self.results.len() > MAX_RESULTS {
+            self.results.pop_back();
+            self.dropped_results += 1;
+        }
+    }
+
+    /// A message the caller handed to the client directly (the gateway's status).
+    pub fn handed_other(&mut self) {
+        self.sent.push_back(Sent::Other);
+    }
+
+    /// The client sent the next handed message with packet id `pkid`.
+    pub fn sent_publish(&mut self, pkid: u16) {
+        if let Some(Sent::Result(r)) = self.sent.pop_front() {
+            self.inflight.insert(pkid, r);
+        }
+    }
+
+    /// The broker acknowledged `pkid`.
+    pub fn acked(&mut self, pkid: u16) {
+        self.inflight.remove(&pkid);
+    }
+
+    /// Hand what is waiting to `publish` (results first, then retained topics in the order
+    /// they changed) until it refuses one (its queue is full: call again later). Returns the
+    /// number handed.
+    pub fn flush(&mut self, now: Instant, mut publish: impl FnMut(Out<'_>) -> bool) -> usize {
+        let mut n = 0;
+        while let Some(r) = self.results.front() {
+            let out = Out {
+                topic: &r.topic,
+                payload: &r.payload,
+                retain: false,
+                kind: "result",
+            };
+            if !publish(out) {
+                return n;
+            }
+            if let Some(r) = self.results.pop_front() {
+                self.sent.push_back(Sent::Result(r));
+            }
+            n += 1;
+        }
+        while let Some(&ix) = self.queue.front() {
+            let Some(s) = self.slots.get_mut(ix) else {
+                self.queue.pop_front();
+                continue;
+            };
+            if let (true, Some(p)) = (s.dirty, &s.payload) {
+                let out = Out {
+                    topic: &s.topic,
+                    payload: p,
+                    retain: true,
+                    kind: s.kind.label(),
+                };
+                if !publish(out) {
+                    return n;
+                }
+                s.published = Some(now);
+                self.sent.push_back(Sent::Other);
+                n += 1;
+            }
+            s.dirty = false;
+            self.queue.pop_front();
+        }
+        n
+    }
+
+    /// Messages waiting (results and retained topics).
+    #[cfg(test)]
+    pub fn waiting(&self) -> usize {
+        self.results.len() + self.queue.len()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::time::SystemTime;
+
+    fn plant() -> Plant {
+        Plant::parse(
+            "[gateway]\nname = \"gw\"\nbroker = \"mqtt://h\"\nheartbeat = \"10s\"\n\
+             [[bus]]\nname = \"b\"\nprotocol = \"movilink\"\nsimulate = true\n\
+             [[bus.drive]]\nname = \"d\"\naddress = 1\n\
+             [bus.drive.process_data]\nperiod = \"10ms\"\nout = [6, 1500]\n\
+             [[bus.drive.param]]\nparam = \"P130\"\nperiod = \"1s\"\n\
+             [[bus.drive.param]]\nparam = \"P700\"\nperiod = \"1s\"\nwritable = true\n",
+            "test",
+        )
+        .unwrap()
+    }
+
+    fn value(point: usize, raw: i64) -> Update {
+        Update::Value {
+            bus: 0,
+            drive: 0,
+            point,
+            raw,
+            at: SystemTime::UNIX_EPOCH + Duration::from_millis(1234),
+        }
+    }
+
+    fn drain(o: &mut Outbox, now: Instant) -> Vec<(String, String, bool)> {
+        let mut all = Vec::new();
+        o.flush(now, |m| {
+            all.push((m.topic.to_owned(), m.payload.to_owned(), m.retain));
+            true
+        });
+        all
+    }
+
+    #[tokio::test(start_paused = true)]
+    async fn values_on_change_and_heartbeat() {
+        let p = plant();
+        let mut o = Outbox::new(&p);
+        let t0 = Instant::now();
+        assert!(o.update(value(0, 2000), t0, &p));
+        let out = drain(&mut o, t0);
+        assert_eq!(out.len(), 1);
+        assert_eq!(
+            (out[0].0.as_str(), out[0].2),
+            ("drivebus/gw/b/d/P130", true)
+        );
+        let v: serde_json::Value = serde_json::from_str(&out[0].1).unwrap();
+        assert_eq!(
+            v,
+            serde_json::json!({"value": 2.0, "unit": "s", "raw": 2000, "ts": 1234})
+        );
+        // Unchanged within the heartbeat: nothing.
+        tokio::time::advance(Duration::from_secs(9)).await;
+        o.update(value(0, 2000), Instant::now(), &p);
+        assert!(drain(&mut o, Instant::now()).is_empty());
+        // Changed: published at once.
+        o.update(value(0, 2500), Instant::now(), &p);
+        assert_eq!(drain(&mut o, Instant::now()).len(), 1);
+        // Unchanged, a heartbeat after the last publication: published again.
+        tokio::time::advance(Duration::from_millis(9_999)).await;
+        o.update(value(0, 2500), Instant::now(), &p);
+        assert!(drain(&mut o, Instant::now()).is_empty());
+        tokio::time::advance(Duration::from_millis(1)).await;
+        o.update(value(0, 2500), Instant::now(), &p);
+        assert_eq!(drain(&mut o, Instant::now()).len(), 1);
+        // Names nothing: refused, no panic.
+        assert!(!o.update(value(9, 1), Instant::now(), &p));
+        assert!(!o.update(
+            Update::Status {
+                bus: 3,
+                drive: 0,
+                status: DriveStatus::Online,
+                at: SystemTime::now()
+            },
+            Instant::now(),
+            &p
+        ));
+    }
+
+    #[tokio::test(start_paused = true)]
+    async fn outage_keeps_only_the_latest_per_topic() {
+        let p = plant();
+        let mut o = Outbox::new(&p);
+        let now = Instant::now();
+        for raw in 0..1000 {
+            o.update(value(0, raw), now, &p);
+            o.update(
+                Update::ProcessData {
+                    bus: 0,
+                    drive: 0,
+                    words: vec![raw as u16, 7],
+                    at: SystemTime::UNIX_EPOCH,
+                },
+                now,
+                &p,
+            );
+        }
+        assert_eq!(o.waiting(), 2, "one per topic, however many updates");
+        o.connected();
+        let mut out = drain(&mut o, now);
+        out.sort();
+        assert_eq!(out.len(), 2);
+        assert_eq!(out[0].0, "drivebus/gw/b/d/P130");
+        assert!(out[0].1.contains(r#""raw":999"#), "{out:?}");
+        assert_eq!(out[1].0, "drivebus/gw/b/d/pd");
+        assert_eq!(out[1].1, r#"{"in":[999,7],"out":[6,1500],"ts":0}"#);
+        // At the next connection everything known is published again.
+        o.connected();
+        assert_eq!(drain(&mut o, now).len(), 2);
+    }
+
+    #[tokio::test(start_paused = true)]
+    async fn a_full_client_queue_keeps_the_rest_for_later() {
+        let p = plant();
+        let mut o = Outbox::new(&p);
+        let now = Instant::now();
+        o.update(value(0, 1), now, &p);
+        o.update(value(1, 2), now, &p);
+        let mut first = Vec::new();
+        assert_eq!(
+            o.flush(now, |m| {
+                first.push(m.topic.to_owned());
+                first.len() < 2
+            }),
+            1
+        );
+        assert_eq!(first, ["drivebus/gw/b/d/P130", "drivebus/gw/b/d/P700"]);
+        // Refused one comes next.
+        let out = drain(&mut o, now);
+        assert_eq!(out.len(), 1);
+        assert_eq!(out[0].0, "drivebus/gw/b/d/P700");
+        assert!(
+            out[0].1.contains(r#""text":"VFC 1 & hoist""#),
+            "{}",
+            out[0].1
+        );
+    }
+
+    #[tokio::test(start_paused = true)]
+    async fn unacknowledged_results_are_sent_again_after_reconnection() {
+        let p = plant();
+        let mut o = Outbox::new(&p);
+        let now = Instant::now();
+        let r = |n: u32| ResultMsg {
+            topic: format!("t/{n}"),
+            payload: n.to_string(),
+        };
+        o.push_result(r(1));
+        o.push_result(r(2));
+        o.push_result(r(3));
+        assert_eq!(drain(&mut o, now).len(), 3);
+        o.sent_publish(11); // r1 went out as 11
+        o.sent_publish(12); // r2 as 12; r3 still in the client's queue
+        o.acked(11);
+        o.disconnected();
+        o.connected();
+        let again: Vec<String> = drain(&mut o, now).into_iter().map(|m| m.0).collect();
+        assert_eq!(again, ["t/2", "t/3"]);
+        // Bounded.
+        for n in 0..(MAX_RESULTS as u32 + 5) {
+            o.push_result(r(n));
+        }
+        assert_eq!(o.waiting(), MAX_RESULTS);
+        assert_eq!(o.dropped_results, 5);
+    }
+}
