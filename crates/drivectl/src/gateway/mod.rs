@@ -8,6 +8,7 @@
 pub mod bus;
 pub mod config;
 pub mod families;
+pub mod load;
 pub mod metrics;
 pub mod model;
 pub mod mqtt;

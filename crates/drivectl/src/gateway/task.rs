@@ -1,6 +1,1332 @@
-//! The bus task. INTERFACE STUB.
+//! The bus task: the [`Scheduler`] on tokio time, running each job on the bus's
+//! [`BusAccess`] and reporting values, statuses and figures.
+//!
+//! * Every read is reported ([`Update::Value`], [`Update::ProcessData`]); the MQTT side decides
+//!   what changed and what is due for its heartbeat.
+//! * A drive's status is reported only when it changes ([`Update::Status`]): `Online` at its
+//!   first answer, `Fault(text)` / `Online` from its status reads, `Timeout` when it stops
+//!   answering (a warning in the log; an info line when it answers again).
+//! * The figures ([`Update::Figures`], utilisation metrics, the link's retries and rejected
+//!   frames) every [`FIGURES_EVERY`].
+//! * Writes ([`SetRequest`]) are taken at any time, also while a transaction waits for its
+//!   answer. A write that cannot be sent is answered at once (not writable, drive offline,
+//!   already too old, a value that is no number or name, does not convert or does not fit the
+//!   parameter's width); the others wait for their turn ([`Scheduler`]), pass the write guard
+//!   (access, range, value list, EEPROM wear; RAM unless the point is `eeprom`), are written
+//!   and read back: the answer is the value the drive holds.
+
+use std::collections::HashSet;
+use std::time::{Duration, SystemTime};
+
+use drive_profile::Persistence;
+use drive_profile::guard::GuardError;
+use serde_json::{Map, Value};
+use tokio::sync::mpsc;
+use tokio::time::Instant;
 
 use super::bus::{BusAccess, BusContext};
+use super::config::{Bus, Point};
+use super::metrics::Metrics;
+use super::model::{BusIx, DriveIx, DriveStatus, SetOutcome, SetRequest, SetValue, Update};
+use super::schedule::{Change, Job, Next, Outcome, Scheduler};
+use crate::error::CliError;
+use crate::tool::client::{ClientError, ParamClient, Target, ValueText, parse_decimal};
+use crate::tool::write::{WriteRequest, check_with, write_checked};
 
-/// Run the bus of `ctx` on `access` until the gateway stops.
-pub async fn run_bus<B: BusAccess>(_ctx: BusContext, _access: B) {}
+/// How often a bus reports its figures.
+pub const FIGURES_EVERY: Duration = Duration::from_secs(5);
+
+/// Writes a bus keeps waiting at most; more are refused (`busy`).
+pub const MAX_WAITING_WRITES: usize = 64;
+
+/// The longest value text a `set` may carry.
+const MAX_VALUE_TEXT: usize = 64;
+
+/// A write waiting for the bus: the request and its raw value.
+#[derive(Debug)]
+pub struct Pending {
+    req: SetRequest,
+    raw: i64,
+}
+
+/// What a job read.
+enum Read {
+    Value(i64),
+    ProcessData(Vec<u16>),
+    Fault(Option<String>),
+}
+
+/// What the task reports to and where.
+struct Out<'a> {
+    ix: BusIx,
+    bus: &'a Bus,
+    updates: &'a mpsc::Sender<Update>,
+    metrics: &'a Metrics,
+    status: Vec<Option<DriveStatus>>,
+    /// Points whose poll the drive refused (logged once).
+    refused: HashSet<(DriveIx, usize)>,
+    retries: u64,
+}
+
+/// Run the bus of `ctx` on `access` until the gateway stops (the receiver of `ctx.updates`
+/// is dropped).
+pub async fn run_bus<B: BusAccess>(ctx: BusContext, mut access: B) {
+    let BusContext {
+        ix,
+        bus,
+        updates,
+        mut sets,
+        metrics,
+    } = ctx;
+    let start = Instant::now();
+    let mut sched: Scheduler<Pending> = Scheduler::new(&bus, |op| access.wire_time(op), start);
+    tracing::info!(
+        bus = %bus.name,
+        drives = bus.drives.len(),
+        demand = sched.demand(),
+        "bus polling starts"
+    );
+    if sched.stretch() > 1.0 {
+        tracing::warn!(
+            bus = %bus.name,
+            demand = sched.demand(),
+            "the polls ask {:.0} % of what the wire carries: every period is stretched by {:.2}",
+            sched.demand() * 100.0,
+            sched.stretch()
+        );
+    }
+    let mut out = Out {
+        ix,
+        bus: &bus,
+        updates: &updates,
+        metrics: &metrics,
+        status: vec![None; bus.drives.len()],
+        refused: HashSet::new(),
+        retries: 0,
+    };
+    let mut next_figures = start + FIGURES_EVERY;
+    let mut sets_open = true;
+    while !updates.is_closed() {
+        let now = Instant::now();
+        if now >= next_figures {
+            out.figures(&sched, &mut access, now);
+            while next_figures <= now {
+                next_figures += FIGURES_EVERY;
+            }
+        }
+        match sched.next(now) {
+            Next::Idle(until) => {
+                tokio::select! {
+                    () = tokio::time::sleep_until(until.min(next_figures)) => {}
+                    req = sets.recv(), if sets_open => match req {
+                        Some(req) => accept(req, &bus, &mut sched),
+                        None => sets_open = false,
+                    },
+                }
+            }
+            Next::Refuse { write, reason } => {
+                let message = match reason {
+                    super::schedule::Refusal::Expired => format!(
+                        "the write waited {} ms for the bus, longer than max_set_age ({} ms): nothing was sent",
+                        write.req.received.elapsed().as_millis(),
+                        write.req.max_age.as_millis()
+                    ),
+                    super::schedule::Refusal::Offline => offline_message(&bus, write.req.drive),
+                };
+                answer(
+                    write.req,
+                    SetOutcome::Refused {
+                        reason: reason.reason(),
+                        message,
+                    },
+                );
+            }
+            Next::Run(job) => {
+                let started = Instant::now();
+                let result = {
+                    let fut = run_job(&mut access, &bus, job);
+                    tokio::pin!(fut);
+                    loop {
+                        tokio::select! {
+                            biased;
+                            r = &mut fut => break r,
+                            req = sets.recv(), if sets_open => match req {
+                                Some(req) => accept(req, &bus, &mut sched),
+                                None => sets_open = false,
+                            },
+                        }
+                    }
+                };
+                if !out.job_done(&mut sched, job, started, result).await {
+                    return;
+                }
+            }
+            Next::Write { drive, write } => {
+                let started = Instant::now();
+                let Pending { req, raw } = write;
+                let point = req.point;
+                let (outcome, answered) = {
+                    let fut = write_point(&mut access, &bus, drive, point, raw);
+                    tokio::pin!(fut);
+                    loop {
+                        tokio::select! {
+                            biased;
+                            r = &mut fut => break r,
+                            req = sets.recv(), if sets_open => match req {
+                                Some(req) => accept(req, &bus, &mut sched),
+                                None => sets_open = false,
+                            },
+                        }
+                    }
+                };
+                if !out
+                    .write_done(&mut sched, drive, point, started, &outcome, answered)
+                    .await
+                {
+                    return;
+                }
+                answer(req, outcome);
+            }
+        }
+    }
+}
+
+fn answer(req: SetRequest, outcome: SetOutcome) {
+    // The MQTT task may have given up on it (shutdown): nobody to tell.
+    let _ = req.reply.send(outcome);
+}
+
+fn refuse(req: SetRequest, reason: &'static str, message: String) {
+    answer(req, SetOutcome::Refused { reason, message });
+}
+
+fn offline_message(bus: &Bus, drive: DriveIx) -> String {
+    let name = bus.drives.get(drive).map_or("?", |d| d.name.as_str());
+    format!(
+        "drive {name} on bus {} does not answer (status timeout): nothing was sent; write again when it is online",
+        bus.name
+    )
+}
+
+/// Take a write: refuse it at once when it cannot be sent, else queue it.
+fn accept(req: SetRequest, bus: &Bus, sched: &mut Scheduler<Pending>) {
+    let Some(drive) = bus.drives.get(req.drive) else {
+        let m = format!("bus {} has no drive number {}", bus.name, req.drive);
+        return refuse(req, "bad_request", m);
+    };
+    let Some(point) = drive.points.get(req.point) else {
+        let m = format!("drive {} has no point number {}", drive.name, req.point);
+        return refuse(req, "bad_request", m);
+    };
+    if !point.writable {
+        let m = format!(
+            "{} of drive {} is not writable: the config lists it without writable = true; nothing was sent",
+            point.name, drive.name
+        );
+        return refuse(req, "not_writable", m);
+    }
+    if sched.is_offline(req.drive) {
+        let m = offline_message(bus, req.drive);
+        return refuse(req, "offline", m);
+    }
+    if req.received.elapsed() > req.max_age {
+        let m = format!(
+            "the write is older than max_set_age ({} ms): nothing was sent",
+            req.max_age.as_millis()
+        );
+        return refuse(req, "expired", m);
+    }
+    if sched.writes_waiting() >= MAX_WAITING_WRITES {
+        let m = format!(
+            "bus {} already has {MAX_WAITING_WRITES} writes waiting: nothing was sent; write again later",
+            bus.name
+        );
+        return refuse(req, "busy", m);
+    }
+    match raw_value(point, &req.value) {
+        Ok(raw) => {
+            let (drive, received, max_age) = (req.drive, req.received, req.max_age);
+            sched.push_write(drive, received, max_age, Pending { req, raw });
+        }
+        Err((reason, message)) => refuse(req, reason, message),
+    }
+}
+
+/// The raw value of a `set`, or the refusal: the value as a number in the parameter's unit
+/// or a value name, or the raw value; it must fit the parameter's bus width.
+pub fn raw_value(point: &Point, value: &SetValue) -> Result<i64, (&'static str, String)> {
+    let target = &point.target;
+    let raw = match value {
+        SetValue::Raw(raw) => *raw,
+        SetValue::Value(v) => {
+            let text = match v {
+                Value::String(s) if s.chars().count() <= MAX_VALUE_TEXT => s.clone(),
+                Value::String(_) => {
+                    return Err((
+                        "bad_request",
+                        format!("\"value\" is longer than {MAX_VALUE_TEXT} characters"),
+                    ));
+                }
+                Value::Number(n) => n
+                    .as_i64()
+                    .map(|i| i.to_string())
+                    .or_else(|| n.as_u64().map(|u| u.to_string()))
+                    .or_else(|| n.as_f64().filter(|f| f.is_finite()).map(|f| format!("{f}")))
+                    .ok_or_else(|| ("bad_request", format!("\"value\" {n} is no finite number")))?,
+                other => {
+                    let kind = match other {
+                        Value::Null => "null",
+                        Value::Bool(_) => "a boolean",
+                        Value::Array(_) => "an array",
+                        _ => "an object",
+                    };
+                    return Err((
+                        "bad_request",
+                        format!(
+                            "\"value\" is {kind}: give a number in the parameter's unit or a value name, or {{\"raw\": N}}"
+                        ),
+                    ));
+                }
+            };
+            target
+                .value_from_text(&text, &ValueText::default())
+                .map_err(|e| value_refusal(target, &text, &e))?
+                .raw
+        }
+    };
+    if let Some(p) = target.param {
+        drive_profile::guard::check_width(p, raw).map_err(|e| ("width", e.to_string()))?;
+    } else {
+        target
+            .check_width(raw)
+            .map_err(|e| ("width", e.to_string()))?;
+    }
+    Ok(raw)
+}
+
+/// Why `text` is no value of `target` (after [`Target::value_from_text`] refused it), with a
+/// message in the gateway's terms.
+fn value_refusal(target: &Target, text: &str, e: &CliError) -> (&'static str, String) {
+    let Some(p) = target.param else {
+        return ("bad_request", e.to_string());
+    };
+    if p.value_list_exhaustive() && !p.values().is_empty() {
+        return ("value_list", e.to_string());
+    }
+    let Some(x) = parse_decimal(text) else {
+        return (
+            "bad_request",
+            format!(
+                "`{text}` is not a number in {} nor a value name of {} {}; send {{\"raw\": N}} for a raw value",
+                if p.unit().is_empty() {
+                    "the parameter's unit"
+                } else {
+                    p.unit()
+                },
+                p.label(),
+                p.name_en()
+            ),
+        );
+    };
+    match p.from_physical(x) {
+        Err(err) => ("range", format!("{} {}: {err}", p.label(), p.name_en())),
+        Ok(raw) => (
+            "resolution",
+            format!(
+                "{} {} cannot hold {text} exactly: the nearest value it takes is {} (raw {raw})",
+                p.label(),
+                p.name_en(),
+                crate::tool::output::physical_text(p, raw)
+            ),
+        ),
+    }
+}
+
+/// Run one read job.
+async fn run_job<B: BusAccess>(access: &mut B, bus: &Bus, job: Job) -> Result<Read, ClientError> {
+    let Some(drive) = bus.drives.get(job.drive()) else {
+        return Err(ClientError::Link(format!("no drive {}", job.drive())));
+    };
+    match job {
+        Job::Poll { point, .. } => {
+            let Some(p) = drive.points.get(point) else {
+                return Err(ClientError::Link(format!("no point {point}")));
+            };
+            access
+                .client(drive.address)
+                .read(&p.target)
+                .await
+                .map(Read::Value)
+        }
+        Job::ProcessData { .. } => {
+            let out = drive
+                .process_data
+                .as_ref()
+                .map_or(&[][..], |pd| pd.out.as_slice());
+            access
+                .process_data(drive.address, out)
+                .await
+                .map(Read::ProcessData)
+        }
+        Job::Status { .. } | Job::Probe { .. } | Job::Write { .. } => {
+            access.fault(drive.address).await.map(Read::Fault)
+        }
+    }
+}
+
+impl Out<'_> {
+    fn drive_name(&self, drive: DriveIx) -> &str {
+        self.bus.drives.get(drive).map_or("?", |d| d.name.as_str())
+    }
+
+    /// Report a job's result; false when the gateway is stopping.
+    async fn job_done(
+        &mut self,
+        sched: &mut Scheduler<Pending>,
+        job: Job,
+        started: Instant,
+        result: Result<Read, ClientError>,
+    ) -> bool {
+        let now = Instant::now();
+        let drive = job.drive();
+        let label = match &result {
+            Ok(_) => "ok",
+            Err(ClientError::Device(_)) => "device_error",
+            Err(ClientError::Link(_)) => "timeout",
+        };
+        self.metrics.transaction(
+            &self.bus.name,
+            self.drive_name(drive),
+            job.op(self.bus).label(),
+            label,
+            now.saturating_duration_since(started),
+        );
+        let outcome = match &result {
+            Err(ClientError::Link(_)) => Outcome::NoAnswer,
+            _ => Outcome::Answered,
+        };
+        let change = sched.done(job, now, outcome);
+        let at = SystemTime::now();
+        match result {
+            Ok(Read::Value(raw)) => {
+                if let Job::Poll { point, .. } = job {
+                    self.send(Update::Value {
+                        bus: self.ix,
+                        drive,
+                        point,
+                        raw,
+                        at,
+                    });
+                }
+                self.answered(drive).await
+            }
+            Ok(Read::ProcessData(words)) => {
+                self.send(Update::ProcessData {
+                    bus: self.ix,
+                    drive,
+                    words,
+                    at,
+                });
+                self.answered(drive).await
+            }
+            Ok(Read::Fault(fault)) => {
+                let status = fault.map_or(DriveStatus::Online, DriveStatus::Fault);
+                self.set_status(drive, status).await
+            }
+            Err(ClientError::Device(e)) => {
+                if let Job::Poll { point, .. } = job
+                    && self.refused.insert((drive, point))
+                {
+                    tracing::warn!(
+                        bus = %self.bus.name,
+                        drive = %self.drive_name(drive),
+                        point = %self.bus.drives.get(drive).and_then(|d| d.points.get(point)).map_or("?", |p| p.name.as_str()),
+                        "the drive refuses the poll: {e} (logged once)"
+                    );
+                }
+                self.answered(drive).await
+            }
+            Err(ClientError::Link(e)) => {
+                if change == Some(Change::WentOffline) {
+                    tracing::warn!(
+                        bus = %self.bus.name,
+                        drive = %self.drive_name(drive),
+                        "drive does not answer ({e}): status timeout; probing it after a back-off"
+                    );
+                    return self.set_status(drive, DriveStatus::Timeout).await;
+                }
+                true
+            }
+        }
+    }
+
+    /// Report a write's end; false when the gateway is stopping.
+    async fn write_done(
+        &mut self,
+        sched: &mut Scheduler<Pending>,
+        drive: DriveIx,
+        point: usize,
+        started: Instant,
+        outcome: &SetOutcome,
+        answered: Outcome,
+    ) -> bool {
+        let now = Instant::now();
+        let label = match outcome {
+            SetOutcome::Written { .. } | SetOutcome::Refused { .. } => "ok",
+            SetOutcome::DeviceRefused { .. } => "device_error",
+            SetOutcome::LinkFailed { .. } => "timeout",
+        };
+        self.metrics.transaction(
+            &self.bus.name,
+            self.drive_name(drive),
+            "write",
+            label,
+            now.saturating_duration_since(started),
+        );
+        let change = sched.done(Job::Write { drive }, now, answered);
+        if let SetOutcome::Written { raw } = outcome {
+            self.send(Update::Value {
+                bus: self.ix,
+                drive,
+                point,
+                raw: *raw,
+                at: SystemTime::now(),
+            });
+        }
+        if change == Some(Change::WentOffline) {
+            tracing::warn!(
+                bus = %self.bus.name,
+                drive = %self.drive_name(drive),
+                "drive does not answer during a write: status timeout; probing it after a back-off"
+            );
+            return self.set_status(drive, DriveStatus::Timeout).await;
+        }
+        if answered == Outcome::Answered {
+            return self.answered(drive).await;
+        }
+        true
+    }
+
+    /// The drive answered something that says nothing about its fault: online unless known.
+    async fn answered(&mut self, drive: DriveIx) -> bool {
+        match self.status.get(drive) {
+            Some(None | Some(DriveStatus::Timeout)) => {
+                self.set_status(drive, DriveStatus::Online).await
+            }
+            _ => true,
+        }
+    }
+
+    /// Report `status` if it is new; false when the gateway is stopping.
+    async fn set_status(&mut self, drive: DriveIx, status: DriveStatus) -> bool {
+        let Some(slot) = self.status.get_mut(drive) else {
+            return true;
+        };
+        if slot.as_ref() == Some(&status) {
+            return true;
+        }
+        let was_timeout = *slot == Some(DriveStatus::Timeout);
+        *slot = Some(status.clone());
+        let name = self.drive_name(drive).to_owned();
+        if was_timeout {
+            tracing::info!(bus = %self.bus.name, drive = %name, state = status.state(), "drive answers again");
+        }
+        if let DriveStatus::Fault(text) = &status {
+            tracing::warn!(bus = %self.bus.name, drive = %name, "drive in fault: {text}");
+        }
+        self.metrics
+            .drive_status(&self.bus.name, &name, status.state());
+        // A status is never dropped: wait for room.
+        self.updates
+            .send(Update::Status {
+                bus: self.ix,
+                drive,
+                status,
+                at: SystemTime::now(),
+            })
+            .await
+            .is_ok()
+    }
+
+    /// Report a value; dropped (and logged) when the MQTT task is that far behind — the next
+    /// poll brings it again.
+    fn send(&self, u: Update) {
+        if let Err(mpsc::error::TrySendError::Full(_)) = self.updates.try_send(u) {
+            tracing::debug!(bus = %self.bus.name, "update queue full: a value was dropped");
+        }
+    }
+
+    fn figures<B: BusAccess>(&mut self, sched: &Scheduler<Pending>, access: &mut B, now: Instant) {
+        let tally = access.take_tally();
+        self.retries += tally.retries;
+        if tally.retries > 0 {
+            self.metrics.retries(&self.bus.name, tally.retries);
+        }
+        for (reason, n) in &tally.rejected {
+            self.metrics.rejected(&self.bus.name, reason, *n);
+        }
+        let mut figures = sched.figures(now);
+        figures.retries = self.retries;
+        self.metrics
+            .utilisation(&self.bus.name, figures.utilisation, figures.demand);
+        self.send(Update::Figures {
+            bus: self.ix,
+            figures,
+        });
+    }
+}
+
+/// A client that remembers the last error of the drive or the link, so that a write's
+/// failure is told apart (the tool layer's errors are for a person).
+struct Watched<C> {
+    inner: C,
+    error: Option<ClientError>,
+}
+
+impl<C: ParamClient> Watched<C> {
+    fn keep<T>(&mut self, r: Result<T, ClientError>) -> Result<T, ClientError> {
+        r.inspect_err(|e| {
+            self.error = Some(match e {
+                ClientError::Device(d) => ClientError::Device(d.clone()),
+                ClientError::Link(m) => ClientError::Link(m.clone()),
+            });
+        })
+    }
+}
+
+impl<C: ParamClient> ParamClient for Watched<C> {
+    fn family(&self) -> drive_profile::Family {
+        self.inner.family()
+    }
+    async fn drive_key(&mut self) -> Result<String, ClientError> {
+        let r = self.inner.drive_key().await;
+        self.keep(r)
+    }
+    fn link_settings(&self) -> &'static [u16] {
+        self.inner.link_settings()
+    }
+    fn link_change(&self, target: &Target, raw: i64) -> String {
+        self.inner.link_change(target, raw)
+    }
+    fn follow_link_change(&mut self, target: &Target, raw: i64) -> String {
+        self.inner.follow_link_change(target, raw)
+    }
+    fn not_restored(&self) -> &'static [u16] {
+        self.inner.not_restored()
+    }
+    async fn read(&mut self, target: &Target) -> Result<i64, ClientError> {
+        let r = self.inner.read(target).await;
+        self.keep(r)
+    }
+    async fn write(
+        &mut self,
+        target: &Target,
+        raw: i64,
+        persistence: Persistence,
+    ) -> Result<(), ClientError> {
+        let r = self.inner.write(target, raw, persistence).await;
+        self.keep(r)
+    }
+    async fn identify(&mut self) -> Result<Map<String, Value>, ClientError> {
+        let r = self.inner.identify().await;
+        self.keep(r)
+    }
+}
+
+/// Separates the guard's reason from its message in [`tagged`].
+const TAG: char = '\u{1f}';
+
+/// The guard's refusal as `reason TAG message`, without the command line's options.
+fn tagged(e: &GuardError) -> String {
+    let reason = match e {
+        GuardError::DoesNotFit { .. } => "width",
+        GuardError::ReadOnly { .. } => "access",
+        GuardError::OutOfRange { .. } => "range",
+        GuardError::NotInValueList { .. } => "value_list",
+        GuardError::TooFrequent { .. } => {
+            return format!(
+                "wear{TAG}{e}; writes of this point go to EEPROM (eeprom = true in the config): \
+                 write less often, or list it without eeprom for RAM writes"
+            );
+        }
+        _ => "refused",
+    };
+    format!("{reason}{TAG}{e}")
+}
+
+/// A refusal of the tool layer's write path as an outcome (`reason` from [`tagged`]; errors
+/// outside the guard, such as an unusable EEPROM-wear log, are `wear`).
+fn refusal_of(e: &CliError) -> SetOutcome {
+    let text = e.to_string();
+    let (reason, message) = match text.split_once(TAG) {
+        Some((r, m)) => {
+            let reason = match r {
+                "width" => "width",
+                "access" => "access",
+                "range" => "range",
+                "value_list" => "value_list",
+                "wear" => "wear",
+                _ => "refused",
+            };
+            (reason, m.to_owned())
+        }
+        None => ("wear", text),
+    };
+    SetOutcome::Refused { reason, message }
+}
+
+/// Check, write and read back `raw` to `point` of `drive`: the outcome, and whether the drive
+/// answered.
+async fn write_point<B: BusAccess>(
+    access: &mut B,
+    bus: &Bus,
+    drive: DriveIx,
+    point: usize,
+    raw: i64,
+) -> (SetOutcome, Outcome) {
+    let Some(d) = bus.drives.get(drive) else {
+        let message = format!("no drive number {drive}");
+        return (
+            SetOutcome::Refused {
+                reason: "bad_request",
+                message,
+            },
+            Outcome::Answered,
+        );
+    };
+    let Some(p) = d.points.get(point) else {
+        let message = format!("no point number {point}");
+        return (
+            SetOutcome::Refused {
+                reason: "bad_request",
+                message,
+            },
+            Outcome::Answered,
+        );
+    };
+    let target = p.target;
+    let refused = |reason, message| (SetOutcome::Refused { reason, message }, Outcome::Answered);
+    if target.param.is_none() {
+        return refused(
+            "access",
+            format!(
+                "{} is not in the {} parameter table: the gateway writes only parameters the table describes; nothing was sent",
+                target.label(),
+                target.family
+            ),
+        );
+    }
+    let persistence = if p.eeprom {
+        Persistence::NonVolatile
+    } else {
+        Persistence::Volatile
+    };
+    let req = WriteRequest {
+        target,
+        raw,
+        persistence,
+        force: false,
+    };
+    let mut client = Watched {
+        inner: access.client(d.address),
+        error: None,
+    };
+    if client.link_settings().contains(&target.index) {
+        return refused(
+            "access",
+            format!(
+                "{} is a setting of the link the gateway talks over ({}): the gateway does not write it; nothing was sent",
+                target.label(),
+                client.link_change(&target, raw)
+            ),
+        );
+    }
+    let checked = match client.drive_key().await {
+        Ok(key) => check_with(&key, &req, tagged).map(|_| ()),
+        Err(e) => Err(CliError::from(e)),
+    };
+    let result = match checked {
+        Ok(()) => write_checked(&mut client, &req, false)
+            .await
+            .map(|w| w.back),
+        Err(e) => Err(e),
+    };
+    match (result, client.error.take()) {
+        (Ok(back), _) => (SetOutcome::Written { raw: back }, Outcome::Answered),
+        (Err(e), Some(ClientError::Device(_))) => (
+            SetOutcome::DeviceRefused {
+                message: e.to_string(),
+            },
+            Outcome::Answered,
+        ),
+        (Err(e), Some(ClientError::Link(_))) => (
+            SetOutcome::LinkFailed {
+                message: e.to_string(),
+            },
+            Outcome::NoAnswer,
+        ),
+        (Err(e), None) => (refusal_of(&e), Outcome::Answered),
+    }
+}
+
+/// A scripted bus for the gateway's tests: drives that answer after their wire time on
+/// tokio's clock, drives that are dead (each attempt waits the timeout), and a record of every
+/// transaction.
+#[cfg(test)]
+pub(crate) mod fake {
+    use std::cell::RefCell;
+    use std::collections::{HashMap, HashSet};
+    use std::rc::Rc;
+    use std::time::Duration;
+
+    use drive_profile::{Family, Persistence};
+    use serde_json::{Map, Value};
+    use tokio::time::Instant;
+
+    use super::super::bus::{BusAccess, LinkTally, Op};
+    use super::super::config::{Bus, Plant};
+    use crate::tool::client::{ClientError, DeviceError, DeviceErrorKind, ParamClient, Target};
+
+    /// What the test sees and changes while the bus runs.
+    #[derive(Debug, Default)]
+    pub struct State {
+        /// Addresses that do not answer.
+        pub dead: HashSet<u8>,
+        /// Parameter values per address and index (absent: 0).
+        pub values: HashMap<(u8, u16), i64>,
+        /// Faults per address.
+        pub faults: HashMap<u8, String>,
+        /// Indices whose writes the drive refuses.
+        pub refuse_writes: HashSet<u16>,
+        /// Every write taken: address, index, raw, persistence.
+        pub written: Vec<(u8, u16, i64, Persistence)>,
+        /// Every transaction: when it started, the address, the op.
+        pub log: Vec<(Instant, u8, Op)>,
+        /// Retries since the last tally.
+        pub retries: u64,
+    }
+
+    /// The bus.
+    pub struct FakeBus {
+        /// Shared with the test.
+        pub state: Rc<RefCell<State>>,
+        /// Wire time of a read, a write, a process-data exchange.
+        pub wire: Duration,
+        /// Response timeout per attempt.
+        pub timeout: Duration,
+        /// Retries after a failed attempt.
+        pub retries: u8,
+    }
+
+    impl FakeBus {
+        /// A bus with `bus`'s timeout and retries and `wire` per transaction.
+        pub fn new(bus: &Bus, wire: Duration) -> (Self, Rc<RefCell<State>>) {
+            let state = Rc::new(RefCell::new(State::default()));
+            let fake = Self {
+                state: state.clone(),
+                wire,
+                timeout: bus.timeout,
+                retries: bus.retries,
+            };
+            (fake, state)
+        }
+
+        /// One transaction with `address`: its wire time, or the timeout of every attempt.
+        async fn transaction(&self, address: u8, op: Op) -> Result<(), ClientError> {
+            let dead = {
+                let mut s = self.state.borrow_mut();
+                s.log.push((Instant::now(), address, op));
+                s.dead.contains(&address)
+            };
+            if dead {
+                tokio::time::sleep(self.timeout * (u32::from(self.retries) + 1)).await;
+                self.state.borrow_mut().retries += u64::from(self.retries);
+                return Err(ClientError::Link(format!("no answer from drive {address}")));
+            }
+            tokio::time::sleep(self.wire_time(op)).await;
+            Ok(())
+        }
+    }
+
+    /// One drive of the fake bus.
+    pub struct FakeClient<'a> {
+        bus: &'a FakeBus,
+        address: u8,
+    }
+
+    impl ParamClient for FakeClient<'_> {
+        fn family(&self) -> Family {
+            Family::Movidrive
+        }
+        async fn drive_key(&mut self) -> Result<String, ClientError> {
+            Ok(format!("fake {}", self.address))
+        }
+        async fn read(&mut self, t: &Target) -> Result<i64, ClientError> {
+            self.bus.transaction(self.address, Op::Read).await?;
+            let s = self.bus.state.borrow();
+            Ok(s.values.get(&(self.address, t.index)).copied().unwrap_or(0))
+        }
+        async fn write(
+            &mut self,
+            t: &Target,
+            raw: i64,
+            persistence: Persistence,
+        ) -> Result<(), ClientError> {
+            self.bus.transaction(self.address, Op::Write).await?;
+            let mut s = self.bus.state.borrow_mut();
+            if s.refuse_writes.contains(&t.index) {
+                return Err(ClientError::Device(DeviceError {
+                    kind: DeviceErrorKind::Refused,
+                    message: "return code 0x0810: controller inhibit needed".into(),
+                }));
+            }
+            s.written.push((self.address, t.index, raw, persistence));
+            s.values.insert((self.address, t.index), raw);
+            Ok(())
+        }
+        async fn identify(&mut self) -> Result<Map<String, Value>, ClientError> {
+            Ok(Map::new())
+        }
+    }
+
+    impl BusAccess for FakeBus {
+        type Client<'a> = FakeClient<'a>;
+        fn client(&mut self, address: u8) -> FakeClient<'_> {
+            FakeClient { bus: self, address }
+        }
+        async fn process_data(
+            &mut self,
+            address: u8,
+            out: &[u16],
+        ) -> Result<Vec<u16>, ClientError> {
+            let n = u8::try_from(out.len()).unwrap_or(u8::MAX);
+            self.transaction(address, Op::ProcessData(n)).await?;
+            Ok(out.iter().map(|w| w ^ 0xFFFF).collect())
+        }
+        async fn fault(&mut self, address: u8) -> Result<Option<String>, ClientError> {
+            self.transaction(address, Op::Read).await?;
+            Ok(self.state.borrow().faults.get(&address).cloned())
+        }
+        fn wire_time(&self, op: Op) -> Duration {
+            match op {
+                Op::Read | Op::Write => self.wire,
+                Op::ProcessData(_) => self.wire / 2,
+            }
+        }
+        fn take_tally(&mut self) -> LinkTally {
+            LinkTally {
+                retries: std::mem::take(&mut self.state.borrow_mut().retries),
+                rejected: Vec::new(),
+            }
+        }
+    }
+
+    /// A plant of one simulated MOVILINK bus: `drives` drives (addresses 1…), each with the
+    /// points `points` (name, P130 polled at the period or not, writable) and process data at
+    /// `pd` if given.
+    pub fn plant(
+        drives: usize,
+        points: &[(&str, Option<&str>, bool)],
+        pd: Option<&str>,
+        bus_extra: &str,
+    ) -> Plant {
+        let mut t = String::from(
+            "[gateway]\nname = \"gw\"\nbroker = \"mqtt://127.0.0.1:1883\"\nmetrics = \"off\"\n\
+             [[bus]]\nname = \"line1\"\nprotocol = \"movilink\"\nsimulate = true\n",
+        );
+        t.push_str(bus_extra);
+        for d in 0..drives {
+            t.push_str(&format!(
+                "[[bus.drive]]\nname = \"d{}\"\naddress = {}\n",
+                d + 1,
+                d + 1
+            ));
+            for (name, period, writable) in points {
+                t.push_str(&format!(
+                    "[[bus.drive.param]]\nparam = \"P130\"\nname = \"{name}\"\nwritable = {writable}\n"
+                ));
+                if let Some(p) = period {
+                    t.push_str(&format!("period = \"{p}\"\n"));
+                }
+            }
+            if let Some(p) = pd {
+                t.push_str(&format!(
+                    "[bus.drive.process_data]\nperiod = \"{p}\"\nout = [6, 1000]\n"
+                ));
+            }
+        }
+        match Plant::parse(&t, "test") {
+            Ok(p) => p,
+            Err(e) => panic!("test config: {e}\n{t}"),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::cell::RefCell;
+    use std::rc::Rc;
+    use std::sync::Arc;
+
+    use serde_json::json;
+    use tokio::sync::oneshot;
+    use tokio::time::sleep;
+
+    use super::fake::{FakeBus, State, plant};
+    use super::*;
+    use crate::gateway::config::Plant;
+    use crate::gateway::model::BusFigures;
+
+    const WIRE: Duration = Duration::from_millis(5);
+    /// P130's bus index.
+    const P130: u16 = 8470;
+
+    struct Harness {
+        sets: mpsc::Sender<SetRequest>,
+        state: Rc<RefCell<State>>,
+        /// Every update with the (virtual) time it arrived.
+        seen: Rc<RefCell<Vec<(Instant, Update)>>>,
+        t0: Instant,
+    }
+
+    fn start(plant: &Plant) -> Harness {
+        let bus = plant.buses[0].clone();
+        let (fake, state) = FakeBus::new(&bus, WIRE);
+        let (utx, mut urx) = mpsc::channel(4096);
+        let (stx, srx) = mpsc::channel(64);
+        let ctx = BusContext {
+            ix: 0,
+            bus,
+            updates: utx,
+            sets: srx,
+            metrics: Arc::new(Metrics::new(plant)),
+        };
+        tokio::task::spawn_local(run_bus(ctx, fake));
+        let seen = Rc::new(RefCell::new(Vec::new()));
+        let log = seen.clone();
+        tokio::task::spawn_local(async move {
+            while let Some(u) = urx.recv().await {
+                log.borrow_mut().push((Instant::now(), u));
+            }
+        });
+        Harness {
+            sets: stx,
+            state,
+            seen,
+            t0: Instant::now(),
+        }
+    }
+
+    impl Harness {
+        async fn set_at(
+            &self,
+            drive: DriveIx,
+            point: usize,
+            value: SetValue,
+            received: Instant,
+            max_age: Duration,
+        ) -> SetOutcome {
+            let (reply, rx) = oneshot::channel();
+            let req = SetRequest {
+                drive,
+                point,
+                value,
+                received,
+                max_age,
+                reply,
+            };
+            self.sets.send(req).await.unwrap();
+            rx.await.unwrap()
+        }
+
+        async fn set(&self, drive: DriveIx, point: usize, value: SetValue) -> SetOutcome {
+            self.set_at(drive, point, value, Instant::now(), Duration::from_secs(10))
+                .await
+        }
+
+        /// Status updates of `drive`: when (since start) and which.
+        fn statuses(&self, drive: DriveIx) -> Vec<(Duration, DriveStatus)> {
+            self.seen
+                .borrow()
+                .iter()
+                .filter_map(|(t, u)| match u {
+                    Update::Status {
+                        drive: d, status, ..
+                    } if *d == drive => Some((*t - self.t0, status.clone())),
+                    _ => None,
+                })
+                .collect()
+        }
+
+        /// When values of `drive`'s `point` arrived.
+        fn values(&self, drive: DriveIx, point: usize) -> Vec<(Instant, i64)> {
+            self.seen
+                .borrow()
+                .iter()
+                .filter_map(|(t, u)| match u {
+                    Update::Value {
+                        drive: d,
+                        point: p,
+                        raw,
+                        ..
+                    } if *d == drive && *p == point => Some((*t, *raw)),
+                    _ => None,
+                })
+                .collect()
+        }
+    }
+
+    fn refused(outcome: &SetOutcome) -> &'static str {
+        match outcome {
+            SetOutcome::Refused { reason, .. } => reason,
+            other => panic!("not refused: {other:?}"),
+        }
+    }
+
+    /// Three drives, each with P130 polled every 100 ms (writable) and P130 as "fixed"
+    /// (polled, not writable).
+    fn three() -> Plant {
+        plant(
+            3,
+            &[("ramp", Some("100ms"), true), ("fixed", Some("1s"), false)],
+            None,
+            "status_period = \"1s\"\n",
+        )
+    }
+
+    #[tokio::test(start_paused = true)]
+    async fn a_dead_drive_goes_timeout_within_period_and_timeout_and_online_when_it_returns() {
+        tokio::task::LocalSet::new()
+            .run_until(async {
+                let plant = three();
+                let bus = &plant.buses[0];
+                let h = start(&plant);
+                sleep(Duration::from_secs(2)).await;
+                // All online from their first answer, once.
+                for d in 0..3 {
+                    assert_eq!(h.statuses(d).len(), 1, "{:?}", h.statuses(d));
+                    assert_eq!(h.statuses(d)[0].1, DriveStatus::Online);
+                }
+                let killed = Instant::now() - h.t0;
+                h.state.borrow_mut().dead.insert(2);
+                sleep(Duration::from_secs(20)).await;
+                let back = Instant::now() - h.t0;
+                h.state.borrow_mut().dead.remove(&2);
+                sleep(Duration::from_secs(12)).await;
+                let st = h.statuses(1);
+                let bound = Duration::from_millis(100) + bus.timeout * (u32::from(bus.retries) + 1);
+                match &st[..] {
+                    [
+                        (_, DriveStatus::Online),
+                        (t1, DriveStatus::Timeout),
+                        (t2, DriveStatus::Online),
+                    ] => {
+                        assert!(
+                            *t1 - killed <= bound + WIRE,
+                            "timeout after {:?}",
+                            *t1 - killed
+                        );
+                        // The probe after at most the longest back-off brings it back.
+                        assert!(
+                            *t2 > back && *t2 - back <= Duration::from_secs(10) + bound,
+                            "{st:?}"
+                        );
+                    }
+                    _ => panic!("{st:?}"),
+                }
+                // The others kept their period: each 100 ms poll on time (within the one
+                // timeout or probe that held the bus), never marked offline.
+                for d in [0, 2] {
+                    assert_eq!(h.statuses(d).len(), 1);
+                    let v = h.values(d, 0);
+                    let n = v.len();
+                    let mean = (v[n - 1].0 - v[0].0) / (n as u32 - 1);
+                    assert!(
+                        mean.abs_diff(Duration::from_millis(100)) <= WIRE,
+                        "{mean:?}"
+                    );
+                    for w in v.windows(2) {
+                        assert!(w[1].0 - w[0].0 <= Duration::from_millis(100) + bound + WIRE);
+                    }
+                }
+                // One timeout of the dead drive, then probes only: 1 + 1 + 2 + 4 + 8 + 10 s.
+                let log = h.state.borrow().log.clone();
+                let dead_tx = log
+                    .iter()
+                    .filter(|(t, a, _)| *a == 2 && *t - h.t0 >= killed && *t - h.t0 < back)
+                    .count();
+                assert!((5..=7).contains(&dead_tx), "{dead_tx}");
+                // Figures every 5 s, with the link's retries (one per dead attempt).
+                let figures: Vec<BusFigures> = h
+                    .seen
+                    .borrow()
+                    .iter()
+                    .filter_map(|(_, u)| match u {
+                        Update::Figures { figures, .. } => Some(figures.clone()),
+                        _ => None,
+                    })
+                    .collect();
+                assert_eq!(figures.len(), 6, "{figures:?}");
+                let last = figures.last().unwrap();
+                assert_eq!(last.retries, last.timeouts);
+                assert!(last.timeouts as usize == dead_tx, "{last:?}");
+            })
+            .await;
+    }
+
+    #[tokio::test(start_paused = true)]
+    async fn a_status_is_reported_only_when_it_changes() {
+        tokio::task::LocalSet::new()
+            .run_until(async {
+                let plant = three();
+                let h = start(&plant);
+                sleep(Duration::from_secs(3)).await;
+                h.state
+                    .borrow_mut()
+                    .faults
+                    .insert(1, "F07 DC link overvoltage".into());
+                sleep(Duration::from_secs(3)).await;
+                h.state.borrow_mut().faults.clear();
+                sleep(Duration::from_secs(3)).await;
+                let st: Vec<DriveStatus> = h.statuses(0).into_iter().map(|s| s.1).collect();
+                assert_eq!(
+                    st,
+                    [
+                        DriveStatus::Online,
+                        DriveStatus::Fault("F07 DC link overvoltage".into()),
+                        DriveStatus::Online
+                    ]
+                );
+                assert_eq!(h.statuses(1).len(), 1);
+            })
+            .await;
+    }
+
+    #[tokio::test(start_paused = true)]
+    async fn writes_are_guarded_converted_written_and_read_back() {
+        tokio::task::LocalSet::new()
+            .run_until(async {
+                let plant = three();
+                let h = start(&plant);
+                sleep(Duration::from_millis(500)).await;
+                // A value in the unit (1.5 s), then a raw one: written, read back, published.
+                let o = h.set(0, 0, SetValue::Value(json!(1.5))).await;
+                assert_eq!(o, SetOutcome::Written { raw: 1500 });
+                let o = h.set(0, 0, SetValue::Value(json!("2,5"))).await;
+                assert_eq!(o, SetOutcome::Written { raw: 2500 });
+                let o = h.set(1, 0, SetValue::Raw(2000)).await;
+                assert_eq!(o, SetOutcome::Written { raw: 2000 });
+                assert!(h.values(1, 0).iter().any(|v| v.1 == 2000));
+                assert_eq!(
+                    h.state.borrow().written,
+                    [
+                        (1, P130, 1500, Persistence::Volatile),
+                        (1, P130, 2500, Persistence::Volatile),
+                        (2, P130, 2000, Persistence::Volatile)
+                    ]
+                );
+                // Nothing a set carries is written when it is wrong, and none panics.
+                let bad: Vec<(SetValue, &str)> = vec![
+                    (SetValue::Value(json!(3000)), "range"),
+                    (SetValue::Value(json!(-1)), "range"),
+                    (SetValue::Value(json!(1e300)), "range"),
+                    (SetValue::Value(json!(u64::MAX)), "range"),
+                    (SetValue::Value(json!(1.25)), "resolution"),
+                    (SetValue::Raw(1 << 40), "width"),
+                    (SetValue::Raw(i64::MIN), "width"),
+                    (SetValue::Raw(99_999_999), "range"),
+                    (SetValue::Value(json!(null)), "bad_request"),
+                    (SetValue::Value(json!(true)), "bad_request"),
+                    (SetValue::Value(json!([1])), "bad_request"),
+                    (SetValue::Value(json!({"a": 1})), "bad_request"),
+                    (SetValue::Value(json!("fast")), "bad_request"),
+                    (SetValue::Value(json!("NaN")), "bad_request"),
+                    (SetValue::Value(json!("1e3")), "bad_request"),
+                    (SetValue::Value(json!("9".repeat(100_000))), "bad_request"),
+                ];
+                for (value, reason) in bad {
+                    let o = h.set(0, 0, value.clone()).await;
+                    assert_eq!(refused(&o), reason, "{value:?}: {o:?}");
+                }
+                // Not writable; no such drive or point.
+                assert_eq!(
+                    refused(&h.set(0, 1, SetValue::Raw(1500)).await),
+                    "not_writable"
+                );
+                assert_eq!(
+                    refused(&h.set(7, 0, SetValue::Raw(1500)).await),
+                    "bad_request"
+                );
+                assert_eq!(
+                    refused(&h.set(0, 9, SetValue::Raw(1500)).await),
+                    "bad_request"
+                );
+                // Too old on arrival.
+                let old = Instant::now() - Duration::from_secs(20);
+                let o = h
+                    .set_at(0, 0, SetValue::Raw(1500), old, Duration::from_secs(10))
+                    .await;
+                assert_eq!(refused(&o), "expired");
+                assert_eq!(h.state.borrow().written.len(), 3);
+                // The drive refuses it.
+                h.state.borrow_mut().refuse_writes.insert(P130);
+                match h.set(2, 0, SetValue::Raw(1500)).await {
+                    SetOutcome::DeviceRefused { message } => {
+                        assert!(message.contains("controller inhibit"), "{message}")
+                    }
+                    other => panic!("{other:?}"),
+                }
+                assert_eq!(h.state.borrow().written.len(), 3);
+            })
+            .await;
+    }
+
+    #[tokio::test(start_paused = true)]
+    async fn writes_for_an_offline_drive_or_waiting_too_long_are_refused_and_never_sent() {
+        tokio::task::LocalSet::new()
+            .run_until(async {
+                let plant = three();
+                let h = start(&plant);
+                sleep(Duration::from_millis(500)).await;
+                h.state.borrow_mut().dead.insert(3);
+                sleep(Duration::from_secs(1)).await;
+                assert_eq!(h.statuses(2).last().unwrap().1, DriveStatus::Timeout);
+                assert_eq!(refused(&h.set(2, 0, SetValue::Raw(1500)).await), "offline");
+                // A set that arrives while the bus waits for a dead drive's answer is taken at
+                // once: refused without waiting for the transaction; a queued one whose
+                // max_age passes while the bus is held is refused as expired.
+                h.state.borrow_mut().dead.insert(1);
+                let killed = Instant::now();
+                loop {
+                    sleep(Duration::from_millis(1)).await;
+                    let busy = h
+                        .state
+                        .borrow()
+                        .log
+                        .last()
+                        .is_some_and(|(t, a, _)| *a == 1 && *t > killed);
+                    if busy {
+                        break;
+                    }
+                }
+                let asked = Instant::now();
+                assert_eq!(
+                    refused(&h.set(0, 1, SetValue::Raw(1500)).await),
+                    "not_writable"
+                );
+                assert!(asked.elapsed() < WIRE, "{:?}", asked.elapsed());
+                let o = h
+                    .set_at(
+                        1,
+                        0,
+                        SetValue::Raw(1500),
+                        Instant::now(),
+                        Duration::from_millis(50),
+                    )
+                    .await;
+                assert_eq!(refused(&o), "expired");
+                assert!(h.state.borrow().written.is_empty());
+            })
+            .await;
+    }
+}

@@ -1,0 +1,194 @@
+//! A load run of the gateway's bus tasks: `buses` × `drives` on the caller's buses (a bus
+//! factory: the fake bus in tests, each family's simulated bus on the wire model), on the
+//! caller's clock (tokio's paused clock: virtual time), reporting per bus the transactions and
+//! the utilisation against the wire bound, and the real CPU time per transaction and the memory
+//! per bus.
+//!
+//! Call it inside a `LocalSet` on a current-thread runtime whose clock is paused: the buses
+//! then run `dur` of virtual time as fast as the processor allows.
+
+use std::sync::Arc;
+use std::time::Duration;
+
+use tokio::sync::mpsc;
+
+use super::bus::{BusAccess, BusContext};
+use super::config::{Bus, Plant};
+use super::metrics::Metrics;
+use super::model::{BusFigures, Update};
+
+/// One bus's figures at the end of a load run.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BusLoad {
+    /// The bus's name.
+    pub bus: String,
+    /// Its figures (the last of the run).
+    pub figures: BusFigures,
+    /// What the wire allows the polls to take: the demand, at most 1.
+    pub bound: f64,
+}
+
+/// What a load run measured.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LoadReport {
+    /// Per bus.
+    pub buses: Vec<BusLoad>,
+    /// Transactions of all buses.
+    pub transactions: u64,
+    /// Real (processor) time per transaction: the run's real time over the transactions.
+    pub cpu_per_transaction: Duration,
+    /// Growth of the resident memory per bus (from `/proc/self/status`; `None` where it
+    /// cannot be read).
+    pub rss_per_bus: Option<u64>,
+}
+
+/// The config of the load plant: `buses` simulated MOVILINK buses of `drives` drives, each
+/// drive with P130 polled every `period` (and its status read every 5 s).
+pub fn plant(buses: usize, drives: usize, period: &str) -> crate::error::Result<Plant> {
+    let mut t = String::from(
+        "[gateway]\nname = \"load\"\nbroker = \"mqtt://127.0.0.1:1883\"\nmetrics = \"off\"\n",
+    );
+    for b in 0..buses {
+        t.push_str(&format!(
+            "[[bus]]\nname = \"bus{b}\"\nprotocol = \"movilink\"\nsimulate = true\n"
+        ));
+        for d in 0..drives {
+            t.push_str(&format!(
+                "[[bus.drive]]\nname = \"d{d}\"\naddress = {}\n[[bus.drive.param]]\nparam = \"P130\"\nperiod = \"{period}\"\n",
+                d + 1
+            ));
+        }
+    }
+    Plant::parse(&t, "load plant")
+}
+
+/// Resident memory of this process in bytes (`VmRSS`).
+fn rss() -> Option<u64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmRSS:"))?;
+    let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kb * 1024)
+}
+
+/// Run every bus of `plant` for `dur` (on the runtime's clock), each on the bus `make_bus`
+/// gives it.
+pub async fn load<B, F>(plant: &Plant, dur: Duration, mut make_bus: F) -> LoadReport
+where
+    B: BusAccess + 'static,
+    F: FnMut(&Bus) -> B,
+{
+    let metrics = Arc::new(Metrics::new(plant));
+    let before = rss();
+    let real = std::time::Instant::now();
+    let (tx, mut rx) = mpsc::channel(4096);
+    let mut tasks = Vec::new();
+    let mut keep = Vec::new();
+    for (ix, bus) in plant.buses.iter().enumerate() {
+        let (set_tx, set_rx) = mpsc::channel(1);
+        keep.push(set_tx);
+        let ctx = BusContext {
+            ix,
+            bus: bus.clone(),
+            updates: tx.clone(),
+            sets: set_rx,
+            metrics: metrics.clone(),
+        };
+        tasks.push(tokio::task::spawn_local(super::task::run_bus(
+            ctx,
+            make_bus(bus),
+        )));
+    }
+    drop(tx);
+    let mut last: Vec<Option<BusFigures>> = vec![None; plant.buses.len()];
+    let end = tokio::time::Instant::now() + dur;
+    loop {
+        tokio::select! {
+            () = tokio::time::sleep_until(end) => break,
+            u = rx.recv() => match u {
+                Some(Update::Figures { bus, figures }) => {
+                    if let Some(slot) = last.get_mut(bus) {
+                        *slot = Some(figures);
+                    }
+                }
+                Some(_) => {}
+                None => break,
+            },
+        }
+    }
+    let after = rss();
+    for t in &tasks {
+        t.abort();
+    }
+    let elapsed = real.elapsed();
+    let buses: Vec<BusLoad> = plant
+        .buses
+        .iter()
+        .zip(last)
+        .map(|(bus, f)| {
+            let figures = f.unwrap_or_default();
+            BusLoad {
+                bus: bus.name.clone(),
+                bound: figures.demand.min(1.0),
+                figures,
+            }
+        })
+        .collect();
+    let transactions: u64 = buses.iter().map(|b| b.figures.transactions).sum();
+    let n = u32::try_from(transactions.max(1)).unwrap_or(u32::MAX);
+    LoadReport {
+        cpu_per_transaction: elapsed / n,
+        rss_per_bus: before
+            .zip(after)
+            .map(|(b, a)| a.saturating_sub(b) / u64::try_from(buses.len().max(1)).unwrap_or(1)),
+        buses,
+        transactions,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::task::fake::FakeBus;
+    use super::*;
+
+    // The figures are what this test is for: `cargo test … gateway::load -- --nocapture`.
+    #[allow(clippy::print_stderr)]
+    #[tokio::test(start_paused = true)]
+    async fn every_bus_stays_within_five_percent_of_its_wire_bound_from_1_to_64_buses() {
+        tokio::task::LocalSet::new()
+            .run_until(async {
+                for buses in [1, 8, 64] {
+                    // 31 drives polled every 100 ms at 5 ms a read: 155 % of the wire.
+                    let plant = plant(buses, 31, "100ms").unwrap();
+                    let report = load(&plant, Duration::from_secs(20), |bus| {
+                        FakeBus::new(bus, Duration::from_millis(5)).0
+                    })
+                    .await;
+                    for b in &report.buses {
+                        assert!(b.bound > 0.99, "{b:?}");
+                        assert!(
+                            b.figures.utilisation >= 0.95 * b.bound
+                                && b.figures.utilisation <= b.bound + 1e-6,
+                            "{b:?}"
+                        );
+                    }
+                    eprintln!(
+                        "load: {buses} buses x 31 drives, 20 s virtual: {} transactions, utilisation {:.3}-{:.3}, {:?} per transaction, {} bytes per bus",
+                        report.transactions,
+                        report
+                            .buses
+                            .iter()
+                            .map(|b| b.figures.utilisation)
+                            .fold(f64::MAX, f64::min),
+                        report
+                            .buses
+                            .iter()
+                            .map(|b| b.figures.utilisation)
+                            .fold(0.0, f64::max),
+                        report.cpu_per_transaction,
+                        report.rss_per_bus.unwrap_or(0)
+                    );
+                }
+            })
+            .await;
+    }
+}
