@@ -31,7 +31,7 @@ pub struct GatewayArgs {
     /// The plant's config file (TOML; `-`: standard input).
     #[arg(long, required_unless_present = "example_config")]
     pub config: Option<String>,
-    /// The broker, overriding the config's: mqtt://host:port or mqtts://[user@]host:port.
+    /// The broker, overriding the config's: mqtt://host:port or mqtts://host:port (mqtts://user@host:port with a user name).
     #[arg(long)]
     pub broker: Option<String>,
     /// Run every bus against simulated drives (each family's simulator on the wire model).
