@@ -384,11 +384,6 @@ impl UssBus {
         }
     }
 
-    /// The layout in use.
-    pub fn layout(&self) -> Layout {
-        self.layout
-    }
-
     fn drive(&mut self, address: u8) -> Result<&mut NordClient<UssMaster<SharedLine>>, String> {
         let a = UssAddress::new(address)
             .ok_or_else(|| format!("USS address {address}: a drive has 0–31"))?;
@@ -531,13 +526,13 @@ pub struct Access {
 #[derive(Debug)]
 pub enum Proto {
     /// MOVILINK.
-    Movilink(MovilinkBus<LineIo>),
+    Movilink(Box<MovilinkBus<LineIo>>),
     /// SBus.
-    Sbus(SbusBus<CanBox>),
+    Sbus(Box<SbusBus<CanBox>>),
     /// USS.
-    Uss(UssBus),
+    Uss(Box<UssBus>),
     /// Modbus RTU or ASCII.
-    Modbus(ModbusBus<LineIo>),
+    Modbus(Box<ModbusBus<LineIo>>),
 }
 
 impl Access {

@@ -133,23 +133,33 @@ pub fn open_bus(bus: &Bus) -> Access {
     let wire = WireDesc::of(bus);
     let proto = match &bus.endpoint {
         Endpoint::Simulated { .. } => return simulated_bus(bus).access,
-        Endpoint::Can { iface } => {
-            Proto::Sbus(access::SbusBus::new(can_io(bus, iface), bus, iface))
-        }
+        Endpoint::Can { iface } => Proto::Sbus(Box::new(access::SbusBus::new(
+            can_io(bus, iface),
+            bus,
+            iface,
+        ))),
         Endpoint::Serial { path, .. } => {
             let line = wire.line;
             let io = serial_line(bus, path, line);
             match bus.protocol {
-                Protocol::Movilink => {
-                    Proto::Movilink(access::MovilinkBus::new(io, bus, path, line, true))
-                }
-                Protocol::Uss => Proto::Uss(access::UssBus::new(io, bus, path, line)),
-                Protocol::ModbusRtu => {
-                    Proto::Modbus(access::ModbusBus::new(io, bus, path, Mode::Rtu, line))
-                }
-                Protocol::ModbusAscii => {
-                    Proto::Modbus(access::ModbusBus::new(io, bus, path, Mode::Ascii, line))
-                }
+                Protocol::Movilink => Proto::Movilink(Box::new(access::MovilinkBus::new(
+                    io, bus, path, line, true,
+                ))),
+                Protocol::Uss => Proto::Uss(Box::new(access::UssBus::new(io, bus, path, line))),
+                Protocol::ModbusRtu => Proto::Modbus(Box::new(access::ModbusBus::new(
+                    io,
+                    bus,
+                    path,
+                    Mode::Rtu,
+                    line,
+                ))),
+                Protocol::ModbusAscii => Proto::Modbus(Box::new(access::ModbusBus::new(
+                    io,
+                    bus,
+                    path,
+                    Mode::Ascii,
+                    line,
+                ))),
                 // The config gives SBus a CAN interface, never a port: run it on the virtual
                 // bus rather than nowhere.
                 Protocol::Sbus => return simulated_bus(bus).access,
@@ -159,8 +169,10 @@ pub fn open_bus(bus: &Bus) -> Access {
     Access { proto, wire }
 }
 
-/// A bus of simulated drives: its access, and the switch of its line's faults.
+/// A bus of simulated drives: its access, and the switch of its line's faults (the
+/// fault-injection and load tests switch them; the gateway runs without).
 #[derive(Debug)]
+#[cfg_attr(not(test), allow(dead_code))]
 pub struct SimulatedBus {
     /// The bus as the gateway drives it.
     pub access: Access,
@@ -195,7 +207,7 @@ pub fn simulated_bus(bus: &Bus) -> SimulatedBus {
                 let _ = sim.serve(end).await;
             });
             let b = access::MovilinkBus::new(io, bus, &name, line, false);
-            (Proto::Movilink(b), None)
+            (Proto::Movilink(Box::new(b)), None)
         }
         Protocol::Uss => {
             let (io, end) = serial();
@@ -207,7 +219,10 @@ pub fn simulated_bus(bus: &Bus) -> SimulatedBus {
             tokio::spawn(async move {
                 let _ = sim.serve(end).await;
             });
-            (Proto::Uss(access::UssBus::new(io, bus, &name, line)), None)
+            (
+                Proto::Uss(Box::new(access::UssBus::new(io, bus, &name, line))),
+                None,
+            )
         }
         Protocol::ModbusRtu | Protocol::ModbusAscii => {
             let mode = if bus.protocol == Protocol::ModbusRtu {
@@ -226,7 +241,7 @@ pub fn simulated_bus(bus: &Bus) -> SimulatedBus {
                 let _ = sim.serve(end).await;
             });
             let b = access::ModbusBus::new(io, bus, &name, mode, line);
-            (Proto::Modbus(b), None)
+            (Proto::Modbus(Box::new(b)), None)
         }
         Protocol::Sbus => {
             let vbus = VirtualBus::new(wire.bitrate);
@@ -237,7 +252,7 @@ pub fn simulated_bus(bus: &Bus) -> SimulatedBus {
             });
             let io: CanBox = Box::new(vbus.node());
             (
-                Proto::Sbus(access::SbusBus::new(io, bus, &name)),
+                Proto::Sbus(Box::new(access::SbusBus::new(io, bus, &name))),
                 Some(vbus),
             )
         }

@@ -255,6 +255,8 @@ struct Campaign {
     device_errors: u32,
     retries: u64,
     rejected: u64,
+    /// Faults the serial line injected (both directions).
+    injected: u64,
 }
 
 /// `n` reads of the distinctive values of `bus`'s writable points while faults are injected;
@@ -266,6 +268,7 @@ async fn campaign(bus: &Bus, n: u32, faults: impl FnOnce(&SimulatedBus)) -> Camp
     sim.access.take_tally();
     faults(&sim);
     let mut c = Campaign::default();
+    let before = sim.faults.stats();
     for i in 0..n {
         let Some((addr, point, want)) = truth.get(i as usize % truth.len()) else {
             continue;
@@ -287,6 +290,15 @@ async fn campaign(bus: &Bus, n: u32, faults: impl FnOnce(&SimulatedBus)) -> Camp
         c.retries += t.retries;
         c.rejected += t.rejected.iter().map(|r| r.1).sum::<u64>();
     }
+    let after = sim.faults.stats();
+    c.injected = after
+        .iter()
+        .zip(before)
+        .map(|(a, b)| {
+            (a.dropped + a.inserted + a.flipped + a.delayed)
+                - (b.dropped + b.inserted + b.flipped + b.delayed)
+        })
+        .sum();
     c
 }
 
@@ -323,7 +335,9 @@ async fn serial_campaign(p: Protocol, seed: u64) -> Campaign {
         total.device_errors += c.device_errors;
         total.retries += c.retries;
         total.rejected += c.rejected;
+        total.injected += c.injected;
     }
+    assert!(total.injected > 50, "{}: {total:?}", p.name());
     assert!(
         total.rejected > 0 && total.retries > 0,
         "{}: {total:?}",
@@ -414,4 +428,22 @@ async fn a_port_that_cannot_be_opened_fails_every_call_and_is_tried_again_with_a
         io::Reopen::<io::LineIo>::backoff_after(60),
         Duration::from_secs(30)
     );
+}
+
+#[test]
+fn check_refuses_a_plant_whose_polls_ask_more_than_the_wire_and_names_the_bus() {
+    let text = EXAMPLE_CONFIG.replace("period = \"1s\"", "period = \"10ms\"");
+    let plant = Plant::parse(&text, "example").unwrap();
+    let over: Vec<&str> = plant
+        .buses
+        .iter()
+        .filter(|b| demand(b) > 1.0)
+        .map(|b| b.name.as_str())
+        .collect();
+    assert!(!over.is_empty());
+    let e = print_check(&plant).unwrap_err();
+    assert_eq!(e.exit_code(), 1);
+    for name in over {
+        assert!(e.to_string().contains(name), "{e}");
+    }
 }
