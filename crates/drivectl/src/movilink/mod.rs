@@ -228,8 +228,9 @@ pub struct MovilinkLink<'a, IO> {
     port: String,
 }
 
-/// The way to the drive at `address` behind `driver` on `port`.
-fn link<'a, IO>(
+/// The way to the drive at `address` behind `driver` on `port` (the gateway's buses build
+/// theirs with it too).
+pub fn link<'a, IO>(
     driver: &'a mut MasterDriver<IO>,
     address: Address,
     port: &str,
@@ -251,7 +252,9 @@ pub const LINK_SETTINGS: &[u16] = &[
 
 pub use crate::sew::raw_of;
 
-fn client_error(e: DriverError) -> ClientError {
+/// The tool layer's error of a driver error: a drive's return code is a device error, the
+/// rest are link failures.
+pub fn client_error(e: DriverError) -> ClientError {
     match e {
         DriverError::Device(code) => device_error(code, e.to_string()),
         other => ClientError::Link(other.to_string()),

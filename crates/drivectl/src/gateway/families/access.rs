@@ -1,0 +1,614 @@
+//! Each protocol's [`BusAccess`]: the bus's one driver, the tool layer's per-drive clients on
+//! it, process data, the drive's fault, the wire time of a transaction and the link's tally.
+//!
+//! [`Access`] is the one type every bus has, whatever its protocol and endpoint, so that the
+//! gateway runs one bus task type; [`AnyClient`] is its per-drive client.
+
+use std::collections::BTreeMap;
+use std::time::Duration;
+
+use bonfiglioli_modbus::framing::Mode;
+use ctt2_uss::client::{ClientConfig, NordClient};
+use ctt2_uss::serial::driver::{DriverConfig as UssConfig, UssMaster};
+use ctt2_uss::serial::{Layout, UssAddress, UssTiming};
+use drive_core::LineSettings;
+use drive_core::rt::CharIo;
+use drive_profile::Family;
+use drive_profile::nord::ControlWord;
+use drive_profile::sew::StatusWord1;
+use sbus_can::driver::SbusMaster;
+use sbus_can::master::Handshake;
+use serde_json::Map;
+
+use super::io::{CanBox, LineIo, SharedLine};
+use super::wire::WireDesc;
+use crate::bonfiglioli::BonfiglioliClient;
+use crate::gateway::bus::{BusAccess, LinkTally, Op};
+use crate::gateway::config::Bus;
+use crate::movilink::MovilinkLink;
+use crate::nord::NordParamClient;
+use crate::sbus::link::SbusLink;
+use crate::sew::SewClient;
+use crate::tool::client::{ClientError, ParamClient, Target, canonical_port};
+
+/// The USB serial adapters' burst delivery (an FTDI chip hands characters over every 16 ms):
+/// the gap accepted inside an answer on a real port, as `drivectl` does by default. The
+/// checksums, lengths and parity stay in force.
+pub const REAL_PORT_CHAR_GAP: Duration = Duration::from_millis(20);
+
+/// The per-drive client of a bus of any protocol.
+pub enum AnyClient<'a> {
+    /// MOVILINK.
+    Movilink(SewClient<MovilinkLink<'a, LineIo>>),
+    /// SBus.
+    Sbus(SewClient<SbusLink<'a, CanBox>>),
+    /// USS.
+    Uss(NordParamClient<'a, UssMaster<SharedLine>>),
+    /// Modbus RTU or ASCII.
+    Modbus(BonfiglioliClient<'a, LineIo>),
+    /// An address the protocol cannot reach: every call fails with this message.
+    Invalid {
+        /// The drives' family.
+        family: Family,
+        /// Why.
+        message: String,
+    },
+}
+
+macro_rules! each {
+    ($self:ident, $c:ident => $e:expr, $invalid:expr) => {
+        match $self {
+            AnyClient::Movilink($c) => $e,
+            AnyClient::Sbus($c) => $e,
+            AnyClient::Uss($c) => $e,
+            AnyClient::Modbus($c) => $e,
+            AnyClient::Invalid { .. } => $invalid,
+        }
+    };
+}
+
+impl AnyClient<'_> {
+    fn invalid(&self) -> ClientError {
+        match self {
+            AnyClient::Invalid { message, .. } => ClientError::Link(message.clone()),
+            _ => ClientError::Link("no such drive".to_owned()),
+        }
+    }
+}
+
+impl ParamClient for AnyClient<'_> {
+    fn family(&self) -> Family {
+        match self {
+            AnyClient::Invalid { family, .. } => *family,
+            other => each!(other, c => c.family(), Family::Movidrive),
+        }
+    }
+
+    async fn drive_key(&mut self) -> Result<String, ClientError> {
+        let e = self.invalid();
+        each!(self, c => c.drive_key().await, Err(e))
+    }
+
+    fn link_settings(&self) -> &'static [u16] {
+        each!(self, c => c.link_settings(), &[])
+    }
+
+    fn link_change(&self, target: &Target, raw: i64) -> String {
+        each!(self, c => c.link_change(target, raw), String::new())
+    }
+
+    fn follow_link_change(&mut self, target: &Target, raw: i64) -> String {
+        each!(self, c => c.follow_link_change(target, raw), String::new())
+    }
+
+    fn not_restored(&self) -> &'static [u16] {
+        each!(self, c => c.not_restored(), &[])
+    }
+
+    async fn read(&mut self, target: &Target) -> Result<i64, ClientError> {
+        let e = self.invalid();
+        each!(self, c => c.read(target).await, Err(e))
+    }
+
+    async fn write(
+        &mut self,
+        target: &Target,
+        raw: i64,
+        persistence: drive_profile::Persistence,
+    ) -> Result<(), ClientError> {
+        let e = self.invalid();
+        each!(self, c => c.write(target, raw, persistence).await, Err(e))
+    }
+
+    async fn identify(&mut self) -> Result<Map<String, serde_json::Value>, ClientError> {
+        let e = self.invalid();
+        each!(self, c => c.identify().await, Err(e))
+    }
+}
+
+/// The table entry `key` of `family` as a target (the fault indications).
+fn table_target(family: Family, key: &str) -> Result<Target, ClientError> {
+    drive_profile::family::lookup(family, key)
+        .map(Target::of)
+        .ok_or_else(|| ClientError::Link(format!("{key} is not in the {family} table")))
+}
+
+/// A MOVIDRIVE's fault (MOVILINK and SBus): P012 fault status, the high byte of status word 1
+/// while bit 5 is set; decoded with the tool layer's meanings.
+async fn sew_fault<C: ParamClient>(c: &mut C) -> Result<Option<String>, ClientError> {
+    let t = table_target(Family::Movidrive, "P012")?;
+    let raw = c.read(&t).await?;
+    let sw = StatusWord1::from_bits((raw & 0xFFFF) as u16);
+    Ok(sw.fault_number().map(|n| {
+        crate::tool::meaning::meaning_of(&t, raw)
+            .map_or_else(|| format!("fault {n}"), |m| format!("F{n:02} {}", m.text))
+    }))
+}
+
+/// The fault of any family from the raw value of its fault parameter `t`: zero is no fault.
+fn fault_text(t: &Target, raw: i64) -> Option<String> {
+    (raw != 0).then(|| {
+        crate::tool::meaning::meaning_of(t, raw).map_or_else(|| format!("fault {raw}"), |m| m.text)
+    })
+}
+
+/// The rejected-frame counter of a serial driver (which counts them without their reasons:
+/// parity, gaps, address, length and block check alike) since the last tally.
+fn serial_tally(retries: u64, rejected: u64) -> LinkTally {
+    LinkTally {
+        retries,
+        rejected: if rejected > 0 {
+            vec![("checks", rejected)]
+        } else {
+            Vec::new()
+        },
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// MOVILINK
+
+/// A MOVILINK bus: one [`movilink::driver::MasterDriver`] on the line.
+#[derive(Debug)]
+pub struct MovilinkBus<IO> {
+    driver: movilink::driver::MasterDriver<IO>,
+    port: String,
+    last: movilink::driver::DriverStats,
+}
+
+impl<IO: CharIo> MovilinkBus<IO> {
+    /// The bus `bus` on `io` (the port named `port`, for the EEPROM-wear log) with `line`;
+    /// `real`: a real port (answers may arrive in the bursts of a USB adapter).
+    pub fn new(io: IO, bus: &Bus, port: &str, line: LineSettings, real: bool) -> Self {
+        let config = movilink::driver::DriverConfig {
+            line,
+            response_timeout: bus.timeout,
+            retries: bus.retries,
+            max_char_gap: real.then_some(REAL_PORT_CHAR_GAP),
+            ..movilink::driver::DriverConfig::default()
+        };
+        Self {
+            driver: movilink::driver::MasterDriver::new(io, config),
+            port: port.to_owned(),
+            last: movilink::driver::DriverStats::default(),
+        }
+    }
+
+    fn address(address: u8) -> Result<movilink::Address, String> {
+        movilink::Address::unicast(address)
+            .ok_or_else(|| format!("MOVILINK address {address}: a drive has 0–99"))
+    }
+
+    /// The PDU type of process data with `n` words (cyclic: the drive watches P812).
+    fn pd_type(n: usize) -> Option<movilink::PduType> {
+        let n = u8::try_from(n).ok().filter(|n| (1..=3).contains(n))?;
+        movilink::PduType::from_layout(false, n, true)
+    }
+}
+
+impl<IO: CharIo> MovilinkBus<IO> {
+    fn client_of(&mut self, address: u8) -> Result<SewClient<MovilinkLink<'_, IO>>, String> {
+        let a = Self::address(address)?;
+        Ok(SewClient::new(crate::movilink::link(
+            &mut self.driver,
+            a,
+            &self.port,
+        )))
+    }
+
+    async fn pd(&mut self, address: u8, out: &[u16]) -> Result<Vec<u16>, ClientError> {
+        let a = Self::address(address).map_err(ClientError::Link)?;
+        let pdu = Self::pd_type(out.len()).ok_or_else(|| {
+            ClientError::Link(format!(
+                "MOVILINK carries 1–3 process data words, not {}",
+                out.len()
+            ))
+        })?;
+        let request = movilink::Telegram::request(a, pdu).with_process_data(out);
+        let answer = self
+            .driver
+            .exchange(request)
+            .await
+            .map_err(crate::movilink::client_error)?;
+        Ok(answer.process_data().to_vec())
+    }
+
+    fn tally(&mut self) -> LinkTally {
+        let s = self.driver.stats();
+        let t = serial_tally(
+            s.retries.saturating_sub(self.last.retries),
+            s.rejected.saturating_sub(self.last.rejected),
+        );
+        self.last = s;
+        t
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// SBus
+
+/// An SBus bus: one [`SbusMaster`] on the CAN interface.
+pub struct SbusBus<C> {
+    master: SbusMaster<C>,
+    iface: String,
+    last: sbus_can::master::MasterStats,
+}
+
+impl<C> std::fmt::Debug for SbusBus<C> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("SbusBus")
+            .field("iface", &self.iface)
+            .finish()
+    }
+}
+
+impl<C: drive_core::rt::CanIo> SbusBus<C> {
+    /// The bus `bus` on `io` (the interface named `iface`).
+    pub fn new(io: C, bus: &Bus, iface: &str) -> Self {
+        let config = sbus_can::master::MasterConfig {
+            timeout: bus.timeout,
+            retries: bus.retries,
+            late_guard: bus.timeout,
+            ..sbus_can::master::MasterConfig::default()
+        };
+        Self {
+            master: SbusMaster::new(io, config),
+            iface: iface.to_owned(),
+            last: sbus_can::master::MasterStats::default(),
+        }
+    }
+
+    fn address(address: u8) -> Result<sbus_can::Address, String> {
+        sbus_can::Address::new(address)
+            .ok_or_else(|| format!("SBus address {address}: a drive has 0–63"))
+    }
+
+    fn client_of(&mut self, address: u8) -> Result<SewClient<SbusLink<'_, C>>, String> {
+        let a = Self::address(address)?;
+        Ok(SewClient::new(SbusLink {
+            master: &mut self.master,
+            address: a,
+            handshake: Handshake::Async,
+            iface: self.iface.clone(),
+        }))
+    }
+
+    async fn pd(&mut self, address: u8, out: &[u16]) -> Result<Vec<u16>, ClientError> {
+        let a = Self::address(address).map_err(ClientError::Link)?;
+        if out.is_empty() || out.len() > 3 {
+            return Err(ClientError::Link(format!(
+                "SBus carries 1–3 process data words, not {}",
+                out.len()
+            )));
+        }
+        let mut words = [0u16; 3];
+        for (w, o) in words.iter_mut().zip(out) {
+            *w = *o;
+        }
+        let input = self
+            .master
+            .process_data(a, sbus_can::ProcessData(words))
+            .await
+            .map_err(crate::sbus::link::client_error)?;
+        Ok(input.0.iter().take(out.len()).copied().collect())
+    }
+
+    fn tally(&mut self) -> LinkTally {
+        let s = self.master.stats();
+        let (r, l) = (s.rejected, self.last.rejected);
+        let rejected = [
+            ("mismatch", r.mismatch.saturating_sub(l.mismatch)),
+            ("unsolicited", r.unsolicited.saturating_sub(l.unsolicited)),
+            ("malformed", r.malformed.saturating_sub(l.malformed)),
+            ("foreign", r.foreign.saturating_sub(l.foreign)),
+        ]
+        .into_iter()
+        .filter(|(_, n)| *n > 0)
+        .collect();
+        let t = LinkTally {
+            retries: s.retries.saturating_sub(self.last.retries),
+            rejected,
+        };
+        self.last = s;
+        t
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// USS
+
+/// A USS bus: one [`UssMaster`] per drive (each keeps its drive's last PKW order and process
+/// data, which USS repeats), all on one [`SharedLine`] that keeps the start delay between
+/// telegrams of different drives.
+#[derive(Debug)]
+pub struct UssBus {
+    line: SharedLine,
+    settings: LineSettings,
+    layout: Layout,
+    timeout: Duration,
+    retries: u8,
+    port: String,
+    drives: BTreeMap<u8, NordClient<UssMaster<SharedLine>>>,
+    /// Totals of the drivers at the last tally.
+    last: (u64, u64),
+}
+
+/// The telegram layout of a USS bus: 4 PKW words, and as many PZD words as the bus's widest
+/// process data, at least 4 (NORD's: control word and three setpoints). The drives must be
+/// set to it.
+pub fn uss_layout(bus: &Bus) -> Layout {
+    let widest = bus
+        .drives
+        .iter()
+        .filter_map(|d| d.process_data.as_ref().map(|p| p.out.len()))
+        .max()
+        .unwrap_or(0)
+        .max(4);
+    let pzd = u8::try_from(widest).unwrap_or(4);
+    Layout::new(4, pzd).unwrap_or(Layout::PKW4_PZD4)
+}
+
+impl UssBus {
+    /// The bus `bus` on `io` (the port named `port`) with `line`.
+    pub fn new(io: LineIo, bus: &Bus, port: &str, line: LineSettings) -> Self {
+        let timing = UssTiming::from_line(&line);
+        Self {
+            line: SharedLine::new(io, timing.start_delay),
+            settings: line,
+            layout: uss_layout(bus),
+            timeout: bus.timeout,
+            retries: bus.retries,
+            port: port.to_owned(),
+            drives: BTreeMap::new(),
+            last: (0, 0),
+        }
+    }
+
+    fn drive(&mut self, address: u8) -> Result<&mut NordClient<UssMaster<SharedLine>>, String> {
+        let a = UssAddress::new(address)
+            .ok_or_else(|| format!("USS address {address}: a drive has 0–31"))?;
+        let line = &self.line;
+        let config = UssConfig {
+            response_timeout: self.timeout,
+            retries: self.retries,
+            ..UssConfig::new(a, self.layout, self.settings)
+        };
+        Ok(self.drives.entry(address).or_insert_with(|| {
+            NordClient::new(
+                UssMaster::new(line.handle(), config),
+                ClientConfig::default(),
+            )
+        }))
+    }
+
+    fn client_of(
+        &mut self,
+        address: u8,
+    ) -> Result<NordParamClient<'_, UssMaster<SharedLine>>, String> {
+        let key = format!("{} uss {address}", canonical_port(&self.port));
+        let client = self.drive(address)?;
+        let mut identity = Map::new();
+        identity.insert("address".into(), address.into());
+        Ok(NordParamClient::new(client, &key, identity))
+    }
+
+    async fn pd(&mut self, address: u8, out: &[u16]) -> Result<Vec<u16>, ClientError> {
+        let layout = usize::from(self.layout.pzd_words());
+        let (control, setpoints) = out.split_first().ok_or_else(|| {
+            ClientError::Link("USS process data need at least the control word".to_owned())
+        })?;
+        if out.len() > layout {
+            return Err(ClientError::Link(format!(
+                "{} process data words do not fit the bus's {layout} PZD words",
+                out.len()
+            )));
+        }
+        let actuals = u8::try_from(setpoints.len()).unwrap_or(0);
+        let client = self.drive(address).map_err(ClientError::Link)?;
+        let answer = client
+            .process(ControlWord(*control), setpoints, actuals)
+            .await
+            .map_err(|e| ClientError::Link(e.to_string()))?;
+        let mut words = vec![answer.status().0];
+        words.extend_from_slice(answer.actuals());
+        Ok(words)
+    }
+
+    fn tally(&mut self) -> LinkTally {
+        let (retries, rejected) = self.drives.values().fold((0u64, 0u64), |(r, j), c| {
+            let s = c.channel().stats();
+            (r + s.retries, j + s.rejected)
+        });
+        let t = serial_tally(
+            retries.saturating_sub(self.last.0),
+            rejected.saturating_sub(self.last.1),
+        );
+        self.last = (retries, rejected);
+        t
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Modbus
+
+/// A Bonfiglioli Modbus bus (RTU or ASCII): one [`bonfiglioli_modbus::driver::MasterDriver`].
+#[derive(Debug)]
+pub struct ModbusBus<IO> {
+    driver: bonfiglioli_modbus::driver::MasterDriver<IO>,
+    port: String,
+    last: bonfiglioli_modbus::driver::DriverStats,
+}
+
+/// The line a Bonfiglioli drive speaks `mode` on: RTU 8 data bits, ASCII 7 (ch. 6.7), with
+/// the configured baud rate, parity and stop bits.
+pub fn modbus_line(mode: Mode, line: LineSettings) -> LineSettings {
+    LineSettings {
+        data_bits: match mode {
+            Mode::Rtu => 8,
+            Mode::Ascii => 7,
+        },
+        ..line
+    }
+}
+
+impl<IO: CharIo> ModbusBus<IO> {
+    /// The bus `bus` in `mode` on `io` (the port named `port`) with `line` (see
+    /// [`modbus_line`]).
+    pub fn new(io: IO, bus: &Bus, port: &str, mode: Mode, line: LineSettings) -> Self {
+        let config = bonfiglioli_modbus::driver::DriverConfig {
+            response_timeout: bus.timeout,
+            retries: bus.retries,
+            ..bonfiglioli_modbus::driver::DriverConfig::new(mode, line)
+        };
+        Self {
+            driver: bonfiglioli_modbus::driver::MasterDriver::new(io, config),
+            port: port.to_owned(),
+            last: bonfiglioli_modbus::driver::DriverStats::default(),
+        }
+    }
+
+    fn client_of(&mut self, address: u8) -> Result<BonfiglioliClient<'_, IO>, String> {
+        let a = bonfiglioli_modbus::frame::Address::new(address)
+            .filter(|a| !a.is_broadcast())
+            .ok_or_else(|| format!("Modbus address {address}: a drive has 1–247"))?;
+        Ok(BonfiglioliClient::new(
+            &mut self.driver,
+            a,
+            &self.port,
+            None,
+        ))
+    }
+
+    fn tally(&mut self) -> LinkTally {
+        let s = self.driver.stats();
+        let t = serial_tally(
+            s.retries.saturating_sub(self.last.retries),
+            s.rejected.saturating_sub(self.last.rejected),
+        );
+        self.last = s;
+        t
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Any protocol
+
+/// A bus of any protocol, on any endpoint: what the gateway's bus task runs on.
+#[derive(Debug)]
+pub struct Access {
+    /// The protocol's bus.
+    pub proto: Proto,
+    /// Its wire times.
+    pub wire: WireDesc,
+}
+
+/// The protocol's part of an [`Access`].
+#[derive(Debug)]
+pub enum Proto {
+    /// MOVILINK.
+    Movilink(Box<MovilinkBus<LineIo>>),
+    /// SBus.
+    Sbus(Box<SbusBus<CanBox>>),
+    /// USS.
+    Uss(Box<UssBus>),
+    /// Modbus RTU or ASCII.
+    Modbus(Box<ModbusBus<LineIo>>),
+}
+
+impl Access {
+    /// The drives' family.
+    pub fn family(&self) -> Family {
+        match &self.proto {
+            Proto::Movilink(_) | Proto::Sbus(_) => Family::Movidrive,
+            Proto::Uss(_) => Family::Nord,
+            Proto::Modbus(_) => Family::Bonfiglioli,
+        }
+    }
+}
+
+impl BusAccess for Access {
+    type Client<'a> = AnyClient<'a>;
+
+    fn client(&mut self, address: u8) -> AnyClient<'_> {
+        let family = self.family();
+        let r = match &mut self.proto {
+            Proto::Movilink(b) => b.client_of(address).map(AnyClient::Movilink),
+            Proto::Sbus(b) => b.client_of(address).map(AnyClient::Sbus),
+            Proto::Uss(b) => b.client_of(address).map(AnyClient::Uss),
+            Proto::Modbus(b) => b.client_of(address).map(AnyClient::Modbus),
+        };
+        r.unwrap_or_else(|message| AnyClient::Invalid { family, message })
+    }
+
+    async fn process_data(&mut self, address: u8, out: &[u16]) -> Result<Vec<u16>, ClientError> {
+        match &mut self.proto {
+            Proto::Movilink(b) => b.pd(address, out).await,
+            Proto::Sbus(b) => b.pd(address, out).await,
+            Proto::Uss(b) => b.pd(address, out).await,
+            Proto::Modbus(_) => Err(ClientError::Link(
+                "Modbus has no process data: poll parameters instead".to_owned(),
+            )),
+        }
+    }
+
+    async fn fault(&mut self, address: u8) -> Result<Option<String>, ClientError> {
+        match &self.proto {
+            Proto::Movilink(_) | Proto::Sbus(_) => sew_fault(&mut self.client(address)).await,
+            Proto::Uss(_) => {
+                // P700 [-01]: the present fault (0: none).
+                let t = crate::nord::resolve(
+                    "P700",
+                    crate::nord::Sub {
+                        array: Some(1),
+                        set: None,
+                    },
+                    false,
+                )
+                .ok()
+                .and_then(|v| v.into_iter().next())
+                .ok_or_else(|| ClientError::Link("P700 is not in the NORD table".to_owned()))?;
+                let raw = self.client(address).read(&t).await?;
+                Ok(fault_text(&t, raw))
+            }
+            Proto::Modbus(_) => {
+                // 260: the current fault (0: none).
+                let t = table_target(Family::Bonfiglioli, "260")?;
+                let raw = self.client(address).read(&t).await?;
+                Ok(fault_text(&t, raw))
+            }
+        }
+    }
+
+    fn wire_time(&self, op: Op) -> Duration {
+        self.wire.time(op)
+    }
+
+    fn take_tally(&mut self) -> LinkTally {
+        match &mut self.proto {
+            Proto::Movilink(b) => b.tally(),
+            Proto::Sbus(b) => b.tally(),
+            Proto::Uss(b) => b.tally(),
+            Proto::Modbus(b) => b.tally(),
+        }
+    }
+}

@@ -1,0 +1,271 @@
+//! Each protocol's [`BusAccess`](super::bus::BusAccess) ([`access`]), opening a bus (its
+//! port, which reopens itself after a failure, or simulated drives on the wire model), the
+//! wire time of every transaction ([`wire`]), `--check`, and the example config.
+
+pub mod access;
+pub mod io;
+pub mod wire;
+
+#[cfg(test)]
+mod tests;
+
+use bonfiglioli_modbus::framing::Mode;
+use drive_core::rt::Stream;
+use drive_transport::can::virtual_bus::VirtualBus;
+use drive_transport::link::{LinkConfig, pair};
+
+pub use self::access::{Access, Proto};
+use self::io::{CanBox, FaultControl, LineIo, Reopen};
+pub use self::wire::{WireDesc, demand};
+use super::bus::{BusContext, Op};
+use super::config::{Bus, Endpoint, Plant, Protocol};
+use crate::error::{CliError, Result};
+
+/// The commented example config of `drivectl gateway --example-config`.
+pub const EXAMPLE_CONFIG: &str = include_str!("example.toml");
+
+/// The simulated endpoint of `bus` (`--simulate`): the same line settings on the wire model.
+pub fn simulated_endpoint(bus: &Bus) -> Endpoint {
+    match &bus.endpoint {
+        Endpoint::Serial { line, .. } => Endpoint::Simulated {
+            line: *line,
+            bitrate: 500_000,
+        },
+        Endpoint::Can { .. } => Endpoint::Simulated {
+            line: drive_core::LineSettings::new(9600),
+            bitrate: wire::bitrate_of(bus).bits_per_second(),
+        },
+        Endpoint::Simulated { line, bitrate } => Endpoint::Simulated {
+            line: *line,
+            bitrate: *bitrate,
+        },
+    }
+}
+
+/// The endpoint as a person reads it.
+pub fn endpoint_text(e: &Endpoint) -> String {
+    match e {
+        Endpoint::Serial { path, line } => format!("{path} {line}"),
+        Endpoint::Can { iface } => format!("CAN {iface}"),
+        Endpoint::Simulated { line, bitrate } => {
+            format!("simulated (wire model {line}, CAN {bitrate} bit/s)")
+        }
+    }
+}
+
+/// `--check`: per bus its protocol, endpoint, drives, the wire time of a read and the demand
+/// of its polls; an error naming every bus whose demand is above 100 %.
+pub fn print_check(plant: &Plant) -> Result<()> {
+    let mut over = Vec::new();
+    for bus in &plant.buses {
+        let w = WireDesc::of(bus);
+        let d = demand(bus);
+        let fits = if d <= 1.0 { "fits" } else { "does not fit" };
+        outln!(
+            "bus {}: {} on {}, {} drive(s); a read takes {:.2} ms on the wire; the polls ask \
+             for {:.1} % of the wire: {fits}",
+            bus.name,
+            bus.protocol.name(),
+            endpoint_text(&bus.endpoint),
+            bus.drives.len(),
+            w.time(Op::Read).as_secs_f64() * 1e3,
+            d * 100.0
+        )?;
+        if d > 1.0 {
+            over.push(format!("{} ({:.0} %)", bus.name, d * 100.0));
+        }
+    }
+    if over.is_empty() {
+        Ok(())
+    } else {
+        Err(CliError::failed(format!(
+            "the polls ask more than the wire carries on bus {}: lengthen their periods, \
+             raise the baud rate or split the bus",
+            over.join(", ")
+        )))
+    }
+}
+
+/// What to check when a serial port cannot be opened or fails.
+const SERIAL_HINT: &str = "check that the adapter is plugged in, the path (ls /dev/serial/by-id), \
+                           its permissions (group dialout) and that no other program uses it";
+/// What to check when a CAN interface cannot be opened or fails.
+const CAN_HINT: &str = "check that the interface is up (ip link set can0 up type can bitrate \
+                        500000) or the slcan adapter is plugged in, and that no other program \
+                        holds it";
+
+/// The bus's port, opened on first use and reopened after a failure with a back-off.
+fn serial_line(bus: &Bus, path: &str, line: drive_core::LineSettings) -> LineIo {
+    let p = path.to_owned();
+    let opener: io::Opener<LineIo> = Box::new(move || {
+        let p = p.clone();
+        Box::pin(async move {
+            crate::tool::line::open_settings(&p, line)
+                .map(|port| LineIo(Box::new(Stream(port))))
+                .map_err(|e| e.to_string())
+        })
+    });
+    LineIo(Box::new(Reopen::new(&bus.name, path, SERIAL_HINT, opener)))
+}
+
+/// The bus's CAN interface, opened on first use and reopened after a failure.
+fn can_io(bus: &Bus, iface: &str) -> CanBox {
+    let name = iface.to_owned();
+    let bitrate = wire::bitrate_of(bus);
+    let opener: io::Opener<CanBox> = Box::new(move || {
+        let name = name.clone();
+        Box::pin(async move {
+            let parsed = crate::sbus::iface::Iface::parse(&name).map_err(|e| e.to_string())?;
+            let (io, _sim) = crate::sbus::link::open(&parsed, bitrate, &[])
+                .await
+                .map_err(|e| e.to_string())?;
+            Ok(io)
+        })
+    });
+    Box::new(Reopen::new(&bus.name, iface, CAN_HINT, opener))
+}
+
+/// The [`Access`] of `bus` on its configured endpoint (a simulated endpoint gets
+/// [`simulated_bus`]). Nothing is opened yet: the port opens on first use, and every failure
+/// to open it is logged and makes the bus's transactions fail (its drives `timeout`) until a
+/// later attempt succeeds.
+pub fn open_bus(bus: &Bus) -> Access {
+    let wire = WireDesc::of(bus);
+    let proto = match &bus.endpoint {
+        Endpoint::Simulated { .. } => return simulated_bus(bus).access,
+        Endpoint::Can { iface } => Proto::Sbus(Box::new(access::SbusBus::new(
+            can_io(bus, iface),
+            bus,
+            iface,
+        ))),
+        Endpoint::Serial { path, .. } => {
+            let line = wire.line;
+            let io = serial_line(bus, path, line);
+            match bus.protocol {
+                Protocol::Movilink => Proto::Movilink(Box::new(access::MovilinkBus::new(
+                    io, bus, path, line, true,
+                ))),
+                Protocol::Uss => Proto::Uss(Box::new(access::UssBus::new(io, bus, path, line))),
+                Protocol::ModbusRtu => Proto::Modbus(Box::new(access::ModbusBus::new(
+                    io,
+                    bus,
+                    path,
+                    Mode::Rtu,
+                    line,
+                ))),
+                Protocol::ModbusAscii => Proto::Modbus(Box::new(access::ModbusBus::new(
+                    io,
+                    bus,
+                    path,
+                    Mode::Ascii,
+                    line,
+                ))),
+                // The config gives SBus a CAN interface, never a port: run it on the virtual
+                // bus rather than nowhere.
+                Protocol::Sbus => return simulated_bus(bus).access,
+            }
+        }
+    };
+    Access { proto, wire }
+}
+
+/// A bus of simulated drives: its access, and the switch of its line's faults (the
+/// fault-injection and load tests switch them; the gateway runs without).
+#[derive(Debug)]
+#[cfg_attr(not(test), allow(dead_code))]
+pub struct SimulatedBus {
+    /// The bus as the gateway drives it.
+    pub access: Access,
+    /// The faults of its serial line (both directions; unused on SBus).
+    pub faults: FaultControl,
+    /// The virtual CAN bus of an SBus bus (its faults: [`VirtualBus::set_faults`]).
+    pub can: Option<VirtualBus>,
+}
+
+/// `bus` against simulated drives, one per configured address, each family's simulator on the
+/// wire model at the bus's line settings (SBus: on a virtual CAN bus at its bit rate), served
+/// by tasks of their own until the access is dropped. Needs a tokio runtime (a paused clock
+/// works: the times are the wire model's).
+pub fn simulated_bus(bus: &Bus) -> SimulatedBus {
+    let wire = WireDesc::of(bus);
+    let addresses: Vec<u8> = bus.drives.iter().map(|d| d.address).collect();
+    let faults = FaultControl::default();
+    let name = format!("simulated:{}", bus.name);
+    let line = wire.line;
+    let serial = || {
+        let (master, drives) = pair(LinkConfig::from_line(line));
+        (
+            LineIo(Box::new(faults.wrap(master, 0))),
+            faults.wrap(drives, 1),
+        )
+    };
+    let (proto, can) = match bus.protocol {
+        Protocol::Movilink => {
+            let (io, end) = serial();
+            let mut sim = movilink::sim::bus(&addresses, line);
+            tokio::spawn(async move {
+                let _ = sim.serve(end).await;
+            });
+            let b = access::MovilinkBus::new(io, bus, &name, line, false);
+            (Proto::Movilink(Box::new(b)), None)
+        }
+        Protocol::Uss => {
+            let (io, end) = serial();
+            let uss: Vec<_> = addresses
+                .iter()
+                .filter_map(|a| ctt2_uss::serial::UssAddress::new(*a))
+                .collect();
+            let mut sim = ctt2_uss::serial::sim::bus(&uss, wire.layout, line);
+            tokio::spawn(async move {
+                let _ = sim.serve(end).await;
+            });
+            (
+                Proto::Uss(Box::new(access::UssBus::new(io, bus, &name, line))),
+                None,
+            )
+        }
+        Protocol::ModbusRtu | Protocol::ModbusAscii => {
+            let mode = if bus.protocol == Protocol::ModbusRtu {
+                Mode::Rtu
+            } else {
+                Mode::Ascii
+            };
+            let (io, end) = serial();
+            let mut sim = bonfiglioli_modbus::sim::bus(
+                &addresses,
+                drive_sim::bonfiglioli::Variant::Acu,
+                mode,
+                line,
+            );
+            tokio::spawn(async move {
+                let _ = sim.serve(end).await;
+            });
+            let b = access::ModbusBus::new(io, bus, &name, mode, line);
+            (Proto::Modbus(Box::new(b)), None)
+        }
+        Protocol::Sbus => {
+            let vbus = VirtualBus::new(wire.bitrate);
+            let node = vbus.node();
+            let mut sim = sbus_can::sim::SimulatedSbusBus::new(&addresses);
+            tokio::spawn(async move {
+                let _ = sim.serve(node).await;
+            });
+            let io: CanBox = Box::new(vbus.node());
+            (
+                Proto::Sbus(Box::new(access::SbusBus::new(io, bus, &name))),
+                Some(vbus),
+            )
+        }
+    };
+    SimulatedBus {
+        access: Access { proto, wire },
+        faults,
+        can,
+    }
+}
+
+/// Open the bus of `ctx` and run its task (a port that fails is reopened with a back-off).
+pub async fn run_bus(ctx: BusContext) {
+    let access = open_bus(&ctx.bus);
+    super::task::run_bus(ctx, access).await;
+}

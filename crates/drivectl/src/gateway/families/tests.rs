@@ -1,0 +1,449 @@
+//! Tests of the gateway's buses: the example config, every protocol's access against its
+//! simulator, wire times, and reads under injected faults.
+
+use std::time::Duration;
+
+use drive_profile::Persistence;
+use drive_transport::can::virtual_bus::BusFaults;
+use drive_transport::link::FaultConfig;
+
+use super::*;
+use crate::gateway::bus::BusAccess;
+use crate::gateway::config::{Point, Protocol};
+use crate::tool::client::{ClientError, ParamClient};
+use crate::tool::write::{WriteRequest, check_with, with_hint, write_checked};
+
+fn example() -> Plant {
+    let mut plant = Plant::parse(EXAMPLE_CONFIG, "example").unwrap();
+    for bus in &mut plant.buses {
+        bus.endpoint = simulated_endpoint(bus);
+    }
+    plant
+}
+
+fn bus_of(plant: &Plant, p: Protocol) -> Bus {
+    plant
+        .buses
+        .iter()
+        .find(|b| b.protocol == p)
+        .unwrap()
+        .clone()
+}
+
+/// A raw value the write guard takes for `point`, other than `now` and `avoid`.
+fn other_value(point: &Point, now: i64, avoid: &[i64]) -> i64 {
+    let p = point.target.param.unwrap();
+    let (lo, hi) = p.wire_range();
+    let mut candidates = vec![p.default_raw().unwrap_or(now)];
+    for k in [1000i64, 2000, 500, 400, 200, 100, 50, 10, 5, 2, 1] {
+        candidates.push(now + k);
+        candidates.push(now - k);
+        candidates.push(lo.max(0) + k);
+        candidates.push(hi.min(1_000_000) - k);
+    }
+    candidates
+        .into_iter()
+        .filter(|v| *v != now && !avoid.contains(v))
+        .find(|&raw| {
+            let req = WriteRequest {
+                target: point.target,
+                raw,
+                persistence: Persistence::Volatile,
+                force: false,
+            };
+            check_with("test", &req, with_hint).is_ok()
+        })
+        .unwrap_or_else(|| panic!("no writable value for {}", point.name))
+}
+
+/// Write a value other than the present one to every writable point of `bus` (through the
+/// write guard, RAM) and read it back: the values, per drive address and point name.
+async fn write_distinct(access: &mut Access, bus: &Bus) -> Vec<(u8, Point, i64)> {
+    let mut written: Vec<(u8, Point, i64)> = Vec::new();
+    for d in &bus.drives {
+        for p in d.points.iter().filter(|p| p.writable) {
+            let mut c = access.client(d.address);
+            let now = c.read(&p.target).await.unwrap();
+            let avoid: Vec<i64> = written.iter().map(|w| w.2).collect();
+            let raw = other_value(p, now, &avoid);
+            let req = WriteRequest {
+                target: p.target,
+                raw,
+                persistence: Persistence::Volatile,
+                force: false,
+            };
+            let done = write_checked(&mut c, &req, false)
+                .await
+                .unwrap_or_else(|e| panic!("{}/{}/{}: {e}", bus.name, d.name, p.name));
+            assert_eq!(done.back, raw, "{}/{}/{}", bus.name, d.name, p.name);
+            written.push((d.address, p.clone(), raw));
+        }
+    }
+    written
+}
+
+#[test]
+fn the_example_config_parses_and_every_bus_fits_the_wire() {
+    let plant = Plant::parse(EXAMPLE_CONFIG, "example").unwrap();
+    let protocols: Vec<Protocol> = plant.buses.iter().map(|b| b.protocol).collect();
+    for p in Protocol::ALL {
+        assert!(protocols.contains(&p), "no {} bus", p.name());
+    }
+    for bus in &plant.buses {
+        let d = demand(bus);
+        assert!(d > 0.0 && d < 0.6, "bus {}: demand {d}", bus.name);
+        assert!(bus.drives.len() >= 2, "bus {}", bus.name);
+        assert!(
+            bus.drives
+                .iter()
+                .flat_map(|d| &d.points)
+                .any(|p| p.writable),
+            "bus {} has no writable point",
+            bus.name
+        );
+    }
+    assert!(
+        plant
+            .buses
+            .iter()
+            .flat_map(|b| &b.drives)
+            .any(|d| d.process_data.is_some())
+    );
+    // Every [gateway] key is shown.
+    for key in [
+        "name",
+        "broker",
+        "client_id",
+        "username",
+        "password_file",
+        "ca_file",
+        "client_cert",
+        "client_key",
+        "prefix",
+        "heartbeat",
+        "max_set_age",
+        "metrics",
+        "keep_alive",
+    ] {
+        assert!(
+            EXAMPLE_CONFIG.contains(&format!("\n{key} = "))
+                || EXAMPLE_CONFIG.contains(&format!("\n# {key} = ")),
+            "{key}"
+        );
+    }
+    // --check passes on it, and --simulate keeps it fitting.
+    print_check(&plant).unwrap();
+    print_check(&example()).unwrap();
+}
+
+#[tokio::test(start_paused = true)]
+async fn every_writable_point_of_the_example_is_written_on_its_simulated_drive() {
+    let plant = example();
+    for bus in &plant.buses {
+        let mut sim = simulated_bus(bus);
+        let written = write_distinct(&mut sim.access, bus).await;
+        assert!(!written.is_empty(), "bus {}", bus.name);
+        // Every polled point reads on its simulated drive.
+        for d in &bus.drives {
+            for p in &d.points {
+                let r = sim.access.client(d.address).read(&p.target).await;
+                assert!(
+                    r.is_ok(),
+                    "{}/{}/{}: {:?}",
+                    bus.name,
+                    d.name,
+                    p.name,
+                    r.err()
+                );
+            }
+            assert_eq!(sim.access.fault(d.address).await.unwrap(), None);
+        }
+        let tally = sim.access.take_tally();
+        assert_eq!(tally.retries, 0, "bus {}: {tally:?}", bus.name);
+    }
+}
+
+#[tokio::test(start_paused = true)]
+async fn process_data_are_exchanged_on_movilink_sbus_and_uss() {
+    let plant = example();
+    for p in [Protocol::Movilink, Protocol::Sbus, Protocol::Uss] {
+        let bus = bus_of(&plant, p);
+        let mut sim = simulated_bus(&bus);
+        let a = bus.drives[0].address;
+        // Stop (SEW 0x0002; NORD: bit 10 clear, the drive only answers).
+        let out: &[u16] = if p == Protocol::Uss {
+            &[0, 0]
+        } else {
+            &[0x0002, 0, 0]
+        };
+        let words = sim.access.process_data(a, out).await.unwrap();
+        assert_eq!(words.len(), out.len(), "{}", p.name());
+        assert_ne!(words[0], 0, "{}: a status word", p.name());
+    }
+    let bus = bus_of(&plant, Protocol::ModbusRtu);
+    let mut sim = simulated_bus(&bus);
+    assert!(matches!(
+        sim.access.process_data(1, &[0]).await,
+        Err(ClientError::Link(_))
+    ));
+}
+
+#[tokio::test(start_paused = true)]
+async fn an_address_the_protocol_cannot_reach_fails_without_a_transaction() {
+    let plant = example();
+    for (p, bad) in [
+        (Protocol::Movilink, 150),
+        (Protocol::Sbus, 64),
+        (Protocol::Uss, 32),
+        (Protocol::ModbusRtu, 0),
+        (Protocol::ModbusAscii, 250),
+    ] {
+        let bus = bus_of(&plant, p);
+        let mut sim = simulated_bus(&bus);
+        let t = bus.drives[0].points[0].target;
+        let r = sim.access.client(bad).read(&t).await;
+        assert!(
+            matches!(r, Err(ClientError::Link(_))),
+            "{}: {r:?}",
+            p.name()
+        );
+        assert_eq!(
+            sim.access.take_tally(),
+            crate::gateway::bus::LinkTally::default()
+        );
+    }
+}
+
+#[tokio::test(start_paused = true)]
+async fn the_wire_time_of_a_read_is_what_the_wire_model_takes() {
+    // One read of a simulated drive, measured on the paused clock, against the formula: the
+    // wire model adds only tokio's timer resolution (1 ms) to the pauses.
+    let plant = example();
+    for bus in &plant.buses {
+        let mut sim = simulated_bus(bus);
+        let d = &bus.drives[0];
+        let t = d.points[0].target;
+        // A first read opens the drive's client state (USS: the "no order" telegram).
+        sim.access.client(d.address).read(&t).await.unwrap();
+        let n = 20u32;
+        let start = tokio::time::Instant::now();
+        for _ in 0..n {
+            sim.access.client(d.address).read(&t).await.unwrap();
+        }
+        let measured = start.elapsed() / n;
+        let formula = sim.access.wire_time(Op::Read);
+        let slack = Duration::from_millis(2);
+        assert!(
+            measured <= formula + slack,
+            "bus {}: measured {measured:?}, formula {formula:?}",
+            bus.name
+        );
+        assert!(
+            measured * 10 >= formula * 4,
+            "bus {}: measured {measured:?}, formula {formula:?}",
+            bus.name
+        );
+    }
+}
+
+/// What a fault campaign counted.
+#[derive(Debug, Default)]
+struct Campaign {
+    reads: u32,
+    right: u32,
+    link_errors: u32,
+    device_errors: u32,
+    retries: u64,
+    rejected: u64,
+    /// Faults the serial line injected (both directions).
+    injected: u64,
+}
+
+/// `n` reads of the distinctive values of `bus`'s writable points while faults are injected;
+/// every value returned must be the one written.
+async fn campaign(bus: &Bus, n: u32, faults: impl FnOnce(&SimulatedBus)) -> Campaign {
+    let mut sim = simulated_bus(bus);
+    let truth = write_distinct(&mut sim.access, bus).await;
+    assert!(truth.len() >= 2, "bus {}", bus.name);
+    sim.access.take_tally();
+    faults(&sim);
+    let mut c = Campaign::default();
+    let before = sim.faults.stats();
+    for i in 0..n {
+        let Some((addr, point, want)) = truth.get(i as usize % truth.len()) else {
+            continue;
+        };
+        c.reads += 1;
+        match sim.access.client(*addr).read(&point.target).await {
+            Ok(v) => {
+                assert_eq!(
+                    v, *want,
+                    "bus {}: read {i} of {} at {addr} returned a wrong value",
+                    bus.name, point.name
+                );
+                c.right += 1;
+            }
+            Err(ClientError::Link(_)) => c.link_errors += 1,
+            Err(ClientError::Device(_)) => c.device_errors += 1,
+        }
+        let t = sim.access.take_tally();
+        c.retries += t.retries;
+        c.rejected += t.rejected.iter().map(|r| r.1).sum::<u64>();
+    }
+    let after = sim.faults.stats();
+    c.injected = after
+        .iter()
+        .zip(before)
+        .map(|(a, b)| {
+            (a.dropped + a.inserted + a.flipped + a.delayed)
+                - (b.dropped + b.inserted + b.flipped + b.delayed)
+        })
+        .sum();
+    c
+}
+
+fn serial_faults(seed: u64, p: f64, flip_bits: u32) -> FaultConfig {
+    FaultConfig {
+        seed,
+        drop: p,
+        insert: p,
+        flip: p,
+        flip_bits,
+        delay: p,
+        delay_by: Duration::from_millis(5),
+    }
+}
+
+// The campaign's figures are printed for docs/gateway.md (`--nocapture`).
+#[allow(clippy::print_stderr)]
+async fn serial_campaign(p: Protocol, seed: u64) -> Campaign {
+    let plant = example();
+    let bus = bus_of(&plant, p);
+    let mut total = Campaign::default();
+    // Single-bit flips (parity catches them), then double-bit flips (parity passes when both
+    // are data bits: the block check must catch them).
+    for flip_bits in [1, 2] {
+        let c = campaign(&bus, 300, |s| {
+            s.faults
+                .set(serial_faults(seed + u64::from(flip_bits), 0.003, flip_bits));
+        })
+        .await;
+        eprintln!("{} flip_bits {flip_bits}: {c:?}", p.name());
+        total.reads += c.reads;
+        total.right += c.right;
+        total.link_errors += c.link_errors;
+        total.device_errors += c.device_errors;
+        total.retries += c.retries;
+        total.rejected += c.rejected;
+        total.injected += c.injected;
+    }
+    assert!(total.injected > 50, "{}: {total:?}", p.name());
+    assert!(
+        total.rejected > 0 && total.retries > 0,
+        "{}: {total:?}",
+        p.name()
+    );
+    assert!(total.right * 2 >= total.reads, "{}: {total:?}", p.name());
+    total
+}
+
+#[tokio::test(start_paused = true)]
+async fn movilink_publishes_no_wrong_value_under_line_faults() {
+    serial_campaign(Protocol::Movilink, 11).await;
+}
+
+#[tokio::test(start_paused = true)]
+async fn uss_publishes_no_wrong_value_under_line_faults() {
+    serial_campaign(Protocol::Uss, 12).await;
+}
+
+#[tokio::test(start_paused = true)]
+async fn modbus_rtu_publishes_no_wrong_value_under_line_faults() {
+    serial_campaign(Protocol::ModbusRtu, 13).await;
+}
+
+#[tokio::test(start_paused = true)]
+async fn modbus_ascii_publishes_no_wrong_value_under_line_faults() {
+    serial_campaign(Protocol::ModbusAscii, 14).await;
+}
+
+#[tokio::test(start_paused = true)]
+#[allow(clippy::print_stderr)]
+async fn sbus_publishes_no_wrong_value_under_bus_faults() {
+    let plant = example();
+    let bus = bus_of(&plant, Protocol::Sbus);
+    let c = campaign(&bus, 300, |s| {
+        if let Some(v) = &s.can {
+            v.set_faults(BusFaults {
+                seed: 15,
+                drop: 0.05,
+                corrupt: 0.05,
+                ..BusFaults::none()
+            });
+        }
+    })
+    .await;
+    eprintln!("sbus: {c:?}");
+    assert!(c.retries > 0, "{c:?}");
+    assert!(c.right * 10 >= c.reads * 7, "{c:?}");
+}
+
+#[tokio::test(start_paused = true)]
+async fn a_port_that_cannot_be_opened_fails_every_call_and_is_tried_again_with_a_back_off() {
+    let mut plant = Plant::parse(EXAMPLE_CONFIG, "example").unwrap();
+    let bus = plant
+        .buses
+        .iter_mut()
+        .find(|b| b.protocol == Protocol::Movilink)
+        .unwrap();
+    bus.endpoint = Endpoint::Serial {
+        path: "/nonexistent/ttyUSB9".into(),
+        line: drive_core::LineSettings::new(9600),
+    };
+    let mut access = open_bus(bus);
+    let t = bus.drives[0].points[0].target;
+    let start = tokio::time::Instant::now();
+    for _ in 0..3 {
+        let r = access.client(1).read(&t).await;
+        let Err(ClientError::Link(m)) = r else {
+            panic!("{r:?}")
+        };
+        assert!(m.contains("/nonexistent/ttyUSB9"), "{m}");
+    }
+    // Failing calls take no time: a missing port does not stall the bus.
+    assert!(start.elapsed() < Duration::from_millis(10));
+    assert_eq!(
+        io::Reopen::<io::LineIo>::backoff_after(1),
+        Duration::from_secs(1)
+    );
+    assert_eq!(
+        io::Reopen::<io::LineIo>::backoff_after(2),
+        Duration::from_secs(2)
+    );
+    assert_eq!(
+        io::Reopen::<io::LineIo>::backoff_after(6),
+        Duration::from_secs(30)
+    );
+    assert_eq!(
+        io::Reopen::<io::LineIo>::backoff_after(60),
+        Duration::from_secs(30)
+    );
+}
+
+#[test]
+fn check_refuses_a_plant_whose_polls_ask_more_than_the_wire_and_names_the_bus() {
+    let text = EXAMPLE_CONFIG.replace("period = \"1s\"", "period = \"10ms\"");
+    let plant = Plant::parse(&text, "example").unwrap();
+    let over: Vec<&str> = plant
+        .buses
+        .iter()
+        .filter(|b| demand(b) > 1.0)
+        .map(|b| b.name.as_str())
+        .collect();
+    assert!(!over.is_empty());
+    let e = print_check(&plant).unwrap_err();
+    assert_eq!(e.exit_code(), 1);
+    for name in over {
+        assert!(e.to_string().contains(name), "{e}");
+    }
+}
