@@ -76,6 +76,9 @@ pub struct BusFile {
     pub parity: Option<String>,
     /// 1 or 2.
     pub stop_bits: Option<u8>,
+    /// Data bits: Modbus ASCII 7 (default) or 8 (some converters, pseudo-terminals); every
+    /// other serial protocol 8.
+    pub data_bits: Option<u8>,
     /// CAN bit rate for SBus on slcan or the simulated bus (default 500k).
     pub bitrate: Option<String>,
     /// Response timeout of one attempt (default: the protocol's).
@@ -354,8 +357,6 @@ pub struct Drive {
     pub name: String,
     /// Bus address.
     pub address: u8,
-    /// Family (from the protocol).
-    pub family: Family,
     /// Parameters it publishes or takes.
     pub points: Vec<Point>,
     /// Process data exchanged cyclically.
@@ -612,9 +613,28 @@ fn check_bus(b: BusFile) -> std::result::Result<Bus, String> {
     if protocol != Protocol::Sbus && !(1..=4_000_000).contains(&baud) {
         return Err(format!("{at}: baud = {baud}: give 1–4000000"));
     }
-    let line = drive_core::LineSettings::new(baud.max(1))
-        .with_parity(parity)
-        .with_stop_bits(stop);
+    let data_bits = match (protocol, b.data_bits) {
+        (Protocol::ModbusAscii, None) => 7,
+        (Protocol::ModbusAscii, Some(n @ (7 | 8))) | (_, Some(n @ 8)) => n,
+        (_, None) => 8,
+        (p, Some(n)) => {
+            return Err(format!(
+                "{at}: data_bits = {n}: {} uses {}",
+                p.name(),
+                if p == Protocol::ModbusAscii {
+                    "7 or 8"
+                } else {
+                    "8"
+                }
+            ));
+        }
+    };
+    let line = drive_core::LineSettings {
+        data_bits,
+        ..drive_core::LineSettings::new(baud.max(1))
+            .with_parity(parity)
+            .with_stop_bits(stop)
+    };
     let bitrate = match &b.bitrate {
         None => 500_000,
         Some(t) => crate::sbus::iface::parse_bitrate(t)
@@ -815,7 +835,6 @@ fn check_drive(bus: &str, protocol: Protocol, d: DriveFile) -> std::result::Resu
     Ok(Drive {
         name: d.name,
         address: d.address,
-        family,
         points,
         process_data,
     })
@@ -879,7 +898,7 @@ writable = true
             other => panic!("{other:?}"),
         }
         let d = &b.drives[0];
-        assert_eq!(d.family, Family::Movidrive);
+        assert_eq!(d.points[0].target.family, Family::Movidrive);
         let pt = &d.points[0];
         assert_eq!(pt.name, "P130");
         assert_eq!(pt.target.index, 8470, "P130 ramp t11 up CW is index 8470");
@@ -1007,7 +1026,7 @@ writable = true
             .replace("P130", "P102")
             .replace("writable = true", "writable = true\nset = 2");
         let p = Plant::parse(&nord, "p").unwrap();
-        assert_eq!(p.buses[0].drives[0].family, Family::Nord);
+        assert_eq!(p.buses[0].drives[0].points[0].target.family, Family::Nord);
         let bonf = MINIMAL
             .replace("\"movilink\"", "\"modbus-rtu\"")
             .replace("P130", "420")

@@ -483,6 +483,7 @@ impl Metrics {
     }
 
     /// The text exposition (OpenMetrics, [`CONTENT_TYPE`]); empty if it cannot be written.
+    #[cfg(test)]
     pub fn encode(&self) -> String {
         self.try_encode().unwrap_or_default()
     }

@@ -30,7 +30,7 @@ use config::{Endpoint, Plant};
 )]
 pub struct GatewayArgs {
     /// The plant's config file (TOML; `-`: standard input).
-    #[arg(long, required_unless_present = "example_config")]
+    #[arg(long, required_unless_present_any = ["example_config", "load"])]
     pub config: Option<String>,
     /// The broker, overriding the config's: mqtt://host:port, mqtts://host:port or mqtts://user@host:port.
     #[arg(long)]
@@ -47,6 +47,16 @@ pub struct GatewayArgs {
     /// Log format: text or json (logs go to standard error).
     #[arg(long, default_value = "text", value_parser = ["text", "json"])]
     pub log_format: String,
+    /// Measure the bus tasks: BUSESxDRIVES simulated MOVILINK buses on the wire model in
+    /// virtual time (e.g. 64x31), then print the figures and exit.
+    #[arg(long, hide = true, value_name = "BUSESxDRIVES")]
+    pub load: Option<String>,
+    /// Virtual seconds of a --load run.
+    #[arg(long, hide = true, default_value_t = 20)]
+    pub load_seconds: u64,
+    /// The poll period of every drive in a --load run.
+    #[arg(long, hide = true, default_value = "1s")]
+    pub load_period: String,
     /// Log level: error, warn, info, debug or trace.
     #[arg(long, default_value = "info", value_parser = ["error", "warn", "info", "debug", "trace"])]
     pub log_level: String,
@@ -56,6 +66,9 @@ pub struct GatewayArgs {
 pub fn run(args: &GatewayArgs) -> Result<()> {
     if args.example_config {
         return crate::tool::output::emit(format_args!("{}", families::EXAMPLE_CONFIG));
+    }
+    if let Some(spec) = &args.load {
+        return load::run_cli(spec, args.load_seconds, &args.load_period);
     }
     let path = args.config.as_deref().unwrap_or("-");
     let mut plant = Plant::load(path)?;

@@ -463,9 +463,10 @@ pub struct ModbusBus<IO> {
 /// the configured baud rate, parity and stop bits.
 pub fn modbus_line(mode: Mode, line: LineSettings) -> LineSettings {
     LineSettings {
+        // ASCII: the config's (7 by default, 8 where a converter or a pty needs it).
         data_bits: match mode {
             Mode::Rtu => 8,
-            Mode::Ascii => 7,
+            Mode::Ascii => line.data_bits,
         },
         ..line
     }
