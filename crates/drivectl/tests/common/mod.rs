@@ -53,6 +53,11 @@ impl PtySim {
         PtySim { child, path, state }
     }
 
+    /// The simulator's process id (to stop and continue it).
+    pub fn pid(&self) -> u32 {
+        self.child.id()
+    }
+
     /// `drivectl <args>` with this simulator's state directory.
     pub fn drivectl(&self, args: &[&str]) -> Output {
         Command::new(env!("CARGO_BIN_EXE_drivectl"))

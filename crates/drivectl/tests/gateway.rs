@@ -1,0 +1,841 @@
+//! `drivectl gateway` end to end, as a plant runs it: the gateway binary as a process, a real
+//! Mosquitto broker (`tests/common/mosquitto.rs`), and the drives as `drivectl sim … --pty`
+//! processes (or the gateway's own `--simulate`). A test MQTT client checks what a SCADA
+//! system would see.
+
+// Test code: helpers outside `#[test]` fns panic by design.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic
+)]
+
+mod common;
+#[path = "common/mosquitto.rs"]
+mod mosquitto;
+
+use std::path::PathBuf;
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
+
+use common::{PtySim, ok_json};
+use mosquitto::{BrokerOptions, Mosquitto, TestClient};
+use serde_json::{Value, json};
+
+/// A running `drivectl gateway`; killed when dropped.
+struct Gateway {
+    child: Option<Child>,
+    dir: PathBuf,
+}
+
+static SEQ: std::sync::atomic::AtomicU32 = std::sync::atomic::AtomicU32::new(0);
+
+impl Gateway {
+    /// Write `config` and start `drivectl gateway --config … <extra>`; its log goes to a file.
+    fn start(config: &str, extra: &[&str]) -> Gateway {
+        let dir = std::env::temp_dir().join(format!(
+            "drivebus-gw-{}-{}",
+            std::process::id(),
+            SEQ.fetch_add(1, std::sync::atomic::Ordering::Relaxed)
+        ));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        let mut gw = Gateway { child: None, dir };
+        gw.write_config(config);
+        gw.spawn(extra);
+        gw
+    }
+
+    fn write_config(&self, config: &str) {
+        std::fs::write(self.dir.join("plant.toml"), config).unwrap();
+    }
+
+    fn spawn(&mut self, extra: &[&str]) {
+        let log = std::fs::File::create(self.dir.join("gateway.log")).unwrap();
+        let child = Command::new(env!("CARGO_BIN_EXE_drivectl"))
+            .arg("gateway")
+            .arg("--config")
+            .arg(self.dir.join("plant.toml"))
+            .args(extra)
+            .env("DRIVECTL_STATE_DIR", self.dir.join("state"))
+            .stdout(Stdio::null())
+            .stderr(log)
+            .spawn()
+            .expect("drivectl gateway starts");
+        self.child = Some(child);
+    }
+
+    fn log(&self) -> String {
+        std::fs::read_to_string(self.dir.join("gateway.log")).unwrap_or_default()
+    }
+
+    /// SIGTERM (systemd's stop) and wait for the exit (5 s at most); the exit status.
+    fn terminate(&mut self) -> std::process::ExitStatus {
+        let mut child = self.child.take().expect("running");
+        signal(child.id(), "TERM");
+        let deadline = Instant::now() + Duration::from_secs(5);
+        loop {
+            if let Some(s) = child.try_wait().unwrap() {
+                return s;
+            }
+            if Instant::now() > deadline {
+                let _ = child.kill();
+                panic!(
+                    "the gateway did not stop within 5 s of SIGTERM:\n{}",
+                    self.log()
+                );
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    }
+}
+
+impl Drop for Gateway {
+    fn drop(&mut self) {
+        if let Some(mut c) = self.child.take() {
+            let _ = c.kill();
+            let _ = c.wait();
+        }
+        if !std::thread::panicking() {
+            let _ = std::fs::remove_dir_all(&self.dir);
+        } else {
+            eprintln!("gateway log ({}):\n{}", self.dir.display(), self.log());
+        }
+    }
+}
+
+fn signal(pid: u32, sig: &str) {
+    let ok = Command::new("kill")
+        .arg(format!("-{sig}"))
+        .arg(pid.to_string())
+        .status()
+        .unwrap()
+        .success();
+    assert!(ok, "kill -{sig} {pid}");
+}
+
+fn now_ms() -> u64 {
+    SystemTime::now()
+        .duration_since(UNIX_EPOCH)
+        .unwrap()
+        .as_millis() as u64
+}
+
+fn broker(options: BrokerOptions) -> Option<Mosquitto> {
+    Mosquitto::start(options)
+}
+
+/// The `[gateway]` table for `broker` with extra lines.
+fn gateway_table(broker: &Mosquitto, extra: &str) -> String {
+    format!(
+        "[gateway]\nname = \"gw\"\nbroker = \"{}\"\nmetrics = \"off\"\nheartbeat = \"2s\"\n{extra}\n",
+        broker.url()
+    )
+}
+
+async fn subscriber(broker: &Mosquitto, id: &str) -> TestClient {
+    TestClient::connect(broker.client_options(id, None), &["drivebus/gw/#"]).await
+}
+
+/// Every message a subscriber received, by topic, in order.
+#[derive(Default)]
+struct Seen(std::collections::HashMap<String, Vec<Vec<u8>>>);
+
+impl Seen {
+    /// The first message on `topic` (already received, or arriving within `wait`) whose
+    /// payload satisfies `pred`; messages on other topics are kept for later calls.
+    async fn wait(
+        &mut self,
+        c: &mut TestClient,
+        topic: &str,
+        wait: Duration,
+        mut pred: impl FnMut(&[u8]) -> bool,
+    ) -> Option<Vec<u8>> {
+        let deadline = tokio::time::Instant::now() + wait;
+        let mut checked = 0;
+        loop {
+            if let Some(list) = self.0.get(topic) {
+                if let Some(p) = list.iter().skip(checked).find(|p| pred(p)) {
+                    return Some(p.clone());
+                }
+                checked = list.len();
+            }
+            let left = deadline.saturating_duration_since(tokio::time::Instant::now());
+            if left.is_zero() {
+                return None;
+            }
+            for p in c.collect(left.min(Duration::from_millis(100))).await {
+                self.0
+                    .entry(p.topic.clone())
+                    .or_default()
+                    .push(p.payload.to_vec());
+            }
+        }
+    }
+
+    /// Forget what was received on `topic`.
+    fn clear(&mut self, topic: &str) {
+        self.0.remove(topic);
+    }
+
+    /// A JSON message on `topic` satisfying `pred`, within `wait`; panics naming the topic.
+    async fn json(
+        &mut self,
+        c: &mut TestClient,
+        topic: &str,
+        wait: Duration,
+        mut pred: impl FnMut(&Value) -> bool,
+    ) -> Value {
+        let p = self
+            .wait(c, topic, wait, |p| {
+                serde_json::from_slice::<Value>(p).is_ok_and(|v| pred(&v))
+            })
+            .await;
+        let p = p.unwrap_or_else(|| {
+            panic!(
+                "no such message on {topic} within {wait:?}; received there: {:?}",
+                self.0.get(topic).map(|l| l
+                    .iter()
+                    .map(|p| String::from_utf8_lossy(p).into_owned())
+                    .collect::<Vec<_>>())
+            )
+        });
+        serde_json::from_slice(&p).unwrap()
+    }
+}
+
+/// Publish a `set` and wait for its `result` (matched by `id`).
+async fn set(seen: &mut Seen, c: &mut TestClient, topic: &str, body: Value) -> Value {
+    let id = body["id"].clone();
+    c.publish(&format!("{topic}/set"), body.to_string(), false)
+        .await;
+    seen.json(
+        c,
+        &format!("{topic}/result"),
+        Duration::from_secs(10),
+        |r| r["id"] == id,
+    )
+    .await
+}
+
+/// One bus of the end-to-end test: a simulator process on a pty and the config lines that
+/// reach it, the writable point and the values to write.
+struct Case {
+    protocol: &'static str,
+    sim: PtySim,
+    /// `drivectl …` arguments that read the point directly (the simulator's own value).
+    read: Vec<String>,
+    bus: String,
+    /// The topic of the writable point.
+    topic: String,
+    /// A value in range (as `value`) and its raw value.
+    good: (Value, i64),
+    /// A value out of range.
+    bad: Value,
+}
+
+fn cases() -> Vec<Case> {
+    let mut out = Vec::new();
+    // MOVILINK: P130 ramp t11 up CW, 2 s by default (raw ms).
+    let sim = PtySim::start(&[
+        "sim", "movilink", "--pty", "--parity", "none", "--addr", "1",
+    ]);
+    out.push(Case {
+        protocol: "movilink",
+        read: ["movilink", "--port", &sim.path, "--parity", "none", "--addr", "1", "--json", "read", "P130"]
+            .map(String::from)
+            .to_vec(),
+        bus: format!(
+            "[[bus]]\nname = \"ml\"\nprotocol = \"movilink\"\nport = \"{}\"\nparity = \"none\"\n\
+             [[bus.drive]]\nname = \"d1\"\naddress = 1\n\
+             [[bus.drive.param]]\nparam = \"P130\"\nname = \"ramp\"\nperiod = \"300ms\"\nwritable = true\n\
+             [[bus.drive.param]]\nparam = \"P131\"\nname = \"ramp_down\"\nperiod = \"300ms\"\n",
+            sim.path
+        ),
+        topic: "drivebus/gw/ml/d1/ramp".into(),
+        good: (json!(3.5), 3500),
+        bad: json!(99999),
+        sim,
+    });
+    // SBus through a simulated slcan adapter: P131 ramp t11 down CW.
+    let sim = PtySim::start(&["sim", "sbus", "--pty", "--addr", "1"]);
+    let iface = format!("slcan:{}", sim.path);
+    out.push(Case {
+        protocol: "sbus",
+        read: ["sbus", "--iface", &iface, "--addr", "1", "--json", "read", "P130"]
+            .map(String::from)
+            .to_vec(),
+        bus: format!(
+            "[[bus]]\nname = \"can\"\nprotocol = \"sbus\"\niface = \"{iface}\"\n\
+             [[bus.drive]]\nname = \"d1\"\naddress = 1\n\
+             [[bus.drive.param]]\nparam = \"P130\"\nname = \"ramp\"\nperiod = \"300ms\"\nwritable = true\n\
+             [[bus.drive.param]]\nparam = \"P131\"\nname = \"ramp_down\"\nperiod = \"300ms\"\n"
+        ),
+        topic: "drivebus/gw/can/d1/ramp".into(),
+        good: (json!(4.3), 4300),
+        bad: json!(-1),
+        sim,
+    });
+    // USS: P102 acceleration time, parameter set 1.
+    let sim = PtySim::start(&["sim", "uss", "--pty", "--parity", "none", "--addr", "1"]);
+    out.push(Case {
+        protocol: "uss",
+        read: ["uss", "--port", &sim.path, "--parity", "none", "--addr", "1", "--json", "read", "P102"]
+            .map(String::from)
+            .to_vec(),
+        bus: format!(
+            "[[bus]]\nname = \"uss\"\nprotocol = \"uss\"\nport = \"{}\"\nparity = \"none\"\n\
+             [[bus.drive]]\nname = \"d1\"\naddress = 1\n\
+             [[bus.drive.param]]\nparam = \"P102\"\nset = 1\nname = \"ramp\"\nperiod = \"300ms\"\nwritable = true\n\
+             [[bus.drive.param]]\nparam = \"P105\"\nset = 1\nname = \"fmax\"\nperiod = \"300ms\"\n",
+            sim.path
+        ),
+        topic: "drivebus/gw/uss/d1/ramp".into(),
+        good: (json!(7.5), 750),
+        bad: json!(1e9),
+        sim,
+    });
+    // Modbus RTU and ASCII: 481 fixed frequency 2 in data set 5 (the RAM image of 0).
+    for (mode, name) in [("rtu", "modbus-rtu"), ("ascii", "modbus-ascii")] {
+        let sim = PtySim::start(&[
+            "sim",
+            "bonfiglioli",
+            "--pty",
+            "--parity",
+            "none",
+            "--mode",
+            mode,
+        ]);
+        out.push(Case {
+            protocol: name,
+            read: [
+                "bonfiglioli", "--port", &sim.path, "--parity", "none", "--mode", mode,
+                "--data-bits", "8", "--addr", "1", "--json", "read", "481", "--dataset", "5",
+            ]
+            .map(String::from)
+            .to_vec(),
+            bus: format!(
+                "[[bus]]\nname = \"{mode}\"\nprotocol = \"{name}\"\nport = \"{}\"\nparity = \"none\"\ndata_bits = 8\n\
+                 [[bus.drive]]\nname = \"d1\"\naddress = 1\n\
+                 [[bus.drive.param]]\nparam = \"481\"\ndata_set = 5\nname = \"ff2\"\nperiod = \"300ms\"\nwritable = true\n\
+                 [[bus.drive.param]]\nparam = \"241\"\nname = \"frequency\"\nperiod = \"300ms\"\n",
+                sim.path
+            ),
+            topic: format!("drivebus/gw/{mode}/d1/ff2"),
+            good: (json!(12.5), 1250),
+            bad: json!(1e12),
+            sim,
+        });
+    }
+    out
+}
+
+fn read_raw(case: &Case) -> i64 {
+    let args: Vec<&str> = case.read.iter().map(String::as_str).collect();
+    let v = ok_json(&case.sim.drivectl(&args));
+    v[0]["raw"]
+        .as_i64()
+        .unwrap_or_else(|| panic!("{}: {v:?}", case.protocol))
+}
+
+/// Every family at once on one gateway: the published values are the simulators' values; a
+/// `set` in range reaches the simulated drive (read back directly after the gateway stopped);
+/// out-of-range and not-writable sets are refused and write nothing; SIGTERM publishes
+/// `offline`.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn every_family_end_to_end_over_ptys() {
+    let Some(broker) = broker(BrokerOptions::default()) else {
+        return;
+    };
+    let cases = cases();
+    let before: Vec<i64> = cases.iter().map(read_raw).collect();
+    let config = format!(
+        "{}{}",
+        gateway_table(&broker, ""),
+        cases
+            .iter()
+            .map(|c| c.bus.as_str())
+            .collect::<Vec<_>>()
+            .join("\n")
+    );
+    let mut c = subscriber(&broker, "scada").await;
+    let mut seen = Seen::default();
+    let gw = Gateway::start(&config, &[]);
+    let online = seen
+        .wait(&mut c, "drivebus/gw/status", Duration::from_secs(10), |p| {
+            p == b"online"
+        })
+        .await;
+    assert!(online.is_some(), "{}", gw.log());
+    let mut gw = gw;
+    for (case, raw) in cases.iter().zip(&before) {
+        let v = seen
+            .json(&mut c, &case.topic, Duration::from_secs(10), |_| true)
+            .await;
+        assert_eq!(v["raw"].as_i64(), Some(*raw), "{}: {v}", case.protocol);
+        assert!(
+            v["ts"]
+                .as_u64()
+                .is_some_and(|t| t.abs_diff(now_ms()) < 60_000),
+            "{v}"
+        );
+        let bus_and_drive = case.topic.rsplit_once('/').unwrap().0;
+        let st = seen
+            .json(
+                &mut c,
+                &format!("{bus_and_drive}/status"),
+                Duration::from_secs(10),
+                |_| true,
+            )
+            .await;
+        assert_eq!(st["state"], "online", "{}: {st}", case.protocol);
+    }
+    for case in &cases {
+        let bad = json!({"value": case.bad, "id": "bad", "ts": now_ms()});
+        let r = set(&mut seen, &mut c, &case.topic, bad).await;
+        assert_eq!(r["ok"], false, "{}: {r}", case.protocol);
+        assert_eq!(r["outcome"], "refused", "{}: {r}", case.protocol);
+        let other = format!("{}/{}", case.topic.rsplit_once('/').unwrap().0, "ramp_down");
+        if case.protocol == "movilink" || case.protocol == "sbus" {
+            let r = set(&mut seen, &mut c, &other, json!({"raw": 100, "id": "nw"})).await;
+            assert_eq!(r["reason"], "not_writable", "{r}");
+        }
+        let good = json!({"value": case.good.0, "id": 7, "ts": now_ms()});
+        let r = set(&mut seen, &mut c, &case.topic, good).await;
+        assert_eq!(r["ok"], true, "{}: {r}", case.protocol);
+        assert_eq!(
+            r["raw"].as_i64(),
+            Some(case.good.1),
+            "{}: {r}",
+            case.protocol
+        );
+        let want = case.good.1;
+        seen.json(&mut c, &case.topic, Duration::from_secs(10), |v| {
+            v["raw"].as_i64() == Some(want)
+        })
+        .await;
+    }
+    let status = gw.terminate();
+    assert!(status.success(), "{status:?}\n{}", gw.log());
+    let last = seen
+        .wait(&mut c, "drivebus/gw/status", Duration::from_secs(5), |p| {
+            p == b"offline"
+        })
+        .await;
+    assert!(last.is_some(), "offline at SIGTERM");
+    for case in &cases {
+        assert_eq!(
+            read_raw(case),
+            case.good.1,
+            "{}: the simulated drive has the value",
+            case.protocol
+        );
+    }
+}
+
+/// A free TCP port on 127.0.0.1.
+fn free_port() -> u16 {
+    std::net::TcpListener::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port()
+}
+
+/// `GET /metrics` on 127.0.0.1:`port`.
+fn scrape(port: u16) -> String {
+    use std::io::{Read as _, Write as _};
+    let mut s = std::net::TcpStream::connect(("127.0.0.1", port)).unwrap();
+    s.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
+    s.write_all(b"GET /metrics HTTP/1.1\r\nHost: localhost\r\n\r\n")
+        .unwrap();
+    let mut out = String::new();
+    s.read_to_string(&mut out).unwrap();
+    assert!(out.starts_with("HTTP/1.1 200"), "{out}");
+    out
+}
+
+/// The value of the metric line starting with `prefix` (labels included), 0 when absent.
+fn metric(text: &str, prefix: &str) -> f64 {
+    text.lines()
+        .find(|l| l.starts_with(prefix))
+        .and_then(|l| l.rsplit(' ').next())
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(0.0)
+}
+
+/// A drive that stops answering is `timeout` within its period + timeout × attempts, and
+/// `online` again after it answers; a drive that never answers costs its bus one timeout per
+/// back-off and does not starve the drive beside it (counted on `/metrics`).
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_drive_that_stops_answering_goes_timeout_and_comes_back() {
+    let Some(broker) = broker(BrokerOptions::default()) else {
+        return;
+    };
+    let sim = PtySim::start(&[
+        "sim", "movilink", "--pty", "--parity", "none", "--addr", "1",
+    ]);
+    let port = free_port();
+    let config = format!(
+        "{}[[bus]]\nname = \"ml\"\nprotocol = \"movilink\"\nport = \"{}\"\nparity = \"none\"\n\
+         timeout = \"50ms\"\nretries = 1\n\
+         [[bus.drive]]\nname = \"d1\"\naddress = 1\n\
+         [[bus.drive.param]]\nparam = \"P130\"\nname = \"ramp\"\nperiod = \"200ms\"\n\
+         [[bus.drive]]\nname = \"missing\"\naddress = 3\n\
+         [[bus.drive.param]]\nparam = \"P130\"\nname = \"ramp\"\nperiod = \"200ms\"\n",
+        gateway_table(&broker, "").replace(
+            "metrics = \"off\"",
+            &format!("metrics = \"127.0.0.1:{port}\"")
+        ),
+        sim.path
+    );
+    let mut c = subscriber(&broker, "scada").await;
+    let mut seen = Seen::default();
+    let gw = Gateway::start(&config, &[]);
+    let d1 = "drivebus/gw/ml/d1/status";
+    seen.json(&mut c, d1, Duration::from_secs(10), |v| {
+        v["state"] == "online"
+    })
+    .await;
+    seen.json(
+        &mut c,
+        "drivebus/gw/ml/missing/status",
+        Duration::from_secs(10),
+        |v| v["state"] == "timeout",
+    )
+    .await;
+    // Over 3 s, d1 keeps its 200 ms period although its neighbour never answers.
+    let ok = "drivebus_transactions_total{bus=\"ml\",drive=\"d1\",op=\"read\",outcome=\"ok\"}";
+    let a = metric(&scrape(port), ok);
+    tokio::time::sleep(Duration::from_secs(3)).await;
+    let text = scrape(port);
+    let reads = metric(&text, ok) - a;
+    assert!(
+        reads >= 13.0,
+        "d1 read {reads} times in 3 s at a 200 ms period:\n{text}"
+    );
+    let missed =
+        "drivebus_transactions_total{bus=\"ml\",drive=\"missing\",op=\"read\",outcome=\"timeout\"}";
+    assert!(
+        metric(&text, missed) <= 6.0,
+        "the missing drive is probed with a back-off:\n{text}"
+    );
+
+    // Stop the simulator: d1 goes `timeout` within 200 ms + 2 × 50 ms (+ the way through the
+    // broker and this machine's scheduling).
+    seen.clear(d1);
+    signal(sim.pid(), "STOP");
+    let stopped = Instant::now();
+    seen.json(&mut c, d1, Duration::from_secs(5), |v| {
+        v["state"] == "timeout"
+    })
+    .await;
+    let took = stopped.elapsed();
+    assert!(
+        took < Duration::from_millis(300 + 400),
+        "timeout reported after {took:?}"
+    );
+    signal(sim.pid(), "CONT");
+    let resumed = Instant::now();
+    seen.json(&mut c, d1, Duration::from_secs(5), |v| {
+        v["state"] == "online"
+    })
+    .await;
+    // The first probe comes 1 s after the timeout.
+    let took = resumed.elapsed();
+    assert!(
+        took < Duration::from_millis(1000 + 400),
+        "online again after {took:?}"
+    );
+    drop(gw);
+}
+
+/// A `set` that arrives retained (published while no gateway ran) or stale is refused with a
+/// result and never written: a restarted gateway does not move a machine.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn retained_and_stale_sets_are_never_executed_also_after_restart() {
+    let Some(broker) = broker(BrokerOptions::default()) else {
+        return;
+    };
+    let config = format!(
+        "{}[[bus]]\nname = \"ml\"\nprotocol = \"movilink\"\nsimulate = true\n\
+         [[bus.drive]]\nname = \"d1\"\naddress = 1\n\
+         [[bus.drive.param]]\nparam = \"P130\"\nname = \"ramp\"\nperiod = \"200ms\"\nwritable = true\n",
+        gateway_table(&broker, "max_set_age = \"5s\"")
+    );
+    let topic = "drivebus/gw/ml/d1/ramp";
+    let mut c = subscriber(&broker, "scada").await;
+    let mut seen = Seen::default();
+    // Left behind by someone while no gateway ran.
+    c.publish(
+        &format!("{topic}/set"),
+        json!({"value": 9.9, "id": "r"}).to_string(),
+        true,
+    )
+    .await;
+    let mut gw = Gateway::start(&config, &[]);
+    let r = seen
+        .json(
+            &mut c,
+            &format!("{topic}/result"),
+            Duration::from_secs(10),
+            |r| r["id"] == "r",
+        )
+        .await;
+    assert_eq!(r["reason"], "retained", "{r}");
+    let stale = json!({"value": 3.5, "id": "s", "ts": now_ms() - 60_000});
+    let r = set(&mut seen, &mut c, topic, stale).await;
+    assert_eq!(r["reason"], "stale", "{r}");
+    // Polled every 200 ms: still the factory 2 s after a second.
+    tokio::time::sleep(Duration::from_secs(1)).await;
+    seen.clear(topic);
+    let v = seen
+        .json(&mut c, topic, Duration::from_secs(5), |_| true)
+        .await;
+    assert_eq!(v["raw"], 2000, "{v}");
+
+    // A retained `set` published while the gateway runs arrives live (MQTT 3.1.1 delivers it
+    // to a present subscriber without the retain flag): it is a present command, executed.
+    c.publish(
+        &format!("{topic}/set"),
+        json!({"value": 7.7, "id": "r2"}).to_string(),
+        true,
+    )
+    .await;
+    let r = seen
+        .json(
+            &mut c,
+            &format!("{topic}/result"),
+            Duration::from_secs(10),
+            |r| r["id"] == "r2",
+        )
+        .await;
+    assert_eq!(
+        (r["ok"].clone(), r["raw"].clone()),
+        (json!(true), json!(7700)),
+        "{r}"
+    );
+    // Restarted (the simulated plant starts again at the factory 2 s): the retained copy
+    // reaches the new connection and is refused, never written again.
+    gw.terminate();
+    gw.spawn(&[]);
+    seen.clear(topic);
+    seen.clear(&format!("{topic}/result"));
+    let first = seen
+        .json(&mut c, topic, Duration::from_secs(10), |_| true)
+        .await;
+    assert_eq!(first["raw"], 2000, "{first}");
+    tokio::time::sleep(Duration::from_secs(1)).await;
+    seen.clear(topic);
+    let v = seen
+        .json(&mut c, topic, Duration::from_secs(5), |_| true)
+        .await;
+    assert_eq!(
+        v["raw"], 2000,
+        "the retained set was not executed again: {v}"
+    );
+    let again = seen
+        .wait(
+            &mut c,
+            &format!("{topic}/result"),
+            Duration::from_millis(100),
+            |_| true,
+        )
+        .await;
+    if let Some(r) = again {
+        let r: Value = serde_json::from_slice(&r).unwrap();
+        assert_eq!(r["reason"], "retained", "{r}");
+    }
+}
+
+/// The broker restarts (losing every retained message): the gateway reconnects and publishes
+/// its status and every latest value again.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn broker_restart_reconnection_and_republication() {
+    let Some(mut broker) = broker(BrokerOptions::default()) else {
+        return;
+    };
+    let config = format!(
+        "{}[[bus]]\nname = \"ml\"\nprotocol = \"movilink\"\nsimulate = true\n\
+         [[bus.drive]]\nname = \"d1\"\naddress = 1\n\
+         [[bus.drive.param]]\nparam = \"P130\"\nname = \"ramp\"\nperiod = \"30s\"\n",
+        gateway_table(&broker, "heartbeat = \"1h\"").replace("heartbeat = \"2s\"\n", "")
+    );
+    let gw = Gateway::start(&config, &[]);
+    {
+        let mut c = subscriber(&broker, "scada").await;
+        let mut seen = Seen::default();
+        seen.json(
+            &mut c,
+            "drivebus/gw/ml/d1/ramp",
+            Duration::from_secs(10),
+            |v| v["raw"] == 2000,
+        )
+        .await;
+    }
+    broker.restart();
+    // A fresh subscriber on the fresh broker: nothing is retained there but what the gateway
+    // publishes again after reconnecting (the value is polled only every 30 s, the heartbeat
+    // is an hour: this is republication, not a new poll).
+    let mut c = subscriber(&broker, "scada2").await;
+    let mut seen = Seen::default();
+    let online = seen
+        .wait(&mut c, "drivebus/gw/status", Duration::from_secs(15), |p| {
+            p == b"online"
+        })
+        .await;
+    assert!(online.is_some(), "{}", gw.log());
+    seen.json(
+        &mut c,
+        "drivebus/gw/ml/d1/ramp",
+        Duration::from_secs(5),
+        |v| v["raw"] == 2000,
+    )
+    .await;
+    seen.json(
+        &mut c,
+        "drivebus/gw/ml/d1/status",
+        Duration::from_secs(5),
+        |v| v["state"] == "online",
+    )
+    .await;
+}
+
+/// TLS with a generated CA and password authentication; a wrong password is refused (logged,
+/// retried, never online, never a crash).
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn tls_and_password_authentication_and_a_wrong_password() {
+    let options = BrokerOptions {
+        users: vec![
+            ("gw".into(), "s3cret".into()),
+            ("scada".into(), "view".into()),
+        ],
+        tls: true,
+    };
+    let Some(broker) = broker(options) else {
+        return;
+    };
+    let plant = |password: &str| {
+        let pw = broker.file(&format!("pw-{password}"), &format!("{password}\n"));
+        format!(
+            "[gateway]\nname = \"gw\"\nbroker = \"mqtts://gw@localhost:{}\"\nca_file = \"{}\"\n\
+             password_file = \"{}\"\nmetrics = \"off\"\n\
+             [[bus]]\nname = \"ml\"\nprotocol = \"movilink\"\nsimulate = true\n\
+             [[bus.drive]]\nname = \"d1\"\naddress = 1\n\
+             [[bus.drive.param]]\nparam = \"P130\"\nname = \"ramp\"\nperiod = \"1s\"\n",
+            broker.port,
+            broker.ca_file().display(),
+            pw.display()
+        )
+    };
+    let mut c = TestClient::connect(
+        broker.client_options("scada", Some(("scada", "view"))),
+        &["drivebus/gw/#"],
+    )
+    .await;
+    let mut seen = Seen::default();
+    let good = Gateway::start(&plant("s3cret"), &[]);
+    let online = seen
+        .wait(&mut c, "drivebus/gw/status", Duration::from_secs(10), |p| {
+            p == b"online"
+        })
+        .await;
+    assert!(online.is_some(), "{}", good.log());
+    seen.json(
+        &mut c,
+        "drivebus/gw/ml/d1/ramp",
+        Duration::from_secs(5),
+        |v| v["raw"] == 2000,
+    )
+    .await;
+    drop(good);
+    seen.clear("drivebus/gw/status");
+    let bad = Gateway::start(&plant("wrong"), &[]);
+    let online = seen
+        .wait(&mut c, "drivebus/gw/status", Duration::from_secs(3), |p| {
+            p == b"online"
+        })
+        .await;
+    assert!(online.is_none(), "a wrong password must not get online");
+    let log = bad.log();
+    assert!(
+        log.to_lowercase().contains("not authori") || log.to_lowercase().contains("refused"),
+        "{log}"
+    );
+    let mut bad = bad;
+    let status = bad.terminate();
+    assert!(
+        status.success(),
+        "still running, stopped cleanly: {status:?}\n{log}"
+    );
+}
+
+/// The example config runs as it is with `--simulate` (and `--broker`): every drive of every
+/// family is online, every point is published, and every writable point takes a `set`.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_example_config_runs_with_simulate() {
+    let Some(broker) = broker(BrokerOptions::default()) else {
+        return;
+    };
+    let out = Command::new(env!("CARGO_BIN_EXE_drivectl"))
+        .args(["gateway", "--example-config"])
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    let example = String::from_utf8(out.stdout).unwrap();
+    let mut c = TestClient::connect(
+        broker.client_options("scada", None),
+        &["drivebus/cabinet-1/#"],
+    )
+    .await;
+    let mut seen = Seen::default();
+    let gw = Gateway::start(&example, &["--simulate", "--broker", &broker.url()]);
+    let online = seen
+        .wait(
+            &mut c,
+            "drivebus/cabinet-1/status",
+            Duration::from_secs(10),
+            |p| p == b"online",
+        )
+        .await;
+    assert!(online.is_some(), "{}", gw.log());
+    // The drives and writable points of the example, from the file itself.
+    let plant: toml::Value = toml::from_str(&example).unwrap();
+    let mut sets = 0;
+    for bus in plant["bus"].as_array().unwrap() {
+        let b = bus["name"].as_str().unwrap();
+        for drive in bus["drive"].as_array().unwrap() {
+            let d = drive["name"].as_str().unwrap();
+            let st = seen
+                .json(
+                    &mut c,
+                    &format!("drivebus/cabinet-1/{b}/{d}/status"),
+                    Duration::from_secs(15),
+                    |_| true,
+                )
+                .await;
+            assert_eq!(st["state"], "online", "{b}/{d}: {st}");
+            for p in drive["param"].as_array().unwrap() {
+                let topic = format!("drivebus/cabinet-1/{b}/{d}/{}", p["name"].as_str().unwrap());
+                let v = seen
+                    .json(&mut c, &topic, Duration::from_secs(40), |_| true)
+                    .await;
+                let raw = v["raw"].as_i64().unwrap_or_else(|| panic!("{topic}: {v}"));
+                if p.get("writable").and_then(toml::Value::as_bool) == Some(true) {
+                    let id = format!("{b}/{d}");
+                    let r = set(
+                        &mut seen,
+                        &mut c,
+                        &topic,
+                        json!({"raw": raw, "id": id, "ts": now_ms()}),
+                    )
+                    .await;
+                    assert_eq!(r["ok"], true, "{topic}: {r}");
+                    sets += 1;
+                }
+            }
+        }
+    }
+    assert!(sets >= 5, "a writable point on every bus");
+}
