@@ -712,6 +712,7 @@ async fn tls_and_password_authentication_and_a_wrong_password() {
             ("scada".into(), "view".into()),
         ],
         tls: true,
+        client_certificates: false,
     };
     let Some(broker) = broker(options) else {
         return;
@@ -838,4 +839,61 @@ async fn the_example_config_runs_with_simulate() {
         }
     }
     assert!(sets >= 5, "a writable point on every bus");
+}
+
+/// Client-certificate authentication: a broker that requires a certificate signed by its CA
+/// takes the gateway's (`client_cert`/`client_key`) and refuses one signed by another CA.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn client_certificate_authentication() {
+    let options = BrokerOptions {
+        tls: true,
+        client_certificates: true,
+        ..BrokerOptions::default()
+    };
+    let Some(broker) = broker(options) else {
+        return;
+    };
+    let plant = |who: &str| {
+        format!(
+            "[gateway]\nname = \"gw\"\nbroker = \"mqtts://localhost:{}\"\nca_file = \"{}\"\n\
+             client_cert = \"{d}/{who}.pem\"\nclient_key = \"{d}/{who}.key\"\nmetrics = \"off\"\n\
+             [[bus]]\nname = \"ml\"\nprotocol = \"movilink\"\nsimulate = true\n\
+             [[bus.drive]]\nname = \"d1\"\naddress = 1\n\
+             [[bus.drive.param]]\nparam = \"P130\"\nname = \"ramp\"\nperiod = \"1s\"\n",
+            broker.port,
+            broker.ca_file().display(),
+            d = broker.dir.display()
+        )
+    };
+    let mut c = TestClient::connect(broker.client_options("scada", None), &["drivebus/gw/#"]).await;
+    let mut seen = Seen::default();
+    let good = Gateway::start(&plant("gw"), &[]);
+    let online = seen
+        .wait(&mut c, "drivebus/gw/status", Duration::from_secs(10), |p| {
+            p == b"online"
+        })
+        .await;
+    assert!(online.is_some(), "{}", good.log());
+    seen.json(
+        &mut c,
+        "drivebus/gw/ml/d1/ramp",
+        Duration::from_secs(5),
+        |v| v["raw"] == 2000,
+    )
+    .await;
+    drop(good);
+    seen.clear("drivebus/gw/status");
+    let mut rogue = Gateway::start(&plant("rogue"), &[]);
+    let online = seen
+        .wait(&mut c, "drivebus/gw/status", Duration::from_secs(3), |p| {
+            p == b"online"
+        })
+        .await;
+    assert!(
+        online.is_none(),
+        "a certificate of another CA must not get online"
+    );
+    let log = rogue.log();
+    assert!(log.contains("broker"), "the refusal is logged: {log}");
+    assert!(rogue.terminate().success(), "{log}");
 }

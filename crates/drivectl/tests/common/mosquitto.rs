@@ -40,6 +40,10 @@ pub struct BrokerOptions {
     /// A TLS listener (certificate for `localhost` and 127.0.0.1, signed by a generated CA)
     /// instead of plain TCP.
     pub tls: bool,
+    /// With `tls`: clients must show a certificate signed by the CA (its CN is the user
+    /// name). The harness makes `gw.pem`/`gw.key` and `scada.pem`/`scada.key` signed by the
+    /// CA, and `rogue.pem`/`rogue.key` signed by another CA.
+    pub client_certificates: bool,
 }
 
 /// The binaries the harness runs, found once.
@@ -217,13 +221,23 @@ impl Mosquitto {
             for c in rustls::pki_types::CertificateDer::pem_slice_iter(&pem) {
                 roots.add(c.unwrap()).unwrap();
             }
-            let config = rustls::ClientConfig::builder_with_provider(std::sync::Arc::new(
+            let builder = rustls::ClientConfig::builder_with_provider(std::sync::Arc::new(
                 rustls::crypto::ring::default_provider(),
             ))
             .with_safe_default_protocol_versions()
             .unwrap()
-            .with_root_certificates(roots)
-            .with_no_client_auth();
+            .with_root_certificates(roots);
+            let config = if self.options.client_certificates {
+                use rustls::pki_types::{CertificateDer, PrivateKeyDer};
+                let certs = CertificateDer::pem_file_iter(self.dir.join("scada.pem"))
+                    .unwrap()
+                    .map(Result::unwrap)
+                    .collect();
+                let key = PrivateKeyDer::from_pem_file(self.dir.join("scada.key")).unwrap();
+                builder.with_client_auth_cert(certs, key).unwrap()
+            } else {
+                builder.with_no_client_auth()
+            };
             o.set_transport(rumqttc::Transport::tls_with_config(
                 rumqttc::TlsConfiguration::Rustls(std::sync::Arc::new(config)),
             ));
@@ -317,6 +331,62 @@ impl Mosquitto {
             "-extfile",
             "server.ext",
         ]);
+        if !self.options.client_certificates {
+            return;
+        }
+        std::fs::write(
+            self.dir.join("client.ext"),
+            "basicConstraints=CA:FALSE\nkeyUsage=critical,digitalSignature\n\
+             extendedKeyUsage=clientAuth\n",
+        )
+        .unwrap();
+        // Another CA, whose client certificate the broker must refuse.
+        let mut other = vec!["req", "-x509", "-nodes", "-days", "2"];
+        other.extend(ec);
+        other.extend([
+            "-keyout",
+            "other-ca.key",
+            "-out",
+            "other-ca.pem",
+            "-subj",
+            "/CN=someone else's CA",
+            "-addext",
+            "basicConstraints=critical,CA:TRUE",
+            "-addext",
+            "keyUsage=critical,keyCertSign,cRLSign",
+        ]);
+        run(&other);
+        for (name, ca) in [("gw", "ca"), ("scada", "ca"), ("rogue", "other-ca")] {
+            let key = format!("{name}.key");
+            let csr = format!("{name}.csr");
+            let subj = format!("/CN={name}");
+            let mut req = vec!["req", "-nodes"];
+            req.extend(ec);
+            req.extend(["-keyout", &key, "-out", &csr, "-subj", &subj]);
+            run(&req);
+            let (ca_pem, ca_key, out) = (
+                format!("{ca}.pem"),
+                format!("{ca}.key"),
+                format!("{name}.pem"),
+            );
+            run(&[
+                "x509",
+                "-req",
+                "-in",
+                &csr,
+                "-CA",
+                &ca_pem,
+                "-CAkey",
+                &ca_key,
+                "-CAcreateserial",
+                "-days",
+                "2",
+                "-out",
+                &out,
+                "-extfile",
+                "client.ext",
+            ]);
+        }
     }
 
     fn write_config(&self) {
@@ -339,6 +409,9 @@ impl Mosquitto {
             c.push_str(&format!(
                 "cafile {d}/ca.pem\ncertfile {d}/server.pem\nkeyfile {d}/server.key\n"
             ));
+            if self.options.client_certificates {
+                c.push_str("require_certificate true\nuse_identity_as_username true\n");
+            }
         }
         let mut f = std::fs::File::create(self.dir.join("mosquitto.conf")).unwrap();
         f.write_all(c.as_bytes()).unwrap();

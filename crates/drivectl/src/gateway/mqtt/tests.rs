@@ -590,6 +590,7 @@ fn tls_broker() -> Option<Mosquitto> {
             ("scada".into(), "s".into()),
         ],
         tls: true,
+        client_certificates: false,
     })
 }
 
