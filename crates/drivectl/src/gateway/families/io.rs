@@ -128,11 +128,11 @@ impl<IO> Reopen<IO> {
     fn closed_error(&self) -> io::Error {
         io::Error::new(
             io::ErrorKind::NotConnected,
+            // The hint was logged with the failed open; the drivers add their own.
             format!(
-                "{} is not open (next attempt within {} s); {}",
+                "{} is not open (next attempt within {} s)",
                 self.what,
-                self.backoff.as_secs(),
-                self.hint
+                self.backoff.as_secs()
             ),
         )
     }
