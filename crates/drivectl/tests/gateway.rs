@@ -419,7 +419,11 @@ async fn every_family_end_to_end_over_ptys() {
     let status = gw.terminate();
     assert!(status.success(), "{status:?}\n{}", gw.log());
     // The log is for the journal or a file: plain text, no terminal colours.
-    assert!(gw.log().contains("INFO") && !gw.log().contains('\x1b'), "{}", gw.log());
+    assert!(
+        gw.log().contains("INFO") && !gw.log().contains('\x1b'),
+        "{}",
+        gw.log()
+    );
     let last = seen
         .wait(&mut c, "drivebus/gw/status", Duration::from_secs(5), |p| {
             p == b"offline"

@@ -30,9 +30,28 @@ pub fn designation(unit_type: u32) -> Option<&'static str> {
         .map(|(_, name)| *name)
 }
 
+/// Fault names the manuals at hand give (fault number, display text). The serial manual names
+/// only F47 (ch. 5, P815 "SBus timeout delay": "Geräte-Fehler F47: TIMEOUT SBUS"); MOVIDRIVE's
+/// fault list is in its operating instructions, which are not at hand, so every other number is
+/// shown without a name rather than guessed.
+const FAULTS: &[(u8, &str)] = &[(47, "TIMEOUT SBUS")];
+
+/// The display text of MOVIDRIVE fault `number` (status word 1's high byte while bit 5 is
+/// set), if a manual at hand names it.
+pub fn fault_name(number: u8) -> Option<&'static str> {
+    FAULTS.iter().find(|(n, _)| *n == number).map(|(_, t)| *t)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_one_fault_the_serial_manual_names() {
+        assert_eq!(fault_name(47), Some("TIMEOUT SBUS"));
+        assert_eq!(fault_name(43), None);
+        assert_eq!(fault_name(0), None);
+    }
     use crate::param::{Access, ParamMeta};
     use crate::sew::{by_index, index};
 

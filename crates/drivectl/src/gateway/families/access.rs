@@ -139,9 +139,10 @@ async fn sew_fault<C: ParamClient>(c: &mut C) -> Result<Option<String>, ClientEr
     let t = table_target(Family::Movidrive, "P012")?;
     let raw = c.read(&t).await?;
     let sw = StatusWord1::from_bits((raw & 0xFFFF) as u16);
+    // "F47 TIMEOUT SBUS" where the manuals name the fault, else its number alone.
     Ok(sw.fault_number().map(|n| {
-        crate::tool::meaning::meaning_of(&t, raw)
-            .map_or_else(|| format!("fault {n}"), |m| format!("F{n:02} {}", m.text))
+        drive_profile::sew::device::fault_name(n)
+            .map_or_else(|| format!("F{n:02}"), |name| format!("F{n:02} {name}"))
     }))
 }
 
@@ -611,5 +612,47 @@ impl BusAccess for Access {
             Proto::Uss(b) => b.tally(),
             Proto::Modbus(b) => b.tally(),
         }
+    }
+}
+
+#[cfg(test)]
+mod fault_tests {
+    use super::*;
+    use crate::tool::fake::FakeClient;
+
+    /// The status topic's fault text of each family, from the raw value of its fault
+    /// parameter: what `fault()` publishes after its one read.
+    #[tokio::test]
+    async fn each_family_decodes_its_fault_parameter() {
+        // MOVIDRIVE P012: status word 1 with bit 5 (fault/warning) set, the fault number in the
+        // high byte: F43 RS-485 timeout.
+        let mut c = FakeClient::new(|_| Ok(0x2B20));
+        let text = sew_fault(&mut c).await.unwrap().unwrap();
+        assert_eq!(text, "F43");
+        let mut c = FakeClient::new(|_| Ok(0x2F20));
+        assert_eq!(
+            sew_fault(&mut c).await.unwrap().unwrap(),
+            "F47 TIMEOUT SBUS"
+        );
+        // Bit 5 clear: no fault, whatever the high byte (the unit status).
+        let mut c = FakeClient::new(|_| Ok(0x0407));
+        assert_eq!(sew_fault(&mut c).await.unwrap(), None);
+        // NORD P700 [-01] and Bonfiglioli 260: zero is no fault, anything else is named.
+        let nord = crate::nord::resolve(
+            "P700",
+            crate::nord::Sub {
+                array: Some(1),
+                set: None,
+            },
+            false,
+        )
+        .unwrap()
+        .remove(0);
+        assert_eq!(fault_text(&nord, 0), None);
+        assert!(fault_text(&nord, 3).is_some_and(|t| t.contains('3')));
+        let bonf = table_target(Family::Bonfiglioli, "260").unwrap();
+        assert_eq!(fault_text(&bonf, 0), None);
+        let t = fault_text(&bonf, 0x0102).unwrap();
+        assert!(t.starts_with("F0102") && t.contains("overloaded"), "{t}");
     }
 }
