@@ -126,6 +126,16 @@ fn broker(options: BrokerOptions) -> Option<Mosquitto> {
     Mosquitto::start(options)
 }
 
+/// One simulated MOVILINK bus `ml` with drive `d1` at address 1 whose P130 is the point
+/// `ramp`, polled every `period` (and `writable` or not).
+fn simulated_bus(period: &str, writable: bool) -> String {
+    format!(
+        "[[bus]]\nname = \"ml\"\nprotocol = \"movilink\"\nsimulate = true\n\
+         [[bus.drive]]\nname = \"d1\"\naddress = 1\n\
+         [[bus.drive.param]]\nparam = \"P130\"\nname = \"ramp\"\nperiod = \"{period}\"\nwritable = {writable}\n"
+    )
+}
+
 /// The `[gateway]` table for `broker` with extra lines.
 fn gateway_table(broker: &Mosquitto, extra: &str) -> String {
     format!(
@@ -565,10 +575,9 @@ async fn retained_and_stale_sets_are_never_executed_also_after_restart() {
         return;
     };
     let config = format!(
-        "{}[[bus]]\nname = \"ml\"\nprotocol = \"movilink\"\nsimulate = true\n\
-         [[bus.drive]]\nname = \"d1\"\naddress = 1\n\
-         [[bus.drive.param]]\nparam = \"P130\"\nname = \"ramp\"\nperiod = \"200ms\"\nwritable = true\n",
-        gateway_table(&broker, "max_set_age = \"5s\"")
+        "{}{}",
+        gateway_table(&broker, "max_set_age = \"5s\""),
+        simulated_bus("200ms", true)
     );
     let topic = "drivebus/gw/ml/d1/ramp";
     let mut c = subscriber(&broker, "scada").await;
@@ -663,10 +672,9 @@ async fn broker_restart_reconnection_and_republication() {
         return;
     };
     let config = format!(
-        "{}[[bus]]\nname = \"ml\"\nprotocol = \"movilink\"\nsimulate = true\n\
-         [[bus.drive]]\nname = \"d1\"\naddress = 1\n\
-         [[bus.drive.param]]\nparam = \"P130\"\nname = \"ramp\"\nperiod = \"30s\"\n",
-        gateway_table(&broker, "heartbeat = \"1h\"").replace("heartbeat = \"2s\"\n", "")
+        "{}{}",
+        gateway_table(&broker, "heartbeat = \"1h\"").replace("heartbeat = \"2s\"\n", ""),
+        simulated_bus("30s", false)
     );
     let gw = Gateway::start(&config, &[]);
     {
@@ -727,13 +735,11 @@ async fn tls_and_password_authentication_and_a_wrong_password() {
         let pw = broker.file(&format!("pw-{password}"), &format!("{password}\n"));
         format!(
             "[gateway]\nname = \"gw\"\nbroker = \"mqtts://gw@localhost:{}\"\nca_file = \"{}\"\n\
-             password_file = \"{}\"\nmetrics = \"off\"\n\
-             [[bus]]\nname = \"ml\"\nprotocol = \"movilink\"\nsimulate = true\n\
-             [[bus.drive]]\nname = \"d1\"\naddress = 1\n\
-             [[bus.drive.param]]\nparam = \"P130\"\nname = \"ramp\"\nperiod = \"1s\"\n",
+             password_file = \"{}\"\nmetrics = \"off\"\n{}",
             broker.port,
             broker.ca_file().display(),
-            pw.display()
+            pw.display(),
+            simulated_bus("1s", false)
         )
     };
     let mut c = TestClient::connect(
@@ -862,12 +868,10 @@ async fn client_certificate_authentication() {
     let plant = |who: &str| {
         format!(
             "[gateway]\nname = \"gw\"\nbroker = \"mqtts://localhost:{}\"\nca_file = \"{}\"\n\
-             client_cert = \"{d}/{who}.pem\"\nclient_key = \"{d}/{who}.key\"\nmetrics = \"off\"\n\
-             [[bus]]\nname = \"ml\"\nprotocol = \"movilink\"\nsimulate = true\n\
-             [[bus.drive]]\nname = \"d1\"\naddress = 1\n\
-             [[bus.drive.param]]\nparam = \"P130\"\nname = \"ramp\"\nperiod = \"1s\"\n",
+             client_cert = \"{d}/{who}.pem\"\nclient_key = \"{d}/{who}.key\"\nmetrics = \"off\"\n{}",
             broker.port,
             broker.ca_file().display(),
+            simulated_bus("1s", false),
             d = broker.dir.display()
         )
     };
