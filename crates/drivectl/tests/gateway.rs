@@ -907,3 +907,36 @@ async fn client_certificate_authentication() {
     assert!(log.contains("broker"), "the refusal is logged: {log}");
     assert!(rogue.terminate().success(), "{log}");
 }
+
+/// A point with `eeprom = true` is written to EEPROM under the wear rule of `drivectl write`:
+/// a second write of the same parameter of the same drive within a second is refused (`wear`),
+/// and nothing is sent.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn eeprom_writes_keep_the_wear_rule() {
+    let Some(broker) = broker(BrokerOptions::default()) else {
+        return;
+    };
+    let config = format!(
+        "{}{}eeprom = true\n",
+        gateway_table(&broker, ""),
+        simulated_bus("200ms", true)
+    );
+    let topic = "drivebus/gw/ml/d1/ramp";
+    let mut c = subscriber(&broker, "scada").await;
+    let mut seen = Seen::default();
+    let gw = Gateway::start(&config, &[]);
+    seen.json(&mut c, topic, Duration::from_secs(10), |v| v["raw"] == 2000)
+        .await;
+    let r = set(&mut seen, &mut c, topic, json!({"value": 3.5, "id": 1})).await;
+    assert_eq!(r["outcome"], "written", "{r}\n{}", gw.log());
+    let r = set(&mut seen, &mut c, topic, json!({"value": 3.6, "id": 2})).await;
+    assert_eq!(r["reason"], "wear", "{r}");
+    seen.clear(topic);
+    tokio::time::sleep(Duration::from_millis(500)).await;
+    let v = seen
+        .json(&mut c, topic, Duration::from_secs(5), |_| true)
+        .await;
+    assert_eq!(v["raw"], 3500, "the refused write was not sent: {v}");
+    // The wear log is the gateway's state directory's, as for drivectl write.
+    assert!(gw.dir.join("state").join("eeprom-writes.json").is_file());
+}

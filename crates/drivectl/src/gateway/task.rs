@@ -31,7 +31,7 @@ use super::model::{BusIx, DriveIx, DriveStatus, SetOutcome, SetRequest, SetValue
 use super::schedule::{Change, Job, Next, Outcome, Scheduler};
 use crate::error::CliError;
 use crate::tool::client::{ClientError, ParamClient, Target, ValueText, parse_decimal};
-use crate::tool::write::{WriteRequest, check_with, write_checked};
+use crate::tool::write::{WriteRequest, check_with, write_checked_with};
 
 /// How often a bus reports its figures.
 pub const FIGURES_EVERY: Duration = Duration::from_secs(5);
@@ -746,9 +746,15 @@ async fn write_point<B: BusAccess>(
         Err(e) => Err(CliError::from(e)),
     };
     let result = match checked {
-        Ok(()) => write_checked(&mut client, &req, false)
-            .await
-            .map(|w| w.back),
+        Ok(()) => {
+            let (bus_name, drive_name) = (&bus.name, &d.name);
+            let mut warn = |w: &str| {
+                tracing::warn!(bus = %bus_name, drive = %drive_name, point = %p.name, "{w}");
+            };
+            write_checked_with(&mut client, &req, false, &mut warn)
+                .await
+                .map(|w| w.back)
+        }
         Err(e) => Err(e),
     };
     match (result, client.error.take()) {

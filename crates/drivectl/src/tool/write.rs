@@ -85,20 +85,35 @@ pub struct Written {
 }
 
 /// Check, write and read back: the value the drive holds afterwards. A write of a link setting
-/// needs `yes`; the client follows the change (a new address) before reading back.
+/// needs `yes`; the client follows the change (a new address) before reading back. The guard's
+/// warning and a wear-log problem are shown on standard error.
 pub async fn write_checked<C: ParamClient>(
     client: &mut C,
     req: &WriteRequest,
     yes: bool,
 ) -> Result<Written> {
+    write_checked_with(client, req, yes, &mut |w: &str| {
+        errln!("drivectl: warning: {w}")
+    })
+    .await
+}
+
+/// [`write_checked`] with the warnings handed to `warn` as they come (the gateway logs them;
+/// its standard error may be a JSON log).
+pub async fn write_checked_with<C: ParamClient>(
+    client: &mut C,
+    req: &WriteRequest,
+    yes: bool,
+    warn: &mut dyn FnMut(&str),
+) -> Result<Written> {
     check_link_setting(client, req, yes)?;
     if let Some(warning) = check(client, req).await? {
-        errln!("drivectl: warning: {warning}");
+        warn(&warning);
     }
     let drive = client.drive_key().await?;
     client.write(&req.target, req.raw, req.persistence).await?;
     if let Err(e) = record(&drive, req) {
-        errln!("drivectl: warning: {e}");
+        warn(&e.to_string());
     }
     let link_note = client
         .link_settings()
