@@ -280,8 +280,11 @@ pub enum Endpoint {
     },
     /// A CAN interface (`can0`, `slcan:…`), SBus.
     Can {
-        /// The interface as `drivectl sbus --iface` takes it.
+        /// The interface as `drivectl sbus --iface` takes it (slcan with its bit rate).
         iface: String,
+        /// The bus's bit rate: slcan opens the adapter with it; a SocketCAN interface has its
+        /// own (`ip link`), which the config states for the wire times.
+        bitrate: u32,
     },
     /// Simulated drives in this process on the wire model (serial: at `line`; CAN: at
     /// `bitrate` bit/s).
@@ -570,7 +573,13 @@ fn check(file: File) -> std::result::Result<Plant, String> {
     for b in &buses {
         let key = match &b.endpoint {
             Endpoint::Serial { path, .. } => crate::tool::client::canonical_port(path),
-            Endpoint::Can { iface } => iface.clone(),
+            Endpoint::Can { iface, .. } => match iface.strip_prefix("slcan:") {
+                // The adapter's serial port, as for a serial bus (symlinks resolved).
+                Some(rest) => crate::tool::client::canonical_port(
+                    rest.rsplit_once('@').map_or(rest, |(path, _)| path),
+                ),
+                None => iface.clone(),
+            },
             Endpoint::Simulated { .. } => continue,
         };
         if !ports.insert(key.clone()) {
@@ -652,8 +661,32 @@ fn check_bus(b: BusFile) -> std::result::Result<Bus, String> {
         let iface = b.iface.ok_or_else(|| {
             format!("{at}: give iface = \"can0\" or \"slcan:PATH\" (or simulate = true)")
         })?;
-        crate::sbus::iface::Iface::parse(&iface).map_err(|e| format!("{at}: {e}"))?;
-        Endpoint::Can { iface }
+        let parsed = crate::sbus::iface::Iface::parse(&iface).map_err(|e| format!("{at}: {e}"))?;
+        match parsed {
+            crate::sbus::iface::Iface::Slcan { bitrate: given, .. } if iface.contains('@') => {
+                if b.bitrate.is_some() && given.bits_per_second() != bitrate {
+                    return Err(format!(
+                        "{at}: iface = {iface:?} and bitrate = {:?} differ: give the bit rate once",
+                        b.bitrate.as_deref().unwrap_or_default()
+                    ));
+                }
+                Endpoint::Can {
+                    iface,
+                    bitrate: given.bits_per_second(),
+                }
+            }
+            // slcan without a rate: the config's (500k by default) is the adapter's.
+            crate::sbus::iface::Iface::Slcan { .. } => Endpoint::Can {
+                iface: format!("{iface}@{bitrate}"),
+                bitrate,
+            },
+            crate::sbus::iface::Iface::Virtual => {
+                return Err(format!(
+                    "{at}: iface = \"virtual\": write simulate = true for simulated drives"
+                ));
+            }
+            crate::sbus::iface::Iface::SocketCan(_) => Endpoint::Can { iface, bitrate },
+        }
     } else {
         if b.iface.is_some() {
             return Err(format!(
@@ -986,6 +1019,53 @@ writable = true
         let e = err(&text);
         assert!(e.contains("one port, one bus"), "{e}");
         std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn a_can_bus_has_one_bit_rate() {
+        let sbus = |iface: &str, extra: &str| {
+            MINIMAL
+                .replace("protocol = \"movilink\"", "protocol = \"sbus\"")
+                .replace(
+                    "port = \"/dev/ttyUSB0\"",
+                    &format!("iface = \"{iface}\"\n{extra}"),
+                )
+        };
+        let rate = |text: String| match Plant::parse(&text, "p").unwrap().buses[0].endpoint.clone()
+        {
+            Endpoint::Can { iface, bitrate } => (iface, bitrate),
+            other => panic!("{other:?}"),
+        };
+        assert_eq!(rate(sbus("can0", "")), ("can0".into(), 500_000));
+        assert_eq!(
+            rate(sbus("can0", "bitrate = \"250k\"")),
+            ("can0".into(), 250_000)
+        );
+        // slcan: the adapter is opened at the config's rate.
+        assert_eq!(
+            rate(sbus("slcan:/dev/ttyACM0", "bitrate = \"125k\"")),
+            ("slcan:/dev/ttyACM0@125000".into(), 125_000)
+        );
+        assert_eq!(
+            rate(sbus("slcan:/dev/ttyACM0@1M", "")),
+            ("slcan:/dev/ttyACM0@1M".into(), 1_000_000)
+        );
+        assert!(
+            err(&sbus("slcan:/dev/ttyACM0@1M", "bitrate = \"500k\""))
+                .contains("give the bit rate once")
+        );
+        assert!(err(&sbus("virtual", "")).contains("simulate = true"));
+        // Two buses on one slcan adapter, once with its rate.
+        let two = format!(
+            "{}\n[[bus]]{}",
+            sbus("slcan:/dev/ttyACM0", ""),
+            sbus("slcan:/dev/ttyACM0@500k", "")
+                .split("[[bus]]")
+                .nth(1)
+                .unwrap()
+                .replace("line1", "line2")
+        );
+        assert!(err(&two).contains("one port, one bus"), "{}", err(&two));
     }
 
     #[test]

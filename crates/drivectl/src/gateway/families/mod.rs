@@ -46,7 +46,7 @@ pub fn simulated_endpoint(bus: &Bus) -> Endpoint {
 pub fn endpoint_text(e: &Endpoint) -> String {
     match e {
         Endpoint::Serial { path, line } => format!("{path} {line}"),
-        Endpoint::Can { iface } => format!("CAN {iface}"),
+        Endpoint::Can { iface, bitrate } => format!("CAN {iface} at {bitrate} bit/s"),
         Endpoint::Simulated { line, bitrate } => {
             format!("simulated (wire model {line}, CAN {bitrate} bit/s)")
         }
@@ -133,7 +133,7 @@ pub fn open_bus(bus: &Bus) -> Access {
     let wire = WireDesc::of(bus);
     let proto = match &bus.endpoint {
         Endpoint::Simulated { .. } => return simulated_bus(bus).access,
-        Endpoint::Can { iface } => Proto::Sbus(Box::new(access::SbusBus::new(
+        Endpoint::Can { iface, .. } => Proto::Sbus(Box::new(access::SbusBus::new(
             can_io(bus, iface),
             bus,
             iface,

@@ -39,10 +39,7 @@ pub struct WireDesc {
 pub fn bitrate_of(bus: &Bus) -> Bitrate {
     match &bus.endpoint {
         Endpoint::Simulated { bitrate, .. } => Bitrate::new(*bitrate).unwrap_or(Bitrate::K500),
-        Endpoint::Can { iface } => match crate::sbus::iface::Iface::parse(iface) {
-            Ok(crate::sbus::iface::Iface::Slcan { bitrate, .. }) => bitrate,
-            _ => Bitrate::K500,
-        },
+        Endpoint::Can { bitrate, .. } => Bitrate::new(*bitrate).unwrap_or(Bitrate::K500),
         Endpoint::Serial { .. } => Bitrate::K500,
     }
 }
