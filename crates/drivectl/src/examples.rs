@@ -27,5 +27,6 @@ Examples:
   drivectl uss --port /dev/ttyUSB0 --addr 1 read P102 --set 3   a NORD drive over USS
   drivectl ctt2 --sim id                             a NORD drive over CTT2 (simulated AS-i)
   drivectl sim movilink --pty --addr 1 --parity none  a simulated drive to try things on
+  drivectl gateway --config plant.toml               every drive of a plant on an MQTT broker
   drivectl completions bash > ~/.local/share/bash-completion/completions/drivectl
 Every command's --help has examples of its own.";
