@@ -37,9 +37,12 @@ pub struct LoadReport {
     pub transactions: u64,
     /// Real (processor) time per transaction: the run's real time over the transactions.
     pub cpu_per_transaction: Duration,
-    /// Growth of the resident memory per bus (from `/proc/self/status`; `None` where it
-    /// cannot be read).
+    /// Growth of the resident memory per bus while the buses ran (the gateway's side: the
+    /// bus tasks, their schedulers, clients and metrics; from `/proc/self/status`; `None`
+    /// where it cannot be read).
     pub rss_per_bus: Option<u64>,
+    /// Growth per bus when the buses were made (the caller's: simulated drives and links).
+    pub rss_per_bus_made: Option<u64>,
 }
 
 /// The config of the load plant: `buses` simulated MOVILINK buses of `drives` drives, each
@@ -77,13 +80,15 @@ where
     B: BusAccess + 'static,
     F: FnMut(&Bus) -> B,
 {
-    let metrics = Arc::new(Metrics::new(plant));
+    let made_before = rss();
+    let buses: Vec<B> = plant.buses.iter().map(&mut make_bus).collect();
     let before = rss();
+    let metrics = Arc::new(Metrics::new(plant));
     let real = std::time::Instant::now();
     let (tx, mut rx) = mpsc::channel(4096);
     let mut tasks = Vec::new();
     let mut keep = Vec::new();
-    for (ix, bus) in plant.buses.iter().enumerate() {
+    for ((ix, bus), access) in plant.buses.iter().enumerate().zip(buses) {
         let (set_tx, set_rx) = mpsc::channel(1);
         keep.push(set_tx);
         let ctx = BusContext {
@@ -93,10 +98,7 @@ where
             sets: set_rx,
             metrics: metrics.clone(),
         };
-        tasks.push(tokio::task::spawn_local(super::task::run_bus(
-            ctx,
-            make_bus(bus),
-        )));
+        tasks.push(tokio::task::spawn_local(super::task::run_bus(ctx, access)));
     }
     drop(tx);
     let mut last: Vec<Option<BusFigures>> = vec![None; plant.buses.len()];
@@ -137,6 +139,9 @@ where
     let n = u32::try_from(transactions.max(1)).unwrap_or(u32::MAX);
     LoadReport {
         cpu_per_transaction: elapsed / n,
+        rss_per_bus_made: made_before.zip(before).map(|(b, a)| {
+            a.saturating_sub(b) / u64::try_from(plant.buses.len().max(1)).unwrap_or(1)
+        }),
         rss_per_bus: before
             .zip(after)
             .map(|(b, a)| a.saturating_sub(b) / u64::try_from(buses.len().max(1)).unwrap_or(1)),
@@ -215,12 +220,18 @@ pub fn run_cli(spec: &str, seconds: u64, period: &str) -> crate::error::Result<(
             c.as_secs_f64() * 1e6 / tx as f64
         ))
     )?;
+    let kib = |m: Option<u64>| {
+        m.map_or("unknown".to_owned(), |m| {
+            format!("{:.1} KiB", m as f64 / 1024.0)
+        })
+    };
     crate::outln!(
-        "memory per bus (RSS growth / buses): {}",
-        report.rss_per_bus.map_or("unknown".to_owned(), |m| format!(
-            "{:.1} KiB",
-            m as f64 / 1024.0
-        ))
+        "memory per bus (RSS growth / buses): the gateway's side {}, the simulated drives and links {}",
+        kib(report.rss_per_bus),
+        kib(report.rss_per_bus_made)
+    )?;
+    crate::outln!(
+        "(processor time includes the simulated drives and the character-level wire model, which run in this process)"
     )?;
     Ok(())
 }
