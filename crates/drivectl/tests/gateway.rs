@@ -940,3 +940,60 @@ async fn eeprom_writes_keep_the_wear_rule() {
     // The wear log is the gateway's state directory's, as for drivectl write.
     assert!(gw.dir.join("state").join("eeprom-writes.json").is_file());
 }
+
+/// Sets for points the gateway does not have are ignored (no result, no crash), counted on
+/// `/metrics`, and a flood of them is logged once per 10 s, not once each.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_flood_of_sets_for_unknown_points_is_logged_once() {
+    let Some(broker) = broker(BrokerOptions::default()) else {
+        return;
+    };
+    let port = free_port();
+    let config = format!(
+        "{}{}",
+        gateway_table(&broker, "").replace(
+            "metrics = \"off\"",
+            &format!("metrics = \"127.0.0.1:{port}\"")
+        ),
+        simulated_bus("1s", true)
+    );
+    let mut c = subscriber(&broker, "scada").await;
+    let mut seen = Seen::default();
+    let gw = Gateway::start(&config, &[]);
+    seen.wait(&mut c, "drivebus/gw/status", Duration::from_secs(10), |p| {
+        p == b"online"
+    })
+    .await
+    .expect("online");
+    for i in 0..200 {
+        c.publish(
+            &format!("drivebus/gw/ml/d1/nothing{i}/set"),
+            "{\"value\": 1}",
+            false,
+        )
+        .await;
+    }
+    // The gateway still answers a real set after the flood.
+    let r = set(
+        &mut seen,
+        &mut c,
+        "drivebus/gw/ml/d1/ramp",
+        json!({"value": 3.5, "id": "after"}),
+    )
+    .await;
+    assert_eq!(r["ok"], true, "{r}");
+    let text = scrape(port);
+    assert_eq!(
+        metric(&text, "drivebus_sets_total{outcome=\"unknown_topic\"}"),
+        200.0,
+        "{text}"
+    );
+    let logged = gw.log().matches("a set for no point").count();
+    assert_eq!(logged, 1, "{}", gw.log());
+    assert!(
+        seen.0
+            .keys()
+            .all(|t| !t.contains("nothing") || t.ends_with("/set")),
+        "no result for an unknown point"
+    );
+}

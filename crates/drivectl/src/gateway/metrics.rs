@@ -61,7 +61,15 @@ pub const STATES: [&str; 3] = ["online", "timeout", "fault"];
 
 /// The `reason` label of `drivebus_rejected_frames_total`; any other reason a link reports is
 /// counted as `other`.
-pub const REJECT_REASONS: [&str; 10] = [
+pub const REJECT_REASONS: [&str; 15] = [
+    // The serial drivers count their rejections without a reason (parity, gaps, address,
+    // length and block check alike).
+    "checks",
+    // SBus (the master's `MasterStats`).
+    "mismatch",
+    "unsolicited",
+    "malformed",
+    "foreign",
     "checksum",
     "framing",
     "line",
@@ -77,12 +85,13 @@ pub const REJECT_REASONS: [&str; 10] = [
 /// The `outcome` label of `drivebus_sets_total`: `written`, `device_refused`, `link_failed` and
 /// the refusal reasons of [`SetOutcome::Refused`](super::model::SetOutcome::Refused); any
 /// other is counted as `other`.
-pub const SET_OUTCOMES: [&str; 15] = [
+pub const SET_OUTCOMES: [&str; 19] = [
     "written",
     "device_refused",
     "link_failed",
     "not_writable",
     "range",
+    "resolution",
     "access",
     "value_list",
     "width",
@@ -91,7 +100,10 @@ pub const SET_OUTCOMES: [&str; 15] = [
     "retained",
     "offline",
     "expired",
+    "busy",
     "bad_request",
+    "refused",
+    "unknown_topic",
     "other",
 ];
 

@@ -1082,9 +1082,17 @@ mod tests {
         }
     }
 
+    /// The reason of a refusal (one `/metrics` counts under its own name).
     fn refused(outcome: &SetOutcome) -> &'static str {
         match outcome {
-            SetOutcome::Refused { reason, .. } => reason,
+            SetOutcome::Refused { reason, .. } => {
+                let known = &crate::gateway::metrics::SET_OUTCOMES;
+                assert!(
+                    known[..known.len() - 1].contains(reason),
+                    "{reason} is not in metrics::SET_OUTCOMES"
+                );
+                reason
+            }
             other => panic!("not refused: {other:?}"),
         }
     }

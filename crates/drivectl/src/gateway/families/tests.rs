@@ -287,6 +287,15 @@ async fn campaign(bus: &Bus, n: u32, faults: impl FnOnce(&SimulatedBus)) -> Camp
             Err(ClientError::Device(_)) => c.device_errors += 1,
         }
         let t = sim.access.take_tally();
+        // Every reason is one /metrics knows (not counted as "other").
+        for (reason, _) in &t.rejected {
+            assert!(
+                crate::gateway::metrics::REJECT_REASONS
+                    [..crate::gateway::metrics::REJECT_REASONS.len() - 1]
+                    .contains(reason),
+                "{reason} is not in metrics::REJECT_REASONS"
+            );
+        }
         c.retries += t.retries;
         c.rejected += t.rejected.iter().map(|r| r.1).sum::<u64>();
     }

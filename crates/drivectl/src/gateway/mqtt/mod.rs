@@ -164,6 +164,7 @@ impl Mqtt {
             state: self.state,
             broker: self.broker,
             unknown_sets: 0,
+            unknown_logged: None,
         };
         metrics_connected(&task.metrics, false);
         tokio::pin!(shutdown);
@@ -342,7 +343,13 @@ struct Task {
     state: watch::Sender<BrokerState>,
     broker: String,
     unknown_sets: u64,
+    /// When a set for an unknown point was last logged, and the count then (a flood of them is
+    /// logged once per [`UNKNOWN_LOG_EVERY`], with the number left out).
+    unknown_logged: Option<(Instant, u64)>,
 }
+
+/// How often sets for unknown points are logged at most.
+const UNKNOWN_LOG_EVERY: Duration = Duration::from_secs(10);
 
 impl Task {
     fn event(&mut self, e: Event) {
@@ -461,7 +468,21 @@ impl Task {
         let Some((bus, drive, point)) = self.names.set_target(&p.topic) else {
             self.unknown_sets += 1;
             self.metrics.set_outcome("unknown_topic");
-            tracing::warn!(topic = %p.topic, "a set for no writable point of this gateway: ignored");
+            let now = Instant::now();
+            let due = self
+                .unknown_logged
+                .is_none_or(|(at, _)| now.duration_since(at) >= UNKNOWN_LOG_EVERY);
+            if due {
+                let left_out = self
+                    .unknown_logged
+                    .map_or(0, |(_, n)| self.unknown_sets.saturating_sub(n + 1));
+                tracing::warn!(
+                    topic = %p.topic,
+                    left_out,
+                    "a set for no point of this gateway: ignored (logged at most every 10 s; left_out: how many since the last)"
+                );
+                self.unknown_logged = Some((now, self.unknown_sets));
+            }
             return;
         };
         if p.retain {
