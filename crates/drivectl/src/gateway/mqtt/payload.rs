@@ -31,7 +31,8 @@ fn rounded(v: f64, decimals: u8) -> Value {
 }
 
 /// `value` (scaled with the parameter's table), `unit` (null where the table has none) and
-/// `text` (a value-list entry's English name, only where there is one) of `raw`.
+/// `text` (a value-list entry's English name, or the decoded meaning of a status word or fault,
+/// only where there is one) of `raw`.
 fn value_fields(t: &Target, raw: i64, m: &mut Map<String, Value>) {
     match t.param {
         Some(p) => {
@@ -45,8 +46,12 @@ fn value_fields(t: &Target, raw: i64, m: &mut Map<String, Value>) {
                     json!(unit)
                 },
             );
+            // A value-list entry's name, else what the value means (a status word's bits, a
+            // fault's name), as `drivectl read` shows it.
             if let Some(n) = p.value_name(raw) {
                 m.insert("text".into(), json!(n.en));
+            } else if let Some(meaning) = crate::tool::meaning::meaning_of(t, raw) {
+                m.insert("text".into(), json!(meaning.text));
             }
         }
         None => {
@@ -251,6 +256,11 @@ mod tests {
         assert_eq!(v["value"], json!(11));
         assert_eq!(v["text"], json!("CFC"));
         assert_eq!(v["unit"], Value::Null);
+        // A status word: its bits decoded, as `drivectl read` shows them.
+        let v: Value = serde_json::from_str(&value(&target("P010"), 0x0407, 9)).unwrap();
+        assert_eq!(v["raw"], json!(0x0407));
+        let text = v["text"].as_str().unwrap();
+        assert!(text.contains("ready") && text.contains("unit status 4"), "{text}");
         let raw = Target {
             family: Family::Movidrive,
             index: 60000,
