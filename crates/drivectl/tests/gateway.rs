@@ -997,3 +997,53 @@ async fn a_flood_of_sets_for_unknown_points_is_logged_once() {
         "no result for an unknown point"
     );
 }
+
+/// A drive the gateway controls over process data is stopped when the gateway stops (SIGTERM),
+/// as `drivectl pd` stops it at its end: read back directly afterwards, it is no longer enabled.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn sigterm_stops_the_drives_the_gateway_controls() {
+    let Some(broker) = broker(BrokerOptions::default()) else {
+        return;
+    };
+    let sim = PtySim::start(&[
+        "sim", "movilink", "--pty", "--parity", "none", "--addr", "1",
+    ]);
+    let config = format!(
+        "{}[[bus]]\nname = \"ml\"\nprotocol = \"movilink\"\nport = \"{}\"\nparity = \"none\"\n\
+         [[bus.drive]]\nname = \"d1\"\naddress = 1\n\
+         [bus.drive.process_data]\nperiod = \"50ms\"\nout = [6, 7500, 0]\n",
+        gateway_table(&broker, ""),
+        sim.path
+    );
+    let mut c = subscriber(&broker, "scada").await;
+    let mut seen = Seen::default();
+    let mut gw = Gateway::start(&config, &[]);
+    // PI1 = status word 1; while no fault is shown its high byte is the unit status: 4 =
+    // enable.
+    let pd = seen
+        .json(
+            &mut c,
+            "drivebus/gw/ml/d1/pd",
+            Duration::from_secs(10),
+            |v| v["in"][0].as_u64().is_some_and(|w| w >> 8 == 4),
+        )
+        .await;
+    assert_eq!(pd["out"], json!([6, 7500, 0]), "{pd}");
+    let status = gw.terminate();
+    assert!(status.success(), "{}", gw.log());
+    assert!(
+        gw.log().contains("stop sent in the process data"),
+        "{}",
+        gw.log()
+    );
+    let p010 = ok_json(&sim.drivectl(&[
+        "movilink", "--port", &sim.path, "--parity", "none", "--addr", "1", "--json", "read",
+        "P010",
+    ]));
+    let raw = p010[0]["raw"].as_i64().unwrap();
+    assert_ne!(
+        raw >> 8 & 0xFF,
+        4,
+        "still enabled after the gateway stopped: {p010:?}"
+    );
+}

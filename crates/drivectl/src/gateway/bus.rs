@@ -58,6 +58,17 @@ pub trait BusAccess {
     /// words.
     async fn process_data(&mut self, address: u8, out: &[u16]) -> Result<Vec<u16>, ClientError>;
 
+    /// Stop the drive the gateway controls over process data, as `drivectl pd` does at its
+    /// end: one exchange of `out` with the control word set to "stop on the ramp" (SEW: the
+    /// low byte of every PO word P870–P872 make a control word, read from the drive first,
+    /// `0x02`; NORD: STW `0x047E`). Its input words, or `Ok(Err(why))` when nothing was sent
+    /// (no PO word is a control word; no process data on this protocol).
+    async fn stop_process_data(
+        &mut self,
+        address: u8,
+        out: &[u16],
+    ) -> Result<Result<Vec<u16>, String>, ClientError>;
+
     /// The drive's fault, decoded (`None`: no fault). One transaction.
     async fn fault(&mut self, address: u8) -> Result<Option<String>, ClientError>;
 
@@ -72,6 +83,9 @@ pub trait BusAccess {
 /// What a bus task gets from the gateway.
 #[derive(Debug)]
 pub struct BusContext {
+    /// Turns `true` when the gateway stops: the task stops the drives it controls over
+    /// process data and returns.
+    pub shutdown: tokio::sync::watch::Receiver<bool>,
     /// The bus's index in the plant.
     pub ix: BusIx,
     /// Its configuration.

@@ -86,6 +86,8 @@ where
     let metrics = Arc::new(Metrics::new(plant));
     let real = std::time::Instant::now();
     let (tx, mut rx) = mpsc::channel(4096);
+    // Never set: a load run ends by aborting its tasks.
+    let (_stop_tx, stop_rx) = tokio::sync::watch::channel(false);
     let mut tasks = Vec::new();
     let mut keep = Vec::new();
     for ((ix, bus), access) in plant.buses.iter().enumerate().zip(buses) {
@@ -97,6 +99,7 @@ where
             updates: tx.clone(),
             sets: set_rx,
             metrics: metrics.clone(),
+            shutdown: stop_rx.clone(),
         };
         tasks.push(tokio::task::spawn_local(super::task::run_bus(ctx, access)));
     }

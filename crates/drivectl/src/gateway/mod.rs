@@ -102,7 +102,9 @@ pub async fn serve(plant: Plant) -> Result<()> {
     // an error before a bus is opened.
     let mqtt = mqtt::Mqtt::prepare(&plant)?;
     let (update_tx, update_rx) = mpsc::channel(4096);
+    let (stop_tx, stop_rx) = tokio::sync::watch::channel(false);
     let mut set_txs = Vec::new();
+    let mut buses = Vec::new();
     for (ix, bus) in plant.buses.iter().enumerate() {
         let (set_tx, set_rx) = mpsc::channel(64);
         set_txs.push(set_tx);
@@ -112,16 +114,41 @@ pub async fn serve(plant: Plant) -> Result<()> {
             updates: update_tx.clone(),
             sets: set_rx,
             metrics: metrics.clone(),
+            shutdown: stop_rx.clone(),
         };
-        tokio::task::spawn_local(families::run_bus(ctx));
+        buses.push(tokio::task::spawn_local(families::run_bus(ctx)));
     }
     drop(update_tx);
     if let Some(addr) = plant.gateway.metrics {
         let listener = metrics::bind(addr).await?;
         tokio::task::spawn_local(metrics::serve(listener, metrics.clone()));
     }
-    let shutdown = shutdown_signal();
+    // At SIGTERM or Ctrl-C the bus tasks finish their transaction and stop the drives they
+    // control over process data (bounded), then the MQTT task says `offline`.
+    let shutdown = async move {
+        shutdown_signal().await;
+        tracing::info!("stopping: the buses finish, then the broker is told offline");
+        let _ = stop_tx.send(true);
+        let all = futures_join(buses);
+        if tokio::time::timeout(BUS_STOP_LIMIT, all).await.is_err() {
+            tracing::warn!(
+                "the buses did not finish within {} s: stopping without them",
+                BUS_STOP_LIMIT.as_secs()
+            );
+        }
+    };
     mqtt.run(update_rx, set_txs, metrics, shutdown).await
+}
+
+/// How long the buses get at the stop to finish their transaction and stop their drives.
+const BUS_STOP_LIMIT: std::time::Duration = std::time::Duration::from_secs(10);
+
+/// Wait for every task (their panics and cancellations are the tasks' business: logged by
+/// tokio, nothing to do here).
+async fn futures_join(tasks: Vec<tokio::task::JoinHandle<()>>) {
+    for t in tasks {
+        let _ = t.await;
+    }
 }
 
 /// Resolves at Ctrl-C or SIGTERM (systemd's stop).

@@ -77,6 +77,7 @@ pub async fn run_bus<B: BusAccess>(ctx: BusContext, mut access: B) {
         updates,
         mut sets,
         metrics,
+        mut shutdown,
     } = ctx;
     let start = Instant::now();
     let mut sched: Scheduler<Pending> = Scheduler::new(&bus, |op| access.wire_time(op), start);
@@ -106,7 +107,8 @@ pub async fn run_bus<B: BusAccess>(ctx: BusContext, mut access: B) {
     };
     let mut next_figures = start + FIGURES_EVERY;
     let mut sets_open = true;
-    while !updates.is_closed() {
+    // A transaction under way is finished; then the loop ends at the shutdown.
+    while !updates.is_closed() && !*shutdown.borrow() {
         let now = Instant::now();
         if now >= next_figures {
             out.figures(&sched, &mut access, now);
@@ -118,6 +120,7 @@ pub async fn run_bus<B: BusAccess>(ctx: BusContext, mut access: B) {
             Next::Idle(until) => {
                 tokio::select! {
                     () = tokio::time::sleep_until(until.min(next_figures)) => {}
+                    _ = shutdown.changed() => {}
                     req = sets.recv(), if sets_open => match req {
                         Some(req) => accept(req, &bus, &mut sched),
                         None => sets_open = false,
@@ -186,6 +189,33 @@ pub async fn run_bus<B: BusAccess>(ctx: BusContext, mut access: B) {
                     return;
                 }
                 answer(req, outcome);
+            }
+        }
+    }
+    if *shutdown.borrow() {
+        stop_process_data(&mut access, &bus, &sched).await;
+    }
+}
+
+/// At the gateway's stop: every drive the gateway controls over process data (and that
+/// answers) gets the family's stop in its control word, as `drivectl pd` sends at its end; a
+/// drive left running is logged as such.
+async fn stop_process_data<B: BusAccess>(access: &mut B, bus: &Bus, sched: &Scheduler<Pending>) {
+    for (i, d) in bus.drives.iter().enumerate() {
+        let Some(pd) = &d.process_data else { continue };
+        if sched.is_offline(i) {
+            tracing::warn!(bus = %bus.name, drive = %d.name, "the drive does not answer: no stop sent; its own bus timeout must stop it");
+            continue;
+        }
+        match access.stop_process_data(d.address, &pd.out).await {
+            Ok(Ok(inputs)) => {
+                tracing::info!(bus = %bus.name, drive = %d.name, ?inputs, "stop sent in the process data")
+            }
+            Ok(Err(why)) => {
+                tracing::warn!(bus = %bus.name, drive = %d.name, "no stop sent: {why}; the drive keeps the last process data until its own bus timeout")
+            }
+            Err(e) => {
+                tracing::warn!(bus = %bus.name, drive = %d.name, error = %CliError::from(e), "the stop was not answered: the drive may still be running")
             }
         }
     }
@@ -810,6 +840,8 @@ pub(crate) mod fake {
         pub log: Vec<(Instant, u8, Op)>,
         /// Retries since the last tally.
         pub retries: u64,
+        /// Every stop sent in process data: address, output words given.
+        pub stopped: Vec<(u8, Vec<u16>)>,
     }
 
     /// The bus.
@@ -909,6 +941,19 @@ pub(crate) mod fake {
             self.transaction(address, Op::ProcessData(n)).await?;
             Ok(out.iter().map(|w| w ^ 0xFFFF).collect())
         }
+        async fn stop_process_data(
+            &mut self,
+            address: u8,
+            out: &[u16],
+        ) -> Result<Result<Vec<u16>, String>, ClientError> {
+            let n = u8::try_from(out.len()).unwrap_or(u8::MAX);
+            self.transaction(address, Op::ProcessData(n)).await?;
+            self.state
+                .borrow_mut()
+                .stopped
+                .push((address, out.to_vec()));
+            Ok(Ok(out.to_vec()))
+        }
         async fn fault(&mut self, address: u8) -> Result<Option<String>, ClientError> {
             self.transaction(address, Op::Read).await?;
             Ok(self.state.borrow().faults.get(&address).cloned())
@@ -989,6 +1034,10 @@ mod tests {
 
     struct Harness {
         sets: mpsc::Sender<SetRequest>,
+        /// The gateway's stop.
+        stop: tokio::sync::watch::Sender<bool>,
+        /// The bus task.
+        task: tokio::task::JoinHandle<()>,
         state: Rc<RefCell<State>>,
         /// Every update with the (virtual) time it arrived.
         seen: Rc<RefCell<Vec<(Instant, Update)>>>,
@@ -1000,14 +1049,16 @@ mod tests {
         let (fake, state) = FakeBus::new(&bus, WIRE);
         let (utx, mut urx) = mpsc::channel(4096);
         let (stx, srx) = mpsc::channel(64);
+        let (stop, shutdown) = tokio::sync::watch::channel(false);
         let ctx = BusContext {
             ix: 0,
             bus,
             updates: utx,
             sets: srx,
             metrics: Arc::new(Metrics::new(plant)),
+            shutdown,
         };
-        tokio::task::spawn_local(run_bus(ctx, fake));
+        let task = tokio::task::spawn_local(run_bus(ctx, fake));
         let seen = Rc::new(RefCell::new(Vec::new()));
         let log = seen.clone();
         tokio::task::spawn_local(async move {
@@ -1017,6 +1068,8 @@ mod tests {
         });
         Harness {
             sets: stx,
+            stop,
+            task,
             state,
             seen,
             t0: Instant::now(),
@@ -1106,6 +1159,34 @@ mod tests {
             None,
             "status_period = \"1s\"\n",
         )
+    }
+
+    /// At the gateway's stop the task finishes, sending each process-data drive that answers
+    /// its stop (and none to a drive that is offline), then returns.
+    #[tokio::test(start_paused = true)]
+    async fn at_the_stop_every_answering_process_data_drive_gets_its_stop() {
+        tokio::task::LocalSet::new()
+            .run_until(async {
+                let plant = plant(
+                    3,
+                    &[("ramp", Some("100ms"), true)],
+                    Some("20ms"),
+                    "status_period = \"1s\"\n",
+                );
+                let h = start(&plant);
+                h.state.borrow_mut().dead.insert(3);
+                sleep(Duration::from_secs(3)).await;
+                assert!(h.state.borrow().stopped.is_empty());
+                h.stop.send(true).unwrap();
+                let done = tokio::time::timeout(Duration::from_secs(5), h.task).await;
+                assert!(
+                    matches!(done, Ok(Ok(()))),
+                    "the task returns after the stop"
+                );
+                let stopped = h.state.borrow().stopped.clone();
+                assert_eq!(stopped, vec![(1, vec![6, 1000]), (2, vec![6, 1000])]);
+            })
+            .await;
     }
 
     #[tokio::test(start_paused = true)]

@@ -4,6 +4,7 @@
 //! [`Access`] is the one type every bus has, whatever its protocol and endpoint, so that the
 //! gateway runs one bus task type; [`AnyClient`] is its per-drive client.
 
+use drive_profile::sew::ControlWord1;
 use std::collections::BTreeMap;
 use std::time::Duration;
 
@@ -571,6 +572,51 @@ impl BusAccess for Access {
                 "Modbus has no process data: poll parameters instead".to_owned(),
             )),
         }
+    }
+
+    async fn stop_process_data(
+        &mut self,
+        address: u8,
+        out: &[u16],
+    ) -> Result<Result<Vec<u16>, String>, ClientError> {
+        let mut words = out.to_vec();
+        match &self.proto {
+            Proto::Movilink(_) | Proto::Sbus(_) => {
+                // P870–P872: which PO words are a control word (9: control word 1, 10: 2).
+                let mut slots = Vec::new();
+                for (slot, key) in ["P870", "P871", "P872"]
+                    .into_iter()
+                    .enumerate()
+                    .take(out.len())
+                {
+                    let t = table_target(Family::Movidrive, key)?;
+                    if matches!(self.client(address).read(&t).await?, 9 | 10) {
+                        slots.push(slot);
+                    }
+                }
+                if slots.is_empty() {
+                    return Ok(Err(
+                        "no process output word is a control word (P870–P872): \
+                                   the drive cannot be stopped over process data"
+                            .to_owned(),
+                    ));
+                }
+                for i in slots {
+                    if let Some(w) = words.get_mut(i) {
+                        *w = (*w & 0xFF00) | ControlWord1::STOP.bits();
+                    }
+                }
+            }
+            Proto::Uss(_) => {
+                // The first PZD word is the control word (STW): "Stillsetzen", the ramp down.
+                match words.first_mut() {
+                    Some(w) => *w = drive_profile::nord::command::SHUTDOWN.0,
+                    None => return Ok(Err("no process data words configured".to_owned())),
+                }
+            }
+            Proto::Modbus(_) => return Ok(Err("Modbus has no process data".to_owned())),
+        }
+        self.process_data(address, &words).await.map(Ok)
     }
 
     async fn fault(&mut self, address: u8) -> Result<Option<String>, ClientError> {

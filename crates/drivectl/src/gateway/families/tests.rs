@@ -477,7 +477,9 @@ async fn published_under_faults(p: Protocol, faults: impl FnOnce(&SimulatedBus))
     faults(&sim);
     let (utx, mut urx) = tokio::sync::mpsc::channel(4096);
     let (_stx, srx) = tokio::sync::mpsc::channel(1);
+    let (_stop, shutdown) = tokio::sync::watch::channel(false);
     let ctx = BusContext {
+        shutdown,
         ix: 0,
         bus: bus.clone(),
         updates: utx,
@@ -557,4 +559,94 @@ async fn the_bus_task_never_publishes_a_wrong_value_under_faults() {
             assert!(values > 100, "sbus: {values}");
         })
         .await;
+}
+
+/// The stop at the gateway's end, on each protocol's simulated drive: a drive enabled over
+/// process data is no longer enabled after `stop_process_data` (SEW: the control word slot from
+/// P870 gets 0x02 in its low byte; NORD: STW 0x047E), and the output words' other entries are
+/// kept.
+#[tokio::test(start_paused = true)]
+async fn the_stop_in_process_data_stops_each_protocols_simulated_drive() {
+    use drive_profile::nord::StatusWord as NordStatus;
+    use drive_profile::sew::{StatusWord1, UnitStatus};
+    let plant = example();
+    for p in [Protocol::Movilink, Protocol::Sbus, Protocol::Uss] {
+        let bus = bus_of(&plant, p);
+        let mut sim = simulated_bus(&bus);
+        let a = bus.drives[0].address;
+        let enabled = |w: u16| match p {
+            Protocol::Uss => NordStatus(w).contains(NordStatus::OPERATION_ENABLED),
+            _ => StatusWord1::from_bits(w).unit_status() == Some(UnitStatus::Enable),
+        };
+        // Enable: SEW control word 0x0006 with 1500 1/min (PO2, factory: speed, 0.2 1/min);
+        // NORD: shutdown, then enable operation with bit 10 (control data valid).
+        let out: Vec<u16> = match p {
+            Protocol::Uss => {
+                sim.access.process_data(a, &[0x047E, 0]).await.unwrap();
+                tokio::time::sleep(Duration::from_millis(50)).await;
+                vec![0x047F, 0x1000]
+            }
+            _ => vec![0x0006, 7500, 0],
+        };
+        let mut words = Vec::new();
+        for _ in 0..5 {
+            words = sim.access.process_data(a, &out).await.unwrap();
+            tokio::time::sleep(Duration::from_millis(20)).await;
+        }
+        assert!(
+            enabled(words[0]),
+            "{}: enabled first: 0x{:04X}",
+            p.name(),
+            words[0]
+        );
+        // NORD ramps down on the braking ramp before it switches off ("Stillsetzen"); a
+        // MOVIDRIVE shows the stop at once (and its SBus timeout P815, factory 0.1 s, would
+        // trip after a longer silence). The control: the same silence alone leaves the drive
+        // enabled.
+        let wait = if p == Protocol::Uss {
+            Duration::from_secs(5)
+        } else {
+            Duration::from_millis(30)
+        };
+        tokio::time::sleep(wait).await;
+        let still = sim.access.process_data(a, &out).await.unwrap();
+        assert!(
+            enabled(still[0]),
+            "{}: still enabled: 0x{:04X}",
+            p.name(),
+            still[0]
+        );
+        let stopped = sim
+            .access
+            .stop_process_data(a, &out)
+            .await
+            .unwrap()
+            .unwrap();
+        // The gateway's stop is one telegram; then the drive is on its own.
+        tokio::time::sleep(wait).await;
+        // The next answer (to the stop words again) shows the drive no longer enabled.
+        let after = sim
+            .access
+            .stop_process_data(a, &out)
+            .await
+            .unwrap()
+            .unwrap();
+        assert_eq!(stopped.len(), out.len());
+        assert!(
+            !enabled(after[0]),
+            "{}: stopped: 0x{:04X}",
+            p.name(),
+            after[0]
+        );
+    }
+    // Modbus has no process data: nothing sent, the reason given.
+    let bus = bus_of(&plant, Protocol::ModbusRtu);
+    let mut sim = simulated_bus(&bus);
+    let why = sim
+        .access
+        .stop_process_data(1, &[0])
+        .await
+        .unwrap()
+        .unwrap_err();
+    assert!(why.contains("Modbus"), "{why}");
 }

@@ -260,7 +260,10 @@ mod tests {
         let v: Value = serde_json::from_str(&value(&target("P010"), 0x0407, 9)).unwrap();
         assert_eq!(v["raw"], json!(0x0407));
         let text = v["text"].as_str().unwrap();
-        assert!(text.contains("ready") && text.contains("unit status 4"), "{text}");
+        assert!(
+            text.contains("ready") && text.contains("unit status 4"),
+            "{text}"
+        );
         let raw = Target {
             family: Family::Movidrive,
             index: 60000,
