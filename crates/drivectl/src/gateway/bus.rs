@@ -69,6 +69,18 @@ pub trait BusAccess {
         out: &[u16],
     ) -> Result<Result<Vec<u16>, String>, ClientError>;
 
+    /// What a person should know before the gateway exchanges process data with the drive at
+    /// `address` (a few parameter reads): the drive ignores process output, no output word is
+    /// a control word, or its bus timeout is off (it would keep running if the gateway went
+    /// quiet). Empty where all is well or the family has nothing to check.
+    async fn process_data_warnings(
+        &mut self,
+        _address: u8,
+        _out: &[u16],
+    ) -> Result<Vec<String>, ClientError> {
+        Ok(Vec::new())
+    }
+
     /// The drive's fault, decoded (`None`: no fault). One transaction.
     async fn fault(&mut self, address: u8) -> Result<Option<String>, ClientError>;
 

@@ -79,6 +79,21 @@ pub async fn run_bus<B: BusAccess>(ctx: BusContext, mut access: B) {
         metrics,
         mut shutdown,
     } = ctx;
+    // Before the first cycle: what the drives controlled over process data should have set
+    // (said once in the log; a drive that does not answer yet is checked no further).
+    for d in &bus.drives {
+        let Some(pd) = &d.process_data else { continue };
+        match access.process_data_warnings(d.address, &pd.out).await {
+            Ok(warnings) => {
+                for w in warnings {
+                    tracing::warn!(bus = %bus.name, drive = %d.name, "process data: {w}");
+                }
+            }
+            Err(e) => {
+                tracing::debug!(bus = %bus.name, drive = %d.name, error = %CliError::from(e), "process data settings not read")
+            }
+        }
+    }
     let start = Instant::now();
     let mut sched: Scheduler<Pending> = Scheduler::new(&bus, |op| access.wire_time(op), start);
     tracing::info!(

@@ -574,6 +574,49 @@ impl BusAccess for Access {
         }
     }
 
+    async fn process_data_warnings(
+        &mut self,
+        address: u8,
+        out: &[u16],
+    ) -> Result<Vec<String>, ClientError> {
+        let timeout = match &self.proto {
+            Proto::Movilink(_) => "P812",
+            Proto::Sbus(_) => "P815",
+            // NORD: the USS telegram timeout and the control word's source are drive settings
+            // the gateway does not second-guess; Modbus has no process data.
+            Proto::Uss(_) | Proto::Modbus(_) => return Ok(Vec::new()),
+        };
+        let mut warnings = Vec::new();
+        let read = |key: &str| table_target(Family::Movidrive, key);
+        let t = read("P876")?;
+        if self.client(address).read(&t).await? == 0 {
+            warnings.push(
+                "P876 PO data enable is off: the drive ignores the process output words".to_owned(),
+            );
+        }
+        let mut control = false;
+        for key in ["P870", "P871", "P872"].into_iter().take(out.len()) {
+            let t = read(key)?;
+            control |= matches!(self.client(address).read(&t).await?, 9 | 10);
+        }
+        if !control {
+            warnings.push(
+                "no process output word is a control word (P870–P872): the gateway cannot stop \
+                 the drive over process data when it stops"
+                    .to_owned(),
+            );
+        }
+        let t = read(timeout)?;
+        if self.client(address).read(&t).await? == 0 {
+            warnings.push(format!(
+                "{timeout} {} is 0 (off): the drive keeps running on the last process data if \
+                 the gateway or its bus goes quiet",
+                t.param.map_or("", |p| p.name_en())
+            ));
+        }
+        Ok(warnings)
+    }
+
     async fn stop_process_data(
         &mut self,
         address: u8,

@@ -650,3 +650,61 @@ async fn the_stop_in_process_data_stops_each_protocols_simulated_drive() {
         .unwrap_err();
     assert!(why.contains("Modbus"), "{why}");
 }
+
+/// Before it exchanges process data the gateway says what would surprise: a MOVIDRIVE on
+/// MOVILINK has its RS-485 timeout P812 off by default (it would keep running when the gateway
+/// goes quiet), SBus's P815 is on (0.1 s); P876 off means the drive ignores the output words;
+/// no control word among P870–P872 means it cannot be stopped over process data.
+#[tokio::test(start_paused = true)]
+async fn process_data_warnings_name_what_the_drive_is_set_to() {
+    let plant = example();
+    let ml = bus_of(&plant, Protocol::Movilink);
+    let mut sim = simulated_bus(&ml);
+    let w = sim
+        .access
+        .process_data_warnings(1, &[6, 0, 0])
+        .await
+        .unwrap();
+    assert_eq!(w.len(), 1, "{w:?}");
+    assert!(
+        w[0].starts_with("P812") && w[0].contains("keeps running"),
+        "{w:?}"
+    );
+    let sb = bus_of(&plant, Protocol::Sbus);
+    let mut sim = simulated_bus(&sb);
+    assert_eq!(
+        sim.access
+            .process_data_warnings(1, &[6, 0, 0])
+            .await
+            .unwrap(),
+        Vec::<String>::new()
+    );
+    // P876 off and PO1 no longer a control word (P870 = 11, say: speed).
+    let mut c = sim.access.client(1);
+    for (key, raw) in [("P876", 0), ("P870", 11)] {
+        let t = crate::tool::client::Target::of(
+            drive_profile::family::lookup(drive_profile::Family::Movidrive, key).unwrap(),
+        );
+        c.write(&t, raw, Persistence::Volatile).await.unwrap();
+    }
+    let w = sim
+        .access
+        .process_data_warnings(1, &[6, 0, 0])
+        .await
+        .unwrap();
+    assert_eq!(w.len(), 2, "{w:?}");
+    assert!(
+        w[0].contains("P876") && w[1].contains("control word"),
+        "{w:?}"
+    );
+    // NORD and Modbus: nothing checked.
+    let uss = bus_of(&plant, Protocol::Uss);
+    let mut sim = simulated_bus(&uss);
+    assert!(
+        sim.access
+            .process_data_warnings(1, &[0x047E, 0])
+            .await
+            .unwrap()
+            .is_empty()
+    );
+}
