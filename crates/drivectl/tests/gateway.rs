@@ -747,41 +747,46 @@ async fn tls_and_password_authentication_and_a_wrong_password() {
         &["drivebus/gw/#"],
     )
     .await;
-    let mut seen = Seen::default();
-    let good = Gateway::start(&plant("s3cret"), &[]);
-    let online = seen
-        .wait(&mut c, "drivebus/gw/status", Duration::from_secs(10), |p| {
-            p == b"online"
-        })
-        .await;
-    assert!(online.is_some(), "{}", good.log());
-    seen.json(
-        &mut c,
-        "drivebus/gw/ml/d1/ramp",
-        Duration::from_secs(5),
-        |v| v["raw"] == 2000,
-    )
-    .await;
-    drop(good);
-    seen.clear("drivebus/gw/status");
-    let bad = Gateway::start(&plant("wrong"), &[]);
-    let online = seen
-        .wait(&mut c, "drivebus/gw/status", Duration::from_secs(3), |p| {
-            p == b"online"
-        })
-        .await;
-    assert!(online.is_none(), "a wrong password must not get online");
-    let log = bad.log();
+    let log = accepted_then_refused(&mut c, &plant("s3cret"), &plant("wrong")).await;
+    let lower = log.to_lowercase();
     assert!(
-        log.to_lowercase().contains("not authori") || log.to_lowercase().contains("refused"),
-        "{log}"
+        lower.contains("not authori") || lower.contains("refused"),
+        "a wrong password is named as such: {log}"
     );
-    let mut bad = bad;
-    let status = bad.terminate();
+}
+
+/// The gateway with `good` credentials gets online and publishes P130 (2 s); with `bad` it
+/// never gets online, logs why, keeps trying, and stops cleanly at SIGTERM. The bad run's log.
+async fn accepted_then_refused(c: &mut TestClient, good: &str, bad: &str) -> String {
+    let mut seen = Seen::default();
+    let gw = Gateway::start(good, &[]);
+    let online = seen
+        .wait(c, "drivebus/gw/status", Duration::from_secs(10), |p| {
+            p == b"online"
+        })
+        .await;
+    assert!(online.is_some(), "{}", gw.log());
+    seen.json(c, "drivebus/gw/ml/d1/ramp", Duration::from_secs(5), |v| {
+        v["raw"] == 2000
+    })
+    .await;
+    drop(gw);
+    seen.clear("drivebus/gw/status");
+    let mut gw = Gateway::start(bad, &[]);
+    let online = seen
+        .wait(c, "drivebus/gw/status", Duration::from_secs(3), |p| {
+            p == b"online"
+        })
+        .await;
+    assert!(online.is_none(), "refused credentials must not get online");
+    let log = gw.log();
+    assert!(log.contains("broker"), "the refusal is logged: {log}");
+    let status = gw.terminate();
     assert!(
         status.success(),
         "still running, stopped cleanly: {status:?}\n{log}"
     );
+    log
 }
 
 /// The example config runs as it is with `--simulate` (and `--broker`): every drive of every
@@ -876,36 +881,7 @@ async fn client_certificate_authentication() {
         )
     };
     let mut c = TestClient::connect(broker.client_options("scada", None), &["drivebus/gw/#"]).await;
-    let mut seen = Seen::default();
-    let good = Gateway::start(&plant("gw"), &[]);
-    let online = seen
-        .wait(&mut c, "drivebus/gw/status", Duration::from_secs(10), |p| {
-            p == b"online"
-        })
-        .await;
-    assert!(online.is_some(), "{}", good.log());
-    seen.json(
-        &mut c,
-        "drivebus/gw/ml/d1/ramp",
-        Duration::from_secs(5),
-        |v| v["raw"] == 2000,
-    )
-    .await;
-    drop(good);
-    seen.clear("drivebus/gw/status");
-    let mut rogue = Gateway::start(&plant("rogue"), &[]);
-    let online = seen
-        .wait(&mut c, "drivebus/gw/status", Duration::from_secs(3), |p| {
-            p == b"online"
-        })
-        .await;
-    assert!(
-        online.is_none(),
-        "a certificate of another CA must not get online"
-    );
-    let log = rogue.log();
-    assert!(log.contains("broker"), "the refusal is logged: {log}");
-    assert!(rogue.terminate().success(), "{log}");
+    accepted_then_refused(&mut c, &plant("gw"), &plant("rogue")).await;
 }
 
 /// A point with `eeprom = true` is written to EEPROM under the wear rule of `drivectl write`:
