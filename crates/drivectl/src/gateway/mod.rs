@@ -129,12 +129,18 @@ pub async fn serve(plant: Plant) -> Result<()> {
         shutdown_signal().await;
         tracing::info!("stopping: the buses finish, then the broker is told offline");
         let _ = stop_tx.send(true);
-        let all = futures_join(buses);
-        if tokio::time::timeout(BUS_STOP_LIMIT, all).await.is_err() {
-            tracing::warn!(
-                "the buses did not finish within {} s: stopping without them",
-                BUS_STOP_LIMIT.as_secs()
-            );
+        let all = tokio::time::timeout(BUS_STOP_LIMIT, futures_join(buses));
+        // A second Ctrl-C or SIGTERM stops at once, without waiting for the buses.
+        tokio::select! {
+            r = all => if r.is_err() {
+                tracing::warn!(
+                    "the buses did not finish within {} s: stopping without them",
+                    BUS_STOP_LIMIT.as_secs()
+                );
+            },
+            () = shutdown_signal() => tracing::warn!(
+                "stopping at once: drives controlled over process data may not have been sent their stop"
+            ),
         }
     };
     mqtt.run(update_rx, set_txs, metrics, shutdown).await
