@@ -43,13 +43,15 @@ pub fn simulated_endpoint(bus: &Bus) -> Endpoint {
 }
 
 /// The endpoint as a person reads it.
-pub fn endpoint_text(e: &Endpoint) -> String {
+pub fn endpoint_text(e: &Endpoint, protocol: Protocol) -> String {
     match e {
         Endpoint::Serial { path, line } => format!("{path} {line}"),
         Endpoint::Can { iface, bitrate } => format!("CAN {iface} at {bitrate} bit/s"),
-        Endpoint::Simulated { line, bitrate } => {
-            format!("simulated (wire model {line}, CAN {bitrate} bit/s)")
+        // Only the setting the protocol uses: a line for serial buses, a bit rate for SBus.
+        Endpoint::Simulated { bitrate, .. } if protocol == Protocol::Sbus => {
+            format!("simulated (virtual CAN bus at {bitrate} bit/s)")
         }
+        Endpoint::Simulated { line, .. } => format!("simulated (wire model {line})"),
     }
 }
 
@@ -66,7 +68,7 @@ pub fn print_check(plant: &Plant) -> Result<()> {
              for {:.1} % of the wire: {fits}",
             bus.name,
             bus.protocol.name(),
-            endpoint_text(&bus.endpoint),
+            endpoint_text(&bus.endpoint, bus.protocol),
             bus.drives.len(),
             w.time(Op::Read).as_secs_f64() * 1e3,
             d * 100.0
