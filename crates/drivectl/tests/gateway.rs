@@ -27,6 +27,8 @@ use serde_json::{Value, json};
 struct Gateway {
     child: Option<Child>,
     dir: PathBuf,
+    /// Its `DRIVECTL_STATE_DIR` (default: `state` in its directory).
+    state: Option<PathBuf>,
 }
 
 static SEQ: std::sync::atomic::AtomicU32 = std::sync::atomic::AtomicU32::new(0);
@@ -41,9 +43,32 @@ impl Gateway {
         ));
         let _ = std::fs::remove_dir_all(&dir);
         std::fs::create_dir_all(&dir).unwrap();
-        let mut gw = Gateway { child: None, dir };
+        let mut gw = Gateway {
+            child: None,
+            dir,
+            state: None,
+        };
         gw.write_config(config);
         gw.spawn(extra);
+        gw
+    }
+
+    /// [`Gateway::start`] with `state` as its `DRIVECTL_STATE_DIR`.
+    fn start_with_state(config: &str, state: PathBuf) -> Gateway {
+        let dir = std::env::temp_dir().join(format!(
+            "drivebus-gw-{}-{}",
+            std::process::id(),
+            SEQ.fetch_add(1, std::sync::atomic::Ordering::Relaxed)
+        ));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        let mut gw = Gateway {
+            child: None,
+            dir,
+            state: Some(state),
+        };
+        gw.write_config(config);
+        gw.spawn(&[]);
         gw
     }
 
@@ -53,12 +78,13 @@ impl Gateway {
 
     fn spawn(&mut self, extra: &[&str]) {
         let log = std::fs::File::create(self.dir.join("gateway.log")).unwrap();
+        let state = self.state.clone().unwrap_or_else(|| self.dir.join("state"));
         let child = Command::new(env!("CARGO_BIN_EXE_drivectl"))
             .arg("gateway")
             .arg("--config")
             .arg(self.dir.join("plant.toml"))
             .args(extra)
-            .env("DRIVECTL_STATE_DIR", self.dir.join("state"))
+            .env("DRIVECTL_STATE_DIR", state)
             .stdout(Stdio::null())
             .stderr(log)
             .spawn()
@@ -1024,4 +1050,55 @@ async fn sigterm_stops_the_drives_the_gateway_controls() {
         4,
         "still enabled after the gateway stopped: {p010:?}"
     );
+}
+
+/// Without a usable EEPROM-wear log (its state directory is a file) an EEPROM point is refused
+/// (`wear`, nothing sent) with the gateway's way out, not the command line's options; a RAM
+/// point beside it is written.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn an_unusable_wear_log_refuses_eeprom_writes_only() {
+    let Some(broker) = broker(BrokerOptions::default()) else {
+        return;
+    };
+    let not_a_dir = broker.file("state-is-a-file", "");
+    let config = format!(
+        "{}{}eeprom = true\n[[bus.drive.param]]\nparam = \"P131\"\nname = \"ramp_down\"\nperiod = \"1s\"\nwritable = true\n",
+        gateway_table(&broker, ""),
+        simulated_bus("200ms", true)
+    );
+    let mut c = subscriber(&broker, "scada").await;
+    let mut seen = Seen::default();
+    let gw = Gateway::start_with_state(&config, not_a_dir);
+    seen.json(
+        &mut c,
+        "drivebus/gw/ml/d1/ramp",
+        Duration::from_secs(10),
+        |v| v["raw"] == 2000,
+    )
+    .await;
+    let r = set(
+        &mut seen,
+        &mut c,
+        "drivebus/gw/ml/d1/ramp",
+        json!({"value": 3.5, "id": 1}),
+    )
+    .await;
+    assert_eq!(r["reason"], "wear", "{r}\n{}", gw.log());
+    let m = r["message"].as_str().unwrap();
+    assert!(
+        m.contains("DRIVECTL_STATE_DIR") && m.contains("without eeprom"),
+        "{m}"
+    );
+    assert!(
+        !m.contains("--volatile") && !m.contains("--force"),
+        "no command-line options: {m}"
+    );
+    let r = set(
+        &mut seen,
+        &mut c,
+        "drivebus/gw/ml/d1/ramp_down",
+        json!({"value": 3.5, "id": 2}),
+    )
+    .await;
+    assert_eq!(r["outcome"], "written", "{r}");
 }

@@ -715,7 +715,18 @@ fn refusal_of(e: &CliError) -> SetOutcome {
             };
             (reason, m.to_owned())
         }
-        None => ("wear", text),
+        // The EEPROM-wear log cannot be kept: the command line's way out names options the
+        // gateway does not have.
+        None => match text.strip_suffix(crate::tool::wear::CLI_WAY_OUT) {
+            Some(core) => (
+                "wear",
+                format!(
+                    "{core}; give the gateway a writable DRIVECTL_STATE_DIR (the systemd unit's \
+                     StateDirectory), or list the point without eeprom for RAM writes"
+                ),
+            ),
+            None => ("wear", text),
+        },
     };
     SetOutcome::Refused { reason, message }
 }

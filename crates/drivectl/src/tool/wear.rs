@@ -60,12 +60,16 @@ pub fn now() -> Instant {
     )
 }
 
+/// How a refusal for an unusable log ends on the command line (the gateway, which has no
+/// such options, says its own way out instead).
+pub const CLI_WAY_OUT: &str = "; set DRIVECTL_STATE_DIR to a writable directory, write with \
+                               --volatile, or --force to write without the rule";
+
 /// The refusal when the log cannot be kept: the rule would be off.
 fn unusable(what: &str, path: &Path, e: &dyn std::fmt::Display) -> CliError {
     CliError::failed(format!(
         "the EEPROM-wear log {} {what} ({e}), so non-volatile writes cannot be counted: nothing \
-         was sent; set DRIVECTL_STATE_DIR to a writable directory, write with --volatile, or \
-         --force to write without the rule",
+         was sent{CLI_WAY_OUT}",
         path.display()
     ))
 }
@@ -73,11 +77,10 @@ fn unusable(what: &str, path: &Path, e: &dyn std::fmt::Display) -> CliError {
 /// The state directory, or a refusal when none can be found.
 fn state_dir() -> Result<PathBuf> {
     dir().ok_or_else(|| {
-        CliError::failed(
+        CliError::failed(format!(
             "no place for the EEPROM-wear log (neither DRIVECTL_STATE_DIR, XDG_STATE_HOME nor \
-             HOME is set): nothing was sent; set DRIVECTL_STATE_DIR, write with --volatile, or \
-             --force to write without the rule",
-        )
+             HOME is set): nothing was sent{CLI_WAY_OUT}"
+        ))
     })
 }
 
