@@ -707,6 +707,28 @@ fn check_bus(b: BusFile) -> std::result::Result<Bus, String> {
     if timeout.is_zero() || timeout > Duration::from_secs(60) {
         return Err(format!("{at}: timeout: give 1ms–60s"));
     }
+    // As `drivectl movilink` and `drivectl uss` refuse it: a timeout shorter than the pause a
+    // drive keeps before answering lets no answer arrive in time (the drives would flap).
+    let before_answer = match protocol {
+        Protocol::Movilink => Some(("start pause", movilink::timing::start_pause(&line))),
+        Protocol::Uss => Some((
+            "start delay",
+            ctt2_uss::serial::framing::UssTiming::from_line(&line).start_delay,
+        )),
+        _ => None,
+    };
+    if let Some((what, pause)) = before_answer
+        && timeout < pause
+    {
+        return Err(format!(
+            "{at}: timeout = {} ms is shorter than the {what} a drive keeps before answering at \
+             {} baud ({:.2} ms): no answer could arrive in time; give at least \"{}ms\"",
+            timeout.as_millis(),
+            line.baud,
+            pause.as_secs_f64() * 1e3,
+            pause.as_micros().div_ceil(1000)
+        ));
+    }
     let retries = b.retries.unwrap_or(1);
     if retries > 10 {
         return Err(format!("{at}: retries = {retries}: give 0–10"));
@@ -970,6 +992,20 @@ writable = true
             ),
             (with("address = 1", "address = 100"), "addresses 0–99"),
             (with("period = \"1s\"", "period = \"1\""), "give a duration"),
+            (
+                with(
+                    "port = \"/dev/ttyUSB0\"",
+                    "port = \"/dev/ttyUSB0\"\ntimeout = \"1ms\"",
+                ),
+                "shorter than the start pause",
+            ),
+            (
+                with(
+                    "port = \"/dev/ttyUSB0\"",
+                    "port = \"/dev/ttyUSB0\"\nbaud = 300\ntimeout = \"20ms\"",
+                ),
+                "at 300 baud",
+            ),
             (
                 with("param = \"P130\"", "param = \"P9999\""),
                 "no movidrive parameter",
