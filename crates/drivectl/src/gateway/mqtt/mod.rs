@@ -193,6 +193,13 @@ impl Mqtt {
             }
             task.flush();
         }
+        // Writes the buses answered as they stopped: their waiting tasks run once more, and
+        // their results go out before `offline`.
+        tokio::task::yield_now().await;
+        while let Ok(done) = done_rx.try_recv() {
+            task.done(done);
+        }
+        task.flush();
         task.shutdown(&mut link_rx).await;
         drop(driver);
         Ok(())

@@ -672,3 +672,49 @@ async fn a_broker_certificate_from_another_ca_is_refused() {
         })
         .await;
 }
+
+/// A write that the bus answers as the gateway stops (its last transaction) still gets its
+/// `result`, published before `offline`.
+#[tokio::test]
+async fn a_result_ready_at_the_stop_is_published_before_offline() {
+    let Some(b) = broker(BrokerOptions::default()) else {
+        return;
+    };
+    LocalSet::new()
+        .run_until(async {
+            let mut c = TestClient::connect(
+                b.client_options("scada", None),
+                &[&format!("{BASE}/+/result"), "drivebus/gw1/status"],
+            )
+            .await;
+            let mut gw = Gw::start(&plant(&b.url(), ""));
+            gw.ready().await;
+            c.publish(
+                &format!("{BASE}/ramp/set"),
+                r#"{"value": 2, "id": "last"}"#,
+                false,
+            )
+            .await;
+            let req = tokio::time::timeout(WAIT, gw.sets.recv())
+                .await
+                .unwrap()
+                .unwrap();
+            // The bus answers and the gateway stops at the same moment.
+            let _ = req.reply.send(SetOutcome::Written { raw: 2000 });
+            gw.shutdown().await;
+            let got = c.collect(QUIET).await;
+            let topics: Vec<String> = got
+                .iter()
+                .map(|p| format!("{} {}", p.topic, String::from_utf8_lossy(&p.payload)))
+                .collect();
+            let result = topics
+                .iter()
+                .position(|t| t.contains("/ramp/result") && t.contains("\"last\""));
+            let offline = topics.iter().position(|t| t.ends_with("status offline"));
+            assert!(
+                matches!((result, offline), (Some(r), Some(o)) if r < o),
+                "the result, then offline: {topics:?}"
+            );
+        })
+        .await;
+}
