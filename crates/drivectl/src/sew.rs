@@ -441,64 +441,112 @@ pub async fn restore<L: SewLink>(
     .await
 }
 
-/// Before process data: where the drive takes its control word among the process output words
-/// (the slots whose setpoint description P870–P872 is control word 1 or 2), with a warning when
-/// there is none and `stopping`, when the bus's timeout (`timeout`: P812 RS-485, P815 SBus) is
-/// 0 (off), or when P876 PO data enable is off. A parameter the drive does not answer gets a
-/// warning, not an error: the session itself says what is wrong.
+/// Per process output word (the first `words`, at most 3): whether the drive takes it as a
+/// control word (its setpoint description P870–P872 is 9, control word 1, or 10, control word
+/// 2), or why the description could not be read.
+pub async fn control_word_slots<L: SewLink>(
+    link: &mut L,
+    words: usize,
+) -> Vec<std::result::Result<bool, ClientError>> {
+    let mut slots = Vec::new();
+    for i in [index::PO1_DESCRIPTION, 8305, 8306].into_iter().take(words) {
+        slots.push(
+            link.service(ParamChannel::read(i))
+                .await
+                .map(|d| matches!(d, 9 | 10)),
+        );
+    }
+    slots
+}
+
+/// `words` with the command `cmd` in the low byte of every control word slot (its high byte
+/// kept): the stop telegram at the end of process data.
+pub fn with_command(
+    words: &[u16],
+    slots: &[usize],
+    cmd: drive_profile::sew::ControlWord1,
+) -> Vec<u16> {
+    let mut w = words.to_vec();
+    for &i in slots {
+        if let Some(x) = w.get_mut(i) {
+            *x = (*x & 0xFF00) | cmd.bits();
+        }
+    }
+    w
+}
+
+/// Before process data: the control word slots among the process output words, and the
+/// warnings a person should see: no control word (when `stopping`: the drive cannot be stopped
+/// over process data at the end), the bus's timeout (`timeout`: P812 RS-485, P815 SBus) 0 (off),
+/// P876 PO data enable off. A parameter the drive does not answer gets a warning, not an error:
+/// the session itself says what is wrong.
+pub async fn pd_warnings<L: SewLink>(
+    link: &mut L,
+    words: usize,
+    stopping: bool,
+    timeout: (u16, &str),
+) -> (Vec<usize>, Vec<String>) {
+    let mut warnings = Vec::new();
+    let mut slots = Vec::new();
+    for (slot, r) in control_word_slots(link, words)
+        .await
+        .into_iter()
+        .enumerate()
+    {
+        match r {
+            Ok(true) => slots.push(slot),
+            Ok(false) => {}
+            Err(e) => warnings.push(format!(
+                "cannot read the setpoint description of PO{} ({})",
+                slot + 1,
+                client_error_text(&e)
+            )),
+        }
+    }
+    if stopping && slots.is_empty() {
+        warnings.push(
+            "no process output word of this drive is a control word (P870–P872): it cannot be \
+             stopped over process data at the end"
+                .to_owned(),
+        );
+    }
+    let (timeout_index, timeout_name) = timeout;
+    match link.service(ParamChannel::read(timeout_index)).await {
+        Ok(0) => warnings.push(format!(
+            "the drive's {timeout_name} is 0 (off): it keeps running when the master goes quiet{}",
+            if stopping {
+                ""
+            } else {
+                " (and --keep-running leaves it running)"
+            }
+        )),
+        Ok(_) => {}
+        Err(e) => warnings.push(format!(
+            "cannot read the {timeout_name} ({})",
+            client_error_text(&e)
+        )),
+    }
+    if let Ok(0) = link
+        .service(ParamChannel::read(index::PO_DATA_ENABLE))
+        .await
+    {
+        warnings
+            .push("P876 PO data enable is off: the drive ignores process output data".to_owned());
+    }
+    (slots, warnings)
+}
+
+/// [`pd_warnings`] with the warnings on standard error (`drivectl movilink pd`, `sbus pd`): the
+/// control word slots.
 pub async fn pd_preflight<L: SewLink>(
     link: &mut L,
     words: usize,
     stopping: bool,
     timeout: (u16, &str),
 ) -> Vec<usize> {
-    let mut slots = Vec::new();
-    for (slot, i) in [index::PO1_DESCRIPTION, 8305, 8306]
-        .into_iter()
-        .enumerate()
-        .take(words)
-    {
-        match link.service(ParamChannel::read(i)).await {
-            // 9 = control word 1, 10 = control word 2.
-            Ok(9 | 10) => slots.push(slot),
-            Ok(_) => {}
-            Err(e) => errln!(
-                "drivectl: warning: cannot read the setpoint description of PO{} ({})",
-                slot + 1,
-                client_error_text(&e)
-            ),
-        }
-    }
-    if stopping && slots.is_empty() {
-        errln!(
-            "drivectl: warning: no process output word of this drive is a control word \
-             (P870–P872): drivectl cannot stop it over process data when pd ends"
-        );
-    }
-    let (timeout_index, timeout_name) = timeout;
-    match link.service(ParamChannel::read(timeout_index)).await {
-        Ok(0) => errln!(
-            "drivectl: warning: the drive's {timeout_name} is 0 (off): it keeps running when the \
-             master goes quiet{}",
-            if stopping {
-                ""
-            } else {
-                " (and --keep-running leaves it running)"
-            }
-        ),
-        Ok(_) => {}
-        Err(e) => errln!(
-            "drivectl: warning: cannot read the {timeout_name} ({})",
-            client_error_text(&e)
-        ),
-    }
-    if let Ok(0) = link
-        .service(ParamChannel::read(index::PO_DATA_ENABLE))
-        .await
-    {
-        errln!(
-            "drivectl: warning: P876 PO data enable is off: the drive ignores process output data"
-        );
+    let (slots, warnings) = pd_warnings(link, words, stopping, timeout).await;
+    for w in warnings {
+        errln!("drivectl: warning: {w}");
     }
     slots
 }

@@ -1039,7 +1039,13 @@ async fn sigterm_stops_the_drives_the_gateway_controls() {
         gw.log()
     );
     // Said at the start: the simulated MOVIDRIVE has its RS-485 timeout off (factory).
-    assert!(gw.log().contains("process data: P812"), "{}", gw.log());
+    assert!(
+        gw.log()
+            .lines()
+            .any(|l| l.contains("process data: the drive's RS-485 timeout P812 is 0")),
+        "{}",
+        gw.log()
+    );
     let p010 = ok_json(&sim.drivectl(&[
         "movilink", "--port", &sim.path, "--parity", "none", "--addr", "1", "--json", "read",
         "P010",

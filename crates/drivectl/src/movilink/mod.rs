@@ -720,15 +720,10 @@ async fn pd<IO: CharIo>(m: &mut MasterDriver<IO>, pdu_type: &str, s: &PdSession<
     let stop = Interrupt::install("the drive was NOT sent a stop and may still be running");
     // The stop telegram: the control word slots get the stop command (their high byte kept),
     // every other word stays as it was.
-    let stop_words = s.end.filter(|_| !slots.is_empty()).map(|cmd| {
-        let mut w = words.clone();
-        for &i in &slots {
-            if let Some(x) = w.get_mut(i) {
-                *x = (*x & 0xFF00) | cmd.bits();
-            }
-        }
-        (w, cmd)
-    });
+    let stop_words = s
+        .end
+        .filter(|_| !slots.is_empty())
+        .map(|cmd| (crate::sew::with_command(&words, &slots, cmd), cmd));
     // Cyclic types run as a cyclic session (one telegram every --interval, which keeps the
     // drive's RS-485 timeout P812 fed); acyclic ones are single exchanges --interval apart.
     // Ctrl-C ends the loop after the exchange in progress.

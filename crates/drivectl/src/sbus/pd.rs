@@ -137,10 +137,11 @@ pub async fn pd<C: CanIo>(
     let stop = Interrupt::install("the drive was NOT sent a stop and may still be running");
     let stop_words = end.filter(|_| !slots.is_empty()).map(|cmd| {
         let mut w = words;
-        for &i in &slots {
-            if let Some(x) = w.get_mut(i) {
-                *x = (*x & 0xFF00) | cmd.bits();
-            }
+        for (x, y) in w
+            .iter_mut()
+            .zip(crate::sew::with_command(&words, &slots, cmd))
+        {
+            *x = y;
         }
         (w, cmd)
     });

@@ -5,6 +5,7 @@
 //! gateway runs one bus task type; [`AnyClient`] is its per-drive client.
 
 use drive_profile::sew::ControlWord1;
+use drive_profile::sew::index as sew_index;
 use std::collections::BTreeMap;
 use std::time::Duration;
 
@@ -579,41 +580,22 @@ impl BusAccess for Access {
         address: u8,
         out: &[u16],
     ) -> Result<Vec<String>, ClientError> {
-        let timeout = match &self.proto {
-            Proto::Movilink(_) => "P812",
-            Proto::Sbus(_) => "P815",
-            // NORD: the USS telegram timeout and the control word's source are drive settings
-            // the gateway does not second-guess; Modbus has no process data.
+        // The checks `drivectl movilink pd` and `sbus pd` make (`sew::pd_warnings`). NORD: the
+        // control word's source and a USS telegram timeout are not in the manual's table;
+        // Modbus has no process data.
+        let (_, warnings) = match &mut self.proto {
+            Proto::Movilink(b) => {
+                let mut c = b.client_of(address).map_err(ClientError::Link)?;
+                let timeout = (sew_index::RS485_TIMEOUT, "RS-485 timeout P812");
+                crate::sew::pd_warnings(&mut c.link, out.len(), true, timeout).await
+            }
+            Proto::Sbus(b) => {
+                let mut c = b.client_of(address).map_err(ClientError::Link)?;
+                let timeout = (sew_index::SBUS_TIMEOUT, "SBus timeout P815");
+                crate::sew::pd_warnings(&mut c.link, out.len(), true, timeout).await
+            }
             Proto::Uss(_) | Proto::Modbus(_) => return Ok(Vec::new()),
         };
-        let mut warnings = Vec::new();
-        let read = |key: &str| table_target(Family::Movidrive, key);
-        let t = read("P876")?;
-        if self.client(address).read(&t).await? == 0 {
-            warnings.push(
-                "P876 PO data enable is off: the drive ignores the process output words".to_owned(),
-            );
-        }
-        let mut control = false;
-        for key in ["P870", "P871", "P872"].into_iter().take(out.len()) {
-            let t = read(key)?;
-            control |= matches!(self.client(address).read(&t).await?, 9 | 10);
-        }
-        if !control {
-            warnings.push(
-                "no process output word is a control word (P870–P872): the gateway cannot stop \
-                 the drive over process data when it stops"
-                    .to_owned(),
-            );
-        }
-        let t = read(timeout)?;
-        if self.client(address).read(&t).await? == 0 {
-            warnings.push(format!(
-                "{timeout} {} is 0 (off): the drive keeps running on the last process data if \
-                 the gateway or its bus goes quiet",
-                t.param.map_or("", |p| p.name_en())
-            ));
-        }
         Ok(warnings)
     }
 
@@ -623,17 +605,24 @@ impl BusAccess for Access {
         out: &[u16],
     ) -> Result<Result<Vec<u16>, String>, ClientError> {
         let mut words = out.to_vec();
-        match &self.proto {
+        match &mut self.proto {
             Proto::Movilink(_) | Proto::Sbus(_) => {
-                // P870–P872: which PO words are a control word (9: control word 1, 10: 2).
+                // The control word slots (P870–P872), as `drivectl pd` finds them; a drive that
+                // does not answer them is not sent anything.
+                let found = match &mut self.proto {
+                    Proto::Movilink(b) => {
+                        let mut c = b.client_of(address).map_err(ClientError::Link)?;
+                        crate::sew::control_word_slots(&mut c.link, out.len()).await
+                    }
+                    Proto::Sbus(b) => {
+                        let mut c = b.client_of(address).map_err(ClientError::Link)?;
+                        crate::sew::control_word_slots(&mut c.link, out.len()).await
+                    }
+                    _ => Vec::new(),
+                };
                 let mut slots = Vec::new();
-                for (slot, key) in ["P870", "P871", "P872"]
-                    .into_iter()
-                    .enumerate()
-                    .take(out.len())
-                {
-                    let t = table_target(Family::Movidrive, key)?;
-                    if matches!(self.client(address).read(&t).await?, 9 | 10) {
+                for (slot, is_control) in found.into_iter().enumerate() {
+                    if is_control? {
                         slots.push(slot);
                     }
                 }
@@ -644,11 +633,7 @@ impl BusAccess for Access {
                             .to_owned(),
                     ));
                 }
-                for i in slots {
-                    if let Some(w) = words.get_mut(i) {
-                        *w = (*w & 0xFF00) | ControlWord1::STOP.bits();
-                    }
-                }
+                words = crate::sew::with_command(out, &slots, ControlWord1::STOP);
             }
             Proto::Uss(_) => {
                 // The first PZD word is the control word (STW): "Stillsetzen", the ramp down.
