@@ -49,7 +49,12 @@ pub struct GatewayArgs {
     pub log_format: String,
     /// Measure the bus tasks: BUSESxDRIVES simulated MOVILINK buses on the wire model in
     /// virtual time (e.g. 64x31), then print the figures and exit.
-    #[arg(long, hide = true, value_name = "BUSESxDRIVES")]
+    #[arg(
+        long,
+        hide = true,
+        value_name = "BUSESxDRIVES",
+        conflicts_with_all = ["config", "broker", "simulate", "check", "example_config"]
+    )]
     pub load: Option<String>,
     /// Virtual seconds of a --load run.
     #[arg(long, hide = true, default_value_t = 20)]
