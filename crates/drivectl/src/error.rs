@@ -26,6 +26,14 @@ impl CliError {
         }
     }
 
+    /// A failure with its own exit code (a command ended by a signal: 128 + its number).
+    pub fn with_code(message: impl Into<String>, code: u8) -> Self {
+        CliError {
+            message: message.into(),
+            code,
+        }
+    }
+
     /// Standard output was closed by its reader (`drivectl … | head`): the command ends
     /// quietly, with the exit code a shell reports for a process ended by SIGPIPE (141), so a
     /// `pipefail` script sees what it sees for any other Unix tool.

@@ -536,19 +536,72 @@ pub async fn pd_warnings<L: SewLink>(
     (slots, warnings)
 }
 
-/// [`pd_warnings`] with the warnings on standard error (`drivectl movilink pd`, `sbus pd`): the
-/// control word slots.
+/// What [`pd_preflight`] found out before process data.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Preflight {
+    /// The process output words the drive takes as control words.
+    pub slots: Vec<usize>,
+    /// The drive's bus timeout (P812 RS-485 / P815 SBus), `None` when it is off (0, or P815's
+    /// 650 s) or could not be read.
+    pub timeout: Option<std::time::Duration>,
+}
+
+/// [`pd_warnings`] with the warnings on standard error (`drivectl movilink pd`, `sbus pd`), and
+/// the bus timeout the exchanges must keep fed.
 pub async fn pd_preflight<L: SewLink>(
     link: &mut L,
     words: usize,
     stopping: bool,
     timeout: (u16, &str),
-) -> Vec<usize> {
+) -> Preflight {
     let (slots, warnings) = pd_warnings(link, words, stopping, timeout).await;
     for w in warnings {
         errln!("drivectl: warning: {w}");
     }
-    slots
+    Preflight {
+        slots,
+        timeout: bus_timeout(link, timeout.0).await,
+    }
+}
+
+/// The bus timeout at `index` (P812, P815: milliseconds in the drive), `None` when it is off
+/// (0, and for P815 also 650 s, the manual: "no monitoring") or unreadable.
+pub async fn bus_timeout<L: SewLink>(link: &mut L, index: u16) -> Option<std::time::Duration> {
+    match link.service(ParamChannel::read(index)).await {
+        Ok(0) => None,
+        Ok(650_000) if index == index::SBUS_TIMEOUT => None,
+        Ok(ms) => Some(std::time::Duration::from_millis(u64::from(ms))),
+        Err(_) => None,
+    }
+}
+
+/// The interval between process data exchanges: the one asked for, or by default one that
+/// keeps the drive's bus timeout fed (half of it, whole `grain`s, at most `default`). An
+/// interval at or above the timeout is refused: the drive would trip (`fault`, e.g. F47 SBus
+/// timeout) between two exchanges.
+pub fn pd_interval(
+    asked: Option<u64>,
+    timeout: Option<std::time::Duration>,
+    default: u64,
+    grain: u64,
+    timeout_name: &str,
+    fault: &str,
+) -> Result<std::time::Duration> {
+    let timeout_ms = timeout.map(|t| u64::try_from(t.as_millis()).unwrap_or(u64::MAX));
+    let ms = match (asked, timeout_ms) {
+        (Some(ms), Some(t)) if ms >= t => {
+            let fits = (t / 2 / grain * grain).max(grain.min(t.saturating_sub(1)).max(1));
+            return Err(crate::error::CliError::usage(format!(
+                "--interval {ms} ms is not shorter than the drive's {timeout_name} of {t} ms: the \
+                 drive would trip with {fault} between two exchanges; use --interval {fits} or \
+                 less (or raise the timeout)"
+            )));
+        }
+        (Some(ms), _) => ms,
+        (None, Some(t)) => (t / 2 / grain * grain).clamp(grain, default.max(grain)),
+        (None, None) => default,
+    };
+    Ok(std::time::Duration::from_millis(ms))
 }
 
 fn client_error_text(e: &ClientError) -> &str {

@@ -381,7 +381,7 @@ fn nord_ctrl_c_ends_watch_cleanly_and_a_stop_in_progress_says_what_was_sent() {
         .status()
         .unwrap();
     let o = child.wait_with_output().unwrap();
-    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert_eq!(o.status.code(), Some(130), "{}", stderr(&o));
     assert!(stderr(&o).contains("interrupted"), "{}", stderr(&o));
     assert!(
         stderr(&o).contains("sent shutdown 0x047E"),

@@ -27,11 +27,13 @@ use drive_profile::{Family, Persistence};
 use serde_json::{Map, Value, json};
 
 use crate::error::{CliError, Result};
+use crate::tool::again::Again;
 use crate::tool::client::{
     ClientError, DeviceError, DeviceErrorKind, ParamClient, Target, ValueText, canonical_port,
 };
 use crate::tool::interrupt::Interrupt;
 use crate::tool::line::{LineArgs, runtime};
+use crate::tool::motor::{AtEnd, Motion, MotorGuard, Stopped};
 use crate::tool::output::{physical_text, print_value};
 use crate::tool::{backup, read, watch, write};
 
@@ -757,6 +759,21 @@ fn write_value(param: &str, value: &str, access: Access, how: &ValueText) -> Res
     })
 }
 
+/// The command line that reaches the same drive again (for hints): every line option that
+/// differs from its default.
+fn again(args: &BonfiglioliArgs) -> Again {
+    let mut a = Again::new("bonfiglioli")
+        .arg("--port", &args.port)
+        .arg_unless("--mode", args.mode.as_str(), "rtu")
+        .line(&args.line);
+    if let Some(bits) = args.data_bits {
+        a = a.arg("--data-bits", bits);
+    }
+    a.arg_unless("--timeout", args.timeout, 500)
+        .arg_unless("--retries", args.retries, 2)
+        .arg("--addr", args.addr)
+}
+
 /// Run `drivectl bonfiglioli`.
 pub fn run(args: &BonfiglioliArgs) -> Result<()> {
     if args.port.is_empty() {
@@ -921,7 +938,7 @@ async fn execute<IO: CharIo>(m: &mut MasterDriver<IO>, args: &BonfiglioliArgs) -
         } => {
             let session = ControlSession {
                 addr: address(args.addr)?,
-                port: &args.port,
+                again: again(args).arg_unless("--variant", variant.as_str(), "act"),
                 action,
                 freq: freq.as_deref().map(freq_raw).transpose()?,
                 acu: variant == "acu",
@@ -1235,22 +1252,171 @@ fn freq_raw(text: &str) -> Result<i64> {
 
 struct ControlSession<'a> {
     addr: Address,
-    port: &'a str,
     action: &'a str,
     freq: Option<i64>,
     acu: bool,
     json: bool,
+    /// The command line that reaches the drive again (for the hint that says how to stop it).
+    again: Again,
 }
 
+/// How long the stop of an interrupted `control enable` waits for the drive to leave
+/// "operation enabled".
+const STOP_WAIT: Duration = Duration::from_secs(5);
+
+/// What `control` reached: the last status word and control word.
+struct Reached {
+    word: u16,
+    last: Option<u16>,
+    /// `enable`: 241 actual frequency in Hz once enabled (read as part of the enabling, so an
+    /// interrupt during it still stops the motor).
+    actual: Option<f64>,
+}
+
+/// The state `action` drives toward.
+fn target_of_action(action: &str) -> Result<State> {
+    match action {
+        "enable" => Ok(State::OperationEnabled),
+        "stop" => Ok(State::SwitchedOn),
+        "quick-stop" => Ok(State::QuickStopActive),
+        "disable" | "reset" => Ok(State::SwitchOnDisabled),
+        other => Err(CliError::usage(format!("unknown control action `{other}`"))),
+    }
+}
+
+/// `control`: 412 = 1 (state machine) in RAM, the reference frequency 484 (RAM), then control
+/// words 410 toward the action's state, polling 411 until it is reached. `enable` runs under
+/// the motor guard ([`MotorGuard`]): an interrupt, a closed pipe or a failure while enabling
+/// sends "disable operation" (0x0007, transition 5: the drive stops as P392 says, by default
+/// on its ramp); once enabled, the motor keeps running on purpose and the note says how to
+/// stop it.
 async fn control<IO: CharIo>(m: &mut MasterDriver<IO>, s: &ControlSession<'_>) -> Result<()> {
     let addr = s.addr;
-    let target = match s.action {
-        "enable" => State::OperationEnabled,
-        "stop" => State::SwitchedOn,
-        "quick-stop" => State::QuickStopActive,
-        "disable" | "reset" => State::SwitchOnDisabled,
-        other => return Err(CliError::usage(format!("unknown control action `{other}`"))),
+    let target = target_of_action(s.action)?;
+    let stop_command = s.again.then("control stop");
+    let enabling = s.action == "enable";
+    let guard = enabling.then(|| MotorGuard::install(AtEnd::Run, stop_command.clone()));
+    let work = async |m: &mut MasterDriver<IO>, motion: &Motion<'_>| -> Result<Reached> {
+        control_steps(m, s, target, motion).await
     };
+    let reached = match &guard {
+        Some(g) => {
+            let stop = async |m: &mut MasterDriver<IO>| -> Result<Stopped> {
+                let cw = bonfiglioli::state::command::DISABLE_OPERATION;
+                write_cw(m, addr, cw).await?;
+                // Transition 5 follows P392: by default the drive stops on its ramp first and
+                // only then shows "switched on". Wait a few seconds for it (a second signal
+                // ends the wait at once).
+                let deadline = tokio::time::Instant::now() + STOP_WAIT;
+                let mut word = read_word(m, addr, param::STATUS_WORD).await?;
+                while state_of(word, s.acu) == State::OperationEnabled
+                    && tokio::time::Instant::now() < deadline
+                {
+                    tokio::time::sleep(Duration::from_millis(50)).await;
+                    word = read_word(m, addr, param::STATUS_WORD).await?;
+                }
+                let state = state_of(word, s.acu);
+                Ok(Stopped {
+                    sent: format!("disable operation (410 = 0x{cw:04X})"),
+                    reports: if state == State::OperationEnabled {
+                        format!(
+                            "411 = 0x{word:04X} still operation enabled after {} s: it stops as \
+                             P392 says (by default on its ramp)",
+                            STOP_WAIT.as_secs()
+                        )
+                    } else {
+                        format!("411 = 0x{word:04X} {}", state.name_en())
+                    },
+                })
+            };
+            g.run(m, work, stop).await?
+        }
+        None => {
+            // Not a command that moves the motor: an interrupt ends the waiting, and the
+            // drive is left in whatever state it reached.
+            let interrupt =
+                Interrupt::install("the drive may not have reached the state asked for");
+            let armed = std::cell::Cell::new(false);
+            control_steps(m, s, target, &Motion::new(&interrupt, &armed)).await?
+        }
+    };
+    let word = reached.word;
+    let state = state_of(word, s.acu);
+    let done = s.action == "reset" && state != State::Fault || state == target;
+    // Said before the output, so that a closed standard output cannot swallow it.
+    let actual = reached.actual;
+    if done && enabling {
+        let f = actual;
+        if let Some(g) = &guard {
+            g.left_running(&format!(
+                "the motor is enabled (411 = 0x{word:04X} {}){}",
+                state.name_en(),
+                f.as_ref().map_or_else(String::new, |hz| format!(
+                    ", actual frequency 241 = {hz:.2} Hz"
+                ))
+            ));
+        }
+    }
+    let freq = s.freq.map(|raw| {
+        // 484 is write-only on the ACU: never read back. The drive's answer repeated the value
+        // (the master checks the echo), and the actual frequency shows the drive follows it.
+        json!({"raw": raw, "hz": raw as f64 / 100.0, "confirmed_by": "echo"})
+    });
+    if s.json {
+        outln!(
+            "{}",
+            json!({"address": addr.get(), "action": s.action, "status_word": word,
+                   "state": state.name_en(), "reached": done,
+                   "control_word": reached.last, "freq_raw": s.freq,
+                   "reference": freq, "actual_frequency_hz": actual})
+        )?;
+    } else {
+        if let Some(raw) = s.freq {
+            outln!(
+                "reference frequency 484 = {:.2} Hz written to RAM, confirmed by the drive's echo \
+                 of the write (484 is write-only on the ACTIVE Cube and is never read back){}",
+                raw as f64 / 100.0,
+                actual.map_or_else(String::new, |hz| format!(
+                    "; actual frequency 241 = {hz:.2} Hz"
+                ))
+            )?;
+        }
+        outln!(
+            "status word 411: 0x{word:04X} = {} ({})",
+            state.name_en(),
+            bits_text(word, s.acu)
+        )?;
+    }
+    if !done {
+        return Err(CliError::failed(format!(
+            "the drive did not reach {} (it shows {}); check the hardware enable (ACT: S1IND, \
+             ACU: STOA/STOB), 412 local/remote and the current fault (`{}`)",
+            target.name_en(),
+            state.name_en(),
+            s.again.then("status")
+        )));
+    }
+    Ok(())
+}
+
+/// 241 actual frequency in Hz, if the drive answers it.
+async fn actual_frequency<IO: CharIo>(m: &mut MasterDriver<IO>, addr: Address) -> Option<f64> {
+    let t = resolve("241", 0).ok()?;
+    let width = table_width(&t, None)?;
+    let data = m.read(addr, 241, DataSet::ALL, width).await.ok()?;
+    let p = t.param?;
+    Some(p.to_physical(raw_of(&t, width, data)))
+}
+
+/// The steps of `control` toward `target`, checking the interrupt between exchanges.
+async fn control_steps<IO: CharIo>(
+    m: &mut MasterDriver<IO>,
+    s: &ControlSession<'_>,
+    target: State,
+    motion: &Motion<'_>,
+) -> Result<Reached> {
+    let addr = s.addr;
+    let stop = motion.interrupt();
     let t412 = resolve("412", 0)?;
     // 412 = 1: the control word drives the state machine (a data-set parameter: all four).
     let mode = m
@@ -1280,21 +1446,11 @@ async fn control<IO: CharIo>(m: &mut MasterDriver<IO>, s: &ControlSession<'_>) -
     if let Some(raw) = s.freq {
         let t = resolve("484", 0)?;
         let data = data_of(Width::Long, raw).unwrap_or(0);
+        // The reference moves a running motor at once.
+        motion.armed();
         m.write(addr, param::FREQUENCY_RAM, DataSet::ALL, Width::Long, data)
             .await
             .map_err(|e| CliError::from(client_error(&t, Width::Long, e)))?;
-        if !s.acu {
-            let back = m
-                .read(addr, param::FREQUENCY_RAM, DataSet::ALL, Width::Long)
-                .await
-                .map_err(|e| CliError::from(client_error(&t, Width::Long, e)))?;
-            if i64::from(back as i32) != raw {
-                return Err(CliError::failed(format!(
-                    "484 reference frequency RAM was written with raw {raw} but reads back {}",
-                    back as i32
-                )));
-            }
-        }
     }
     let mut last: Option<u16> = None;
     let mut word = read_word(m, addr, param::STATUS_WORD).await?;
@@ -1307,6 +1463,9 @@ async fn control<IO: CharIo>(m: &mut MasterDriver<IO>, s: &ControlSession<'_>) -
     }
     // At most a handful of steps: every state reaches every target in four.
     for _ in 0..8 {
+        if stop.requested() {
+            break;
+        }
         let state = state_of(word, s.acu);
         let next = if s.action == "reset" && state == State::Fault {
             Some(bonfiglioli::state::command::FAULT_RESET)
@@ -1318,6 +1477,7 @@ async fn control<IO: CharIo>(m: &mut MasterDriver<IO>, s: &ControlSession<'_>) -
             ActStateMachine::control_toward(state, target)
         };
         let Some(cw) = next else { break };
+        motion.armed();
         // A fault reset acts on a rising edge of bit 7.
         if cw & 0x80 != 0 && last.is_none_or(|l| l & 0x80 != 0) {
             write_cw(m, addr, cw & !0x80).await?;
@@ -1327,9 +1487,15 @@ async fn control<IO: CharIo>(m: &mut MasterDriver<IO>, s: &ControlSession<'_>) -
         // The drive may take a while (a stop ramps down first): poll until the state changes.
         let deadline = tokio::time::Instant::now() + Duration::from_secs(15);
         loop {
-            tokio::time::sleep(Duration::from_millis(50)).await;
+            tokio::select! {
+                () = tokio::time::sleep(Duration::from_millis(50)) => {}
+                () = stop.wait() => {}
+            }
             word = read_word(m, addr, param::STATUS_WORD).await?;
-            if state_of(word, s.acu) != state || tokio::time::Instant::now() >= deadline {
+            if state_of(word, s.acu) != state
+                || tokio::time::Instant::now() >= deadline
+                || stop.requested()
+            {
                 break;
             }
         }
@@ -1337,40 +1503,12 @@ async fn control<IO: CharIo>(m: &mut MasterDriver<IO>, s: &ControlSession<'_>) -
             break;
         }
     }
-    let state = state_of(word, s.acu);
-    let reached = s.action == "reset" && state != State::Fault || state == target;
-    if s.json {
-        outln!(
-            "{}",
-            json!({"address": addr.get(), "action": s.action, "status_word": word,
-                   "state": state.name_en(), "reached": reached,
-                   "control_word": last, "freq_raw": s.freq})
-        )?;
+    let actual = if s.action == "enable" && state_of(word, s.acu) == target {
+        actual_frequency(m, addr).await
     } else {
-        outln!(
-            "status word 411: 0x{word:04X} = {} ({})",
-            state.name_en(),
-            bits_text(word, s.acu)
-        )?;
-    }
-    if !reached {
-        return Err(CliError::failed(format!(
-            "the drive did not reach {} (it shows {}); check the hardware enable (ACT: S1IND, \
-             ACU: STOA/STOB), 412 local/remote and the current fault (drivectl bonfiglioli \
-             status)",
-            target.name_en(),
-            state.name_en()
-        )));
-    }
-    if s.action == "enable" {
-        errln!(
-            "drivectl: note: the motor is now enabled and follows the reference; stop it with \
-             `drivectl bonfiglioli --port {} --addr {} control stop` (or quick-stop / disable)",
-            s.port,
-            addr.get()
-        );
-    }
-    Ok(())
+        None
+    };
+    Ok(Reached { word, last, actual })
 }
 
 async fn write_cw<IO: CharIo>(m: &mut MasterDriver<IO>, addr: Address, cw: u16) -> Result<()> {

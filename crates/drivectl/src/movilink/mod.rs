@@ -20,9 +20,10 @@ use std::time::Duration;
 
 use crate::error::{CliError, Result};
 use crate::sew::{SewLink, device_error};
+use crate::tool::again::Again;
 use crate::tool::client::{ClientError, Target, ValueText, canonical_port, parse_int};
-use crate::tool::interrupt::Interrupt;
 use crate::tool::line::{LineArgs, MasterArgs, runtime};
+use crate::tool::motor::{AtEnd, Motion, MotorGuard, Stopped};
 use crate::tool::output::{physical_text, trim_float};
 use crate::tool::{backup, watch, write};
 
@@ -184,12 +185,14 @@ enum MovilinkCommand {
         /// Number of exchanges; 0 runs until Ctrl-C.
         #[arg(long, default_value_t = 1)]
         count: u32,
-        /// Milliseconds between exchanges, 1–60000.
-        #[arg(long, default_value_t = 100, value_parser = clap::value_parser!(u64).range(1..=60_000))]
-        interval: u64,
+        /// Milliseconds between exchanges, 1–60000. By default 100, and for a cyclic PDU type
+        /// half the drive's RS-485 timeout P812 when that is shorter; an interval at or above
+        /// P812 is refused (the drive would trip between two exchanges).
+        #[arg(long, value_parser = clap::value_parser!(u64).range(1..=60_000))]
+        interval: Option<u64>,
         /// Leave the drive as the last exchange left it. Without it, `pd` ends (after --count
-        /// exchanges, on Ctrl-C, on an error or a closed output pipe) by sending the control
-        /// word slot (P870–P872) the --stop command.
+        /// exchanges, on Ctrl-C, SIGTERM, SIGHUP or SIGQUIT, on an error or a closed output
+        /// pipe) by sending the control word slot (P870–P872) the --stop command.
         #[arg(long)]
         keep_running: bool,
         /// How `pd` stops the drive at its end: `ramp` (control word 0x0002: stop on the
@@ -409,6 +412,16 @@ fn driver_config(line: &LineArgs, master: &MasterArgs) -> Result<DriverConfig> {
     })
 }
 
+/// The command line that reaches the same drive again (for hints).
+fn again(args: &MovilinkArgs) -> Again {
+    Again::new("movilink")
+        .arg("--port", &args.port)
+        .line(&args.line)
+        .arg_unless("--timeout", args.master.timeout, 50)
+        .arg_unless("--char-gap", args.master.char_gap, 20)
+        .arg("--addr", args.addr)
+}
+
 /// Run `drivectl movilink`.
 pub fn run(args: &MovilinkArgs) -> Result<()> {
     if args.port.is_empty() {
@@ -515,6 +528,7 @@ async fn execute<IO: CharIo>(m: &mut MasterDriver<IO>, args: &MovilinkArgs) -> R
                 interval: *interval,
                 end,
                 json,
+                again: again(args),
             };
             pd(m, pdu_type, &session).await
         }
@@ -674,10 +688,26 @@ struct PdSession<'a> {
     addr: Address,
     out: &'a [String],
     count: u32,
-    interval: u64,
+    interval: Option<u64>,
     /// The command sent at the end (`None`: `--keep-running`).
     end: Option<ControlWord1>,
     json: bool,
+    /// The command line that reaches the drive again.
+    again: Again,
+}
+
+impl PdSession<'_> {
+    /// The command that stops the drive: one exchange of the same PDU type with the stop
+    /// command in the control word slots (the factory setting's PO1 where none is known).
+    fn stop_command(&self, words: &[u16], slots: &[usize]) -> String {
+        let cmd = self.end.unwrap_or(ControlWord1::STOP);
+        let slots = if slots.is_empty() { &[0][..] } else { slots };
+        let stop: Vec<String> = crate::sew::with_command(words, slots, cmd)
+            .iter()
+            .map(|w| format!("0x{w:04X}"))
+            .collect();
+        self.again.then(&format!("pd --out {}", stop.join(",")))
+    }
 }
 
 async fn pd<IO: CharIo>(m: &mut MasterDriver<IO>, pdu_type: &str, s: &PdSession<'_>) -> Result<()> {
@@ -710,25 +740,42 @@ async fn pd<IO: CharIo>(m: &mut MasterDriver<IO>, pdu_type: &str, s: &PdSession<
             words.len()
         )));
     }
-    let slots = crate::sew::pd_preflight(
+    let pre = crate::sew::pd_preflight(
         &mut link(m, addr, ""),
         words.len(),
         s.end.is_some(),
         (index::RS485_TIMEOUT, "RS-485 timeout P812"),
     )
     .await;
-    let stop = Interrupt::install("the drive was NOT sent a stop and may still be running");
+    let slots = pre.slots;
+    // P812 watches cyclic request telegrams only (manual ch. 4: "zyklisch … Timeout-Zeit").
+    let period = crate::sew::pd_interval(
+        s.interval,
+        pre.timeout.filter(|_| pdu.is_cyclic()),
+        100,
+        1,
+        "RS-485 timeout P812",
+        "an RS-485 timeout fault",
+    )?;
     // The stop telegram: the control word slots get the stop command (their high byte kept),
     // every other word stays as it was.
     let stop_words = s
         .end
         .filter(|_| !slots.is_empty())
         .map(|cmd| (crate::sew::with_command(&words, &slots, cmd), cmd));
+    let at_end = match (s.end, &stop_words) {
+        (None, _) => AtEnd::KeepRunning("--keep-running"),
+        // No control word among the outputs: nothing can stop the drive over process data
+        // (warned above); the session ends as the last exchange left it.
+        (Some(_), None) => AtEnd::KeepRunning("no process output word is a control word"),
+        (Some(_), Some(_)) => AtEnd::Stop,
+    };
+    let guard = MotorGuard::install(at_end, s.stop_command(&words, &slots));
     // Cyclic types run as a cyclic session (one telegram every --interval, which keeps the
-    // drive's RS-485 timeout P812 fed); acyclic ones are single exchanges --interval apart.
-    // Ctrl-C ends the loop after the exchange in progress.
-    let period = Duration::from_millis(s.interval.max(1));
-    let result: Result<()> = async {
+    // drive's RS-485 timeout P812 fed); acyclic ones are single exchanges --interval apart. An
+    // interrupt ends the loop after the exchange in progress.
+    let work = async |m: &mut MasterDriver<IO>, motion: &Motion<'_>| -> Result<()> {
+        let stop = motion.interrupt();
         if pdu.is_cyclic() {
             let mut session = m.cyclic(addr, pdu, period).map_err(driver_error)?;
             session.set_output(&words);
@@ -738,6 +785,7 @@ async fn pd<IO: CharIo>(m: &mut MasterDriver<IO>, pdu_type: &str, s: &PdSession<
                     break;
                 }
                 done = done.saturating_add(1);
+                motion.armed();
                 let response = session.cycle().await.map_err(driver_error)?;
                 print_pd(addr, pdu, &words, response.process_data(), json)?;
             }
@@ -745,7 +793,7 @@ async fn pd<IO: CharIo>(m: &mut MasterDriver<IO>, pdu_type: &str, s: &PdSession<
             let mut done = 0u32;
             while s.count == 0 || done < s.count {
                 if done > 0 {
-                    // Ctrl-C ends the pause at once.
+                    // An interrupt ends the pause at once.
                     tokio::select! {
                         () = tokio::time::sleep(period) => {}
                         () = stop.wait() => {}
@@ -756,43 +804,35 @@ async fn pd<IO: CharIo>(m: &mut MasterDriver<IO>, pdu_type: &str, s: &PdSession<
                 }
                 done = done.saturating_add(1);
                 let request = Telegram::request(addr, pdu).with_process_data(&words);
+                motion.armed();
                 let response = m.exchange(request).await.map_err(driver_error)?;
                 print_pd(addr, pdu, &words, response.process_data(), json)?;
             }
         }
         Ok(())
-    }
-    .await;
-    if let Some((w, cmd)) = stop_words {
-        let request = Telegram::request(addr, pdu).with_process_data(&w);
-        match m.exchange(request).await {
-            Ok(response) => {
-                let status = response
-                    .process_data()
-                    .first()
-                    .map(|s| StatusWord1::from_bits(*s).to_string())
-                    .unwrap_or_default();
-                errln!(
-                    "drivectl: note: sent {} (control word 0x{:04X}) at the end; the drive reports: {status}",
-                    cmd.command().name(),
-                    w.get(slots.first().copied().unwrap_or(0))
-                        .copied()
-                        .unwrap_or(0)
-                );
-            }
-            Err(e) => {
-                errln!(
-                    "drivectl: warning: the stop at the end was not answered ({e}): the drive may \
-                     still be running"
-                );
-                return result.and(Err(driver_error(e)));
-            }
-        }
-    }
-    if s.end.is_none() {
-        errln!("drivectl: note: the drive was left as the last exchange set it (--keep-running)");
-    }
-    result
+    };
+    let send_stop = async |m: &mut MasterDriver<IO>| -> Result<Stopped> {
+        let Some((w, cmd)) = &stop_words else {
+            return Err(CliError::failed("no control word to stop the drive with"));
+        };
+        let request = Telegram::request(addr, pdu).with_process_data(w);
+        let response = m.exchange(request).await.map_err(driver_error)?;
+        Ok(Stopped {
+            sent: format!(
+                "{} (control word 0x{:04X})",
+                cmd.command().name(),
+                w.get(slots.first().copied().unwrap_or(0))
+                    .copied()
+                    .unwrap_or(0)
+            ),
+            reports: response
+                .process_data()
+                .first()
+                .map(|s| StatusWord1::from_bits(*s).to_string())
+                .unwrap_or_default(),
+        })
+    };
+    guard.run(m, work, send_stop).await
 }
 
 fn print_pd(addr: Address, pdu: PduType, out: &[u16], pi: &[u16], json: bool) -> Result<()> {

@@ -36,6 +36,7 @@ use crate::tool::client::{
     nord_sub_parts, parse_decimal,
 };
 use crate::tool::interrupt::Interrupt;
+use crate::tool::motor::{AtEnd, Motion, MotorGuard, Stopped};
 use crate::tool::output::{physical_text, print_value, trim_float, value_json};
 use crate::tool::{backup, watch, write};
 
@@ -997,10 +998,9 @@ struct ControlSession<'a> {
     wait: Duration,
 }
 
-/// Whether control word `w` lets the motor run (bits 0–3 set: enable operation).
-fn runs(w: u16) -> bool {
-    w & 0x000F == 0x000F
-}
+/// How long the stop of an interrupted `control enable` waits for the drive to leave
+/// "operation enabled" (its braking ramp).
+const STOP_WAIT: Duration = Duration::from_secs(5);
 
 /// Time between two process data exchanges while `control` waits for a state.
 const CONTROL_PERIOD: Duration = Duration::from_millis(50);
@@ -1038,44 +1038,47 @@ where
         }
     }
     let with_set = |w: u16| ControlWord(w).with_parameter_set(a.set).map_or(w, |c| c.0);
-    let stop = Interrupt::install(
-        "the drive was NOT sent a stop and keeps the last control word it was sent",
-    );
-    // First only look (bit 10 clear: the drive ignores this word).
-    let mut answer = c
-        .process(ControlWord(0), &[], iw)
-        .await
-        .map_err(link_error)?;
-    let start = answer.status().state();
-    if a.action == "reset" && !matches!(start, State::Fault | State::FaultReactionActive) {
-        errln!(
-            "drivectl: note: the drive shows no fault ({})",
-            state_text(start)
-        );
-    }
-    if matches!(a.action, "enable" | "stop")
-        && matches!(start, State::Fault | State::FaultReactionActive)
-    {
-        return Err(CliError::failed(format!(
-            "the drive shows a fault ({}): read P700 (`{} status`) and reset it with `{} \
-             control reset` first",
-            state_text(start),
-            s.again,
-            s.again
-        )));
-    }
+    let enabling = a.action == "enable";
+    let stop_command = format!("{} control stop", s.again);
+    // `enable` runs under the motor guard: an interrupt, a closed pipe or a failure while the
+    // drive is being enabled sends shutdown (047Eh: braking ramp, then ready to switch on).
+    let guard = enabling.then(|| MotorGuard::install(AtEnd::Run, stop_command.clone()));
+    let interrupt = match &guard {
+        Some(g) => g.interrupt().clone(),
+        None => Interrupt::install("the drive keeps the last control word it was sent"),
+    };
+    let armed = std::cell::Cell::new(false);
     let in_fault = |st: State| matches!(st, State::Fault | State::FaultReactionActive);
-    if a.action == "reset" && !in_fault(start) {
-        // Nothing to reset: a word sent now could only change what the drive does.
-        return print_control(s, a, answer, 0, 0, true);
-    }
-    // The word the drive holds from before this command is not known: every word planned here
-    // has bit 7 = 0, so the fault reset that follows one of them is a rising edge.
-    let mut last: u16 = 0;
-    let mut sent = false;
-    let deadline = tokio::time::Instant::now() + a.wait;
-    let mut interrupted = false;
-    let run: std::result::Result<(), CliError> = async {
+    let work = async |c: &mut NordClient<C>, motion: &Motion<'_>| -> Result<(PzdIn, u16)> {
+        let stop = motion.interrupt();
+        // First only look (bit 10 clear: the drive ignores this word).
+        let mut answer = c
+            .process(ControlWord(0), &[], iw)
+            .await
+            .map_err(link_error)?;
+        let start = answer.status().state();
+        if a.action == "reset" && !in_fault(start) {
+            errln!(
+                "drivectl: note: the drive shows no fault ({})",
+                state_text(start)
+            );
+            // Nothing to reset: a word sent now could only change what the drive does.
+            return Ok((answer, 0));
+        }
+        if matches!(a.action, "enable" | "stop") && in_fault(start) {
+            return Err(CliError::failed(format!(
+                "the drive shows a fault ({}): read P700 (`{} status`) and reset it with `{} \
+                 control reset` first",
+                state_text(start),
+                s.again,
+                s.again
+            )));
+        }
+        // The word the drive holds from before this command is not known: every word planned
+        // here has bit 7 = 0, so the fault reset that follows one of them is a rising edge.
+        let mut last: u16 = 0;
+        let mut sent = false;
+        let deadline = tokio::time::Instant::now() + a.wait;
         loop {
             let state = answer.status().state();
             let reached = if a.action == "reset" {
@@ -1083,15 +1086,11 @@ where
             } else {
                 state == target
             };
-            if reached && sent {
-                return Ok(());
-            }
-            if stop.requested() {
-                interrupted = true;
-                return Ok(());
+            if (reached && sent) || stop.requested() {
+                return Ok((answer, last));
             }
             if sent && tokio::time::Instant::now() >= deadline {
-                return Ok(());
+                return Ok((answer, last));
             }
             let word = match fixed {
                 Some(w) => w,
@@ -1103,6 +1102,7 @@ where
             // motor running.
             last = word;
             sent = true;
+            motion.armed();
             answer = c
                 .process(ControlWord(word), sw1_slot, iw)
                 .await
@@ -1112,49 +1112,88 @@ where
                 () = stop.wait() => {}
             }
         }
-    }
-    .await;
-    if let Err(e) = run {
-        if runs(last) {
-            return Err(CliError::failed(format!(
-                "{e}; the drive was sent 0x{last:04X} (enable operation) and may be running: \
-                 stop it with `{} control stop`",
-                s.again
-            )));
-        }
-        return Err(e);
-    }
-    let sw = answer.status();
-    let state = sw.state();
-    if interrupted {
-        if runs(last) || state == State::OperationEnabled {
+    };
+    let (answer, last) = match &guard {
+        Some(g) => {
             let shutdown = with_set(command::SHUTDOWN.0);
             let zero: &[u16] = if s.actuals > 0 { &[0] } else { &[] };
-            return match c.process(ControlWord(shutdown), zero, iw).await {
-                Ok(a) => Err(CliError::failed(format!(
-                    "interrupted: sent shutdown 0x{shutdown:04X} (braking ramp, then ready to \
-                     switch on); the drive shows {}",
-                    state_text(a.status().state())
-                ))),
-                Err(e) => Err(CliError::failed(format!(
-                    "interrupted, and the shutdown was not answered ({e}): the drive may still be \
-                     running; stop it with `{} control stop`",
-                    s.again
-                ))),
+            let stop = async |c: &mut NordClient<C>| -> Result<Stopped> {
+                // The drive brakes on its ramp and only then leaves "operation enabled": send
+                // shutdown until it has (a few seconds at most; a second signal ends it).
+                let deadline = tokio::time::Instant::now() + STOP_WAIT;
+                let mut answer = c
+                    .process(ControlWord(shutdown), zero, iw)
+                    .await
+                    .map_err(link_error)?;
+                while answer.status().state() == State::OperationEnabled
+                    && tokio::time::Instant::now() < deadline
+                {
+                    tokio::time::sleep(CONTROL_PERIOD).await;
+                    answer = c
+                        .process(ControlWord(shutdown), zero, iw)
+                        .await
+                        .map_err(link_error)?;
+                }
+                let state = answer.status().state();
+                Ok(Stopped {
+                    sent: format!(
+                        "shutdown 0x{shutdown:04X} (braking ramp, then ready to switch on)"
+                    ),
+                    reports: if state == State::OperationEnabled {
+                        format!(
+                            "{} after {} s, still braking on its ramp",
+                            state_text(state),
+                            STOP_WAIT.as_secs()
+                        )
+                    } else {
+                        state_text(state)
+                    },
+                })
             };
+            g.run(c, work, stop).await?
         }
-        return Err(CliError::failed(format!(
-            "interrupted; the drive shows {} (last control word 0x{last:04X})",
-            state_text(state)
-        )));
-    }
+        None => {
+            let motion = Motion::new(&interrupt, &armed);
+            let (answer, last) = work(c, &motion).await?;
+            if let Some(sig) = interrupt.signal() {
+                // A stop, quick stop or disable keeps acting in the drive: say what it was
+                // sent and where it is.
+                return Err(CliError::with_code(
+                    format!(
+                        "interrupted by {}; the drive was sent {} and shows {}",
+                        sig.name(),
+                        control_word_text(last),
+                        state_text(answer.status().state())
+                    ),
+                    sig.exit_code(),
+                ));
+            }
+            (answer, last)
+        }
+    };
+    let sw = answer.status();
+    let state = sw.state();
     let reached = if a.action == "reset" {
         !in_fault(state)
     } else {
         state == target
     };
-    // Printed after the notes below are decided: a closed output pipe must not swallow the
-    // note that the motor runs.
+    if reached && enabling {
+        // Said before the output: a closed output pipe must not swallow the note that the
+        // motor runs.
+        let percent = trim_float(nord::percent_from_word(sw1), 4);
+        if s.simulated {
+            // The simulated drive ends with this command: there is nothing left to stop.
+            errln!(
+                "drivectl: note: the simulated motor was enabled and followed SW1 = 0x{sw1:04X} \
+                 ({percent} % of P105) until the simulation ended with the command"
+            );
+        } else if let Some(g) = &guard {
+            g.left_running(&format!(
+                "the motor is enabled and follows SW1 = 0x{sw1:04X} ({percent} % of P105)"
+            ));
+        }
+    }
     let printed = print_control(s, a, answer, last, sw1, reached);
     if !reached {
         let running = state == State::OperationEnabled;
@@ -1173,24 +1212,28 @@ where
             }
         )));
     }
-    if a.action == "enable" {
-        let percent = trim_float(nord::percent_from_word(sw1), 4);
-        if s.simulated {
-            // The simulated drive ends with this command: there is nothing left to stop.
-            errln!(
-                "drivectl: note: the simulated motor was enabled and followed SW1 = 0x{sw1:04X} \
-                 ({percent} % of P105) until the simulation ended with the command"
-            );
-        } else {
-            errln!(
-                "drivectl: note: the motor is enabled and follows SW1 = 0x{sw1:04X} ({percent} % \
-                 of P105) and keeps running after drivectl ends; stop it with `{} control stop` \
-                 (or quick-stop / disable)",
-                s.again
-            );
-        }
-    }
     printed
+}
+
+/// A control word as the manual names the command it carries (parameter set bits aside).
+fn control_word_text(word: u16) -> String {
+    let plain = word & !ControlWord::PARAMETER_SET_MASK;
+    let name = [
+        (command::SHUTDOWN, "shutdown"),
+        (command::SWITCH_ON, "switch on"),
+        (command::ENABLE_OPERATION, "enable operation"),
+        (command::DISABLE_VOLTAGE, "disable voltage"),
+        (command::QUICK_STOP, "quick stop"),
+        (command::FAULT_RESET, "fault reset"),
+    ]
+    .into_iter()
+    .find(|(c, _)| c.0 == plain)
+    .map(|(_, n)| n);
+    match (word, name) {
+        (0, _) => "nothing (only the status was read)".to_owned(),
+        (_, Some(n)) => format!("{n} 0x{word:04X}"),
+        (_, None) => format!("control word 0x{word:04X}"),
+    }
 }
 
 /// The word that keeps a drive in `target` once it is there.

@@ -131,22 +131,18 @@ fn address(a: u8) -> Result<UssAddress> {
     UssAddress::new(a).ok_or_else(|| CliError::usage(format!("--addr {a}: a USS address is 0…31")))
 }
 
-/// The command line that reaches the same drive again (for notes).
+/// The command line that reaches the same drive again (for notes): every option that differs
+/// from its default.
 fn again(args: &UssArgs) -> String {
-    let mut s = format!("drivectl uss --port {} --addr {}", args.port, args.addr);
-    if args.line.baud != 9600 {
-        s.push_str(&format!(" --baud {}", args.line.baud));
-    }
-    if args.line.parity != drive_core::Parity::Even {
-        s.push_str(&format!(" --parity {}", args.line.parity));
-    }
-    if args.pkw != 4 {
-        s.push_str(&format!(" --pkw {}", args.pkw));
-    }
-    if args.pzd != 4 {
-        s.push_str(&format!(" --pzd {}", args.pzd));
-    }
-    s
+    crate::tool::again::Again::new("uss")
+        .arg("--port", &args.port)
+        .line(&args.line)
+        .arg_unless("--timeout", args.timeout, 50)
+        .arg_unless("--retries", args.retries, 2)
+        .arg_unless("--pkw", args.pkw, 4)
+        .arg_unless("--pzd", args.pzd, 4)
+        .arg("--addr", args.addr)
+        .to_string()
 }
 
 /// Run `drivectl uss`.

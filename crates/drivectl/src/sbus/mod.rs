@@ -238,6 +238,17 @@ enum SbusCommand {
     },
 }
 
+/// The command line that reaches the same drive again (for hints).
+fn again(args: &SbusArgs) -> crate::tool::again::Again {
+    crate::tool::again::Again::new("sbus")
+        .arg("--iface", &args.iface)
+        .arg_unless("--bitrate", args.bitrate.as_str(), "500k")
+        .arg_unless("--timeout", args.timeout, 50)
+        .arg_unless("--handshake", args.handshake.as_str(), "async")
+        .arg_unless("--sync-id", args.sync_id, 0)
+        .arg("--addr", args.addr)
+}
+
 /// Run `drivectl sbus`.
 pub fn run(args: &SbusArgs) -> Result<()> {
     match &args.command {
@@ -407,7 +418,7 @@ async fn execute<C: drive_core::rt::CanIo>(
             crate::sew::info(&mut l, resolve(param)?, json).await
         }
         SbusCommand::Scan { from, to } => scan(m, *from, *to, json).await,
-        SbusCommand::Pd(p) => pd::pd(m, addr, p, json).await,
+        SbusCommand::Pd(p) => pd::pd(m, addr, p, json, &again(args)).await,
         SbusCommand::Sync(s) => pd::sync(m, s, args.sync_id, json).await,
         SbusCommand::Backup(b) => crate::sew::backup(link(m), b, json).await,
         SbusCommand::Restore(r) => crate::sew::restore(link(m), r, json).await,

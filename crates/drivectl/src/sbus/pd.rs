@@ -13,8 +13,10 @@ use serde_json::json;
 
 use crate::error::{CliError, Result};
 use crate::sbus::link::driver_error;
+use crate::tool::again::Again;
 use crate::tool::client::parse_int;
 use crate::tool::interrupt::Interrupt;
+use crate::tool::motor::{AtEnd, Motion, MotorGuard, Stopped};
 use crate::tool::output::trim_float;
 
 /// Arguments of `drivectl sbus pd`.
@@ -32,9 +34,12 @@ pub struct PdArgs {
     /// Number of exchanges; 0 runs until Ctrl-C.
     #[arg(long, default_value_t = 1)]
     count: u32,
-    /// Milliseconds between exchanges, 1–60000 (with --sync: rounded up to whole 5 ms cycles).
-    #[arg(long, default_value_t = 100, value_parser = clap::value_parser!(u64).range(1..=60_000))]
-    interval: u64,
+    /// Milliseconds between exchanges, 1–60000 (with --sync: rounded up to whole 5 ms
+    /// cycles). By default half the drive's SBus timeout P815 (read first), at most 100 ms, and
+    /// with --sync one 5 ms cycle; an interval at or above P815 is refused (the drive would
+    /// trip with F47 SBus timeout between two exchanges).
+    #[arg(long, value_parser = clap::value_parser!(u64).range(1..=60_000))]
+    interval: Option<u64>,
     /// Synchronous process data: the PO sync telegram (8a+5), taken by the drive at the next
     /// SYNC, which drivectl sends; the PI comes in the first millisecond after it.
     #[arg(long, conflicts_with = "group")]
@@ -44,8 +49,8 @@ pub struct PdArgs {
     #[arg(long, value_parser = clap::value_parser!(u8).range(0..=63))]
     group: Option<u8>,
     /// Leave the drive as the last exchange left it. Without it, `pd` ends (after --count, on
-    /// Ctrl-C, on an error or a closed output pipe) by sending the control word slot the
-    /// --stop command.
+    /// Ctrl-C, SIGTERM, SIGHUP or SIGQUIT, on an error or a closed output pipe) by sending the
+    /// control word slot the --stop command.
     #[arg(long)]
     keep_running: bool,
     /// How `pd` stops the drive at its end: `ramp` (control word 0x0002) or `inhibit`
@@ -89,12 +94,14 @@ pub struct SyncArgs {
     count: u32,
 }
 
-/// Run `pd`.
+/// Run `pd`; `again` is the command line that reaches the drive again (for the hint that
+/// says how to stop it).
 pub async fn pd<C: CanIo>(
     m: &mut SbusMaster<C>,
     addr: Address,
     args: &PdArgs,
     json: bool,
+    again: &Again,
 ) -> Result<()> {
     let words = args.check()?;
     let end = match (args.keep_running, args.stop.as_str()) {
@@ -106,9 +113,9 @@ pub async fn pd<C: CanIo>(
         .group
         .map(|g| Address::new(g).ok_or_else(|| CliError::usage(format!("--group {g}: 0…63"))))
         .transpose()?;
-    // A group has no answers to read the control word slots from: the factory setting (PO1 =
-    // control word 1) is assumed, and said.
-    let slots = match group {
+    // A group has no answers to read the control word slots or P815 from: the factory setting
+    // (PO1 = control word 1) is assumed, and said.
+    let (slots, timeout) = match group {
         Some(_) => {
             if end.is_some() {
                 errln!(
@@ -116,7 +123,7 @@ pub async fn pd<C: CanIo>(
                      the factory setting's control word (P870)"
                 );
             }
-            vec![0]
+            (vec![0], None)
         }
         None => {
             let mut l = crate::sbus::link::SbusLink {
@@ -125,16 +132,44 @@ pub async fn pd<C: CanIo>(
                 handshake: sbus_can::master::Handshake::Async,
                 iface: String::new(),
             };
-            crate::sew::pd_preflight(
+            let pre = crate::sew::pd_preflight(
                 &mut l,
                 3,
                 end.is_some(),
                 (index::SBUS_TIMEOUT, "SBus timeout P815"),
             )
-            .await
+            .await;
+            (pre.slots, pre.timeout)
         }
     };
-    let stop = Interrupt::install("the drive was NOT sent a stop and may still be running");
+    let (default, grain) = if args.sync { (5, 5) } else { (100, 1) };
+    let mut period = crate::sew::pd_interval(
+        args.interval,
+        timeout,
+        default,
+        grain,
+        "SBus timeout P815",
+        "F47 SBus timeout",
+    )?;
+    if args.sync {
+        // Whole 5 ms cycles.
+        period = Duration::from_millis(
+            u64::try_from(period.as_millis())
+                .unwrap_or(u64::MAX)
+                .div_ceil(5)
+                .max(1)
+                * 5,
+        );
+        if let Some(t) = timeout.filter(|t| period >= *t) {
+            return Err(CliError::usage(format!(
+                "--interval rounds up to {} ms of whole 5 ms SYNC cycles, not shorter than the \
+                 drive's SBus timeout P815 of {} ms: the drive would trip with F47; use a shorter \
+                 --interval or raise P815",
+                period.as_millis(),
+                t.as_millis()
+            )));
+        }
+    }
     let stop_words = end.filter(|_| !slots.is_empty()).map(|cmd| {
         let mut w = words;
         for (x, y) in w
@@ -145,13 +180,27 @@ pub async fn pd<C: CanIo>(
         }
         (w, cmd)
     });
-    let period = if args.sync {
-        // Whole 5 ms cycles.
-        Duration::from_millis(args.interval.div_ceil(5).max(1) * 5)
-    } else {
-        Duration::from_millis(args.interval)
+    let at_end = match (end, &stop_words) {
+        (None, _) => AtEnd::KeepRunning("--keep-running"),
+        (Some(_), None) => AtEnd::KeepRunning("no process output word is a control word"),
+        (Some(_), Some(_)) => AtEnd::Stop,
     };
-    let result: Result<()> = async {
+    let stop_command = {
+        let cmd = end.unwrap_or(ControlWord1::STOP);
+        let slots = if slots.is_empty() { &[0][..] } else { &slots };
+        let w: Vec<String> = crate::sew::with_command(&words, slots, cmd)
+            .iter()
+            .map(|w| format!("0x{w:04X}"))
+            .collect();
+        let mut rest = format!("pd --out {}", w.join(","));
+        if let Some(g) = group {
+            rest.push_str(&format!(" --group {}", g.get()));
+        }
+        again.then(&rest)
+    };
+    let guard = MotorGuard::install(at_end, stop_command);
+    let work = async |m: &mut SbusMaster<C>, motion: &Motion<'_>| -> Result<()> {
+        let stop = motion.interrupt();
         let mut done = 0u32;
         while args.count == 0 || done < args.count {
             if done > 0 {
@@ -164,38 +213,31 @@ pub async fn pd<C: CanIo>(
                 break;
             }
             done = done.saturating_add(1);
+            motion.armed();
             exchange(m, addr, group, args.sync, words, json).await?;
         }
         Ok(())
-    }
-    .await;
-    if let Some((w, cmd)) = stop_words {
-        match exchange_quiet(m, addr, group, args.sync, w).await {
-            Ok(pi) => {
-                let status = pi
-                    .map(|p| StatusWord1::from_bits(p.0[0]).to_string())
-                    .unwrap_or_else(|| "no answer by design (group)".to_owned());
-                errln!(
-                    "drivectl: note: sent {} (control word 0x{:04X}) at the end; the drive reports: {status}",
-                    cmd.command().name(),
-                    w.get(slots.first().copied().unwrap_or(0))
-                        .copied()
-                        .unwrap_or(0)
-                );
-            }
-            Err(e) => {
-                errln!(
-                    "drivectl: warning: the stop at the end was not answered ({e}): the drive may \
-                     still be running"
-                );
-                return result.and(Err(e));
-            }
-        }
-    }
-    if end.is_none() {
-        errln!("drivectl: note: the drive was left as the last exchange set it (--keep-running)");
-    }
-    result
+    };
+    let send_stop = async |m: &mut SbusMaster<C>| -> Result<Stopped> {
+        let Some((w, cmd)) = stop_words else {
+            return Err(CliError::failed("no control word to stop the drive with"));
+        };
+        let pi = exchange_quiet(m, addr, group, args.sync, w).await?;
+        Ok(Stopped {
+            sent: format!(
+                "{} (control word 0x{:04X})",
+                cmd.command().name(),
+                w.get(slots.first().copied().unwrap_or(0))
+                    .copied()
+                    .unwrap_or(0)
+            ),
+            reports: pi.map_or_else(
+                || "no answer by design (group)".to_owned(),
+                |p| StatusWord1::from_bits(p.0[0]).to_string(),
+            ),
+        })
+    };
+    guard.run(m, work, send_stop).await
 }
 
 async fn exchange_quiet<C: CanIo>(

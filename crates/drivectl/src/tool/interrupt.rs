@@ -1,65 +1,161 @@
-//! Ctrl-C for work that must end cleanly: a backup removes its temporary file, a restore says
-//! what it wrote, `pd` stops the drive.
+//! Interrupts for work that must end cleanly: a backup removes its temporary file, a restore
+//! says what it wrote, a command that drives a motor stops it ([`super::motor`]).
 //!
-//! [`Interrupt::install`] takes over SIGINT for the rest of the command: the first Ctrl-C sets a
-//! flag that the work checks between exchanges (an exchange in flight is finished, so the
-//! drive's state stays known); a second Ctrl-C ends the process at once with `at_once`'s
-//! message (exit 130), for an exchange that would take long (a long `--timeout` with many
-//! `--retries`); the temporary files of output files not written yet are removed first.
+//! [`Interrupt::install`] takes over every signal that ends a command from outside — SIGINT
+//! (Ctrl-C), SIGTERM (`kill`, `timeout`, systemd), SIGHUP (the terminal or the SSH connection
+//! went away) and SIGQUIT (Ctrl-\) — for the rest of the command. The handlers are in place
+//! when `install` returns, so a signal a moment later is never the default "end the process
+//! now". The first signal sets a flag that the work checks between exchanges (an exchange in
+//! flight is finished, so the drive's state stays known); a second one ends the process at
+//! once with `at_once`'s message (exit 128 + the signal's number), for an exchange that would
+//! take long (a long `--timeout` with many `--retries`); the temporary files of output files
+//! not written yet are removed first.
 
 use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicI32, Ordering};
+use std::task::Poll;
 
-/// The user asked the work to stop.
+use tokio::signal::unix::{Signal, SignalKind, signal};
+
+/// A signal that ends a command.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Stop {
+    /// SIGINT: Ctrl-C.
+    Int,
+    /// SIGTERM: `kill`, `timeout`, systemd.
+    Term,
+    /// SIGHUP: the terminal or SSH connection closed.
+    Hup,
+    /// SIGQUIT: Ctrl-\.
+    Quit,
+}
+
+impl Stop {
+    const ALL: [Stop; 4] = [Stop::Int, Stop::Term, Stop::Hup, Stop::Quit];
+
+    /// The signal's number (POSIX: 2, 15, 1, 3).
+    pub fn number(self) -> i32 {
+        match self {
+            Stop::Int => 2,
+            Stop::Term => 15,
+            Stop::Hup => 1,
+            Stop::Quit => 3,
+        }
+    }
+
+    /// The exit code of a command this signal ended: 128 + its number, as a shell reports it.
+    pub fn exit_code(self) -> u8 {
+        128 + self.number() as u8
+    }
+
+    /// Its name, with what usually sends it, for a person: `Ctrl-C (SIGINT)`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Stop::Int => "Ctrl-C (SIGINT)",
+            Stop::Term => "SIGTERM",
+            Stop::Hup => "SIGHUP (the terminal went away)",
+            Stop::Quit => "SIGQUIT",
+        }
+    }
+
+    fn kind(self) -> SignalKind {
+        match self {
+            Stop::Int => SignalKind::interrupt(),
+            Stop::Term => SignalKind::terminate(),
+            Stop::Hup => SignalKind::hangup(),
+            Stop::Quit => SignalKind::quit(),
+        }
+    }
+
+    fn of(number: i32) -> Option<Stop> {
+        Stop::ALL.into_iter().find(|s| s.number() == number)
+    }
+}
+
+/// The user (or the system) asked the work to stop.
 #[derive(Debug, Clone)]
 pub struct Interrupt {
-    flag: Arc<AtomicBool>,
+    /// The number of the first signal received, 0 while none came.
+    signal: Arc<AtomicI32>,
     notify: Arc<tokio::sync::Notify>,
 }
 
-impl Interrupt {
-    /// Take over Ctrl-C (inside the tokio runtime). `at_once` is printed when a second Ctrl-C
-    /// ends the process without waiting.
-    pub fn install(at_once: &'static str) -> Self {
-        let flag = Arc::new(AtomicBool::new(false));
-        let notify = Arc::new(tokio::sync::Notify::new());
-        let (set, wake) = (flag.clone(), notify.clone());
-        tokio::spawn(async move {
-            if tokio::signal::ctrl_c().await.is_err() {
-                return;
+/// The next of `streams` to deliver a signal.
+async fn next(streams: &mut [(Signal, Stop)]) -> Option<Stop> {
+    if streams.is_empty() {
+        return None;
+    }
+    std::future::poll_fn(|cx| {
+        for (s, stop) in streams.iter_mut() {
+            if let Poll::Ready(Some(())) = s.poll_recv(cx) {
+                return Poll::Ready(Some(*stop));
             }
-            set.store(true, Ordering::SeqCst);
-            wake.notify_waiters();
+        }
+        Poll::Pending
+    })
+    .await
+}
+
+impl Interrupt {
+    /// Take over SIGINT, SIGTERM, SIGHUP and SIGQUIT (inside the tokio runtime). `at_once` is
+    /// printed when a second signal ends the process without waiting.
+    pub fn install(at_once: &'static str) -> Self {
+        let this = Self::unset();
+        // Registered here, not in the task below: the task runs only when the command first
+        // waits, and a signal before that would end the process the default way.
+        let mut streams: Vec<(Signal, Stop)> = Stop::ALL
+            .into_iter()
+            .filter_map(|s| signal(s.kind()).ok().map(|stream| (stream, s)))
+            .collect();
+        let handle = this.clone();
+        tokio::spawn(async move {
+            let Some(first) = next(&mut streams).await else {
+                return;
+            };
+            handle.raise(first);
             errln!(
-                "drivectl: note: interrupted; finishing the exchange in progress (Ctrl-C again stops at once)"
+                "drivectl: note: interrupted by {}; finishing the exchange in progress (a second \
+                 signal stops at once)",
+                first.name()
             );
-            if tokio::signal::ctrl_c().await.is_ok() {
+            if let Some(second) = next(&mut streams).await {
                 // The drops that remove a backup's temporary file do not run on this exit.
                 super::outfile::remove_temporary_files();
                 errln!("drivectl: stopped at once: {at_once}");
-                std::process::exit(130);
+                std::process::exit(i32::from(second.exit_code()));
             }
         });
-        Self { flag, notify }
+        this
     }
 
-    /// A flag nobody sets (tests, commands without Ctrl-C handling).
-    #[cfg(test)]
-    pub fn never() -> Self {
+    fn unset() -> Self {
         Self {
-            flag: Arc::new(AtomicBool::new(false)),
+            signal: Arc::new(AtomicI32::new(0)),
             notify: Arc::new(tokio::sync::Notify::new()),
         }
     }
 
-    /// A flag the caller sets (tests).
+    /// A flag nobody sets (tests, commands without signal handling).
+    #[cfg(test)]
+    pub fn never() -> Self {
+        Self::unset()
+    }
+
+    /// Set the flag as `stop` would (tests).
     #[cfg(test)]
     pub fn set(&self) {
-        self.flag.store(true, Ordering::SeqCst);
+        self.raise(Stop::Int);
+    }
+
+    fn raise(&self, stop: Stop) {
+        // The first signal is the one reported.
+        let _ = self
+            .signal
+            .compare_exchange(0, stop.number(), Ordering::SeqCst, Ordering::SeqCst);
         self.notify.notify_waiters();
     }
 
-    /// Wait until Ctrl-C is pressed (at once if it was).
+    /// Wait until a signal came (at once if one did).
     pub async fn wait(&self) {
         let notified = self.notify.notified();
         if self.requested() {
@@ -68,8 +164,36 @@ impl Interrupt {
         notified.await;
     }
 
-    /// Whether Ctrl-C was pressed.
+    /// Whether a signal came.
     pub fn requested(&self) -> bool {
-        self.flag.load(Ordering::SeqCst)
+        self.signal.load(Ordering::SeqCst) != 0
+    }
+
+    /// The first signal that came, if any.
+    pub fn signal(&self) -> Option<Stop> {
+        Stop::of(self.signal.load(Ordering::SeqCst))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn exit_codes_are_the_shells() {
+        assert_eq!(Stop::Int.exit_code(), 130);
+        assert_eq!(Stop::Term.exit_code(), 143);
+        assert_eq!(Stop::Hup.exit_code(), 129);
+        assert_eq!(Stop::Quit.exit_code(), 131);
+    }
+
+    #[test]
+    fn the_first_signal_is_the_one_reported() {
+        let i = Interrupt::never();
+        assert_eq!(i.signal(), None);
+        i.raise(Stop::Term);
+        i.raise(Stop::Int);
+        assert_eq!(i.signal(), Some(Stop::Term));
+        assert!(i.requested());
     }
 }

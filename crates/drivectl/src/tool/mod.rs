@@ -17,6 +17,7 @@
 
 #[macro_use]
 pub mod output;
+pub mod again;
 pub mod backup;
 pub mod client;
 #[cfg(test)]
@@ -25,6 +26,7 @@ pub mod infile;
 pub mod interrupt;
 pub mod line;
 pub mod meaning;
+pub mod motor;
 pub mod outfile;
 pub mod read;
 pub mod simrun;

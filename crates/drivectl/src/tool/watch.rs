@@ -102,13 +102,32 @@ pub struct Options {
     pub format: Format,
 }
 
-/// Completes on Ctrl-C (SIGINT): the `stop` of a watch on the command line. Once it is
-/// listening, Ctrl-C no longer kills the process; the watch ends through its normal path
-/// (exit 0, the output complete up to its last row). Should the handler not install, it never
-/// completes and Ctrl-C ends the process as usual.
-pub async fn ctrl_c() {
-    if tokio::signal::ctrl_c().await.is_err() {
-        std::future::pending::<()>().await;
+/// Completes on Ctrl-C (SIGINT), SIGTERM, SIGHUP or SIGQUIT: the `stop` of a watch on the
+/// command line. The handlers are in place when this returns (not when the future is first
+/// polled), so a signal a moment later no longer kills the process: the watch ends through its
+/// normal path (exit 0, the output complete up to its last row, a CSV file not cut in a row).
+/// A handler that does not install leaves that signal's default.
+pub fn ctrl_c() -> impl Future<Output = ()> {
+    use tokio::signal::unix::{SignalKind, signal};
+    let mut streams: Vec<_> = [
+        SignalKind::interrupt(),
+        SignalKind::terminate(),
+        SignalKind::hangup(),
+        SignalKind::quit(),
+    ]
+    .into_iter()
+    .filter_map(|k| signal(k).ok())
+    .collect();
+    async move {
+        std::future::poll_fn(|cx| {
+            for s in &mut streams {
+                if let std::task::Poll::Ready(Some(())) = s.poll_recv(cx) {
+                    return std::task::Poll::Ready(());
+                }
+            }
+            std::task::Poll::Pending
+        })
+        .await;
     }
 }
 
