@@ -74,7 +74,7 @@ fn everyday(mode: &'static str) {
     ok_json(&sim.run(&["--json", "write", "372", "1390", "--dataset", "2"]));
     let v = ok_json(&sim.run(&["--json", "read", "372", "--dataset", "2"]));
     assert_eq!(
-        (&v[0]["parameter"], &v[0]["dataset"], &v[0]["raw"]),
+        (&v[0]["index"], &v[0]["selector"]["dataset"], &v[0]["raw"]),
         (
             &serde_json::json!(372),
             &serde_json::json!(2),
@@ -186,7 +186,8 @@ fn bad_input_is_refused_before_anything_is_sent() {
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("--ram"), "{}", stderr(&o));
     let v = ok_json(&sim.run(&["--json", "write", "372", "1392", "--dataset", "1", "--ram"]));
-    assert_eq!(v[0]["dataset"], 6);
+    assert_eq!(v[0]["selector"], serde_json::json!({"dataset": 6}));
+    assert_eq!(v[0]["label"], "372 data set 6");
 }
 
 #[test]

@@ -1173,12 +1173,12 @@ fn nord_ctt2_sim_runs_the_commands_on_the_simulated_as_i_link() {
     let o = drivectl(&[
         "ctt2", "--sim", "--fast", "--json", "read", "P102", "--set", "3",
     ]);
-    assert_eq!(json_lines(&o)[0]["set"], 3);
+    assert_eq!(json_lines(&o)[0]["selector"]["set"], 3);
     let o = drivectl(&[
         "ctt2", "--sim", "--fast", "--json", "read", "P543", "--array", "2",
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
-    assert_eq!(json_lines(&o)[0]["array"], 2);
+    assert_eq!(json_lines(&o)[0]["selector"]["array"], 2);
     let o = drivectl(&[
         "ctt2",
         "--sim",

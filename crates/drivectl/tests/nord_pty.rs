@@ -52,12 +52,13 @@ impl Sim {
     }
 }
 
-/// The keys the issue names for `read --json`.
+/// The index, the selector's array element and set, and the raw value of a `read --json`
+/// object (issue 18: one vocabulary, the selector an object).
 fn psr(v: &Value) -> (Value, Value, Value, Value) {
     (
-        v["parameter"].clone(),
-        v["array"].clone(),
-        v["set"].clone(),
+        v["index"].clone(),
+        v["selector"]["array"].clone(),
+        v["selector"]["set"].clone(),
         v["raw"].clone(),
     )
 }
@@ -69,9 +70,9 @@ fn nord_write_and_read_back_p102_in_parameter_set_3() {
     let sim = Sim::start(&["--addr", "1", "--pkw-time", "30"]);
     // 5.1.3: P102 = 10 s in parameter set 3 is raw 1000 (3E8h).
     let v = ok_json(&sim.run(&["--json", "write", "P102", "10", "--set", "3"]));
-    assert_eq!(psr(&v[0]), (json!(102), json!(0), json!(3), json!(1000)));
+    assert_eq!(psr(&v[0]), (json!(102), Value::Null, json!(3), json!(1000)));
     let v = ok_json(&sim.run(&["--json", "read", "P102", "--set", "3"]));
-    assert_eq!(psr(&v[0]), (json!(102), json!(0), json!(3), json!(1000)));
+    assert_eq!(psr(&v[0]), (json!(102), Value::Null, json!(3), json!(1000)));
     assert_eq!(
         (v[0]["value"].as_f64(), &v[0]["unit"]),
         (Some(10.0), &json!("s"))
@@ -89,7 +90,7 @@ fn nord_write_and_read_back_p102_in_parameter_set_3() {
         "2",
         "--no-eeprom",
     ]));
-    assert_eq!(psr(&v[0]), (json!(102), json!(0), json!(2), json!(250)));
+    assert_eq!(psr(&v[0]), (json!(102), Value::Null, json!(2), json!(250)));
     // Text output names the set.
     // A refused write, then a read of the same parameter: the read gets its own answer, not
     // the refusal the drive keeps sending while it works on the read (erratum E21).
@@ -123,13 +124,12 @@ fn nord_array_element_p543_02_is_read_and_written_by_its_element() {
     let sim = Sim::start(&["--addr", "1"]);
     let v = ok_json(&sim.run(&["--json", "read", "P543", "--array", "2"]));
     assert_eq!(
+        (&v[0]["index"], &v[0]["selector"], &v[0]["label"]),
         (
-            &v[0]["parameter"],
-            &v[0]["array"],
-            &v[0]["set"],
-            &v[0]["ind"]
-        ),
-        (&json!(543), &json!(2), &json!(0), &json!("0x0100"))
+            &json!(543),
+            &json!({"array": 2, "ind": "0x0100"}),
+            &json!("P543 [-02]")
+        )
     );
     assert_eq!(v[0]["name_en"], "bus actual value 2");
     let v = ok_json(&sim.run(&[
@@ -141,12 +141,15 @@ fn nord_array_element_p543_02_is_read_and_written_by_its_element() {
         "2",
         "--no-eeprom",
     ]));
-    assert_eq!((&v[0]["array"], &v[0]["raw"]), (&json!(2), &json!(8)));
+    assert_eq!(
+        (&v[0]["selector"]["array"], &v[0]["raw"]),
+        (&json!(2), &json!(8))
+    );
     // The other elements are untouched, and `read P543` shows all three.
     let v = ok_json(&sim.run(&["--json", "read", "P543"]));
     let elements: Vec<(Value, Value)> = v
         .iter()
-        .map(|x| (x["array"].clone(), x["raw"].clone()))
+        .map(|x| (x["selector"]["array"].clone(), x["raw"].clone()))
         .collect();
     assert_eq!(elements.len(), 3);
     assert_eq!(elements[1], (json!(2), json!(8)));

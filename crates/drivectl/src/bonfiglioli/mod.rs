@@ -439,8 +439,9 @@ fn wrong_width(e: &DriverError) -> bool {
     }
 }
 
-/// The tool layer's error for a driver error on `t` accessed with `width`.
-pub fn client_error(t: &Target, width: Width, e: DriverError) -> ClientError {
+/// The tool layer's error for a driver error of an access with `width` (the caller names the
+/// parameter).
+pub fn client_error(width: Width, e: DriverError) -> ClientError {
     let DriverError::Device { vabus, .. } = &e else {
         return ClientError::Link(e.to_string());
     };
@@ -452,8 +453,8 @@ pub fn client_error(t: &Target, width: Width, e: DriverError) -> ClientError {
     };
     let hint = if wrong_width(&e) {
         match width {
-            Width::Word => format!(" (the drive says {} is not 16-bit: try --long)", t.label()),
-            Width::Long => format!(" (the drive says {} is not 32-bit: try --word)", t.label()),
+            Width::Word => " (the drive says it is not 16-bit: try --long)".to_owned(),
+            Width::Long => " (the drive says it is not 32-bit: try --word)".to_owned(),
         }
     } else if vabus == Some(9) {
         " (data set 0 reads only where the four data sets hold the same value: give --dataset \
@@ -464,7 +465,7 @@ pub fn client_error(t: &Target, width: Width, e: DriverError) -> ClientError {
     };
     ClientError::Device(DeviceError {
         kind,
-        message: format!("{}: {e}{hint}", t.label()),
+        message: format!("{e}{hint}"),
     })
 }
 
@@ -544,11 +545,11 @@ impl<IO: CharIo> ParamClient for BonfiglioliClient<'_, IO> {
                         let v = self
                             .read_width(target, Width::Long)
                             .await
-                            .map_err(|e| client_error(target, Width::Long, e))?;
+                            .map_err(|e| client_error(Width::Long, e))?;
                         self.probed.insert(target.index, Width::Long);
                         return Ok(raw_of(target, Width::Long, v));
                     }
-                    Err(e) => return Err(client_error(target, Width::Word, e)),
+                    Err(e) => return Err(client_error(Width::Word, e)),
                 }
             }
             None => {
@@ -562,7 +563,7 @@ impl<IO: CharIo> ParamClient for BonfiglioliClient<'_, IO> {
         self.read_width(target, width)
             .await
             .map(|v| raw_of(target, width, v))
-            .map_err(|e| client_error(target, width, e))
+            .map_err(|e| client_error(width, e))
     }
 
     async fn write(
@@ -597,7 +598,7 @@ impl<IO: CharIo> ParamClient for BonfiglioliClient<'_, IO> {
         self.driver
             .write(self.address, target.index, data_set(ds), width, data)
             .await
-            .map_err(|e| client_error(target, width, e))
+            .map_err(|e| client_error(width, e))
     }
 
     async fn identify(&mut self) -> std::result::Result<Map<String, Value>, ClientError> {
@@ -853,10 +854,6 @@ async fn execute<IO: CharIo>(m: &mut MasterDriver<IO>, args: &BonfiglioliArgs) -
         BonfiglioliCommand::Read { params, access } => {
             let targets = resolve_all(params, *access)?;
             let mut c = BonfiglioliClient::new(m, address(args.addr)?, &args.port, access.width());
-            if json {
-                // The tool layer's keys plus `parameter` and `dataset`.
-                return read_json(&mut c, &targets).await;
-            }
             read::read_all(&mut c, &targets, json).await
         }
         BonfiglioliCommand::Watch {
@@ -924,7 +921,7 @@ async fn execute<IO: CharIo>(m: &mut MasterDriver<IO>, args: &BonfiglioliArgs) -
             if let Some(note) = &done.link_note {
                 errln!("drivectl: note: {note}");
             }
-            print_value_ds(&v.target, done.back, json)
+            print_value(&v.target, done.back, json)
         }
         BonfiglioliCommand::Diag { clear } => diag(m, address(args.addr)?, *clear, json).await,
         BonfiglioliCommand::Scan { from, to } => scan(m, *from, *to, json).await,
@@ -1017,61 +1014,6 @@ fn write_ram_hint<T>(r: Result<T>) -> Result<T> {
             e
         }
     })
-}
-
-/// One value with `parameter` and `dataset` added to the tool layer's JSON.
-fn value_json_ds(t: &Target, raw: i64) -> Value {
-    let mut v = crate::tool::output::value_json(t, raw);
-    if let Value::Object(o) = &mut v {
-        o.insert("parameter".into(), t.index.into());
-        o.insert("dataset".into(), t.sub.into());
-    }
-    v
-}
-
-fn print_value_ds(t: &Target, raw: i64, json: bool) -> Result<()> {
-    if json {
-        outln!("{}", value_json_ds(t, raw))
-    } else {
-        print_value(t, raw, false)
-    }
-}
-
-/// `read --json`: as [`read::read_all`], one object per parameter with `parameter` and
-/// `dataset`.
-async fn read_json<IO: CharIo>(
-    c: &mut BonfiglioliClient<'_, IO>,
-    targets: &[Target],
-) -> Result<()> {
-    let mut refused = Vec::new();
-    for (i, t) in targets.iter().enumerate() {
-        match c.read(t).await {
-            Ok(raw) => outln!("{}", value_json_ds(t, raw))?,
-            Err(ClientError::Device(d)) if targets.len() > 1 => {
-                errln!("drivectl: {d}");
-                refused.push(t.label());
-            }
-            Err(ClientError::Link(msg)) if targets.len() > 1 => {
-                let unread: Vec<String> = targets.iter().skip(i).map(Target::label).collect();
-                return Err(CliError::failed(format!(
-                    "{}: {msg}; not read: {}",
-                    t.label(),
-                    unread.join(", ")
-                )));
-            }
-            Err(e) => return Err(e.into()),
-        }
-    }
-    if refused.is_empty() {
-        Ok(())
-    } else {
-        Err(CliError::failed(format!(
-            "{} of {} parameters could not be read: {} (the drive's answers are above)",
-            refused.len(),
-            targets.len(),
-            refused.join(", ")
-        )))
-    }
 }
 
 fn driver_error(e: DriverError) -> CliError {
@@ -1193,7 +1135,7 @@ async fn read_word<IO: CharIo>(m: &mut MasterDriver<IO>, addr: Address, p: u16) 
     m.read(addr, p, DataSet::ALL, Width::Word)
         .await
         .map(|v| v as u16)
-        .map_err(|e| CliError::from(client_error(&t, Width::Word, e)))
+        .map_err(|e| t.error(client_error(Width::Word, e)))
 }
 
 async fn status<IO: CharIo>(
@@ -1427,7 +1369,7 @@ async fn control_steps<IO: CharIo>(
             Width::Word,
         )
         .await
-        .map_err(|e| CliError::from(client_error(&t412, Width::Word, e)))?;
+        .map_err(|e| t412.error(client_error(Width::Word, e)))?;
     if mode != 1 {
         m.write(
             addr,
@@ -1437,7 +1379,7 @@ async fn control_steps<IO: CharIo>(
             1,
         )
         .await
-        .map_err(|e| CliError::from(client_error(&t412, Width::Word, e)))?;
+        .map_err(|e| t412.error(client_error(Width::Word, e)))?;
         errln!(
             "drivectl: note: 412 local/remote was {mode}; set to 1 (state machine) in RAM \
              (data set 5: all four data sets, not stored)"
@@ -1450,7 +1392,7 @@ async fn control_steps<IO: CharIo>(
         motion.armed();
         m.write(addr, param::FREQUENCY_RAM, DataSet::ALL, Width::Long, data)
             .await
-            .map_err(|e| CliError::from(client_error(&t, Width::Long, e)))?;
+            .map_err(|e| t.error(client_error(Width::Long, e)))?;
     }
     let mut last: Option<u16> = None;
     let mut word = read_word(m, addr, param::STATUS_WORD).await?;
@@ -1521,7 +1463,7 @@ async fn write_cw<IO: CharIo>(m: &mut MasterDriver<IO>, addr: Address, cw: u16) 
         u32::from(cw),
     )
     .await
-    .map_err(|e| CliError::from(client_error(&t, Width::Word, e)))
+    .map_err(|e| t.error(client_error(Width::Word, e)))
 }
 
 #[cfg(test)]
@@ -1574,24 +1516,23 @@ mod tests {
 
     #[test]
     fn refusals_name_the_cause_and_the_way_out() {
-        let t = resolve("372", 0).unwrap();
         let e = |exception, vabus| DriverError::Device {
             exception: ExceptionCode(exception),
             vabus,
         };
-        match client_error(&t, Width::Word, e(4, Some(9))) {
+        match client_error(Width::Word, e(4, Some(9))) {
             ClientError::Device(d) => {
                 assert_eq!(d.kind, DeviceErrorKind::Refused);
                 assert!(d.message.contains("--dataset 1"), "{}", d.message);
             }
             other => panic!("{other:?}"),
         }
-        match client_error(&t, Width::Word, e(4, Some(11))) {
+        match client_error(Width::Word, e(4, Some(11))) {
             ClientError::Device(d) => assert_eq!(d.kind, DeviceErrorKind::Absent),
             other => panic!("{other:?}"),
         }
         for (x, v) in [(2, None), (4, Some(14)), (4, Some(10))] {
-            match client_error(&t, Width::Word, e(x, v)) {
+            match client_error(Width::Word, e(x, v)) {
                 ClientError::Device(d) => assert!(
                     d.message.contains("is not 16-bit: try --long"),
                     "{}",

@@ -33,11 +33,11 @@ use serde_json::{Map, Value, json};
 use crate::error::{CliError, Result};
 use crate::tool::client::{
     ClientError, DeviceError, DeviceErrorKind, ParamClient, Target, ValueText, nord_sub,
-    nord_sub_parts, parse_decimal,
+    parse_decimal,
 };
 use crate::tool::interrupt::Interrupt;
 use crate::tool::motor::{AtEnd, Motion, MotorGuard, Stopped};
-use crate::tool::output::{physical_text, print_value, trim_float, value_json};
+use crate::tool::output::{physical_text, print_value, trim_float};
 use crate::tool::{backup, watch, write};
 
 /// Parameter numbers outside the table that may be read and written raw: the 11 bits of the
@@ -296,58 +296,6 @@ pub fn raw_of(t: &Target, value: i32, width: Width) -> i64 {
     }
 }
 
-/// A value as the 1-based element and set of `t` (0 where the parameter has none).
-fn element_and_set(t: &Target) -> (u8, u8) {
-    let (e, s) = nord_sub_parts(t.index, t.sub);
-    (e.unwrap_or(0), s.unwrap_or(0))
-}
-
-/// One value as JSON: the tool layer's keys plus `parameter` (the P number), `array` (the
-/// 1-based element, 0 for a parameter that is no array), `set` (the parameter set 1–4, 0 for
-/// a parameter without sets) and `ind` (the IND word sent); a named array element gives its
-/// own names.
-pub fn value_json_nord(t: &Target, raw: i64) -> Value {
-    let mut v = value_json(t, raw);
-    let (element, set) = element_and_set(t);
-    if let Value::Object(o) = &mut v {
-        o.insert("parameter".into(), t.index.into());
-        o.insert("array".into(), element.into());
-        o.insert("set".into(), set.into());
-        o.insert("ind".into(), format!("0x{:04X}", t.sub).into());
-        o.insert("label".into(), t.label().into());
-        if let Some(e) = nord::by_index(t.index)
-            .and_then(|p| p.element_info(element))
-            .filter(|e| !e.name_en.is_empty())
-        {
-            o.insert("name_de".into(), e.name_de.into());
-            o.insert("name_en".into(), e.name_en.into());
-        }
-    }
-    v
-}
-
-/// One value read: a line (`P102 set 3 acceleration time (PNU 102): 10.00 s (raw 1000)`) or
-/// a JSON object ([`value_json_nord`]).
-pub fn print_value_nord(t: &Target, raw: i64, json: bool) -> Result<()> {
-    if json {
-        return outln!("{}", value_json_nord(t, raw));
-    }
-    let (element, _) = element_and_set(t);
-    let Some(p) = t.param else {
-        return print_value(t, raw, false);
-    };
-    let name = nord::by_index(t.index)
-        .and_then(|n| n.element_info(element))
-        .filter(|e| !e.name_en.is_empty())
-        .map_or(p.name_en(), |e| e.name_en);
-    outln!(
-        "{} {name} (PNU {}): {} (raw {raw})",
-        t.label(),
-        t.index,
-        crate::tool::output::value_text(t, raw)
-    )
-}
-
 /// The order reading `t`: AK 1, or AK 6 for an array element.
 fn read_order(t: &Target, raw_array: bool) -> std::result::Result<Order, ClientError> {
     let ind = Ind(t.sub);
@@ -356,7 +304,7 @@ fn read_order(t: &Target, raw_array: bool) -> std::result::Result<Order, ClientE
     } else {
         Order::read(t.index, ind)
     }
-    .map_err(|e| ClientError::Link(format!("{}: {e}", t.label())))
+    .map_err(|e| ClientError::Link(e.to_string()))
 }
 
 /// The order writing `raw` to `t` as a word: AK 2/7 to EEPROM (as P560 says) or AK 14/12 to
@@ -379,7 +327,7 @@ fn write_order(
         storage,
         raw,
     )
-    .map_err(|e| ClientError::Link(format!("{}: {e}; nothing was sent", t.label())))
+    .map_err(|e| ClientError::Link(format!("{e}; nothing was sent")))
 }
 
 /// What a PWE2 error number means for the tool: 0 (no such parameter) and 3 (no such element
@@ -391,8 +339,8 @@ fn device_error_kind(error: u16) -> DeviceErrorKind {
     }
 }
 
-/// The tool layer's error for a client error on `t`.
-pub fn client_error<E: std::fmt::Display>(t: &Target, e: client::ClientError<E>) -> ClientError {
+/// The tool layer's error for a client error (the caller names the parameter).
+pub fn client_error<E: std::fmt::Display>(e: client::ClientError<E>) -> ClientError {
     match e {
         client::ClientError::Drive { order, error } => {
             let hint = match error.0 {
@@ -405,14 +353,13 @@ pub fn client_error<E: std::fmt::Display>(t: &Target, e: client::ClientError<E>)
             ClientError::Device(DeviceError {
                 kind: device_error_kind(error.0),
                 message: format!(
-                    "{}: the drive refused AK {} ({}): {error}{hint}",
-                    t.label(),
+                    "the drive refused AK {} ({}): {error}{hint}",
                     order.ak(),
                     nord::ak_request(order.ak()).map_or("order", |r| r.function_en)
                 ),
             })
         }
-        other => ClientError::Link(format!("{}: {other}", t.label())),
+        other => ClientError::Link(other.to_string()),
     }
 }
 
@@ -470,11 +417,10 @@ impl<C: ParameterChannel> ParamClient for NordParamClient<'_, C> {
         match self.client.order(order).await {
             Ok(Reply::Value { value, width, .. }) => Ok(raw_of(target, value, width)),
             Ok(reply) => Err(ClientError::Link(format!(
-                "{}: unexpected answer {reply:?} to AK {}",
-                target.label(),
+                "unexpected answer {reply:?} to AK {}",
                 order.ak()
             ))),
-            Err(e) => Err(client_error(target, e)),
+            Err(e) => Err(client_error(e)),
         }
     }
 
@@ -488,11 +434,10 @@ impl<C: ParameterChannel> ParamClient for NordParamClient<'_, C> {
         match self.client.order(order).await {
             Ok(Reply::Value { .. }) => Ok(()),
             Ok(reply) => Err(ClientError::Link(format!(
-                "{}: unexpected answer {reply:?} to AK {}",
-                target.label(),
+                "unexpected answer {reply:?} to AK {}",
                 order.ak()
             ))),
-            Err(e) => Err(client_error(target, e)),
+            Err(e) => Err(client_error(e)),
         }
     }
 
@@ -654,7 +599,7 @@ where
             let targets = resolve_all(params, *sub)?;
             let mut pc =
                 NordParamClient::new(c, &s.key, s.identity.clone()).raw_array(sub.array.is_some());
-            read_all(&mut pc, &targets, json).await
+            crate::tool::read::read_all(&mut pc, &targets, json).await
         }
         NordCommand::Watch {
             params,
@@ -711,7 +656,7 @@ where
                 force: *force,
             };
             let done = no_eeprom_hint(write::write_checked(&mut pc, &request, false).await)?;
-            print_value_nord(&v.target, done.back, json)
+            print_value(&v.target, done.back, json)
         }
         NordCommand::Status => status(c, s).await,
         NordCommand::Control {
@@ -785,45 +730,6 @@ async fn warn_ram_only<C: ParameterChannel>(pc: &mut NordParamClient<'_, C>) {
              you write P560 1 afterwards"
         );
     }
-}
-
-/// `read`: one line or JSON object per target (the tool layer's `read::read_all` with the NORD
-/// keys and labels).
-async fn read_all<C: ParameterChannel>(
-    pc: &mut NordParamClient<'_, C>,
-    targets: &[Target],
-    json: bool,
-) -> Result<()> {
-    if let [t] = targets {
-        let raw = pc.read(t).await?;
-        return print_value_nord(t, raw, json);
-    }
-    let mut refused = Vec::new();
-    for (i, t) in targets.iter().enumerate() {
-        match pc.read(t).await {
-            Ok(raw) => print_value_nord(t, raw, json)?,
-            Err(ClientError::Device(d)) => {
-                errln!("drivectl: {d}");
-                refused.push(t.label());
-            }
-            Err(ClientError::Link(msg)) => {
-                let unread: Vec<String> = targets.iter().skip(i).map(Target::label).collect();
-                return Err(CliError::failed(format!(
-                    "{msg}; not read: {}",
-                    unread.join(", ")
-                )));
-            }
-        }
-    }
-    if refused.is_empty() {
-        return Ok(());
-    }
-    Err(CliError::failed(format!(
-        "{} of {} parameters could not be read: {} (the drive's answers are above)",
-        refused.len(),
-        targets.len(),
-        refused.join(", ")
-    )))
 }
 
 /// A state with the manual's letter and both names: `E operation enabled (Betrieb
@@ -979,10 +885,10 @@ async fn read_optional<C: ParameterChannel>(
     match pc.read(t).await {
         Ok(v) => Ok(Some(v)),
         Err(ClientError::Device(d)) => {
-            errln!("drivectl: warning: {d}");
+            errln!("drivectl: warning: {}: {d}", t.label());
             Ok(None)
         }
-        Err(e) => Err(e.into()),
+        Err(e) => Err(t.error(e)),
     }
 }
 

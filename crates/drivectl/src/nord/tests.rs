@@ -327,8 +327,9 @@ async fn refusals_are_typed_with_their_pwe2_meaning() {
     match pc.write(&p700, 5, Persistence::NonVolatile).await {
         Err(ClientError::Device(d)) => {
             assert_eq!(d.kind, DeviceErrorKind::Refused);
+            // The message is the drive's; the caller names the parameter (once).
             assert!(
-                d.message.contains("P700 [-01]")
+                !d.message.contains("P700")
                     && d.message
                         .contains("error 1: parameter value cannot be changed")
                     && d.message.contains("read-only"),
@@ -338,6 +339,14 @@ async fn refusals_are_typed_with_their_pwe2_meaning() {
         }
         other => panic!("{other:?}"),
     }
+    let e = p700
+        .error(
+            pc.write(&p700, 5, Persistence::NonVolatile)
+                .await
+                .unwrap_err(),
+        )
+        .to_string();
+    assert!(e.starts_with("P700 [-01]: the drive refused AK 7"), "{e}");
     let raw = one("900", None, None);
     match pc.read(&raw).await {
         Err(ClientError::Device(d)) => assert_eq!(d.kind, DeviceErrorKind::Absent),
@@ -354,28 +363,32 @@ fn words_of_unsigned_parameters_are_unsigned() {
 }
 
 #[test]
-fn read_json_has_parameter_array_and_set() {
-    let v = value_json_nord(&one("P102", None, Some(3)), 1000);
+fn issue18_read_json_names_the_set_and_the_array_element_in_the_selector() {
+    let v = crate::tool::output::value_json(&one("P102", None, Some(3)), 1000);
     assert_eq!(
         (
-            &v["parameter"],
-            &v["array"],
-            &v["set"],
+            &v["index"],
+            &v["label"],
+            &v["selector"],
             &v["raw"],
             &v["value"]
         ),
         (
             &json!(102),
-            &json!(0),
-            &json!(3),
+            &json!("P102 set 3"),
+            &json!({"set": 3, "ind": "0x0200"}),
             &json!(1000),
             &json!(10.0)
         )
     );
-    let v = value_json_nord(&one("P700", Some(2), None), 0);
-    assert_eq!((&v["array"], &v["set"]), (&json!(2), &json!(0)));
+    let v = crate::tool::output::value_json(&one("P700", Some(2), None), 0);
+    assert_eq!(v["selector"], json!({"array": 2, "ind": "0x0100"}));
+    assert_eq!(v["label"], "P700 [-02]");
     assert_eq!(v["name_en"], "present warning");
     assert_eq!(v["meaning"], "no warning");
+    // A parameter with neither: no selector.
+    let v = crate::tool::output::value_json(&one("P560", None, None), 1);
+    assert_eq!(v["selector"], serde_json::Value::Null);
 }
 
 fn session() -> Session {

@@ -135,7 +135,7 @@ pub async fn backup<C: ParamClient>(
                 bar.abandon();
                 return Err(CliError::failed(format!(
                     "{}; {} was not written",
-                    CliError::from(e),
+                    t.error(e),
                     out.display()
                 )));
             }
@@ -444,7 +444,7 @@ pub async fn restore<C: ParamClient>(
         bar.set_message(e.target.label());
         let current = client.read(&e.target).await.map_err(|err| {
             bar.abandon();
-            CliError::failed(format!("{}; nothing was written", CliError::from(err)))
+            CliError::failed(format!("{}; nothing was written", e.target.error(err)))
         })?;
         if current != e.raw {
             changes.push((
@@ -561,7 +561,7 @@ pub async fn restore<C: ParamClient>(
                 refused.push(format!("{} ({why})", req.target.label()))
             }
             Err(err) => {
-                halted = Some((i, CliError::from(err).to_string(), true));
+                halted = Some((i, req.target.error(err).to_string(), true));
                 break;
             }
         }
@@ -607,7 +607,7 @@ pub async fn restore<C: ParamClient>(
             CliError::failed(format!(
                 "{} change(s) were written, but verifying failed: {}; run the restore again to check",
                 written.len(),
-                CliError::from(err)
+                e.target.error(err)
             ))
         })?;
         if back != e.raw {

@@ -200,6 +200,83 @@ impl Target {
         }
     }
 
+    /// The selector of the parameter as JSON, in the words of the family's manual: `null`
+    /// where the parameter has none (SEW, a NORD parameter without sets or elements, a
+    /// Bonfiglioli parameter without data sets), else an object with what applies — NORD
+    /// `{"set": 2}`, `{"array": 2}` (1-based, [-02] = 2) and the IND word sent
+    /// (`"ind": "0x0100"`); Bonfiglioli `{"dataset": 2}` (0 = all four, 5–9 the RAM twins).
+    pub fn selector_json(&self) -> Value {
+        match self.family {
+            Family::Nord => {
+                let (element, set) = nord_sub_parts(self.index, self.sub);
+                if element.is_none() && set.is_none() && self.sub == 0 {
+                    return Value::Null;
+                }
+                let mut m = Map::new();
+                if let Some(s) = set {
+                    m.insert("set".into(), s.into());
+                }
+                if let Some(e) = element {
+                    m.insert("array".into(), e.into());
+                }
+                m.insert("ind".into(), format!("0x{:04X}", self.sub).into());
+                Value::Object(m)
+            }
+            Family::Bonfiglioli => {
+                let has_sets = drive_profile::bonfiglioli::by_index(self.index)
+                    .filter(|_| self.param.is_some())
+                    .is_none_or(|p| p.data_set != Some(false));
+                if !has_sets && self.sub == 0 {
+                    return Value::Null;
+                }
+                let mut m = Map::new();
+                m.insert("dataset".into(), self.sub.into());
+                Value::Object(m)
+            }
+            _ if self.sub != 0 => {
+                let mut m = Map::new();
+                m.insert("subindex".into(), self.sub.into());
+                Value::Object(m)
+            }
+            _ => Value::Null,
+        }
+    }
+
+    /// The German and English names of what this target reads: a NORD array element's own
+    /// names where the table gives them (P700 [-02] "warning"), else the parameter's.
+    pub fn names(&self) -> Option<(&'static str, &'static str)> {
+        let p = self.param?;
+        if self.family == Family::Nord {
+            let (element, _) = nord_sub_parts(self.index, self.sub);
+            if let Some(e) = drive_profile::nord::by_index(self.index)
+                .and_then(|n| n.element_info(element.unwrap_or(0)))
+                .filter(|e| !e.name_en.is_empty())
+            {
+                return Some((e.name_de, e.name_en));
+            }
+        }
+        Some((p.name_de(), p.name_en()))
+    }
+
+    /// What the family calls the number the bus addresses a parameter by: NORD's PNU, the
+    /// others' index.
+    pub fn index_word(&self) -> &'static str {
+        if self.family == Family::Nord {
+            "PNU"
+        } else {
+            "index"
+        }
+    }
+
+    /// A client error on this target as the command line says it: the target's label first
+    /// (the client's messages do not carry it), then the drive's or the line's words.
+    pub fn error(&self, e: ClientError) -> CliError {
+        match e {
+            ClientError::Device(d) => CliError::failed(format!("{}: {d}", self.label())),
+            ClientError::Link(m) => CliError::failed(format!("{}: {m}", self.label())),
+        }
+    }
+
     /// Refuse a raw value the parameter's bus width cannot carry (32 bits of either sign
     /// outside the table). Applies to every write, forced or not: nothing is ever cut.
     pub fn check_width(&self, raw: i64) -> Result<()> {

@@ -121,32 +121,39 @@ pub fn trim_float(v: f64, decimals: u8) -> String {
     }
 }
 
-/// One value read from a drive as a JSON object: `index`, `number`, `name_de`, `name_en`,
+/// One value read from a drive as a JSON object, the same keys for every family: `index` (the
+/// bus index: SEW index, NORD PNU, Bonfiglioli parameter number), `number` (the table's number,
+/// `P130`, `P102`, `372`), `label` (the number with its selector, as the family's manual writes
+/// it: `P102 set 2`, `P543 [-02]`, `372 data set 2`), `name_de`, `name_en`, `selector`
+/// ([`Target::selector_json`]: `null`, or `{"set": …}`, `{"array": …}`, `{"dataset": …}`),
 /// `raw`, `value`, `unit`, `meaning` (a value name or a decoded word, else `null`) and
-/// `decoded` (the decoded status/fault word, else `null`); outside the table `index`, `raw`,
-/// `value` and `unit`.
+/// `decoded` (the decoded status/fault word, else `null`); outside the table `number`, the
+/// names, `unit`, `meaning` and `decoded` are `null` and `value` is the raw value.
 pub fn value_json(t: &Target, raw: i64) -> Value {
-    match t.param {
-        Some(p) => {
+    match (t.param, t.names()) {
+        (Some(p), Some((de, en))) => {
             let m = meaning_of(t, raw);
             json!({
-                "index": t.index, "number": p.label().to_string(), "name_de": p.name_de(),
-                "name_en": p.name_en(), "raw": raw, "value": p.to_physical(raw), "unit": p.unit(),
+                "index": t.index, "number": p.label().to_string(), "label": t.label(),
+                "name_de": de, "name_en": en, "selector": t.selector_json(), "raw": raw,
+                "value": p.to_physical(raw), "unit": p.unit(),
                 "meaning": m.as_ref().map(|m| m.text.clone()),
                 "decoded": m.and_then(|m| m.decoded),
             })
         }
         // The same keys outside the table, null where only the table knows.
-        None => json!({
-            "index": t.index, "number": null, "name_de": null, "name_en": null, "raw": raw,
-            "value": raw, "unit": null, "meaning": null, "decoded": null,
+        _ => json!({
+            "index": t.index, "number": null, "label": t.label(), "name_de": null,
+            "name_en": null, "selector": t.selector_json(), "raw": raw, "value": raw,
+            "unit": null, "meaning": null, "decoded": null,
         }),
     }
 }
 
 /// One value as text without the parameter's name: the physical value with its unit and value
-/// name (`1.50 s`, `9 (control word 1)`), a decoded word in hex with its meaning
-/// (`0x0206: ready, PO data enabled, unit status 2 = no enable`), raw outside the table.
+/// name (`1.50 s`, `9 (control word 1)`) or its meaning (`0 (no fault)`), a decoded word in hex
+/// with its meaning (`0x0206: ready, PO data enabled, unit status 2 = no enable`), raw outside
+/// the table.
 pub fn value_text(t: &Target, raw: i64) -> String {
     match t.param {
         Some(p) => match meaning_of(t, raw) {
@@ -154,24 +161,31 @@ pub fn value_text(t: &Target, raw: i64) -> String {
                 text,
                 decoded: Some(_),
             }) => format!("0x{:04X}: {text}", raw as u32),
+            Some(Meaning {
+                text,
+                decoded: None,
+            }) if p.value_name(raw).is_none() => {
+                format!("{} ({text})", physical_text(p, raw))
+            }
             _ => physical_text(p, raw),
         },
         None => format!("raw {raw} (0x{:08X})", raw as u32),
     }
 }
 
-/// Print one value read from a drive: a line of text, or one JSON object.
+/// Print one value read from a drive: a line of text (`P102 set 3 acceleration time (PNU
+/// 102): 10.00 s (raw 1000)`), or one JSON object ([`value_json`]).
 pub fn print_value(t: &Target, raw: i64, json: bool) -> Result<()> {
-    match (t.param, json) {
+    match (t.names(), json) {
         (_, true) => outln!("{}", value_json(t, raw)),
-        (Some(p), false) => outln!(
-            "{} {} (index {}): {} (raw {raw})",
-            p.label(),
-            p.name_en(),
+        (Some((_, en)), false) => outln!(
+            "{} {en} ({} {}): {} (raw {raw})",
+            t.label(),
+            t.index_word(),
             t.index,
             value_text(t, raw)
         ),
-        (None, false) => outln!("index {}: {}", t.index, value_text(t, raw)),
+        (None, false) => outln!("{}: {}", t.label(), value_text(t, raw)),
     }
 }
 

@@ -14,7 +14,7 @@ pub async fn read_all<C: ParamClient>(
     json: bool,
 ) -> Result<()> {
     if let [t] = targets {
-        let raw = client.read(t).await?;
+        let raw = client.read(t).await.map_err(|e| t.error(e))?;
         return print_value(t, raw, json);
     }
     let mut refused = Vec::new();

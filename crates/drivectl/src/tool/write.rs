@@ -111,7 +111,10 @@ pub async fn write_checked_with<C: ParamClient>(
         warn(&warning);
     }
     let drive = client.drive_key().await?;
-    client.write(&req.target, req.raw, req.persistence).await?;
+    client
+        .write(&req.target, req.raw, req.persistence)
+        .await
+        .map_err(|e| req.target.error(e))?;
     if let Err(e) = record(&drive, req) {
         warn(&e.to_string());
     }
