@@ -180,11 +180,12 @@ fn bad_input_is_refused_before_anything_is_sent() {
         assert_eq!(o.status.code(), Some(2), "{args:?}: {}", stderr(&o));
         assert!(stderr(&o).contains(needle), "{args:?}: {}", stderr(&o));
     }
-    // Frequent EEPROM writes: the hint is --ram.
+    // Frequent EEPROM writes: the hint is --volatile, the one RAM-only option of every family
+    // (issue 18 C; --ram is its alias here).
     ok_json(&sim.run(&["--json", "write", "372", "1391", "--dataset", "1"]));
     let o = sim.run(&["write", "372", "1392", "--dataset", "1"]);
     assert_eq!(o.status.code(), Some(2));
-    assert!(stderr(&o).contains("--ram"), "{}", stderr(&o));
+    assert!(stderr(&o).contains("--volatile"), "{}", stderr(&o));
     let v = ok_json(&sim.run(&["--json", "write", "372", "1392", "--dataset", "1", "--ram"]));
     assert_eq!(v[0]["selector"], serde_json::json!({"dataset": 6}));
     assert_eq!(v[0]["label"], "372 data set 6");
@@ -317,7 +318,7 @@ fn the_everyday_behaviours_of_the_movilink_cli_hold_here_too() {
     );
     let o = sim.run(&["write", "376", "1.7", "--dataset", "3"]);
     assert_eq!(o.status.code(), Some(2));
-    assert!(err(&o).contains("--ram"), "{}", err(&o));
+    assert!(err(&o).contains("--volatile"), "{}", err(&o));
     assert!(
         sim.run(&["write", "376", "1.7", "--dataset", "3", "--ram"])
             .status

@@ -1156,7 +1156,9 @@ fn nord_bad_input_is_refused_before_anything_is_opened() {
     // The write help names the EEPROM-wear log and the RAM-only way.
     let help = stdout(&drivectl(&["uss", "write", "--help"]));
     assert!(
-        help.contains("eeprom-writes.json") && help.contains("--no-eeprom"),
+        help.contains("eeprom-writes.json")
+            && help.contains("--volatile")
+            && help.contains("--no-eeprom"),
         "{help}"
     );
 }

@@ -110,14 +110,14 @@ const WRITE_HELP: &str = "\
 Examples:
   drivectl bonfiglioli --port /dev/ttyUSB0 --addr 1 write 376 1.5 --dataset 4   1.5 kW in data set 4 (EEPROM)
   drivectl bonfiglioli --port /dev/ttyUSB0 --addr 1 write 481 10,00             decimal comma, all data sets
-  drivectl bonfiglioli --port /dev/ttyUSB0 --addr 1 write 484 25 --ram          a setpoint that changes often
+  drivectl bonfiglioli --port /dev/ttyUSB0 --addr 1 write 484 25 --volatile     a setpoint that changes often
   drivectl bonfiglioli --port /dev/ttyUSB0 --addr 1 write 1376 5 --yes          move the drive to address 5
   drivectl bonfiglioli --port /dev/ttyUSB0 --addr 1 write 415 300 --word        a parameter without a data type
 
 Data sets 0-4 are stored in EEPROM, which cyclic writes destroy (manual ch. 7): values that
-change often go to RAM with --ram (data set +5). EEPROM-wear log: non-volatile writes are
-remembered for a minute in eeprom-writes.json in $DRIVECTL_STATE_DIR, else
-$XDG_STATE_HOME/drivectl, else ~/.local/state/drivectl.";
+change often go to RAM with --volatile (data set +5; --ram is the same). EEPROM-wear log:
+non-volatile writes are remembered for a minute in eeprom-writes.json in $DRIVECTL_STATE_DIR,
+else $XDG_STATE_HOME/drivectl, else ~/.local/state/drivectl.";
 
 /// Arguments of `drivectl bonfiglioli`.
 #[derive(Debug, Args)]
@@ -207,9 +207,9 @@ enum BonfiglioliCommand {
         #[command(flatten)]
         access: Access,
         /// Write to RAM only (data set +5: the way for values that change often; lost at
-        /// power-off).
-        #[arg(long)]
-        ram: bool,
+        /// power-off). `--ram` is the same.
+        #[arg(long, visible_alias = "ram")]
+        volatile: bool,
         /// VALUE is the raw bus value.
         #[arg(long)]
         raw: bool,
@@ -659,11 +659,9 @@ async fn write_broadcast<IO: CharIo>(
     if let Some(warning) = write::check(&mut c, request).await? {
         errln!("drivectl: warning: {warning}");
     }
-    write_ram_hint(
-        c.write(&request.target, request.raw, request.persistence)
-            .await
-            .map_err(CliError::from),
-    )?;
+    c.write(&request.target, request.raw, request.persistence)
+        .await
+        .map_err(|e| request.target.error(e))?;
     // Keep the line quiet for the broadcast's hold and the frame gap before this process lets
     // go of the port: the next request (perhaps from the next drivectl run, a few ms later)
     // must not follow sooner, or the drives take both frames for one and drop it.
@@ -878,7 +876,7 @@ async fn execute<IO: CharIo>(m: &mut MasterDriver<IO>, args: &BonfiglioliArgs) -
             param,
             value,
             access,
-            ram,
+            volatile,
             raw,
             force,
             round,
@@ -898,7 +896,7 @@ async fn execute<IO: CharIo>(m: &mut MasterDriver<IO>, args: &BonfiglioliArgs) -
                 );
             }
             let ram_only = bonfiglioli::by_index(v.target.index).is_some_and(|p| p.ram_only);
-            if *ram && v.target.sub <= 4 && !ram_only {
+            if *volatile && v.target.sub <= 4 && !ram_only {
                 // The RAM-only twin of the data set.
                 v.target.sub += 5;
             }
@@ -917,7 +915,7 @@ async fn execute<IO: CharIo>(m: &mut MasterDriver<IO>, args: &BonfiglioliArgs) -
                 return write_broadcast(m, &args.port, &request, access.width(), *yes, json).await;
             }
             let mut c = BonfiglioliClient::new(m, address(args.addr)?, &args.port, access.width());
-            let done = write_ram_hint(write::write_checked(&mut c, &request, *yes).await)?;
+            let done = write::write_checked(&mut c, &request, *yes).await?;
             if let Some(note) = &done.link_note {
                 errln!("drivectl: note: {note}");
             }
@@ -1002,18 +1000,6 @@ fn note_probed(n: usize) {
              width was found by reading with FC 3 and, where the drive refused the type, FC 100"
         );
     }
-}
-
-/// The tool layer's EEPROM-wear refusal names `--volatile`; this command's option is `--ram`.
-fn write_ram_hint<T>(r: Result<T>) -> Result<T> {
-    r.map_err(|e| {
-        let text = e.to_string();
-        if text.contains("--volatile") {
-            CliError::usage(text.replace("--volatile", "--ram"))
-        } else {
-            e
-        }
-    })
 }
 
 fn driver_error(e: DriverError) -> CliError {

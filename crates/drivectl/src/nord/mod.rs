@@ -62,9 +62,6 @@ pub mod param {
     pub const CONFIGURATION_LEVEL: u16 = 744;
 }
 
-/// The tool layer's EEPROM-wear way out (`--volatile`) as the NORD commands offer it.
-const NO_EEPROM_HINT: &str = "--no-eeprom (AK 11–14: RAM only) or P560 save to EEPROM = 0";
-
 /// Examples below `drivectl uss|ctt2 write --help`; the `ctt2` help gets its own prefix
 /// ([`ctt2::with_help`]).
 const WRITE_HELP: &str = "\
@@ -72,15 +69,15 @@ Examples:
   drivectl uss --port /dev/ttyUSB0 --addr 1 write P102 10 --set 3       10.00 s in parameter set 3 (raw 1000)
   drivectl uss --port /dev/ttyUSB0 --addr 1 write P102 2,5 --set 2      decimal comma: raw 250
   drivectl uss --port /dev/ttyUSB0 --addr 1 write P543 3 --array 2      IW2 = current
-  drivectl uss --port /dev/ttyUSB0 --addr 1 write P102 1.5 --no-eeprom  RAM only (AK 14), for values that change often
+  drivectl uss --port /dev/ttyUSB0 --addr 1 write P102 1.5 --volatile   RAM only (AK 14), for values that change often
   drivectl uss --port /dev/ttyUSB0 --addr 1 write P102 1000 --raw --set 3
 
 Values are physical in the table's resolution (P102 0.01 s: 2.5 → raw 250) and checked against
 the table before anything is sent; a NORD parameter is a 16-bit word (BU 0255 ch. 6). The
 drive's EEPROM takes about 100 000 writes (ch. 4.1.2): values that change often go to RAM with
---no-eeprom, or set P560 save to EEPROM = 0. EEPROM-wear log: non-volatile writes are
-remembered for a minute in eeprom-writes.json in $DRIVECTL_STATE_DIR, else
-$XDG_STATE_HOME/drivectl, else ~/.local/state/drivectl.";
+--volatile (--no-eeprom is the same), or set P560 save to EEPROM = 0. EEPROM-wear log:
+non-volatile writes are remembered for a minute in eeprom-writes.json in $DRIVECTL_STATE_DIR,
+else $XDG_STATE_HOME/drivectl, else ~/.local/state/drivectl.";
 
 /// `--array` and `--set` of the parameter commands.
 #[derive(Debug, Args, Clone, Copy, Default, PartialEq, Eq)]
@@ -129,9 +126,9 @@ pub enum NordCommand {
         #[command(flatten)]
         sub: Sub,
         /// Write to RAM only (AK 11–14: the way for values that change often; lost at
-        /// power-off).
-        #[arg(long)]
-        no_eeprom: bool,
+        /// power-off). `--no-eeprom` is the same.
+        #[arg(long, visible_alias = "no-eeprom")]
+        volatile: bool,
         /// VALUE is the raw bus value.
         #[arg(long)]
         raw: bool,
@@ -571,23 +568,6 @@ pub struct Session {
     pub actuals: u8,
 }
 
-/// The tool layer's EEPROM-wear refusal names `--volatile`; the NORD commands offer
-/// `--no-eeprom` and P560.
-fn no_eeprom_hint<T>(r: Result<T>) -> Result<T> {
-    r.map_err(|e| {
-        let text = e.to_string();
-        if !text.contains("--volatile") {
-            return e;
-        }
-        let text = text.replace("--volatile", NO_EEPROM_HINT);
-        if e.exit_code() == 2 {
-            CliError::usage(text)
-        } else {
-            CliError::failed(text)
-        }
-    })
-}
-
 /// Run one of the shared commands on the drive behind `c`.
 pub async fn execute<C>(c: &mut NordClient<C>, s: &Session, cmd: &NordCommand) -> Result<()>
 where
@@ -624,7 +604,7 @@ where
             param,
             value,
             sub,
-            no_eeprom,
+            volatile,
             raw,
             force,
             round,
@@ -644,7 +624,7 @@ where
             }
             let mut pc =
                 NordParamClient::new(c, &s.key, s.identity.clone()).raw_array(sub.array.is_some());
-            let persistence = if *no_eeprom {
+            let persistence = if *volatile {
                 Persistence::Volatile
             } else {
                 eeprom_or_ram(&mut pc, &v.target).await?
@@ -655,7 +635,7 @@ where
                 persistence,
                 force: *force,
             };
-            let done = no_eeprom_hint(write::write_checked(&mut pc, &request, false).await)?;
+            let done = write::write_checked(&mut pc, &request, false).await?;
             print_value(&v.target, done.back, json)
         }
         NordCommand::Status => status(c, s).await,
@@ -687,12 +667,12 @@ where
                 "the drive may be half restored; run the same restore again to finish it",
             );
             let opts = r.options();
-            no_eeprom_hint(backup::restore(&mut pc, &r.file, opts, json, &stop).await)
+            backup::restore(&mut pc, &r.file, opts, json, &stop).await
         }
     }
 }
 
-/// Where a write without `--no-eeprom` goes: to EEPROM as P560 says. With P560 = 0 the drive
+/// Where a write without `--volatile` goes: to EEPROM as P560 says. With P560 = 0 the drive
 /// keeps it in RAM only, so it is a RAM-only write (AK 14/12, which does the same) that wears
 /// no EEPROM and is not held back by the EEPROM-wear rule; the user is told it is lost at
 /// power-off. P560 itself always counts as an EEPROM write.
