@@ -103,6 +103,15 @@ impl Iface {
         }
     }
 
+    /// The bit rate the interface is opened at, where `--iface` says it (slcan); the virtual
+    /// bus takes `--bitrate`, a SocketCAN interface has the rate `ip link` gave it.
+    pub fn bitrate(&self) -> Option<Bitrate> {
+        match self {
+            Iface::Slcan { bitrate, .. } => Some(*bitrate),
+            Iface::SocketCan(_) | Iface::Virtual => None,
+        }
+    }
+
     /// How the interface is named for a person and for the EEPROM-wear log.
     pub fn name(&self) -> String {
         match self {

@@ -16,6 +16,8 @@ pub mod sim;
 
 use std::time::Duration;
 
+use drive_core::can::Bitrate;
+
 use clap::{Args, Subcommand};
 use drive_profile::Family;
 use sbus_can::driver::SbusMaster;
@@ -172,6 +174,14 @@ enum SbusCommand {
         /// Index or menu number.
         param: String,
     },
+    /// Show the interface, its bit rate and the timing the master uses: the frame times of a
+    /// parameter request and answer, the least response timeout an answer can meet, the
+    /// response timeout and retries, the handshake mode and the SYNC identifier (the interface
+    /// is opened, so one that is missing or busy is named).
+    #[command(
+        after_help = "Examples:\n  drivectl sbus --iface slcan:/dev/ttyACM0@250k line\n  drivectl sbus --iface can0 --handshake sync line --json"
+    )]
+    Line,
     /// Find the drives on the bus: every SBus address of the range is asked for P070 (unit
     /// type) at once; the ones that answer are listed with their firmware.
     #[command(
@@ -260,6 +270,7 @@ pub fn run(args: &SbusArgs) -> Result<()> {
     let bitrate = iface::parse_bitrate(&args.bitrate)?;
     precheck(&args.command)?;
     let config = master_config(args);
+    check_timeout(&config, iface.bitrate().unwrap_or(bitrate), &iface)?;
     // The capture file is checked (and its temporary file created) before the bus is opened.
     let capture = args
         .capture
@@ -324,6 +335,50 @@ fn handshake(args: &SbusArgs) -> Handshake {
     } else {
         Handshake::Async
     }
+}
+
+/// The shortest time a parameter answer can take on the bus at `rate`: the request and the
+/// response frame (8 data bytes, worst-case bit stuffing), the drive's answer window (the
+/// manual: within the first millisecond) and, in sync mode, the SYNC that releases the answer
+/// ([`sbus_can::master::SYNC_LEAD`] after the request, then its own frame).
+pub fn least_timeout(rate: Bitrate, handshake: Handshake) -> Duration {
+    let frame = sbus_can::busload::frame_time(8, rate);
+    let mut t = frame + sbus_can::slave::ANSWER_WINDOW + frame;
+    if handshake == Handshake::Sync {
+        t += sbus_can::master::SYNC_LEAD + sbus_can::busload::frame_time(0, rate);
+    }
+    t
+}
+
+/// Refuse a response timeout no answer could meet (as `drivectl movilink` and `uss` refuse
+/// one shorter than the drive's start pause). A SocketCAN interface's bit rate is the
+/// interface's: the slowest SBus rate (125 kbit/s) is the bound then.
+fn check_timeout(config: &MasterConfig, rate: Bitrate, iface: &Iface) -> Result<()> {
+    let rate = match iface {
+        Iface::SocketCan(_) => Bitrate::K125,
+        _ => rate,
+    };
+    let least = least_timeout(rate, config.handshake);
+    if config.timeout >= least {
+        return Ok(());
+    }
+    let needed = least.as_micros().div_ceil(1000);
+    Err(CliError::usage(format!(
+        "a response timeout of {} ms is shorter than a parameter answer takes at {} ({:.2} ms: \
+         request and response frames and the drive's 1 ms answer window{}): no answer could \
+         arrive in time; use --timeout {needed} or more",
+        config.timeout.as_millis(),
+        match iface {
+            Iface::SocketCan(name) => format!("the slowest SBus rate, 125 kbit/s, on {name}"),
+            _ => format!("{} kbit/s", rate.bits_per_second() / 1000),
+        },
+        least.as_secs_f64() * 1e3,
+        if config.handshake == Handshake::Sync {
+            ", and the SYNC that releases it"
+        } else {
+            ""
+        }
+    )))
 }
 
 fn master_config(args: &SbusArgs) -> MasterConfig {
@@ -420,10 +475,61 @@ async fn execute<C: drive_core::rt::CanIo>(
         SbusCommand::Scan { from, to } => scan(m, *from, *to, json).await,
         SbusCommand::Pd(p) => pd::pd(m, addr, p, json, &again(args)).await,
         SbusCommand::Sync(s) => pd::sync(m, s, args.sync_id, json).await,
+        SbusCommand::Line => line(args, iface, json),
         SbusCommand::Backup(b) => crate::sew::backup(link(m), b, json).await,
         SbusCommand::Restore(r) => crate::sew::restore(link(m), r, json).await,
         SbusCommand::Ids { .. } | SbusCommand::Plan { .. } => Ok(()),
     }
+}
+
+/// `line`: the interface and the timing the master uses on it.
+fn line(args: &SbusArgs, iface: &Iface, json: bool) -> Result<()> {
+    let given = iface::parse_bitrate(&args.bitrate)?;
+    let (rate, known) = match iface {
+        Iface::SocketCan(_) => (Bitrate::K125, false),
+        _ => (iface.bitrate().unwrap_or(given), true),
+    };
+    let config = master_config(args);
+    let us = |d: Duration| d.as_nanos() as f64 / 1000.0;
+    let frame = sbus_can::busload::frame_time(8, rate);
+    let least = least_timeout(rate, config.handshake);
+    if json {
+        return outln!(
+            "{}",
+            json!({
+                "iface": args.iface, "bitrate": known.then_some(rate.bits_per_second()),
+                "frame_8_bytes_us": known.then_some(us(frame)),
+                "least_timeout_us": us(least),
+                "response_timeout_ms": config.timeout.as_millis() as u64,
+                "retries": config.retries, "handshake": args.handshake,
+                "sync_id": args.sync_id,
+            })
+        );
+    }
+    if known {
+        outln!(
+            "{} at {} kbit/s: an 8-byte frame takes at most {:.1} µs; a parameter answer at \
+             least {:.2} ms",
+            iface.name(),
+            rate.bits_per_second() / 1000,
+            us(frame),
+            least.as_secs_f64() * 1e3
+        )?;
+    } else {
+        outln!(
+            "{} at the bit rate `ip link` set (at 125 kbit/s, the slowest SBus rate, a \
+             parameter answer takes at least {:.2} ms)",
+            iface.name(),
+            least.as_secs_f64() * 1e3
+        )?;
+    }
+    outln!(
+        "response timeout {} ms, {} retries, {} handshake, SYNC identifier {}",
+        config.timeout.as_millis(),
+        config.retries,
+        args.handshake,
+        args.sync_id
+    )
 }
 
 /// A write to an SBus group: every drive with that P814 executes it, none answers (ch. 5.1),
@@ -537,4 +643,40 @@ fn ids(addr: u8, group: u8, sync_id: u16, json: bool) -> Result<()> {
         }
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn config(ms: u64, handshake: Handshake) -> MasterConfig {
+        MasterConfig {
+            timeout: Duration::from_millis(ms),
+            handshake,
+            ..MasterConfig::default()
+        }
+    }
+
+    #[test]
+    fn issue18_a_timeout_no_answer_can_meet_is_refused_as_movilink_refuses_it() {
+        // 500 kbit/s: 2 × 270 µs frames + the 1 ms answer window = 1.54 ms.
+        assert_eq!(
+            least_timeout(Bitrate::K500, Handshake::Async),
+            Duration::from_micros(1540)
+        );
+        let slcan = Iface::parse("slcan:/dev/x@500k").unwrap();
+        let e = check_timeout(&config(1, Handshake::Async), Bitrate::K500, &slcan).unwrap_err();
+        assert_eq!(e.exit_code(), 2);
+        assert!(e.to_string().contains("use --timeout 2 or more"), "{e}");
+        check_timeout(&config(2, Handshake::Async), Bitrate::K500, &slcan).unwrap();
+        // Sync mode waits for the SYNC too; 125 kbit/s frames are four times longer.
+        assert!(check_timeout(&config(2, Handshake::Sync), Bitrate::K500, &slcan).is_err());
+        let slow = Iface::parse("slcan:/dev/x@125k").unwrap();
+        assert!(check_timeout(&config(3, Handshake::Async), Bitrate::K125, &slow).is_err());
+        check_timeout(&config(4, Handshake::Async), Bitrate::K125, &slow).unwrap();
+        // SocketCAN: the interface's rate is not known here; the slowest SBus rate bounds it.
+        let can0 = Iface::parse("can0").unwrap();
+        assert!(check_timeout(&config(3, Handshake::Async), Bitrate::M1, &can0).is_err());
+        check_timeout(&config(50, Handshake::Sync), Bitrate::M1, &can0).unwrap();
+    }
 }
