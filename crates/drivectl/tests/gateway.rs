@@ -1108,3 +1108,83 @@ async fn an_unusable_wear_log_refuses_eeprom_writes_only() {
     .await;
     assert_eq!(r["outcome"], "written", "{r}");
 }
+
+/// Issue 18 A2, end to end: `drivectl gateway --check` refuses a NORD parameter set, a NORD
+/// array element and a Bonfiglioli data set the table does not give the parameter, and a
+/// write to a read-only parameter, naming the file's line and the config key (exit 2, nothing
+/// on standard output); the example config passes.
+#[test]
+fn issue18_check_refuses_selectors_the_table_does_not_have() {
+    let dir = std::env::temp_dir().join(format!("drivebus-gw-check-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let head = "[gateway]\nname = \"gw\"\nbroker = \"mqtt://127.0.0.1:1883\"\n\n";
+    let cases = [
+        (
+            "[[bus]]\nname = \"line1\"\nprotocol = \"uss\"\nport = \"/dev/ttyUSB0\"\n\n\
+             [[bus.drive]]\nname = \"pump\"\naddress = 1\n\n\
+             [[bus.drive.param]]\nparam = \"P102\"\nname = \"ramp\"\nperiod = \"1s\"\nset = 5\n",
+            "set = 5",
+            "bus \"line1\" drive \"pump\" point \"ramp\": set = 5: P102 acceleration time has parameter sets 1–4",
+        ),
+        (
+            "[[bus]]\nname = \"line1\"\nprotocol = \"uss\"\nport = \"/dev/ttyUSB0\"\n\n\
+             [[bus.drive]]\nname = \"pump\"\naddress = 1\n\n\
+             [[bus.drive.param]]\nparam = \"P543\"\nname = \"actual\"\nperiod = \"1s\"\n",
+            "param = ",
+            "point \"actual\": P543 bus actual value is an array of 3 elements ([-01]…[-03]): give array = 1…3",
+        ),
+        (
+            "[[bus]]\nname = \"line3\"\nprotocol = \"modbus-rtu\"\nport = \"/dev/ttyUSB2\"\n\n\
+             [[bus.drive]]\nname = \"fan\"\naddress = 1\n\n\
+             [[bus.drive.param]]\nparam = \"260\"\nname = \"fault\"\nperiod = \"1s\"\ndata_set = 2\n",
+            "data_set = 2",
+            "point \"fault\": data_set = 2: 260 Current fault has no data sets",
+        ),
+        (
+            "[[bus]]\nname = \"line1\"\nprotocol = \"uss\"\nport = \"/dev/ttyUSB0\"\n\n\
+             [[bus.drive]]\nname = \"pump\"\naddress = 1\n\n\
+             [[bus.drive.param]]\nparam = \"P700\"\narray = 1\nname = \"fault\"\nwritable = true\n",
+            "writable = true",
+            "point \"fault\": writable = true: P700 present fault is read-only",
+        ),
+    ];
+    for (bus, key, needle) in cases {
+        let text = format!("{head}{bus}");
+        let path = dir.join("plant.toml");
+        std::fs::write(&path, &text).unwrap();
+        let line = text.lines().position(|l| l.starts_with(key)).unwrap() + 1;
+        let out = Command::new(env!("CARGO_BIN_EXE_drivectl"))
+            .args(["gateway", "--check", "--config"])
+            .arg(&path)
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{stderr}");
+        assert!(
+            out.stdout.is_empty(),
+            "{}",
+            String::from_utf8_lossy(&out.stdout)
+        );
+        let at = format!("{}:{line}: ", path.display());
+        assert!(stderr.contains(&at), "not at {at}: {stderr}");
+        assert!(stderr.contains(needle), "`{needle}` not in: {stderr}");
+        assert!(!stderr.contains("--"), "a command-line option in: {stderr}");
+    }
+    // The example config passes --check as it is.
+    let example = Command::new(env!("CARGO_BIN_EXE_drivectl"))
+        .args(["gateway", "--example-config"])
+        .output()
+        .unwrap();
+    std::fs::write(dir.join("example.toml"), &example.stdout).unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_drivectl"))
+        .args(["gateway", "--check", "--config"])
+        .arg(dir.join("example.toml"))
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}

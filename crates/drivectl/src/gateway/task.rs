@@ -791,9 +791,8 @@ async fn write_point<B: BusAccess>(
         return refused(
             "access",
             format!(
-                "{} is a setting of the link the gateway talks over ({}): the gateway does not write it; nothing was sent",
-                target.label(),
-                client.link_change(&target, raw)
+                "{} is a setting of the link the gateway talks over (address, baud rate, timeout): the gateway does not write it; nothing was sent",
+                target.label()
             ),
         );
     }

@@ -460,6 +460,9 @@ pub struct ModbusBus<IO> {
     driver: bonfiglioli_modbus::driver::MasterDriver<IO>,
     port: String,
     last: bonfiglioli_modbus::driver::DriverStats,
+    /// The config's `width` of parameters the manual gives no data type: (address, parameter,
+    /// width).
+    widths: Vec<(u8, u16, bonfiglioli_modbus::slave::Width)>,
 }
 
 /// The line a Bonfiglioli drive speaks `mode` on: RTU 8 data bits, ASCII 7 (ch. 6.7), with
@@ -484,10 +487,20 @@ impl<IO: CharIo> ModbusBus<IO> {
             retries: bus.retries,
             ..bonfiglioli_modbus::driver::DriverConfig::new(mode, line)
         };
+        let widths = bus
+            .drives
+            .iter()
+            .flat_map(|d| {
+                d.points
+                    .iter()
+                    .filter_map(move |p| p.width.map(|w| (d.address, p.target.index, w)))
+            })
+            .collect();
         Self {
             driver: bonfiglioli_modbus::driver::MasterDriver::new(io, config),
             port: port.to_owned(),
             last: bonfiglioli_modbus::driver::DriverStats::default(),
+            widths,
         }
     }
 
@@ -495,12 +508,12 @@ impl<IO: CharIo> ModbusBus<IO> {
         let a = bonfiglioli_modbus::frame::Address::new(address)
             .filter(|a| !a.is_broadcast())
             .ok_or_else(|| format!("Modbus address {address}: a drive has 1–247"))?;
-        Ok(BonfiglioliClient::new(
-            &mut self.driver,
-            a,
-            &self.port,
-            None,
-        ))
+        let widths = self
+            .widths
+            .iter()
+            .filter(|(drive, _, _)| *drive == address)
+            .map(|(_, param, width)| (*param, *width));
+        Ok(BonfiglioliClient::new(&mut self.driver, a, &self.port, None).with_widths(widths))
     }
 
     fn tally(&mut self) -> LinkTally {

@@ -708,3 +708,35 @@ async fn process_data_warnings_name_what_the_drive_is_set_to() {
             .is_empty()
     );
 }
+
+/// Issue 18 A2: a Modbus point of a parameter the manual gives no data type is read and
+/// written with the config's `width` (415 is 16 bit on the simulated ACTIVE Cube); without the
+/// width the client refuses it rather than guessing.
+#[tokio::test(start_paused = true)]
+async fn issue18_a_modbus_points_width_is_used_for_its_reads_and_writes() {
+    let text = "[gateway]\nname = \"gw\"\nbroker = \"mqtt://h\"\n[[bus]]\nname = \"b\"\n\
+                protocol = \"modbus-rtu\"\nsimulate = true\n[[bus.drive]]\nname = \"d\"\n\
+                address = 1\n[[bus.drive.param]]\nparam = \"415\"\nwidth = 16\nperiod = \"1s\"\n\
+                writable = true\n";
+    let plant = Plant::parse(text, "plant.toml").unwrap();
+    let bus = plant.buses[0].clone();
+    let point = bus.drives[0].points[0].clone();
+    let mut sim = simulated_bus(&bus);
+    let mut c = sim.access.client(1);
+    let now = c.read(&point.target).await.unwrap();
+    let raw = other_value(&point, now, &[]);
+    let req = WriteRequest {
+        target: point.target,
+        raw,
+        persistence: Persistence::Volatile,
+        force: false,
+    };
+    let done = write_checked(&mut c, &req, false).await.unwrap();
+    assert_eq!(done.back, raw);
+    // Another drive's client knows no width for it: nothing is guessed.
+    let mut other = sim.access.client(2);
+    assert!(matches!(
+        other.read(&point.target).await,
+        Err(ClientError::Link(_))
+    ));
+}
