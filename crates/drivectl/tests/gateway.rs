@@ -98,8 +98,13 @@ impl Gateway {
 
     /// SIGTERM (systemd's stop) and wait for the exit (5 s at most); the exit status.
     fn terminate(&mut self) -> std::process::ExitStatus {
+        self.stop_with("TERM")
+    }
+
+    /// Send `sig` and wait for the exit (5 s at most); the exit status.
+    fn stop_with(&mut self, sig: &str) -> std::process::ExitStatus {
         let mut child = self.child.take().expect("running");
-        signal(child.id(), "TERM");
+        signal(child.id(), sig);
         let deadline = Instant::now() + Duration::from_secs(5);
         loop {
             if let Some(s) = child.try_wait().unwrap() {
@@ -108,7 +113,7 @@ impl Gateway {
             if Instant::now() > deadline {
                 let _ = child.kill();
                 panic!(
-                    "the gateway did not stop within 5 s of SIGTERM:\n{}",
+                    "the gateway did not stop within 5 s of SIG{sig}:\n{}",
                     self.log()
                 );
             }
@@ -1004,6 +1009,21 @@ async fn a_flood_of_sets_for_unknown_points_is_logged_once() {
 /// as `drivectl pd` stops it at its end: read back directly afterwards, it is no longer enabled.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn sigterm_stops_the_drives_the_gateway_controls() {
+    stops_the_drives_at("TERM").await;
+}
+
+/// Issue 18: SIGHUP (a closed terminal, or a reload asked for) and SIGQUIT stop the gateway as
+/// SIGTERM does, with the stop in the process data; they killed it without one (the signals'
+/// default action) and left the drive enabled.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn issue18_sighup_and_sigquit_stop_the_drives_the_gateway_controls() {
+    stops_the_drives_at("HUP").await;
+    stops_the_drives_at("QUIT").await;
+}
+
+/// A MOVILINK drive enabled over process data by the gateway, then `sig` to the gateway: it
+/// exits successfully, says it stopped on `sig`, and the drive read back is no longer enabled.
+async fn stops_the_drives_at(sig: &str) {
     let Some(broker) = broker(BrokerOptions::default()) else {
         return;
     };
@@ -1031,8 +1051,14 @@ async fn sigterm_stops_the_drives_the_gateway_controls() {
         )
         .await;
     assert_eq!(pd["out"], json!([6, 7500, 0]), "{pd}");
-    let status = gw.terminate();
-    assert!(status.success(), "{}", gw.log());
+    let status = gw.stop_with(sig);
+    assert!(status.success(), "SIG{sig}: {status:?}\n{}", gw.log());
+    assert!(
+        gw.log().contains(&format!("signal=\"SIG{sig}\""))
+            || gw.log().contains(&format!("signal=SIG{sig}")),
+        "{}",
+        gw.log()
+    );
     assert!(
         gw.log().contains("stop sent in the process data"),
         "{}",
