@@ -1214,3 +1214,158 @@ fn issue18_check_refuses_selectors_the_table_does_not_have() {
     );
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// Issue 18 A4: a retained 1.5 MiB message on a `set` topic (over the gateway's 1 MiB limit)
+/// does not end the gateway's connection: it stays connected (one ConnAck, no reconnection,
+/// its status never `offline`), normal sets are executed, and the oversize message is never
+/// executed. Beside it: a retained 1.5 MiB message on a topic the gateway does not subscribe
+/// to changes nothing, and a live set just under the limit arrives and is refused as
+/// `bad_request` on its result.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn issue18_an_oversize_retained_set_does_not_end_the_connection() {
+    let Some(broker) = broker(BrokerOptions::default()) else {
+        return;
+    };
+    let topic = "drivebus/gw/ml/d1/ramp";
+    // A publisher that may send large messages, subscribed to nothing.
+    let mut big = broker.client_options("big", None);
+    big.set_max_packet_size(4 << 20, 4 << 20);
+    let publisher = TestClient::connect(big, &[]).await;
+    let huge = |n: usize| {
+        let mut body = json!({"value": 9.9, "id": "huge", "pad": ""}).to_string();
+        body.insert_str(body.len() - 2, &"x".repeat(n));
+        body
+    };
+    publisher
+        .publish(&format!("{topic}/set"), huge(3 << 19), true)
+        .await;
+    publisher
+        .publish("drivebus/gw/ml/other/status", huge(3 << 19), true)
+        .await;
+    // SCADA watches the gateway's topics, not the set topics (the huge message is over its
+    // own client's limit too).
+    let mut c = TestClient::connect(
+        broker.client_options("scada", None),
+        &[
+            "drivebus/gw/status",
+            "drivebus/gw/ml/d1/status",
+            topic,
+            &format!("{topic}/result"),
+        ],
+    )
+    .await;
+    let mut seen = Seen::default();
+    let config = format!(
+        "{}{}",
+        gateway_table(&broker, ""),
+        simulated_bus("200ms", true)
+    );
+    let mut gw = Gateway::start(&config, &[]);
+    seen.wait(&mut c, "drivebus/gw/status", Duration::from_secs(10), |p| {
+        p == b"online"
+    })
+    .await
+    .unwrap_or_else(|| panic!("never online:\n{}", gw.log()));
+    seen.json(&mut c, topic, Duration::from_secs(10), |v| v["raw"] == 2000)
+        .await;
+    // Several seconds of operation: a reconnection would have come twice a second.
+    tokio::time::sleep(Duration::from_secs(3)).await;
+    let r = set(
+        &mut seen,
+        &mut c,
+        topic,
+        json!({"value": 2.5, "id": 1, "ts": now_ms()}),
+    )
+    .await;
+    assert_eq!(r["outcome"], "written", "{r}\n{}", gw.log());
+    // Just under the limit: taken from the broker, refused as too large for a set.
+    publisher
+        .publish(&format!("{topic}/set"), huge((1 << 20) - 200), false)
+        .await;
+    let r = seen
+        .json(
+            &mut c,
+            &format!("{topic}/result"),
+            Duration::from_secs(10),
+            |v| v["outcome"] == "refused",
+        )
+        .await;
+    // Refused before it is parsed: its id is not read.
+    assert_eq!(r["reason"], "bad_request", "{r}");
+    assert!(r["message"].as_str().unwrap().contains("4096"), "{r}");
+    seen.wait(&mut c, "drivebus/gw/status", Duration::from_secs(1), |_| {
+        false
+    })
+    .await;
+    let statuses = seen
+        .0
+        .get("drivebus/gw/status")
+        .cloned()
+        .unwrap_or_default();
+    assert!(
+        statuses.iter().all(|p| p == b"online"),
+        "the status flapped: {:?}",
+        statuses
+            .iter()
+            .map(|p| String::from_utf8_lossy(p).into_owned())
+            .collect::<Vec<_>>()
+    );
+    let log = gw.log();
+    assert_eq!(
+        log.matches("connected to the broker").count(),
+        1,
+        "reconnected:\n{log}"
+    );
+    assert!(!log.contains("lost the broker connection"), "{log}");
+    // The broker dropped the oversize set for the gateway (MQTT 5: it honours the client's
+    // Maximum Packet Size) and logged that it did; the gateway never saw it, so it could not
+    // answer it on its result.
+    let broker_log = std::fs::read_to_string(broker.dir.join("mosquitto.log")).unwrap();
+    assert!(
+        broker_log.contains("Dropping too large outgoing PUBLISH for drivebus-gw"),
+        "{broker_log}"
+    );
+    assert!(gw.terminate().success());
+    let results = seen
+        .0
+        .get(&format!("{topic}/result"))
+        .cloned()
+        .unwrap_or_default();
+    assert_eq!(results.len(), 2, "one written, one bad_request");
+}
+
+/// Issue 18: two gateways with one `client_id` on a broker. The broker ends the older
+/// connection when the newer one connects (Mosquitto closes it without a DISCONNECT); the log
+/// says the client id is probably in use by another client and names the key to change (it
+/// said only "Connection closed by peer abruptly").
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn issue18_two_gateways_with_one_client_id_are_told_apart_in_the_log() {
+    let Some(broker) = broker(BrokerOptions::default()) else {
+        return;
+    };
+    let config = format!(
+        "{}{}",
+        gateway_table(&broker, "client_id = \"cabinet\""),
+        simulated_bus("1s", false)
+    );
+    let mut c = subscriber(&broker, "scada").await;
+    let mut seen = Seen::default();
+    let mut first = Gateway::start(&config, &[]);
+    seen.wait(&mut c, "drivebus/gw/status", Duration::from_secs(10), |p| {
+        p == b"online"
+    })
+    .await
+    .unwrap_or_else(|| panic!("never online:\n{}", first.log()));
+    let mut second = Gateway::start(&config, &[]);
+    let deadline = Instant::now() + Duration::from_secs(10);
+    let said = "the client id \"cabinet\" is probably in use by another client";
+    while !first.log().contains(said) && Instant::now() < deadline {
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    let log = first.log();
+    assert!(log.contains(said), "{log}");
+    assert!(log.contains("[gateway] client_id"), "{log}");
+    assert!(!log.contains("closed by peer abruptly"), "{log}");
+    assert!(first.terminate().success());
+    assert!(second.terminate().success());
+}
