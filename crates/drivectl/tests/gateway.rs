@@ -146,6 +146,34 @@ fn signal(pid: u32, sig: &str) {
     assert!(ok, "kill -{sig} {pid}");
 }
 
+/// Every figure in the gateway's log is rounded to what is meaningful: no number with more
+/// than four decimals (`demand=0.06797656140000001` was one), timestamps aside.
+fn assert_figures_rounded(log: &str) {
+    for line in log.lines() {
+        // The timestamp at the start of a text line has its own fraction of a second.
+        let rest = line.split_once(' ').map_or(line, |(first, rest)| {
+            if first.contains('T') && first.ends_with('Z') {
+                rest
+            } else {
+                line
+            }
+        });
+        let bytes = rest.as_bytes();
+        let mut i = 0;
+        while i < bytes.len() {
+            if bytes[i] == b'.' && i > 0 && bytes[i - 1].is_ascii_digit() {
+                let decimals = bytes[i + 1..]
+                    .iter()
+                    .take_while(|b| b.is_ascii_digit())
+                    .count();
+                assert!(decimals <= 4, "a figure not rounded in: {line}");
+                i += decimals;
+            }
+            i += 1;
+        }
+    }
+}
+
 fn now_ms() -> u64 {
     SystemTime::now()
         .duration_since(UNIX_EPOCH)
@@ -1053,6 +1081,14 @@ async fn stops_the_drives_at(sig: &str) {
     assert_eq!(pd["out"], json!([6, 7500, 0]), "{pd}");
     let status = gw.stop_with(sig);
     assert!(status.success(), "SIG{sig}: {status:?}\n{}", gw.log());
+    assert_figures_rounded(&gw.log());
+    assert!(
+        gw.log()
+            .lines()
+            .any(|l| l.contains("bus polling starts") && l.contains(" %") && l.contains("demand=")),
+        "{}",
+        gw.log()
+    );
     assert!(
         gw.log().contains(&format!("signal=\"SIG{sig}\""))
             || gw.log().contains(&format!("signal=SIG{sig}")),
@@ -1317,6 +1353,7 @@ async fn issue18_an_oversize_retained_set_does_not_end_the_connection() {
         "reconnected:\n{log}"
     );
     assert!(!log.contains("lost the broker connection"), "{log}");
+    assert_figures_rounded(&log);
     // The broker dropped the oversize set for the gateway (MQTT 5: it honours the client's
     // Maximum Packet Size) and logged that it did; the gateway never saw it, so it could not
     // answer it on its result.

@@ -9,6 +9,7 @@ pub mod bus;
 pub mod config;
 pub mod families;
 pub mod load;
+pub mod logfmt;
 pub mod metrics;
 pub mod model;
 pub mod mqtt;

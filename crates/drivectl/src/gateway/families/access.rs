@@ -140,12 +140,46 @@ fn table_target(family: Family, key: &str) -> Result<Target, ClientError> {
 async fn sew_fault<C: ParamClient>(c: &mut C) -> Result<Option<String>, ClientError> {
     let t = table_target(Family::Movidrive, "P012")?;
     let raw = c.read(&t).await?;
-    let sw = StatusWord1::from_bits((raw & 0xFFFF) as u16);
-    // "F47 TIMEOUT SBUS" where the manuals name the fault, else its number alone.
-    Ok(sw.fault_number().map(|n| {
+    Ok(sew_fault_text(StatusWord1::from_bits(
+        (raw & 0xFFFF) as u16,
+    )))
+}
+
+/// The fault status word 1 shows: "F47 TIMEOUT SBUS" where the manuals name the fault, else
+/// its number alone; `None` without a fault.
+fn sew_fault_text(sw: StatusWord1) -> Option<String> {
+    sw.fault_number().map(|n| {
         drive_profile::sew::device::fault_name(n)
             .map_or_else(|| format!("F{n:02}"), |name| format!("F{n:02} {name}"))
-    }))
+    })
+}
+
+/// A MOVIDRIVE's bus timeout `timeout_index` (P812, P815; raw milliseconds; `None` when off or
+/// not read) and which of the first `words` process input words is status word 1 (its actual
+/// value description P873–P875 is 6).
+async fn sew_timeout_and_status<L: crate::sew::SewLink>(
+    link: &mut L,
+    timeout_index: u16,
+    words: usize,
+) -> (Option<Duration>, Option<usize>) {
+    use drive_profile::sew::ParamChannel;
+    // 650 s is off too (ch. 5.1).
+    let timeout = match link.service(ParamChannel::read(timeout_index)).await {
+        Ok(ms) if ms > 0 && ms < 650_000 => Some(Duration::from_millis(u64::from(ms))),
+        _ => None,
+    };
+    let mut slot = None;
+    for (i, index) in [sew_index::PI1_DESCRIPTION, 8308, 8309]
+        .into_iter()
+        .take(words)
+        .enumerate()
+    {
+        if let Ok(6) = link.service(ParamChannel::read(index)).await {
+            slot = Some(i);
+            break;
+        }
+    }
+    (timeout, slot)
 }
 
 /// The fault of any family from the raw value of its fault parameter `t`: zero is no fault.
@@ -537,6 +571,9 @@ pub struct Access {
     pub proto: Proto,
     /// Its wire times.
     pub wire: WireDesc,
+    /// MOVIDRIVE: the process input word that is status word 1 (P873–P875 = 6), per drive
+    /// address, as read before the first cycle.
+    pub status_slots: Vec<(u8, usize)>,
 }
 
 /// The protocol's part of an [`Access`].
@@ -592,24 +629,52 @@ impl BusAccess for Access {
         &mut self,
         address: u8,
         out: &[u16],
+        period: Duration,
     ) -> Result<Vec<String>, ClientError> {
         // The checks `drivectl movilink pd` and `sbus pd` make (`sew::pd_warnings`). NORD: the
         // control word's source and a USS telegram timeout are not in the manual's table;
         // Modbus has no process data.
-        let (_, warnings) = match &mut self.proto {
+        // Then the period against that timeout, and where the input words carry status word
+        // 1 (P873–P875 = 6, the factory setting of PI1).
+        let (mut warnings, timeout, slots) = match &mut self.proto {
             Proto::Movilink(b) => {
                 let mut c = b.client_of(address).map_err(ClientError::Link)?;
                 let timeout = (sew_index::RS485_TIMEOUT, "RS-485 timeout P812");
-                crate::sew::pd_warnings(&mut c.link, out.len(), true, timeout).await
+                let (_, w) = crate::sew::pd_warnings(&mut c.link, out.len(), true, timeout).await;
+                let (t, s) = sew_timeout_and_status(&mut c.link, timeout.0, out.len()).await;
+                (w, t.map(|t| (t, timeout.1, "F43 RS-485 timeout")), s)
             }
             Proto::Sbus(b) => {
                 let mut c = b.client_of(address).map_err(ClientError::Link)?;
                 let timeout = (sew_index::SBUS_TIMEOUT, "SBus timeout P815");
-                crate::sew::pd_warnings(&mut c.link, out.len(), true, timeout).await
+                let (_, w) = crate::sew::pd_warnings(&mut c.link, out.len(), true, timeout).await;
+                let (t, s) = sew_timeout_and_status(&mut c.link, timeout.0, out.len()).await;
+                (w, t.map(|t| (t, timeout.1, "F47 SBus timeout")), s)
             }
             Proto::Uss(_) | Proto::Modbus(_) => return Ok(Vec::new()),
         };
+        if let Some((timeout, name, fault)) = timeout
+            && period >= timeout
+        {
+            warnings.push(format!(
+                "the process data period ({}) is at or above the drive's {name} ({}): the drive \
+                 trips with {fault} between two cycles; give [bus.drive.process_data] period \
+                 well below it",
+                super::super::logfmt::duration(period),
+                super::super::logfmt::duration(timeout)
+            ));
+        }
+        self.status_slots.retain(|(a, _)| *a != address);
+        if let Some(slot) = slots {
+            self.status_slots.push((address, slot));
+        }
         Ok(warnings)
+    }
+
+    fn fault_in_inputs(&self, address: u8, inputs: &[u16]) -> Option<Option<String>> {
+        let (_, slot) = self.status_slots.iter().find(|(a, _)| *a == address)?;
+        let word = *inputs.get(*slot)?;
+        Some(sew_fault_text(StatusWord1::from_bits(word)))
     }
 
     async fn stop_process_data(

@@ -662,7 +662,7 @@ async fn process_data_warnings_name_what_the_drive_is_set_to() {
     let mut sim = simulated_bus(&ml);
     let w = sim
         .access
-        .process_data_warnings(1, &[6, 0, 0])
+        .process_data_warnings(1, &[6, 0, 0], Duration::from_millis(50))
         .await
         .unwrap();
     assert_eq!(w.len(), 1, "{w:?}");
@@ -674,7 +674,7 @@ async fn process_data_warnings_name_what_the_drive_is_set_to() {
     let mut sim = simulated_bus(&sb);
     assert_eq!(
         sim.access
-            .process_data_warnings(1, &[6, 0, 0])
+            .process_data_warnings(1, &[6, 0, 0], Duration::from_millis(50))
             .await
             .unwrap(),
         Vec::<String>::new()
@@ -689,7 +689,7 @@ async fn process_data_warnings_name_what_the_drive_is_set_to() {
     }
     let w = sim
         .access
-        .process_data_warnings(1, &[6, 0, 0])
+        .process_data_warnings(1, &[6, 0, 0], Duration::from_millis(50))
         .await
         .unwrap();
     assert_eq!(w.len(), 2, "{w:?}");
@@ -702,7 +702,7 @@ async fn process_data_warnings_name_what_the_drive_is_set_to() {
     let mut sim = simulated_bus(&uss);
     assert!(
         sim.access
-            .process_data_warnings(1, &[0x047E, 0])
+            .process_data_warnings(1, &[0x047E, 0], Duration::from_millis(50))
             .await
             .unwrap()
             .is_empty()
@@ -739,4 +739,109 @@ async fn issue18_a_modbus_points_width_is_used_for_its_reads_and_writes() {
         other.read(&point.target).await,
         Err(ClientError::Link(_))
     ));
+}
+
+/// Issue 18 B5: a process-data period at or above the drive's own bus timeout (SBus P815, the
+/// simulated drive's 100 ms; MOVILINK P812 once set) is warned about before the first cycle,
+/// not only a timeout that is off.
+#[tokio::test(start_paused = true)]
+async fn issue18_a_process_data_period_at_or_above_the_bus_timeout_is_warned() {
+    let plant = example();
+    let sb = bus_of(&plant, Protocol::Sbus);
+    let mut sim = simulated_bus(&sb);
+    for ms in [100, 150, 1000] {
+        let w = sim
+            .access
+            .process_data_warnings(1, &[6, 0, 0], Duration::from_millis(ms))
+            .await
+            .unwrap();
+        assert_eq!(w.len(), 1, "{ms} ms: {w:?}");
+        assert!(
+            w[0].contains("at or above the drive's SBus timeout P815 (100 ms)")
+                && w[0].contains("F47")
+                && w[0].contains("[bus.drive.process_data] period"),
+            "{w:?}"
+        );
+    }
+    let w = sim
+        .access
+        .process_data_warnings(1, &[6, 0, 0], Duration::from_millis(99))
+        .await
+        .unwrap();
+    assert!(w.is_empty(), "{w:?}");
+    // MOVILINK: P812 set to 0.2 s.
+    let ml = bus_of(&plant, Protocol::Movilink);
+    let mut sim = simulated_bus(&ml);
+    let t = crate::tool::client::Target::of(
+        drive_profile::family::lookup(drive_profile::Family::Movidrive, "P812").unwrap(),
+    );
+    sim.access
+        .client(1)
+        .write(&t, 200, Persistence::Volatile)
+        .await
+        .unwrap();
+    let w = sim
+        .access
+        .process_data_warnings(1, &[6, 0, 0], Duration::from_millis(250))
+        .await
+        .unwrap();
+    assert_eq!(w.len(), 1, "{w:?}");
+    assert!(
+        w[0].contains("RS-485 timeout P812 (200 ms)") && w[0].contains("F43"),
+        "{w:?}"
+    );
+}
+
+/// Issue 18 B5: a drive that trips with F47 (SBus timeout: process data every 150 ms against
+/// its P815 of 100 ms) is reported in fault at the next process-data cycle, from the status
+/// word in its input words, not at the next status read (5 s).
+#[tokio::test(start_paused = true)]
+async fn issue18_an_sbus_timeout_trip_is_reported_at_the_next_cycle() {
+    use crate::gateway::bus::BusContext;
+    use crate::gateway::model::{DriveStatus, Update};
+    tokio::task::LocalSet::new()
+        .run_until(async {
+            let text = "[gateway]\nname = \"gw\"\nbroker = \"mqtt://h\"\n[[bus]]\nname = \"can\"\n\
+                        protocol = \"sbus\"\nsimulate = true\nstatus_period = \"5s\"\n\
+                        [[bus.drive]]\nname = \"d\"\naddress = 1\n\
+                        [bus.drive.process_data]\nperiod = \"150ms\"\nout = [6, 1500, 0]\n";
+            let plant = Plant::parse(text, "plant.toml").unwrap();
+            let bus = plant.buses[0].clone();
+            let sim = simulated_bus(&bus);
+            let (utx, mut urx) = tokio::sync::mpsc::channel(4096);
+            let (_stx, srx) = tokio::sync::mpsc::channel(1);
+            let (_stop, shutdown) = tokio::sync::watch::channel(false);
+            let ctx = BusContext {
+                shutdown,
+                ix: 0,
+                bus: bus.clone(),
+                updates: utx,
+                sets: srx,
+                metrics: std::sync::Arc::new(crate::gateway::metrics::Metrics::new(&plant)),
+            };
+            let start = tokio::time::Instant::now();
+            let task = tokio::task::spawn_local(crate::gateway::task::run_bus(ctx, sim.access));
+            let fault = tokio::time::timeout(Duration::from_secs(10), async {
+                loop {
+                    match urx.recv().await {
+                        Some(Update::Status {
+                            status: DriveStatus::Fault(text),
+                            ..
+                        }) => return (text, start.elapsed()),
+                        Some(_) => {}
+                        None => panic!("the task ended"),
+                    }
+                }
+            })
+            .await
+            .expect("a fault within 10 s");
+            task.abort();
+            assert!(fault.0.starts_with("F47"), "{fault:?}");
+            assert!(
+                fault.1 < Duration::from_millis(600),
+                "the F47 trip was reported after {:?}",
+                fault.1
+            );
+        })
+        .await;
 }
