@@ -861,6 +861,12 @@ async fn the_example_config_runs_with_simulate() {
         .unwrap();
     assert!(out.status.success());
     let example = String::from_utf8(out.stdout).unwrap();
+    // The documented sequence (docs/gateway.md, README): the example serves /metrics on
+    // 127.0.0.1:9464, which `curl` then reads. Here on a free port, as tests run side by side.
+    let documented = "metrics = \"127.0.0.1:9464\"";
+    assert!(example.contains(documented), "{example}");
+    let port = free_port();
+    let example = example.replace(documented, &format!("metrics = \"127.0.0.1:{port}\""));
     let mut c = TestClient::connect(
         broker.client_options("scada", None),
         &["drivebus/cabinet-1/#"],
@@ -877,6 +883,8 @@ async fn the_example_config_runs_with_simulate() {
         )
         .await;
     assert!(online.is_some(), "{}", gw.log());
+    let metrics = scrape(port);
+    assert!(metrics.contains("drivebus_broker_connected 1"), "{metrics}");
     // The drives and writable points of the example, from the file itself.
     let plant: toml::Value = toml::from_str(&example).unwrap();
     let mut sets = 0;

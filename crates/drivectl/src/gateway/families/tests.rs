@@ -131,6 +131,12 @@ fn the_example_config_parses_and_every_bus_fits_the_wire() {
             "{key}"
         );
     }
+    // Issue 18: it serves /metrics where the docs' `curl -s 127.0.0.1:9464/metrics` asks (it
+    // said "off", and the documented sequence failed).
+    assert_eq!(
+        plant.gateway.metrics,
+        Some(std::net::SocketAddr::from(([127, 0, 0, 1], 9464)))
+    );
     // --check passes on it, and --simulate keeps it fitting.
     print_check(&plant).unwrap();
     print_check(&example()).unwrap();
