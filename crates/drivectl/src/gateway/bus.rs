@@ -85,6 +85,19 @@ pub trait BusAccess {
         Ok(Vec::new())
     }
 
+    /// What a person should know about a drive that watches its link for requests (Bonfiglioli
+    /// 413 watchdog: no valid request for that long trips F2010) when the gateway's requests
+    /// to it may be `gap` apart (its shortest period, the status reads included): a watchdog
+    /// at or below the gap trips the drive between two. Empty where all is well or the family
+    /// has no such watchdog.
+    async fn watchdog_warnings(
+        &mut self,
+        _address: u8,
+        _gap: Duration,
+    ) -> Result<Vec<String>, ClientError> {
+        Ok(Vec::new())
+    }
+
     /// The drive's fault as its process input words `inputs` show it: `Some(None)` no fault,
     /// `Some(Some(text))` the fault (as [`BusAccess::fault`] names it), `None` where the inputs
     /// carry no status word (then only the status reads tell).

@@ -99,6 +99,26 @@ pub async fn run_bus<B: BusAccess>(ctx: BusContext, mut access: B) {
             }
         }
     }
+    // A drive that watches its link for requests (Bonfiglioli 413) against the longest gap the
+    // gateway leaves between its requests to it.
+    for d in &bus.drives {
+        let gap = d
+            .points
+            .iter()
+            .filter_map(|p| p.period)
+            .chain(d.process_data.as_ref().map(|pd| pd.period))
+            .fold(bus.status_period, Duration::min);
+        match access.watchdog_warnings(d.address, gap).await {
+            Ok(warnings) => {
+                for w in warnings {
+                    tracing::warn!(bus = %bus.name, drive = %d.name, "{w}");
+                }
+            }
+            Err(e) => {
+                tracing::debug!(bus = %bus.name, drive = %d.name, error = %CliError::from(e), "link watchdog not read")
+            }
+        }
+    }
     let start = Instant::now();
     let mut sched: Scheduler<Pending> = Scheduler::new(&bus, |op| access.wire_time(op), start);
     tracing::info!(

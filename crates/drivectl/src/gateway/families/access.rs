@@ -671,6 +671,34 @@ impl BusAccess for Access {
         Ok(warnings)
     }
 
+    async fn watchdog_warnings(
+        &mut self,
+        address: u8,
+        gap: Duration,
+    ) -> Result<Vec<String>, ClientError> {
+        let Proto::Modbus(b) = &mut self.proto else {
+            return Ok(Vec::new());
+        };
+        // The manual gives 413 no data type: read by trying FC 3, then FC 100 (a read only).
+        let t = table_target(Family::Bonfiglioli, "413")?;
+        let mut c = b.client_of(address).map_err(ClientError::Link)?.probing();
+        let seconds = c.read(&t).await?;
+        let Ok(watchdog) = u64::try_from(seconds) else {
+            return Ok(Vec::new());
+        };
+        let watchdog = Duration::from_secs(watchdog);
+        if watchdog.is_zero() || gap < watchdog {
+            return Ok(Vec::new());
+        }
+        Ok(vec![format!(
+            "the drive's watchdog 413 ({}) is at or below the longest gap between the gateway's \
+             requests to it ({}, its shortest period with status_period): it trips with F2010 \
+             between two; poll it more often (a shorter period or status_period) or raise 413",
+            super::super::logfmt::duration(watchdog),
+            super::super::logfmt::duration(gap)
+        )])
+    }
+
     fn fault_in_inputs(&self, address: u8, inputs: &[u16]) -> Option<Option<String>> {
         let (_, slot) = self.status_slots.iter().find(|(a, _)| *a == address)?;
         let word = *inputs.get(*slot)?;

@@ -851,3 +851,60 @@ async fn issue18_an_sbus_timeout_trip_is_reported_at_the_next_cycle() {
         })
         .await;
 }
+
+/// Issue 18 B5, its Modbus neighbour: a Bonfiglioli drive whose watchdog 413 is at or below the
+/// longest gap between the gateway's requests to it trips with F2010 between two; the gateway
+/// says so at the start (413 off, or longer than the gap: nothing).
+#[tokio::test(start_paused = true)]
+async fn issue18_a_bonfiglioli_watchdog_below_the_polling_gap_is_warned() {
+    // 413 polled (16 bit, as the simulated drive has it), so that the test can set it.
+    let text = "[gateway]\nname = \"gw\"\nbroker = \"mqtt://h\"\n[[bus]]\nname = \"b\"\n\
+                protocol = \"modbus-rtu\"\nsimulate = true\n[[bus.drive]]\nname = \"d\"\n\
+                address = 1\n[[bus.drive.param]]\nparam = \"413\"\nwidth = 16\nperiod = \"1s\"\n";
+    let plant = Plant::parse(text, "plant.toml").unwrap();
+    let bus = plant.buses[0].clone();
+    let mut sim = simulated_bus(&bus);
+    let five = Duration::from_secs(5);
+    assert!(
+        sim.access
+            .watchdog_warnings(1, five)
+            .await
+            .unwrap()
+            .is_empty()
+    );
+    let t = bus.drives[0].points[0].target;
+    sim.access
+        .client(1)
+        .write(&t, 3, Persistence::Volatile)
+        .await
+        .unwrap();
+    let w = sim.access.watchdog_warnings(1, five).await.unwrap();
+    assert_eq!(w.len(), 1, "{w:?}");
+    assert!(
+        w[0].contains("watchdog 413 (3 s)") && w[0].contains("(5 s,") && w[0].contains("F2010"),
+        "{w:?}"
+    );
+    let w = sim
+        .access
+        .watchdog_warnings(1, Duration::from_secs(3))
+        .await
+        .unwrap();
+    assert_eq!(w.len(), 1, "at the watchdog itself: {w:?}");
+    assert!(
+        sim.access
+            .watchdog_warnings(1, Duration::from_secs(2))
+            .await
+            .unwrap()
+            .is_empty()
+    );
+    // The other families have no such watchdog.
+    let ml = bus_of(&example(), Protocol::Movilink);
+    let mut sim = simulated_bus(&ml);
+    assert!(
+        sim.access
+            .watchdog_warnings(1, five)
+            .await
+            .unwrap()
+            .is_empty()
+    );
+}
