@@ -1412,6 +1412,25 @@ writable = true
                 "width = 16",
                 "the manual gives 481 Fixed frequency 2 32 bits",
             ),
+            // A parameter the family does not have, in the config's terms.
+            (
+                "uss",
+                "param = \"P9999\"",
+                "param = ",
+                "param = \"P9999\": no nord parameter of that name or number",
+            ),
+            (
+                "modbus-rtu",
+                "param = \"P9999\"",
+                "param = ",
+                "no bonfiglioli parameter",
+            ),
+            (
+                "movilink",
+                "param = \"P9999\"",
+                "param = ",
+                "no movidrive parameter",
+            ),
             // Keys of another family.
             (
                 "movilink",

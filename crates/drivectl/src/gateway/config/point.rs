@@ -99,7 +99,25 @@ pub(super) fn resolve(protocol: Protocol, p: &ParamFile, at: &str) -> Result<Res
             ));
         }
     }
-    let param_error = |e: crate::error::CliError| fail(param_at, format!("param = {key:?}: {e}"));
+    // The family's resolvers refuse only a parameter they do not know here (the selectors are
+    // checked below): said in the config's terms, not with the command line's options.
+    let raw = match family {
+        Family::Nord => crate::nord::RAW_INDICES,
+        Family::Bonfiglioli => crate::bonfiglioli::RAW_INDICES,
+        _ => crate::movilink::RAW_INDICES,
+    };
+    let param_error = |_: crate::error::CliError| {
+        fail(
+            param_at,
+            format!(
+                "param = {key:?}: no {family} parameter of that name or number; give its number \
+                 as the manual prints it, or a bus index {}…{} outside the table (`drivectl \
+                 params {family}` lists the table)",
+                raw.start(),
+                raw.end()
+            ),
+        )
+    };
     let (target, width) = match family {
         Family::Nord => (nord(p, key, param_at, &fail, &param_error)?, None),
         Family::Bonfiglioli => bonfiglioli(p, key, param_at, &fail, &param_error)?,
