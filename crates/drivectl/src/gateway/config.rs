@@ -715,7 +715,18 @@ fn check_line(at: &str, b: BusFile) -> std::result::Result<Bus, String> {
         let iface = b.iface.ok_or_else(|| {
             format!("{at}: give iface = \"can0\" or \"slcan:PATH\" (or simulate = true)")
         })?;
-        let parsed = crate::sbus::iface::Iface::parse(&iface).map_err(|e| format!("{at}: {e}"))?;
+        // `drivectl sbus --iface` parses it; its messages name the option, these the key.
+        let parsed = crate::sbus::iface::Iface::parse(&iface).map_err(|e| {
+            let text = e.to_string();
+            let why = text
+                .strip_prefix(&format!("--iface {}: ", iface.trim()))
+                .unwrap_or(&text);
+            if iface.trim().is_empty() {
+                format!("{at}: iface = \"\": give \"can0\" or \"slcan:PATH\" (or simulate = true)")
+            } else {
+                format!("{at}: iface = {iface:?}: {why}")
+            }
+        })?;
         match parsed {
             crate::sbus::iface::Iface::Slcan { bitrate: given, .. } if iface.contains('@') => {
                 if b.bitrate.is_some() && given.bits_per_second() != bitrate {
@@ -1113,6 +1124,34 @@ writable = true
             ),
             (
                 with(
+                    "protocol = \"movilink\"\nport = \"/dev/ttyUSB0\"",
+                    "protocol = \"sbus\"\niface = \"slcan:\"",
+                ),
+                "iface = \"slcan:\": no serial port after slcan:",
+            ),
+            (
+                with(
+                    "protocol = \"movilink\"\nport = \"/dev/ttyUSB0\"",
+                    "protocol = \"sbus\"\niface = \"slcan:/dev/x@300k\"",
+                ),
+                "iface = \"slcan:/dev/x@300k\": ",
+            ),
+            (
+                with(
+                    "protocol = \"movilink\"\nport = \"/dev/ttyUSB0\"",
+                    "protocol = \"sbus\"\niface = \"\"",
+                ),
+                "iface = \"\": give \"can0\"",
+            ),
+            (
+                with(
+                    "protocol = \"movilink\"\nport = \"/dev/ttyUSB0\"",
+                    "protocol = \"sbus\"\niface = \"a/b\"",
+                ),
+                "iface = \"a/b\": not a SocketCAN interface name",
+            ),
+            (
+                with(
                     "[[bus.drive.param]]",
                     "[bus.drive.process_data]\nperiod = \"20ms\"\nout = [1,2,3,4]\n[[bus.drive.param]]",
                 ),
@@ -1127,6 +1166,7 @@ writable = true
                 .map(|(l, _)| l.parse::<usize>());
             assert!(matches!(line, Some(Ok(_))), "no line: {e}");
             assert!(e.contains(needle), "`{needle}` not in: {e}");
+            assert!(!e.contains("--"), "a command-line option in: {e}");
         }
     }
 
