@@ -98,8 +98,13 @@ impl Gateway {
 
     /// SIGTERM (systemd's stop) and wait for the exit (5 s at most); the exit status.
     fn terminate(&mut self) -> std::process::ExitStatus {
+        self.stop_with("TERM")
+    }
+
+    /// Send `sig` and wait for the exit (5 s at most); the exit status.
+    fn stop_with(&mut self, sig: &str) -> std::process::ExitStatus {
         let mut child = self.child.take().expect("running");
-        signal(child.id(), "TERM");
+        signal(child.id(), sig);
         let deadline = Instant::now() + Duration::from_secs(5);
         loop {
             if let Some(s) = child.try_wait().unwrap() {
@@ -108,7 +113,7 @@ impl Gateway {
             if Instant::now() > deadline {
                 let _ = child.kill();
                 panic!(
-                    "the gateway did not stop within 5 s of SIGTERM:\n{}",
+                    "the gateway did not stop within 5 s of SIG{sig}:\n{}",
                     self.log()
                 );
             }
@@ -139,6 +144,34 @@ fn signal(pid: u32, sig: &str) {
         .unwrap()
         .success();
     assert!(ok, "kill -{sig} {pid}");
+}
+
+/// Every figure in the gateway's log is rounded to what is meaningful: no number with more
+/// than four decimals (`demand=0.06797656140000001` was one), timestamps aside.
+fn assert_figures_rounded(log: &str) {
+    for line in log.lines() {
+        // The timestamp at the start of a text line has its own fraction of a second.
+        let rest = line.split_once(' ').map_or(line, |(first, rest)| {
+            if first.contains('T') && first.ends_with('Z') {
+                rest
+            } else {
+                line
+            }
+        });
+        let bytes = rest.as_bytes();
+        let mut i = 0;
+        while i < bytes.len() {
+            if bytes[i] == b'.' && i > 0 && bytes[i - 1].is_ascii_digit() {
+                let decimals = bytes[i + 1..]
+                    .iter()
+                    .take_while(|b| b.is_ascii_digit())
+                    .count();
+                assert!(decimals <= 4, "a figure not rounded in: {line}");
+                i += decimals;
+            }
+            i += 1;
+        }
+    }
 }
 
 fn now_ms() -> u64 {
@@ -828,6 +861,12 @@ async fn the_example_config_runs_with_simulate() {
         .unwrap();
     assert!(out.status.success());
     let example = String::from_utf8(out.stdout).unwrap();
+    // The documented sequence (docs/gateway.md, README): the example serves /metrics on
+    // 127.0.0.1:9464, which `curl` then reads. Here on a free port, as tests run side by side.
+    let documented = "metrics = \"127.0.0.1:9464\"";
+    assert!(example.contains(documented), "{example}");
+    let port = free_port();
+    let example = example.replace(documented, &format!("metrics = \"127.0.0.1:{port}\""));
     let mut c = TestClient::connect(
         broker.client_options("scada", None),
         &["drivebus/cabinet-1/#"],
@@ -844,6 +883,8 @@ async fn the_example_config_runs_with_simulate() {
         )
         .await;
     assert!(online.is_some(), "{}", gw.log());
+    let metrics = scrape(port);
+    assert!(metrics.contains("drivebus_broker_connected 1"), "{metrics}");
     // The drives and writable points of the example, from the file itself.
     let plant: toml::Value = toml::from_str(&example).unwrap();
     let mut sets = 0;
@@ -1004,6 +1045,21 @@ async fn a_flood_of_sets_for_unknown_points_is_logged_once() {
 /// as `drivectl pd` stops it at its end: read back directly afterwards, it is no longer enabled.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn sigterm_stops_the_drives_the_gateway_controls() {
+    stops_the_drives_at("TERM").await;
+}
+
+/// Issue 18: SIGHUP (a closed terminal, or a reload asked for) and SIGQUIT stop the gateway as
+/// SIGTERM does, with the stop in the process data; they killed it without one (the signals'
+/// default action) and left the drive enabled.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn issue18_sighup_and_sigquit_stop_the_drives_the_gateway_controls() {
+    stops_the_drives_at("HUP").await;
+    stops_the_drives_at("QUIT").await;
+}
+
+/// A MOVILINK drive enabled over process data by the gateway, then `sig` to the gateway: it
+/// exits successfully, says it stopped on `sig`, and the drive read back is no longer enabled.
+async fn stops_the_drives_at(sig: &str) {
     let Some(broker) = broker(BrokerOptions::default()) else {
         return;
     };
@@ -1031,8 +1087,22 @@ async fn sigterm_stops_the_drives_the_gateway_controls() {
         )
         .await;
     assert_eq!(pd["out"], json!([6, 7500, 0]), "{pd}");
-    let status = gw.terminate();
-    assert!(status.success(), "{}", gw.log());
+    let status = gw.stop_with(sig);
+    assert!(status.success(), "SIG{sig}: {status:?}\n{}", gw.log());
+    assert_figures_rounded(&gw.log());
+    assert!(
+        gw.log()
+            .lines()
+            .any(|l| l.contains("bus polling starts") && l.contains(" %") && l.contains("demand=")),
+        "{}",
+        gw.log()
+    );
+    assert!(
+        gw.log().contains(&format!("signal=\"SIG{sig}\""))
+            || gw.log().contains(&format!("signal=SIG{sig}")),
+        "{}",
+        gw.log()
+    );
     assert!(
         gw.log().contains("stop sent in the process data"),
         "{}",
@@ -1107,4 +1177,240 @@ async fn an_unusable_wear_log_refuses_eeprom_writes_only() {
     )
     .await;
     assert_eq!(r["outcome"], "written", "{r}");
+}
+
+/// Issue 18 A2, end to end: `drivectl gateway --check` refuses a NORD parameter set, a NORD
+/// array element and a Bonfiglioli data set the table does not give the parameter, and a
+/// write to a read-only parameter, naming the file's line and the config key (exit 2, nothing
+/// on standard output); the example config passes.
+#[test]
+fn issue18_check_refuses_selectors_the_table_does_not_have() {
+    let dir = std::env::temp_dir().join(format!("drivebus-gw-check-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let head = "[gateway]\nname = \"gw\"\nbroker = \"mqtt://127.0.0.1:1883\"\n\n";
+    let cases = [
+        (
+            "[[bus]]\nname = \"line1\"\nprotocol = \"uss\"\nport = \"/dev/ttyUSB0\"\n\n\
+             [[bus.drive]]\nname = \"pump\"\naddress = 1\n\n\
+             [[bus.drive.param]]\nparam = \"P102\"\nname = \"ramp\"\nperiod = \"1s\"\nset = 5\n",
+            "set = 5",
+            "bus \"line1\" drive \"pump\" point \"ramp\": set = 5: P102 acceleration time has parameter sets 1–4",
+        ),
+        (
+            "[[bus]]\nname = \"line1\"\nprotocol = \"uss\"\nport = \"/dev/ttyUSB0\"\n\n\
+             [[bus.drive]]\nname = \"pump\"\naddress = 1\n\n\
+             [[bus.drive.param]]\nparam = \"P543\"\nname = \"actual\"\nperiod = \"1s\"\n",
+            "param = ",
+            "point \"actual\": P543 bus actual value is an array of 3 elements ([-01]…[-03]): give array = 1…3",
+        ),
+        (
+            "[[bus]]\nname = \"line3\"\nprotocol = \"modbus-rtu\"\nport = \"/dev/ttyUSB2\"\n\n\
+             [[bus.drive]]\nname = \"fan\"\naddress = 1\n\n\
+             [[bus.drive.param]]\nparam = \"260\"\nname = \"fault\"\nperiod = \"1s\"\ndata_set = 2\n",
+            "data_set = 2",
+            "point \"fault\": data_set = 2: 260 Current fault has no data sets",
+        ),
+        (
+            "[[bus]]\nname = \"line1\"\nprotocol = \"uss\"\nport = \"/dev/ttyUSB0\"\n\n\
+             [[bus.drive]]\nname = \"pump\"\naddress = 1\n\n\
+             [[bus.drive.param]]\nparam = \"P700\"\narray = 1\nname = \"fault\"\nwritable = true\n",
+            "writable = true",
+            "point \"fault\": writable = true: P700 present fault is read-only",
+        ),
+    ];
+    for (bus, key, needle) in cases {
+        let text = format!("{head}{bus}");
+        let path = dir.join("plant.toml");
+        std::fs::write(&path, &text).unwrap();
+        let line = text.lines().position(|l| l.starts_with(key)).unwrap() + 1;
+        let out = Command::new(env!("CARGO_BIN_EXE_drivectl"))
+            .args(["gateway", "--check", "--config"])
+            .arg(&path)
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{stderr}");
+        assert!(
+            out.stdout.is_empty(),
+            "{}",
+            String::from_utf8_lossy(&out.stdout)
+        );
+        let at = format!("{}:{line}: ", path.display());
+        assert!(stderr.contains(&at), "not at {at}: {stderr}");
+        assert!(stderr.contains(needle), "`{needle}` not in: {stderr}");
+        assert!(!stderr.contains("--"), "a command-line option in: {stderr}");
+    }
+    // The example config passes --check as it is.
+    let example = Command::new(env!("CARGO_BIN_EXE_drivectl"))
+        .args(["gateway", "--example-config"])
+        .output()
+        .unwrap();
+    std::fs::write(dir.join("example.toml"), &example.stdout).unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_drivectl"))
+        .args(["gateway", "--check", "--config"])
+        .arg(dir.join("example.toml"))
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// Issue 18 A4: a retained 1.5 MiB message on a `set` topic (over the gateway's 1 MiB limit)
+/// does not end the gateway's connection: it stays connected (one ConnAck, no reconnection,
+/// its status never `offline`), normal sets are executed, and the oversize message is never
+/// executed. Beside it: a retained 1.5 MiB message on a topic the gateway does not subscribe
+/// to changes nothing, and a live set just under the limit arrives and is refused as
+/// `bad_request` on its result.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn issue18_an_oversize_retained_set_does_not_end_the_connection() {
+    let Some(broker) = broker(BrokerOptions::default()) else {
+        return;
+    };
+    let topic = "drivebus/gw/ml/d1/ramp";
+    // A publisher that may send large messages, subscribed to nothing.
+    let mut big = broker.client_options("big", None);
+    big.set_max_packet_size(4 << 20, 4 << 20);
+    let publisher = TestClient::connect(big, &[]).await;
+    let huge = |n: usize| {
+        let mut body = json!({"value": 9.9, "id": "huge", "pad": ""}).to_string();
+        body.insert_str(body.len() - 2, &"x".repeat(n));
+        body
+    };
+    publisher
+        .publish(&format!("{topic}/set"), huge(3 << 19), true)
+        .await;
+    publisher
+        .publish("drivebus/gw/ml/other/status", huge(3 << 19), true)
+        .await;
+    // SCADA watches the gateway's topics, not the set topics (the huge message is over its
+    // own client's limit too).
+    let mut c = TestClient::connect(
+        broker.client_options("scada", None),
+        &[
+            "drivebus/gw/status",
+            "drivebus/gw/ml/d1/status",
+            topic,
+            &format!("{topic}/result"),
+        ],
+    )
+    .await;
+    let mut seen = Seen::default();
+    let config = format!(
+        "{}{}",
+        gateway_table(&broker, ""),
+        simulated_bus("200ms", true)
+    );
+    let mut gw = Gateway::start(&config, &[]);
+    seen.wait(&mut c, "drivebus/gw/status", Duration::from_secs(10), |p| {
+        p == b"online"
+    })
+    .await
+    .unwrap_or_else(|| panic!("never online:\n{}", gw.log()));
+    seen.json(&mut c, topic, Duration::from_secs(10), |v| v["raw"] == 2000)
+        .await;
+    // Several seconds of operation: a reconnection would have come twice a second.
+    tokio::time::sleep(Duration::from_secs(3)).await;
+    let r = set(
+        &mut seen,
+        &mut c,
+        topic,
+        json!({"value": 2.5, "id": 1, "ts": now_ms()}),
+    )
+    .await;
+    assert_eq!(r["outcome"], "written", "{r}\n{}", gw.log());
+    // Just under the limit: taken from the broker, refused as too large for a set.
+    publisher
+        .publish(&format!("{topic}/set"), huge((1 << 20) - 200), false)
+        .await;
+    let r = seen
+        .json(
+            &mut c,
+            &format!("{topic}/result"),
+            Duration::from_secs(10),
+            |v| v["outcome"] == "refused",
+        )
+        .await;
+    // Refused before it is parsed: its id is not read.
+    assert_eq!(r["reason"], "bad_request", "{r}");
+    assert!(r["message"].as_str().unwrap().contains("4096"), "{r}");
+    seen.wait(&mut c, "drivebus/gw/status", Duration::from_secs(1), |_| {
+        false
+    })
+    .await;
+    let statuses = seen
+        .0
+        .get("drivebus/gw/status")
+        .cloned()
+        .unwrap_or_default();
+    assert!(
+        statuses.iter().all(|p| p == b"online"),
+        "the status flapped: {:?}",
+        statuses
+            .iter()
+            .map(|p| String::from_utf8_lossy(p).into_owned())
+            .collect::<Vec<_>>()
+    );
+    let log = gw.log();
+    assert_eq!(
+        log.matches("connected to the broker").count(),
+        1,
+        "reconnected:\n{log}"
+    );
+    assert!(!log.contains("lost the broker connection"), "{log}");
+    assert_figures_rounded(&log);
+    // The broker dropped the oversize set for the gateway (MQTT 5: it honours the client's
+    // Maximum Packet Size) and logged that it did; the gateway never saw it, so it could not
+    // answer it on its result.
+    let broker_log = std::fs::read_to_string(broker.dir.join("mosquitto.log")).unwrap();
+    assert!(
+        broker_log.contains("Dropping too large outgoing PUBLISH for drivebus-gw"),
+        "{broker_log}"
+    );
+    assert!(gw.terminate().success());
+    let results = seen
+        .0
+        .get(&format!("{topic}/result"))
+        .cloned()
+        .unwrap_or_default();
+    assert_eq!(results.len(), 2, "one written, one bad_request");
+}
+
+/// Issue 18: two gateways with one `client_id` on a broker. The broker ends the older
+/// connection when the newer one connects (Mosquitto closes it without a DISCONNECT); the log
+/// says the client id is probably in use by another client and names the key to change (it
+/// said only "Connection closed by peer abruptly").
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn issue18_two_gateways_with_one_client_id_are_told_apart_in_the_log() {
+    let Some(broker) = broker(BrokerOptions::default()) else {
+        return;
+    };
+    let config = format!(
+        "{}{}",
+        gateway_table(&broker, "client_id = \"cabinet\""),
+        simulated_bus("1s", false)
+    );
+    let mut c = subscriber(&broker, "scada").await;
+    let mut seen = Seen::default();
+    let mut first = Gateway::start(&config, &[]);
+    seen.wait(&mut c, "drivebus/gw/status", Duration::from_secs(10), |p| {
+        p == b"online"
+    })
+    .await
+    .unwrap_or_else(|| panic!("never online:\n{}", first.log()));
+    let mut second = Gateway::start(&config, &[]);
+    let deadline = Instant::now() + Duration::from_secs(10);
+    let said = "the client id \"cabinet\" is probably in use by another client";
+    while !first.log().contains(said) && Instant::now() < deadline {
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    let log = first.log();
+    assert!(log.contains(said), "{log}");
+    assert!(log.contains("[gateway] client_id"), "{log}");
+    assert!(!log.contains("closed by peer abruptly"), "{log}");
+    assert!(first.terminate().success());
+    assert!(second.terminate().success());
 }

@@ -346,6 +346,14 @@ impl<'a, IO: CharIo> BonfiglioliClient<'a, IO> {
         }
     }
 
+    /// The widths of parameters without a data type, by parameter number, as the caller
+    /// knows them (the gateway's `width` key): used as `--word`/`--long` are, for those
+    /// parameters only.
+    pub fn with_widths(mut self, widths: impl IntoIterator<Item = (u16, Width)>) -> Self {
+        self.probed.extend(widths);
+        self
+    }
+
     /// Find the width of parameters without a data type by trying (backup, restore).
     pub fn probing(mut self) -> Self {
         self.unknown = UnknownWidth::Probe;

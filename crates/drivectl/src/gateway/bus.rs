@@ -69,16 +69,40 @@ pub trait BusAccess {
         out: &[u16],
     ) -> Result<Result<Vec<u16>, String>, ClientError>;
 
-    /// What a person should know before the gateway exchanges process data with the drive at
-    /// `address` (a few parameter reads): the drive ignores process output, no output word is
-    /// a control word, or its bus timeout is off (it would keep running if the gateway went
-    /// quiet). Empty where all is well or the family has nothing to check.
+    /// What a person should know before the gateway exchanges process data `out` every
+    /// `period` with the drive at `address` (a few parameter reads): the drive ignores process
+    /// output, no output word is a control word, its bus timeout is off (it would keep running
+    /// if the gateway went quiet), or the period is at or above that timeout (the drive would
+    /// trip between two cycles). Empty where all is well or the family has nothing to check.
+    /// It also learns where the drive's input words carry its status (see
+    /// [`BusAccess::fault_in_inputs`]).
     async fn process_data_warnings(
         &mut self,
         _address: u8,
         _out: &[u16],
+        _period: Duration,
     ) -> Result<Vec<String>, ClientError> {
         Ok(Vec::new())
+    }
+
+    /// What a person should know about a drive that watches its link for requests (Bonfiglioli
+    /// 413 watchdog: no valid request for that long trips F2010) when the gateway's requests
+    /// to it may be `gap` apart (its shortest period, the status reads included): a watchdog
+    /// at or below the gap trips the drive between two. Empty where all is well or the family
+    /// has no such watchdog.
+    async fn watchdog_warnings(
+        &mut self,
+        _address: u8,
+        _gap: Duration,
+    ) -> Result<Vec<String>, ClientError> {
+        Ok(Vec::new())
+    }
+
+    /// The drive's fault as its process input words `inputs` show it: `Some(None)` no fault,
+    /// `Some(Some(text))` the fault (as [`BusAccess::fault`] names it), `None` where the inputs
+    /// carry no status word (then only the status reads tell).
+    fn fault_in_inputs(&self, _address: u8, _inputs: &[u16]) -> Option<Option<String>> {
+        None
     }
 
     /// The drive's fault, decoded (`None`: no fault). One transaction.

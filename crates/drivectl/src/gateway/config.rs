@@ -10,19 +10,22 @@ use std::time::Duration;
 use drive_profile::Family;
 use drive_transport::serial::{Parity, StopBits};
 use serde::Deserialize;
+use toml::Spanned;
 
 use crate::error::{CliError, Result};
 use crate::tool::client::Target;
+
+mod point;
 
 /// The file as written.
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct File {
     /// `[gateway]`.
-    pub gateway: GatewayFile,
+    pub gateway: Spanned<GatewayFile>,
     /// `[[bus]]`.
     #[serde(default, rename = "bus")]
-    pub buses: Vec<BusFile>,
+    pub buses: Vec<Spanned<BusFile>>,
 }
 
 /// `[gateway]`.
@@ -93,7 +96,7 @@ pub struct BusFile {
     pub simulate: bool,
     /// `[[bus.drive]]`.
     #[serde(default, rename = "drive")]
-    pub drives: Vec<DriveFile>,
+    pub drives: Vec<Spanned<DriveFile>>,
 }
 
 /// `[[bus.drive]]`.
@@ -108,33 +111,36 @@ pub struct DriveFile {
     pub family: Option<String>,
     /// `[[bus.drive.param]]`.
     #[serde(default, rename = "param")]
-    pub params: Vec<ParamFile>,
+    pub params: Vec<Spanned<ParamFile>>,
     /// `[bus.drive.process_data]`.
-    pub process_data: Option<ProcessDataFile>,
+    pub process_data: Option<Spanned<ProcessDataFile>>,
 }
 
-/// `[[bus.drive.param]]`.
+/// `[[bus.drive.param]]` (every key with its place in the file, for the messages).
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ParamFile {
     /// The parameter as `drivectl` names it (`P130`, `8318`, `P102`, `420`).
-    pub param: String,
+    pub param: Spanned<String>,
     /// Topic name (default: the parameter key with `/`, `+`, `#` and spaces replaced).
-    pub name: Option<String>,
+    pub name: Option<Spanned<String>>,
     /// Poll period; without one the parameter is read only after a write.
-    pub period: Option<String>,
+    pub period: Option<Spanned<String>>,
     /// May be set through `…/set`.
-    #[serde(default)]
-    pub writable: bool,
-    /// Bonfiglioli data set 0–9 (default 0; 5–9 are the RAM images of 0–4).
-    pub data_set: Option<u8>,
-    /// NORD array element, 1-based as the manual counts them (`P543 [-02]` is 2).
-    pub array: Option<u8>,
-    /// NORD parameter set 1–4 (parameters with one value per set).
-    pub set: Option<u8>,
+    pub writable: Option<Spanned<bool>>,
+    /// Bonfiglioli data set 0–9 (default 0; 5–9 are the RAM images of 0–4); only those the
+    /// parameter has.
+    pub data_set: Option<Spanned<u8>>,
+    /// NORD array element, 1-based as the manual counts them (`P543 [-02]` is 2); required for
+    /// an array, refused for a parameter that is none.
+    pub array: Option<Spanned<u8>>,
+    /// NORD parameter set 1–4 (parameters with one value per set; default 1).
+    pub set: Option<Spanned<u8>>,
+    /// Bonfiglioli: the bus width in bits, 16 (FC 3/6) or 32 (FC 100/101), for a parameter
+    /// the manual gives no data type.
+    pub width: Option<Spanned<u8>>,
     /// Writes go to EEPROM (guarded against wear) instead of RAM.
-    #[serde(default)]
-    pub eeprom: bool,
+    pub eeprom: Option<Spanned<bool>>,
 }
 
 /// `[bus.drive.process_data]`: the gateway exchanges process data with the drive as its
@@ -215,51 +221,6 @@ impl Protocol {
             Protocol::Uss => (9600, Parity::Even),
             Protocol::ModbusRtu | Protocol::ModbusAscii => (9600, Parity::None),
             Protocol::Sbus => (0, Parity::None),
-        }
-    }
-
-    /// Resolve a `[[bus.drive.param]]` as the family's commands do (`drivectl movilink read
-    /// P130`, `drivectl uss read P543 --array 2`, `drivectl bonfiglioli read 420`).
-    fn resolve(self, p: &ParamFile) -> Result<Target> {
-        let family_only =
-            |what: &str, fam: &str| CliError::usage(format!("{what} is for {fam} parameters only"));
-        match self.family() {
-            Family::Nord => {
-                if p.data_set.is_some() {
-                    return Err(family_only("data_set", "Bonfiglioli"));
-                }
-                let sub = crate::nord::Sub {
-                    array: p.array,
-                    set: p.set,
-                };
-                let mut all = crate::nord::resolve(&p.param, sub, false)?;
-                if all.len() != 1 {
-                    return Err(CliError::usage(format!(
-                        "{} is an array: give array = K (1-based element)",
-                        p.param
-                    )));
-                }
-                all.pop().ok_or_else(|| CliError::usage("no parameter"))
-            }
-            Family::Bonfiglioli => {
-                if p.array.is_some() || p.set.is_some() {
-                    return Err(family_only("array and set", "NORD"));
-                }
-                let ds = p.data_set.unwrap_or(0);
-                if ds > 9 {
-                    return Err(CliError::usage(format!("data_set = {ds}: give 0–9")));
-                }
-                crate::bonfiglioli::resolve(&p.param, ds)
-            }
-            _ => {
-                if p.data_set.is_some() || p.array.is_some() || p.set.is_some() {
-                    return Err(family_only(
-                        "data_set, array and set",
-                        "Bonfiglioli or NORD",
-                    ));
-                }
-                crate::movilink::resolve(&p.param)
-            }
         }
     }
 
@@ -379,6 +340,9 @@ pub struct Point {
     pub writable: bool,
     /// Writes go to EEPROM.
     pub eeprom: bool,
+    /// Bonfiglioli: the bus width the config gives for a parameter the manual gives no data
+    /// type (`width = 16 | 32`); `None` where the table's data type is used.
+    pub width: Option<bonfiglioli_modbus::slave::Width>,
 }
 
 /// Process data of a drive.
@@ -470,12 +434,56 @@ impl Plant {
         Self::parse(text.strip_prefix('\u{feff}').unwrap_or(&text), path)
     }
 
-    /// Check the text of a config file; `origin` names it in errors.
+    /// Check the text of a config file; `origin` names it in errors (with the line:
+    /// `plant.toml:14: bus "line1" drive "pump" point "ramp": set = 5: …`).
     pub fn parse(text: &str, origin: &str) -> Result<Plant> {
-        let file: File = toml::from_str(text)
-            .map_err(|e| CliError::usage(format!("{origin}: {}", e.to_string().trim_end())))?;
-        check(file).map_err(|m| CliError::usage(format!("{origin}: {m}")))
+        let file: File = toml::from_str(text).map_err(|e: toml::de::Error| {
+            CliError::usage(match e.span() {
+                Some(at) => format!(
+                    "{origin}:{}: {}",
+                    line_of(text, at.start),
+                    e.message().trim_end()
+                ),
+                None => format!("{origin}: {}", e.to_string().trim_end()),
+            })
+        })?;
+        check(file).map_err(|f| {
+            CliError::usage(match f.at {
+                Some(at) => format!("{origin}:{}: {}", line_of(text, at), f.message),
+                None => format!("{origin}: {}", f.message),
+            })
+        })
     }
+}
+
+/// A mistake in the config: where it is (a byte offset into the file) and what to write.
+#[derive(Debug)]
+struct Fault {
+    at: Option<usize>,
+    message: String,
+}
+
+impl Fault {
+    fn new(at: usize, message: String) -> Self {
+        Fault {
+            at: Some(at),
+            message,
+        }
+    }
+
+    fn nowhere(message: String) -> Self {
+        Fault { at: None, message }
+    }
+}
+
+/// The 1-based line of byte `at` in `text`.
+fn line_of(text: &str, at: usize) -> usize {
+    text.get(..at)
+        .unwrap_or(text)
+        .bytes()
+        .filter(|b| *b == b'\n')
+        .count()
+        + 1
 }
 
 fn duration(
@@ -491,8 +499,54 @@ fn duration(
     }
 }
 
-fn check(file: File) -> std::result::Result<Plant, String> {
-    let g = file.gateway;
+fn check(file: File) -> std::result::Result<Plant, Fault> {
+    let gateway_at = file.gateway.span().start;
+    let gateway =
+        check_gateway(file.gateway.into_inner()).map_err(|m| Fault::new(gateway_at, m))?;
+    if file.buses.is_empty() {
+        return Err(Fault::nowhere(
+            "no [[bus]]: a gateway needs at least one bus".to_owned(),
+        ));
+    }
+    let mut names = HashSet::new();
+    let mut buses = Vec::new();
+    let mut places = Vec::new();
+    for b in file.buses {
+        let at = b.span().start;
+        let bus = check_bus(at, b.into_inner())?;
+        if !names.insert(bus.name.clone()) {
+            return Err(Fault::new(at, format!("bus {:?} is named twice", bus.name)));
+        }
+        buses.push(bus);
+        places.push(at);
+    }
+    let mut ports = HashSet::new();
+    for (b, at) in buses.iter().zip(places) {
+        let key = match &b.endpoint {
+            Endpoint::Serial { path, .. } => crate::tool::client::canonical_port(path),
+            Endpoint::Can { iface, .. } => match iface.strip_prefix("slcan:") {
+                // The adapter's serial port, as for a serial bus (symlinks resolved).
+                Some(rest) => crate::tool::client::canonical_port(
+                    rest.rsplit_once('@').map_or(rest, |(path, _)| path),
+                ),
+                None => iface.clone(),
+            },
+            Endpoint::Simulated { .. } => continue,
+        };
+        if !ports.insert(key.clone()) {
+            return Err(Fault::new(
+                at,
+                format!(
+                    "bus {:?}: {key} is already another bus's: one port, one bus",
+                    b.name
+                ),
+            ));
+        }
+    }
+    Ok(Plant { gateway, buses })
+}
+
+fn check_gateway(g: GatewayFile) -> std::result::Result<Gateway, String> {
     if !topic_level_ok(&g.name) {
         return Err(format!(
             "[gateway] name = {:?}: a topic level needs 1–64 characters without '/', '+', '#' or spaces",
@@ -541,7 +595,7 @@ fn check(file: File) -> std::result::Result<Plant, String> {
     if heartbeat < Duration::from_secs(1) {
         return Err("[gateway] heartbeat: at least 1s".to_owned());
     }
-    let gateway = Gateway {
+    Ok(Gateway {
         client_id: g
             .client_id
             .unwrap_or_else(|| format!("drivebus-{}", g.name)),
@@ -556,44 +610,44 @@ fn check(file: File) -> std::result::Result<Plant, String> {
         max_set_age,
         metrics,
         keep_alive,
-    };
-    if file.buses.is_empty() {
-        return Err("no [[bus]]: a gateway needs at least one bus".to_owned());
-    }
-    let mut names = HashSet::new();
-    let mut buses = Vec::new();
-    for b in file.buses {
-        let bus = check_bus(b)?;
-        if !names.insert(bus.name.clone()) {
-            return Err(format!("bus {:?} is named twice", bus.name));
-        }
-        buses.push(bus);
-    }
-    let mut ports = HashSet::new();
-    for b in &buses {
-        let key = match &b.endpoint {
-            Endpoint::Serial { path, .. } => crate::tool::client::canonical_port(path),
-            Endpoint::Can { iface, .. } => match iface.strip_prefix("slcan:") {
-                // The adapter's serial port, as for a serial bus (symlinks resolved).
-                Some(rest) => crate::tool::client::canonical_port(
-                    rest.rsplit_once('@').map_or(rest, |(path, _)| path),
-                ),
-                None => iface.clone(),
-            },
-            Endpoint::Simulated { .. } => continue,
-        };
-        if !ports.insert(key.clone()) {
-            return Err(format!(
-                "bus {:?}: {key} is already another bus's: one port, one bus",
-                b.name
-            ));
-        }
-    }
-    Ok(Plant { gateway, buses })
+    })
 }
 
-fn check_bus(b: BusFile) -> std::result::Result<Bus, String> {
+fn check_bus(place: usize, b: BusFile) -> std::result::Result<Bus, Fault> {
     let at = format!("bus {:?}", b.name);
+    let drives = b.drives;
+    let b = BusFile {
+        drives: Vec::new(),
+        ..b
+    };
+    let mut bus = check_line(&at, b).map_err(|m| Fault::new(place, m))?;
+    let mut addrs = HashSet::new();
+    let mut dnames = HashSet::new();
+    for d in drives {
+        let d_at = d.span().start;
+        let drive = check_drive(&at, bus.protocol, d_at, d.into_inner())?;
+        if !addrs.insert(drive.address) {
+            return Err(Fault::new(
+                d_at,
+                format!("{at}: two drives at address {}", drive.address),
+            ));
+        }
+        if !dnames.insert(drive.name.clone()) {
+            return Err(Fault::new(
+                d_at,
+                format!("{at}: drive {:?} is named twice", drive.name),
+            ));
+        }
+        bus.drives.push(drive);
+    }
+    if bus.drives.is_empty() {
+        return Err(Fault::new(place, format!("{at}: no [[bus.drive]]")));
+    }
+    Ok(bus)
+}
+
+/// A bus's own keys (its drives are checked by [`check_bus`]).
+fn check_line(at: &str, b: BusFile) -> std::result::Result<Bus, String> {
     if !topic_level_ok(&b.name) {
         return Err(format!(
             "{at}: a topic level needs 1–64 characters without '/', '+', '#' or spaces"
@@ -661,7 +715,18 @@ fn check_bus(b: BusFile) -> std::result::Result<Bus, String> {
         let iface = b.iface.ok_or_else(|| {
             format!("{at}: give iface = \"can0\" or \"slcan:PATH\" (or simulate = true)")
         })?;
-        let parsed = crate::sbus::iface::Iface::parse(&iface).map_err(|e| format!("{at}: {e}"))?;
+        // `drivectl sbus --iface` parses it; its messages name the option, these the key.
+        let parsed = crate::sbus::iface::Iface::parse(&iface).map_err(|e| {
+            let text = e.to_string();
+            let why = text
+                .strip_prefix(&format!("--iface {}: ", iface.trim()))
+                .unwrap_or(&text);
+            if iface.trim().is_empty() {
+                format!("{at}: iface = \"\": give \"can0\" or \"slcan:PATH\" (or simulate = true)")
+            } else {
+                format!("{at}: iface = {iface:?}: {why}")
+            }
+        })?;
         match parsed {
             crate::sbus::iface::Iface::Slcan { bitrate: given, .. } if iface.contains('@') => {
                 if b.bitrate.is_some() && given.bits_per_second() != bitrate {
@@ -741,22 +806,6 @@ fn check_bus(b: BusFile) -> std::result::Result<Bus, String> {
     if status_period < Duration::from_millis(100) {
         return Err(format!("{at}: status_period: at least 100ms"));
     }
-    if b.drives.is_empty() {
-        return Err(format!("{at}: no [[bus.drive]]"));
-    }
-    let mut drives = Vec::new();
-    let mut addrs = HashSet::new();
-    let mut dnames = HashSet::new();
-    for d in b.drives {
-        let drive = check_drive(&at, protocol, d)?;
-        if !addrs.insert(drive.address) {
-            return Err(format!("{at}: two drives at address {}", drive.address));
-        }
-        if !dnames.insert(drive.name.clone()) {
-            return Err(format!("{at}: drive {:?} is named twice", drive.name));
-        }
-        drives.push(drive);
-    }
     Ok(Bus {
         name: b.name,
         protocol,
@@ -764,7 +813,7 @@ fn check_bus(b: BusFile) -> std::result::Result<Bus, String> {
         timeout,
         retries,
         status_period,
-        drives,
+        drives: Vec::new(),
     })
 }
 
@@ -776,107 +825,91 @@ pub fn default_timeout(p: Protocol) -> Duration {
     }
 }
 
-fn check_drive(bus: &str, protocol: Protocol, d: DriveFile) -> std::result::Result<Drive, String> {
-    let at = format!("{bus}, drive {:?}", d.name);
+fn check_drive(
+    bus: &str,
+    protocol: Protocol,
+    place: usize,
+    d: DriveFile,
+) -> std::result::Result<Drive, Fault> {
+    let at = format!("{bus} drive {:?}", d.name);
+    let fail = |m: String| Fault::new(place, m);
     if !topic_level_ok(&d.name) {
-        return Err(format!(
+        return Err(fail(format!(
             "{at}: a topic level needs 1–64 characters without '/', '+', '#' or spaces"
-        ));
+        )));
     }
     let family = protocol.family();
     if let Some(f) = &d.family
         && !f.eq_ignore_ascii_case(&family.to_string())
     {
-        return Err(format!(
+        return Err(fail(format!(
             "{at}: family = {f:?}, but {} talks to {family} drives",
             protocol.name()
-        ));
+        )));
     }
     let r = protocol.addresses();
     if !r.contains(&d.address) {
-        return Err(format!(
+        return Err(fail(format!(
             "{at}: address = {}: {} drives have addresses {}–{}",
             d.address,
             protocol.name(),
             r.start(),
             r.end()
-        ));
+        )));
     }
-    let mut points = Vec::new();
+    let mut points: Vec<Point> = Vec::new();
     let mut names = HashSet::new();
     for p in d.params {
-        let target = protocol.resolve(&p).map_err(|e| format!("{at}: {e}"))?;
-        let name = p.name.clone().unwrap_or_else(|| {
-            p.param
-                .trim()
-                .chars()
-                .map(|c| {
-                    if topic_level_ok(&c.to_string()) {
-                        c
-                    } else {
-                        '_'
-                    }
-                })
-                .collect()
-        });
-        if !topic_level_ok(&name) || matches!(name.as_str(), "status" | "pd" | "set" | "result") {
-            return Err(format!(
-                "{at}: parameter name {name:?}: one topic level, not status, pd, set or result"
+        let p_at = p.span().start;
+        let p = p.into_inner();
+        let point = check_point(&at, protocol, p_at, &p)?;
+        if !names.insert(point.name.clone()) {
+            return Err(Fault::new(
+                p_at,
+                format!("{at}: point {:?} is listed twice", point.name),
             ));
         }
-        if !names.insert(name.clone()) {
-            return Err(format!("{at}: {name:?} is listed twice"));
-        }
-        let period = match &p.period {
-            None => None,
-            Some(t) => {
-                let v = parse_duration(t).ok_or_else(|| {
-                    format!(
-                        "{at}, {name}: period = {t:?}: give a duration like \"500ms\" or \"5s\""
-                    )
-                })?;
-                if v < Duration::from_millis(1) {
-                    return Err(format!("{at}, {name}: period: at least 1ms"));
-                }
-                Some(v)
-            }
-        };
-        if period.is_none() && !p.writable {
-            return Err(format!(
-                "{at}, {name}: neither polled (period) nor writable: nothing to do"
+        // One width per parameter of a drive (the client keeps it by parameter number).
+        if let Some(other) = points.iter().find(|o| {
+            o.target.index == point.target.index && o.width.is_some() && o.width != point.width
+        }) {
+            return Err(Fault::new(
+                place_of(&p.width, p_at),
+                format!(
+                    "{at} point {:?}: width differs from point {:?} of the same parameter: give \
+                     one width",
+                    point.name, other.name
+                ),
             ));
         }
-        points.push(Point {
-            name,
-            target,
-            period,
-            writable: p.writable,
-            eeprom: p.eeprom,
-        });
+        points.push(point);
     }
     let process_data = match d.process_data {
         None => None,
         Some(pd) => {
+            let pd_at = pd.span().start;
+            let pd = pd.into_inner();
+            let fail = |m: String| Fault::new(pd_at, m);
             if !protocol.has_process_data() {
-                return Err(format!(
+                return Err(fail(format!(
                     "{at}: {} has no process data; poll parameters instead",
                     protocol.name()
-                ));
+                )));
             }
             let period = parse_duration(&pd.period)
                 .filter(|p| *p >= Duration::from_millis(1))
                 .ok_or_else(|| {
-                    format!(
+                    fail(format!(
                         "{at}: process_data period = {:?}: give 1ms or more",
                         pd.period
-                    )
+                    ))
                 })?;
             let max = match protocol {
                 Protocol::Uss => 16,
                 _ => 3,
             };
             if pd.out.is_empty() || pd.out.len() > max {
-                return Err(format!("{at}: process_data out: 1–{max} words"));
+                return Err(fail(format!("{at}: process_data out: 1–{max} words")));
             }
             Some(ProcessData {
                 period,
@@ -885,13 +918,84 @@ fn check_drive(bus: &str, protocol: Protocol, d: DriveFile) -> std::result::Resu
         }
     };
     if points.is_empty() && process_data.is_none() {
-        return Err(format!("{at}: no [[bus.drive.param]] and no process data"));
+        return Err(fail(format!(
+            "{at}: no [[bus.drive.param]] and no process data"
+        )));
     }
     Ok(Drive {
         name: d.name,
         address: d.address,
         points,
         process_data,
+    })
+}
+
+/// Where an optional key is, else `or`.
+fn place_of<T>(k: &Option<Spanned<T>>, or: usize) -> usize {
+    k.as_ref().map_or(or, |s| s.span().start)
+}
+
+/// One `[[bus.drive.param]]` of the drive `drive` (`bus "b" drive "d"`) at `place`.
+fn check_point(
+    drive: &str,
+    protocol: Protocol,
+    place: usize,
+    p: &ParamFile,
+) -> std::result::Result<Point, Fault> {
+    let name = match &p.name {
+        Some(n) => n.get_ref().clone(),
+        None => p
+            .param
+            .get_ref()
+            .trim()
+            .chars()
+            .map(|c| {
+                if topic_level_ok(&c.to_string()) {
+                    c
+                } else {
+                    '_'
+                }
+            })
+            .collect(),
+    };
+    if !topic_level_ok(&name) || matches!(name.as_str(), "status" | "pd" | "set" | "result") {
+        return Err(Fault::new(
+            place_of(&p.name, place),
+            format!("{drive}: point name {name:?}: one topic level, not status, pd, set or result"),
+        ));
+    }
+    let at = format!("{drive} point {name:?}");
+    let resolved = point::resolve(protocol, p, &at)?;
+    let period = match &p.period {
+        None => None,
+        Some(t) => {
+            let fail = |m: String| Fault::new(t.span().start, m);
+            let t = t.get_ref();
+            let v = parse_duration(t).ok_or_else(|| {
+                fail(format!(
+                    "{at}: period = {t:?}: give a duration like \"500ms\" or \"5s\""
+                ))
+            })?;
+            if v < Duration::from_millis(1) {
+                return Err(fail(format!("{at}: period = {t:?}: at least 1ms")));
+            }
+            Some(v)
+        }
+    };
+    let writable = p.writable.as_ref().is_some_and(|w| *w.get_ref());
+    if period.is_none() && !writable {
+        return Err(Fault::new(
+            place,
+            format!("{at}: neither polled (period) nor writable: nothing to do"),
+        ));
+    }
+    Ok(Point {
+        name,
+        target: resolved.target,
+        period,
+        writable,
+        eeprom: p.eeprom.as_ref().is_some_and(|e| *e.get_ref()),
+        width: resolved.width,
     })
 }
 
@@ -1020,6 +1124,34 @@ writable = true
             ),
             (
                 with(
+                    "protocol = \"movilink\"\nport = \"/dev/ttyUSB0\"",
+                    "protocol = \"sbus\"\niface = \"slcan:\"",
+                ),
+                "iface = \"slcan:\": no serial port after slcan:",
+            ),
+            (
+                with(
+                    "protocol = \"movilink\"\nport = \"/dev/ttyUSB0\"",
+                    "protocol = \"sbus\"\niface = \"slcan:/dev/x@300k\"",
+                ),
+                "iface = \"slcan:/dev/x@300k\": ",
+            ),
+            (
+                with(
+                    "protocol = \"movilink\"\nport = \"/dev/ttyUSB0\"",
+                    "protocol = \"sbus\"\niface = \"\"",
+                ),
+                "iface = \"\": give \"can0\"",
+            ),
+            (
+                with(
+                    "protocol = \"movilink\"\nport = \"/dev/ttyUSB0\"",
+                    "protocol = \"sbus\"\niface = \"a/b\"",
+                ),
+                "iface = \"a/b\": not a SocketCAN interface name",
+            ),
+            (
+                with(
                     "[[bus.drive.param]]",
                     "[bus.drive.process_data]\nperiod = \"20ms\"\nout = [1,2,3,4]\n[[bus.drive.param]]",
                 ),
@@ -1028,8 +1160,13 @@ writable = true
         ];
         for (text, needle) in cases {
             let e = err(&text);
-            assert!(e.starts_with("plant.toml: "), "{e}");
+            let line = e
+                .strip_prefix("plant.toml:")
+                .and_then(|r| r.split_once(": "))
+                .map(|(l, _)| l.parse::<usize>());
+            assert!(matches!(line, Some(Ok(_))), "no line: {e}");
             assert!(e.contains(needle), "`{needle}` not in: {e}");
+            assert!(!e.contains("--"), "a command-line option in: {e}");
         }
     }
 
@@ -1145,13 +1282,382 @@ writable = true
         assert_eq!(p.buses[0].drives[0].points[0].target.family, Family::Nord);
         let bonf = MINIMAL
             .replace("\"movilink\"", "\"modbus-rtu\"")
-            .replace("P130", "420")
+            .replace("P130", "372")
             .replace("writable = true", "writable = true\ndata_set = 7");
         let p = Plant::parse(&bonf, "p").unwrap();
         assert_eq!(p.buses[0].drives[0].points[0].target.sub, 7);
         let wrong = MINIMAL.replace("writable = true", "writable = true\ndata_set = 1");
-        assert!(err(&wrong).contains("for Bonfiglioli or NORD parameters only"));
+        assert!(err(&wrong).contains("data_set is for bonfiglioli parameters only"));
         let fam = MINIMAL.replace("address = 1", "address = 1\nfamily = \"nord\"");
         assert!(err(&fam).contains("movilink talks to"));
+    }
+
+    /// A config of one drive `d` on bus `b` of `protocol` with one point `pt` of `lines`.
+    fn one_point(protocol: &str, lines: &str) -> String {
+        format!(
+            "[gateway]\nname = \"gw\"\nbroker = \"mqtt://h\"\n\n[[bus]]\nname = \"b\"\n\
+             protocol = \"{protocol}\"\nsimulate = true\n\n[[bus.drive]]\nname = \"d\"\n\
+             address = 1\n\n[[bus.drive.param]]\nname = \"pt\"\nperiod = \"1s\"\n{lines}\n"
+        )
+    }
+
+    /// Issue 18 A2: every parameter set, array element and data set the table does not give
+    /// the parameter, a write to a parameter the gateway must not write, and a Modbus
+    /// parameter without a data type and without `width` are refused at load, with the key
+    /// and its line, never a command-line option.
+    #[test]
+    fn issue18_selectors_the_table_does_not_have_are_refused() {
+        // (protocol, the point's lines, the key whose line is named, what the message says)
+        let cases: &[(&str, &str, &str, &str)] = &[
+            // NORD parameter sets: 1–4 where the parameter has sets, none where it has none.
+            (
+                "uss",
+                "param = \"P102\"\nset = 0",
+                "set = 0",
+                "P102 acceleration time has parameter sets 1–4",
+            ),
+            (
+                "uss",
+                "param = \"P102\"\nset = 5",
+                "set = 5",
+                "has parameter sets 1–4",
+            ),
+            (
+                "uss",
+                "param = \"P102\"\nset = 7",
+                "set = 7",
+                "has parameter sets 1–4",
+            ),
+            (
+                "uss",
+                "param = \"P102\"\nset = 99",
+                "set = 99",
+                "has parameter sets 1–4",
+            ),
+            (
+                "uss",
+                "param = \"P560\"\nset = 1",
+                "set = 1",
+                "P560 save to EEPROM has no parameter sets",
+            ),
+            (
+                "uss",
+                "param = \"P543\"\narray = 1\nset = 2",
+                "set = 2",
+                "has no parameter sets",
+            ),
+            // NORD array elements: 1…length of an array, none for a parameter that is none.
+            (
+                "uss",
+                "param = \"P543\"\narray = 0",
+                "array = 0",
+                "P543 bus actual value has the elements 1…3 ([-01]…[-03])",
+            ),
+            (
+                "uss",
+                "param = \"P543\"\narray = 4",
+                "array = 4",
+                "has the elements 1…3",
+            ),
+            (
+                "uss",
+                "param = \"P700\"\narray = 200",
+                "array = 200",
+                "has the elements 1…3",
+            ),
+            (
+                "uss",
+                "param = \"P543\"",
+                "param = ",
+                "is an array of 3 elements ([-01]…[-03]): give array = 1…3",
+            ),
+            (
+                "uss",
+                "param = \"P102\"\narray = 1",
+                "array = 1",
+                "P102 acceleration time is no array",
+            ),
+            // Outside the table: what the IND word can carry.
+            (
+                "uss",
+                "param = \"2000\"\nset = 0",
+                "set = 0",
+                "parameter sets 1–4",
+            ),
+            (
+                "uss",
+                "param = \"2000\"\nset = 5",
+                "set = 5",
+                "parameter sets 1–4",
+            ),
+            (
+                "uss",
+                "param = \"2000\"\narray = 0",
+                "array = 0",
+                "count from 1",
+            ),
+            (
+                "uss",
+                "param = \"2000\"\nset = 1\narray = 65",
+                "array = 65",
+                "elements 1…64",
+            ),
+            // Bonfiglioli data sets: 0–9 for data-set parameters, 0 or 5 for the others.
+            (
+                "modbus-rtu",
+                "param = \"260\"\ndata_set = 1",
+                "data_set = 1",
+                "260 Current fault has no data sets: give 0 (or 5, its RAM image)",
+            ),
+            (
+                "modbus-rtu",
+                "param = \"260\"\ndata_set = 9",
+                "data_set = 9",
+                "has no data sets",
+            ),
+            (
+                "modbus-ascii",
+                "param = \"372\"\ndata_set = 10",
+                "data_set = 10",
+                "give 0–9",
+            ),
+            (
+                "modbus-rtu",
+                "param = \"372\"\ndata_set = 6\neeprom = true\nwritable = true",
+                "eeprom = true",
+                "data_set = 6 is the RAM image of data set 1",
+            ),
+            // Bonfiglioli widths: the manual's data type, else width = 16 | 32.
+            (
+                "modbus-rtu",
+                "param = \"415\"",
+                "param = ",
+                "the manual gives no data type for 415 IDC compensation limit: give width = 16 (FC 3/6) or width = 32",
+            ),
+            (
+                "modbus-rtu",
+                "param = \"1000\"",
+                "param = ",
+                "the manual gives no data type for index 1000",
+            ),
+            (
+                "modbus-rtu",
+                "param = \"415\"\nwidth = 8",
+                "width = 8",
+                "give 16 (FC 3/6) or 32",
+            ),
+            (
+                "modbus-rtu",
+                "param = \"481\"\nwidth = 16",
+                "width = 16",
+                "the manual gives 481 Fixed frequency 2 32 bits",
+            ),
+            // A parameter the family does not have, in the config's terms.
+            (
+                "uss",
+                "param = \"P9999\"",
+                "param = ",
+                "param = \"P9999\": no nord parameter of that name or number",
+            ),
+            (
+                "modbus-rtu",
+                "param = \"P9999\"",
+                "param = ",
+                "no bonfiglioli parameter",
+            ),
+            (
+                "movilink",
+                "param = \"P9999\"",
+                "param = ",
+                "no movidrive parameter",
+            ),
+            // Keys of another family.
+            (
+                "movilink",
+                "param = \"P130\"\nset = 1",
+                "set = 1",
+                "set is for nord parameters only (uss buses)",
+            ),
+            (
+                "sbus",
+                "param = \"P130\"\narray = 1",
+                "array = 1",
+                "array is for nord parameters only",
+            ),
+            (
+                "uss",
+                "param = \"P102\"\ndata_set = 1",
+                "data_set = 1",
+                "data_set is for bonfiglioli parameters only",
+            ),
+            (
+                "uss",
+                "param = \"P102\"\nwidth = 16",
+                "width = 16",
+                "width is for bonfiglioli parameters only",
+            ),
+            (
+                "modbus-rtu",
+                "param = \"481\"\nset = 1",
+                "set = 1",
+                "set is for nord parameters only",
+            ),
+            (
+                "movilink",
+                "param = \"P130\"\ndata_set = 0",
+                "data_set = 0",
+                "data_set is for bonfiglioli",
+            ),
+            // Writes the gateway never makes: read-only, outside the table, the link's own.
+            (
+                "uss",
+                "param = \"P700\"\narray = 1\nwritable = true",
+                "writable = true",
+                "P700 present fault is read-only",
+            ),
+            (
+                "modbus-rtu",
+                "param = \"210\"\nwritable = true",
+                "writable = true",
+                "210 Stator frequency is read-only",
+            ),
+            (
+                "modbus-rtu",
+                "param = \"260\"\nwritable = true",
+                "writable = true",
+                "is read-only",
+            ),
+            (
+                "movilink",
+                "param = \"P000\"\nwritable = true",
+                "writable = true",
+                "is read-only",
+            ),
+            (
+                "sbus",
+                "param = \"P004\"\nwritable = true",
+                "writable = true",
+                "is read-only",
+            ),
+            (
+                "uss",
+                "param = \"2000\"\nwritable = true",
+                "writable = true",
+                "is not in the nord parameter table",
+            ),
+            (
+                "movilink",
+                "param = \"9999\"\nwritable = true",
+                "writable = true",
+                "is not in the movidrive parameter table",
+            ),
+            (
+                "modbus-rtu",
+                "param = \"1000\"\nwidth = 16\nwritable = true",
+                "writable = true",
+                "is not in the bonfiglioli parameter table",
+            ),
+            (
+                "movilink",
+                "param = \"P810\"\nwritable = true",
+                "writable = true",
+                "a setting of the link the gateway talks over",
+            ),
+            (
+                "sbus",
+                "param = \"P815\"\nwritable = true",
+                "writable = true",
+                "a setting of the link",
+            ),
+            (
+                "modbus-rtu",
+                "param = \"10\"\nwidth = 16\nwritable = true",
+                "writable = true",
+                "a setting of the link",
+            ),
+        ];
+        for (protocol, lines, key, needle) in cases {
+            let text = one_point(protocol, lines);
+            let line = text
+                .lines()
+                .position(|l| l.starts_with(key))
+                .map(|i| i + 1)
+                .unwrap();
+            let e = err(&text);
+            let at = format!("plant.toml:{line}: bus \"b\" drive \"d\" point \"pt\": ");
+            assert!(e.starts_with(&at), "{protocol} {lines:?}: not at {at}: {e}");
+            assert!(
+                e.contains(needle),
+                "{protocol} {lines:?}: `{needle}` not in: {e}"
+            );
+            assert!(!e.contains("--"), "a command-line option in: {e}");
+        }
+    }
+
+    /// The selectors the table has are taken, and address what they say.
+    #[test]
+    fn issue18_the_selectors_the_table_has_are_taken() {
+        use crate::tool::client::nord_sub;
+        use bonfiglioli_modbus::slave::Width;
+        let point = |protocol: &str, lines: &str| {
+            Plant::parse(&one_point(protocol, lines), "plant.toml")
+                .unwrap_or_else(|e| panic!("{protocol} {lines:?}: {e}"))
+                .buses
+                .remove(0)
+                .drives
+                .remove(0)
+                .points
+                .remove(0)
+        };
+        let p102 = drive_profile::nord::by_number(102).unwrap().pnu;
+        for set in 1..=4 {
+            let p = point(
+                "uss",
+                &format!("param = \"P102\"\nset = {set}\nwritable = true"),
+            );
+            assert_eq!(p.target.sub, nord_sub(p102, None, Some(set)), "set {set}");
+            assert_eq!(p.target.label(), format!("P102 set {set}"));
+        }
+        // Without `set`: set 1.
+        assert_eq!(
+            point("uss", "param = \"P102\"").target.label(),
+            "P102 set 1"
+        );
+        for k in 1..=3 {
+            let p = point("uss", &format!("param = \"P543\"\narray = {k}"));
+            assert_eq!(p.target.label(), format!("P543 [-{k:02}]"));
+        }
+        for ds in 0..=9u8 {
+            let p = point("modbus-rtu", &format!("param = \"372\"\ndata_set = {ds}"));
+            assert_eq!(p.target.sub, u16::from(ds));
+        }
+        for ds in [0u8, 5] {
+            assert_eq!(
+                point("modbus-rtu", &format!("param = \"260\"\ndata_set = {ds}"))
+                    .target
+                    .sub,
+                u16::from(ds)
+            );
+        }
+        // The table's width is used as it is; an untyped parameter takes the config's.
+        assert_eq!(
+            point("modbus-rtu", "param = \"481\"\nwidth = 32").width,
+            None
+        );
+        assert_eq!(
+            point("modbus-rtu", "param = \"415\"\nwidth = 16\nwritable = true").width,
+            Some(Width::Word)
+        );
+        assert_eq!(
+            point("modbus-ascii", "param = \"1000\"\nwidth = 32").width,
+            Some(Width::Long)
+        );
+        assert!(
+            point(
+                "modbus-rtu",
+                "param = \"481\"\ndata_set = 5\nwritable = true"
+            )
+            .writable
+        );
     }
 }

@@ -9,6 +9,7 @@ pub mod bus;
 pub mod config;
 pub mod families;
 pub mod load;
+pub mod logfmt;
 pub mod metrics;
 pub mod model;
 pub mod mqtt;
@@ -99,8 +100,11 @@ pub fn run(args: &GatewayArgs) -> Result<()> {
     local.block_on(&rt, serve(plant))
 }
 
-/// The gateway's tasks for `plant`, until Ctrl-C or SIGTERM.
+/// The gateway's tasks for `plant`, until Ctrl-C, SIGTERM, SIGHUP or SIGQUIT.
 pub async fn serve(plant: Plant) -> Result<()> {
+    // Taken before anything starts: from here on no stop signal ends the process without
+    // the drives' stop.
+    let mut signals = Signals::new();
     let plant = Arc::new(plant);
     let metrics = Arc::new(metrics::Metrics::new(&plant));
     // Prepared before anything else starts, so that a bad certificate or password file is
@@ -128,14 +132,17 @@ pub async fn serve(plant: Plant) -> Result<()> {
         let listener = metrics::bind(addr).await?;
         tokio::task::spawn_local(metrics::serve(listener, metrics.clone()));
     }
-    // At SIGTERM or Ctrl-C the bus tasks finish their transaction and stop the drives they
+    // At a stop signal the bus tasks finish their transaction and stop the drives they
     // control over process data (bounded), then the MQTT task says `offline`.
     let shutdown = async move {
-        shutdown_signal().await;
-        tracing::info!("stopping: the buses finish, then the broker is told offline");
+        let signal = signals.recv().await;
+        tracing::info!(
+            signal,
+            "stopping: the buses finish, then the broker is told offline"
+        );
         let _ = stop_tx.send(true);
         let all = tokio::time::timeout(BUS_STOP_LIMIT, futures_join(buses));
-        // A second Ctrl-C or SIGTERM stops at once, without waiting for the buses.
+        // A second stop signal stops at once, without waiting for the buses.
         tokio::select! {
             r = all => if r.is_err() {
                 tracing::warn!(
@@ -143,7 +150,8 @@ pub async fn serve(plant: Plant) -> Result<()> {
                     BUS_STOP_LIMIT.as_secs()
                 );
             },
-            () = shutdown_signal() => tracing::warn!(
+            signal = signals.recv() => tracing::warn!(
+                signal,
                 "stopping at once: drives controlled over process data may not have been sent their stop"
             ),
         }
@@ -162,19 +170,52 @@ async fn futures_join(tasks: Vec<tokio::task::JoinHandle<()>>) {
     }
 }
 
-/// Resolves at Ctrl-C or SIGTERM (systemd's stop).
-async fn shutdown_signal() {
-    let term = async {
-        match tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate()) {
-            Ok(mut s) => {
-                s.recv().await;
+/// The signals that stop the gateway: Ctrl-C (SIGINT), SIGTERM (systemd's stop), SIGHUP (the
+/// terminal closed, or a reload asked: a clean stop for now) and SIGQUIT. Each is taken from
+/// [`Signals::new`] on, so that none of them ends the process with its default action (without
+/// the drives' stop).
+struct Signals {
+    int: Option<tokio::signal::unix::Signal>,
+    term: Option<tokio::signal::unix::Signal>,
+    hup: Option<tokio::signal::unix::Signal>,
+    quit: Option<tokio::signal::unix::Signal>,
+}
+
+impl Signals {
+    fn new() -> Signals {
+        use tokio::signal::unix::{SignalKind, signal};
+        let take = |name: &str, kind: SignalKind| match signal(kind) {
+            Ok(s) => Some(s),
+            Err(e) => {
+                tracing::warn!(signal = name, error = %e, "cannot take the signal");
+                None
             }
-            Err(_) => std::future::pending::<()>().await,
+        };
+        Signals {
+            int: take("SIGINT", SignalKind::interrupt()),
+            term: take("SIGTERM", SignalKind::terminate()),
+            hup: take("SIGHUP", SignalKind::hangup()),
+            quit: take("SIGQUIT", SignalKind::quit()),
         }
-    };
-    tokio::select! {
-        _ = tokio::signal::ctrl_c() => {}
-        () = term => {}
+    }
+
+    /// The next stop signal's name.
+    async fn recv(&mut self) -> &'static str {
+        async fn next(s: &mut Option<tokio::signal::unix::Signal>) {
+            let got = match s {
+                Some(s) => s.recv().await.is_some(),
+                None => false,
+            };
+            if !got {
+                std::future::pending::<()>().await;
+            }
+        }
+        tokio::select! {
+            () = next(&mut self.int) => "SIGINT",
+            () = next(&mut self.term) => "SIGTERM",
+            () = next(&mut self.hup) => "SIGHUP",
+            () = next(&mut self.quit) => "SIGQUIT",
+        }
     }
 }
 

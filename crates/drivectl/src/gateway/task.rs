@@ -52,7 +52,9 @@ pub struct Pending {
 /// What a job read.
 enum Read {
     Value(i64),
-    ProcessData(Vec<u16>),
+    /// The input words, and the fault they show where they carry a status word
+    /// ([`BusAccess::fault_in_inputs`]).
+    ProcessData(Vec<u16>, Option<Option<String>>),
     Fault(Option<String>),
 }
 
@@ -83,7 +85,10 @@ pub async fn run_bus<B: BusAccess>(ctx: BusContext, mut access: B) {
     // (said once in the log; a drive that does not answer yet is checked no further).
     for d in &bus.drives {
         let Some(pd) = &d.process_data else { continue };
-        match access.process_data_warnings(d.address, &pd.out).await {
+        match access
+            .process_data_warnings(d.address, &pd.out, pd.period)
+            .await
+        {
             Ok(warnings) => {
                 for w in warnings {
                     tracing::warn!(bus = %bus.name, drive = %d.name, "process data: {w}");
@@ -94,18 +99,38 @@ pub async fn run_bus<B: BusAccess>(ctx: BusContext, mut access: B) {
             }
         }
     }
+    // A drive that watches its link for requests (Bonfiglioli 413) against the longest gap the
+    // gateway leaves between its requests to it.
+    for d in &bus.drives {
+        let gap = d
+            .points
+            .iter()
+            .filter_map(|p| p.period)
+            .chain(d.process_data.as_ref().map(|pd| pd.period))
+            .fold(bus.status_period, Duration::min);
+        match access.watchdog_warnings(d.address, gap).await {
+            Ok(warnings) => {
+                for w in warnings {
+                    tracing::warn!(bus = %bus.name, drive = %d.name, "{w}");
+                }
+            }
+            Err(e) => {
+                tracing::debug!(bus = %bus.name, drive = %d.name, error = %CliError::from(e), "link watchdog not read")
+            }
+        }
+    }
     let start = Instant::now();
     let mut sched: Scheduler<Pending> = Scheduler::new(&bus, |op| access.wire_time(op), start);
     tracing::info!(
         bus = %bus.name,
         drives = bus.drives.len(),
-        demand = sched.demand(),
+        demand = %super::logfmt::percent(sched.demand()),
         "bus polling starts"
     );
     if sched.stretch() > 1.0 {
         tracing::warn!(
             bus = %bus.name,
-            demand = sched.demand(),
+            demand = %super::logfmt::percent(sched.demand()),
             "the polls ask {:.0} % of what the wire carries: every period is stretched by {:.2}",
             sched.demand() * 100.0,
             sched.stretch()
@@ -233,6 +258,20 @@ async fn stop_process_data<B: BusAccess>(access: &mut B, bus: &Bus, sched: &Sche
                 tracing::warn!(bus = %bus.name, drive = %d.name, error = %CliError::from(e), "the stop was not answered: the drive may still be running")
             }
         }
+    }
+}
+
+/// What a bus-timeout fault means for the gateway (F43 RS-485, F47 SBus: the drive saw no
+/// process data within its timeout).
+fn fault_hint(text: &str) -> &'static str {
+    if text.starts_with("F43") {
+        " (RS-485 timeout: the drive saw no process data within its P812; check the process \
+         data period, the bus's load and the line)"
+    } else if text.starts_with("F47") {
+        " (SBus timeout: the drive saw no process data within its P815; check the process \
+         data period, the bus's load and the CAN line)"
+    } else {
+        ""
     }
 }
 
@@ -408,10 +447,9 @@ async fn run_job<B: BusAccess>(access: &mut B, bus: &Bus, job: Job) -> Result<Re
                 .process_data
                 .as_ref()
                 .map_or(&[][..], |pd| pd.out.as_slice());
-            access
-                .process_data(drive.address, out)
-                .await
-                .map(Read::ProcessData)
+            let words = access.process_data(drive.address, out).await?;
+            let fault = access.fault_in_inputs(drive.address, &words);
+            Ok(Read::ProcessData(words, fault))
         }
         Job::Status { .. } | Job::Probe { .. } | Job::Write { .. } => {
             access.fault(drive.address).await.map(Read::Fault)
@@ -465,14 +503,22 @@ impl Out<'_> {
                 }
                 self.answered(drive).await
             }
-            Ok(Read::ProcessData(words)) => {
+            Ok(Read::ProcessData(words, fault)) => {
                 self.send(Update::ProcessData {
                     bus: self.ix,
                     drive,
                     words,
                     at,
                 });
-                self.answered(drive).await
+                // A fault the input words show is reported at once (an F47 SBus timeout at
+                // the next cycle, not at the next status read).
+                match fault {
+                    Some(f) => {
+                        self.set_status(drive, f.map_or(DriveStatus::Online, DriveStatus::Fault))
+                            .await
+                    }
+                    None => self.answered(drive).await,
+                }
             }
             Ok(Read::Fault(fault)) => {
                 let status = fault.map_or(DriveStatus::Online, DriveStatus::Fault);
@@ -577,7 +623,7 @@ impl Out<'_> {
             tracing::info!(bus = %self.bus.name, drive = %name, state = status.state(), "drive answers again");
         }
         if let DriveStatus::Fault(text) = &status {
-            tracing::warn!(bus = %self.bus.name, drive = %name, "drive in fault: {text}");
+            tracing::warn!(bus = %self.bus.name, drive = %name, "drive in fault: {text}{}", fault_hint(text));
         }
         self.metrics
             .drive_status(&self.bus.name, &name, status.state());
@@ -791,9 +837,8 @@ async fn write_point<B: BusAccess>(
         return refused(
             "access",
             format!(
-                "{} is a setting of the link the gateway talks over ({}): the gateway does not write it; nothing was sent",
-                target.label(),
-                client.link_change(&target, raw)
+                "{} is a setting of the link the gateway talks over (address, baud rate, timeout): the gateway does not write it; nothing was sent",
+                target.label()
             ),
         );
     }

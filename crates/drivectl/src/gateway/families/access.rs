@@ -140,12 +140,46 @@ fn table_target(family: Family, key: &str) -> Result<Target, ClientError> {
 async fn sew_fault<C: ParamClient>(c: &mut C) -> Result<Option<String>, ClientError> {
     let t = table_target(Family::Movidrive, "P012")?;
     let raw = c.read(&t).await?;
-    let sw = StatusWord1::from_bits((raw & 0xFFFF) as u16);
-    // "F47 TIMEOUT SBUS" where the manuals name the fault, else its number alone.
-    Ok(sw.fault_number().map(|n| {
+    Ok(sew_fault_text(StatusWord1::from_bits(
+        (raw & 0xFFFF) as u16,
+    )))
+}
+
+/// The fault status word 1 shows: "F47 TIMEOUT SBUS" where the manuals name the fault, else
+/// its number alone; `None` without a fault.
+fn sew_fault_text(sw: StatusWord1) -> Option<String> {
+    sw.fault_number().map(|n| {
         drive_profile::sew::device::fault_name(n)
             .map_or_else(|| format!("F{n:02}"), |name| format!("F{n:02} {name}"))
-    }))
+    })
+}
+
+/// A MOVIDRIVE's bus timeout `timeout_index` (P812, P815; raw milliseconds; `None` when off or
+/// not read) and which of the first `words` process input words is status word 1 (its actual
+/// value description P873–P875 is 6).
+async fn sew_timeout_and_status<L: crate::sew::SewLink>(
+    link: &mut L,
+    timeout_index: u16,
+    words: usize,
+) -> (Option<Duration>, Option<usize>) {
+    use drive_profile::sew::ParamChannel;
+    // 650 s is off too (ch. 5.1).
+    let timeout = match link.service(ParamChannel::read(timeout_index)).await {
+        Ok(ms) if ms > 0 && ms < 650_000 => Some(Duration::from_millis(u64::from(ms))),
+        _ => None,
+    };
+    let mut slot = None;
+    for (i, index) in [sew_index::PI1_DESCRIPTION, 8308, 8309]
+        .into_iter()
+        .take(words)
+        .enumerate()
+    {
+        if let Ok(6) = link.service(ParamChannel::read(index)).await {
+            slot = Some(i);
+            break;
+        }
+    }
+    (timeout, slot)
 }
 
 /// The fault of any family from the raw value of its fault parameter `t`: zero is no fault.
@@ -460,6 +494,9 @@ pub struct ModbusBus<IO> {
     driver: bonfiglioli_modbus::driver::MasterDriver<IO>,
     port: String,
     last: bonfiglioli_modbus::driver::DriverStats,
+    /// The config's `width` of parameters the manual gives no data type: (address, parameter,
+    /// width).
+    widths: Vec<(u8, u16, bonfiglioli_modbus::slave::Width)>,
 }
 
 /// The line a Bonfiglioli drive speaks `mode` on: RTU 8 data bits, ASCII 7 (ch. 6.7), with
@@ -484,10 +521,20 @@ impl<IO: CharIo> ModbusBus<IO> {
             retries: bus.retries,
             ..bonfiglioli_modbus::driver::DriverConfig::new(mode, line)
         };
+        let widths = bus
+            .drives
+            .iter()
+            .flat_map(|d| {
+                d.points
+                    .iter()
+                    .filter_map(move |p| p.width.map(|w| (d.address, p.target.index, w)))
+            })
+            .collect();
         Self {
             driver: bonfiglioli_modbus::driver::MasterDriver::new(io, config),
             port: port.to_owned(),
             last: bonfiglioli_modbus::driver::DriverStats::default(),
+            widths,
         }
     }
 
@@ -495,12 +542,12 @@ impl<IO: CharIo> ModbusBus<IO> {
         let a = bonfiglioli_modbus::frame::Address::new(address)
             .filter(|a| !a.is_broadcast())
             .ok_or_else(|| format!("Modbus address {address}: a drive has 1–247"))?;
-        Ok(BonfiglioliClient::new(
-            &mut self.driver,
-            a,
-            &self.port,
-            None,
-        ))
+        let widths = self
+            .widths
+            .iter()
+            .filter(|(drive, _, _)| *drive == address)
+            .map(|(_, param, width)| (*param, *width));
+        Ok(BonfiglioliClient::new(&mut self.driver, a, &self.port, None).with_widths(widths))
     }
 
     fn tally(&mut self) -> LinkTally {
@@ -524,6 +571,9 @@ pub struct Access {
     pub proto: Proto,
     /// Its wire times.
     pub wire: WireDesc,
+    /// MOVIDRIVE: the process input word that is status word 1 (P873–P875 = 6), per drive
+    /// address, as read before the first cycle.
+    pub status_slots: Vec<(u8, usize)>,
 }
 
 /// The protocol's part of an [`Access`].
@@ -579,24 +629,80 @@ impl BusAccess for Access {
         &mut self,
         address: u8,
         out: &[u16],
+        period: Duration,
     ) -> Result<Vec<String>, ClientError> {
         // The checks `drivectl movilink pd` and `sbus pd` make (`sew::pd_warnings`). NORD: the
         // control word's source and a USS telegram timeout are not in the manual's table;
         // Modbus has no process data.
-        let (_, warnings) = match &mut self.proto {
+        // Then the period against that timeout, and where the input words carry status word
+        // 1 (P873–P875 = 6, the factory setting of PI1).
+        let (mut warnings, timeout, slots) = match &mut self.proto {
             Proto::Movilink(b) => {
                 let mut c = b.client_of(address).map_err(ClientError::Link)?;
                 let timeout = (sew_index::RS485_TIMEOUT, "RS-485 timeout P812");
-                crate::sew::pd_warnings(&mut c.link, out.len(), true, timeout).await
+                let (_, w) = crate::sew::pd_warnings(&mut c.link, out.len(), true, timeout).await;
+                let (t, s) = sew_timeout_and_status(&mut c.link, timeout.0, out.len()).await;
+                (w, t.map(|t| (t, timeout.1, "F43 RS-485 timeout")), s)
             }
             Proto::Sbus(b) => {
                 let mut c = b.client_of(address).map_err(ClientError::Link)?;
                 let timeout = (sew_index::SBUS_TIMEOUT, "SBus timeout P815");
-                crate::sew::pd_warnings(&mut c.link, out.len(), true, timeout).await
+                let (_, w) = crate::sew::pd_warnings(&mut c.link, out.len(), true, timeout).await;
+                let (t, s) = sew_timeout_and_status(&mut c.link, timeout.0, out.len()).await;
+                (w, t.map(|t| (t, timeout.1, "F47 SBus timeout")), s)
             }
             Proto::Uss(_) | Proto::Modbus(_) => return Ok(Vec::new()),
         };
+        if let Some((timeout, name, fault)) = timeout
+            && period >= timeout
+        {
+            warnings.push(format!(
+                "the process data period ({}) is at or above the drive's {name} ({}): the drive \
+                 trips with {fault} between two cycles; give [bus.drive.process_data] period \
+                 well below it",
+                super::super::logfmt::duration(period),
+                super::super::logfmt::duration(timeout)
+            ));
+        }
+        self.status_slots.retain(|(a, _)| *a != address);
+        if let Some(slot) = slots {
+            self.status_slots.push((address, slot));
+        }
         Ok(warnings)
+    }
+
+    async fn watchdog_warnings(
+        &mut self,
+        address: u8,
+        gap: Duration,
+    ) -> Result<Vec<String>, ClientError> {
+        let Proto::Modbus(b) = &mut self.proto else {
+            return Ok(Vec::new());
+        };
+        // The manual gives 413 no data type: read by trying FC 3, then FC 100 (a read only).
+        let t = table_target(Family::Bonfiglioli, "413")?;
+        let mut c = b.client_of(address).map_err(ClientError::Link)?.probing();
+        let seconds = c.read(&t).await?;
+        let Ok(watchdog) = u64::try_from(seconds) else {
+            return Ok(Vec::new());
+        };
+        let watchdog = Duration::from_secs(watchdog);
+        if watchdog.is_zero() || gap < watchdog {
+            return Ok(Vec::new());
+        }
+        Ok(vec![format!(
+            "the drive's watchdog 413 ({}) is at or below the longest gap between the gateway's \
+             requests to it ({}, its shortest period with status_period): it trips with F2010 \
+             between two; poll it more often (a shorter period or status_period) or raise 413",
+            super::super::logfmt::duration(watchdog),
+            super::super::logfmt::duration(gap)
+        )])
+    }
+
+    fn fault_in_inputs(&self, address: u8, inputs: &[u16]) -> Option<Option<String>> {
+        let (_, slot) = self.status_slots.iter().find(|(a, _)| *a == address)?;
+        let word = *inputs.get(*slot)?;
+        Some(sew_fault_text(StatusWord1::from_bits(word)))
     }
 
     async fn stop_process_data(

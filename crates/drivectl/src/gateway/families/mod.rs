@@ -168,7 +168,11 @@ pub fn open_bus(bus: &Bus) -> Access {
             }
         }
     };
-    Access { proto, wire }
+    Access {
+        proto,
+        wire,
+        status_slots: Vec::new(),
+    }
 }
 
 /// A bus of simulated drives: its access, and the switch of its line's faults (the
@@ -260,7 +264,11 @@ pub fn simulated_bus(bus: &Bus) -> SimulatedBus {
         }
     };
     SimulatedBus {
-        access: Access { proto, wire },
+        access: Access {
+            proto,
+            wire,
+            status_slots: Vec::new(),
+        },
         faults,
         can,
     }

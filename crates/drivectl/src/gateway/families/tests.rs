@@ -131,6 +131,12 @@ fn the_example_config_parses_and_every_bus_fits_the_wire() {
             "{key}"
         );
     }
+    // Issue 18: it serves /metrics where the docs' `curl -s 127.0.0.1:9464/metrics` asks (it
+    // said "off", and the documented sequence failed).
+    assert_eq!(
+        plant.gateway.metrics,
+        Some(std::net::SocketAddr::from(([127, 0, 0, 1], 9464)))
+    );
     // --check passes on it, and --simulate keeps it fitting.
     print_check(&plant).unwrap();
     print_check(&example()).unwrap();
@@ -662,7 +668,7 @@ async fn process_data_warnings_name_what_the_drive_is_set_to() {
     let mut sim = simulated_bus(&ml);
     let w = sim
         .access
-        .process_data_warnings(1, &[6, 0, 0])
+        .process_data_warnings(1, &[6, 0, 0], Duration::from_millis(50))
         .await
         .unwrap();
     assert_eq!(w.len(), 1, "{w:?}");
@@ -674,7 +680,7 @@ async fn process_data_warnings_name_what_the_drive_is_set_to() {
     let mut sim = simulated_bus(&sb);
     assert_eq!(
         sim.access
-            .process_data_warnings(1, &[6, 0, 0])
+            .process_data_warnings(1, &[6, 0, 0], Duration::from_millis(50))
             .await
             .unwrap(),
         Vec::<String>::new()
@@ -689,7 +695,7 @@ async fn process_data_warnings_name_what_the_drive_is_set_to() {
     }
     let w = sim
         .access
-        .process_data_warnings(1, &[6, 0, 0])
+        .process_data_warnings(1, &[6, 0, 0], Duration::from_millis(50))
         .await
         .unwrap();
     assert_eq!(w.len(), 2, "{w:?}");
@@ -702,7 +708,201 @@ async fn process_data_warnings_name_what_the_drive_is_set_to() {
     let mut sim = simulated_bus(&uss);
     assert!(
         sim.access
-            .process_data_warnings(1, &[0x047E, 0])
+            .process_data_warnings(1, &[0x047E, 0], Duration::from_millis(50))
+            .await
+            .unwrap()
+            .is_empty()
+    );
+}
+
+/// Issue 18 A2: a Modbus point of a parameter the manual gives no data type is read and
+/// written with the config's `width` (415 is 16 bit on the simulated ACTIVE Cube); without the
+/// width the client refuses it rather than guessing.
+#[tokio::test(start_paused = true)]
+async fn issue18_a_modbus_points_width_is_used_for_its_reads_and_writes() {
+    let text = "[gateway]\nname = \"gw\"\nbroker = \"mqtt://h\"\n[[bus]]\nname = \"b\"\n\
+                protocol = \"modbus-rtu\"\nsimulate = true\n[[bus.drive]]\nname = \"d\"\n\
+                address = 1\n[[bus.drive.param]]\nparam = \"415\"\nwidth = 16\nperiod = \"1s\"\n\
+                writable = true\n";
+    let plant = Plant::parse(text, "plant.toml").unwrap();
+    let bus = plant.buses[0].clone();
+    let point = bus.drives[0].points[0].clone();
+    let mut sim = simulated_bus(&bus);
+    let mut c = sim.access.client(1);
+    let now = c.read(&point.target).await.unwrap();
+    let raw = other_value(&point, now, &[]);
+    let req = WriteRequest {
+        target: point.target,
+        raw,
+        persistence: Persistence::Volatile,
+        force: false,
+    };
+    let done = write_checked(&mut c, &req, false).await.unwrap();
+    assert_eq!(done.back, raw);
+    // Another drive's client knows no width for it: nothing is guessed.
+    let mut other = sim.access.client(2);
+    assert!(matches!(
+        other.read(&point.target).await,
+        Err(ClientError::Link(_))
+    ));
+}
+
+/// Issue 18 B5: a process-data period at or above the drive's own bus timeout (SBus P815, the
+/// simulated drive's 100 ms; MOVILINK P812 once set) is warned about before the first cycle,
+/// not only a timeout that is off.
+#[tokio::test(start_paused = true)]
+async fn issue18_a_process_data_period_at_or_above_the_bus_timeout_is_warned() {
+    let plant = example();
+    let sb = bus_of(&plant, Protocol::Sbus);
+    let mut sim = simulated_bus(&sb);
+    for ms in [100, 150, 1000] {
+        let w = sim
+            .access
+            .process_data_warnings(1, &[6, 0, 0], Duration::from_millis(ms))
+            .await
+            .unwrap();
+        assert_eq!(w.len(), 1, "{ms} ms: {w:?}");
+        assert!(
+            w[0].contains("at or above the drive's SBus timeout P815 (100 ms)")
+                && w[0].contains("F47")
+                && w[0].contains("[bus.drive.process_data] period"),
+            "{w:?}"
+        );
+    }
+    let w = sim
+        .access
+        .process_data_warnings(1, &[6, 0, 0], Duration::from_millis(99))
+        .await
+        .unwrap();
+    assert!(w.is_empty(), "{w:?}");
+    // MOVILINK: P812 set to 0.2 s.
+    let ml = bus_of(&plant, Protocol::Movilink);
+    let mut sim = simulated_bus(&ml);
+    let t = crate::tool::client::Target::of(
+        drive_profile::family::lookup(drive_profile::Family::Movidrive, "P812").unwrap(),
+    );
+    sim.access
+        .client(1)
+        .write(&t, 200, Persistence::Volatile)
+        .await
+        .unwrap();
+    let w = sim
+        .access
+        .process_data_warnings(1, &[6, 0, 0], Duration::from_millis(250))
+        .await
+        .unwrap();
+    assert_eq!(w.len(), 1, "{w:?}");
+    assert!(
+        w[0].contains("RS-485 timeout P812 (200 ms)") && w[0].contains("F43"),
+        "{w:?}"
+    );
+}
+
+/// Issue 18 B5: a drive that trips with F47 (SBus timeout: process data every 150 ms against
+/// its P815 of 100 ms) is reported in fault at the next process-data cycle, from the status
+/// word in its input words, not at the next status read (5 s).
+#[tokio::test(start_paused = true)]
+async fn issue18_an_sbus_timeout_trip_is_reported_at_the_next_cycle() {
+    use crate::gateway::bus::BusContext;
+    use crate::gateway::model::{DriveStatus, Update};
+    tokio::task::LocalSet::new()
+        .run_until(async {
+            let text = "[gateway]\nname = \"gw\"\nbroker = \"mqtt://h\"\n[[bus]]\nname = \"can\"\n\
+                        protocol = \"sbus\"\nsimulate = true\nstatus_period = \"5s\"\n\
+                        [[bus.drive]]\nname = \"d\"\naddress = 1\n\
+                        [bus.drive.process_data]\nperiod = \"150ms\"\nout = [6, 1500, 0]\n";
+            let plant = Plant::parse(text, "plant.toml").unwrap();
+            let bus = plant.buses[0].clone();
+            let sim = simulated_bus(&bus);
+            let (utx, mut urx) = tokio::sync::mpsc::channel(4096);
+            let (_stx, srx) = tokio::sync::mpsc::channel(1);
+            let (_stop, shutdown) = tokio::sync::watch::channel(false);
+            let ctx = BusContext {
+                shutdown,
+                ix: 0,
+                bus: bus.clone(),
+                updates: utx,
+                sets: srx,
+                metrics: std::sync::Arc::new(crate::gateway::metrics::Metrics::new(&plant)),
+            };
+            let start = tokio::time::Instant::now();
+            let task = tokio::task::spawn_local(crate::gateway::task::run_bus(ctx, sim.access));
+            let fault = tokio::time::timeout(Duration::from_secs(10), async {
+                loop {
+                    match urx.recv().await {
+                        Some(Update::Status {
+                            status: DriveStatus::Fault(text),
+                            ..
+                        }) => return (text, start.elapsed()),
+                        Some(_) => {}
+                        None => panic!("the task ended"),
+                    }
+                }
+            })
+            .await
+            .expect("a fault within 10 s");
+            task.abort();
+            assert!(fault.0.starts_with("F47"), "{fault:?}");
+            assert!(
+                fault.1 < Duration::from_millis(600),
+                "the F47 trip was reported after {:?}",
+                fault.1
+            );
+        })
+        .await;
+}
+
+/// Issue 18 B5, its Modbus neighbour: a Bonfiglioli drive whose watchdog 413 is at or below the
+/// longest gap between the gateway's requests to it trips with F2010 between two; the gateway
+/// says so at the start (413 off, or longer than the gap: nothing).
+#[tokio::test(start_paused = true)]
+async fn issue18_a_bonfiglioli_watchdog_below_the_polling_gap_is_warned() {
+    // 413 polled (16 bit, as the simulated drive has it), so that the test can set it.
+    let text = "[gateway]\nname = \"gw\"\nbroker = \"mqtt://h\"\n[[bus]]\nname = \"b\"\n\
+                protocol = \"modbus-rtu\"\nsimulate = true\n[[bus.drive]]\nname = \"d\"\n\
+                address = 1\n[[bus.drive.param]]\nparam = \"413\"\nwidth = 16\nperiod = \"1s\"\n";
+    let plant = Plant::parse(text, "plant.toml").unwrap();
+    let bus = plant.buses[0].clone();
+    let mut sim = simulated_bus(&bus);
+    let five = Duration::from_secs(5);
+    assert!(
+        sim.access
+            .watchdog_warnings(1, five)
+            .await
+            .unwrap()
+            .is_empty()
+    );
+    let t = bus.drives[0].points[0].target;
+    sim.access
+        .client(1)
+        .write(&t, 3, Persistence::Volatile)
+        .await
+        .unwrap();
+    let w = sim.access.watchdog_warnings(1, five).await.unwrap();
+    assert_eq!(w.len(), 1, "{w:?}");
+    assert!(
+        w[0].contains("watchdog 413 (3 s)") && w[0].contains("(5 s,") && w[0].contains("F2010"),
+        "{w:?}"
+    );
+    let w = sim
+        .access
+        .watchdog_warnings(1, Duration::from_secs(3))
+        .await
+        .unwrap();
+    assert_eq!(w.len(), 1, "at the watchdog itself: {w:?}");
+    assert!(
+        sim.access
+            .watchdog_warnings(1, Duration::from_secs(2))
+            .await
+            .unwrap()
+            .is_empty()
+    );
+    // The other families have no such watchdog.
+    let ml = bus_of(&example(), Protocol::Movilink);
+    let mut sim = simulated_bus(&ml);
+    assert!(
+        sim.access
+            .watchdog_warnings(1, five)
             .await
             .unwrap()
             .is_empty()

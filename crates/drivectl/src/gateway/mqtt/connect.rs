@@ -1,13 +1,17 @@
 //! The broker connection's options, built once before anything opens: the broker URL, the
 //! user and the password file, TLS (rustls on the ring provider, server verification against
-//! `ca_file` or the system's roots, client certificates), the last-will.
+//! `ca_file` or the system's roots, client certificates), the last-will. The gateway speaks
+//! MQTT 5, so that it can tell the broker the largest packet it takes (below).
 
 use std::io::Read as _;
 use std::path::Path;
 use std::sync::Arc;
 use std::time::Duration;
 
-use rumqttc::{LastWill, MqttOptions, QoS, TlsConfiguration, Transport};
+use rumqttc::v5::MqttOptions;
+use rumqttc::v5::mqttbytes::QoS;
+use rumqttc::v5::mqttbytes::v5::LastWill;
+use rumqttc::{TlsConfiguration, Transport};
 use rustls::pki_types::pem::PemObject as _;
 use rustls::pki_types::{CertificateDer, PrivateKeyDer};
 
@@ -18,11 +22,13 @@ use crate::error::{CliError, Result};
 /// about 200 KiB).
 const FILE_LIMIT: u64 = 4 << 20;
 
-/// The largest MQTT packet taken from the broker. A larger one ends the connection (rumqttc
-/// refuses it), so the limit is far above the 4 KiB a `set` may carry: a client cannot make
-/// the gateway reconnect in a loop with a large retained message on a `set` topic short of
-/// this size.
-pub const MAX_INCOMING_PACKET: usize = 1 << 20;
+/// The largest MQTT packet taken from the broker, far above the 4 KiB a `set` may carry. The
+/// gateway announces it in its CONNECT (MQTT 5 Maximum Packet Size), and the broker then never
+/// sends it a larger packet: it drops such a message for this client as if delivered (MQTT 5,
+/// 3.1.2.11.4). Under MQTT 3.1.1 there is no such property, and a larger packet (a retained
+/// message on a `set` topic) ended the connection at every reconnection, twice a second for
+/// ever.
+pub const MAX_INCOMING_PACKET: u32 = 1 << 20;
 
 /// The broker's address as the URL gives it.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -248,13 +254,16 @@ pub fn options(g: &Gateway) -> Result<(MqttOptions, BrokerUrl)> {
         Duration::from_secs(1),
         Duration::from_secs(u64::from(u16::MAX)),
     ));
-    o.set_clean_session(true);
-    o.set_max_packet_size(MAX_INCOMING_PACKET, MAX_INCOMING_PACKET);
+    // A clean start and a session that ends with the connection (expiry 0, the default):
+    // nothing is kept at the broker across connections, as 3.1.1's clean session.
+    o.set_clean_start(true);
+    o.set_max_packet_size(Some(MAX_INCOMING_PACKET));
     o.set_last_will(LastWill::new(
         gateway_status_topic(g),
         "offline",
         QoS::AtLeastOnce,
         true,
+        None,
     ));
     if let Some(u) = user {
         o.set_credentials(u, password.unwrap_or_default());
@@ -389,7 +398,8 @@ mod tests {
         assert_eq!(will.topic, "drivebus/gw/status");
         assert_eq!(&will.message[..], b"offline");
         assert!(will.retain && will.qos == QoS::AtLeastOnce);
-        assert!(o.clean_session());
+        assert!(o.clean_start());
+        assert_eq!(o.max_packet_size(), Some(MAX_INCOMING_PACKET));
         assert_eq!(o.keep_alive(), Duration::from_secs(30));
         // Longer than MQTT's 16 bits of seconds: the longest there is, not a cut value.
         let (o, _) = options(&gateway("mqtt://h", "keep_alive = \"24h\"")).unwrap();

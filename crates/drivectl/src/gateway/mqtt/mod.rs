@@ -23,9 +23,10 @@ use std::collections::HashMap;
 use std::sync::Arc;
 use std::time::{Duration, SystemTime};
 
-use rumqttc::{
-    AsyncClient, ConnectionError, Event, EventLoop, Incoming, MqttOptions, Outgoing, QoS,
-};
+use rumqttc::Outgoing;
+use rumqttc::v5::mqttbytes::QoS;
+use rumqttc::v5::mqttbytes::v5::{DisconnectReasonCode, Packet, Publish};
+use rumqttc::v5::{AsyncClient, ConnectionError, Event, EventLoop, MqttOptions, StateError};
 use tokio::sync::{mpsc, oneshot, watch};
 use tokio::time::Instant;
 
@@ -105,8 +106,12 @@ pub struct Mqtt {
 /// What the event-loop task reports.
 #[derive(Debug)]
 enum Link {
-    Event(Event),
-    Down { error: String, retry_in: Duration },
+    /// Boxed: an MQTT 5 event is large (its properties), the channel keeps 256 of them.
+    Event(Box<Event>),
+    Down {
+        error: String,
+        retry_in: Duration,
+    },
 }
 
 /// A finished `set`, from its waiting task.
@@ -150,7 +155,11 @@ impl Mqtt {
         let (client, eventloop) = AsyncClient::new(self.options.clone(), CLIENT_QUEUE);
         let (link_tx, mut link_rx) = mpsc::channel(256);
         // Aborted when `run` ends or is dropped: the connection never outlives the task.
-        let driver = AbortOnDrop(tokio::task::spawn_local(drive(eventloop, link_tx)));
+        let driver = AbortOnDrop(tokio::task::spawn_local(drive(
+            eventloop,
+            link_tx,
+            self.plant.gateway.client_id.clone(),
+        )));
         let (done_tx, mut done_rx) = mpsc::unbounded_channel();
         let mut task = Task {
             plant: self.plant.clone(),
@@ -174,7 +183,7 @@ impl Mqtt {
                 biased;
                 () = &mut shutdown => break,
                 link = link_rx.recv() => match link {
-                    Some(Link::Event(e)) => task.event(e),
+                    Some(Link::Event(e)) => task.event(*e),
                     Some(Link::Down { error, retry_in }) => task.down(error, retry_in),
                     None => break,
                 },
@@ -222,21 +231,21 @@ fn metrics_connected(m: &Metrics, up: bool) {
 
 /// Runs rumqttc's event loop: every event to the MQTT task; after a failure, waits the
 /// back-off and polls again (which reconnects).
-async fn drive(mut el: EventLoop, tx: mpsc::Sender<Link>) {
+async fn drive(mut el: EventLoop, tx: mpsc::Sender<Link>, client_id: String) {
     let mut backoff = Backoff::default();
     loop {
         match el.poll().await {
             Ok(ev) => {
-                if matches!(ev, Event::Incoming(Incoming::ConnAck(_))) {
+                if matches!(ev, Event::Incoming(Packet::ConnAck(_))) {
                     backoff.reset();
                 }
-                if tx.send(Link::Event(ev)).await.is_err() {
+                if tx.send(Link::Event(Box::new(ev))).await.is_err() {
                     return;
                 }
             }
             Err(e) => {
                 let retry_in = backoff.failed();
-                let error = describe(&e);
+                let error = describe(&e, &client_id);
                 if tx.send(Link::Down { error, retry_in }).await.is_err() {
                     return;
                 }
@@ -246,9 +255,10 @@ async fn drive(mut el: EventLoop, tx: mpsc::Sender<Link>) {
     }
 }
 
-/// A connection error for a person: what failed and what to change.
-pub fn describe(e: &ConnectionError) -> String {
-    use rumqttc::ConnectReturnCode as C;
+/// A connection error for a person: what failed and what to change. `client_id` is the
+/// gateway's (a broker that ends the session because another client took the id).
+pub fn describe(e: &ConnectionError, client_id: &str) -> String {
+    use rumqttc::v5::mqttbytes::v5::ConnectReturnCode as C;
     match e {
         ConnectionError::ConnectionRefused(C::BadUserNamePassword) => {
             "the broker refused the user name or password: check username (or user@ in the \
@@ -261,12 +271,51 @@ pub fn describe(e: &ConnectionError) -> String {
              access rules"
                 .to_owned()
         }
-        ConnectionError::ConnectionRefused(C::BadClientId) => {
-            "the broker refused the client id: set [gateway] client_id".to_owned()
+        ConnectionError::ConnectionRefused(C::BadClientId | C::ClientIdentifierNotValid) => {
+            format!("the broker refused the client id {client_id:?}: set [gateway] client_id")
         }
+        ConnectionError::ConnectionRefused(
+            C::RefusedProtocolVersion | C::UnsupportedProtocolVersion,
+        ) => "the broker does not speak MQTT 5, which the gateway needs (Mosquitto 1.6 or \
+              later, EMQX, HiveMQ, VerneMQ do)"
+            .to_owned(),
         ConnectionError::ConnectionRefused(code) => {
             format!("the broker refused the connection ({code:?})")
         }
+        // A broker of MQTT 3.1.1 only answers a CONNECT of version 5 with its own return code
+        // 1 (unacceptable protocol version), which is no MQTT 5 reason code.
+        ConnectionError::MqttState(StateError::Deserialization(
+            rumqttc::v5::mqttbytes::Error::InvalidConnectReturnCode(1),
+        )) => "the broker does not speak MQTT 5 (it answered as an MQTT 3.1.1 broker: \
+               unacceptable protocol version), and the gateway needs it (Mosquitto 1.6 or \
+               later, EMQX, HiveMQ, VerneMQ do)"
+            .to_owned(),
+        ConnectionError::MqttState(StateError::ServerDisconnect {
+            reason_code: DisconnectReasonCode::SessionTakenOver,
+            ..
+        }) => format!(
+            "the broker ended the connection because another client connected with the same \
+             client id {client_id:?} (the broker drops the older session): give each gateway \
+             its own [gateway] client_id"
+        ),
+        // Closed without a word: what a broker does to the older of two clients with one id
+        // (Mosquitto closes it at once, without the DISCONNECT MQTT 5 would let it send).
+        ConnectionError::MqttState(StateError::ConnectionAborted) => format!(
+            "the broker closed the connection without a reason: the client id {client_id:?} is \
+             probably in use by another client (the broker drops the older session when \
+             another connects with the same id: give each gateway its own [gateway] \
+             client_id), or the broker is stopping"
+        ),
+        ConnectionError::MqttState(StateError::ServerDisconnect {
+            reason_code,
+            reason_string,
+        }) => format!(
+            "the broker ended the connection ({reason_code:?}{})",
+            reason_string
+                .as_deref()
+                .map(|r| format!(": {r}"))
+                .unwrap_or_default()
+        ),
         ConnectionError::Tls(t) => format!(
             "TLS: {t}; check ca_file (the CA that signed the broker's certificate), that the \
              broker URL's host is a name in the certificate, and client_cert/client_key"
@@ -285,7 +334,7 @@ pub fn describe(e: &ConnectionError) -> String {
                 format!("i/o: {text}")
             }
         }
-        ConnectionError::NetworkTimeout => {
+        ConnectionError::Timeout(_) => {
             "no answer from the broker in time (network, firewall, or a TLS port spoken to \
              as plain mqtt://?)"
                 .to_owned()
@@ -361,10 +410,10 @@ const UNKNOWN_LOG_EVERY: Duration = Duration::from_secs(10);
 impl Task {
     fn event(&mut self, e: Event) {
         match e {
-            Event::Incoming(Incoming::ConnAck(_)) => self.connack(),
-            Event::Incoming(Incoming::Publish(p)) => self.incoming(p),
-            Event::Incoming(Incoming::PubAck(a)) => self.outbox.acked(a.pkid),
-            Event::Incoming(Incoming::SubAck(_)) => {
+            Event::Incoming(Packet::ConnAck(_)) => self.connack(),
+            Event::Incoming(Packet::Publish(p)) => self.incoming(p),
+            Event::Incoming(Packet::PubAck(a)) => self.outbox.acked(a.pkid),
+            Event::Incoming(Packet::SubAck(_)) => {
                 self.state.send_modify(|s| s.subscribed = true);
             }
             Event::Outgoing(Outgoing::Publish(pkid)) => self.outbox.sent_publish(pkid),
@@ -424,7 +473,12 @@ impl Task {
         let client = &self.client;
         let metrics = &self.metrics;
         self.outbox.flush(Instant::now(), |m| {
-            match client.try_publish(m.topic, QoS::AtLeastOnce, m.retain, m.payload.as_bytes()) {
+            match client.try_publish(
+                m.topic,
+                QoS::AtLeastOnce,
+                m.retain,
+                m.payload.as_bytes().to_vec(),
+            ) {
                 Ok(()) => {
                     metrics.published(m.kind);
                     true
@@ -467,12 +521,14 @@ impl Task {
         self.result(d.bus, d.drive, d.point, &d.outcome, d.id.as_ref());
     }
 
-    fn incoming(&mut self, p: rumqttc::Publish) {
+    fn incoming(&mut self, p: Publish) {
         if p.payload.is_empty() {
             // The deletion of a retained message (the gateway clears retained sets itself).
             return;
         }
-        let Some((bus, drive, point)) = self.names.set_target(&p.topic) else {
+        // MQTT topics are UTF-8 (the broker checks it).
+        let topic = String::from_utf8_lossy(&p.topic).into_owned();
+        let Some((bus, drive, point)) = self.names.set_target(&topic) else {
             self.unknown_sets += 1;
             self.metrics.set_outcome("unknown_topic");
             let now = Instant::now();
@@ -484,7 +540,7 @@ impl Task {
                     .unknown_logged
                     .map_or(0, |(_, n)| self.unknown_sets.saturating_sub(n + 1));
                 tracing::warn!(
-                    topic = %p.topic,
+                    %topic,
                     left_out,
                     "a set for no point of this gateway: ignored (logged at most every 10 s; left_out: how many since the last)"
                 );
@@ -497,11 +553,11 @@ impl Task {
             // at every reconnection.
             match self
                 .client
-                .try_publish(&p.topic, QoS::AtLeastOnce, true, Vec::new())
+                .try_publish(&topic, QoS::AtLeastOnce, true, Vec::new())
             {
                 Ok(()) => self.outbox.handed_other(),
                 Err(e) => {
-                    tracing::warn!(topic = %p.topic, error = %e, "cannot clear a retained set")
+                    tracing::warn!(%topic, error = %e, "cannot clear a retained set")
                 }
             }
         }
@@ -684,7 +740,9 @@ impl Task {
         }
         loop {
             match tokio::time::timeout_at(deadline, link_rx.recv()).await {
-                Ok(Some(Link::Event(Event::Outgoing(Outgoing::Disconnect)))) => break,
+                Ok(Some(Link::Event(e))) if matches!(*e, Event::Outgoing(Outgoing::Disconnect)) => {
+                    break;
+                }
                 Ok(Some(Link::Event(_))) => {}
                 Ok(Some(Link::Down { .. }) | None) => break,
                 Err(_) => {
@@ -718,6 +776,37 @@ mod unit_tests {
         );
         b.reset();
         assert_eq!(b.failed(), BACKOFF_FIRST);
+    }
+
+    /// Issue 18: the broker's reasons for a person, with the config key to change.
+    #[test]
+    fn connection_errors_name_the_cause() {
+        use rumqttc::v5::mqttbytes::v5::ConnectReturnCode as C;
+        let taken = ConnectionError::MqttState(StateError::ServerDisconnect {
+            reason_code: DisconnectReasonCode::SessionTakenOver,
+            reason_string: None,
+        });
+        let text = describe(&taken, "drivebus-gw1");
+        assert!(
+            text.contains("another client connected with the same client id \"drivebus-gw1\"")
+                && text.contains("[gateway] client_id"),
+            "{text}"
+        );
+        let closed = ConnectionError::MqttState(StateError::ConnectionAborted);
+        let text = describe(&closed, "drivebus-gw1");
+        assert!(
+            text.contains("client id \"drivebus-gw1\" is probably in use by another client")
+                && text.contains("[gateway] client_id"),
+            "{text}"
+        );
+        let old = ConnectionError::MqttState(StateError::Deserialization(
+            rumqttc::v5::mqttbytes::Error::InvalidConnectReturnCode(1),
+        ));
+        assert!(describe(&old, "x").contains("does not speak MQTT 5"));
+        let pw = ConnectionError::ConnectionRefused(C::BadUserNamePassword);
+        assert!(describe(&pw, "x").contains("password_file"));
+        let id = ConnectionError::ConnectionRefused(C::ClientIdentifierNotValid);
+        assert!(describe(&id, "gw").contains("[gateway] client_id"));
     }
 
     #[test]
