@@ -258,6 +258,16 @@ impl Target {
         Some((p.name_de(), p.name_en()))
     }
 
+    /// The target for a person: its label with the name of what it reads (`P130 Ramp t11 up
+    /// CW [s]`, `372 data set 2 Rated speed`, `P700 [-02] present warning`); the label alone
+    /// outside the table (`index 9999`).
+    pub fn title(&self) -> String {
+        match self.names() {
+            Some((_, en)) => format!("{} {en}", self.label()),
+            None => self.label(),
+        }
+    }
+
     /// A message of the table layer (the write guard's, which names a parameter by its table
     /// label: `372 "Rated speed" …`) with this target's label instead, so that it says which
     /// data set, parameter set or array element it is about (`372 data set 2 "Rated
