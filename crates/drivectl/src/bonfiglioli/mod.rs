@@ -84,13 +84,13 @@ pub const LINK_SETTINGS: &[u16] = &[
 ];
 
 /// What a restore never writes: the command 34 (program), the RAM-only control word and
-/// setpoints (410, 484, 524) and the link settings.
+/// setpoints (410, 484, 524) and the link settings that would cut the connection (baud rate,
+/// protocol, parity, address). The 413 watchdog is restored with `restore --yes` only.
 pub const NOT_RESTORED: &[u16] = &[
     param::BAUD_RATE,
     param::PROGRAM,
     param::PROTOCOL,
     param::CONTROL_WORD,
-    param::WATCHDOG,
     param::FREQUENCY_RAM,
     param::PERCENTAGE_RAM,
     param::PARITY,
