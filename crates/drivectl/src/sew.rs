@@ -331,10 +331,7 @@ pub async fn write<L: SewLink>(
     json: bool,
 ) -> Result<()> {
     let done = crate::tool::write::write_checked(&mut SewClient::new(link), request, yes).await?;
-    if let Some(note) = &done.link_note {
-        errln!("drivectl: note: {note}");
-    }
-    crate::tool::output::print_value(&request.target, done.back, json)
+    crate::tool::write::print_written(&request.target, &done, json)
 }
 
 /// Where an unanswered write goes, for the output: the text (`group 2`, `broadcast`) and the

@@ -166,7 +166,9 @@ fn nord_refused_writes_send_nothing() {
     let before = ok_json(&sim.run(&["--json", "read", "P102", "--set", "2"]))[0]["raw"].clone();
     // Checked before the port opens: a port that does not exist is never reached.
     for (args, why) in [
-        (&["write", "P102", "700", "--set", "2"][..], "outside"),
+        (&["write", "P102", "400", "--set", "2"][..], "outside"),
+        // Beyond the 16-bit word: the width's refusal, which --force cannot lift (issue 18).
+        (&["write", "P102", "700", "--set", "2"], "not even --force"),
         (
             &["write", "P102", "70000", "--raw", "--set", "2"],
             "does not fit",

@@ -34,7 +34,7 @@ use crate::tool::client::{
 use crate::tool::interrupt::Interrupt;
 use crate::tool::line::{LineArgs, runtime};
 use crate::tool::motor::{AtEnd, Motion, MotorGuard, Stopped};
-use crate::tool::output::{physical_text, print_value};
+use crate::tool::output::physical_text;
 use crate::tool::{backup, read, watch, write};
 
 /// Parameter numbers outside the table that may be read and written raw (the start address
@@ -84,13 +84,13 @@ pub const LINK_SETTINGS: &[u16] = &[
 ];
 
 /// What a restore never writes: the command 34 (program), the RAM-only control word and
-/// setpoints (410, 484, 524) and the link settings.
+/// setpoints (410, 484, 524) and the link settings that would cut the connection (baud rate,
+/// protocol, parity, address). The 413 watchdog is restored with `restore --yes` only.
 pub const NOT_RESTORED: &[u16] = &[
     param::BAUD_RATE,
     param::PROGRAM,
     param::PROTOCOL,
     param::CONTROL_WORD,
-    param::WATCHDOG,
     param::FREQUENCY_RAM,
     param::PERCENTAGE_RAM,
     param::PARITY,
@@ -924,10 +924,7 @@ async fn execute<IO: CharIo>(m: &mut MasterDriver<IO>, args: &BonfiglioliArgs) -
             }
             let mut c = BonfiglioliClient::new(m, address(args.addr)?, &args.port, access.width());
             let done = write::write_checked(&mut c, &request, *yes).await?;
-            if let Some(note) = &done.link_note {
-                errln!("drivectl: note: {note}");
-            }
-            print_value(&v.target, done.back, json)
+            write::print_written(&v.target, &done, json)
         }
         BonfiglioliCommand::Diag { clear } => diag(m, address(args.addr)?, *clear, json).await,
         BonfiglioliCommand::Scan { from, to } => scan(m, *from, *to, json).await,

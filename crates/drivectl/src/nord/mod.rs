@@ -37,7 +37,7 @@ use crate::tool::client::{
 };
 use crate::tool::interrupt::Interrupt;
 use crate::tool::motor::{AtEnd, Motion, MotorGuard, Stopped};
-use crate::tool::output::{physical_text, print_value, trim_float};
+use crate::tool::output::{physical_text, trim_float};
 use crate::tool::{backup, watch, write};
 
 /// Parameter numbers outside the table that may be read and written raw: the 11 bits of the
@@ -636,7 +636,7 @@ where
                 force: *force,
             };
             let done = write::write_checked(&mut pc, &request, false).await?;
-            print_value(&v.target, done.back, json)
+            write::print_written(&v.target, &done, json)
         }
         NordCommand::Status => status(c, s).await,
         NordCommand::Control {

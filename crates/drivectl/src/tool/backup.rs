@@ -6,16 +6,33 @@
 //! followed, an existing file is replaced only with `--overwrite`) and the file is written to a
 //! temporary name and renamed, so an interrupted backup never leaves a truncated file behind.
 //!
-//! Restore checks the whole file before it writes anything: every entry must name a parameter
-//! of the table once and fit its width (a UTF-8 byte order mark, as Notepad writes it, is
-//! skipped), the drive's device type must be the file's (`--any-device` overrides; another
-//! firmware is a warning), and every value that differs from the drive's passes the one write
-//! path's checks (access, range, value list, EEPROM wear; `--force` skips all but the width);
-//! every refusal is listed at once. `--dry-run` stops there and shows the changes as old → new.
-//! Otherwise the changed values are written non-volatilely and logged in the EEPROM-wear log,
-//! and every entry is read back; a mismatch shows the expected and the read value. A restore
-//! that stops halfway (Ctrl-C, the drive gone) lists what was written and what was not: running
-//! it again finishes it, since values the drive already holds are not written.
+//! Restore checks the whole file before it writes anything: it must hold parameters, every
+//! entry must name a parameter of the table once and fit its width (a UTF-8 byte order mark, as
+//! Notepad writes it, is skipped), and every identification field the file and the drive both
+//! know (device type, variant, configuration; `null` is unknown) must match, except the
+//! drive's place on the bus (its address): `--any-device` overrides; another firmware is a
+//! warning. Every value that differs from the drive's passes the one write path's checks
+//! (access, range, value list, EEPROM wear; `--force` skips all but the width); every refusal
+//! is listed at once. A value of the drive's settings of the link the restore talks over
+//! ([`ParamClient::link_settings`]: a timeout, a group address) is written only with `--yes`.
+//! `--dry-run` stops there and shows the changes as old → new. Otherwise the changed values are
+//! written non-volatilely and logged in the EEPROM-wear log, shown as old → new, and every
+//! entry compared is read back; a mismatch shows the expected and the read value.
+//!
+//! Everything shown names its value by [`Target::title`] (the label with its data set,
+//! parameter set or array element: `372 data set 2 Rated speed`, `P102 set 2 acceleration
+//! time`); the JSON objects (`change`, `mismatch`, the `skipped` list of the `restore` summary)
+//! carry the keys of [`target_json`]. The backup file's own layout is unchanged.
+//!
+//! A restore lists every entry it does not write and why ([`Skip`]): not restored by rule
+//! ([`ParamClient::not_restored`]: a link setting whose change would cut the connection, a
+//! command or lock, a RAM-only value), read-only, absent on this drive, unreadable (the drive
+//! refused the read: the restore fails at the end), a link setting without `--yes`, refused by
+//! the drive (the restore fails at the end); values the drive already holds are counted.
+//!
+//! A restore that stops halfway (a signal: exit 128 + its number; the drive gone) lists what was
+//! written and what was not: running it again finishes it, since values the drive already holds
+//! are not written.
 
 use std::collections::BTreeSet;
 use std::path::Path;
@@ -23,12 +40,12 @@ use std::path::Path;
 use drive_profile::family::{self, AnyParam};
 use drive_profile::guard::GuardError;
 use drive_profile::{Access, Family, Persistence};
-use serde_json::{Value, json};
+use serde_json::{Map, Value, json};
 
 use super::client::{ClientError, DeviceErrorKind, ParamClient, Target};
 use super::interrupt::Interrupt;
 use super::outfile::OutputFile;
-use super::output::physical_text;
+use super::output::{physical_text, target_json};
 use super::write::{self, WriteRequest};
 use crate::error::{CliError, Result};
 
@@ -108,16 +125,20 @@ pub async fn backup<C: ParamClient>(
     let bar = progress(rows.len(), "reading");
     let mut entries = Vec::new();
     let mut skipped = 0;
-    let mut unreadable = Vec::new();
+    let mut unreadable: Vec<(Target, String)> = Vec::new();
     for t in &rows {
         if stop.requested() {
             bar.abandon();
-            return Err(CliError::failed(format!(
-                "backup interrupted after {} of {} parameters; {} was not written",
-                entries.len(),
-                rows.len(),
-                out.display()
-            )));
+            return Err(interrupted(
+                stop,
+                format!(
+                    "the backup was interrupted{} after {} of {} parameters; {} was not written",
+                    by(stop),
+                    entries.len(),
+                    rows.len(),
+                    out.display()
+                ),
+            ));
         }
         bar.set_message(t.label());
         match client.read(t).await {
@@ -130,7 +151,7 @@ pub async fn backup<C: ParamClient>(
             // missing" for its parameters: they are not part of this drive's backup.
             Err(ClientError::Device(d)) if d.kind == DeviceErrorKind::Absent => skipped += 1,
             // Any other refusal is a gap in the backup: saved without it, and said.
-            Err(ClientError::Device(d)) => unreadable.push(format!("{} ({d})", t.label())),
+            Err(ClientError::Device(d)) => unreadable.push((*t, d.message)),
             Err(e) => {
                 bar.abandon();
                 return Err(CliError::failed(format!(
@@ -152,6 +173,14 @@ pub async fn backup<C: ParamClient>(
         .map_err(|e| CliError::failed(format!("cannot encode the backup: {e}")))?;
     file.commit(&text)?;
     if json {
+        let unreadable: Vec<Value> = unreadable
+            .iter()
+            .map(|(t, why)| {
+                let mut o = target_json(t);
+                o.insert("error".into(), why.as_str().into());
+                Value::Object(o)
+            })
+            .collect();
         outln!(
             "{}",
             json!({"type": "backup", "file": out.display().to_string(), "parameters": saved,
@@ -164,13 +193,32 @@ pub async fn backup<C: ParamClient>(
         )?;
     }
     if !unreadable.is_empty() {
+        let list: Vec<String> = unreadable
+            .iter()
+            .map(|(t, why)| format!("{} ({why})", t.label()))
+            .collect();
         return Err(CliError::failed(format!(
             "the backup is incomplete: the drive refused to read {} parameter(s): {}",
-            unreadable.len(),
-            unreadable.join(", ")
+            list.len(),
+            list.join(", ")
         )));
     }
     Ok(())
+}
+
+/// ` by SIGTERM` (the signal that interrupted the work), or nothing.
+fn by(stop: &Interrupt) -> String {
+    stop.signal()
+        .map_or_else(String::new, |s| format!(" by {}", s.name()))
+}
+
+/// The error of work ended by a signal: its exit code is the shell's for that signal (128 + its
+/// number; 1 when no signal is known).
+fn interrupted(stop: &Interrupt, message: String) -> CliError {
+    match stop.signal() {
+        Some(s) => CliError::with_code(message, s.exit_code()),
+        None => CliError::failed(message),
+    }
 }
 
 /// One entry of a backup file, checked against the table.
@@ -178,6 +226,165 @@ pub async fn backup<C: ParamClient>(
 struct Entry {
     target: Target,
     raw: i64,
+}
+
+/// Why a restore did not write an entry of its file. Every one is listed (text and JSON).
+#[derive(Debug, Clone, PartialEq, Eq)]
+enum Skip {
+    /// Not restored by rule: a setting of the link the restore talks over whose change would
+    /// cut the connection (address, baud rate, …).
+    LinkSetting,
+    /// Not restored by rule: a command or lock, which acts on the drive (factory setting,
+    /// parameter lock, reset, program).
+    Command,
+    /// Not restored by rule: a RAM-only value (a bus control word or setpoint).
+    RamOnly,
+    /// Read-only in the table.
+    ReadOnly,
+    /// This drive does not have it (the drive's answer).
+    Absent(String),
+    /// The drive refused to read it (its answer): it could not be compared.
+    Unreadable(String),
+    /// A setting of the link the restore talks over (a timeout, a group address) that differs:
+    /// written only with `--yes`. What the write would do to the link.
+    NeedsYes(String),
+    /// The drive refused the write (its answer).
+    Refused(String),
+}
+
+impl Skip {
+    /// The reason as JSON's `reason`.
+    fn code(&self) -> &'static str {
+        match self {
+            Skip::LinkSetting => "link_setting",
+            Skip::Command => "command",
+            Skip::RamOnly => "ram_only",
+            Skip::ReadOnly => "read_only",
+            Skip::Absent(_) => "absent",
+            Skip::Unreadable(_) => "unreadable",
+            Skip::NeedsYes(_) => "needs_yes",
+            Skip::Refused(_) => "refused",
+        }
+    }
+
+    /// The reason for a person (the heading of its group in the text).
+    fn reason(&self) -> &'static str {
+        match self {
+            Skip::LinkSetting => {
+                "not restored by rule: settings of the link the restore talks over, whose \
+                 change would cut the connection"
+            }
+            Skip::Command => "not restored by rule: commands and locks, which act on the drive",
+            Skip::RamOnly => {
+                "not restored by rule: RAM-only values (bus control words and setpoints)"
+            }
+            Skip::ReadOnly => "read-only",
+            Skip::Absent(_) => "absent on this drive",
+            Skip::Unreadable(_) => "the drive refused to read them, so they were not compared",
+            Skip::NeedsYes(_) => {
+                "settings of the link the restore talks over; add --yes to write them"
+            }
+            Skip::Refused(_) => "refused by the drive",
+        }
+    }
+
+    /// The drive's answer or what a write would do, where there is one.
+    fn detail(&self) -> Option<&str> {
+        match self {
+            Skip::Absent(d) | Skip::Unreadable(d) | Skip::NeedsYes(d) | Skip::Refused(d) => Some(d),
+            _ => None,
+        }
+    }
+
+    /// The order of the groups in the text.
+    fn rank(&self) -> u8 {
+        match self {
+            Skip::LinkSetting => 0,
+            Skip::Command => 1,
+            Skip::RamOnly => 2,
+            Skip::ReadOnly => 3,
+            Skip::Absent(_) => 4,
+            Skip::NeedsYes(_) => 5,
+            Skip::Unreadable(_) => 6,
+            Skip::Refused(_) => 7,
+        }
+    }
+}
+
+/// Why the rules keep `t` (one of the client's `not_restored`) out of every restore: a link
+/// setting (one of `link_settings`), a RAM-only value, or else a command.
+fn by_rule(t: &Target, link_settings: &[u16]) -> Skip {
+    if link_settings.contains(&t.index) {
+        Skip::LinkSetting
+    } else if t.family == Family::Bonfiglioli
+        && drive_profile::bonfiglioli::by_index(t.index).is_some_and(|p| p.ram_only)
+    {
+        Skip::RamOnly
+    } else {
+        Skip::Command
+    }
+}
+
+/// The skipped entries as text: one line per reason, `skipped (reason): P813, P816` (a drive's
+/// answer or a link change in brackets after its entry); read-only entries as a count (a backup
+/// holds every readable value; `--json` lists them).
+fn skipped_lines(skipped: &[(Target, Skip)]) -> Vec<String> {
+    let mut sorted: Vec<&(Target, Skip)> = skipped.iter().collect();
+    sorted.sort_by_key(|(_, s)| s.rank());
+    let mut lines = Vec::new();
+    for group in sorted.chunk_by(|a, b| a.1.rank() == b.1.rank()) {
+        let Some((_, first)) = group.first() else {
+            continue;
+        };
+        let list = if *first == Skip::ReadOnly {
+            format!("{} parameter(s) (--json lists them)", group.len())
+        } else {
+            group
+                .iter()
+                .map(|(t, s)| match s.detail() {
+                    Some(d) => format!("{} ({d})", t.label()),
+                    None => t.label(),
+                })
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
+        lines.push(format!("skipped ({}): {list}", first.reason()));
+    }
+    lines
+}
+
+/// ` (listed above)` after the count of skipped entries, when there are any.
+fn listed(skipped: &[(Target, Skip)]) -> &'static str {
+    if skipped.is_empty() {
+        ""
+    } else {
+        " (listed above)"
+    }
+}
+
+/// The skipped entries as JSON: the target's keys ([`target_json`]) with `reason` (a code:
+/// `link_setting`, `command`, `ram_only`, `read_only`, `absent`, `unreadable`, `needs_yes`,
+/// `refused`), `message` (the reason for a person, with the drive's answer) and, where an
+/// option writes it, `hint`.
+fn skipped_json(skipped: &[(Target, Skip)]) -> Value {
+    Value::Array(
+        skipped
+            .iter()
+            .map(|(t, s)| {
+                let mut o = target_json(t);
+                o.insert("reason".into(), s.code().into());
+                let message = match s.detail() {
+                    Some(d) => format!("{}: {d}", s.reason()),
+                    None => s.reason().to_owned(),
+                };
+                o.insert("message".into(), message.into());
+                if matches!(s, Skip::NeedsYes(_)) {
+                    o.insert("hint".into(), "--yes".into());
+                }
+                Value::Object(o)
+            })
+            .collect(),
+    )
 }
 
 /// `value[key]` without the `Index` operator: the field, or `Null` when it is missing or `value`
@@ -207,10 +414,28 @@ fn restore_hint(e: &GuardError) -> String {
     format!("{e}; {hint}")
 }
 
+/// A backup file, checked against the table.
+#[derive(Debug)]
+struct Loaded {
+    /// The entries a restore compares with the drive and writes where they differ.
+    entries: Vec<Entry>,
+    /// The entries no restore writes (read-only, not restored by rule).
+    skipped: Vec<(Target, Skip)>,
+    /// The file's identification of the drive it was saved from (every top-level field but
+    /// the format's own and the list).
+    identity: Map<String, Value>,
+}
+
 /// Parse and check a backup file; every problem is reported with its entry. Each value must
 /// fit its parameter's width; the table's other rules are the write path's, for the values
-/// that differ from the drive's.
-fn load(file: &Path, family: Family, not_restored: &[u16]) -> Result<(Vec<Entry>, Value)> {
+/// that differ from the drive's. Entries of read-only parameters and of `not_restored` ones
+/// (classified with `link_settings`) are kept aside, to be listed.
+fn load(
+    file: &Path,
+    family: Family,
+    not_restored: &[u16],
+    link_settings: &[u16],
+) -> Result<Loaded> {
     // A backup of the largest table is about 60 KB; 16 MiB is no backup.
     let bytes = super::infile::read_limited(file, false, 16 << 20)?;
     let text = String::from_utf8(bytes).map_err(|e| {
@@ -247,10 +472,20 @@ fn load(file: &Path, family: Family, not_restored: &[u16]) -> Result<(Vec<Entry>
             ),
         }));
     }
-    let list = field(&doc, "parameters")
-        .as_array()
-        .ok_or_else(|| CliError::usage("backup file has no `parameters` list"))?;
+    let list = field(&doc, "parameters").as_array().ok_or_else(|| {
+        CliError::usage(format!(
+            "{} has no `parameters` list; it is not a drivectl backup",
+            file.display()
+        ))
+    })?;
+    if list.is_empty() {
+        return Err(CliError::usage(format!(
+            "{} holds no parameters; there is nothing to restore",
+            file.display()
+        )));
+    }
     let mut entries: Vec<Entry> = Vec::new();
+    let mut skipped = Vec::new();
     let mut seen = std::collections::BTreeMap::new();
     for (i, e) in list.iter().enumerate() {
         let bad =
@@ -277,13 +512,18 @@ fn load(file: &Path, family: Family, not_restored: &[u16]) -> Result<(Vec<Entry>
         } else {
             raw
         };
-        if !param.access().is_writable() || not_restored.contains(&index) {
-            continue;
-        }
         let target = Target {
             sub,
             ..Target::of(param)
         };
+        if !param.access().is_writable() {
+            skipped.push((target, Skip::ReadOnly));
+            continue;
+        }
+        if not_restored.contains(&index) {
+            skipped.push((target, by_rule(&target, link_settings)));
+            continue;
+        }
         target.check_width(raw).map_err(|e| bad(e.to_string()))?;
         // One parameter twice would be written twice (and its EEPROM with it), the last one
         // winning: a file like that was not made by drivectl.
@@ -296,24 +536,36 @@ fn load(file: &Path, family: Family, not_restored: &[u16]) -> Result<(Vec<Entry>
         }
         entries.push(Entry { target, raw });
     }
-    let identity = json!({
-        "device_type": field(&doc, "device_type"),
-        "firmware": field(&doc, "firmware"),
-    });
-    Ok((entries, identity))
+    let identity = doc
+        .as_object()
+        .map(|m| {
+            m.iter()
+                .filter(|(k, _)| {
+                    !["format", "version", "family", "parameters"].contains(&k.as_str())
+                })
+                .map(|(k, v)| (k.clone(), v.clone()))
+                .collect()
+        })
+        .unwrap_or_default();
+    Ok(Loaded {
+        entries,
+        skipped,
+        identity,
+    })
 }
 
 /// Check a restore file without a drive (before a port is opened): it must be a backup of
-/// `family` whose every entry names a parameter once and fits it.
+/// `family` that holds parameters, each named once and fitting its width.
 pub fn check_file(file: &Path, family: Family, not_restored: &[u16]) -> Result<()> {
-    load(file, family, not_restored).map(|_| ())
+    load(file, family, not_restored, &[]).map(|_| ())
 }
 
 /// The arguments of every family's `backup` command.
 #[derive(Debug, Clone, clap::Args)]
 pub struct BackupArgs {
     /// Output file: a new regular file (a symlink is followed to one); checked before the
-    /// first read.
+    /// first read. A file replaced with --overwrite keeps its mode and, where possible, its
+    /// owner.
     #[arg(long)]
     pub out: std::path::PathBuf,
     /// Replace the output file if it exists.
@@ -329,13 +581,18 @@ pub struct RestoreArgs {
     /// Write even values the table check refuses (values that do not fit are refused).
     #[arg(long)]
     pub force: bool,
-    /// Show what would change (old → new) and write nothing.
+    /// Show what would change (old → new) and what would be skipped, and write nothing.
     #[arg(long)]
     pub dry_run: bool,
-    /// Restore onto a drive whose identification (device type, firmware) differs from the
-    /// file's.
+    /// Restore onto a drive whose identification differs from the file's (device type,
+    /// variant, configuration: every field both know, except the address; another firmware is
+    /// only a warning).
     #[arg(long)]
     pub any_device: bool,
+    /// Also write the drive's settings of the link the restore talks over (timeouts, group
+    /// address) where the file's differ; without it they are skipped and listed.
+    #[arg(long)]
+    pub yes: bool,
 }
 
 impl RestoreArgs {
@@ -345,6 +602,7 @@ impl RestoreArgs {
             force: self.force,
             dry_run: self.dry_run,
             any_device: self.any_device,
+            yes: self.yes,
         }
     }
 }
@@ -356,8 +614,10 @@ pub struct RestoreOptions {
     pub force: bool,
     /// Show the changes, write nothing.
     pub dry_run: bool,
-    /// Restore onto a drive of another device type than the file's.
+    /// Restore onto a drive whose identification differs from the file's.
     pub any_device: bool,
+    /// Write the settings of the link the restore talks over too.
+    pub yes: bool,
 }
 
 /// A value as text: physical with unit where the table knows the parameter.
@@ -368,37 +628,75 @@ fn value_text(t: &Target, raw: i64) -> String {
     )
 }
 
-/// The name of an entry for a person: `P130 Ramp t11 up CW [s]`.
-fn entry_name(t: &Target) -> String {
-    t.param
-        .map_or_else(|| t.label(), |p| format!("{} {}", p.label(), p.name_en()))
-}
-
-/// One value as JSON with its parameter, `key_raw`/`key` for the raw and physical value.
-fn value_json(t: &Target, raw: i64) -> (Value, Value) {
-    (
-        Value::from(raw),
-        t.param
-            .map_or(Value::from(raw), |p| json!(p.to_physical(raw))),
+/// A change as text: `372 data set 2 Rated speed: 1400 1/min (raw 1400) → 1390 1/min (raw
+/// 1390)`.
+fn change_text(t: &Target, old: i64, new: i64) -> String {
+    format!(
+        "{}: {} → {}",
+        t.title(),
+        value_text(t, old),
+        value_text(t, new)
     )
 }
 
-/// Compare the drive's identification with the file's: another device type is refused unless
-/// `any_device`, another firmware is a warning.
+/// A change as JSON: the target's keys ([`target_json`]) with `from_raw`, `from`, `to_raw`,
+/// `to` (raw and physical values).
+fn change_json(t: &Target, old: i64, new: i64) -> Value {
+    let mut o = target_json(t);
+    o.insert("type".into(), "change".into());
+    o.insert("from_raw".into(), old.into());
+    o.insert("from".into(), physical_json(t, old));
+    o.insert("to_raw".into(), new.into());
+    o.insert("to".into(), physical_json(t, new));
+    Value::Object(o)
+}
+
+/// The physical value of `raw` as JSON (raw outside the table).
+fn physical_json(t: &Target, raw: i64) -> Value {
+    t.param
+        .map_or(Value::from(raw), |p| json!(p.to_physical(raw)))
+}
+
+/// Identity fields that say where the drive is, not what it is: a backup may be restored onto
+/// a drive at another address (cloning a drive is what a backup is for).
+const PLACE_FIELDS: &[&str] = &["address", "asi_address"];
+
+/// An identity value for a person: a string as it is, anything else as JSON.
+fn identity_text(v: &Value) -> String {
+    v.as_str().map_or_else(|| v.to_string(), str::to_owned)
+}
+
+/// Compare the drive's identification with the file's: every field both name with a known
+/// (non-null) value must match (device type, variant, configuration, …) unless `any_device`,
+/// except the drive's place on the bus ([`PLACE_FIELDS`]); another firmware is a warning.
 fn check_identity(
     file: &Path,
-    saved: &Value,
-    drive: &serde_json::Map<String, Value>,
+    saved: &Map<String, Value>,
+    drive: &Map<String, Value>,
     any_device: bool,
 ) -> Result<()> {
-    let (st, dt) = (
-        field(saved, "device_type"),
-        drive.get("device_type").unwrap_or(&Value::Null),
-    );
-    if !st.is_null() && !dt.is_null() && st != dt {
+    let mut differ: Vec<(&str, &Value, &Value)> = Vec::new();
+    for (key, sv) in saved {
+        if PLACE_FIELDS.contains(&key.as_str()) || key == "firmware" {
+            continue;
+        }
+        if let Some(dv) = drive.get(key)
+            && !sv.is_null()
+            && !dv.is_null()
+            && sv != dv
+        {
+            differ.push((key, sv, dv));
+        }
+    }
+    if !differ.is_empty() {
+        let side = |pick: fn(&(&str, &Value, &Value)) -> String| {
+            differ.iter().map(pick).collect::<Vec<_>>().join(", ")
+        };
         let msg = format!(
-            "{} was saved from a drive of device type {st}; this drive is device type {dt}",
-            file.display()
+            "{} was saved from a drive of {}; this drive is {}",
+            file.display(),
+            side(|(k, s, _)| format!("{} {}", k.replace('_', " "), identity_text(s))),
+            side(|(k, _, d)| format!("{} {}", k.replace('_', " "), identity_text(d)))
         );
         if !any_device {
             return Err(CliError::usage(format!(
@@ -408,14 +706,16 @@ fn check_identity(
         errln!("drivectl: warning: {msg}");
     }
     let (sf, df) = (
-        field(saved, "firmware"),
+        saved.get("firmware").unwrap_or(&Value::Null),
         drive.get("firmware").unwrap_or(&Value::Null),
     );
     if !sf.is_null() && !df.is_null() && sf != df {
         errln!(
-            "drivectl: warning: {} was saved from firmware {sf}; this drive runs firmware {df}: \
+            "drivectl: warning: {} was saved from firmware {}; this drive runs firmware {}: \
              parameters may differ between firmware versions",
-            file.display()
+            file.display(),
+            identity_text(sf),
+            identity_text(df)
         );
     }
     Ok(())
@@ -429,37 +729,82 @@ pub async fn restore<C: ParamClient>(
     json: bool,
     stop: &Interrupt,
 ) -> Result<()> {
-    let (entries, saved_identity) = load(file, client.family(), client.not_restored())?;
+    let Loaded {
+        entries,
+        mut skipped,
+        identity: saved_identity,
+    } = load(
+        file,
+        client.family(),
+        client.not_restored(),
+        client.link_settings(),
+    )?;
+    let in_file = entries.len() + skipped.len();
     let identity = client.identify().await?;
     check_identity(file, &saved_identity, &identity, opts.any_device)?;
     let bar = progress(entries.len(), "reading");
+    // The entries compared with the drive (the ones verified at the end) and the changes.
+    let mut compared: Vec<&Entry> = Vec::new();
     let mut changes = Vec::new();
     for e in &entries {
         if stop.requested() {
             bar.abandon();
-            return Err(CliError::failed(
-                "restore interrupted while reading the drive; nothing was written",
+            return Err(interrupted(
+                stop,
+                format!(
+                    "the restore was interrupted{} while reading the drive; nothing was written",
+                    by(stop)
+                ),
             ));
         }
         bar.set_message(e.target.label());
-        let current = client.read(&e.target).await.map_err(|err| {
-            bar.abandon();
-            CliError::failed(format!("{}; nothing was written", e.target.error(err)))
-        })?;
-        if current != e.raw {
-            changes.push((
-                WriteRequest {
-                    target: e.target,
-                    raw: e.raw,
-                    persistence: Persistence::NonVolatile,
-                    force: opts.force,
-                },
-                current,
-            ));
-        }
+        let current = match client.read(&e.target).await {
+            Ok(v) => v,
+            Err(ClientError::Device(d)) if d.kind == DeviceErrorKind::Absent => {
+                skipped.push((e.target, Skip::Absent(d.message)));
+                bar.inc(1);
+                continue;
+            }
+            Err(ClientError::Device(d)) => {
+                skipped.push((e.target, Skip::Unreadable(d.message)));
+                bar.inc(1);
+                continue;
+            }
+            Err(err) => {
+                bar.abandon();
+                return Err(CliError::failed(format!(
+                    "{}; nothing was written",
+                    e.target.error(err)
+                )));
+            }
+        };
         bar.inc(1);
+        if current == e.raw {
+            compared.push(e);
+            continue;
+        }
+        // A setting of the link the restore runs over moves the drive away from it (a
+        // timeout that ends the connection): only when confirmed.
+        if !opts.yes && client.link_settings().contains(&e.target.index) {
+            skipped.push((
+                e.target,
+                Skip::NeedsYes(client.link_change(&e.target, e.raw)),
+            ));
+            continue;
+        }
+        compared.push(e);
+        changes.push((
+            WriteRequest {
+                target: e.target,
+                raw: e.raw,
+                persistence: Persistence::NonVolatile,
+                force: opts.force,
+            },
+            current,
+        ));
     }
     bar.finish_and_clear();
+    let unchanged = compared.len() - changes.len();
     // Every write is checked before the first one is sent: a file that would be refused
     // halfway leaves the drive as it was. Every refusal is listed, not just the first.
     let drive_key = client.drive_key().await?;
@@ -473,25 +818,10 @@ pub async fn restore<C: ParamClient>(
     }
     if opts.dry_run {
         for (req, old) in &changes {
-            let t = &req.target;
             if json {
-                let (from_raw, from) = value_json(t, *old);
-                let (to_raw, to) = value_json(t, req.raw);
-                outln!(
-                    "{}",
-                    json!({"type": "change", "index": t.index, "sub": t.sub,
-                           "number": t.param.map(|p| p.label().to_string()),
-                           "name_en": t.param.map(|p| p.name_en()),
-                           "unit": t.param.map(|p| p.unit()),
-                           "from_raw": from_raw, "from": from, "to_raw": to_raw, "to": to})
-                )?;
+                outln!("{}", change_json(&req.target, *old, req.raw))?;
             } else {
-                outln!(
-                    "{}: {} → {}",
-                    entry_name(t),
-                    value_text(t, *old),
-                    value_text(t, req.raw)
-                )?;
+                outln!("{}", change_text(&req.target, *old, req.raw))?;
             }
         }
         for r in &refusals {
@@ -502,15 +832,21 @@ pub async fn restore<C: ParamClient>(
                 "{}",
                 json!({"type": "restore", "dry_run": true, "file": file.display().to_string(),
                        "entries": entries.len(), "changes": changes.len(),
-                       "unchanged": entries.len() - changes.len(), "refused": refusals})
+                       "unchanged": unchanged, "refused": refusals,
+                       "skipped": skipped_json(&skipped)})
             )?;
         } else {
+            for l in skipped_lines(&skipped) {
+                outln!("{l}")?;
+            }
             outln!(
-                "dry run: {} of {} parameter(s) in {} differ from the drive and would be written; \
-                 nothing was written",
+                "dry run: {} of {in_file} parameter(s) in {} differ from the drive and would be \
+                 written, {unchanged} already hold the saved value, {} skipped{}; nothing was \
+                 written",
                 changes.len(),
-                entries.len(),
-                file.display()
+                file.display(),
+                skipped.len(),
+                listed(&skipped)
             )?;
         }
         if !refusals.is_empty() {
@@ -540,13 +876,13 @@ pub async fn restore<C: ParamClient>(
         errln!("drivectl: warning: {w}");
     }
     let bar = progress(changes.len(), "writing");
-    let mut refused = Vec::new();
-    let mut written = Vec::new();
+    let mut written: Vec<&(WriteRequest, i64)> = Vec::new();
     // Where the writing stopped, why, and whether the write in flight may have arrived.
     let mut halted: Option<(usize, String, bool)> = None;
-    for (i, (req, _)) in changes.iter().enumerate() {
+    for (i, change) in changes.iter().enumerate() {
+        let req = &change.0;
         if stop.requested() {
-            halted = Some((i, "interrupted".to_owned(), false));
+            halted = Some((i, format!("interrupted{}", by(stop)), false));
             break;
         }
         bar.set_message(req.target.label());
@@ -555,10 +891,14 @@ pub async fn restore<C: ParamClient>(
                 if let Err(e) = write::record(&drive_key, req) {
                     bar.suspend(|| errln!("drivectl: warning: {e}"));
                 }
-                written.push(req.target.label());
+                if client.link_settings().contains(&req.target.index) {
+                    let note = client.follow_link_change(&req.target, req.raw);
+                    bar.suspend(|| errln!("drivectl: note: {}: {note}", req.target.label()));
+                }
+                written.push(change);
             }
             Err(ClientError::Device(why)) => {
-                refused.push(format!("{} ({why})", req.target.label()))
+                skipped.push((req.target, Skip::Refused(why.message)));
             }
             Err(err) => {
                 halted = Some((i, req.target.error(err).to_string(), true));
@@ -567,6 +907,22 @@ pub async fn restore<C: ParamClient>(
         }
         bar.inc(1);
     }
+    // What was written, old → new, by its label.
+    for (req, old) in &written {
+        if json {
+            outln!("{}", change_json(&req.target, *old, req.raw))?;
+        } else {
+            outln!("{}", change_text(&req.target, *old, req.raw))?;
+        }
+    }
+    let written_labels: Vec<String> = written.iter().map(|(r, _)| r.target.label()).collect();
+    let refused: Vec<String> = skipped
+        .iter()
+        .filter_map(|(t, s)| match s {
+            Skip::Refused(why) => Some(format!("{} ({why})", t.label())),
+            _ => None,
+        })
+        .collect();
     if let Some((at, why, in_flight)) = halted {
         bar.abandon();
         let rest = changes.get(at..).unwrap_or_default();
@@ -576,11 +932,12 @@ pub async fn restore<C: ParamClient>(
             outln!(
                 "{}",
                 json!({"type": "restore", "file": file.display().to_string(), "complete": false,
-                       "entries": entries.len(), "written": written, "refused": refused,
-                       "not_written": missing, "uncertain": uncertain})
+                       "entries": entries.len(), "written": written_labels, "refused": refused,
+                       "not_written": missing, "uncertain": uncertain,
+                       "skipped": skipped_json(&skipped)})
             )?;
         }
-        return Err(CliError::failed(format!(
+        let message = format!(
             "restore stopped ({why}): the drive is half restored: {} of {} change(s) written ({}), \
              {} not written ({}){}; run the same restore again to finish it (values the drive \
              already holds are not written again)",
@@ -589,19 +946,37 @@ pub async fn restore<C: ParamClient>(
             if written.is_empty() {
                 "none".to_owned()
             } else {
-                written.join(", ")
+                written_labels.join(", ")
             },
             missing.len(),
             missing.join(", "),
             uncertain.map_or_else(String::new, |u| format!(
                 "; {u} was being written when the link failed and may or may not have arrived"
             )),
-        )));
+        );
+        return Err(if in_flight {
+            CliError::failed(message)
+        } else {
+            interrupted(stop, message)
+        });
     }
     bar.finish_and_clear();
-    let bar = progress(entries.len(), "verifying");
+    let bar = progress(compared.len(), "verifying");
     let mut mismatches = Vec::new();
-    for e in &entries {
+    for e in &compared {
+        if stop.requested() {
+            bar.abandon();
+            return Err(interrupted(
+                stop,
+                format!(
+                    "the restore was interrupted{} while verifying: {} change(s) were written \
+                     ({}), not all were read back; run the restore again to check",
+                    by(stop),
+                    written.len(),
+                    written_labels.join(", ")
+                ),
+            ));
+        }
         let back = client.read(&e.target).await.map_err(|err| {
             bar.abandon();
             CliError::failed(format!(
@@ -611,7 +986,7 @@ pub async fn restore<C: ParamClient>(
             ))
         })?;
         if back != e.raw {
-            mismatches.push((e, back));
+            mismatches.push((*e, back));
         }
         bar.inc(1);
     }
@@ -619,52 +994,69 @@ pub async fn restore<C: ParamClient>(
     for (e, back) in &mismatches {
         let t = &e.target;
         if json {
-            let (expected_raw, expected) = value_json(t, e.raw);
-            let (raw, value) = value_json(t, *back);
-            outln!(
-                "{}",
-                json!({"type": "mismatch", "index": t.index, "sub": t.sub,
-                       "number": t.param.map(|p| p.label().to_string()),
-                       "name_en": t.param.map(|p| p.name_en()),
-                       "unit": t.param.map(|p| p.unit()),
-                       "expected_raw": expected_raw, "expected": expected,
-                       "raw": raw, "value": value})
-            )?;
+            let mut o = target_json(t);
+            o.insert("type".into(), "mismatch".into());
+            o.insert("expected_raw".into(), e.raw.into());
+            o.insert("expected".into(), physical_json(t, e.raw));
+            o.insert("raw".into(), (*back).into());
+            o.insert("value".into(), physical_json(t, *back));
+            outln!("{}", Value::Object(o))?;
         } else {
             outln!(
                 "{}: expected {}, the drive holds {}",
-                entry_name(t),
+                t.title(),
                 value_text(t, e.raw),
                 value_text(t, *back)
             )?;
         }
     }
-    let unchanged = entries.len() - changes.len();
+    let unreadable: Vec<String> = skipped
+        .iter()
+        .filter_map(|(t, s)| match s {
+            Skip::Unreadable(why) => Some(format!("{} ({why})", t.label())),
+            _ => None,
+        })
+        .collect();
     if json {
         outln!(
             "{}",
             json!({"type": "restore", "file": file.display().to_string(), "complete": true,
                    "entries": entries.len(), "written": written.len(), "unchanged": unchanged,
-                   "refused": refused, "mismatches": mismatches.len()})
-        )?;
-    } else if written.is_empty() && refused.is_empty() {
-        outln!(
-            "{}: all {} parameter(s) already held the saved values; nothing was written",
-            file.display(),
-            entries.len()
+                   "refused": refused, "mismatches": mismatches.len(),
+                   "skipped": skipped_json(&skipped)})
         )?;
     } else {
-        outln!(
-            "{}: {} parameter(s) written, {unchanged} already held the saved value, {} refused by \
-             the drive; {} verified",
-            file.display(),
-            written.len(),
-            refused.len(),
-            entries.len() - mismatches.len()
-        )?;
+        for l in skipped_lines(&skipped) {
+            outln!("{l}")?;
+        }
+        if written.is_empty() && refused.is_empty() && unreadable.is_empty() {
+            outln!(
+                "{}: all {} parameter(s) compared already held the saved values; nothing was \
+                 written ({} skipped{})",
+                file.display(),
+                compared.len(),
+                skipped.len(),
+                if skipped.is_empty() {
+                    ""
+                } else {
+                    ", listed above"
+                }
+            )?;
+        } else {
+            outln!(
+                "{}: {} parameter(s) written, {unchanged} already held the saved value, {} \
+                 skipped{}; {} verified",
+                file.display(),
+                written.len(),
+                skipped.len(),
+                listed(&skipped),
+                compared.len() - mismatches.len()
+            )?;
+        }
     }
+    let mut failures = Vec::new();
     if !mismatches.is_empty() || !refused.is_empty() {
-        return Err(CliError::failed(format!(
+        failures.push(format!(
             "verify failed: {} value(s) differ after restore, {} write(s) refused by the drive{}; \
              check controller inhibit and the parameter lock",
             mismatches.len(),
@@ -674,7 +1066,18 @@ pub async fn restore<C: ParamClient>(
             } else {
                 format!(" ({})", refused.join(", "))
             }
-        )));
+        ));
+    }
+    if !unreadable.is_empty() {
+        failures.push(format!(
+            "the restore is incomplete: the drive refused to read {} parameter(s), which were \
+             not compared or written: {}",
+            unreadable.len(),
+            unreadable.join(", ")
+        ));
+    }
+    if !failures.is_empty() {
+        return Err(CliError::failed(failures.join("; ")));
     }
     Ok(())
 }
@@ -730,7 +1133,7 @@ mod tests {
 #[cfg(test)]
 mod load_tests {
     use super::*;
-    use crate::movilink::NOT_RESTORED;
+    use crate::movilink::{LINK_SETTINGS, NOT_RESTORED};
 
     #[test]
     fn commands_and_link_settings_in_a_file_are_not_restored() {
@@ -747,11 +1150,24 @@ mod load_tests {
             ],
         });
         std::fs::write(&file, doc.to_string()).unwrap();
-        let (entries, _) = load(&file, Family::Movidrive, NOT_RESTORED).unwrap();
-        let indices: Vec<u16> = entries.iter().map(|e| e.target.index).collect();
+        let loaded = load(&file, Family::Movidrive, NOT_RESTORED, LINK_SETTINGS).unwrap();
+        let indices: Vec<u16> = loaded.entries.iter().map(|e| e.target.index).collect();
         assert_eq!(indices, [8470]);
+        // Kept aside, each with its reason.
+        let skipped: Vec<(String, Skip)> = loaded
+            .skipped
+            .iter()
+            .map(|(t, s)| (t.label(), s.clone()))
+            .collect();
+        assert_eq!(
+            skipped,
+            [
+                ("P804".to_owned(), Skip::Command),
+                ("P810".to_owned(), Skip::LinkSetting)
+            ]
+        );
         // A file of another family, and one that names none.
-        let err = load(&file, Family::Nord, &[]).unwrap_err().to_string();
+        let err = load(&file, Family::Nord, &[], &[]).unwrap_err().to_string();
         assert!(
             err.ends_with("is a backup of a movidrive drive, not of a nord drive"),
             "{err}"
@@ -764,7 +1180,9 @@ mod load_tests {
             ],
         });
         std::fs::write(&file, twice.to_string()).unwrap();
-        let err = load(&file, Family::Movidrive, &[]).unwrap_err().to_string();
+        let err = load(&file, Family::Movidrive, &[], &[])
+            .unwrap_err()
+            .to_string();
         assert!(
             err.ends_with("entry 3: P130 appears twice (entries 1 and 3)"),
             "{err}"
@@ -773,7 +1191,9 @@ mod load_tests {
         let mut doc = doc;
         doc.as_object_mut().unwrap().remove("family");
         std::fs::write(&file, doc.to_string()).unwrap();
-        let err = load(&file, Family::Movidrive, &[]).unwrap_err().to_string();
+        let err = load(&file, Family::Movidrive, &[], &[])
+            .unwrap_err()
+            .to_string();
         assert!(
             err.ends_with("names no drive family (`family`); it is not a movidrive backup"),
             "{err}"
@@ -871,11 +1291,15 @@ mod restore_tests {
         let stop = Interrupt::never();
         let mut c = drive(7);
         c.interrupt_after = Some((2, stop.clone()));
-        let e = run(&mut c, &file, RestoreOptions::default(), &stop)
-            .unwrap_err()
-            .to_string();
+        let e = run(&mut c, &file, RestoreOptions::default(), &stop).unwrap_err();
+        // The exit code a shell reports for the signal.
+        assert_eq!(e.exit_code(), 130);
+        let e = e.to_string();
         assert_eq!(c.written.len(), 2);
-        assert!(e.contains("restore stopped (interrupted)"), "{e}");
+        assert!(
+            e.contains("restore stopped (interrupted by Ctrl-C (SIGINT))"),
+            "{e}"
+        );
         assert!(
             e.contains("2 of 3 change(s) written (P130, P131), 1 not written (P132)"),
             "{e}"
@@ -920,6 +1344,92 @@ mod restore_tests {
             .to_string();
         assert_eq!(c.written.len(), 3);
         assert!(e.contains("3 value(s) differ"), "{e}");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    /// A file with P130…P133 and the identity fields `identity`, in a fresh directory.
+    fn file_identified(name: &str, identity: Value) -> (std::path::PathBuf, std::path::PathBuf) {
+        let (dir, file) = file_with(name, 7);
+        let text = std::fs::read_to_string(&file).unwrap();
+        let mut doc: Value = serde_json::from_str(text.trim_start_matches('\u{feff}')).unwrap();
+        for (k, v) in identity.as_object().unwrap() {
+            doc[k] = v.clone();
+        }
+        std::fs::write(&file, doc.to_string()).unwrap();
+        (dir, file)
+    }
+
+    #[test]
+    fn issue18_every_identity_field_both_sides_know_must_match_but_the_address() {
+        let (dir, file) =
+            file_identified("restore-variant", json!({"variant": "act", "address": 1}));
+        let opts = RestoreOptions::default();
+        // Another variant: refused, named, with the way out.
+        let mut c = drive(7);
+        c.identity.insert("variant".into(), "acu".into());
+        c.identity.insert("address".into(), 2.into());
+        let e = run(&mut c, &file, opts, &Interrupt::never()).unwrap_err();
+        assert_eq!(e.exit_code(), 2);
+        let e = e.to_string();
+        assert!(
+            e.contains("saved from a drive of variant act; this drive is variant acu"),
+            "{e}"
+        );
+        assert!(e.contains("--any-device"), "{e}");
+        assert!(c.written.is_empty());
+        // The same variant at another address: restored (a backup clones a drive).
+        let mut c = drive(7);
+        c.identity.insert("variant".into(), "act".into());
+        c.identity.insert("address".into(), 2.into());
+        run(&mut c, &file, opts, &Interrupt::never()).unwrap_err();
+        assert_eq!(c.written.len(), 3);
+        // A drive that does not say its variant (null): not compared.
+        let mut c = drive(7);
+        c.identity.insert("variant".into(), Value::Null);
+        run(&mut c, &file, opts, &Interrupt::never()).unwrap_err();
+        assert_eq!(c.written.len(), 3);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn issue18_a_link_setting_is_restored_only_with_yes() {
+        let (dir, file) = file_with("restore-yes", 7);
+        // P131 (8471) is a setting of the link.
+        let mut c = drive(7);
+        c.link_settings = &[8471];
+        let _ = run(
+            &mut c,
+            &file,
+            RestoreOptions::default(),
+            &Interrupt::never(),
+        );
+        let indices: Vec<u16> = c.written.iter().map(|w| w.0).collect();
+        assert_eq!(indices, [8470, 8472]);
+        let mut c = drive(7);
+        c.link_settings = &[8471];
+        let yes = RestoreOptions {
+            yes: true,
+            ..RestoreOptions::default()
+        };
+        let _ = run(&mut c, &file, yes, &Interrupt::never());
+        let indices: Vec<u16> = c.written.iter().map(|w| w.0).collect();
+        assert_eq!(indices, [8470, 8471, 8472]);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn issue18_a_file_without_parameters_says_so() {
+        let (dir, file) = file_with("restore-empty", 7);
+        let doc = json!({"format": FORMAT, "version": VERSION, "family": "movidrive",
+                         "parameters": []});
+        std::fs::write(&file, doc.to_string()).unwrap();
+        let e = check_file(&file, Family::Movidrive, &[]).unwrap_err();
+        assert_eq!(e.exit_code(), 2);
+        assert!(
+            e.to_string()
+                .ends_with("holds no parameters; there is nothing to restore"),
+            "{e}"
+        );
         std::fs::remove_dir_all(&dir).unwrap();
     }
 

@@ -258,6 +258,31 @@ impl Target {
         Some((p.name_de(), p.name_en()))
     }
 
+    /// The target for a person: its label with the name of what it reads (`P130 Ramp t11 up
+    /// CW [s]`, `372 data set 2 Rated speed`, `P700 [-02] present warning`); the label alone
+    /// outside the table (`index 9999`).
+    pub fn title(&self) -> String {
+        match self.names() {
+            Some((_, en)) => format!("{} {en}", self.label()),
+            None => self.label(),
+        }
+    }
+
+    /// A message of the table layer (the write guard's, which names a parameter by its table
+    /// label: `372 "Rated speed" …`) with this target's label instead, so that it says which
+    /// data set, parameter set or array element it is about (`372 data set 2 "Rated
+    /// speed" …`).
+    pub fn relabel(&self, message: &str) -> String {
+        match self.param {
+            Some(p) if p.label().as_str() != self.label() => message.replacen(
+                &format!("{} \"", p.label()),
+                &format!("{} \"", self.label()),
+                1,
+            ),
+            _ => message.to_owned(),
+        }
+    }
+
     /// What the family calls the number the bus addresses a parameter by: NORD's PNU, the
     /// others' index.
     pub fn index_word(&self) -> &'static str {
@@ -283,7 +308,7 @@ impl Target {
         let (min, max) = match self.param {
             Some(p) => {
                 return guard::check_width(p, raw)
-                    .map_err(|e| CliError::usage(super::write::with_hint(&e)));
+                    .map_err(|e| CliError::usage(self.relabel(&super::write::with_hint(&e))));
             }
             None => drive_profile::param::WIRE_32,
         };
@@ -379,15 +404,19 @@ impl Target {
                  unit (1.5 or 1,5), or --raw"
             )));
         };
+        // A value beyond the bus width is refused as such first: --force cannot send it, so
+        // it is not offered.
+        let forced = forced_raw(p, x);
         let raw = if how.force {
-            forced_raw(p, x)
+            forced
         } else {
-            p.from_physical(x).map_err(|e| {
-                CliError::usage(format!(
+            p.from_physical(x).map_err(|e| match forced {
+                Err(wide) => wide,
+                Ok(_) => CliError::usage(format!(
                     "{} {}: {e}; --force sends a value outside the table's range",
                     p.label(),
                     p.name_en()
-                ))
+                )),
             })
         }?;
         let held = p.to_physical(raw);
@@ -493,12 +522,19 @@ fn forced_raw(p: &dyn ParamMeta, x: f64) -> Result<i64> {
     let (lo, hi) = p.wire_range();
     let r = ((x - b) / a).round();
     if !r.is_finite() || r < lo as f64 || r > hi as f64 {
+        let with_unit = |v: f64| {
+            if p.unit().is_empty() {
+                v.to_string()
+            } else {
+                format!("{v} {}", p.unit())
+            }
+        };
         return Err(CliError::usage(format!(
-            "{} {}: {x} {} does not fit the parameter's bus width ({} … {}); not even --force \
+            "{} {}: {} does not fit the parameter's bus width ({} … {}); not even --force \
              sends a value that would be cut",
             p.label(),
             p.name_en(),
-            p.unit(),
+            with_unit(x),
             p.to_physical(lo),
             p.to_physical(hi)
         )));
@@ -656,6 +692,30 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("bus width"), "{e}");
+    }
+
+    #[test]
+    fn issue18_a_value_wider_than_the_parameter_never_suggests_force() {
+        // Bonfiglioli 410 control word: a 16-bit word (0…65535).
+        let p410 = Target::resolve(Family::Bonfiglioli, "410", 0..=1599).unwrap();
+        for force in [false, true] {
+            let how = ValueText {
+                force,
+                ..ValueText::default()
+            };
+            let e = p410.value_from_text("65536", &how).unwrap_err().to_string();
+            assert!(e.contains("not even --force"), "{e}");
+            assert!(!e.contains("or --force") && !e.contains("  "), "{e}");
+        }
+        // In the width but outside the table's range: --force is the way out.
+        let p130 = Target::resolve(Family::Movidrive, "P130", 1000..=0xFFFF).unwrap();
+        let e = p130.raw_from_text("3000", false).unwrap_err().to_string();
+        assert!(e.contains("--force sends a value outside"), "{e}");
+        let e = p130
+            .raw_from_text("5000000", false)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("not even --force"), "{e}");
     }
 
     #[test]

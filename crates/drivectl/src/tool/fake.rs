@@ -21,6 +21,10 @@ pub struct FakeClient {
     pub interrupt_after: Option<(usize, super::interrupt::Interrupt)>,
     /// What `identify` answers.
     pub identity: Map<String, Value>,
+    /// What `link_settings` answers.
+    pub link_settings: &'static [u16],
+    /// What `not_restored` answers.
+    pub not_restored: &'static [u16],
 }
 
 impl FakeClient {
@@ -32,6 +36,8 @@ impl FakeClient {
             link_dies_after: None,
             interrupt_after: None,
             identity: Map::new(),
+            link_settings: &[],
+            not_restored: &[],
         }
     }
 }
@@ -50,6 +56,12 @@ impl ParamClient for FakeClient {
     }
     async fn drive_key(&mut self) -> Result<String, ClientError> {
         Ok("fake 1".into())
+    }
+    fn link_settings(&self) -> &'static [u16] {
+        self.link_settings
+    }
+    fn not_restored(&self) -> &'static [u16] {
+        self.not_restored
     }
     async fn read(&mut self, t: &Target) -> Result<i64, ClientError> {
         (self.read)(t.index)

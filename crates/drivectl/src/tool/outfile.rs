@@ -4,8 +4,11 @@
 //! parameters first): it must be a regular file or not exist yet; a symlink is followed to the
 //! regular file it names (the link stays a link); an existing file is replaced only with
 //! `overwrite`. It creates the temporary file in the target's directory right away, so an
-//! unwritable directory is reported at once. [`OutputFile::commit`] writes the text, checks the
-//! path again (it may have changed during the work) and renames the temporary file into place;
+//! unwritable or missing directory is reported at once. A path that cannot be used is a usage
+//! error (exit 2), like every other refusal of a path. [`OutputFile::commit`] writes the text,
+//! gives the file the mode (and, where the process may, the owner and group) of the file it
+//! replaces, checks the path again (it may have changed during the work) and renames the
+//! temporary file into place;
 //! a prepared file that is dropped uncommitted (an error, Ctrl-C) removes its temporary file,
 //! and so does a second Ctrl-C, which ends the process at once ([`remove_temporary_files`]).
 
@@ -93,6 +96,45 @@ fn resolve(shown: &Path, overwrite: bool) -> Result<PathBuf> {
     Ok(target)
 }
 
+/// Why the temporary file for `path` could not be created in `dir`: a directory that is
+/// missing, not a directory, not writable or on a read-only file system is a path the user
+/// gave that cannot be used (a usage error); anything else is a failure.
+fn unusable(path: &Path, dir: &Path, e: &std::io::Error) -> CliError {
+    use std::io::ErrorKind;
+    let why = match e.kind() {
+        ErrorKind::NotFound => format!("the directory {} does not exist", dir.display()),
+        ErrorKind::NotADirectory => format!("{} is not a directory", dir.display()),
+        ErrorKind::PermissionDenied => format!("the directory {} is not writable", dir.display()),
+        ErrorKind::ReadOnlyFilesystem => {
+            format!(
+                "the directory {} is on a read-only file system",
+                dir.display()
+            )
+        }
+        _ => {
+            return CliError::failed(format!(
+                "cannot write {} ({e}); nothing was read from the drive",
+                path.display()
+            ));
+        }
+    };
+    CliError::usage(format!(
+        "{}: cannot be written: {why}; nothing was read from the drive",
+        path.display()
+    ))
+}
+
+/// Give `file` the permission bits of the file it replaces, `replaced`, and its owner and group
+/// where the process may (a user may give a file only a group they are in; root any owner);
+/// an owner that cannot be kept leaves the file the user's, as any new file is.
+fn keep_mode_and_owner(file: &File, replaced: &std::fs::Metadata) -> std::io::Result<()> {
+    use std::os::unix::fs::{MetadataExt as _, PermissionsExt as _};
+    let _ = std::os::unix::fs::fchown(file, Some(replaced.uid()), Some(replaced.gid()))
+        .or_else(|_| std::os::unix::fs::fchown(file, None, Some(replaced.gid())));
+    // After the owner: a change of owner may clear the set-ID bits, which are not kept anyway.
+    file.set_permissions(std::fs::Permissions::from_mode(replaced.mode() & 0o777))
+}
+
 impl OutputFile {
     /// Check `path` and create the temporary file (see the [module docs](self)).
     pub fn prepare(path: &Path, overwrite: bool) -> Result<Self> {
@@ -112,12 +154,7 @@ impl OutputFile {
             .write(true)
             .create_new(true)
             .open(&tmp)
-            .map_err(|e| {
-                CliError::failed(format!(
-                    "cannot write {} ({e}); nothing was read from the drive",
-                    path.display()
-                ))
-            })?;
+            .map_err(|e| unusable(path, &dir, &e))?;
         if let Ok(mut list) = TEMPORARY.lock() {
             list.push(tmp.clone());
         }
@@ -146,6 +183,9 @@ impl OutputFile {
             CliError::failed(format!("cannot write {}: {e}", self.shown.display()))
         };
         let mut file = self.file.take().ok_or_else(|| fail(&"already written"))?;
+        if let Ok(replaced) = std::fs::metadata(&self.target) {
+            keep_mode_and_owner(&file, &replaced).map_err(|e| fail(&e))?;
+        }
         file.write_all(text.as_bytes())
             .and_then(|()| file.sync_all())
             .map_err(|e| fail(&e))?;
@@ -234,6 +274,32 @@ mod tests {
                 .unwrap_err()
                 .to_string()
                 .contains("is a directory")
+        );
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn issue18_a_replaced_file_keeps_its_mode_and_an_unusable_directory_is_a_usage_error() {
+        use std::os::unix::fs::PermissionsExt as _;
+        let dir = std::env::temp_dir().join(format!("drivectl-outfile18-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        let f = dir.join("b.json");
+        std::fs::write(&f, "old").unwrap();
+        std::fs::set_permissions(&f, std::fs::Permissions::from_mode(0o600)).unwrap();
+        OutputFile::prepare(&f, true)
+            .unwrap()
+            .commit("new")
+            .unwrap();
+        let mode = std::fs::metadata(&f).unwrap().permissions().mode() & 0o777;
+        assert_eq!(mode, 0o600);
+        assert_eq!(std::fs::read_to_string(&f).unwrap(), "new");
+        let e = OutputFile::prepare(Path::new("/nonexistent/x.json"), false).unwrap_err();
+        assert_eq!(e.exit_code(), 2);
+        assert_eq!(
+            e.to_string(),
+            "/nonexistent/x.json: cannot be written: the directory /nonexistent does not exist; \
+             nothing was read from the drive"
         );
         std::fs::remove_dir_all(&dir).unwrap();
     }

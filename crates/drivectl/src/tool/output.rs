@@ -5,7 +5,7 @@ use std::io::Write as _;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use drive_profile::ParamMeta;
-use serde_json::{Value, json};
+use serde_json::{Map, Value, json};
 
 use super::client::Target;
 use super::meaning::{Meaning, meaning_of};
@@ -121,33 +121,58 @@ pub fn trim_float(v: f64, decimals: u8) -> String {
     }
 }
 
-/// One value read from a drive as a JSON object, the same keys for every family: `index` (the
-/// bus index: SEW index, NORD PNU, Bonfiglioli parameter number), `number` (the table's number,
+/// What names a target in every JSON object that shows one of its values: `index` (the bus
+/// index: SEW index, NORD PNU, Bonfiglioli parameter number), `number` (the table's number,
 /// `P130`, `P102`, `372`), `label` (the number with its selector, as the family's manual writes
-/// it: `P102 set 2`, `P543 [-02]`, `372 data set 2`), `name_de`, `name_en`, `selector`
-/// ([`Target::selector_json`]: `null`, or `{"set": …}`, `{"array": …}`, `{"dataset": …}`),
-/// `raw`, `value`, `unit`, `meaning` (a value name or a decoded word, else `null`) and
-/// `decoded` (the decoded status/fault word, else `null`); outside the table `number`, the
-/// names, `unit`, `meaning` and `decoded` are `null` and `value` is the raw value.
+/// it: `P102 set 2`, `P543 [-02]`, `372 data set 2`), `name_de`, `name_en` (a NORD array
+/// element's own names where the table has them), `selector` ([`Target::selector_json`]:
+/// `null`, or `{"set": …}`, `{"array": …}`, `{"dataset": …}`) and `unit`; outside the table
+/// `number`, the names and `unit` are `null`.
+pub fn target_json(t: &Target) -> Map<String, Value> {
+    let names = t.names();
+    let mut m = Map::new();
+    m.insert("index".into(), t.index.into());
+    m.insert(
+        "number".into(),
+        t.param
+            .map_or(Value::Null, |p| p.label().to_string().into()),
+    );
+    m.insert("label".into(), t.label().into());
+    m.insert("name_de".into(), names.map_or(Value::Null, |n| n.0.into()));
+    m.insert("name_en".into(), names.map_or(Value::Null, |n| n.1.into()));
+    m.insert("selector".into(), t.selector_json());
+    m.insert(
+        "unit".into(),
+        t.param.map_or(Value::Null, |p| p.unit().into()),
+    );
+    m
+}
+
+/// One value read from a drive as a JSON object, the same keys for every family: those of
+/// [`target_json`], then `raw`, `value`, `meaning` (a value name or a decoded word, else
+/// `null`) and `decoded` (the decoded status/fault word, else `null`); outside the table
+/// `meaning` and `decoded` are `null` and `value` is the raw value.
 pub fn value_json(t: &Target, raw: i64) -> Value {
-    match (t.param, t.names()) {
-        (Some(p), Some((de, en))) => {
-            let m = meaning_of(t, raw);
-            json!({
-                "index": t.index, "number": p.label().to_string(), "label": t.label(),
-                "name_de": de, "name_en": en, "selector": t.selector_json(), "raw": raw,
-                "value": p.to_physical(raw), "unit": p.unit(),
-                "meaning": m.as_ref().map(|m| m.text.clone()),
-                "decoded": m.and_then(|m| m.decoded),
-            })
+    let mut m = target_json(t);
+    m.insert("raw".into(), raw.into());
+    match t.param {
+        Some(p) => {
+            let meaning = meaning_of(t, raw);
+            m.insert("value".into(), json!(p.to_physical(raw)));
+            m.insert(
+                "meaning".into(),
+                json!(meaning.as_ref().map(|m| m.text.clone())),
+            );
+            m.insert("decoded".into(), json!(meaning.and_then(|m| m.decoded)));
         }
         // The same keys outside the table, null where only the table knows.
-        _ => json!({
-            "index": t.index, "number": null, "label": t.label(), "name_de": null,
-            "name_en": null, "selector": t.selector_json(), "raw": raw, "value": raw,
-            "unit": null, "meaning": null, "decoded": null,
-        }),
+        None => {
+            m.insert("value".into(), raw.into());
+            m.insert("meaning".into(), Value::Null);
+            m.insert("decoded".into(), Value::Null);
+        }
     }
+    Value::Object(m)
 }
 
 /// One value as text without the parameter's name: the physical value with its unit and value

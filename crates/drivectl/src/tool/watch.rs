@@ -10,9 +10,18 @@
 //! slots it overran pass instead of firing them back to back, so polls never bunch up and the
 //! timestamps stay evenly spaced.
 //!
+//! Every value is named by its label with its selector, as the family's manual writes it
+//! (`372 data set 2`, `P700 [-02]`, `P102 set 3`), and a NORD array element by its own name;
+//! every CSV column has a header of its own (a parameter given twice gets ` (2)`).
+//!
 //! A drive's refusal for one parameter is shown in its cell and the polls go on; a link failure
 //! (no answer) ends the watch with an error. The caller's `stop` future (Ctrl-C in the
-//! command) ends it cleanly at any point, also in the middle of a poll.
+//! command) ends it cleanly at any point, also in the middle of a poll. When the watch ends
+//! (its count done, or stopped), a parameter that could not be read in any poll makes it fail
+//! (exit 1) with a message naming each such parameter and the drive's last answer: "no
+//! parameter could be read" when none was, else "k of n parameter(s) could not be read"; a
+//! parameter read in at least one poll is a success, its refusals in other polls were shown in
+//! their cells. A watch stopped before its first poll has nothing to report.
 
 use std::fmt::Write as _;
 use std::future::Future;
@@ -22,7 +31,7 @@ use serde_json::{Value, json};
 use tokio::time::MissedTickBehavior;
 
 use super::client::{ClientError, ParamClient, Target};
-use super::output::{value_json, value_text};
+use super::output::{target_json, value_json, value_text};
 use crate::error::{CliError, Result};
 
 /// The shortest interval between polls, in milliseconds: a MOVILINK parameter read at 9600
@@ -167,7 +176,8 @@ fn civil_from_days(days: i128) -> (i128, i128, i128) {
 
 /// Poll `targets` through `client` as `options` say, writing through `out`, until `count`
 /// polls are done, `stop` completes (Ctrl-C: a clean end) or the link fails (an error).
-/// Returns the number of complete polls.
+/// Returns the number of complete polls; fails when a parameter could not be read in any of
+/// them (see the [module docs](self)).
 pub async fn watch<C: ParamClient>(
     client: &mut C,
     targets: &[Target],
@@ -175,11 +185,55 @@ pub async fn watch<C: ParamClient>(
     out: &mut dyn FnMut(&str) -> Result<()>,
     stop: impl Future<Output = ()>,
 ) -> Result<u64> {
-    let mut done = 0;
-    let polls = poll_loop(client, targets, options, out, &mut done);
+    let mut tally = Tally {
+        done: 0,
+        never_read: targets.iter().map(|_| Some(String::new())).collect(),
+    };
+    let polls = poll_loop(client, targets, options, out, &mut tally);
     tokio::select! {
-        r = polls => r.map(|()| done),
-        () = stop => Ok(done),
+        r = polls => r?,
+        () = stop => {}
+    }
+    tally.verdict(targets)?;
+    Ok(tally.done)
+}
+
+/// What the polls so far have read.
+struct Tally {
+    /// Complete polls.
+    done: u64,
+    /// Per target: `None` once it was read, else the drive's last refusal (empty before the
+    /// first poll).
+    never_read: Vec<Option<String>>,
+}
+
+impl Tally {
+    /// The watch's end: an error naming every parameter that no poll could read.
+    fn verdict(&self, targets: &[Target]) -> Result<()> {
+        let failed: Vec<String> = targets
+            .iter()
+            .zip(&self.never_read)
+            .filter_map(|(t, never)| never.as_ref().map(|why| format!("{} ({why})", t.label())))
+            .collect();
+        if self.done == 0 || failed.is_empty() {
+            return Ok(());
+        }
+        Err(CliError::failed(if failed.len() == targets.len() {
+            format!(
+                "no parameter could be read in {} poll(s): {}",
+                self.done,
+                failed.join(", ")
+            )
+        } else {
+            format!(
+                "{} of {} parameter(s) could not be read in any of the {} poll(s): {}; the \
+                 values of the others are above",
+                failed.len(),
+                targets.len(),
+                self.done,
+                failed.join(", ")
+            )
+        }))
     }
 }
 
@@ -188,7 +242,7 @@ async fn poll_loop<C: ParamClient>(
     targets: &[Target],
     options: Options,
     out: &mut dyn FnMut(&str) -> Result<()>,
-    done: &mut u64,
+    tally: &mut Tally,
 ) -> Result<()> {
     let mut ticker = tokio::time::interval(options.interval);
     ticker.set_missed_tick_behavior(MissedTickBehavior::Skip);
@@ -196,19 +250,27 @@ async fn poll_loop<C: ParamClient>(
         out(&csv_header(targets))?;
     }
     let mut drawn = 0;
-    while options.count == 0 || *done < options.count {
+    while options.count == 0 || tally.done < options.count {
         ticker.tick().await;
         let time = timestamp(SystemTime::now());
         let mut cells = Vec::with_capacity(targets.len());
-        for t in targets {
+        for (t, never) in targets.iter().zip(tally.never_read.iter_mut()) {
             match client.read(t).await {
-                Ok(raw) => cells.push(Ok(raw)),
-                Err(ClientError::Device(d)) => cells.push(Err(d.message)),
+                Ok(raw) => {
+                    *never = None;
+                    cells.push(Ok(raw));
+                }
+                Err(ClientError::Device(d)) => {
+                    if let Some(why) = never {
+                        why.clone_from(&d.message);
+                    }
+                    cells.push(Err(d.message));
+                }
                 Err(ClientError::Link(m)) => {
                     return Err(CliError::failed(format!(
                         "{}: {m}; the watch stopped after {} poll(s)",
                         t.label(),
-                        *done
+                        tally.done
                     )));
                 }
             }
@@ -230,7 +292,7 @@ async fn poll_loop<C: ParamClient>(
             Format::Json => format!("{}\n", sample_json(&time, targets, &cells)),
         };
         out(&text)?;
-        *done += 1;
+        tally.done += 1;
     }
     Ok(())
 }
@@ -250,13 +312,7 @@ fn table(
     cells: &[std::result::Result<i64, String>],
 ) -> String {
     let mut s = format!("{time}  every {} ms, Ctrl-C ends\n", interval.as_millis());
-    let names: Vec<String> = targets
-        .iter()
-        .map(|t| match t.param {
-            Some(p) => format!("{} {}", p.label(), p.name_en()),
-            None => t.label(),
-        })
-        .collect();
+    let names: Vec<String> = targets.iter().map(Target::title).collect();
     let width = names.iter().map(|n| n.chars().count()).max().unwrap_or(0);
     for ((t, name), cell) in targets.iter().zip(&names).zip(cells) {
         let _ = writeln!(s, "  {name:<width$}  {}", cell_text(t, cell));
@@ -282,18 +338,28 @@ fn csv_field(s: &str) -> String {
     }
 }
 
+/// The CSV header: `time`, then per target its title with the unit the values are in
+/// (`372 data set 2 Rated speed [1/min]`, `P700 [-02] present warning`, `index 9999 (raw)`);
+/// a name that came before gets ` (2)`, ` (3)`, … so that every column has its own.
 fn csv_header(targets: &[Target]) -> String {
     let mut fields = vec!["time".to_owned()];
+    let mut seen: Vec<String> = Vec::new();
     for t in targets {
+        let title = t.title();
         let name = match t.param {
             // Table names carry their unit in brackets ("Speed [1/min]"); add it where not.
-            Some(p) if p.unit().is_empty() || p.name_en().contains(&format!("[{}]", p.unit())) => {
-                format!("{} {}", p.label(), p.name_en())
-            }
-            Some(p) => format!("{} {} [{}]", p.label(), p.name_en(), p.unit()),
-            None => format!("{} (raw)", t.label()),
+            Some(p) if p.unit().is_empty() || title.contains(&format!("[{}]", p.unit())) => title,
+            Some(p) => format!("{title} [{}]", p.unit()),
+            None => format!("{title} (raw)"),
         };
-        fields.push(csv_field(&name));
+        let before = seen.iter().filter(|n| **n == name).count();
+        let unique = if before == 0 {
+            name.clone()
+        } else {
+            format!("{name} ({})", before + 1)
+        };
+        seen.push(name);
+        fields.push(csv_field(&unique));
     }
     format!("{}\n", fields.join(","))
 }
@@ -320,7 +386,8 @@ fn csv_row(time: &str, targets: &[Target], cells: &[std::result::Result<i64, Str
     row
 }
 
-/// `{"type": "sample", "time": …, "values": [the read's object, or {index, number, error}]}`.
+/// `{"type": "sample", "time": …, "values": [the read's object, or the target's keys
+/// (`index`, `number`, `label`, names, `selector`, `unit`) with the drive's `error`]}`.
 fn sample_json(
     time: &str,
     targets: &[Target],
@@ -331,11 +398,11 @@ fn sample_json(
         .zip(cells)
         .map(|(t, cell)| match cell {
             Ok(raw) => value_json(t, *raw),
-            Err(m) => json!({
-                "index": t.index,
-                "number": t.param.map(|p| p.label().to_string()),
-                "error": m,
-            }),
+            Err(m) => {
+                let mut o = target_json(t);
+                o.insert("error".into(), m.as_str().into());
+                Value::Object(o)
+            }
         })
         .collect();
     json!({"type": "sample", "time": time, "values": values})
@@ -453,7 +520,12 @@ mod tests {
             std::future::pending(),
         )
         .await;
-        assert_eq!(r.unwrap(), 3);
+        // P130 is refused in every poll: shown in its cells, and the watch fails at the end.
+        assert!(
+            r.unwrap_err()
+                .to_string()
+                .starts_with("1 of 3 parameter(s) could not be read in any of the 3 poll(s): P130"),
+        );
         let asked = ASKED.with(|a| a.borrow().clone());
         let offsets: Vec<Duration> = asked.iter().map(|t| *t - start).collect();
         assert_eq!(offsets, [Duration::ZERO, 200 * MS, 400 * MS]);
@@ -482,7 +554,12 @@ mod tests {
             std::future::pending(),
         )
         .await;
-        assert_eq!(r.unwrap(), 2);
+        // P130 is refused in every poll: shown in its cells, and the watch fails at the end.
+        assert!(
+            r.unwrap_err()
+                .to_string()
+                .starts_with("1 of 3 parameter(s) could not be read in any of the 2 poll(s): P130"),
+        );
         let rows: Vec<&str> = text.lines().collect();
         assert_eq!(
             rows[0],
@@ -522,7 +599,12 @@ mod tests {
     #[tokio::test(start_paused = true)]
     async fn the_table_is_redrawn_in_place() {
         let (r, text) = run(&["P000", "P130"], Format::Table, 2, std::future::pending()).await;
-        assert_eq!(r.unwrap(), 2);
+        // P130 is refused in every poll: shown in its cells, and the watch fails at the end.
+        assert!(
+            r.unwrap_err()
+                .to_string()
+                .starts_with("1 of 2 parameter(s) could not be read in any of the 2 poll(s): P130"),
+        );
         // The second table moves the cursor up over the three lines of the first and clears.
         let (first, second) = text.split_once("\x1b[3F\x1b[J").unwrap();
         assert_eq!(first.lines().count(), 3);
@@ -532,6 +614,55 @@ mod tests {
         );
         assert!(first.contains("refused: parameter lock"), "{first}");
         assert_eq!(second.lines().count(), 3);
+    }
+
+    #[tokio::test(start_paused = true)]
+    async fn issue18_a_watch_that_read_nothing_fails_naming_what_failed() {
+        let (r, text) = run(&["P130"], Format::Lines, 2, std::future::pending()).await;
+        let e = r.unwrap_err();
+        assert_eq!(e.exit_code(), 1);
+        assert_eq!(
+            e.to_string(),
+            "no parameter could be read in 2 poll(s): P130 (parameter lock)"
+        );
+        // The refusals were shown as they came.
+        assert_eq!(text.lines().count(), 2);
+        // One parameter never read beside one read: the others' values are shown, and the
+        // watch fails naming the one.
+        let (r, _) = run(&["P000", "P130"], Format::Json, 2, std::future::pending()).await;
+        assert_eq!(
+            r.unwrap_err().to_string(),
+            "1 of 2 parameter(s) could not be read in any of the 2 poll(s): P130 (parameter \
+             lock); the values of the others are above"
+        );
+    }
+
+    #[tokio::test(start_paused = true)]
+    async fn issue18_csv_headers_are_unique_and_json_refusals_carry_the_label() {
+        let (_, text) = run(
+            &["P000", "P000", "9999"],
+            Format::Csv,
+            1,
+            std::future::pending(),
+        )
+        .await;
+        let header: Vec<&str> = text.lines().next().unwrap().split(',').collect();
+        assert_eq!(
+            header,
+            [
+                "time",
+                "P000 Speed [1/min]",
+                "P000 Speed [1/min] (2)",
+                "index 9999 (raw)"
+            ]
+        );
+        let (_, text) = run(&["P000", "P130"], Format::Json, 1, std::future::pending()).await;
+        let sample: Value = serde_json::from_str(text.lines().next().unwrap()).unwrap();
+        let refused = &sample["values"][1];
+        assert_eq!(refused["label"], "P130");
+        assert_eq!(refused["name_en"], "Ramp t11 up CW [s]");
+        assert!(refused["selector"].is_null());
+        assert_eq!(refused["error"], "parameter lock");
     }
 
     #[test]

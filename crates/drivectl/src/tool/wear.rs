@@ -2,7 +2,9 @@
 //! write` in a loop is stopped by the EEPROM-wear rule of the write guard just like a program
 //! that keeps one guard alive. The same log serves every family.
 //!
-//! The log is a small JSON object `{"<drive> <family> <index> <sub>": unix-milliseconds}` named
+//! The log is a small JSON object `{"<drive> <family> <index> <sub>": unix-milliseconds}` (`<sub>`
+//! the target's sub-index: a Bonfiglioli data set, a NORD IND word with its parameter set and
+//! array element, each its own EEPROM cell) named
 //! [`FILE`] in `$DRIVECTL_STATE_DIR`, else `$XDG_STATE_HOME/drivectl`, else
 //! `~/.local/state/drivectl`. `<drive>` is the client's [`drive_key`](super::client::ParamClient::drive_key):
 //! the canonical port path (symlinks and `//` resolved) and the address the drive really has,
@@ -41,13 +43,8 @@ pub fn dir() -> Option<PathBuf> {
     std::env::var_os("HOME").map(|h| PathBuf::from(h).join(".local/state/drivectl"))
 }
 
-fn key(drive: &str, param: &dyn ParamMeta) -> String {
-    format!(
-        "{drive} {} {} {}",
-        param.family(),
-        param.bus_index(),
-        param.sub_index().unwrap_or(0)
-    )
+fn key(drive: &str, param: &dyn ParamMeta, sub: u16) -> String {
+    format!("{drive} {} {} {sub}", param.family(), param.bus_index())
 }
 
 /// Wall-clock time as the guard's [`Instant`] (since the Unix epoch), so that times from the
@@ -122,10 +119,11 @@ pub fn ensure_usable() -> Result<()> {
     Ok(())
 }
 
-/// Tell `guard` about the last non-volatile write of `param` on `drive`, if the log has one.
-pub fn prime(guard: &mut WriteGuard, drive: &str, param: &dyn ParamMeta) -> Result<()> {
+/// Tell `guard` about the last non-volatile write of `param` at sub-index `sub` (the target's:
+/// data set, IND word) on `drive`, if the log has one.
+pub fn prime(guard: &mut WriteGuard, drive: &str, param: &dyn ParamMeta, sub: u16) -> Result<()> {
     let log = load(&state_dir()?)?;
-    if let Some(ms) = log.get(&key(drive, param)).and_then(Value::as_u64) {
+    if let Some(ms) = log.get(&key(drive, param, sub)).and_then(Value::as_u64) {
         // A write "in the future" (the clock was set back) is taken as one made now.
         let at = Instant::from_millis(ms).min(now());
         guard.remember(param, at);
@@ -133,10 +131,10 @@ pub fn prime(guard: &mut WriteGuard, drive: &str, param: &dyn ParamMeta) -> Resu
     Ok(())
 }
 
-/// Record a non-volatile write of `param` on `drive` that just happened (entries older than a
-/// minute are dropped). The write is done: a failure here is returned for the caller to
-/// report, not to undo anything.
-pub fn record(drive: &str, param: &dyn ParamMeta) -> Result<()> {
+/// Record a non-volatile write of `param` at sub-index `sub` on `drive` that just happened
+/// (entries older than a minute are dropped). The write is done: a failure here is returned
+/// for the caller to report, not to undo anything.
+pub fn record(drive: &str, param: &dyn ParamMeta, sub: u16) -> Result<()> {
     let d = state_dir()?;
     let now_ms = now().as_nanos() / 1_000_000;
     let keep_ms = KEEP.as_millis() as u64;
@@ -145,7 +143,7 @@ pub fn record(drive: &str, param: &dyn ParamMeta) -> Result<()> {
         v.as_u64()
             .is_some_and(|t| now_ms.saturating_sub(t) < keep_ms)
     });
-    log.insert(key(drive, param), Value::from(now_ms));
+    log.insert(key(drive, param, sub), Value::from(now_ms));
     let text = Value::Object(log).to_string();
     let tmp = d.join(format!("{FILE}.{}", std::process::id()));
     std::fs::create_dir_all(&d)
@@ -159,4 +157,20 @@ pub fn record(drive: &str, param: &dyn ParamMeta) -> Result<()> {
                 d.join(FILE).display()
             ))
         })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use drive_profile::Family;
+
+    #[test]
+    fn issue18_every_data_set_and_parameter_set_has_its_own_entry() {
+        let p372 = drive_profile::family::lookup(Family::Bonfiglioli, "372").unwrap();
+        assert_ne!(key("d", p372, 2), key("d", p372, 3));
+        assert_eq!(
+            key("/dev/ttyUSB0 1", p372, 2),
+            "/dev/ttyUSB0 1 bonfiglioli 372 2"
+        );
+    }
 }

@@ -1,10 +1,15 @@
 //! The one write path of every family: the width check always, then (unless forced) the write
-//! guard with the EEPROM-wear log, the write, and the value read back.
+//! guard with the EEPROM-wear log, the write, and the value read back. A read-back that differs
+//! from what was sent (a drive that rounds to its steps or limits a value) is a warning and a
+//! field of [`Written`], never a plain success.
 
 use drive_profile::Persistence;
 use drive_profile::guard::{GuardError, WriteGuard};
 
+use serde_json::Value;
+
 use super::client::{ParamClient, Target};
+use super::output::{physical_text, print_value, value_json};
 use super::wear;
 use crate::error::{CliError, Result};
 
@@ -52,12 +57,12 @@ pub fn check_with(
     if req.persistence == Persistence::NonVolatile {
         // The rule must not switch itself off: no log, no non-volatile write.
         wear::ensure_usable()?;
-        wear::prime(&mut guard, drive, param)?;
+        wear::prime(&mut guard, drive, param, req.target.sub)?;
     }
     guard
         .check(param, req.raw, req.persistence, wear::now())
-        .map_err(|e| CliError::usage(hint(&e)))?;
-    Ok(WriteGuard::warning(param).map(|w| w.to_string()))
+        .map_err(|e| CliError::usage(req.target.relabel(&hint(&e))))?;
+    Ok(WriteGuard::warning(param).map(|w| req.target.relabel(&w.to_string())))
 }
 
 /// Refuse a write of the drive's own link settings (address, baud rate, timeouts of the link
@@ -74,14 +79,76 @@ pub fn check_link_setting<C: ParamClient>(client: &C, req: &WriteRequest, yes: b
     )))
 }
 
-/// What a checked write did: the value the drive holds afterwards, and where the drive answers
-/// now when a link setting was written.
+/// What a checked write did: the raw value sent, the value the drive holds afterwards, and
+/// where the drive answers now when a link setting was written.
 #[derive(Debug, Clone)]
 pub struct Written {
+    /// The raw value sent.
+    pub sent: i64,
     /// The value read back.
     pub back: i64,
+    /// When the value read back is not the one sent: what happened, for a person (`P130 was
+    /// written with raw 65536 (65.54 s), but the drive holds 66000 (66.00 s): it rounded the
+    /// value to its step`); the write path has handed it to its `warn` already.
+    pub differs: Option<String>,
     /// For a link setting: what changed for the link (`P810`: the drive answers at address 5).
     pub link_note: Option<String>,
+}
+
+impl Written {
+    /// The value the drive holds, as JSON ([`value_json`]) with `sent` (the raw value sent) and
+    /// `differs` (whether the drive holds another one).
+    pub fn json(&self, target: &Target) -> Value {
+        let mut v = value_json(target, self.back);
+        if let Value::Object(m) = &mut v {
+            m.insert("sent".into(), self.sent.into());
+            m.insert("differs".into(), self.differs.is_some().into());
+        }
+        v
+    }
+}
+
+/// What a read-back `back` that differs from the raw value `sent` says, or `None` when they are
+/// the same.
+pub fn difference(target: &Target, sent: i64, back: i64) -> Option<String> {
+    if sent == back {
+        return None;
+    }
+    let Some(p) = target.param else {
+        return Some(format!(
+            "{} was written with raw {sent}, but the drive holds {back}",
+            target.label()
+        ));
+    };
+    let why = if p.from_physical(p.to_physical(sent)).ok() == Some(back) {
+        ": it rounded the value to its step"
+    } else if p
+        .raw_range()
+        .is_some_and(|(lo, hi)| back == lo || back == hi)
+    {
+        ": it limited the value to its range"
+    } else {
+        ""
+    };
+    Some(format!(
+        "{} was written with raw {sent} ({}), but the drive holds {back} ({}){why}",
+        target.label(),
+        physical_text(p, sent),
+        physical_text(p, back)
+    ))
+}
+
+/// Print what a write did: where the drive answers now (a link setting) on standard error, then
+/// the value it holds, as `read` prints one (text), or [`Written::json`].
+pub fn print_written(target: &Target, done: &Written, json: bool) -> Result<()> {
+    if let Some(note) = &done.link_note {
+        errln!("drivectl: note: {note}");
+    }
+    if json {
+        outln!("{}", done.json(target))
+    } else {
+        print_value(target, done.back, false)
+    }
 }
 
 /// Check, write and read back: the value the drive holds afterwards. A write of a link setting
@@ -133,7 +200,16 @@ pub async fn write_checked_with<C: ParamClient>(
             CliError::from(e)
         ))
     })?;
-    Ok(Written { back, link_note })
+    let differs = difference(&req.target, req.raw, back);
+    if let Some(d) = &differs {
+        warn(d);
+    }
+    Ok(Written {
+        sent: req.raw,
+        back,
+        differs,
+        link_note,
+    })
 }
 
 /// Enter a sent write into the EEPROM-wear log of drive `drive_key` (non-volatile writes of
@@ -142,7 +218,7 @@ pub fn record(drive_key: &str, req: &WriteRequest) -> Result<()> {
     if req.persistence == Persistence::NonVolatile
         && let Some(param) = req.target.param
     {
-        wear::record(drive_key, param)?;
+        wear::record(drive_key, param, req.target.sub)?;
     }
     Ok(())
 }
@@ -156,7 +232,7 @@ pub fn with_hint(e: &GuardError) -> String {
             "use a value in range, or --force to let the drive decide"
         }
         GuardError::TooFrequent { .. } => "use --volatile for values that change often, or --force",
-        _ => "or --force to send it anyway",
+        _ => "--force sends it anyway",
     };
     if hint.is_empty() {
         e.to_string()
@@ -170,6 +246,45 @@ mod tests {
     use super::*;
     use crate::tool::client::ClientError;
     use crate::tool::fake::FakeClient;
+
+    #[test]
+    fn issue18_a_write_the_drive_holds_differently_is_said() {
+        // The drive rounds P130 to its 1 s steps above 10 s.
+        let mut client = FakeClient::new(|_| Ok(66_000));
+        let target = crate::movilink::resolve("P130").unwrap();
+        let req = WriteRequest {
+            target,
+            raw: 65_536,
+            persistence: Persistence::Volatile,
+            force: false,
+        };
+        let rt = tokio::runtime::Builder::new_current_thread()
+            .build()
+            .unwrap();
+        let mut warnings = Vec::new();
+        let done = rt
+            .block_on(write_checked_with(
+                &mut client,
+                &req,
+                false,
+                &mut |w: &str| warnings.push(w.to_owned()),
+            ))
+            .unwrap();
+        assert_eq!((done.sent, done.back), (65_536, 66_000));
+        assert_eq!(done.json(&target)["sent"], 65_536);
+        assert_eq!(done.json(&target)["differs"], true);
+        assert_eq!(
+            done.differs.as_deref(),
+            warnings.first().map(String::as_str)
+        );
+        assert_eq!(
+            warnings,
+            [
+                "P130 was written with raw 65536 (65.54 s), but the drive holds 66000 (66.00 s): \
+              it rounded the value to its step"
+            ]
+        );
+    }
 
     #[test]
     fn a_failed_read_back_says_the_value_was_written() {
