@@ -84,9 +84,13 @@ impl Variant {
 
     /// The named bits of this variant's status word with their English names, lowest first.
     pub fn status_bits(self) -> impl Iterator<Item = (u16, &'static str)> {
-        let (act, acu): (&[(ActStatusWord, &str)], &[(AcuStatusWord, &str)]) = match self {
-            Variant::Act => (ActStatusWord::NAMED, &[]),
-            Variant::Acu => (&[], AcuStatusWord::NAMED),
+        let act: &[(ActStatusWord, &str)] = match self {
+            Variant::Act => ActStatusWord::NAMED,
+            Variant::Acu => &[],
+        };
+        let acu: &[(AcuStatusWord, &str)] = match self {
+            Variant::Act => &[],
+            Variant::Acu => AcuStatusWord::NAMED,
         };
         act.iter()
             .map(|(f, n)| (f.bits(), *n))

@@ -8,7 +8,7 @@ use drive_profile::ParamMeta;
 use serde_json::{Value, json};
 
 use super::client::Target;
-use super::meaning::{Meaning, meaning_of};
+use super::meaning::{Device, Meaning, meaning_in};
 use crate::error::{CliError, Result};
 
 /// Write one piece of standard output. A reader that went away (`drivectl … | head`) is not an
@@ -121,6 +121,12 @@ pub fn trim_float(v: f64, decimals: u8) -> String {
     }
 }
 
+/// [`value_json_in`] of a drive nothing is known of.
+#[cfg(test)]
+pub fn value_json(t: &Target, raw: i64) -> Value {
+    value_json_in(t, raw, &Device::default())
+}
+
 /// One value read from a drive as a JSON object, the same keys for every family: `index` (the
 /// bus index: SEW index, NORD PNU, Bonfiglioli parameter number), `number` (the table's number,
 /// `P130`, `P102`, `372`), `label` (the number with its selector, as the family's manual writes
@@ -128,11 +134,12 @@ pub fn trim_float(v: f64, decimals: u8) -> String {
 /// ([`Target::selector_json`]: `null`, or `{"set": …}`, `{"array": …}`, `{"dataset": …}`),
 /// `raw`, `value`, `unit`, `meaning` (a value name or a decoded word, else `null`) and
 /// `decoded` (the decoded status/fault word, else `null`); outside the table `number`, the
-/// names, `unit`, `meaning` and `decoded` are `null` and `value` is the raw value.
-pub fn value_json(t: &Target, raw: i64) -> Value {
+/// names, `unit`, `meaning` and `decoded` are `null` and `value` is the raw value. The meaning
+/// takes what is known of the drive, `device` ([`meaning_in`]).
+pub fn value_json_in(t: &Target, raw: i64, device: &Device) -> Value {
     match (t.param, t.names()) {
         (Some(p), Some((de, en))) => {
-            let m = meaning_of(t, raw);
+            let m = meaning_in(t, raw, device);
             json!({
                 "index": t.index, "number": p.label().to_string(), "label": t.label(),
                 "name_de": de, "name_en": en, "selector": t.selector_json(), "raw": raw,
@@ -153,10 +160,10 @@ pub fn value_json(t: &Target, raw: i64) -> Value {
 /// One value as text without the parameter's name: the physical value with its unit and value
 /// name (`1.50 s`, `9 (control word 1)`) or its meaning (`0 (no fault)`), a decoded word in hex
 /// with its meaning (`0x0206: ready, PO data enabled, unit status 2 = no enable`), raw outside
-/// the table.
-pub fn value_text(t: &Target, raw: i64) -> String {
+/// the table; the meaning takes what is known of the drive, `device` ([`meaning_in`]).
+pub fn value_text_in(t: &Target, raw: i64, device: &Device) -> String {
     match t.param {
-        Some(p) => match meaning_of(t, raw) {
+        Some(p) => match meaning_in(t, raw, device) {
             Some(Meaning {
                 text,
                 decoded: Some(_),
@@ -174,18 +181,23 @@ pub fn value_text(t: &Target, raw: i64) -> String {
 }
 
 /// Print one value read from a drive: a line of text (`P102 set 3 acceleration time (PNU
-/// 102): 10.00 s (raw 1000)`), or one JSON object ([`value_json`]).
+/// 102): 10.00 s (raw 1000)`), or one JSON object ([`value_json_in`]).
 pub fn print_value(t: &Target, raw: i64, json: bool) -> Result<()> {
+    print_value_in(t, raw, json, &Device::default())
+}
+
+/// [`print_value`] with what is known of the drive (its meanings, [`meaning_in`]).
+pub fn print_value_in(t: &Target, raw: i64, json: bool, device: &Device) -> Result<()> {
     match (t.names(), json) {
-        (_, true) => outln!("{}", value_json(t, raw)),
+        (_, true) => outln!("{}", value_json_in(t, raw, device)),
         (Some((_, en)), false) => outln!(
             "{} {en} ({} {}): {} (raw {raw})",
             t.label(),
             t.index_word(),
             t.index,
-            value_text(t, raw)
+            value_text_in(t, raw, device)
         ),
-        (None, false) => outln!("{}: {}", t.label(), value_text(t, raw)),
+        (None, false) => outln!("{}: {}", t.label(), value_text_in(t, raw, device)),
     }
 }
 
