@@ -1403,14 +1403,33 @@ async fn info<IO: CharIo>(
     find_variant_for(&mut c, &[t]).await?;
     let device = c.device();
     let mut current = Vec::new();
+    // Refusals other than the write-only parameter's "not readable" (484/524 on the ACU, as
+    // the table says): the command fails at the end, after showing what it has.
+    let write_only = table.is_some_and(|p| !p.is_readable());
+    let mut refused = Vec::new();
     for sub in &subs {
         let at = Target { sub: *sub, ..t };
         match c.read(&at).await {
             Ok(raw) => current.push((at, Ok(raw))),
-            Err(ClientError::Device(d)) => current.push((at, Err(d.message))),
+            Err(ClientError::Device(d)) => {
+                if !(write_only && d.kind == DeviceErrorKind::Absent) {
+                    refused.push(at.label());
+                }
+                current.push((at, Err(d.message)));
+            }
             Err(e) => return Err(at.error(e)),
         }
     }
+    let outcome = || {
+        if refused.is_empty() {
+            Ok(())
+        } else {
+            Err(CliError::failed(format!(
+                "the drive refused to read {} (its answer is above)",
+                refused.join(", ")
+            )))
+        }
+    };
     let width = table_width(&t, access.width()).or_else(|| c.probed.get(&t.index).copied());
     let width_text = width.map(|w| match w {
         Width::Word => "16 bit (FC 3/6)",
@@ -1462,7 +1481,7 @@ async fn info<IO: CharIo>(
                 "current": values,
             })
         )?;
-        return Ok(());
+        return outcome();
     }
     let Some(p) = table else {
         outln!(
@@ -1470,7 +1489,8 @@ async fn info<IO: CharIo>(
             t.label(),
             width_text.map_or_else(String::new, |w| format!(", read as {w}"))
         )?;
-        return print_current(&current, &device);
+        print_current(&current, &device)?;
+        return outcome();
     };
     outln!(
         "{} {} / {} (index {})",
@@ -1560,7 +1580,8 @@ async fn info<IO: CharIo>(
             outln!("    {:>6} = {} ({})", v.value, v.en, v.de)?;
         }
     }
-    print_current(&current, &device)
+    print_current(&current, &device)?;
+    outcome()
 }
 
 /// The drive's values of `info`, one line per data set.
