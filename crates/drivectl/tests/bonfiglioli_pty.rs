@@ -800,3 +800,23 @@ fn issue18_a_backup_after_control_never_restores_412() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// An ACU with positioning control (configuration 30 = x40) has no shortcut 4' from switch-on
+/// disabled (ch. 10.2): `control enable` goes through 2, 3 and 4 instead of waiting for a
+/// transition the drive does not make.
+#[test]
+fn issue18_control_enables_an_acu_with_positioning_control() {
+    let sim = Sim::start("rtu", &["--variant", "acu"]);
+    ok_json(&sim.run(&["--json", "write", "30", "240", "--word", "--force"]));
+    let started = std::time::Instant::now();
+    let o = sim.run(&["control", "enable", "--freq", "5"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        started.elapsed() < std::time::Duration::from_secs(10),
+        "{:?}",
+        started.elapsed()
+    );
+    let v = ok_json(&sim.run(&["--json", "status"]));
+    assert_eq!(v[0]["state"], "operation enabled", "{v:?}");
+    assert!(sim.run(&["control", "stop"]).status.success());
+}
