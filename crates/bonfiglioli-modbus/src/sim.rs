@@ -5,9 +5,15 @@
 //! (RTU or ASCII), answers its own address (broadcast writes are executed without an answer),
 //! keeps the FC 8 counters and the 10 ms answer delay, and hands parameter reads and writes to
 //! the model, whose refusals carry the exception and set its VABus error register (parameter
-//! 11). Every valid request feeds the model's watchdog (parameter 413). The front-end follows
-//! the Modbus address (parameter 1376) when it is written. [`SimulatedBus`] puts several drives
-//! on one line; both are served by the runtime layer's [`serve`](drive_core::rt::serve) loop.
+//! 11). Every valid request feeds the model's watchdog (parameter 413). The drive's own line
+//! parameters say what it serves: *baud rate* 10, *protocol type* 395, *Modbus parity* 1375 and
+//! *Modbus address* 1376 are set from the line and mode it is created with. It follows a
+//! written address and protocol type at once, as the drive does (ch. 5.2.2, 6): 2 RTU, 3 ASCII,
+//! 0 or 1 (VCB bus, P-Bus) no Modbus at all, so it answers nothing until it is created again.
+//! A written baud rate or parity takes effect on the drive after a reset (34 = 123) or power
+//! cycle (ch. 5.2.1), which the simulation has not: the parameter shows the new value and the
+//! line stays as it is. [`SimulatedBus`] puts several drives on one line; both are served by
+//! the runtime layer's [`serve`](drive_core::rt::serve) loop.
 //!
 //! ```
 //! use bonfiglioli_modbus::driver::{DriverConfig, MasterDriver};
@@ -48,6 +54,12 @@ use crate::slave::{Backend, Slave, SlaveConfig, SlaveEvent, Width};
 
 /// The Modbus address parameter (ch. 5.2.2, 5.3.2).
 pub const ADDRESS_PARAM: u16 = 1376;
+/// The baud rate parameter (ch. 5.2.1).
+pub const BAUD_PARAM: u16 = 10;
+/// The protocol type parameter (ch. 6).
+pub const PROTOCOL_PARAM: u16 = 395;
+/// The Modbus parity parameter (ch. 5.2.1).
+pub const PARITY_PARAM: u16 = 1375;
 
 /// How often the model is advanced while something in it runs on time (a ramp, a holding
 /// time, the watchdog), between requests.
@@ -126,22 +138,35 @@ pub struct SimulatedDrive {
     slave: Slave<DriveBackend>,
     /// The clock and time of the serve loop, kept across serves.
     line: LineTime,
+    /// Protocol type 395 is neither RTU nor ASCII: the drive speaks no Modbus.
+    silent: bool,
 }
 
 impl SimulatedDrive {
-    /// A drive of `variant` at `address` (clamped to 1–247; its parameter 1376 is set to it),
-    /// speaking `mode` on `line`.
+    /// A drive of `variant` at `address` (clamped to 1–247), speaking `mode` on `line`; its
+    /// parameters 1376, 395, 1375 and 10 are set to them (10 stays at its factory 4 = 19200
+    /// where the drive has no code for the line's rate: [`drive_profile::bonfiglioli::link`]).
     pub fn new(address: u8, variant: Variant, mode: Mode, line: LineSettings) -> Self {
+        use drive_profile::bonfiglioli::link;
         let address = address.clamp(1, 247);
         let mut drive = SimulatedBonfiglioli::new(variant);
-        // 1376 is a 16-bit parameter in every data set; the write cannot fail for 1–247.
-        let _ = drive.write(
-            ADDRESS_PARAM,
-            0,
-            model::Width::Word,
-            u32::from(address),
-            Instant::ZERO,
-        );
+        let protocol = match mode {
+            Mode::Rtu => link::PROTOCOL_RTU,
+            Mode::Ascii => link::PROTOCOL_ASCII,
+        };
+        let settings = [
+            (ADDRESS_PARAM, Some(u16::from(address))),
+            (PROTOCOL_PARAM, Some(protocol)),
+            (PARITY_PARAM, Some(link::parity_code(line.parity))),
+            (BAUD_PARAM, link::baud_code(line.baud)),
+        ];
+        for (param, value) in settings {
+            // 16-bit parameters that exist once, each value in its range: the writes cannot
+            // fail.
+            if let Some(v) = value {
+                let _ = drive.write(param, 0, model::Width::Word, u32::from(v), Instant::ZERO);
+            }
+        }
         let config = SlaveConfig::new(
             Address::new(address).unwrap_or(Address::BROADCAST),
             mode,
@@ -156,6 +181,7 @@ impl SimulatedDrive {
                 },
             ),
             line: LineTime::new(),
+            silent: false,
         }
     }
 
@@ -189,13 +215,15 @@ impl SimulatedDrive {
         rt::serve_alone(self, io).await
     }
 
-    /// Follow the Modbus address (parameter 1376) once a request wrote it.
+    /// Follow the Modbus address (parameter 1376) and the protocol type (395) once a request
+    /// wrote them.
     fn drain_events(&mut self) {
         while let Some(event) = self.slave.poll_event() {
             if let SlaveEvent::Received { .. } = event {
                 // From the store, not through a read: a read's refusal would land in the
                 // drive's error register.
                 let store = self.slave.backend().drive.store();
+                let protocol = store.read(PROTOCOL_PARAM, 0).ok();
                 let wanted = store
                     .read(ADDRESS_PARAM, 0)
                     .or_else(|_| store.read(ADDRESS_PARAM, 1))
@@ -208,6 +236,16 @@ impl SimulatedDrive {
                 {
                     self.slave.set_address(a);
                 }
+                match protocol.and_then(|p| u16::try_from(p).ok()) {
+                    Some(drive_profile::bonfiglioli::link::PROTOCOL_RTU) => {
+                        self.slave.set_mode(Mode::Rtu);
+                    }
+                    Some(drive_profile::bonfiglioli::link::PROTOCOL_ASCII) => {
+                        self.slave.set_mode(Mode::Ascii);
+                    }
+                    Some(_) => self.silent = true,
+                    None => {}
+                }
             }
         }
     }
@@ -215,7 +253,10 @@ impl SimulatedDrive {
 
 impl Endpoint for SimulatedDrive {
     fn handle_char(&mut self, c: RxChar) {
-        self.slave.handle_char(c);
+        // VCB bus or P-Bus (395 = 0, 1): no Modbus frame is understood (ch. 5.1).
+        if !self.silent {
+            self.slave.handle_char(c);
+        }
         self.drain_events();
     }
 

@@ -217,6 +217,16 @@ impl<B: Backend> Slave<B> {
         self.config.address = address;
     }
 
+    /// Receive in `mode` from now on (the drive's protocol type was written: effective at once,
+    /// ch. 6). An answer already queued goes out as it was framed; a frame being received is
+    /// dropped.
+    pub fn set_mode(&mut self, mode: Mode) {
+        if mode != self.config.mode {
+            self.config.mode = mode;
+            self.receiver = Receiver::new(ModbusFraming::new(mode, Side::Slave, &self.config.line));
+        }
+    }
+
     /// The diagnostic counters.
     pub fn counters(&self) -> &Counters {
         &self.counters

@@ -208,3 +208,65 @@ async fn a_new_modbus_address_takes_effect_at_once() {
     let sim = sim.await.unwrap();
     assert!(sim.station(17).is_some() && sim.station(2).is_none());
 }
+
+/// Issue 18: the drive's own line parameters say what it serves (10 baud rate, 395 protocol,
+/// 1375 parity, 1376 address), and a new protocol type takes effect at once (ch. 6).
+#[tokio::test(start_paused = true)]
+async fn issue18_the_line_parameters_say_what_the_drive_serves() {
+    for (mode, protocol) in [(Mode::Rtu, 2), (Mode::Ascii, 3)] {
+        let (mut m, _sim) = bus(mode, Variant::Acu);
+        let read = async |m: &mut MasterDriver<LinkEnd>, p| {
+            m.read(a(2), p, DataSet::ALL, Width::Word).await.unwrap()
+        };
+        // 19200 baud = 4, even parity = 0 (line()), the protocol of the mode, address 2.
+        assert_eq!(read(&mut m, 10).await, 4);
+        assert_eq!(read(&mut m, 395).await, protocol);
+        assert_eq!(read(&mut m, 1375).await, 0);
+        assert_eq!(read(&mut m, 1376).await, 2);
+    }
+    let l = Mode::Rtu.line_settings(9600, Parity::None);
+    let drive = sim::SimulatedDrive::new(7, Variant::Act, Mode::Rtu, l);
+    let s = drive.drive().store();
+    assert_eq!(
+        (s.read(10, 0), s.read(395, 0), s.read(1375, 0)),
+        (Ok(3), Ok(2), Ok(2))
+    );
+}
+
+#[tokio::test(start_paused = true)]
+async fn issue18_a_new_protocol_type_takes_effect_at_once() {
+    let (port, wire) = link::pair(LinkConfig::from_line(line(Mode::Rtu)));
+    let mut sim = sim::bus(&[1], Variant::Act, Mode::Rtu, line(Mode::Rtu));
+    let task = tokio::spawn(async move {
+        let _ = sim.serve(wire).await;
+    });
+    let mut rtu = MasterDriver::new(port, DriverConfig::new(Mode::Rtu, line(Mode::Rtu)));
+    // The write is answered in RTU; the drive listens for ASCII from then on.
+    rtu.write(a(1), 395, DataSet::ALL, Width::Word, 3)
+        .await
+        .unwrap();
+    match rtu.read(a(1), 372, ds(2), Width::Word).await {
+        Err(DriverError::Timeout { .. }) => {}
+        other => panic!("RTU after 395 = 3: {other:?}"),
+    }
+    let port = rtu.into_inner();
+    let mut ascii = MasterDriver::new(port, DriverConfig::new(Mode::Ascii, line(Mode::Ascii)));
+    assert_eq!(
+        ascii
+            .read(a(1), 395, DataSet::ALL, Width::Word)
+            .await
+            .unwrap(),
+        3
+    );
+    // VCB bus: no Modbus at all any more.
+    ascii
+        .write(a(1), 395, DataSet::ALL, Width::Word, 0)
+        .await
+        .unwrap();
+    match ascii.read(a(1), 372, ds(2), Width::Word).await {
+        Err(DriverError::Timeout { .. }) => {}
+        other => panic!("ASCII after 395 = 0: {other:?}"),
+    }
+    drop(ascii);
+    task.await.unwrap();
+}

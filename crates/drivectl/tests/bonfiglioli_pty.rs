@@ -407,3 +407,416 @@ fn a_broadcast_write_reaches_every_drive() {
     let o = run_at("0", &["read", "372", "--dataset", "2"]);
     assert_eq!(o.status.code(), Some(2));
 }
+
+/// `drivectl <args>` from a shell, as a user pastes it: the `drivectl` of this build first on
+/// the path.
+fn paste(sim: &PtySim, command_line: &str) -> Output {
+    let bin = std::path::Path::new(env!("CARGO_BIN_EXE_drivectl"))
+        .parent()
+        .unwrap()
+        .to_str()
+        .unwrap()
+        .to_owned();
+    let path = format!("{bin}:{}", std::env::var("PATH").unwrap_or_default());
+    Command::new("sh")
+        .args(["-c", command_line])
+        .env("PATH", path)
+        .env("DRIVECTL_STATE_DIR", &sim.state)
+        .output()
+        .unwrap()
+}
+
+/// The command a hint on standard error gives between backticks after `marker`.
+fn hint_after(err: &str, marker: &str) -> String {
+    let at = err
+        .find(marker)
+        .unwrap_or_else(|| panic!("no {marker:?} in {err}"));
+    let rest = &err[at..];
+    let start = rest
+        .find('`')
+        .unwrap_or_else(|| panic!("no hint in {rest}"))
+        + 1;
+    let len = rest[start..].find('`').unwrap();
+    rest[start..start + len].to_owned()
+}
+
+/// Issue 18 B8: the status word 411 is decoded wherever it is read (read, watch), with the
+/// device it was decoded for and how that was found; 260 and 270 carry their decoded keys.
+#[test]
+fn issue18_b8_the_status_word_is_decoded_in_read_and_watch() {
+    let sim = Sim::start("rtu", &[]);
+    let o = sim.run(&["--json", "read", "411", "260", "270"]);
+    let v = ok_json(&o);
+    let d = &v[0]["decoded"];
+    assert_eq!(d["state"], "switched on", "{v:?}");
+    assert_eq!(d["variant"], "act", "{v:?}");
+    assert_eq!(d["status_word"], "0x0023");
+    assert!(
+        d["bits"]
+            .as_array()
+            .unwrap()
+            .contains(&"no quick stop".into())
+    );
+    assert!(
+        v[0]["meaning"].as_str().unwrap().contains("switched on"),
+        "{v:?}"
+    );
+    // The ACT was found by reading 484, which only the ACT answers (ch. 10.2.3); said once.
+    assert!(stderr(&o).contains("484"), "{}", stderr(&o));
+    assert_eq!(v[1]["decoded"]["fault"], "F0000", "{v:?}");
+    assert_eq!(v[2]["decoded"]["warnings"], serde_json::json!([]), "{v:?}");
+    // In text, the word in hex with its state.
+    let o = sim.run(&["read", "411"]);
+    let out = String::from_utf8_lossy(&o.stdout).into_owned();
+    assert!(out.contains("0x0023: switched on"), "{out}");
+    // watch decodes it the same way.
+    let v = ok_json(&sim.run(&[
+        "--json",
+        "watch",
+        "411",
+        "--count",
+        "1",
+        "--interval",
+        "100",
+    ]));
+    assert_eq!(
+        v[0]["values"][0]["decoded"]["state"], "switched on",
+        "{v:?}"
+    );
+    // Given, the variant is not detected, and the decoding says which was assumed.
+    let o = sim.run(&["--json", "--variant", "act", "read", "411"]);
+    assert_eq!(ok_json(&o)[0]["decoded"]["variant"], "act");
+    assert!(!stderr(&o).contains("484"), "{}", stderr(&o));
+}
+
+/// Issue 18 B8: `--variant` is one option of the family; by default the drive is asked, and an
+/// ACU is found (its status word bit 4, or 484 it cannot read) for read, status and backup.
+#[test]
+fn issue18_b8_an_acu_is_detected_and_the_variant_applies_to_every_command() {
+    let sim = Sim::start("rtu", &["--variant", "acu"]);
+    let v = ok_json(&sim.run(&["--json", "read", "411"]));
+    assert_eq!(v[0]["decoded"]["variant"], "acu", "{v:?}");
+    assert_eq!(v[0]["decoded"]["mains_voltage"], true, "{v:?}");
+    let v = ok_json(&sim.run(&["--json", "status"]));
+    assert_eq!(v[0]["variant"], "acu", "{v:?}");
+    // Said to be an ACT, the drive contradicts it: bit 4 is set, which an ACT never sets.
+    let o = sim.run(&["--variant", "act", "status"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("bit 4"), "{}", stderr(&o));
+    // The backup's identity says which device it came from.
+    let dir = std::env::temp_dir().join(format!("drivectl-bonf-variant-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let f = dir.join("acu.json");
+    ok_json(&sim.run(&["--json", "backup", "--out", f.to_str().unwrap()]));
+    let doc: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&f).unwrap()).unwrap();
+    assert_eq!(doc["variant"], "acu", "{doc}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Issue 18 C: `info` shows what the table knows and the drive's value in every data set, with
+/// the keys of `drivectl movilink info --json` where they mean the same.
+#[test]
+fn issue18_c_info_shows_the_table_and_the_drives_values() {
+    let sim = Sim::start("rtu", &[]);
+    ok_json(&sim.run(&["--json", "write", "372", "1390", "--dataset", "2"]));
+    let v = ok_json(&sim.run(&["--json", "info", "372"]));
+    let i = &v[0];
+    for key in [
+        "index", "number", "name_de", "name_en", "unit", "range", "default", "access",
+    ] {
+        assert!(i.get(key).is_some(), "{key} missing: {i}");
+    }
+    assert_eq!(i["index"], 372);
+    assert_eq!(i["data_type"], "uInt");
+    assert_eq!(i["bits"], 16);
+    assert_eq!(i["data_sets"], true);
+    assert_eq!(i["range"]["max"], 65535);
+    let current = i["current"].as_array().unwrap();
+    assert_eq!(current.len(), 4, "{i}");
+    assert_eq!(current[1]["selector"]["dataset"], 2);
+    assert_eq!(current[1]["raw"], 1390);
+    // One data set asked for: only that one is read.
+    let v = ok_json(&sim.run(&["--json", "info", "372", "--dataset", "2"]));
+    assert_eq!(v[0]["current"].as_array().unwrap().len(), 1);
+    // Text: the table's facts and the value.
+    let o = sim.run(&["info", "372"]);
+    let out = String::from_utf8_lossy(&o.stdout).into_owned();
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(out.contains("data set 2") && out.contains("1390"), "{out}");
+}
+
+/// Issue 18 C: a response timeout shorter than an exchange at the line's baud rate is refused
+/// before the port opens, naming the least that works; that one works when pasted.
+#[test]
+fn issue18_c_a_timeout_shorter_than_the_line_needs_is_refused() {
+    let sim = Sim::start("rtu", &["--baud", "2400"]);
+    let o = sim.run(&["--baud", "2400", "--timeout", "20", "read", "372"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    let err = stderr(&o);
+    assert!(err.contains("2400 baud"), "{err}");
+    let at = err.find("--timeout ").unwrap() + "--timeout ".len();
+    let least: u64 = err[at..]
+        .split(|c: char| !c.is_ascii_digit())
+        .next()
+        .unwrap()
+        .parse()
+        .unwrap();
+    assert!(least > 20 && least < 200, "{err}");
+    let v = ok_json(&sim.run(&[
+        "--baud",
+        "2400",
+        "--timeout",
+        &least.to_string(),
+        "--json",
+        "read",
+        "372",
+    ]));
+    assert_eq!(v[0]["index"], 372);
+    let o = sim.run(&[
+        "--baud",
+        "2400",
+        "--timeout",
+        &(least - 1).to_string(),
+        "read",
+        "372",
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+}
+
+/// The slave-messages counter of the simulated drive (FC 8): how many requests reached it.
+fn slave_messages(sim: &Sim) -> u64 {
+    ok_json(&sim.run(&["--json", "diag"]))[0]["counters"]["slave_messages"]
+        .as_u64()
+        .unwrap()
+}
+
+/// Issue 18, rough edges: `--dataset` on a parameter that exists once is refused before
+/// anything is sent, naming the parameter.
+#[test]
+fn issue18_a_data_set_of_a_parameter_without_data_sets_is_refused_before_sending() {
+    let sim = Sim::start("rtu", &[]);
+    let before = slave_messages(&sim);
+    for args in [
+        &["read", "260", "--dataset", "2"][..],
+        &["watch", "411", "--dataset", "1", "--count", "1"][..],
+        &["write", "1376", "5", "--dataset", "3", "--word", "--yes"][..],
+    ] {
+        let o = sim.run(args);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {}", stderr(&o));
+        let err = stderr(&o);
+        assert!(err.contains(args[1]) && err.contains("data set"), "{err}");
+    }
+    // Only the diag of this test reached the drive (8 counters).
+    assert_eq!(slave_messages(&sim), before + 8);
+}
+
+/// Issue 18, rough edges: a link setting written with the value it has says nothing changes;
+/// a new baud rate says when it takes effect and which --baud reaches the drive then.
+#[test]
+fn issue18_an_unchanged_link_setting_says_nothing_changes() {
+    let sim = Sim::start("rtu", &[]);
+    let o = sim.run(&["write", "10", "3", "--word", "--yes"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let err = stderr(&o);
+    assert!(!err.contains("another baud rate"), "{err}");
+    assert!(err.contains("nothing changes"), "{err}");
+    std::thread::sleep(std::time::Duration::from_millis(1100));
+    let o = sim.run(&["write", "10", "4", "--word", "--yes"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let err = stderr(&o);
+    assert!(
+        err.contains("--baud 19200") && err.contains("34 = 123"),
+        "{err}"
+    );
+    // A new address applies at once: the note's command reaches the drive there.
+    let o = sim.run(&["write", "1376", "5", "--word", "--yes"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let there = hint_after(&stderr(&o), "from now on");
+    assert!(
+        there.contains("--addr 5") && there.ends_with("status"),
+        "{there}"
+    );
+    let o = paste(&sim, &there);
+    assert!(o.status.success(), "{there}: {}", stderr(&o));
+}
+
+/// Issue 18, rough edges: the simulator's own line parameters say what it serves.
+#[test]
+fn issue18_the_simulator_reports_the_line_it_serves() {
+    let sim = Sim::start("rtu", &["--addr", "3"]);
+    let run = |args: &[&str]| {
+        let mut all = vec![
+            "bonfiglioli",
+            "--port",
+            &sim.path,
+            "--parity",
+            "none",
+            "--addr",
+            "3",
+            "--json",
+            "read",
+            "--word",
+        ];
+        all.extend_from_slice(args);
+        ok_json(&sim.drivectl(&all))
+    };
+    let v = run(&["10", "395", "1375", "1376"]);
+    let raws: Vec<i64> = v.iter().map(|x| x["raw"].as_i64().unwrap()).collect();
+    // 9600 baud = 3, Modbus RTU = 2, no parity = 2, address 3.
+    assert_eq!(raws, [3, 2, 2, 3], "{v:?}");
+    let ascii = Sim::start("ascii", &["--baud", "19200"]);
+    let v = ok_json(&ascii.run(&["--baud", "19200", "--json", "read", "--word", "10", "395"]));
+    let raws: Vec<i64> = v.iter().map(|x| x["raw"].as_i64().unwrap()).collect();
+    assert_eq!(raws, [4, 3], "{v:?}");
+    // A rate the drive does not have is refused, naming the ones it has.
+    let o = Command::new(env!("CARGO_BIN_EXE_drivectl"))
+        .args([
+            "sim",
+            "bonfiglioli",
+            "--pty",
+            "--parity",
+            "none",
+            "--baud",
+            "1200",
+        ])
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("2400"), "{}", stderr(&o));
+}
+
+/// Issue 18 B11: the hints of `control` carry the line options and work when pasted: a slow
+/// line without parity, ASCII with 8 data bits on a pty, a port path with a space.
+#[test]
+fn issue18_b11_the_stop_hint_works_when_pasted() {
+    for (mode, extra) in [
+        ("rtu", &["--baud", "2400"][..]),
+        ("ascii", &["--data-bits", "8"][..]),
+    ] {
+        let sim = Sim::start(mode, extra);
+        let dir =
+            std::env::temp_dir().join(format!("drivectl bonf hint {} {mode}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        let link = dir.join("my drive");
+        std::os::unix::fs::symlink(&sim.path, &link).unwrap();
+        let port = link.to_str().unwrap();
+        let mut args = vec!["bonfiglioli", "--port", port, "--parity", "none"];
+        args.extend_from_slice(&["--mode", mode]);
+        args.extend_from_slice(extra);
+        if mode == "ascii" {
+            // Already in `extra`: the pty takes 8 data bits only.
+        } else {
+            args.extend_from_slice(&["--data-bits", "8"]);
+        }
+        args.extend_from_slice(&["control", "enable", "--freq", "5"]);
+        let o = sim.drivectl(&args);
+        assert!(o.status.success(), "{mode}: {}", stderr(&o));
+        let stop = hint_after(&stderr(&o), "stop it with");
+        for option in extra {
+            assert!(stop.contains(option), "{stop}");
+        }
+        assert!(stop.contains("'") && stop.contains("my drive"), "{stop}");
+        let o = paste(&sim, &stop);
+        assert!(o.status.success(), "{stop}: {}", stderr(&o));
+        let status = paste(&sim, &stop.replace("control stop", "--json status"));
+        let v = ok_json(&status);
+        assert_eq!(v[0]["state"], "switched on", "{v:?}");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}
+
+/// Issue 18, rough edges: Modbus ASCII's 7 data bits refused by a pty: the message says what
+/// the manual says (ASCII uses 7 data bits) and how to run over a pty: 8 on both sides, both
+/// commands pasteable.
+#[test]
+fn issue18_ascii_7_data_bits_on_a_pty_say_the_manuals_7_and_how_to_run() {
+    let sim = Sim::start("ascii", &["--data-bits", "8"]);
+    let o = sim.drivectl(&[
+        "bonfiglioli",
+        "--port",
+        &sim.path,
+        "--parity",
+        "none",
+        "--mode",
+        "ascii",
+        "read",
+        "372",
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    let err = stderr(&o);
+    assert!(!err.contains("normally use 8"), "{err}");
+    assert!(
+        err.contains("7 data bits") && err.contains("6.7.2.1"),
+        "{err}"
+    );
+    let retry = hint_after(&err, "run both sides");
+    assert!(
+        retry.contains("sim bonfiglioli") && retry.contains("--data-bits 8"),
+        "{retry}"
+    );
+    let master = hint_after(&err[err.find(&retry).unwrap() + retry.len()..], "and");
+    assert!(
+        master.contains("--data-bits 8") && !master.contains("read 372"),
+        "{master}"
+    );
+    let o = paste(&sim, &format!("{master} read 372 --json"));
+    assert_eq!(ok_json(&o)[0]["index"], 372, "{master}");
+}
+
+/// Issue 18, rough edges: `control enable` leaves 412 = 1 in RAM, a backup reads it (a read
+/// returns the value in use: the manual has no read of the stored one), and a restore never
+/// writes 412: it would store 1 in the EEPROM of all four data sets.
+#[test]
+fn issue18_a_backup_after_control_never_restores_412() {
+    let sim = Sim::start("rtu", &[]);
+    let o = sim.run(&["control", "enable", "--freq", "5"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(sim.run(&["control", "stop"]).status.success());
+    let dir = std::env::temp_dir().join(format!("drivectl-bonf-412-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let f = dir.join("after-control.json");
+    let fs = f.to_str().unwrap();
+    ok_json(&sim.run(&["--json", "backup", "--out", fs]));
+    let doc: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&f).unwrap()).unwrap();
+    let saved: Vec<&serde_json::Value> = doc["parameters"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|e| e["index"] == 412)
+        .collect();
+    assert_eq!(saved.len(), 4, "412 in four data sets");
+    assert!(saved.iter().all(|e| e["raw"] == 1), "{saved:?}");
+    // Back to the keypad's mode in RAM: the file's 412 = 1 now differs from the drive.
+    ok_json(&sim.run(&["--json", "write", "412", "44", "--word", "--ram"]));
+    let v = ok_json(&sim.run(&["--json", "restore", fs, "--dry-run"]));
+    assert!(
+        v.iter().all(|c| c["index"] != 412),
+        "412 would be restored: {v:?}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// An ACU with positioning control (configuration 30 = x40) has no shortcut 4' from switch-on
+/// disabled (ch. 10.2): `control enable` goes through 2, 3 and 4 instead of waiting for a
+/// transition the drive does not make.
+#[test]
+fn issue18_control_enables_an_acu_with_positioning_control() {
+    let sim = Sim::start("rtu", &["--variant", "acu"]);
+    ok_json(&sim.run(&["--json", "write", "30", "240", "--word", "--force"]));
+    let started = std::time::Instant::now();
+    let o = sim.run(&["control", "enable", "--freq", "5"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        started.elapsed() < std::time::Duration::from_secs(10),
+        "{:?}",
+        started.elapsed()
+    );
+    let v = ok_json(&sim.run(&["--json", "status"]));
+    assert_eq!(v[0]["state"], "operation enabled", "{v:?}");
+    assert!(sim.run(&["control", "stop"]).status.success());
+}

@@ -632,6 +632,7 @@ const COMMANDS_WITH_EXAMPLES: &[&[&str]] = &[
     &["bonfiglioli", "backup"],
     &["bonfiglioli", "restore"],
     &["bonfiglioli", "watch"],
+    &["bonfiglioli", "info"],
     &["bonfiglioli", "line"],
     &["sim", "bonfiglioli"],
     &["decode", "modbus-rtu"],

@@ -1,6 +1,7 @@
 //! Bonfiglioli ACTIVE (ACT) and ACTIVE Cube (ACU): parameter tables, warnings, fault keys and
 //! the VABus error register from the Modbus manual, plus control/status words and the
-//! DRIVECOM-style state machine ([`words`], [`state`]).
+//! DRIVECOM-style state machine ([`words`], [`state`]), and what tells the ACT from the ACU
+//! ([`variant`]).
 //!
 //! A parameter is addressed by its number and a data set (ch. 6.4.1, ch. 7); for Bonfiglioli the
 //! bus index is the parameter number. Values with decimals travel as integers: 10.3 A with one
@@ -22,7 +23,9 @@
 //! Where the manual gives no data type, [`DataType::Unknown`] says so; [`TypeSource`] records
 //! where every known type comes from.
 
+pub mod link;
 pub mod state;
+pub mod variant;
 pub mod words;
 
 use crate::columns::{Column, FieldSink, text_list};
@@ -41,6 +44,7 @@ pub use state::{
     ActStateMachine, AcuPositioningStateMachine, AcuStateMachine, ControlSequencer, State,
     Transition5, act_transitions,
 };
+pub use variant::Variant;
 pub use words::{
     ActControlWord, ActStatusWord, AcuControlWord, AcuStatusWord, ContactState, RemoteContacts,
 };

@@ -20,10 +20,10 @@ use bonfiglioli_modbus::framing::Mode;
 use bonfiglioli_modbus::slave::Width;
 use clap::{Args, Subcommand};
 use drive_profile::bonfiglioli::{
-    self, ActStateMachine, ActStatusWord, AcuStateMachine, AcuStatusWord, DataType, State,
+    self, ActStateMachine, AcuPositioningStateMachine, AcuStateMachine, DataType, State, Variant,
 };
 use drive_profile::state::StateMachine;
-use drive_profile::{Family, Persistence};
+use drive_profile::{Family, ParamMeta, Persistence};
 use serde_json::{Map, Value, json};
 
 use crate::error::{CliError, Result};
@@ -33,6 +33,7 @@ use crate::tool::client::{
 };
 use crate::tool::interrupt::Interrupt;
 use crate::tool::line::{LineArgs, runtime};
+use crate::tool::meaning::{Device, KnownVariant};
 use crate::tool::motor::{AtEnd, Motion, MotorGuard, Stopped};
 use crate::tool::output::physical_text;
 use crate::tool::{backup, read, watch, write};
@@ -84,13 +85,20 @@ pub const LINK_SETTINGS: &[u16] = &[
 ];
 
 /// What a restore never writes: the command 34 (program), the RAM-only control word and
-/// setpoints (410, 484, 524) and the link settings that would cut the connection (baud rate,
-/// protocol, parity, address). The 413 watchdog is restored with `restore --yes` only.
+/// setpoints (410, 484, 524), the link settings that would cut the connection (baud rate,
+/// protocol, parity, address), and *local/remote* 412. The 413 watchdog is restored with
+/// `restore --yes` only. `control` sets 412 = 1 in RAM only (data set 5), and a read returns
+/// the value in use whether it came from the EEPROM or from such a RAM write: the manual offers
+/// no read of the stored value (ch. 7 names data sets 5–9 for writes only). A backup taken
+/// after `control` therefore holds 412 = 1, and restoring it would store 1 in the EEPROM of all
+/// four data sets, handing the drive to the bus for good; who controls the drive (contacts,
+/// bus, keypad) is set on purpose, not restored.
 pub const NOT_RESTORED: &[u16] = &[
     param::BAUD_RATE,
     param::PROGRAM,
     param::PROTOCOL,
     param::CONTROL_WORD,
+    param::LOCAL_REMOTE,
     param::FREQUENCY_RAM,
     param::PERCENTAGE_RAM,
     param::PARITY,
@@ -102,9 +110,11 @@ Examples:
   drivectl bonfiglioli --port /dev/ttyUSB0 --addr 1 read 372 --dataset 2
   drivectl bonfiglioli --port /dev/ttyUSB0 --addr 1 write 376 1.5 --dataset 4
   drivectl bonfiglioli --port /dev/ttyUSB0 --mode ascii --addr 1 status
+  drivectl bonfiglioli --port /dev/ttyUSB0 --addr 1 --variant acu read 411   an ACTIVE Cube, not asked
   drivectl bonfiglioli read 481 --port /dev/ttyUSB0 --addr 1      options after the command work too
 
-Widths, data sets and value lists: `drivectl params bonfiglioli show 372`.";
+Widths, data sets and value lists: `drivectl params bonfiglioli show 372`; with the drive's
+values: `info`.";
 
 const WRITE_HELP: &str = "\
 Examples:
@@ -136,15 +146,22 @@ pub struct BonfiglioliArgs {
     /// takes only 8.
     #[arg(long, global = true, value_parser = clap::value_parser!(u8).range(7..=8))]
     data_bits: Option<u8>,
-    /// Response timeout in milliseconds, 1–60000 (the manual: 500).
+    /// Response timeout in milliseconds, 1–60000 (the manual: 500). Less than an exchange
+    /// takes at the baud rate (request, the drive's 10 ms answer delay, answer) is refused.
     #[arg(long, global = true, default_value_t = 500, value_parser = clap::value_parser!(u64).range(1..=60_000))]
     timeout: u64,
     /// Retries after a timeout or a corrupt answer.
     #[arg(long, global = true, default_value_t = 2)]
     retries: u8,
-    /// Drive address 1–247 (parameter 1376).
+    /// Drive address 1–247 (parameter 1376); 0 broadcasts a write to every drive.
     #[arg(long, global = true, default_value_t = 1)]
     addr: u8,
+    /// The device: act (ACTIVE), acu (ACTIVE Cube), or auto: asked of the drive where it matters
+    /// (the status word 411 in read/watch/info/status, control, backup): bit 4 of 411 is set
+    /// only by an ACU (ch. 9.1.3), and only the ACT answers a read of 484 (ch. 10.2.3). The
+    /// variant found is said on standard error.
+    #[arg(long, global = true, default_value = "auto", value_parser = ["auto", "act", "acu"])]
+    variant: String,
     /// One JSON object per result.
     #[arg(long, global = true)]
     json: bool,
@@ -156,7 +173,9 @@ pub struct BonfiglioliArgs {
 #[derive(Debug, Args, Clone, Copy, Default)]
 pub struct Access {
     /// Data set 0–9: 0 = all four (a read of 0 succeeds only where the four are equal), 1–4 one
-    /// of them, 5–9 the RAM-only twins of 0–4.
+    /// of them, 5–9 the RAM-only twins of 0–4. Only for parameters with data sets (`drivectl
+    /// params bonfiglioli show N`: DS); one that exists once takes 0 (and 5 for a RAM-only
+    /// write).
     #[arg(long, default_value_t = 0, value_parser = clap::value_parser!(u8).range(0..=9))]
     dataset: u8,
     /// Access as 16 bit (FC 3/6): for parameters the manual gives no data type.
@@ -248,8 +267,9 @@ enum BonfiglioliCommand {
         #[arg(long)]
         clear: bool,
     },
-    /// Find responding drives (a short timeout per address) with their configuration (30) and
-    /// status word (411). The manual defines no device type or firmware parameter.
+    /// Find responding drives with their variant, configuration (30) and status word (411).
+    /// Each address waits the drive's 10 ms answer delay (ch. 6.8) and a margin for USB
+    /// adapters, not --timeout. The manual defines no device type or firmware parameter.
     #[command(
         after_help = "Examples:\n  drivectl bonfiglioli --port /dev/ttyUSB0 scan\n  drivectl bonfiglioli --port /dev/ttyUSB0 scan --from 1 --to 10 --json"
     )]
@@ -261,15 +281,12 @@ enum BonfiglioliCommand {
         #[arg(long, default_value_t = 247)]
         to: u8,
     },
-    /// The status word 411 decoded (ACT or ACU), the current fault 260 and the warnings 270.
+    /// The status word 411 decoded for the drive's variant (ACT or ACU, asked of the drive
+    /// unless --variant says it), the current fault 260 and the warnings 270.
     #[command(
         after_help = "Examples:\n  drivectl bonfiglioli --port /dev/ttyUSB0 --addr 1 status\n  drivectl bonfiglioli --port /dev/ttyUSB0 --addr 1 status --variant acu --json"
     )]
-    Status {
-        /// Decode the status word as ACT (ACTIVE) or ACU (ACTIVE Cube).
-        #[arg(long, default_value = "act", value_parser = ["act", "acu"])]
-        variant: String,
-    },
+    Status,
     /// Command the drive through the state machine (410 control word, 412 = 1 state machine):
     /// enable, stop (switched on), quick-stop, disable (switch-on disabled) or reset a fault.
     #[command(
@@ -279,12 +296,21 @@ enum BonfiglioliCommand {
         /// What to do.
         #[arg(value_parser = ["enable", "stop", "quick-stop", "disable", "reset"])]
         action: String,
-        /// Write this reference frequency in Hz to 484 (RAM) first.
+        /// Write this reference frequency in Hz to 484 (RAM) first (never read back: 484 is
+        /// write-only on the ACTIVE Cube).
         #[arg(long, allow_hyphen_values = true, value_name = "HZ")]
         freq: Option<String>,
-        /// The device: act (ACTIVE) or acu (ACTIVE Cube; 484 is write-only there).
-        #[arg(long, default_value = "act", value_parser = ["act", "acu"])]
-        variant: String,
+    },
+    /// What the table knows of a parameter (range, default, unit, decimals, data type and
+    /// width, data sets, access, RAM-only) and the drive's value in each data set it has.
+    #[command(
+        after_help = "Examples:\n  drivectl bonfiglioli --port /dev/ttyUSB0 --addr 1 info 372\n  drivectl bonfiglioli --port /dev/ttyUSB0 --addr 1 info 372 --dataset 2 --json\n  drivectl bonfiglioli --port /dev/ttyUSB0 --addr 1 info 415 --word\n\nThe table alone, without a drive: `drivectl params bonfiglioli show 372`."
+    )]
+    Info {
+        /// Parameter number (372 or P372).
+        param: String,
+        #[command(flatten)]
+        access: Access,
     },
     /// Show the line settings and the timing the master uses on this port.
     #[command(
@@ -325,6 +351,14 @@ pub struct BonfiglioliClient<'a, IO> {
     /// Widths found by probing, per parameter number.
     probed: HashMap<u16, Width>,
     key: Option<String>,
+    /// ACT or ACU, once given or found ([`BonfiglioliClient::find_variant`]).
+    variant: Option<KnownVariant>,
+    /// The value a link setting held before this command wrote it, when it could be read: what
+    /// the write changes for the link ([`ParamClient::follow_link_change`]).
+    link_before: Option<(u16, i64)>,
+    /// The command that reaches the drive once a link setting's new value applies (the hint of
+    /// the link-change note).
+    link_reach: Option<String>,
 }
 
 impl<'a, IO: CharIo> BonfiglioliClient<'a, IO> {
@@ -343,6 +377,9 @@ impl<'a, IO: CharIo> BonfiglioliClient<'a, IO> {
             unknown: UnknownWidth::Refuse,
             probed: HashMap::new(),
             key: None,
+            variant: None,
+            link_before: None,
+            link_reach: None,
         }
     }
 
@@ -354,10 +391,128 @@ impl<'a, IO: CharIo> BonfiglioliClient<'a, IO> {
         self
     }
 
+    /// The command that reaches the drive after the link-setting write this command makes
+    /// ([`reach_after`]), for the note that says what changes.
+    pub fn reaching_with(mut self, command: Option<String>) -> Self {
+        self.link_reach = command;
+        self
+    }
+
+    /// The variant `--variant` gives (none for `auto`): known without asking the drive.
+    pub fn given(mut self, variant: Option<Variant>) -> Self {
+        self.variant = variant.map(|variant| KnownVariant {
+            variant,
+            from: "given",
+        });
+        self
+    }
+
+    /// The drive's variant: the one given, else found by asking the drive once (see
+    /// [`Variant`]: its status word's bit 4, then a read of 484), said on standard error when
+    /// `say`. `None` when the drive shows neither (a warning says so when `say`).
+    pub async fn find_variant(
+        &mut self,
+        say: bool,
+    ) -> std::result::Result<Option<KnownVariant>, ClientError> {
+        if self.variant.is_some() {
+            return Ok(self.variant);
+        }
+        let word = self
+            .driver
+            .read(self.address, param::STATUS_WORD, DataSet::ALL, Width::Word)
+            .await
+            .map_err(|e| client_error(Width::Word, e))?;
+        let (found, why) = match Variant::of_status_word(word as u16) {
+            Some(v) => (
+                Some((v, "status word bit 4")),
+                format!(
+                    "its status word 411 = 0x{:04X} has bit 4 (mains voltage) set, which an ACT \
+                     never sets (manual ch. 9.1.3)",
+                    word as u16
+                ),
+            ),
+            None => match self
+                .driver
+                .read(
+                    self.address,
+                    param::FREQUENCY_RAM,
+                    DataSet::ALL,
+                    Width::Long,
+                )
+                .await
+            {
+                Ok(_) => (
+                    Some((Variant::Act, "484 readable")),
+                    "it answers a read of 484, which an ACTIVE Cube refuses (manual ch. 10.2.3)"
+                        .to_owned(),
+                ),
+                Err(DriverError::Device { exception, vabus }) => {
+                    match Variant::of_484_read(false, vabus) {
+                        Some(v) => (
+                            Some((v, "484 not readable")),
+                            "it refuses to read 484 (VABus error 3, not readable), as only an \
+                             ACTIVE Cube does (manual ch. 10.2.3)"
+                                .to_owned(),
+                        ),
+                        None => (
+                            None,
+                            format!(
+                                "its status word has bit 4 clear and a read of 484 was refused \
+                                 ({})",
+                                DriverError::Device { exception, vabus }
+                            ),
+                        ),
+                    }
+                }
+                Err(e) => return Err(client_error(Width::Long, e)),
+            },
+        };
+        self.variant = found.map(|(variant, from)| KnownVariant { variant, from });
+        if say {
+            match self.variant {
+                Some(k) => errln!(
+                    "drivectl: note: the drive at address {} is an {}: {why}; --variant {} \
+                     skips this check",
+                    self.address.get(),
+                    k.variant,
+                    k.variant.key()
+                ),
+                None => errln!(
+                    "drivectl: warning: cannot tell an ACT from an ACU at address {}: {why}; \
+                     the status word is decoded for what both share: give --variant act or \
+                     --variant acu",
+                    self.address.get()
+                ),
+            }
+        }
+        Ok(self.variant)
+    }
+
     /// Find the width of parameters without a data type by trying (backup, restore).
     pub fn probing(mut self) -> Self {
         self.unknown = UnknownWidth::Probe;
         self
+    }
+
+    /// What `target` held before this command wrote it, if that was read.
+    fn before_of(&self, target: &Target) -> Option<i64> {
+        self.link_before
+            .filter(|(index, _)| *index == target.index)
+            .map(|(_, raw)| raw)
+    }
+
+    /// Read what the link setting `target` holds now, so that its write can say what changes
+    /// (nothing, when the value is the same). A refused read leaves it unknown.
+    pub async fn remember_link_setting(
+        &mut self,
+        target: &Target,
+    ) -> std::result::Result<(), ClientError> {
+        self.link_before = match self.read(target).await {
+            Ok(raw) => Some((target.index, raw)),
+            Err(ClientError::Device(_)) => None,
+            Err(e) => return Err(e),
+        };
+        Ok(())
     }
 
     /// Parameters whose width was found by trying.
@@ -477,6 +632,78 @@ pub fn client_error(width: Width, e: DriverError) -> ClientError {
     })
 }
 
+/// What writing `raw` to the link setting `target` does to the link of the drive at `address`,
+/// which held `before` (if known): nothing when it is the same; a baud rate or parity from the
+/// next reset (34 = 123) or power cycle on (ch. 5.2.1); a protocol or an address at once
+/// (ch. 5.2.2, 6); with the option that reaches the drive then, or the whole command
+/// (`reach`, [`reach_after`]).
+fn link_change_text(
+    target: &Target,
+    raw: i64,
+    address: Address,
+    before: Option<i64>,
+    reach: Option<&str>,
+) -> String {
+    let then = |option: String| reach.map_or(option, |cmd| format!("`{cmd}`"));
+    let text = |raw: i64| {
+        target
+            .param
+            .map_or_else(|| raw.to_string(), |p| physical_text(p, raw))
+    };
+    let value = text(raw);
+    if before == Some(raw) {
+        return format!(
+            "{} already holds {value}: nothing changes for the link",
+            target.label()
+        );
+    }
+    // A baud rate or parity stays until the reset; a protocol changes at once.
+    let until = before.map_or_else(String::new, |b| format!(" (until then {})", text(b)));
+    let was = before.map_or_else(String::new, |b| format!(" (it held {})", text(b)));
+    const AFTER_RESET: &str = "after the next reset (34 = 123) or power cycle (manual ch. 5.2.1)";
+    match target.index {
+        param::ADDRESS => format!(
+            "the drive answers at address {raw} from now on, no longer at {}: {}",
+            address.get(),
+            then(format!("use --addr {raw}"))
+        ),
+        param::BAUD_RATE => match bonfiglioli::link::baud_of_code(raw) {
+            Some(baud) => format!(
+                "the drive talks at {baud} baud {AFTER_RESET}{until}: then {}",
+                then(format!("use --baud {baud}"))
+            ),
+            None => format!("{value} is not a baud rate of the drive (1–6)"),
+        },
+        param::PARITY => match bonfiglioli::link::parity_of_code(raw) {
+            Some(parity) => format!(
+                "the drive uses parity {parity} {AFTER_RESET}{until}: then {}",
+                then(format!("use --parity {parity}"))
+            ),
+            None => format!("{value} is not a parity of the drive (0–2)"),
+        },
+        param::PROTOCOL => match u16::try_from(raw).ok() {
+            Some(bonfiglioli::link::PROTOCOL_RTU) => format!(
+                "the drive speaks Modbus RTU from now on (effective at once, ch. 6){was}: {}",
+                then("use --mode rtu".to_owned())
+            ),
+            Some(bonfiglioli::link::PROTOCOL_ASCII) => format!(
+                "the drive speaks Modbus ASCII from now on (effective at once, ch. 6){was}: {}",
+                then("use --mode ascii".to_owned())
+            ),
+            _ => format!(
+                "the drive stops speaking Modbus at once ({value}, ch. 6): no Modbus master \
+                 reaches it any more; set 395 back to 2 or 3 with the KP500 keypad (ch. 5.1)"
+            ),
+        },
+        param::WATCHDOG if raw == 0 => "the drive will no longer watch the link (413 = 0): \
+             a master that stops leaves it running"
+            .to_owned(),
+        _ => format!(
+            "the drive will trip when no valid request arrives for {value} (413 watchdog){was}"
+        ),
+    }
+}
+
 impl<IO: CharIo> ParamClient for BonfiglioliClient<'_, IO> {
     fn family(&self) -> Family {
         Family::Bonfiglioli
@@ -496,31 +723,13 @@ impl<IO: CharIo> ParamClient for BonfiglioliClient<'_, IO> {
     }
 
     fn link_change(&self, target: &Target, raw: i64) -> String {
-        let value = target
-            .param
-            .map_or_else(|| raw.to_string(), |p| physical_text(p, raw));
-        match target.index {
-            param::ADDRESS => format!(
-                "the drive will answer at address {raw}, no longer at {} (use --addr {raw})",
-                self.address.get()
-            ),
-            param::BAUD_RATE => format!(
-                "the drive will talk at another baud rate ({value}): use the matching --baud"
-            ),
-            param::PARITY => {
-                format!("the drive will use another parity ({value}): use the matching --parity")
-            }
-            param::PROTOCOL => format!(
-                "the drive will speak another protocol ({value}); 2 = Modbus RTU (--mode rtu), \
-                 3 = Modbus ASCII (--mode ascii)"
-            ),
-            param::WATCHDOG if raw == 0 => "the drive will no longer watch the link (413 = 0): \
-                 a master that stops leaves it running"
-                .to_owned(),
-            _ => format!(
-                "the drive will trip when no valid request arrives for {value} (413 watchdog)"
-            ),
-        }
+        link_change_text(
+            target,
+            raw,
+            self.address,
+            self.before_of(target),
+            self.link_reach.as_deref(),
+        )
     }
 
     fn follow_link_change(&mut self, target: &Target, raw: i64) -> String {
@@ -536,6 +745,11 @@ impl<IO: CharIo> ParamClient for BonfiglioliClient<'_, IO> {
 
     fn not_restored(&self) -> &'static [u16] {
         NOT_RESTORED
+    }
+
+    fn device(&self) -> Device {
+        self.variant
+            .map_or_else(Device::default, |k| Device::bonfiglioli(k.variant, k.from))
     }
 
     async fn read(&mut self, target: &Target) -> std::result::Result<i64, ClientError> {
@@ -618,11 +832,15 @@ impl<IO: CharIo> ParamClient for BonfiglioliClient<'_, IO> {
             Err(ClientError::Device(_)) => Value::Null,
             Err(e) => return Err(e),
         };
+        let variant = self.find_variant(true).await?;
         let mut m = Map::new();
         m.insert("address".into(), self.address.get().into());
         m.insert("device_type".into(), Value::Null);
         m.insert("firmware".into(), Value::Null);
         m.insert("configuration".into(), configuration);
+        // ACT or ACU (null when the drive shows neither), and how that is known.
+        m.insert("variant".into(), variant.map(|k| k.variant.key()).into());
+        m.insert("variant_from".into(), variant.map(|k| k.from).into());
         Ok(m)
     }
 }
@@ -644,10 +862,42 @@ fn resolve_all(params: &[String], access: Access) -> Result<Vec<Target>> {
         .iter()
         .map(|p| {
             let t = resolve(p, access.dataset)?;
+            check_data_set(&t)?;
             check_width_known(&t, access.width())?;
             Ok(t)
         })
         .collect()
+}
+
+/// Refuse a data set the parameter does not have, before anything is sent: a parameter that
+/// exists once (the table's data-set flag, ch. 11) has data set 0 and, for a RAM-only write,
+/// 5; the RAM parameters 410, 484 and 524 are always data set 0 (ch. 7). Parameters whose
+/// data sets the manual does not state, and numbers outside the table, are left to the drive.
+pub fn check_data_set(t: &Target) -> Result<()> {
+    let Some(p) = t.param.and(bonfiglioli::by_index(t.index)) else {
+        return Ok(());
+    };
+    let name = format!("{} {}", p.number, p.name_en);
+    if p.ram_only && t.sub != 0 {
+        return Err(CliError::usage(format!(
+            "{name} is kept in RAM and always addressed as data set 0 (manual ch. 7): \
+             --dataset {} is refused before anything is sent; leave --dataset out",
+            t.sub
+        )));
+    }
+    if p.data_set == Some(false) && !matches!(t.sub, 0 | 5) {
+        let ram = if p.is_writable() {
+            " (--volatile writes it to RAM only, data set 5)"
+        } else {
+            ""
+        };
+        return Err(CliError::usage(format!(
+            "{name} exists once, without data sets (manual ch. 7, 11): --dataset {} is \
+             refused before anything is sent; leave --dataset out{ram}",
+            t.sub
+        )));
+    }
+    Ok(())
 }
 
 /// A write to every drive (address 0): checked as any write (width, table, link settings,
@@ -728,14 +978,51 @@ pub fn line_of(mode: Mode, line: &LineArgs, data_bits: Option<u8>) -> drive_core
     settings
 }
 
-/// The driver configuration of the command-line options.
-fn driver_config(args: &BonfiglioliArgs) -> DriverConfig {
-    let mode = mode_of(&args.mode);
-    DriverConfig {
-        response_timeout: Duration::from_millis(args.timeout),
-        retries: args.retries,
-        ..DriverConfig::new(mode, line_of(mode, &args.line, args.data_bits))
+/// The longest frame of an exchange drivectl makes, in characters: a 32-bit write (FC 101)
+/// and its echo, address, function code, start address (2), value (4) and check: RTU 10 bytes
+/// with the CRC (2), ASCII `:`, 9 bytes as 18 hex digits with the LRC, CR LF (ch. 6.7).
+pub const fn longest_frame(mode: Mode) -> u32 {
+    match mode {
+        Mode::Rtu => 10,
+        Mode::Ascii => 1 + 2 * 9 + 2,
     }
+}
+
+/// The least response timeout an exchange needs on `line`: the request and the answer (the
+/// longest, [`longest_frame`]) at the line's character time and the drive's answer delay
+/// (10 ms at the earliest, ch. 6.8), rounded up to whole milliseconds.
+pub fn least_timeout(mode: Mode, line: &drive_core::LineSettings) -> Duration {
+    let frames = line.char_time() * (2 * longest_frame(mode));
+    let needed = bonfiglioli_modbus::slave::ANSWER_DELAY + frames;
+    Duration::from_millis(u64::try_from(needed.as_micros().div_ceil(1000)).unwrap_or(u64::MAX))
+}
+
+/// The driver configuration of the command-line options. A response timeout shorter than an
+/// exchange takes at the line's baud rate ([`least_timeout`]) is refused: no answer could come
+/// in time.
+fn driver_config(args: &BonfiglioliArgs) -> Result<DriverConfig> {
+    let mode = mode_of(&args.mode);
+    let line = line_of(mode, &args.line, args.data_bits);
+    let timeout = Duration::from_millis(args.timeout);
+    let least = least_timeout(mode, &line);
+    if timeout < least {
+        let frame = longest_frame(mode);
+        return Err(CliError::usage(format!(
+            "a response timeout of {} ms is shorter than an exchange takes at {} baud: the \
+             request and the answer (up to {frame} characters each, {:.1} ms each) and the \
+             drive's answer delay of 10 ms (manual ch. 6.8) need {} ms; use --timeout {} or more",
+            args.timeout,
+            line.baud,
+            (line.char_time() * frame).as_secs_f64() * 1e3,
+            least.as_millis(),
+            least.as_millis()
+        )));
+    }
+    Ok(DriverConfig {
+        response_timeout: timeout,
+        retries: args.retries,
+        ..DriverConfig::new(mode, line)
+    })
 }
 
 /// The value a write sends, checked without the drive.
@@ -748,6 +1035,7 @@ struct WriteValue {
 #[allow(clippy::fn_params_excessive_bools)]
 fn write_value(param: &str, value: &str, access: Access, how: &ValueText) -> Result<WriteValue> {
     let t = resolve(param, access.dataset)?;
+    check_data_set(&t)?;
     check_width_known(&t, access.width())?;
     let parsed = t.value_from_text(value, how)?;
     t.check_width(parsed.raw)?;
@@ -769,16 +1057,64 @@ fn write_value(param: &str, value: &str, access: Access, how: &ValueText) -> Res
 /// The command line that reaches the same drive again (for hints): every line option that
 /// differs from its default.
 fn again(args: &BonfiglioliArgs) -> Again {
+    again_with_data_bits(args, args.data_bits)
+}
+
+/// [`again`] with `--data-bits` as `data_bits` says.
+fn again_with_data_bits(args: &BonfiglioliArgs, data_bits: Option<u8>) -> Again {
     let mut a = Again::new("bonfiglioli")
         .arg("--port", &args.port)
         .arg_unless("--mode", args.mode.as_str(), "rtu")
         .line(&args.line);
-    if let Some(bits) = args.data_bits {
+    if let Some(bits) = data_bits {
         a = a.arg("--data-bits", bits);
     }
     a.arg_unless("--timeout", args.timeout, 500)
         .arg_unless("--retries", args.retries, 2)
+        .arg_unless("--variant", args.variant.as_str(), "auto")
         .arg("--addr", args.addr)
+}
+
+/// The command that reaches the drive of `args` once `raw` written to the link setting `index`
+/// applies: the same line options with the new address, baud rate, parity or mode (ASCII with
+/// 7 data bits unless `--data-bits` was given), asking for the drive's status; `None` for a
+/// setting after which no Modbus master reaches it, or that changes nothing of the line.
+pub fn reach_after(args: &BonfiglioliArgs, index: u16, raw: i64) -> Option<String> {
+    let mut line = args.line.clone();
+    let mut mode = args.mode.as_str();
+    let mut addr = args.addr;
+    match index {
+        param::ADDRESS => addr = u8::try_from(raw).ok().filter(|a| (1..=247).contains(a))?,
+        param::BAUD_RATE => line.baud = bonfiglioli::link::baud_of_code(raw)?,
+        param::PARITY => line.parity = bonfiglioli::link::parity_of_code(raw)?,
+        param::PROTOCOL => {
+            mode = match u16::try_from(raw).ok()? {
+                bonfiglioli::link::PROTOCOL_RTU => "rtu",
+                bonfiglioli::link::PROTOCOL_ASCII => "ascii",
+                _ => return None,
+            }
+        }
+        _ => return None,
+    }
+    let mut a = Again::new("bonfiglioli")
+        .arg("--port", &args.port)
+        .arg_unless("--mode", mode, "rtu")
+        .line(&line);
+    if let Some(bits) = args.data_bits {
+        a = a.arg("--data-bits", bits);
+    }
+    Some(
+        a.arg_unless("--timeout", args.timeout, 500)
+            .arg_unless("--retries", args.retries, 2)
+            .arg_unless("--variant", args.variant.as_str(), "auto")
+            .arg("--addr", addr)
+            .then("status"),
+    )
+}
+
+/// The `--variant` given (none for `auto`).
+fn given_variant(args: &BonfiglioliArgs) -> Option<Variant> {
+    Variant::from_key(&args.variant)
 }
 
 /// Run `drivectl bonfiglioli`.
@@ -789,28 +1125,40 @@ pub fn run(args: &BonfiglioliArgs) -> Result<()> {
         ));
     }
     precheck(args)?;
-    let config = driver_config(args);
+    let config = driver_config(args)?;
     let rt = runtime()?;
     rt.block_on(async {
         // The mode's character format: RTU 8 data bits, ASCII 7 (ch. 6.7).
-        let port = open(&args.port, config.line)?;
+        let port = open(args, config.line)?;
         let mut master = MasterDriver::new(Stream(port), config);
         execute(&mut master, args).await
     })
 }
 
-/// Open `path` with `settings` (the mode's data bits).
+/// Open the port of `args` with `settings` (the mode's data bits). A port that refuses ASCII's
+/// 7 data bits (every pseudo-terminal does) is told apart: the manual's ASCII is 7 data bits,
+/// and a pty runs only with 8 on both sides.
 fn open(
-    path: &str,
+    args: &BonfiglioliArgs,
     settings: drive_core::LineSettings,
 ) -> Result<drive_transport::serial::SerialPort> {
+    let path = &args.port;
     let config = drive_transport::serial::SerialConfig::with_line(path, settings);
-    drive_transport::serial::open(&config).map_err(|e| {
-        if e.refused_setting().is_some() {
-            CliError::usage(crate::tool::line::open_error(&e))
-        } else {
-            CliError::failed(crate::tool::line::open_error(&e))
+    drive_transport::serial::open(&config).map_err(|e| match e.refused_setting() {
+        Some(drive_transport::LineOption::DataBits) if settings.data_bits == 7 => {
+            let sim = Again::new("sim bonfiglioli --pty --parity none --mode ascii --data-bits 8")
+                .arg_unless("--baud", args.line.baud, 9600)
+                .arg_unless("--addr", args.addr, 1);
+            CliError::usage(format!(
+                "{path} does not take 7 data bits (a pseudo-terminal takes only 8). Modbus ASCII \
+                 uses 7 data bits (manual ch. 6.7.2.1), and so does a drive set to ASCII: on a \
+                 real line use an adapter that takes 7. Against a simulator on a pty, run both \
+                 sides with 8 data bits: `{sim}` and `{}`",
+                again_with_data_bits(args, Some(8))
+            ))
         }
+        Some(_) => CliError::usage(crate::tool::line::open_error(&e)),
+        None => CliError::failed(crate::tool::line::open_error(&e)),
     })
 }
 
@@ -838,6 +1186,9 @@ fn precheck(args: &BonfiglioliArgs) -> Result<()> {
             write_value(param, value, *access, &how).map(drop)
         }
         BonfiglioliCommand::Control { freq: Some(f), .. } => freq_raw(f).map(drop),
+        BonfiglioliCommand::Info { param, access } => {
+            resolve(param, access.dataset).and_then(|t| check_data_set(&t))
+        }
         BonfiglioliCommand::Restore(r) => {
             backup::check_file(&r.file, Family::Bonfiglioli, NOT_RESTORED)
         }
@@ -859,7 +1210,9 @@ async fn execute<IO: CharIo>(m: &mut MasterDriver<IO>, args: &BonfiglioliArgs) -
     match &args.command {
         BonfiglioliCommand::Read { params, access } => {
             let targets = resolve_all(params, *access)?;
-            let mut c = BonfiglioliClient::new(m, address(args.addr)?, &args.port, access.width());
+            let mut c = BonfiglioliClient::new(m, address(args.addr)?, &args.port, access.width())
+                .given(given_variant(args));
+            find_variant_for(&mut c, &targets).await?;
             read::read_all(&mut c, &targets, json).await
         }
         BonfiglioliCommand::Watch {
@@ -869,7 +1222,9 @@ async fn execute<IO: CharIo>(m: &mut MasterDriver<IO>, args: &BonfiglioliArgs) -
         } => {
             let targets = resolve_all(params, *access)?;
             let options = watch_args.options(json)?;
-            let mut c = BonfiglioliClient::new(m, address(args.addr)?, &args.port, access.width());
+            let mut c = BonfiglioliClient::new(m, address(args.addr)?, &args.port, access.width())
+                .given(given_variant(args));
+            find_variant_for(&mut c, &targets).await?;
             watch::watch(
                 &mut c,
                 &targets,
@@ -922,30 +1277,53 @@ async fn execute<IO: CharIo>(m: &mut MasterDriver<IO>, args: &BonfiglioliArgs) -
             if args.addr == 0 {
                 return write_broadcast(m, &args.port, &request, access.width(), *yes, json).await;
             }
-            let mut c = BonfiglioliClient::new(m, address(args.addr)?, &args.port, access.width());
+            let mut c = BonfiglioliClient::new(m, address(args.addr)?, &args.port, access.width())
+                .reaching_with(reach_after(args, request.target.index, request.raw));
+            if LINK_SETTINGS.contains(&request.target.index) && *yes {
+                // What the write changes for the link (nothing, when the value is the same).
+                c.remember_link_setting(&request.target)
+                    .await
+                    .map_err(|e| request.target.error(e))?;
+            }
             let done = write::write_checked(&mut c, &request, *yes).await?;
             write::print_written(&v.target, &done, json)
         }
         BonfiglioliCommand::Diag { clear } => diag(m, address(args.addr)?, *clear, json).await,
         BonfiglioliCommand::Scan { from, to } => scan(m, *from, *to, json).await,
-        BonfiglioliCommand::Status { variant } => {
-            status(m, address(args.addr)?, variant == "acu", json).await
+        BonfiglioliCommand::Status => {
+            let addr = address(args.addr)?;
+            let mut c =
+                BonfiglioliClient::new(m, addr, &args.port, None).given(given_variant(args));
+            let variant = c.find_variant(true).await.map_err(CliError::from)?;
+            status(m, addr, variant, json).await
         }
-        BonfiglioliCommand::Control {
-            action,
-            freq,
-            variant,
-        } => {
+        BonfiglioliCommand::Control { action, freq } => {
+            let addr = address(args.addr)?;
+            let freq = freq.as_deref().map(freq_raw).transpose()?;
+            let mut c =
+                BonfiglioliClient::new(m, addr, &args.port, None).given(given_variant(args));
+            let Some(known) = c.find_variant(true).await.map_err(CliError::from)? else {
+                return Err(CliError::usage(
+                    "control needs to know the device (the ACT and the ACU have different state \
+                     tables); nothing was written: add --variant act or --variant acu",
+                ));
+            };
             let session = ControlSession {
-                addr: address(args.addr)?,
-                again: again(args).arg_unless("--variant", variant.as_str(), "act"),
+                addr,
+                // The stop command names the variant, so it does not ask again.
+                again: again(args).arg_unless(
+                    "--variant",
+                    known.variant.key(),
+                    args.variant.as_str(),
+                ),
                 action,
-                freq: freq.as_deref().map(freq_raw).transpose()?,
-                acu: variant == "acu",
+                freq,
+                variant: known.variant,
                 json,
             };
             control(m, &session).await
         }
+        BonfiglioliCommand::Info { param, access } => info(m, args, param, *access, json).await,
         BonfiglioliCommand::Line => {
             let c = *m.config();
             let l = c.line;
@@ -998,6 +1376,263 @@ async fn execute<IO: CharIo>(m: &mut MasterDriver<IO>, args: &BonfiglioliArgs) -
     }
 }
 
+/// `info`: what the table knows of one parameter (range, default, unit, decimals, data type
+/// and width, data sets, access, RAM-only) and the drive's value in each data set it has (1–4
+/// for a data-set parameter, else 0; only `--dataset N` when given). The JSON keys are those of
+/// `drivectl movilink info --json` where they mean the same (`index`, `number`, `name_de`,
+/// `name_en`, `unit`, `range`, `default`, `default_value`, `access`), the table's columns as
+/// `drivectl params bonfiglioli --json` names them, and `current`: one value object per data
+/// set as `read --json` prints it, or `{label, selector, error}` for a refused one. A width the
+/// manual does not give is found by trying (FC 3, then FC 100) unless --word/--long gives it.
+async fn info<IO: CharIo>(
+    m: &mut MasterDriver<IO>,
+    args: &BonfiglioliArgs,
+    key: &str,
+    access: Access,
+    json: bool,
+) -> Result<()> {
+    let t = resolve(key, access.dataset)?;
+    check_data_set(&t)?;
+    let table = t.param.and(bonfiglioli::by_index(t.index));
+    let subs: Vec<u16> = match table {
+        _ if access.dataset != 0 => vec![u16::from(access.dataset)],
+        Some(p) if p.is_data_set() => vec![1, 2, 3, 4],
+        _ => vec![0],
+    };
+    let mut c = BonfiglioliClient::new(m, address(args.addr)?, &args.port, access.width())
+        .given(given_variant(args));
+    let probing = table_width(&t, access.width()).is_none();
+    if probing {
+        c = c.probing();
+    }
+    find_variant_for(&mut c, &[t]).await?;
+    let device = c.device();
+    let mut current = Vec::new();
+    // Refusals other than the write-only parameter's "not readable" (484/524 on the ACU, as
+    // the table says): the command fails at the end, after showing what it has.
+    let write_only = table.is_some_and(|p| !p.is_readable());
+    let mut refused = Vec::new();
+    for sub in &subs {
+        let at = Target { sub: *sub, ..t };
+        match c.read(&at).await {
+            Ok(raw) => current.push((at, Ok(raw))),
+            Err(ClientError::Device(d)) => {
+                if !(write_only && d.kind == DeviceErrorKind::Absent) {
+                    refused.push(at.label());
+                }
+                current.push((at, Err(d.message)));
+            }
+            Err(e) => return Err(at.error(e)),
+        }
+    }
+    let outcome = || {
+        if refused.is_empty() {
+            Ok(())
+        } else {
+            Err(CliError::failed(format!(
+                "the drive refused to read {} (its answer is above)",
+                refused.join(", ")
+            )))
+        }
+    };
+    let width = table_width(&t, access.width()).or_else(|| c.probed.get(&t.index).copied());
+    let width_text = width.map(|w| match w {
+        Width::Word => "16 bit (FC 3/6)",
+        Width::Long => "32 bit (FC 100/101)",
+    });
+    let physical = |raw: i64| t.param.map_or(raw as f64, |p| p.to_physical(raw));
+    if json {
+        let row = t.param.map(|p| crate::params::to_json(p));
+        let col = |k: &str| {
+            row.as_ref()
+                .and_then(|r| r.get(k).cloned())
+                .unwrap_or(Value::Null)
+        };
+        let range = t.param.and_then(|p| p.raw_range()).map(|(lo, hi)| {
+            json!({"min": lo, "max": hi, "min_value": physical(lo), "max_value": physical(hi)})
+        });
+        let default = t.param.and_then(|p| p.default_raw());
+        let values: Vec<Value> = current
+            .iter()
+            .map(|(at, r)| match r {
+                Ok(raw) => crate::tool::output::value_json_in(at, *raw, &device),
+                Err(e) => json!({"label": at.label(), "selector": at.selector_json(), "error": e}),
+            })
+            .collect();
+        outln!(
+            "{}",
+            json!({
+                "index": t.index,
+                "number": t.param.map(|p| p.label().to_string()),
+                "name_de": t.param.map(|p| p.name_de()),
+                "name_en": t.param.map(|p| p.name_en()),
+                "unit": t.param.map(|p| p.unit()),
+                "range": range,
+                "default": default,
+                "default_value": default.map(physical),
+                "access": t.param.map(|p| p.access().to_string()),
+                "decimals": col("decimals"),
+                "data_type": col("data_type"),
+                "type_source": col("type_source"),
+                "bits": table.and_then(|p| p.data_type.bits()),
+                "width": width_text,
+                "data_sets": col("data_set"),
+                "ram_only": col("ram_only"),
+                "not_in_operation": col("not_in_operation"),
+                "bus_only": col("bus_only"),
+                "bus_access": col("bus_access"),
+                "values": col("values"),
+                "chapters": col("chapters"),
+                "current": values,
+            })
+        )?;
+        return outcome();
+    }
+    let Some(p) = table else {
+        outln!(
+            "{} is not in the table (raw access){}",
+            t.label(),
+            width_text.map_or_else(String::new, |w| format!(", read as {w}"))
+        )?;
+        print_current(&current, &device)?;
+        return outcome();
+    };
+    outln!(
+        "{} {} / {} (index {})",
+        p.number,
+        p.name_de,
+        p.name_en,
+        p.number
+    )?;
+    if let Some((lo, hi)) = ParamMeta::raw_range(p) {
+        outln!(
+            "  range      {} … {} (raw {lo} … {hi})",
+            physical_text(p, lo),
+            physical_text(p, hi)
+        )?;
+    }
+    match p.default {
+        Some(d) => outln!("  default    {} (raw {d})", physical_text(p, d))?,
+        None => outln!("  default    not given in the manual")?,
+    }
+    outln!(
+        "  unit       {}, {} decimal(s)",
+        if p.unit.is_empty() { "-" } else { p.unit },
+        p.decimals
+    )?;
+    outln!(
+        "  data type  {}{}",
+        match p.data_type.bits() {
+            Some(bits) => format!(
+                "{} ({bits} bit; {})",
+                p.data_type.name(),
+                match p.type_source {
+                    bonfiglioli::TypeSource::Stated => "stated in the manual",
+                    bonfiglioli::TypeSource::Example => "from an example of the manual",
+                    bonfiglioli::TypeSource::Range => "from its range",
+                    bonfiglioli::TypeSource::Layout => "from its bit layout in the manual",
+                    bonfiglioli::TypeSource::Analogy => "by analogy with a stated type",
+                    bonfiglioli::TypeSource::Unknown => "source not known",
+                }
+            ),
+            None => "not given in the manual".to_owned(),
+        },
+        width_text.map_or_else(
+            || " (give --word or --long)".to_owned(),
+            |w| format!("; read as {w}")
+        )
+    )?;
+    outln!(
+        "  data sets  {}",
+        match p.data_set {
+            Some(true) => "four (1–4; 0 addresses all four; 5–9 their RAM-only twins)",
+            Some(false) => "none: exists once (data set 0; 5 for a RAM-only write)",
+            None => "not stated in the manual",
+        }
+    )?;
+    let mut notes = Vec::new();
+    if p.ram_only {
+        notes.push("kept in RAM only, never written to EEPROM");
+    } else if p.is_writable() {
+        notes.push("a write goes to EEPROM (--volatile: RAM only)");
+    }
+    if matches!(p.access, bonfiglioli::ParamAccess::WriteOnly) {
+        notes.push("write-only on the ACTIVE Cube (ch. 10.2.3)");
+    }
+    if p.not_in_operation {
+        notes.push("not writable while the drive runs");
+    }
+    if p.bus_only {
+        notes.push("only over the bus, not from KP500/VPlus");
+    }
+    outln!(
+        "  access     {} ({}){}",
+        ParamMeta::access(p),
+        match p.access {
+            bonfiglioli::ParamAccess::ReadOnly => "read-only",
+            bonfiglioli::ParamAccess::ReadWrite => "read/write",
+            bonfiglioli::ParamAccess::WriteOnly => "write-only",
+        },
+        if notes.is_empty() {
+            String::new()
+        } else {
+            format!("; {}", notes.join("; "))
+        }
+    )?;
+    if !p.values.is_empty() {
+        outln!("  values")?;
+        for v in p.values {
+            outln!("    {:>6} = {} ({})", v.value, v.en, v.de)?;
+        }
+    }
+    print_current(&current, &device)?;
+    outcome()
+}
+
+/// The drive's values of `info`, one line per data set.
+fn print_current(
+    current: &[(Target, std::result::Result<i64, String>)],
+    device: &Device,
+) -> Result<()> {
+    for (i, (at, r)) in current.iter().enumerate() {
+        let head = if i == 0 {
+            "  drive     "
+        } else {
+            "            "
+        };
+        let place = if at.sub == 0 && at.selector_json().is_null() {
+            "value".to_owned()
+        } else {
+            format!("data set {}", at.sub)
+        };
+        match r {
+            Ok(raw) => outln!(
+                "{head} {place}: {} (raw {raw})",
+                crate::tool::output::value_text_in(at, *raw, device)
+            )?,
+            Err(e) => outln!("{head} {place}: refused: {e}")?,
+        }
+    }
+    Ok(())
+}
+
+/// Find the drive's variant before `targets` are read when one of them is the status word 411,
+/// whose meaning depends on it (the drive is asked only for `--variant auto`).
+async fn find_variant_for<IO: CharIo>(
+    c: &mut BonfiglioliClient<'_, IO>,
+    targets: &[Target],
+) -> Result<()> {
+    if targets.iter().any(|t| t.index == param::STATUS_WORD) {
+        c.find_variant(true).await.map_err(|e| {
+            CliError::failed(format!(
+                "finding out whether the drive is an ACT or an ACU: {}",
+                CliError::from(e)
+            ))
+        })?;
+    }
+    Ok(())
+}
+
 fn note_probed(n: usize) {
     if n > 0 {
         errln!(
@@ -1048,21 +1683,32 @@ async fn diag<IO: CharIo>(
     Ok(())
 }
 
+/// A margin for the answer of a drive that is there: USB serial adapters hand received
+/// characters over late (FTDI: every 16 ms by default) and the operating system schedules.
+pub const SCAN_MARGIN: Duration = Duration::from_millis(20);
+
+/// How long `scan` waits for an answer at each address: the response timeout counts from the
+/// request's end to the first character of the answer, which a drive sends 10 ms after a
+/// request at the earliest (ch. 6.8); with two character times for that first character and
+/// [`SCAN_MARGIN`]. The 500 ms of ch. 6.8 are for a drive under load, not for finding one.
+pub fn scan_timeout(line: &drive_core::LineSettings) -> Duration {
+    bonfiglioli_modbus::slave::ANSWER_DELAY + line.char_time() * 2 + SCAN_MARGIN
+}
+
 async fn scan<IO: CharIo>(m: &mut MasterDriver<IO>, from: u8, to: u8, json: bool) -> Result<()> {
     if from == 0 || from > to || to > 247 {
         return Err(CliError::usage(
             "scan range must satisfy 1 ≤ --from ≤ --to ≤ 247",
         ));
     }
-    // The answer delay (10 ms), request and answer (at most 40 characters in ASCII) and a
-    // margin: an answering drive is heard well within it.
-    let char_time = m.config().line.char_time();
-    let timeout =
-        bonfiglioli_modbus::slave::ANSWER_DELAY + char_time * 60 + Duration::from_millis(20);
+    let timeout = scan_timeout(&m.config().line);
     let bar = backup::progress(usize::from(to - from) + 1, "scanning");
     let mut found = 0;
     for a in from..=to {
-        bar.set_message(format!("address {a}"));
+        bar.set_message(format!(
+            "address {a} ({found} found, {} ms each)",
+            timeout.as_millis()
+        ));
         let addr = address(a)?;
         let answered = m.probe(addr, timeout).await.map_err(driver_error)?;
         bar.inc(1);
@@ -1076,17 +1722,22 @@ async fn scan<IO: CharIo>(m: &mut MasterDriver<IO>, from: u8, to: u8, json: bool
             .await
             .ok();
         let status = c.read(&resolve("411", 0)?).await.ok();
+        // A drive that answers but refuses what tells the variant shows none.
+        let variant = c.find_variant(false).await.ok().flatten();
         bar.suspend(|| -> Result<()> {
             if json {
                 outln!(
                     "{}",
-                    json!({"address": a, "configuration": configuration, "status_word": status,
+                    json!({"address": a, "variant": variant.map(|k| k.variant.key()),
+                           "variant_from": variant.map(|k| k.from),
+                           "configuration": configuration, "status_word": status,
                            "device_type": null, "firmware": null})
                 )
             } else {
                 outln!(
-                    "address {a:>3}: configuration {}, status word {} (the manual defines no \
-                     device type or firmware parameter)",
+                    "address {a:>3}: {}, configuration {}, status word {} (the manual defines \
+                     no device type or firmware parameter)",
+                    variant.map_or("ACT or ACU (not told apart)", |k| k.variant.name()),
                     configuration.map_or_else(|| "unreadable".to_owned(), |v| v.to_string()),
                     status.map_or_else(|| "unreadable".to_owned(), |v| format!("0x{v:04X}"))
                 )
@@ -1100,25 +1751,9 @@ async fn scan<IO: CharIo>(m: &mut MasterDriver<IO>, from: u8, to: u8, json: bool
     Ok(())
 }
 
-/// The state-machine state of a status word.
-fn state_of(word: u16, acu: bool) -> State {
-    if acu {
-        AcuStateMachine::decode(word)
-    } else {
-        ActStateMachine::decode(word)
-    }
-}
-
-/// The status word's set bits by name.
-fn bits_text(word: u16, acu: bool) -> String {
-    let s = if acu {
-        format!("{:?}", AcuStatusWord::from_bits(word))
-    } else {
-        format!("{:?}", ActStatusWord::from_bits(word))
-    };
-    s.split_once('(')
-        .and_then(|(_, rest)| rest.strip_suffix(')'))
-        .map_or(s.clone(), str::to_owned)
+/// The status word's set bits by name, for `variant`.
+fn bits_text(word: u16, variant: Variant) -> String {
+    variant.set_bits(word).collect::<Vec<_>>().join(" | ")
 }
 
 async fn read_word<IO: CharIo>(m: &mut MasterDriver<IO>, addr: Address, p: u16) -> Result<u16> {
@@ -1129,49 +1764,62 @@ async fn read_word<IO: CharIo>(m: &mut MasterDriver<IO>, addr: Address, p: u16) 
         .map_err(|e| t.error(client_error(Width::Word, e)))
 }
 
+/// `status`: 411, 260 and 270 with their meanings ([`crate::tool::meaning`]), 411 for the
+/// drive's variant (`None`: neither given nor shown by the drive; decoded for what both share).
 async fn status<IO: CharIo>(
     m: &mut MasterDriver<IO>,
     addr: Address,
-    acu: bool,
+    variant: Option<KnownVariant>,
     json: bool,
 ) -> Result<()> {
-    let word = read_word(m, addr, param::STATUS_WORD).await?;
-    let fault = read_word(m, addr, param::CURRENT_FAULT).await?;
-    let warnings = read_word(m, addr, param::WARNINGS).await?;
-    let state = state_of(word, acu);
-    let fault_text = if fault == 0 {
-        "no fault".to_owned()
-    } else {
-        bonfiglioli::fault(fault).map_or_else(
-            || format!("fault 0x{fault:04X} (not in the manual's list)"),
-            |f| f.to_string(),
-        )
+    let device = Device {
+        bonfiglioli: variant,
+    };
+    let mut read = async |p: u16| -> Result<(Target, u16, Option<crate::tool::meaning::Meaning>)> {
+        let t = resolve(&p.to_string(), 0)?;
+        let word = read_word(m, addr, p).await?;
+        let meaning = crate::tool::meaning::meaning_in(&t, i64::from(word), &device);
+        Ok((t, word, meaning))
+    };
+    let (_, word, status) = read(param::STATUS_WORD).await?;
+    let (_, fault, fault_meaning) = read(param::CURRENT_FAULT).await?;
+    let (_, warnings, warning_meaning) = read(param::WARNINGS).await?;
+    let decoded = status
+        .as_ref()
+        .and_then(|m| m.decoded.clone())
+        .unwrap_or(Value::Null);
+    let key = |k: &str| decoded.get(k).cloned().unwrap_or(Value::Null);
+    if key("variant_contradicted") == true {
+        errln!(
+            "drivectl: warning: status word 411 = 0x{word:04X} has bit 4 set, which an ACT never \
+             sets (manual ch. 9.1.3): the drive looks like an ACTIVE Cube; --variant acu decodes \
+             it as one"
+        );
+    }
+    let text = |m: &Option<crate::tool::meaning::Meaning>| {
+        m.as_ref().map_or_else(String::new, |m| m.text.clone())
     };
     let warning_names: Vec<&str> = bonfiglioli::warning_bits(warnings)
         .map(|w| w.name_en)
         .collect();
+    let shown = variant.map(|k| k.variant).or(Variant::of_status_word(word));
     if json {
         outln!(
             "{}",
-            json!({"address": addr.get(), "variant": if acu {"acu"} else {"act"},
-                   "status_word": word, "state": state.name_en(), "bits": bits_text(word, acu),
-                   "fault": fault, "fault_text": fault_text,
+            json!({"address": addr.get(), "variant": shown.map(Variant::key),
+                   "variant_from": key("variant_from"),
+                   "status_word": word, "state": key("state"),
+                   "bits": bits_text(word, shown.unwrap_or(Variant::Act)),
+                   "decoded": decoded,
+                   "fault": fault, "fault_text": text(&fault_meaning),
                    "warnings": warnings, "warning_names": warning_names})
         )
     } else {
+        outln!("status word 411: 0x{word:04X} = {}", text(&status))?;
+        outln!("current fault 260: {}", text(&fault_meaning))?;
         outln!(
-            "status word 411: 0x{word:04X} = {} ({})",
-            state.name_en(),
-            bits_text(word, acu)
-        )?;
-        outln!("current fault 260: {fault_text}")?;
-        outln!(
-            "warnings 270: 0x{warnings:04X}{}",
-            if warning_names.is_empty() {
-                " (none)".to_owned()
-            } else {
-                format!(" = {}", warning_names.join(", "))
-            }
+            "warnings 270: 0x{warnings:04X} = {}",
+            text(&warning_meaning)
         )
     }
 }
@@ -1187,7 +1835,7 @@ struct ControlSession<'a> {
     addr: Address,
     action: &'a str,
     freq: Option<i64>,
-    acu: bool,
+    variant: Variant,
     json: bool,
     /// The command line that reaches the drive again (for the hint that says how to stop it).
     again: Again,
@@ -1242,13 +1890,13 @@ async fn control<IO: CharIo>(m: &mut MasterDriver<IO>, s: &ControlSession<'_>) -
                 // ends the wait at once).
                 let deadline = tokio::time::Instant::now() + STOP_WAIT;
                 let mut word = read_word(m, addr, param::STATUS_WORD).await?;
-                while state_of(word, s.acu) == State::OperationEnabled
+                while s.variant.state(word) == State::OperationEnabled
                     && tokio::time::Instant::now() < deadline
                 {
                     tokio::time::sleep(Duration::from_millis(50)).await;
                     word = read_word(m, addr, param::STATUS_WORD).await?;
                 }
-                let state = state_of(word, s.acu);
+                let state = s.variant.state(word);
                 Ok(Stopped {
                     sent: format!("disable operation (410 = 0x{cw:04X})"),
                     reports: if state == State::OperationEnabled {
@@ -1274,7 +1922,7 @@ async fn control<IO: CharIo>(m: &mut MasterDriver<IO>, s: &ControlSession<'_>) -
         }
     };
     let word = reached.word;
-    let state = state_of(word, s.acu);
+    let state = s.variant.state(word);
     let done = s.action == "reset" && state != State::Fault || state == target;
     // Said before the output, so that a closed standard output cannot swallow it.
     let actual = reached.actual;
@@ -1317,7 +1965,7 @@ async fn control<IO: CharIo>(m: &mut MasterDriver<IO>, s: &ControlSession<'_>) -
         outln!(
             "status word 411: 0x{word:04X} = {} ({})",
             state.name_en(),
-            bits_text(word, s.acu)
+            bits_text(word, s.variant)
         )?;
     }
     if !done {
@@ -1385,9 +2033,25 @@ async fn control_steps<IO: CharIo>(
             .await
             .map_err(|e| t.error(client_error(Width::Long, e)))?;
     }
+    // The ACU with positioning control (configuration 30 = x40) has no shortcut 4' (ch. 10.2).
+    let positioning = s.variant == Variant::Acu && {
+        let t30 = resolve(&param::CONFIGURATION.to_string(), 0)?;
+        let mut c = BonfiglioliClient::new(m, addr, "", None).probing();
+        match c.read(&t30).await {
+            Ok(config) => config % 100 == 40,
+            Err(ClientError::Device(d)) => {
+                errln!(
+                    "drivectl: note: configuration 30 cannot be read ({d}): going on as without \
+                     positioning control"
+                );
+                false
+            }
+            Err(e) => return Err(t30.error(e)),
+        }
+    };
     let mut last: Option<u16> = None;
     let mut word = read_word(m, addr, param::STATUS_WORD).await?;
-    let start_state = state_of(word, s.acu);
+    let start_state = s.variant.state(word);
     if s.action == "reset" && start_state != State::Fault {
         errln!(
             "drivectl: note: the drive shows no fault ({})",
@@ -1399,12 +2063,15 @@ async fn control_steps<IO: CharIo>(
         if stop.requested() {
             break;
         }
-        let state = state_of(word, s.acu);
+        let state = s.variant.state(word);
         let next = if s.action == "reset" && state == State::Fault {
             Some(bonfiglioli::state::command::FAULT_RESET)
         } else if s.action == "reset" {
             None
-        } else if s.acu {
+        } else if s.variant == Variant::Acu && positioning {
+            // No shortcut 4' with positioning control (ch. 10.2).
+            AcuPositioningStateMachine::control_toward(state, target)
+        } else if s.variant == Variant::Acu {
             AcuStateMachine::control_toward(state, target)
         } else {
             ActStateMachine::control_toward(state, target)
@@ -1425,18 +2092,18 @@ async fn control_steps<IO: CharIo>(
                 () = stop.wait() => {}
             }
             word = read_word(m, addr, param::STATUS_WORD).await?;
-            if state_of(word, s.acu) != state
+            if s.variant.state(word) != state
                 || tokio::time::Instant::now() >= deadline
                 || stop.requested()
             {
                 break;
             }
         }
-        if state_of(word, s.acu) == state || s.action == "reset" {
+        if s.variant.state(word) == state || s.action == "reset" {
             break;
         }
     }
-    let actual = if s.action == "enable" && state_of(word, s.acu) == target {
+    let actual = if s.action == "enable" && s.variant.state(word) == target {
         actual_frequency(m, addr).await
     } else {
         None
@@ -1532,6 +2199,113 @@ mod tests {
                 other => panic!("{other:?}"),
             }
         }
+    }
+
+    #[test]
+    fn issue18_412_is_never_restored() {
+        // `control` leaves 412 = 1 in RAM; a backup reads it; a restore would store it in the
+        // EEPROM of all four data sets.
+        assert!(NOT_RESTORED.contains(&param::LOCAL_REMOTE));
+    }
+
+    #[test]
+    fn issue18_scan_waits_the_answer_delay_and_a_margin_not_500_ms() {
+        let line = |baud, mode: Mode| mode.line_settings(baud, drive_core::Parity::None);
+        // 9600 8N2: 11 bits, 1.146 ms a character: 10 ms + 2.29 ms + 20 ms.
+        let t = scan_timeout(&line(9600, Mode::Rtu));
+        assert_eq!(t.as_micros(), 10_000 + 2_291 + 20_000);
+        // 19200: 10 ms + 1.15 ms + 20 ms; 115200: hardly more than the answer delay.
+        assert_eq!(scan_timeout(&line(19200, Mode::Rtu)).as_micros(), 31_145);
+        assert!(scan_timeout(&line(115_200, Mode::Rtu)) < Duration::from_millis(31));
+        // The timeout it replaced: answer delay, 60 characters and 20 ms (99 ms at 9600).
+        let old = bonfiglioli_modbus::slave::ANSWER_DELAY
+            + line(9600, Mode::Rtu).char_time() * 60
+            + Duration::from_millis(20);
+        assert!(t * 3 < old, "{t:?} vs {old:?}");
+        // Never below what a drive needs before its first character.
+        for baud in [2400, 9600, 19200, 57600, 115_200] {
+            let l = line(baud, Mode::Ascii);
+            assert!(scan_timeout(&l) > bonfiglioli_modbus::slave::ANSWER_DELAY + l.char_time());
+        }
+    }
+
+    #[test]
+    fn issue18_the_least_timeout_is_an_exchange_at_the_baud_rate() {
+        let rtu = Mode::Rtu.line_settings(2400, drive_core::Parity::None);
+        // 11 bits at 2400 baud: 4.583 ms; 2 × 10 characters + 10 ms = 101.7 ms.
+        assert_eq!(least_timeout(Mode::Rtu, &rtu), Duration::from_millis(102));
+        let ascii = Mode::Ascii.line_settings(9600, drive_core::Parity::Even);
+        // 10 bits at 9600 baud: 1.042 ms; 2 × 21 characters + 10 ms = 53.75 ms.
+        assert_eq!(
+            least_timeout(Mode::Ascii, &ascii),
+            Duration::from_millis(54)
+        );
+        // The manual's 500 ms covers every rate the drive has.
+        for (_, baud) in bonfiglioli::link::BAUD_RATES {
+            for mode in [Mode::Rtu, Mode::Ascii] {
+                let l = mode.line_settings(baud, drive_core::Parity::Even);
+                assert!(least_timeout(mode, &l) < Duration::from_millis(500));
+            }
+        }
+    }
+
+    #[test]
+    fn issue18_a_data_set_the_parameter_has_not_is_refused() {
+        let refused = |key: &str, ds: u8| {
+            check_data_set(&resolve(key, ds).unwrap())
+                .err()
+                .map(|e| e.to_string())
+        };
+        let e = refused("260", 2).unwrap();
+        assert!(e.starts_with("260 Current fault exists once"), "{e}");
+        assert!(!e.contains("--volatile"), "read-only: {e}");
+        assert!(refused("1376", 3).unwrap().contains("--volatile"));
+        assert!(
+            refused("484", 5)
+                .unwrap()
+                .contains("always addressed as data set 0")
+        );
+        // Data sets 0 and 5 of a parameter that exists once; any of a data-set parameter; any
+        // number outside the table.
+        for (key, ds) in [("260", 0), ("1376", 5), ("372", 4), ("372", 9), ("1500", 3)] {
+            assert_eq!(refused(key, ds), None, "{key} {ds}");
+        }
+    }
+
+    #[test]
+    fn issue18_a_link_setting_says_what_changes_and_when() {
+        let a = Address::new(1).unwrap();
+        let t10 = resolve("10", 0).unwrap();
+        assert_eq!(
+            link_change_text(&t10, 3, a, Some(3), None),
+            "10 already holds 3 (9600 baud): nothing changes for the link"
+        );
+        let e = link_change_text(&t10, 4, a, Some(3), None);
+        assert!(
+            e.contains("19200 baud after the next reset (34 = 123)")
+                && e.contains("until then 3 (9600 baud)")
+                && e.ends_with("then use --baud 19200"),
+            "{e}"
+        );
+        let t1375 = resolve("1375", 0).unwrap();
+        assert!(link_change_text(&t1375, 2, a, None, None).ends_with("then use --parity none"));
+        let t395 = resolve("395", 0).unwrap();
+        assert!(link_change_text(&t395, 3, a, Some(2), None).ends_with("use --mode ascii"));
+        assert!(link_change_text(&t395, 0, a, Some(2), None).contains("KP500"));
+        let t1376 = resolve("1376", 0).unwrap();
+        assert!(link_change_text(&t1376, 5, a, Some(1), None).contains("use --addr 5"));
+        // With the command that reaches the drive then: that command, to paste.
+        let e = link_change_text(
+            &t1376,
+            5,
+            a,
+            Some(1),
+            Some("drivectl bonfiglioli --addr 5 status"),
+        );
+        assert!(
+            e.ends_with(": `drivectl bonfiglioli --addr 5 status`"),
+            "{e}"
+        );
     }
 
     #[test]

@@ -1,6 +1,8 @@
 //! `drivectl sim bonfiglioli (--port PATH | --pty) [--addr N ...]`: simulated ACT or ACU drives
 //! answering Modbus RTU or ASCII on a serial port, or on a new pseudo-terminal whose path is
-//! printed (first line of standard output) for other tools.
+//! printed (first line of standard output) for other tools. Their parameters 10 (baud rate),
+//! 395 (protocol type), 1375 (parity) and 1376 (address) say what they serve; a baud rate the
+//! drive does not have (10 offers 2400–115200) is refused.
 
 use bonfiglioli_modbus::framing::Mode;
 use bonfiglioli_modbus::sim;
@@ -47,10 +49,22 @@ pub struct SimArgs {
     data_bits: Option<u8>,
 }
 
-/// Check the arguments before anything is opened: addresses 1…247, each once; on a pty no
-/// parity.
+/// Check the arguments before anything is opened: addresses 1…247, each once; a baud rate the
+/// drive has (parameter 10, ch. 5.2.1); on a pty no parity.
 fn check(args: &SimArgs) -> Result<()> {
     simrun::check_addresses(&args.addrs, 1..=247, "parameter 1376; 0 is broadcast")?;
+    if drive_profile::bonfiglioli::link::baud_code(args.line.baud).is_none() {
+        let rates: Vec<String> = drive_profile::bonfiglioli::link::BAUD_RATES
+            .iter()
+            .map(|(_, b)| b.to_string())
+            .collect();
+        return Err(crate::error::CliError::usage(format!(
+            "a Bonfiglioli drive does not talk at {} baud: its baud rate parameter 10 offers {} \
+             baud (manual ch. 5.2.1); give one of them with --baud",
+            args.line.baud,
+            rates.join(", ")
+        )));
+    }
     simrun::check_pty_parity(
         args.pty,
         args.line.parity,

@@ -109,6 +109,12 @@ pub trait ParamClient {
 
     /// Fields that identify the drive in a backup (device type, firmware, …).
     async fn identify(&mut self) -> std::result::Result<Map<String, Value>, ClientError>;
+
+    /// What is known of the drive beyond the table, for the meaning of its values (a
+    /// Bonfiglioli drive's variant decodes its status word): nothing by default.
+    fn device(&self) -> super::meaning::Device {
+        super::meaning::Device::default()
+    }
 }
 
 /// A parameter as named on the command line: its table entry if known, and its bus address.

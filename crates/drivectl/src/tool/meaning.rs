@@ -2,6 +2,11 @@
 //! or fault word. One function of the table entry and the raw value, so every family's `read`,
 //! `watch` and JSON output show the same; each family adds its words here.
 //!
+//! Some words mean different things on different devices of one family: the Bonfiglioli status
+//! word 411 differs between the ACTIVE (ACT) and the ACTIVE Cube (ACU), which the table does not
+//! tell apart. [`Device`] carries what a front end knows of the drive ([`meaning_in`]); without
+//! it the decoding says the device is not known and keeps to what both share.
+//!
 //! MOVIDRIVE (serial communication manual, parameter list ch. 7): P010 drive status, P011
 //! operating state, P012 fault status and P013 active parameter set are one index, 8310,
 //! whose low word is "coded like status word 1"; the operating state rows of the fault memory
@@ -9,6 +14,7 @@
 //! by its number.
 
 use drive_profile::Family;
+use drive_profile::bonfiglioli::Variant;
 use drive_profile::family::AnyParam;
 use drive_profile::sew::{StatusWord1, index};
 use serde_json::{Value, json};
@@ -23,12 +29,47 @@ pub struct Meaning {
     pub decoded: Option<Value>,
 }
 
+/// What a front end knows of the drive beyond its family's table, where a value's meaning
+/// depends on it. The default knows nothing.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Device {
+    /// A Bonfiglioli drive's variant: the status word 411 is decoded for it.
+    pub bonfiglioli: Option<KnownVariant>,
+}
+
+/// A Bonfiglioli drive's variant and how it is known.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct KnownVariant {
+    /// ACT or ACU.
+    pub variant: Variant,
+    /// How it is known, for scripts (`variant_from` in the decoded status word): `given` (the
+    /// user or a configuration said so) or what the drive showed (`484 readable`, `484 not
+    /// readable`, `status word bit 4`).
+    pub from: &'static str,
+}
+
+impl Device {
+    /// A Bonfiglioli drive of `variant`, known `from` (see [`KnownVariant::from`]).
+    pub const fn bonfiglioli(variant: Variant, from: &'static str) -> Self {
+        Self {
+            bonfiglioli: Some(KnownVariant { variant, from }),
+        }
+    }
+}
+
 /// What `raw` of parameter `p` means: a decoded status or fault word, else the name of the
-/// value in the table's value list, else nothing.
+/// value in the table's value list, else nothing. Nothing is known of the device
+/// ([`meaning_with`]).
+#[cfg(test)]
 pub fn meaning(p: AnyParam, raw: i64) -> Option<Meaning> {
+    meaning_with(p, raw, &Device::default())
+}
+
+/// [`meaning`] on the drive `device` describes.
+pub fn meaning_with(p: AnyParam, raw: i64, device: &Device) -> Option<Meaning> {
     let word = match p.family() {
         Family::Movidrive => movidrive(p, raw),
-        Family::Bonfiglioli => bonfiglioli(p.bus_index(), raw),
+        Family::Bonfiglioli => bonfiglioli(p.bus_index(), raw, device.bonfiglioli),
         _ => None,
     };
     word.or_else(|| {
@@ -43,6 +84,12 @@ pub fn meaning(p: AnyParam, raw: i64) -> Option<Meaning> {
 /// knows (a NORD array element: P700 [-02] is a warning, [-03] a reason for switch-on
 /// disabled).
 pub fn meaning_of(t: &super::client::Target, raw: i64) -> Option<Meaning> {
+    meaning_in(t, raw, &Device::default())
+}
+
+/// [`meaning_of`] on the drive `device` describes (the gateway and the CLI pass what they know,
+/// e.g. a Bonfiglioli drive's variant).
+pub fn meaning_in(t: &super::client::Target, raw: i64, device: &Device) -> Option<Meaning> {
     let p = t.param?;
     if p.family() == Family::Nord {
         let (element, _) = super::client::nord_sub_parts(t.index, t.sub);
@@ -50,7 +97,7 @@ pub fn meaning_of(t: &super::client::Target, raw: i64) -> Option<Meaning> {
             return Some(m);
         }
     }
-    meaning(p, raw)
+    meaning_with(p, raw, device)
 }
 
 /// NORD's information parameters (BU 0255 section 6): P700 present fault [-01], warning [-02]
@@ -105,29 +152,119 @@ fn nord(pnu: u16, element: Option<u8>, raw: i64) -> Option<Meaning> {
     })
 }
 
-/// Bonfiglioli's current fault (260, "FXX YY" with its text) and warnings (270, bit-coded,
-/// several at once), as the manual's ch. 12 names them. The status word 411 differs between ACT
-/// and ACU, which the table does not tell apart: `drivectl bonfiglioli status` decodes it.
-fn bonfiglioli(index: u16, raw: i64) -> Option<Meaning> {
+/// Bonfiglioli's status word (411), current fault (260, "FXXYY" with its text) and warnings
+/// (270, bit-coded, several at once), as the manual's ch. 9, 10 and 12 name them. The status
+/// word is decoded for `variant`; without one, for what the ACT and the ACU share (the states
+/// and bits 0–3, 5–7, 9–11, 15), saying that the device is not known, unless bit 4 is set,
+/// which only an ACU sets (ch. 9.1.3).
+fn bonfiglioli(index: u16, raw: i64, variant: Option<KnownVariant>) -> Option<Meaning> {
     use drive_profile::bonfiglioli as b;
     let word = u16::try_from(raw).ok()?;
-    let text = match index {
-        260 if word == 0 => "no fault".to_owned(),
-        260 => match b::fault(word) {
-            Some(f) => format!("{}: {}", f.key, f.text_en),
-            None => format!("fault 0x{word:04X} (not in the manual's list)"),
-        },
-        270 if word == 0 => "no warning".to_owned(),
-        270 => b::warning_bits(word)
-            .map(|w| w.name_en)
-            .collect::<Vec<_>>()
-            .join(", "),
-        _ => return None,
-    };
-    Some(Meaning {
+    match index {
+        260 => {
+            let code = b::FaultCode(word);
+            let listed = code.meaning();
+            let text = match listed {
+                _ if word == 0 => "no fault".to_owned(),
+                Some(f) => format!("{}: {}", f.key, f.text_en),
+                None => format!("{code} (not in the manual's list)"),
+            };
+            Some(Meaning {
+                text,
+                decoded: Some(json!({
+                    "fault": code.to_string(),
+                    "group": code.group(),
+                    "code": code.code(),
+                    "listed": listed.is_some(),
+                    "group_en": listed.map(|f| f.group_en),
+                    "text_en": listed.map(|f| f.text_en),
+                    "text_de": listed.map(|f| f.text_de),
+                })),
+            })
+        }
+        270 => {
+            let bits: Vec<&b::Warning> = b::warning_bits(word).collect();
+            let text = if bits.is_empty() {
+                "no warning".to_owned()
+            } else {
+                bits.iter()
+                    .map(|w| w.name_en)
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            };
+            Some(Meaning {
+                text,
+                decoded: Some(json!({
+                    "warning_word": format!("0x{word:04X}"),
+                    "warnings": bits.iter().map(|w| json!({
+                        "bit": w.bit, "code": format!("0x{:04X}", w.code),
+                        "name_en": w.name_en, "name_de": w.name_de,
+                    })).collect::<Vec<_>>(),
+                    "consistent": b::warnings_consistent(word),
+                })),
+            })
+        }
+        411 => Some(bonfiglioli_status(word, variant)),
+        _ => None,
+    }
+}
+
+/// The status word 411 of a Bonfiglioli drive of `known` variant (see [`bonfiglioli`]).
+fn bonfiglioli_status(word: u16, known: Option<KnownVariant>) -> Meaning {
+    let from_word = Variant::of_status_word(word);
+    let variant = known.map(|k| k.variant).or(from_word);
+    // Said to be an ACT, the drive shows what only an ACU shows: decoded as said, and said.
+    let contradiction = known.is_some_and(|k| k.variant == Variant::Act) && from_word.is_some();
+    // Unknown device: the states and bit names both share; the ACT's table has them all but
+    // 0x00, which only the ACT calls "not ready to switch on".
+    let decoding = variant.unwrap_or(Variant::Act);
+    let mut state = decoding.state(word);
+    if variant.is_none() && state == drive_profile::bonfiglioli::State::NotReadyToSwitchOn {
+        state = drive_profile::bonfiglioli::State::Unknown;
+    }
+    let mut bits: Vec<&str> = decoding.set_bits(word).collect();
+    if variant.is_none() {
+        // Bit 4 is clear here: "voltage disabled" is an ACT name only.
+        bits.retain(|b| *b != "voltage disabled");
+    }
+    let unnamed = decoding.unnamed_bits(word);
+    let mains = variant.and_then(|v| v.mains_voltage(word));
+    let mut text = state.name_en().to_owned();
+    match variant {
+        Some(v) => text.push_str(&format!(" ({})", v.key().to_uppercase())),
+        None => text.push_str(" (ACT or ACU: the device is not known)"),
+    }
+    if !bits.is_empty() {
+        text.push_str(": ");
+        text.push_str(&bits.join(", "));
+    }
+    if mains == Some(false) {
+        text.push_str("; no mains voltage (bit 4 = 0): the drive cannot start");
+    }
+    if unnamed != 0 {
+        text.push_str(&format!("; other bits 0x{unnamed:04X}"));
+    }
+    if contradiction {
+        text.push_str("; bit 4 is set, which an ACT never sets (ch. 9.1.3): is it an ACU?");
+    }
+    Meaning {
         text,
-        decoded: None,
-    })
+        decoded: Some(json!({
+            "status_word": format!("0x{word:04X}"),
+            "variant": variant.map(Variant::key),
+            "variant_from": match (known, variant) {
+                (Some(k), _) => Some(k.from),
+                (None, Some(_)) => Some("status word bit 4"),
+                (None, None) => None,
+            },
+            "variant_contradicted": contradiction,
+            "state": state.name_en(),
+            "state_de": state.name_de(),
+            "bits": bits,
+            "mains_voltage": mains,
+            "other_bits": (unnamed != 0).then(|| format!("0x{unnamed:04X}")),
+        })),
+    }
 }
 
 /// Which part of a MOVIDRIVE status index a table row shows.
@@ -302,5 +439,107 @@ mod bonfiglioli_tests {
         // Several warnings at once, each named.
         let w = meaning(p270, 0b11).unwrap().text;
         assert_eq!(w.matches(", ").count(), 1, "{w}");
+    }
+
+    fn p(key: &str) -> AnyParam {
+        drive_profile::family::lookup(Family::Bonfiglioli, key).unwrap()
+    }
+
+    #[test]
+    fn issue18_b8_the_status_word_is_decoded_for_its_variant() {
+        let act = Device::bonfiglioli(Variant::Act, "given");
+        let acu = Device::bonfiglioli(Variant::Acu, "484 not readable");
+        // ACT 0x0023: switched on (ch. 9.1.2).
+        let m = meaning_with(p("411"), 0x0023, &act).unwrap();
+        assert_eq!(
+            m.text,
+            "switched on (ACT): ready to switch on, switched on, no quick stop"
+        );
+        let d = m.decoded.unwrap();
+        assert_eq!(
+            (
+                &d["state"],
+                &d["variant"],
+                &d["variant_from"],
+                &d["mains_voltage"]
+            ),
+            (
+                &json!("switched on"),
+                &json!("act"),
+                &json!("given"),
+                &Value::Null
+            )
+        );
+        // ACU 0x0023: switched on without mains voltage; 0x0037 operation enabled with it.
+        let m = meaning_with(p("411"), 0x0023, &acu).unwrap();
+        assert!(m.text.contains("no mains voltage"), "{}", m.text);
+        let d = meaning_with(p("411"), 0x0437, &acu)
+            .unwrap()
+            .decoded
+            .unwrap();
+        assert_eq!(d["state"], "operation enabled");
+        assert_eq!(d["mains_voltage"], true);
+        assert_eq!(d["variant_from"], "484 not readable");
+        assert!(
+            d["bits"]
+                .as_array()
+                .unwrap()
+                .contains(&json!("target reached"))
+        );
+        // 0x00: not ready to switch on on the ACT only.
+        let state = |w: i64, dev: &Device| {
+            meaning_with(p("411"), w, dev).unwrap().decoded.unwrap()["state"].clone()
+        };
+        assert_eq!(state(0, &act), "not ready to switch on");
+        assert_eq!(state(0, &acu), "unknown state");
+        // Unknown device: what both share, and said; bit 4 set makes it an ACU.
+        let none = Device::default();
+        let m = meaning_with(p("411"), 0x0023, &none).unwrap();
+        assert!(m.text.contains("the device is not known"), "{}", m.text);
+        assert_eq!(m.decoded.unwrap()["variant"], Value::Null);
+        assert_eq!(state(0, &none), "unknown state");
+        let d = meaning_with(p("411"), 0x0033, &none)
+            .unwrap()
+            .decoded
+            .unwrap();
+        assert_eq!(
+            (&d["variant"], &d["variant_from"]),
+            (&json!("acu"), &json!("status word bit 4"))
+        );
+        // Said to be an ACT with bit 4 set: decoded as said, the contradiction named.
+        let m = meaning_with(p("411"), 0x0033, &act).unwrap();
+        assert!(m.text.contains("bit 4 is set"), "{}", m.text);
+        assert_eq!(m.decoded.unwrap()["variant_contradicted"], true);
+        // Bits no variant names are shown, not dropped.
+        let m = meaning_with(p("411"), 0x4023, &act).unwrap();
+        assert!(m.text.ends_with("other bits 0x4000"), "{}", m.text);
+    }
+
+    #[test]
+    fn issue18_b8_faults_and_warnings_are_decoded_for_scripts() {
+        let d = meaning(p("260"), 0x2010).unwrap().decoded.unwrap();
+        assert_eq!(
+            (&d["fault"], &d["group"], &d["code"], &d["listed"]),
+            (&json!("F2010"), &json!(0x20), &json!(0x10), &json!(true))
+        );
+        // A key the manual does not list is shown as a key, not dropped.
+        let m = meaning(p("260"), 0x2099).unwrap();
+        assert_eq!(m.text, "F2099 (not in the manual's list)");
+        assert_eq!(m.decoded.unwrap()["listed"], false);
+        // ch. 12.1 example: 0x008B = Ixt, short-term Ixt, heat sink, motor temperature.
+        let d = meaning(p("270"), 0x008B).unwrap().decoded.unwrap();
+        let bits: Vec<u64> = d["warnings"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|w| w["bit"].as_u64().unwrap())
+            .collect();
+        assert_eq!(bits, [0, 1, 3, 7]);
+        assert_eq!(d["consistent"], true);
+        // Bit 1 without bit 0 breaks the manual's footnote.
+        assert_eq!(
+            meaning(p("270"), 0x0002).unwrap().decoded.unwrap()["consistent"],
+            false
+        );
     }
 }

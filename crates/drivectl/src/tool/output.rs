@@ -8,7 +8,7 @@ use drive_profile::ParamMeta;
 use serde_json::{Map, Value, json};
 
 use super::client::Target;
-use super::meaning::{Meaning, meaning_of};
+use super::meaning::{Device, Meaning, meaning_in};
 use crate::error::{CliError, Result};
 
 /// Write one piece of standard output. A reader that went away (`drivectl … | head`) is not an
@@ -148,16 +148,23 @@ pub fn target_json(t: &Target) -> Map<String, Value> {
     m
 }
 
+/// [`value_json_in`] of a drive nothing is known of.
+#[cfg(test)]
+pub fn value_json(t: &Target, raw: i64) -> Value {
+    value_json_in(t, raw, &Device::default())
+}
+
 /// One value read from a drive as a JSON object, the same keys for every family: those of
 /// [`target_json`], then `raw`, `value`, `meaning` (a value name or a decoded word, else
 /// `null`) and `decoded` (the decoded status/fault word, else `null`); outside the table
-/// `meaning` and `decoded` are `null` and `value` is the raw value.
-pub fn value_json(t: &Target, raw: i64) -> Value {
+/// `meaning` and `decoded` are `null` and `value` is the raw value. The meaning takes what is
+/// known of the drive, `device` ([`meaning_in`]).
+pub fn value_json_in(t: &Target, raw: i64, device: &Device) -> Value {
     let mut m = target_json(t);
     m.insert("raw".into(), raw.into());
     match t.param {
         Some(p) => {
-            let meaning = meaning_of(t, raw);
+            let meaning = meaning_in(t, raw, device);
             m.insert("value".into(), json!(p.to_physical(raw)));
             m.insert(
                 "meaning".into(),
@@ -178,10 +185,10 @@ pub fn value_json(t: &Target, raw: i64) -> Value {
 /// One value as text without the parameter's name: the physical value with its unit and value
 /// name (`1.50 s`, `9 (control word 1)`) or its meaning (`0 (no fault)`), a decoded word in hex
 /// with its meaning (`0x0206: ready, PO data enabled, unit status 2 = no enable`), raw outside
-/// the table.
-pub fn value_text(t: &Target, raw: i64) -> String {
+/// the table; the meaning takes what is known of the drive, `device` ([`meaning_in`]).
+pub fn value_text_in(t: &Target, raw: i64, device: &Device) -> String {
     match t.param {
-        Some(p) => match meaning_of(t, raw) {
+        Some(p) => match meaning_in(t, raw, device) {
             Some(Meaning {
                 text,
                 decoded: Some(_),
@@ -199,18 +206,23 @@ pub fn value_text(t: &Target, raw: i64) -> String {
 }
 
 /// Print one value read from a drive: a line of text (`P102 set 3 acceleration time (PNU
-/// 102): 10.00 s (raw 1000)`), or one JSON object ([`value_json`]).
+/// 102): 10.00 s (raw 1000)`), or one JSON object ([`value_json_in`]).
 pub fn print_value(t: &Target, raw: i64, json: bool) -> Result<()> {
+    print_value_in(t, raw, json, &Device::default())
+}
+
+/// [`print_value`] with what is known of the drive (its meanings, [`meaning_in`]).
+pub fn print_value_in(t: &Target, raw: i64, json: bool, device: &Device) -> Result<()> {
     match (t.names(), json) {
-        (_, true) => outln!("{}", value_json(t, raw)),
+        (_, true) => outln!("{}", value_json_in(t, raw, device)),
         (Some((_, en)), false) => outln!(
             "{} {en} ({} {}): {} (raw {raw})",
             t.label(),
             t.index_word(),
             t.index,
-            value_text(t, raw)
+            value_text_in(t, raw, device)
         ),
-        (None, false) => outln!("{}: {}", t.label(), value_text(t, raw)),
+        (None, false) => outln!("{}: {}", t.label(), value_text_in(t, raw, device)),
     }
 }
 

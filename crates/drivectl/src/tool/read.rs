@@ -1,7 +1,7 @@
 //! `read` of one or more parameters, for every family.
 
 use super::client::{ClientError, ParamClient, Target};
-use super::output::print_value;
+use super::output::print_value_in;
 use crate::error::{CliError, Result};
 
 /// Read `targets` (all resolved before anything is sent) in the order given and print one
@@ -15,12 +15,12 @@ pub async fn read_all<C: ParamClient>(
 ) -> Result<()> {
     if let [t] = targets {
         let raw = client.read(t).await.map_err(|e| t.error(e))?;
-        return print_value(t, raw, json);
+        return print_value_in(t, raw, json, &client.device());
     }
     let mut refused = Vec::new();
     for (i, t) in targets.iter().enumerate() {
         match client.read(t).await {
-            Ok(raw) => print_value(t, raw, json)?,
+            Ok(raw) => print_value_in(t, raw, json, &client.device())?,
             Err(ClientError::Device(d)) => {
                 errln!("drivectl: {}: {d}", t.label());
                 refused.push(t.label());

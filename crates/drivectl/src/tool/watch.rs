@@ -31,7 +31,8 @@ use serde_json::{Value, json};
 use tokio::time::MissedTickBehavior;
 
 use super::client::{ClientError, ParamClient, Target};
-use super::output::{target_json, value_json, value_text};
+use super::meaning::Device;
+use super::output::{target_json, value_json_in, value_text_in};
 use crate::error::{CliError, Result};
 
 /// The shortest interval between polls, in milliseconds: a MOVILINK parameter read at 9600
@@ -275,9 +276,10 @@ async fn poll_loop<C: ParamClient>(
                 }
             }
         }
+        let device = client.device();
         let text = match options.format {
             Format::Table => {
-                let table = table(&time, options.interval, targets, &cells);
+                let table = table(&time, options.interval, targets, &cells, &device);
                 // Back to the first line of the previous table, clear to the end, redraw.
                 let up = if drawn > 0 {
                     format!("\x1b[{drawn}F\x1b[J")
@@ -287,9 +289,9 @@ async fn poll_loop<C: ParamClient>(
                 drawn = table.lines().count();
                 format!("{up}{table}")
             }
-            Format::Lines => line(&time, targets, &cells),
+            Format::Lines => line(&time, targets, &cells, &device),
             Format::Csv => csv_row(&time, targets, &cells),
-            Format::Json => format!("{}\n", sample_json(&time, targets, &cells)),
+            Format::Json => format!("{}\n", sample_json(&time, targets, &cells, &device)),
         };
         out(&text)?;
         tally.done += 1;
@@ -298,9 +300,9 @@ async fn poll_loop<C: ParamClient>(
 }
 
 /// The value of one cell as text.
-fn cell_text(t: &Target, cell: &std::result::Result<i64, String>) -> String {
+fn cell_text(t: &Target, cell: &std::result::Result<i64, String>, device: &Device) -> String {
     match cell {
-        Ok(raw) => value_text(t, *raw),
+        Ok(raw) => value_text_in(t, *raw, device),
         Err(m) => format!("refused: {m}"),
     }
 }
@@ -310,21 +312,27 @@ fn table(
     interval: Duration,
     targets: &[Target],
     cells: &[std::result::Result<i64, String>],
+    device: &Device,
 ) -> String {
     let mut s = format!("{time}  every {} ms, Ctrl-C ends\n", interval.as_millis());
     let names: Vec<String> = targets.iter().map(Target::title).collect();
     let width = names.iter().map(|n| n.chars().count()).max().unwrap_or(0);
     for ((t, name), cell) in targets.iter().zip(&names).zip(cells) {
-        let _ = writeln!(s, "  {name:<width$}  {}", cell_text(t, cell));
+        let _ = writeln!(s, "  {name:<width$}  {}", cell_text(t, cell, device));
     }
     s
 }
 
-fn line(time: &str, targets: &[Target], cells: &[std::result::Result<i64, String>]) -> String {
+fn line(
+    time: &str,
+    targets: &[Target],
+    cells: &[std::result::Result<i64, String>],
+    device: &Device,
+) -> String {
     let parts: Vec<String> = targets
         .iter()
         .zip(cells)
-        .map(|(t, c)| format!("{} {}", t.label(), cell_text(t, c)))
+        .map(|(t, c)| format!("{} {}", t.label(), cell_text(t, c, device)))
         .collect();
     format!("{time}  {}\n", parts.join(" | "))
 }
@@ -392,12 +400,13 @@ fn sample_json(
     time: &str,
     targets: &[Target],
     cells: &[std::result::Result<i64, String>],
+    device: &Device,
 ) -> Value {
     let values: Vec<Value> = targets
         .iter()
         .zip(cells)
         .map(|(t, cell)| match cell {
-            Ok(raw) => value_json(t, *raw),
+            Ok(raw) => value_json_in(t, *raw, device),
             Err(m) => {
                 let mut o = target_json(t);
                 o.insert("error".into(), m.as_str().into());

@@ -9,7 +9,8 @@ use drive_profile::guard::{GuardError, WriteGuard};
 use serde_json::Value;
 
 use super::client::{ParamClient, Target};
-use super::output::{physical_text, print_value, value_json};
+use super::meaning::Device;
+use super::output::{physical_text, print_value, value_json_in};
 use super::wear;
 use crate::error::{CliError, Result};
 
@@ -96,10 +97,10 @@ pub struct Written {
 }
 
 impl Written {
-    /// The value the drive holds, as JSON ([`value_json`]) with `sent` (the raw value sent) and
+    /// The value the drive holds, as JSON ([`value_json_in`]) with `sent` (the raw value sent) and
     /// `differs` (whether the drive holds another one).
     pub fn json(&self, target: &Target) -> Value {
-        let mut v = value_json(target, self.back);
+        let mut v = value_json_in(target, self.back, &Device::default());
         if let Value::Object(m) = &mut v {
             m.insert("sent".into(), self.sent.into());
             m.insert("differs".into(), self.differs.is_some().into());
