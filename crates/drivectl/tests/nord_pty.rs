@@ -504,3 +504,50 @@ fn nord_a_second_ctrl_c_during_a_backup_leaves_no_temporary_file() {
     assert!(left.is_empty(), "left behind: {left:?}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// Issue 18: a write the table refuses is refused first, before anything is read or sent: with
+/// P560 = 0 a read-only P700 [-01] got a note that it would be kept in RAM (P560 had been read)
+/// before the refusal. The refusal comes before the port is opened.
+#[test]
+fn issue18_a_write_the_table_refuses_reads_and_sends_nothing() {
+    let sim = Sim::start(&["--addr", "1"]);
+    ok_json(&sim.run(&["--json", "write", "P560", "0"]));
+    let o = sim.run(&["write", "P700", "1", "--array", "1"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    let e = stderr(&o);
+    assert!(e.contains("read-only"), "{e}");
+    assert!(!e.contains("P560"), "P560 was read first: {e}");
+    let o = Command::new(env!("CARGO_BIN_EXE_drivectl"))
+        .args([
+            "uss",
+            "--port",
+            "/dev/drivectl-no-such-port",
+            "--parity",
+            "none",
+        ])
+        .args(["write", "P700", "1", "--array", "1"])
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("read-only"), "{}", stderr(&o));
+    assert!(!stderr(&o).contains("no-such-port"), "{}", stderr(&o));
+    // A write the drive takes, with P560 = 0: said once, after the write.
+    let o = sim.run(&["write", "P105", "40"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("kept in RAM"), "{}", stderr(&o));
+}
+
+/// Issue 18: a drive that does not answer is reported with the line as it is set (the message
+/// said "parity (8E1)" with --parity none).
+#[test]
+fn issue18_no_answer_names_the_line_as_it_is_set() {
+    let sim = Sim::start(&["--addr", "1"]);
+    let o = sim
+        .command("5", &["--baud", "9600", "--retries", "0", "read", "P102"])
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    let e = stderr(&o);
+    assert!(e.contains("9600 8N1"), "{e}");
+    assert!(!e.contains("8E1"), "{e}");
+}

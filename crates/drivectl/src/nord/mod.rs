@@ -539,7 +539,17 @@ pub fn precheck(cmd: &NordCommand) -> Result<()> {
                 force: *force,
                 round: *round,
             };
-            write_value(param, value, *sub, &how).map(drop)
+            let v = write_value(param, value, *sub, &how)?;
+            // The table's checks that do not depend on the drive (access, range, value list;
+            // the EEPROM-wear rule needs P560, read later): a write they refuse reads and
+            // sends nothing.
+            let request = write::WriteRequest {
+                target: v.target,
+                raw: v.raw,
+                persistence: Persistence::Volatile,
+                force: *force,
+            };
+            write::check_with("", &request, write::with_hint).map(drop)
         }
         NordCommand::Control {
             setpoint: Some(s), ..
@@ -624,8 +634,8 @@ where
             }
             let mut pc =
                 NordParamClient::new(c, &s.key, s.identity.clone()).raw_array(sub.array.is_some());
-            let persistence = if *volatile {
-                Persistence::Volatile
+            let (persistence, ram_only) = if *volatile {
+                (Persistence::Volatile, false)
             } else {
                 eeprom_or_ram(&mut pc, &v.target).await?
             };
@@ -636,6 +646,13 @@ where
                 force: *force,
             };
             let done = write::write_checked(&mut pc, &request, false).await?;
+            if ram_only {
+                errln!(
+                    "drivectl: note: P560 save to EEPROM is 0 (RAM only) on this drive: {} is \
+                     kept in RAM and lost at power-off (write P560 = 1 to keep changes)",
+                    v.target.label()
+                );
+            }
             print_value(&v.target, done.back, json)
         }
         NordCommand::Status => status(c, s).await,
@@ -674,27 +691,21 @@ where
 
 /// Where a write without `--volatile` goes: to EEPROM as P560 says. With P560 = 0 the drive
 /// keeps it in RAM only, so it is a RAM-only write (AK 14/12, which does the same) that wears
-/// no EEPROM and is not held back by the EEPROM-wear rule; the user is told it is lost at
-/// power-off. P560 itself always counts as an EEPROM write.
+/// no EEPROM and is not held back by the EEPROM-wear rule; the second value says so, for the
+/// note after the write that the value is lost at power-off. P560 itself always counts as an
+/// EEPROM write.
 async fn eeprom_or_ram<C: ParameterChannel>(
     pc: &mut NordParamClient<'_, C>,
     target: &Target,
-) -> Result<Persistence> {
+) -> Result<(Persistence, bool)> {
     if target.index == param::SAVE_TO_EEPROM || target.param.is_none() {
-        return Ok(Persistence::NonVolatile);
+        return Ok((Persistence::NonVolatile, false));
     }
     let p560 = resolve_in(param::SAVE_TO_EEPROM)?;
     match pc.read(&p560).await {
-        Ok(0) => {
-            errln!(
-                "drivectl: note: P560 save to EEPROM is 0 (RAM only) on this drive: {} is kept \
-                 in RAM and lost at power-off (write P560 = 1 to keep changes)",
-                target.label()
-            );
-            Ok(Persistence::Volatile)
-        }
-        Ok(_) => Ok(Persistence::NonVolatile),
-        Err(e) => Err(e.into()),
+        Ok(0) => Ok((Persistence::Volatile, true)),
+        Ok(_) => Ok((Persistence::NonVolatile, false)),
+        Err(e) => Err(p560.error(e)),
     }
 }
 
