@@ -1358,3 +1358,60 @@ fn issue10_sbus_read_json_on_the_virtual_bus() {
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("--iface"), "{}", stderr(&o));
 }
+
+/// Issue 18: `control enable --setpoint` sent 100.0001 % as 4000h without a word; now a
+/// setpoint SW1 cannot hold is refused (USS before the port opens, CTT2 alike) naming the
+/// nearest, and `--round` sends the nearest and says so.
+#[test]
+fn issue18_a_setpoint_sw1_cannot_hold_is_refused_or_rounded_with_a_note() {
+    for prefix in [
+        &["uss", "--port", "/dev/drivectl-no-such-port"][..],
+        &["ctt2", "--sim", "--fast"],
+    ] {
+        let o = drivectl(&[prefix, &["control", "enable", "--setpoint", "100.0001"]].concat());
+        assert_eq!(o.status.code(), Some(2), "{prefix:?}: {}", stderr(&o));
+        let e = stderr(&o);
+        assert!(e.contains("100 % (0x4000)") && e.contains("--round"), "{e}");
+        assert!(!e.contains("no-such-port"), "{e}");
+        let o = drivectl(
+            &[
+                prefix,
+                &["control", "enable", "--setpoint", "200", "--round"],
+            ]
+            .concat(),
+        );
+        assert_eq!(o.status.code(), Some(2), "{prefix:?}: {}", stderr(&o));
+        assert!(stderr(&o).contains("0x7FFF"), "{}", stderr(&o));
+    }
+    let o = drivectl(&[
+        "ctt2",
+        "--sim",
+        "--fast",
+        "--json",
+        "control",
+        "enable",
+        "--setpoint",
+        "100.0001",
+        "--round",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(json_lines(&o)[0]["setpoint"], 0x4000);
+    assert!(
+        stderr(&o).contains("cannot hold 100.0001 % exactly"),
+        "{}",
+        stderr(&o)
+    );
+    // The word's lower end, 8000h, is a setpoint (BU 0255 4.5.4: −32768…32767).
+    let o = drivectl(&[
+        "ctt2",
+        "--sim",
+        "--fast",
+        "--json",
+        "control",
+        "enable",
+        "--setpoint",
+        "-200",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(json_lines(&o)[0]["setpoint"], 0x8000);
+}

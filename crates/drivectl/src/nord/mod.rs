@@ -181,10 +181,16 @@ pub enum NordCommand {
         /// What to do.
         #[arg(value_parser = ["enable", "stop", "quick-stop", "disable", "reset"])]
         action: String,
-        /// Setpoint SW1 in percent of P105 maximum frequency (4000h = 100 %; −200 < % < 200,
-        /// negative = counter-clockwise); sent with every control word. Default 0.
+        /// Setpoint SW1 in percent of P105 maximum frequency, sent with every control word;
+        /// negative = counter-clockwise; default 0. The word holds −200 % (8000h) … 199.99390 %
+        /// (7FFFh) in steps of 100/16384 % (4000h = 100 %, BU 0255 4.5.4): a value between two
+        /// steps is refused naming the nearest, unless --round.
         #[arg(long, allow_hyphen_values = true, value_name = "PERCENT")]
         setpoint: Option<String>,
+        /// Accept a setpoint SW1 cannot hold exactly and send the nearest one (said on
+        /// standard error).
+        #[arg(long)]
+        round: bool,
         /// The parameter set the drive runs with (control word bits 14/15), 1–4.
         #[arg(long, default_value_t = 1, value_name = "S", value_parser = clap::value_parser!(u8).range(1..=4))]
         set: u8,
@@ -505,17 +511,63 @@ pub fn write_value(param: &str, value: &str, sub: Sub, how: &ValueText) -> Resul
     })
 }
 
-/// A setpoint in percent as the SW1 word (4000h = 100 %), strictly parsed.
-pub fn setpoint_word(text: &str) -> Result<u16> {
+/// A setpoint as the SW1 word carries it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Setpoint {
+    /// The word (4000h = 100 %).
+    pub word: u16,
+    /// What the user typed, when the word is its nearest (`--round`).
+    pub rounded_from: Option<f64>,
+}
+
+/// A setpoint in percent as the SW1 word, strictly parsed: BU 0255 4.5.4 sends it as an
+/// integer −32768…32767 (8000h…7FFFh) with 4000h = 100 %, so it holds −200 % … 199.99390 %
+/// in steps of 100/16384 %. A value past those ends is refused (nothing is cut to fit, not
+/// even with `round`); one between two steps is refused naming the nearest, unless `round`.
+pub fn setpoint_word(text: &str, round: bool) -> Result<Setpoint> {
     let p = parse_decimal(text).ok_or_else(|| {
         CliError::usage(format!(
             "`{text}` is not a setpoint in percent (e.g. 50, -25 or 12,5)"
         ))
     })?;
-    nord::setpoint_from_percent(p).map_err(|e| {
-        CliError::usage(format!(
-            "setpoint {text} %: {e}; a setpoint is −200 % < value < 200 % (4000h = 100 %)"
-        ))
+    let percent_of = |w: i16| nord::percent_from_word(w as u16);
+    let shown = |w: i16| format!("{} % (0x{:04X})", percent_of(w), w as u16);
+    let steps = p * f64::from(drive_profile::scaling::PERCENT_100) / 100.0;
+    let end = if !steps.is_finite() || steps > f64::from(i16::MAX) {
+        Some(i16::MAX)
+    } else if steps < f64::from(i16::MIN) {
+        Some(i16::MIN)
+    } else {
+        None
+    };
+    if let Some(end) = end {
+        return Err(CliError::usage(format!(
+            "setpoint {text} % is past what SW1 holds: {} … {} (BU 0255 4.5.4: −32768…32767, \
+             4000h = 100 %); the nearest setpoint it holds is {}; nothing was sent",
+            shown(i16::MIN),
+            shown(i16::MAX),
+            shown(end)
+        )));
+    }
+    let word = drive_profile::scaling::round(steps) as i16;
+    let held = percent_of(word);
+    if (held - p).abs() <= 1e-9 * p.abs().max(1.0) {
+        return Ok(Setpoint {
+            word: word as u16,
+            rounded_from: None,
+        });
+    }
+    if !round {
+        return Err(CliError::usage(format!(
+            "SW1 cannot hold {text} % exactly (steps of 100/16384 = 0.006103515625 %, 4000h = \
+             100 %): the nearest setpoint it holds is {}; give that, or add --round to have it \
+             rounded; nothing was sent",
+            shown(word)
+        )));
+    }
+    Ok(Setpoint {
+        word: word as u16,
+        rounded_from: Some(p),
     })
 }
 
@@ -552,8 +604,10 @@ pub fn precheck(cmd: &NordCommand) -> Result<()> {
             write::check_with("", &request, write::with_hint).map(drop)
         }
         NordCommand::Control {
-            setpoint: Some(s), ..
-        } => setpoint_word(s).map(drop),
+            setpoint: Some(s),
+            round,
+            ..
+        } => setpoint_word(s, *round).map(drop),
         NordCommand::Restore(r) => backup::check_file(&r.file, Family::Nord, &[]),
         _ => Ok(()),
     }
@@ -659,12 +713,28 @@ where
         NordCommand::Control {
             action,
             setpoint,
+            round,
             set,
             wait,
         } => {
+            let setpoint = setpoint
+                .as_deref()
+                .map(|t| setpoint_word(t, *round))
+                .transpose()?;
+            if let Some(Setpoint {
+                word,
+                rounded_from: Some(x),
+            }) = setpoint
+            {
+                errln!(
+                    "drivectl: note: SW1 cannot hold {x} % exactly; sending the nearest setpoint \
+                     it holds, {} % (0x{word:04X})",
+                    nord::percent_from_word(word)
+                );
+            }
             let session = ControlSession {
                 action: action.as_str(),
-                setpoint: setpoint.as_deref().map(setpoint_word).transpose()?,
+                setpoint: setpoint.map(|s| s.word),
                 set: *set,
                 wait: Duration::from_secs(*wait),
             };
