@@ -11,6 +11,7 @@
 mod tool;
 mod bonfiglioli;
 mod completions;
+mod decode;
 mod demo;
 mod error;
 mod examples;

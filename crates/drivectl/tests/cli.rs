@@ -1415,3 +1415,54 @@ fn issue18_a_setpoint_sw1_cannot_hold_is_refused_or_rounded_with_a_note() {
     assert!(o.status.success(), "{}", stderr(&o));
     assert_eq!(json_lines(&o)[0]["setpoint"], 0x8000);
 }
+
+/// Issue 18: `info` and `line` exist for CTT2 as for every family: `info` as over USS, `line`
+/// what the simulated AS-i link uses (double slave, addresses, the cycle and byte time of BU
+/// 0255 4.4); the defaults of --addr, --timeout and --asi-address say where they come from.
+#[test]
+fn issue18_ctt2_info_and_line() {
+    let o = drivectl(&["ctt2", "--sim", "--fast", "--json", "info", "P543"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v = &json_lines(&o)[0];
+    assert_eq!(
+        (&v["array_len"], &v["array_len_drive"]),
+        (&serde_json::json!(3), &serde_json::json!(3))
+    );
+    assert_eq!(v["values"].as_array().map(Vec::len), Some(3));
+    let o = drivectl(&[
+        "ctt2",
+        "--sim",
+        "--slaves",
+        "31",
+        "--asi-address",
+        "5A",
+        "--json",
+        "line",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v = &json_lines(&o)[0];
+    assert_eq!(
+        (&v["asi_address"], &v["second_slave"]),
+        (&serde_json::json!("5A"), &serde_json::json!("5B"))
+    );
+    // 31 slaves: 81.312 ms per byte, 16 AS-i cycles of 154 µs × 33.
+    assert_eq!(v["byte_time_us"].as_f64(), Some(81_312.0));
+    assert_eq!(v["asi_cycle_us"].as_f64(), Some(5_082.0));
+    assert_eq!(v["answer_window_ms"], 200);
+    let o = drivectl(&["ctt2", "--sim", "line"]);
+    assert!(
+        stdout(&o).contains("a CTT2 byte takes 16 cycles: 9.856 ms"),
+        "{}",
+        stdout(&o)
+    );
+    let help = stdout(&drivectl(&["uss", "--help"]));
+    assert!(
+        help.contains("Default 0: the address") && help.contains("Default 50: the 20 ms"),
+        "{help}"
+    );
+    let help = stdout(&drivectl(&["ctt2", "--help"]));
+    assert!(
+        help.contains("Default 1A") && help.contains("200 ms"),
+        "{help}"
+    );
+}
