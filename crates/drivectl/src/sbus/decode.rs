@@ -337,10 +337,17 @@ pub fn parse_id(text: &str, extended: bool) -> Result<Id> {
         t.parse::<u32>()
     };
     let text = crate::decode::escape(text);
-    let value = value.map_err(|_| {
-        CliError::usage(format!(
-            "--id {text}: not a number (decimal, 0x… or …h hexadecimal)"
-        ))
+    let value = value.map_err(|e| {
+        if *e.kind() == std::num::IntErrorKind::PosOverflow {
+            CliError::usage(format!(
+                "--id {text}: too large; a standard identifier is 0…2047 (11 bits), an extended \
+                 one (--extended) 0…1FFFFFFFh (29 bits)"
+            ))
+        } else {
+            CliError::usage(format!(
+                "--id {text}: not a number (decimal, 0x… or …h hexadecimal)"
+            ))
+        }
     })?;
     if extended {
         drive_core::can::ExtendedId::new(value)
@@ -585,6 +592,11 @@ mod tests {
         );
         assert!(parse_id("2048", false).is_err());
         assert!(parse_id("4294967296", false).is_err());
+        // Past every width: said as too large, not as "not a number" (issue 18).
+        let e = parse_id("99999999999999999999", true)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("too large") && e.contains("29 bits"), "{e}");
         assert!(parse_id("-1", false).is_err());
         assert!(parse_id("0x1FFFFFFF", true).is_ok());
         assert!(parse_id("0x20000000", true).is_err());
