@@ -202,9 +202,10 @@ pub enum NordCommand {
         #[arg(value_parser = ["enable", "stop", "quick-stop", "disable", "reset"])]
         action: String,
         /// Setpoint SW1 in percent of P105 maximum frequency, sent with every control word;
-        /// negative = counter-clockwise; default 0. The word holds −200 % (8000h) … 199.99390 %
-        /// (7FFFh) in steps of 100/16384 % (4000h = 100 %, BU 0255 4.5.4): a value between two
-        /// steps is refused naming the nearest, unless --round.
+        /// negative = counter-clockwise; default 0. The word holds −200 % (8000h) … 199.9939 %
+        /// (7FFFh) in steps of 100/16384 % (4000h = 100 %, BU 0255 4.5.4): the nearest step is
+        /// sent when it reads as typed (10 → 0666h = 9.9976 %); a value more precise than the
+        /// word (100.0001) is refused naming the nearest step, unless --round.
         #[arg(long, allow_hyphen_values = true, value_name = "PERCENT")]
         setpoint: Option<String>,
         /// Accept a setpoint SW1 cannot hold exactly and send the nearest one (said on
@@ -541,18 +542,26 @@ pub struct Setpoint {
 }
 
 /// A setpoint in percent as the SW1 word, strictly parsed: BU 0255 4.5.4 sends it as an
-/// integer −32768…32767 (8000h…7FFFh) with 4000h = 100 %, so it holds −200 % … 199.99390 %
-/// in steps of 100/16384 %. A value past those ends is refused (nothing is cut to fit, not
-/// even with `round`); one between two steps is refused naming the nearest, unless `round`.
+/// integer −32768…32767 (8000h…7FFFh) with 4000h = 100 %, so it holds −200 % … 199.9939 %
+/// in steps of 100/16384 = 0.006103515625 %. The word holds a value when its nearest step,
+/// written with as many decimals as were typed, reads as typed (`10` → 0666h = 9.9976 %,
+/// `33.3` → 1550h = 33.3008 %); a value with more precision than the word has (`100.0001`) is
+/// refused naming the nearest step, unless `round`. A value past the word's ends is refused,
+/// not even `round` cuts it to fit.
 pub fn setpoint_word(text: &str, round: bool) -> Result<Setpoint> {
     let p = parse_decimal(text).ok_or_else(|| {
         CliError::usage(format!(
-            "`{text}` is not a setpoint in percent (e.g. 50, -25 or 12,5)"
+            "`{}` is not a setpoint in percent (e.g. 50, -25 or 12,5)",
+            crate::decode::escape(text)
         ))
     })?;
+    let text = text.trim();
     let percent_of = |w: i16| nord::percent_from_word(w as u16);
-    let shown = |w: i16| format!("{} % (0x{:04X})", percent_of(w), w as u16);
-    let steps = p * f64::from(drive_profile::scaling::PERCENT_100) / 100.0;
+    // Four decimals name every step apart (0.0061 % each), and are taken back as typed.
+    let shown = |w: i16| format!("{} % (0x{:04X})", trim_float(percent_of(w), 4), w as u16);
+    // The nearest step, then whether the word has it.
+    let steps =
+        drive_profile::scaling::round(p * f64::from(drive_profile::scaling::PERCENT_100) / 100.0);
     let end = if !steps.is_finite() || steps > f64::from(i16::MAX) {
         Some(i16::MAX)
     } else if steps < f64::from(i16::MIN) {
@@ -569,9 +578,11 @@ pub fn setpoint_word(text: &str, round: bool) -> Result<Setpoint> {
             shown(end)
         )));
     }
-    let word = drive_profile::scaling::round(steps) as i16;
+    let word = steps as i16;
     let held = percent_of(word);
-    if (held - p).abs() <= 1e-9 * p.abs().max(1.0) {
+    let decimals = text.split_once(['.', ',']).map_or(0, |(_, f)| f.len());
+    let at_typed = |x: f64| format!("{x:.decimals$}").parse::<f64>().unwrap_or(f64::NAN);
+    if (held - p).abs() <= 1e-9 * p.abs().max(1.0) || at_typed(held) == at_typed(p) {
         return Ok(Setpoint {
             word: word as u16,
             rounded_from: None,
@@ -579,9 +590,9 @@ pub fn setpoint_word(text: &str, round: bool) -> Result<Setpoint> {
     }
     if !round {
         return Err(CliError::usage(format!(
-            "SW1 cannot hold {text} % exactly (steps of 100/16384 = 0.006103515625 %, 4000h = \
-             100 %): the nearest setpoint it holds is {}; give that, or add --round to have it \
-             rounded; nothing was sent",
+            "SW1 cannot hold {text} % (steps of 100/16384 = 0.006103515625 %, 4000h = 100 %): \
+             the nearest setpoint it holds is {}; give that, or add --round to have it rounded; \
+             nothing was sent",
             shown(word)
         )));
     }
@@ -749,9 +760,9 @@ where
             }) = setpoint
             {
                 errln!(
-                    "drivectl: note: SW1 cannot hold {x} % exactly; sending the nearest setpoint \
-                     it holds, {} % (0x{word:04X})",
-                    nord::percent_from_word(word)
+                    "drivectl: note: SW1 cannot hold {x} %; sending the nearest setpoint it \
+                     holds, {} % (0x{word:04X})",
+                    trim_float(nord::percent_from_word(word), 4)
                 );
             }
             let session = ControlSession {
