@@ -530,7 +530,8 @@ async fn no_drive_times_out_after_three_attempts() {
             r,
             Err(DriverError::Timeout {
                 address: 9,
-                attempts: 3
+                attempts: 3,
+                ..
             })
         ),
         "{r:?}"
@@ -606,4 +607,22 @@ async fn the_three_word_pkw_reads_and_writes_words() {
     drop(c);
     let drive = sim.await.unwrap();
     assert_eq!(drive.drive().ram_value(102, 0, 0), Some(250));
+}
+
+/// Issue 18: a timeout names the line as the master really has it (the message said "parity
+/// (8E1)" whatever the parity was) and the telegram layout it uses.
+#[tokio::test(start_paused = true)]
+async fn issue18_a_timeout_names_the_line_and_layout_in_use() {
+    let line = LineSettings::new(38400).with_parity(drive_core::line::Parity::None);
+    let (port, _wire) = link::pair(LinkConfig::from_line(line));
+    let layout = Layout::new(3, 2).unwrap();
+    let mut m = UssMaster::new(port, DriverConfig::new(addr(4), layout, line));
+    let e = m
+        .submit(Order::read(102, Ind::ZERO).unwrap().to_pkw())
+        .await
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("38400 8N1"), "{e}");
+    assert!(!e.contains("8E1"), "{e}");
+    assert!(e.contains("3 PKW + 2 PZD words"), "{e}");
 }

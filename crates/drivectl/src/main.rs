@@ -11,6 +11,7 @@
 mod tool;
 mod bonfiglioli;
 mod completions;
+mod decode;
 mod demo;
 mod error;
 mod examples;
@@ -109,7 +110,8 @@ enum DecodeCommand {
         #[arg(long, value_name = "PATH")]
         file: Option<String>,
         /// One JSON object per telegram (`"type": "telegram"`) or skipped run of bytes
-        /// (`"type": "error"`).
+        /// (`"type": "skipped"`), the shape every decoder shares
+        /// (docs/decode-json.md).
         #[arg(long)]
         json: bool,
     },
@@ -132,7 +134,8 @@ enum DecodeCommand {
         /// Read the capture from a file (lines, `#` comments, CR LF and a BOM are allowed).
         #[arg(long, value_name = "PATH")]
         file: Option<String>,
-        /// One JSON object per message.
+        /// One JSON object per message or skipped run of bytes, the shape every decoder shares
+        /// (docs/decode-json.md).
         #[arg(long)]
         json: bool,
     },
@@ -164,7 +167,8 @@ enum DecodeCommand {
         /// Who sent the first telegram: master or drive (they alternate).
         #[arg(long, default_value = "master", value_parser = ["master", "drive"])]
         start: String,
-        /// One JSON object per telegram.
+        /// One JSON object per telegram or skipped run of bytes, the shape every decoder shares
+        /// (docs/decode-json.md).
         #[arg(long)]
         json: bool,
     },
@@ -204,7 +208,8 @@ enum DecodeCommand {
         /// The sync identifier (P817), 0–2047.
         #[arg(long, default_value_t = 0, value_parser = clap::value_parser!(u16).range(0..=2047))]
         sync_id: u16,
-        /// One JSON object.
+        /// One JSON object per frame (or unreadable log line), the shape every decoder shares
+        /// (docs/decode-json.md).
         #[arg(long)]
         json: bool,
     },
@@ -226,7 +231,8 @@ enum DecodeCommand {
         /// Read the capture from a file (lines, `#` comments, CR LF and a BOM are allowed).
         #[arg(long, value_name = "PATH")]
         file: Option<String>,
-        /// One JSON object per frame.
+        /// One JSON object per frame or skipped run of bytes, the shape every decoder shares
+        /// (docs/decode-json.md).
         #[arg(long)]
         json: bool,
     },
@@ -247,7 +253,8 @@ enum DecodeCommand {
         /// Read the capture from a file, one frame per line.
         #[arg(long, value_name = "PATH")]
         file: Option<String>,
-        /// One JSON object per frame.
+        /// One JSON object per frame or skipped run of bytes, the shape every decoder shares
+        /// (docs/decode-json.md).
         #[arg(long)]
         json: bool,
     },

@@ -412,9 +412,14 @@ fn issue7_14_decode_reads_a_notepad_file_one_telegram_per_line() {
     assert_eq!(v[0]["direction"], "request");
     assert_eq!(v[0]["line"], 2);
     assert_eq!(v[0]["pdu_type"], "0x86");
-    assert_eq!(v[0]["pdu_name"], "PARAM+0PD acyclic");
+    assert_eq!(v[0]["kind"], "PARAM+0PD acyclic");
     assert_eq!(v[0]["address"], 1);
     assert_eq!(v[0]["index"], 8301);
+    // The parameter as `read --json` names it; a read request carries no value.
+    assert_eq!(
+        (&v[0]["number"], &v[0]["raw"]),
+        (&serde_json::json!("P070"), &serde_json::Value::Null)
+    );
     assert_eq!(v[1]["direction"], "response");
     assert_eq!(v[1]["line"], 4);
     assert_eq!(v[1]["raw"], 60_001_553);
@@ -434,7 +439,7 @@ fn issue7_14_decode_splits_a_stream_from_stdin_and_reports_stray_bytes() {
     assert_eq!(
         kinds,
         [
-            ("error", 0),
+            ("skipped", 0),
             ("telegram", 2),
             ("telegram", 14),
             ("telegram", 26)
@@ -874,26 +879,53 @@ fn decode_modbus_rtu_the_manuals_examples() {
     assert_eq!(v.len(), stream.len());
     assert!(v.iter().all(|f| f["valid"] == true), "{v:?}");
     assert_eq!(
-        (v[1]["parameter"].as_u64(), v[1]["raw"].as_i64()),
+        (v[1]["index"].as_u64(), v[1]["raw"].as_i64()),
         (Some(372), Some(1390))
     );
+    // The answer's data set is the request's (372 is read in data set 2).
+    assert_eq!(v[1]["label"], "372 data set 2");
     assert_eq!(v[3]["exception"], 2);
-    assert_eq!(
-        (v[4]["data_set"].as_u64(), v[4]["raw"].as_i64()),
-        (Some(4), Some(15))
+    assert!(
+        v[3]["refusal"].as_str().unwrap().contains("exception 2"),
+        "{}",
+        v[3]
     );
     assert_eq!(
-        (v[8]["parameter"].as_u64(), v[8]["raw"].as_i64()),
+        (&v[4]["selector"], v[4]["raw"].as_i64()),
+        (&serde_json::json!({"dataset": 4}), Some(15))
+    );
+    assert_eq!(v[4]["value"].as_f64(), Some(1.5));
+    assert_eq!(
+        (v[8]["index"].as_u64(), v[8]["raw"].as_i64()),
         (Some(481), Some(1000))
     );
+    // The CRC field's value is the CRC-16 it carries (sent low byte first: CE 2C = 0x2CCE).
+    let crc = v[0]["fields"].as_array().unwrap().last().unwrap().clone();
+    assert_eq!(
+        (&crc["name"], &crc["bytes"], &crc["value"]),
+        (
+            &serde_json::json!("CRC"),
+            &serde_json::json!("CE 2C"),
+            &serde_json::json!(0x2CCE)
+        )
+    );
     // 1600 is past the last parameter number (1599): named as such.
-    assert_eq!(v[9]["data_set"], 2);
+    assert!(
+        v[9]["fields"].to_string().contains("data set 2"),
+        "{}",
+        v[9]
+    );
     assert!(
         v[9]["fields"].to_string().contains("parameter 1600 (none"),
         "{}",
         v[9]
     );
-    assert_eq!(v[16]["raw"], 1);
+    // An FC 8 answer names no parameter: its counter is the data field's value.
+    assert_eq!(v[16]["raw"], serde_json::Value::Null);
+    assert_eq!(
+        (&v[16]["fields"][3]["name"], &v[16]["fields"][3]["value"]),
+        (&serde_json::json!("data"), &serde_json::json!(1))
+    );
     // Text: names and scaled values.
     let o = drivectl(&[
         "decode",
@@ -937,15 +969,33 @@ fn decode_modbus_ascii_the_manuals_examples() {
     assert_eq!(v.len(), 9);
     assert!(v.iter().all(|f| f["valid"] == true), "{v:?}");
     assert_eq!(
-        (v[1]["parameter"].as_u64(), v[1]["raw"].as_i64()),
+        (v[1]["index"].as_u64(), v[1]["raw"].as_i64()),
         (Some(372), Some(1390))
     );
     assert_eq!(
-        (v[2]["data_set"].as_u64(), v[2]["raw"].as_i64()),
-        (Some(4), Some(15))
+        (&v[2]["selector"], v[2]["raw"].as_i64()),
+        (&serde_json::json!({"dataset": 4}), Some(15))
     );
     assert_eq!(v[4]["raw"], 1000);
     assert_eq!(v[5]["exception"], 4);
+    // ASCII: the characters, their line, a field's characters and the binary value.
+    assert_eq!(
+        (&v[0]["chars"], &v[0]["line"]),
+        (
+            &serde_json::json!(":01032174000166\\r\\n"),
+            &serde_json::json!(2)
+        )
+    );
+    let adr = &v[0]["fields"][1];
+    assert_eq!(
+        (&adr["name"], &adr["chars"], &adr["bytes"], &adr["value"]),
+        (
+            &serde_json::json!("address"),
+            &serde_json::json!("01"),
+            &serde_json::json!("30 31"),
+            &serde_json::json!(1)
+        )
+    );
     // Erratum E4: the ASC row of ch. 8.2.3 example 2 (`:01E40219`) carries code 02; the hex
     // row (04, LRC 17) is right. As hex bytes of the characters, the manual's Hex row.
     let o = drivectl(&["decode", "modbus-ascii", "3A 30 31 45 34 30 34 31 37 0D 0A"]);
@@ -1019,8 +1069,8 @@ fn nord_decode_ctt2_and_uss_the_manuals_5_1_telegrams() {
     assert_eq!(v.len(), 8);
     assert_eq!(
         (
-            &v[0]["parameter"],
-            &v[0]["set"],
+            &v[0]["index"],
+            &v[0]["selector"]["set"],
             &v[0]["raw"],
             &v[0]["value"]
         ),
@@ -1035,9 +1085,9 @@ fn nord_decode_ctt2_and_uss_the_manuals_5_1_telegrams() {
         (&v[3]["ak"], &v[3]["raw"]),
         (&serde_json::json!(4), &serde_json::json!(1000))
     );
-    assert_eq!(v[5]["words"], serde_json::json!([0x0B31, 0]));
-    assert_eq!(v[6]["words"], serde_json::json!([0x047F, 0x2000]));
-    assert_eq!(v[7]["words"], serde_json::json!([0x0B37, 0x2000]));
+    assert_eq!(v[5]["process_data"], serde_json::json!([0x0B31, 0]));
+    assert_eq!(v[6]["process_data"], serde_json::json!([0x047F, 0x2000]));
+    assert_eq!(v[7]["process_data"], serde_json::json!([0x0B37, 0x2000]));
     // The same order in a USS telegram (STX, LGE 0Eh, ADR 1, PKW, STW 047E, SW1 0, BCC 88),
     // then the drive's answer (BCC F8).
     let o = drivectl(&[
@@ -1051,7 +1101,10 @@ fn nord_decode_ctt2_and_uss_the_manuals_5_1_telegrams() {
     let v = json_lines(&o);
     assert_eq!(
         (&v[0]["direction"], &v[1]["direction"]),
-        (&serde_json::json!("master"), &serde_json::json!("drive"))
+        (
+            &serde_json::json!("request"),
+            &serde_json::json!("response")
+        )
     );
     assert_eq!(
         (&v[0]["address"], &v[0]["raw"]),
@@ -1358,4 +1411,274 @@ fn issue10_sbus_read_json_on_the_virtual_bus() {
     let o = drivectl(&["sbus", "read", "P000"]);
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("--iface"), "{}", stderr(&o));
+}
+
+/// Issue 18: `control enable --setpoint` sent 100.0001 % as 4000h without a word; now a
+/// setpoint SW1 cannot hold is refused (USS before the port opens, CTT2 alike) naming the
+/// nearest, and `--round` sends the nearest and says so.
+#[test]
+fn issue18_a_setpoint_sw1_cannot_hold_is_refused_or_rounded_with_a_note() {
+    for prefix in [
+        &["uss", "--port", "/dev/drivectl-no-such-port"][..],
+        &["ctt2", "--sim", "--fast"],
+    ] {
+        let o = drivectl(&[prefix, &["control", "enable", "--setpoint", "100.0001"]].concat());
+        assert_eq!(o.status.code(), Some(2), "{prefix:?}: {}", stderr(&o));
+        let e = stderr(&o);
+        assert!(e.contains("100 % (0x4000)") && e.contains("--round"), "{e}");
+        assert!(!e.contains("no-such-port"), "{e}");
+        let o = drivectl(
+            &[
+                prefix,
+                &["control", "enable", "--setpoint", "200", "--round"],
+            ]
+            .concat(),
+        );
+        assert_eq!(o.status.code(), Some(2), "{prefix:?}: {}", stderr(&o));
+        assert!(stderr(&o).contains("0x7FFF"), "{}", stderr(&o));
+    }
+    let o = drivectl(&[
+        "ctt2",
+        "--sim",
+        "--fast",
+        "--json",
+        "control",
+        "enable",
+        "--setpoint",
+        "100.0001",
+        "--round",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(json_lines(&o)[0]["setpoint"], 0x4000);
+    assert!(
+        stderr(&o).contains("cannot hold 100.0001 %"),
+        "{}",
+        stderr(&o)
+    );
+    // The word's lower end, 8000h, is a setpoint (BU 0255 4.5.4: −32768…32767).
+    let o = drivectl(&[
+        "ctt2",
+        "--sim",
+        "--fast",
+        "--json",
+        "control",
+        "enable",
+        "--setpoint",
+        "-200",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(json_lines(&o)[0]["setpoint"], 0x8000);
+}
+
+/// Issue 18: `info` and `line` exist for CTT2 as for every family: `info` as over USS, `line`
+/// what the simulated AS-i link uses (double slave, addresses, the cycle and byte time of BU
+/// 0255 4.4); the defaults of --addr, --timeout and --asi-address say where they come from.
+#[test]
+fn issue18_ctt2_info_and_line() {
+    let o = drivectl(&["ctt2", "--sim", "--fast", "--json", "info", "P543"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v = &json_lines(&o)[0];
+    assert_eq!(
+        (&v["array_len"], &v["array_len_drive"]),
+        (&serde_json::json!(3), &serde_json::json!(3))
+    );
+    assert_eq!(v["values"].as_array().map(Vec::len), Some(3));
+    let o = drivectl(&[
+        "ctt2",
+        "--sim",
+        "--slaves",
+        "31",
+        "--asi-address",
+        "5A",
+        "--json",
+        "line",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v = &json_lines(&o)[0];
+    assert_eq!(
+        (&v["asi_address"], &v["second_slave"]),
+        (&serde_json::json!("5A"), &serde_json::json!("5B"))
+    );
+    // 31 slaves: 81.312 ms per byte, 16 AS-i cycles of 154 µs × 33.
+    assert_eq!(v["byte_time_us"].as_f64(), Some(81_312.0));
+    assert_eq!(v["asi_cycle_us"].as_f64(), Some(5_082.0));
+    assert_eq!(v["answer_window_ms"], 200);
+    let o = drivectl(&["ctt2", "--sim", "line"]);
+    assert!(
+        stdout(&o).contains("a CTT2 byte takes 16 cycles: 9.856 ms"),
+        "{}",
+        stdout(&o)
+    );
+    let help = stdout(&drivectl(&["uss", "--help"]));
+    assert!(
+        help.contains("Default 0: the address") && help.contains("Default 50: the 20 ms"),
+        "{help}"
+    );
+    let help = stdout(&drivectl(&["ctt2", "--help"]));
+    assert!(
+        help.contains("Default 1A") && help.contains("200 ms"),
+        "{help}"
+    );
+}
+
+/// The keys every `decode --json` object has, whatever the protocol (docs/decode-json.md).
+const DECODE_KEYS: [&str; 26] = [
+    "type",
+    "protocol",
+    "offset",
+    "line",
+    "length",
+    "bytes",
+    "valid",
+    "error",
+    "notes",
+    "direction",
+    "kind",
+    "address",
+    "index",
+    "number",
+    "label",
+    "name_de",
+    "name_en",
+    "selector",
+    "raw",
+    "value",
+    "unit",
+    "meaning",
+    "decoded",
+    "refusal",
+    "process_data",
+    "fields",
+];
+
+/// Issue 18: the decoders had their own JSON words for the same things (`field`/`name`,
+/// `meaning`, `text`/`bytes`, `parameter`, `set`, `data_set`, `words`); every object of every
+/// decoder now has the common keys, fields are `{offset, bytes, name, value, text}`, a
+/// parameter is named with the keys of `read --json`, and bytes that start no telegram are
+/// `"type": "skipped"`.
+#[test]
+fn issue18_every_decoder_emits_one_shape() {
+    let runs: [(&[&str], &str, usize); 6] = [
+        (
+            &["movilink", "55", "02 01 86 31 00 20 6D 00 00 00 00 F9"],
+            "movilink",
+            1,
+        ),
+        (
+            &["sbus", "--id", "524", "31 00 20 7E 00 0F 42 40"],
+            "sbus",
+            0,
+        ),
+        (
+            &[
+                "uss",
+                "55",
+                "02 0E 01 70 66 02 00 00 00 03 E8 04 7E 00 00 88",
+            ],
+            "uss",
+            1,
+        ),
+        (
+            &["ctt2", "FF", "13 2F 08 70 66 02 00 00 00 03 E8"],
+            "ctt2",
+            1,
+        ),
+        (&["modbus-rtu", "01 03 21 74 00 01 CE 2C"], "modbus-rtu", 0),
+        (&["modbus-ascii", "x:01032174000166"], "modbus-ascii", 1),
+    ];
+    for (args, protocol, telegram) in runs {
+        let mut all = vec!["decode"];
+        all.extend_from_slice(args);
+        all.push("--json");
+        let o = drivectl(&all);
+        let v = json_lines(&o);
+        assert!(!v.is_empty(), "{args:?}: {}", stderr(&o));
+        for obj in &v {
+            let m = obj.as_object().unwrap();
+            for k in DECODE_KEYS {
+                assert!(m.contains_key(k), "{protocol}: no `{k}` in {obj}");
+            }
+            assert_eq!(obj["protocol"], protocol);
+            for f in obj["fields"].as_array().unwrap() {
+                let keys: Vec<&String> = f.as_object().unwrap().keys().collect();
+                for k in ["offset", "bytes", "name", "value", "text"] {
+                    assert!(f.get(k).is_some(), "{protocol}: field without `{k}`: {f}");
+                }
+                assert!(keys.len() <= 6, "{protocol}: {f}");
+            }
+        }
+        let t = &v[telegram];
+        assert_eq!(t["type"], "telegram", "{t}");
+        if telegram == 1 {
+            assert_eq!(
+                (&v[0]["type"], &v[0]["valid"]),
+                (&serde_json::json!("skipped"), &serde_json::json!(false)),
+                "{}",
+                v[0]
+            );
+        }
+        // Every one of these names a parameter, in the keys of `read --json`.
+        assert!(
+            t["index"].is_u64() && t["label"].is_string() && t["name_en"].is_string(),
+            "{t}"
+        );
+    }
+}
+
+/// Issue 18: `decode modbus-ascii` given a frame without its `:` printed the characters the
+/// hex digits stand for, control characters and all, to the terminal; now the missing `:` is
+/// said with the command that has it, and no control character from the input is printed.
+#[test]
+fn issue18_modbus_ascii_without_its_colon_says_so_and_prints_no_control_characters() {
+    let o = drivectl(&["decode", "modbus-ascii", "01032174000166"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stdout(&o));
+    let e = stderr(&o);
+    assert!(e.contains("no `:`"), "{e}");
+    assert!(
+        e.contains("drivectl decode modbus-ascii :01032174000166"),
+        "{e}"
+    );
+    let printed = [stdout(&o), e].concat();
+    assert!(
+        !printed.chars().any(|c| c.is_control() && c != '\n'),
+        "{printed:?}"
+    );
+    // Control characters between frames of a capture are shown escaped.
+    let o = drivectl_stdin(
+        &["decode", "modbus-ascii", "-"],
+        b"\x1b[2J\x07:01032174000166\r\n",
+    );
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    let text = stdout(&o);
+    assert!(
+        !text.chars().any(|c| c.is_control() && c != '\n'),
+        "{text:?}"
+    );
+    assert!(text.contains("\\x1B[2J\\x07"), "{text}");
+    assert!(text.contains("no `:` before it"), "{text}");
+}
+
+/// Issue 18: a candump log line with a time stamp candump does not write (`(1.0)`) was refused
+/// without saying what one looks like; now the message shows it, six digits after the point.
+#[test]
+fn issue18_decode_sbus_log_says_what_a_candump_time_stamp_looks_like() {
+    let dir = std::env::temp_dir().join(format!("drivectl-sbus-stamp-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let log = dir.join("capture.log");
+    std::fs::write(&log, "(1.0) slcan0 20B#3100207E00000000\n").unwrap();
+    let o = drivectl(&["decode", "sbus", "--log", log.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(1));
+    let text = stdout(&o);
+    assert!(
+        text.contains("`(1.0)`") && text.contains("(1700000000.123456)"),
+        "{text}"
+    );
+    assert!(text.contains("six digits"), "{text}");
+    let o = drivectl(&["decode", "sbus", "--log", log.to_str().unwrap(), "--json"]);
+    let v = json_lines(&o);
+    assert_eq!(
+        (&v[0]["type"], &v[0]["line"]),
+        (&serde_json::json!("skipped"), &serde_json::json!(1))
+    );
+    let _ = std::fs::remove_dir_all(&dir);
 }

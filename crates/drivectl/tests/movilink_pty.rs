@@ -253,8 +253,10 @@ fn decode_explains_the_manual_example() {
     assert_eq!(v[0]["direction"], "request");
     let fields = v[0]["fields"].as_array().unwrap();
     assert_eq!(fields.len(), 7);
-    assert_eq!(fields[3]["field"], "PO1");
-    assert!(fields[3]["meaning"].as_str().unwrap().contains("enable"));
+    assert_eq!(fields[3]["name"], "PO1");
+    assert_eq!(fields[3]["value"], 6);
+    assert!(fields[3]["text"].as_str().unwrap().contains("enable"));
+    assert_eq!(v[0]["process_data"], serde_json::json!([6, 0x2000, 0x0BB8]));
     // Bild 20: BCC 0x57 of 02 01 05 0006 3A98 01F4; a wrong BCC is named with the right one.
     let o = Command::new(env!("CARGO_BIN_EXE_drivectl"))
         .args(["decode", "movilink", "020105 0006 3A98 01F4 58"])

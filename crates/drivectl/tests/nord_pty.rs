@@ -506,3 +506,109 @@ fn nord_a_second_ctrl_c_during_a_backup_leaves_no_temporary_file() {
     assert!(left.is_empty(), "left behind: {left:?}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// Issue 18: a write the table refuses is refused first, before anything is read or sent: with
+/// P560 = 0 a read-only P700 [-01] got a note that it would be kept in RAM (P560 had been read)
+/// before the refusal. The refusal comes before the port is opened.
+#[test]
+fn issue18_a_write_the_table_refuses_reads_and_sends_nothing() {
+    let sim = Sim::start(&["--addr", "1"]);
+    ok_json(&sim.run(&["--json", "write", "P560", "0"]));
+    let o = sim.run(&["write", "P700", "1", "--array", "1"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    let e = stderr(&o);
+    assert!(e.contains("read-only"), "{e}");
+    assert!(!e.contains("P560"), "P560 was read first: {e}");
+    let o = Command::new(env!("CARGO_BIN_EXE_drivectl"))
+        .args([
+            "uss",
+            "--port",
+            "/dev/drivectl-no-such-port",
+            "--parity",
+            "none",
+        ])
+        .args(["write", "P700", "1", "--array", "1"])
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("read-only"), "{}", stderr(&o));
+    assert!(!stderr(&o).contains("no-such-port"), "{}", stderr(&o));
+    // A write the drive takes, with P560 = 0: said once, after the write.
+    let o = sim.run(&["write", "P105", "40"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("kept in RAM"), "{}", stderr(&o));
+}
+
+/// Issue 18: a drive that does not answer is reported with the line as it is set (the message
+/// said "parity (8E1)" with --parity none).
+#[test]
+fn issue18_no_answer_names_the_line_as_it_is_set() {
+    let sim = Sim::start(&["--addr", "1"]);
+    let o = sim
+        .command("5", &["--baud", "9600", "--retries", "0", "read", "P102"])
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    let e = stderr(&o);
+    assert!(e.contains("9600 8N1"), "{e}");
+    assert!(!e.contains("8E1"), "{e}");
+}
+
+/// Issue 18: `info` exists for USS as for every family: the table's range, default, unit,
+/// resolution, sets, elements and access, the drive's values in every set or element, and for
+/// an array the drive's count (AK 9); the keys of `movilink info --json` where they mean the
+/// same.
+#[test]
+fn issue18_info_shows_the_table_and_the_drives_values() {
+    let sim = Sim::start(&["--addr", "1"]);
+    ok_json(&sim.run(&["--json", "write", "P102", "10", "--set", "3", "--no-eeprom"]));
+    let v = ok_json(&sim.run(&["--json", "info", "P102"])).remove(0);
+    assert_eq!(
+        (&v["index"], &v["number"], &v["unit"]),
+        (&json!(102), &json!("P102"), &json!("s"))
+    );
+    assert_eq!(v["range"]["max"], 32000);
+    assert_eq!(v["range"]["max_value"].as_f64(), Some(320.0));
+    assert_eq!(v["resolution"]["step"].as_f64(), Some(0.01));
+    assert_eq!(
+        (&v["access"], &v["parameter_set"], &v["array_len"]),
+        (&json!("RW"), &json!(true), &Value::Null)
+    );
+    assert_eq!(v["limits_from"], "table");
+    let values = v["values"].as_array().unwrap();
+    assert_eq!(values.len(), 4, "{v}");
+    assert_eq!(
+        (&values[2]["label"], &values[2]["raw"]),
+        (&json!("P102 set 3"), &json!(1000))
+    );
+    // One set; an array with the drive's count.
+    let v = ok_json(&sim.run(&["--json", "info", "P102", "--set", "3"])).remove(0);
+    assert_eq!(v["values"].as_array().unwrap().len(), 1);
+    let v = ok_json(&sim.run(&["--json", "info", "P700"])).remove(0);
+    assert_eq!(
+        (&v["array_len"], &v["array_len_drive"], &v["access"]),
+        (&json!(3), &json!(3), &json!("RO"))
+    );
+    assert_eq!(v["values"][0]["meaning"], "no fault");
+    // Text, and refusals checked before the port opens as for read.
+    let o = sim.run(&["info", "P543", "--array", "2"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        text.contains("P543 [-02]") && text.contains("the drive counts 3 (AK 9)"),
+        "{text}"
+    );
+    let o = Command::new(env!("CARGO_BIN_EXE_drivectl"))
+        .args([
+            "uss",
+            "--port",
+            "/dev/drivectl-no-such-port",
+            "--parity",
+            "none",
+        ])
+        .args(["info", "P543", "--array", "4"])
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("none of them"), "{}", stderr(&o));
+}

@@ -97,17 +97,25 @@ pub struct DriverStats {
 pub enum DriverError {
     /// Nothing answered in time, in every attempt.
     #[error(
-        "no answer from USS address {address} after {attempts} attempts; check the address, baud rate and parity (8E1), the telegram layout (PKW and PZD words), wiring and termination"
+        "no answer from USS address {address} after {attempts} attempts at {line} with {} PKW + {} PZD words; check the address, that the drive's baud rate and parity are {line} too, its telegram layout (PKW and PZD words), wiring and termination",
+        layout.pkw_words(),
+        layout.pzd_words()
     )]
     Timeout {
         /// The drive's address.
         address: u8,
         /// Transmissions made.
         attempts: u32,
+        /// The line as the master uses it (baud rate, data bits, parity, stop bits).
+        line: LineSettings,
+        /// The telegram layout the master uses.
+        layout: Layout,
     },
     /// Answers arrived but kept failing the checks.
     #[error(
-        "answers from USS address {address} kept failing the checks ({reason}) in {attempts} attempts; check baud rate and parity, the telegram layout, termination and for a second master"
+        "answers from USS address {address} kept failing the checks ({reason}) in {attempts} attempts at {line} with {} PKW + {} PZD words; check that the drive's baud rate, parity and telegram layout are the same, termination and for a second master",
+        layout.pkw_words(),
+        layout.pzd_words()
     )]
     Rejected {
         /// The drive's address.
@@ -116,6 +124,10 @@ pub enum DriverError {
         reason: RejectReason,
         /// Transmissions made.
         attempts: u32,
+        /// The line as the master uses it.
+        line: LineSettings,
+        /// The telegram layout the master uses.
+        layout: Layout,
     },
     /// The layout has no PKW part: no parameter orders.
     #[error("the telegram layout has no PKW part: parameters cannot be read or written")]
@@ -215,6 +227,7 @@ impl<IO: CharIo> UssMaster<IO> {
         self.stats.transactions += 1;
         let mut buf = [0u8; MAX_TELEGRAM];
         let address = telegram.adr().address().get();
+        let (line, layout) = (self.config.line, self.config.layout);
         let mut tally = Tally::default();
         let r = self
             .port
@@ -243,13 +256,20 @@ impl<IO: CharIo> UssMaster<IO> {
                 address,
                 reason,
                 attempts,
+                line,
+                layout,
             },
             Failed::NoAnswer {
                 attempts,
                 last_reject: None,
             } => {
                 self.stats.timeouts += 1;
-                DriverError::Timeout { address, attempts }
+                DriverError::Timeout {
+                    address,
+                    attempts,
+                    line,
+                    layout,
+                }
             }
             Failed::Io(e) => DriverError::Io(e),
         })
@@ -265,6 +285,8 @@ impl<IO: CharIo> UssMaster<IO> {
             None => Err(DriverError::Timeout {
                 address: self.config.address.get(),
                 attempts: 0,
+                line: self.config.line,
+                layout: self.config.layout,
             }),
         }
     }
@@ -290,6 +312,8 @@ impl<IO: CharIo> UssMaster<IO> {
             None => Err(DriverError::Timeout {
                 address: self.config.address.get(),
                 attempts: 0,
+                line: self.config.line,
+                layout: self.config.layout,
             }),
         }
     }

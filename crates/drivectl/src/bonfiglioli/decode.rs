@@ -23,18 +23,7 @@ use crate::error::{CliError, Result};
 use crate::movilink::decode::{Capture, parse_hex, read_capture};
 use crate::tool::output::physical_text;
 
-/// One explained field.
-#[derive(Debug, Clone)]
-pub struct Field {
-    /// Offset of the field's first byte (RTU) or character (ASCII) in the capture.
-    pub offset: usize,
-    /// The bytes as hex (RTU) or the characters (ASCII).
-    pub text: String,
-    /// Field name.
-    pub name: &'static str,
-    /// What it means.
-    pub meaning: String,
-}
+pub use crate::decode::Field;
 
 /// One explained frame.
 #[derive(Debug, Clone, Default)]
@@ -57,10 +46,16 @@ pub struct Frame {
     pub raw: Option<i64>,
     /// Exception code.
     pub exception: Option<u8>,
+    /// The exception in words.
+    pub refusal: Option<String>,
     /// The fields.
     pub fields: Vec<Field>,
     /// The first problem, if any.
     pub error: Option<String>,
+    /// The frame's bytes (RTU) or characters (ASCII).
+    pub bytes: Vec<u8>,
+    /// Bytes or characters outside any frame, skipped.
+    pub skipped: bool,
 }
 
 /// The last read request per address: (function, start address).
@@ -68,7 +63,9 @@ type Pending = std::collections::HashMap<u8, (u8, StartAddress)>;
 
 /// How spans of the binary frame map to the capture.
 trait Span {
-    fn span(&self, start: usize, len: usize) -> (usize, String);
+    /// The field of binary bytes `start .. start + len`: its offset in the capture, its bytes
+    /// (ASCII: the characters' codes), its characters (ASCII) and the value of the binary bytes.
+    fn field(&self, start: usize, len: usize, name: &str, text: String) -> Field;
 }
 
 struct RtuSpan<'a> {
@@ -77,16 +74,9 @@ struct RtuSpan<'a> {
 }
 
 impl Span for RtuSpan<'_> {
-    fn span(&self, start: usize, len: usize) -> (usize, String) {
-        let text = self
-            .bytes
-            .iter()
-            .skip(start)
-            .take(len)
-            .map(|b| format!("{b:02X}"))
-            .collect::<Vec<_>>()
-            .join(" ");
-        (self.base + start, text)
+    fn field(&self, start: usize, len: usize, name: &str, text: String) -> Field {
+        let b = self.bytes.get(start..).unwrap_or(&[]);
+        Field::new(self.base + start, b.get(..len).unwrap_or(b), name, text)
     }
 }
 
@@ -96,17 +86,27 @@ struct AsciiSpan<'a> {
 }
 
 impl Span for AsciiSpan<'_> {
-    fn span(&self, start: usize, len: usize) -> (usize, String) {
+    fn field(&self, start: usize, len: usize, name: &str, text: String) -> Field {
         // Binary byte i is characters 1 + 2i and 2 + 2i after the `:`.
         let from = 1 + 2 * start;
-        let text: String = self
-            .chars
-            .iter()
-            .skip(from)
-            .take(2 * len)
-            .map(|&c| char::from(c))
+        let c = self.chars.get(from..).unwrap_or(&[]);
+        let c = c.get(..2 * len).unwrap_or(c);
+        let binary: Option<Vec<u8>> = c
+            .chunks(2)
+            .map(|p| {
+                let hi = ascii::hex_value(*p.first()?)?;
+                let lo = ascii::hex_value(*p.get(1)?)?;
+                Some((hi << 4) | lo)
+            })
             .collect();
-        (self.base + from, text)
+        Field {
+            offset: self.base + from,
+            bytes: crate::decode::hex(c),
+            chars: Some(crate::decode::escape_bytes(c)),
+            name: name.to_owned(),
+            value: binary.as_deref().and_then(crate::decode::big_endian),
+            text,
+        }
     }
 }
 
@@ -118,13 +118,7 @@ fn push(
     name: &'static str,
     meaning: String,
 ) {
-    let (offset, text) = s.span(start, len);
-    f.fields.push(Field {
-        offset,
-        text,
-        name,
-        meaning,
-    });
+    f.fields.push(s.field(start, len, name, meaning));
 }
 
 fn be16(b: &[u8], at: usize) -> Option<u16> {
@@ -206,6 +200,7 @@ fn explain_pdu(f: &mut Frame, s: &dyn Span, address: u8, pdu: &[u8], pending: &m
                         )
                     },
                 );
+                f.refusal = Some(meaning.clone());
                 push(f, s, 2, 1, "exception", meaning);
             }
             None => {
@@ -286,8 +281,10 @@ fn explain_pdu(f: &mut Frame, s: &dyn Span, address: u8, pdu: &[u8], pending: &m
                 "byte count",
                 format!("{bc}{}", if bc == 2 { "" } else { " (expected 2)" }),
             );
-            let param = pending.remove(&address).and_then(|(_, st)| st.param());
+            let asked = pending.remove(&address).map(|(_, st)| st);
+            let param = asked.and_then(StartAddress::param);
             f.parameter = param;
+            f.data_set = asked.and_then(|st| st.data_set()).map(|d| d.get());
             let (raw, text) = value_text(param, u32::from(be16(pdu, 2).unwrap_or(0)), false);
             f.raw = Some(raw);
             push(f, s, 3, 2, "value", text);
@@ -303,8 +300,10 @@ fn explain_pdu(f: &mut Frame, s: &dyn Span, address: u8, pdu: &[u8], pending: &m
         }
         (100, 5) => {
             f.direction = Some("response");
-            let param = pending.remove(&address).and_then(|(_, st)| st.param());
+            let asked = pending.remove(&address).map(|(_, st)| st);
+            let param = asked.and_then(StartAddress::param);
             f.parameter = param;
+            f.data_set = asked.and_then(|st| st.data_set()).map(|d| d.get());
             let (raw, text) = value_text(param, be32(pdu, 1).unwrap_or(0), true);
             f.raw = Some(raw);
             push(f, s, 2, 4, "value", text);
@@ -382,6 +381,7 @@ pub fn explain_rtu(bytes: &[u8], base: usize, pending: &mut Pending) -> Frame {
     let mut f = Frame {
         offset: base,
         len: bytes.len(),
+        bytes: bytes.to_vec(),
         ..Frame::default()
     };
     let s = RtuSpan { base, bytes };
@@ -421,6 +421,10 @@ pub fn explain_rtu(bytes: &[u8], base: usize, pending: &mut Pending) -> Frame {
         format!("WRONG: expected {lo:02X} {hi:02X} (CRC-16 0x{expected:04X})")
     };
     push(&mut f, &s, body.len(), 2, "CRC", meaning);
+    // The CRC travels low byte first: its value is the CRC-16 it carries.
+    if let Some(crc_field) = f.fields.last_mut() {
+        crc_field.value = Some(u64::from(got));
+    }
     f
 }
 
@@ -429,14 +433,14 @@ pub fn explain_ascii(chars: &[u8], base: usize, pending: &mut Pending) -> Frame 
     let mut f = Frame {
         offset: base,
         len: chars.len(),
+        bytes: chars.to_vec(),
         ..Frame::default()
     };
     let s = AsciiSpan { base, chars };
     f.fields.push(Field {
-        offset: base,
-        text: ":".to_owned(),
-        name: "start",
-        meaning: "start of frame".to_owned(),
+        chars: Some(":".to_owned()),
+        value: None,
+        ..Field::new(base, &[ascii::START], "start", "start of frame".to_owned())
     });
     let (digits, ended) = match chars.get(1..).unwrap_or(&[]) {
         [d @ .., ascii::CR, ascii::LF] => (d, true),
@@ -452,7 +456,7 @@ pub fn explain_ascii(chars: &[u8], base: usize, pending: &mut Pending) -> Frame 
             _ => {
                 f.error = Some(format!(
                     "`{}` at offset {} is not a pair of hex digits",
-                    String::from_utf8_lossy(pair),
+                    crate::decode::escape_bytes(pair),
                     base + 1 + 2 * bin.len()
                 ));
                 break;
@@ -484,10 +488,14 @@ pub fn explain_ascii(chars: &[u8], base: usize, pending: &mut Pending) -> Frame 
     push(&mut f, &s, body.len(), 1, "LRC", meaning);
     if ended {
         f.fields.push(Field {
-            offset: base + chars.len() - 2,
-            text: "CR LF".to_owned(),
-            name: "end",
-            meaning: "end of frame".to_owned(),
+            chars: Some("\\r\\n".to_owned()),
+            value: None,
+            ..Field::new(
+                base + chars.len() - 2,
+                &[ascii::CR, ascii::LF],
+                "end",
+                "end of frame (CR LF)".to_owned(),
+            )
         });
     } else {
         f.error.get_or_insert("no CR LF at the end".to_owned());
@@ -539,18 +547,26 @@ pub fn split_rtu(capture: &Capture) -> Vec<Frame> {
 
 /// The characters of an ASCII capture: the text itself when it has a `:`, else hex bytes of
 /// the characters. Line ends in text input are CR LF of the frames (a lone LF counts as CR LF).
+#[cfg(test)]
 fn ascii_chars(text: &str, from_args: bool) -> Result<Vec<u8>> {
+    ascii_capture(text, from_args).map(|c| c.bytes)
+}
+
+/// [`ascii_chars`] with the input line of every character (none for arguments).
+fn ascii_capture(text: &str, from_args: bool) -> Result<Capture> {
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     if !text.contains(':') {
-        let bytes = if from_args {
-            parse_hex(&text.split('\n').map(str::to_owned).collect::<Vec<_>>())?
+        return if from_args {
+            Ok(Capture {
+                bytes: parse_hex(&text.split('\n').map(str::to_owned).collect::<Vec<_>>())?,
+                lines: Vec::new(),
+            })
         } else {
-            crate::movilink::decode::parse_text(text, "the capture")?.bytes
+            crate::movilink::decode::parse_text(text, "the capture")
         };
-        return Ok(bytes);
     }
-    let mut out = Vec::new();
-    for line in text.split('\n') {
+    let mut out = Capture::default();
+    for (n, line) in text.split('\n').enumerate() {
         let line = line.strip_suffix('\r').unwrap_or(line);
         let content = line.split_once('#').map_or(line, |(a, _)| a);
         let content: String = content.chars().filter(|c| !c.is_whitespace()).collect();
@@ -559,13 +575,47 @@ fn ascii_chars(text: &str, from_args: bool) -> Result<Vec<u8>> {
         }
         if let Some(bad) = content.chars().find(|c| !c.is_ascii()) {
             return Err(CliError::usage(format!(
-                "`{bad}` is not a Modbus ASCII character; give frames like `:010321740001 66`"
+                "`{}` is not a Modbus ASCII character; give frames like `:010321740001 66`",
+                crate::decode::escape(&bad.to_string())
             )));
         }
-        out.extend_from_slice(content.as_bytes());
-        out.extend_from_slice(b"\r\n");
+        out.bytes.extend_from_slice(content.as_bytes());
+        out.bytes.extend_from_slice(b"\r\n");
+        let number = if from_args { None } else { Some(n + 1) };
+        if let Some(number) = number {
+            out.lines
+                .extend(std::iter::repeat_n(number, content.len() + 2));
+        }
     }
     Ok(out)
+}
+
+/// The usage error for ASCII input without any `:`: a Modbus ASCII frame starts with one. For
+/// arguments that look like frames without it (hex digits), the command with it.
+fn missing_colon(args: &[String], from_args: bool) -> CliError {
+    let looks_like_frames = from_args
+        && !args.is_empty()
+        && args.iter().all(|a| {
+            let t = a.trim();
+            !t.is_empty() && t.chars().all(|c| c.is_ascii_hexdigit() || c == ' ')
+        });
+    let hint = if looks_like_frames {
+        let with: Vec<String> = args
+            .iter()
+            .map(|a| format!(":{}", a.trim().replace(' ', "")))
+            .collect();
+        format!(
+            "; with it: `drivectl decode modbus-ascii {}`",
+            with.join(" ")
+        )
+    } else {
+        String::new()
+    };
+    CliError::usage(format!(
+        "no `:` in the capture: a Modbus ASCII frame starts with `:` and ends with CR LF \
+         (`:01032174000166`), or give its characters as hex bytes with the `:` as 3A \
+         (`3A 30 31 …`){hint}"
+    ))
 }
 
 /// Split ASCII characters into frames: from `:` to CR LF; characters outside a frame are
@@ -604,12 +654,15 @@ pub fn split_ascii(chars: &[u8]) -> Vec<Frame> {
             .unwrap_or(rest.len());
         let junk = rest.get(..skip).unwrap_or(rest);
         if junk.iter().any(|c| !matches!(c, b'\r' | b'\n')) {
+            let shown = crate::decode::escape_bytes(junk.trim_ascii());
             out.push(Frame {
                 offset: p,
                 len: skip,
+                bytes: junk.to_vec(),
+                skipped: true,
                 error: Some(format!(
-                    "`{}` is outside a frame (no `:` before it)",
-                    String::from_utf8_lossy(junk).trim()
+                    "`{shown}` is outside a frame: no `:` before it (a Modbus ASCII frame starts \
+                     with `:`)"
                 )),
                 ..Frame::default()
             });
@@ -619,25 +672,73 @@ pub fn split_ascii(chars: &[u8]) -> Vec<Frame> {
     out
 }
 
-/// One frame as JSON.
-pub fn to_json(f: &Frame, mode: &str) -> Value {
-    json!({
-        "type": "frame", "mode": mode, "offset": f.offset, "length": f.len,
-        "direction": f.direction, "valid": f.error.is_none(), "error": f.error,
-        "address": f.address, "function": f.function, "data_set": f.data_set,
-        "parameter": f.parameter,
-        "name_en": f.parameter.and_then(bonfiglioli::by_number).map(|p| p.name_en),
-        "raw": f.raw, "exception": f.exception,
-        "fields": f.fields.iter().map(|x| json!({
-            "offset": x.offset, "text": x.text, "field": x.name, "meaning": x.meaning,
-        })).collect::<Vec<_>>(),
-    })
+/// One frame in the common shape of every decoder ([`crate::decode`]): the parameter of the
+/// start address (a read answer: of the read request before it) with its data set, as `read
+/// --json` names it (`label` `372 data set 2`, `selector` `{"dataset": 2}`). Modbus's own
+/// keys: `function` (without the exception bit), `exception` (an exception answer's code),
+/// and for ASCII `chars` (the frame's characters, control characters escaped: `\r\n`);
+/// `bytes`, `offset` and `length` of an ASCII frame count its characters.
+pub fn to_json(f: &Frame, protocol: &'static str) -> Value {
+    let mut t = if f.skipped {
+        crate::decode::Telegram::skipped(
+            protocol,
+            Some(f.offset),
+            &f.bytes,
+            f.error.clone().unwrap_or_default(),
+        )
+    } else {
+        let mut t = crate::decode::Telegram::new(protocol);
+        t.offset = Some(f.offset);
+        t.length = f.len;
+        t.bytes = f.bytes.clone();
+        t.error = f.error.clone();
+        t.direction = f.direction;
+        t.kind = f.function.map(|fc| {
+            let name = function_name(fc);
+            if f.exception.is_some() {
+                format!("exception answer to {name}")
+            } else {
+                name.to_owned()
+            }
+        });
+        t.address = f.address.map(i64::from);
+        t.param = f.parameter.map(|p| {
+            (
+                crate::decode::target(
+                    drive_profile::Family::Bonfiglioli,
+                    p,
+                    u16::from(f.data_set.unwrap_or(0)),
+                ),
+                f.raw.filter(|_| f.function != Some(8)),
+            )
+        });
+        t.refusal = f.refusal.clone();
+        t.fields = f.fields.clone();
+        t.extra("function", json!(f.function))
+            .extra("exception", json!(f.exception))
+    };
+    if protocol == "modbus-ascii" {
+        t = t.extra("chars", crate::decode::escape_bytes(&f.bytes).into());
+    }
+    t.to_json()
+}
+
+/// The name of a function code the drive knows.
+fn function_name(fc: u8) -> &'static str {
+    match fc {
+        3 => "read 16-bit parameter",
+        6 => "write 16-bit parameter",
+        8 => "diagnostics",
+        100 => "read 32-bit parameter",
+        101 => "write 32-bit parameter",
+        _ => "unknown function",
+    }
 }
 
 /// Run `drivectl decode modbus-rtu` (`ascii` false) or `modbus-ascii`.
 pub fn run(ascii_mode: bool, args: &[String], file: Option<&str>, json: bool) -> Result<()> {
     let from_stdin = file.is_some() || matches!(args, [only] if only == "-");
-    let frames = if ascii_mode {
+    let (frames, lines) = if ascii_mode {
         let text = if from_stdin {
             let path = file.unwrap_or("-");
             let raw =
@@ -651,13 +752,16 @@ pub fn run(ascii_mode: bool, args: &[String], file: Option<&str>, json: bool) ->
         } else {
             args.join("\n")
         };
-        let chars = ascii_chars(&text, !from_stdin)?;
-        if chars.is_empty() {
+        let chars = ascii_capture(&text, !from_stdin)?;
+        if chars.bytes.is_empty() {
             return Err(CliError::usage(
                 "no frames given; give ASCII frames like `:010321740001 66`",
             ));
         }
-        split_ascii(&chars)
+        if !chars.bytes.contains(&ascii::START) {
+            return Err(missing_colon(args, !from_stdin));
+        }
+        (split_ascii(&chars.bytes), chars.lines)
     } else {
         let capture = if from_stdin {
             read_capture(file.unwrap_or("-"))?
@@ -667,20 +771,41 @@ pub fn run(ascii_mode: bool, args: &[String], file: Option<&str>, json: bool) ->
                 lines: Vec::new(),
             }
         };
-        split_rtu(&capture)
+        (split_rtu(&capture), capture.lines)
     };
-    let mode = if ascii_mode { "ascii" } else { "rtu" };
+    let protocol = if ascii_mode {
+        "modbus-ascii"
+    } else {
+        "modbus-rtu"
+    };
     let mut out = String::new();
     for f in &frames {
+        let line = lines.get(f.offset).copied();
         if json {
-            out.push_str(&to_json(f, mode).to_string());
+            let mut v = to_json(f, protocol);
+            if let Value::Object(m) = &mut v {
+                m.insert("line".into(), json!(line));
+            }
+            out.push_str(&v.to_string());
             out.push('\n');
             continue;
         }
+        let at = line.map_or_else(
+            || format!("offset {}", f.offset),
+            |l| format!("offset {} (line {l})", f.offset),
+        );
+        if f.skipped {
+            out.push_str(&format!(
+                "skipped {} {} at {at}: {}\n",
+                f.len,
+                if ascii_mode { "characters" } else { "bytes" },
+                f.error.as_deref().unwrap_or("")
+            ));
+            continue;
+        }
         out.push_str(&format!(
-            "{} frame at offset {}, {} {}: {}\n",
+            "{} frame at {at}, {} {}: {}\n",
             f.direction.unwrap_or("unrecognised"),
-            f.offset,
             f.len,
             if ascii_mode { "characters" } else { "bytes" },
             f.error
@@ -688,9 +813,10 @@ pub fn run(ascii_mode: bool, args: &[String], file: Option<&str>, json: bool) ->
                 .map_or_else(|| "valid".to_owned(), |e| format!("INVALID ({e})"))
         ));
         for x in &f.fields {
+            let shown = x.chars.as_deref().unwrap_or(&x.bytes);
             out.push_str(&format!(
                 "  {:>4}  {:<14} {:<18} {}\n",
-                x.offset, x.text, x.name, x.meaning
+                x.offset, shown, x.name, x.text
             ));
         }
     }
@@ -739,12 +865,12 @@ mod tests {
             (f[0].data_set, f[0].parameter, f[0].raw),
             (Some(4), Some(376), Some(15))
         );
-        assert!(f[0].fields.iter().any(|x| x.meaning.contains("1.5 kW")));
+        assert!(f[0].fields.iter().any(|x| x.text.contains("1.5 kW")));
         // 8.1.3 example 1: read 481 (FC 100) → 1000 = 10.00 Hz.
         let f = rtu("01 64 01 E1 81 DF 01 64 00 00 03 E8 70 BC");
         assert_eq!((f[1].parameter, f[1].raw), (Some(481), Some(1000)));
         assert!(
-            f[1].fields.iter().any(|x| x.meaning.contains("10.00 Hz")),
+            f[1].fields.iter().any(|x| x.text.contains("10.00 Hz")),
             "{:?}",
             f[1].fields
         );

@@ -12,18 +12,7 @@ use movilink::codec::{self, bcc};
 use movilink::{Address, ParamChannel, PduType, ReturnCode, SD1, SD2, Service};
 use serde_json::{Value, json};
 
-/// One explained field of a telegram.
-#[derive(Debug, Clone)]
-pub struct Field {
-    /// Offset of the first byte in the telegram.
-    pub offset: usize,
-    /// The bytes, as hex.
-    pub bytes: String,
-    /// Field name (SD1, ADR, TYP, management, …).
-    pub name: String,
-    /// What the bytes mean.
-    pub meaning: String,
-}
+pub use crate::decode::Field;
 
 /// The explanation of one telegram of a capture.
 #[derive(Debug, Clone, Default)]
@@ -45,12 +34,16 @@ pub struct Explained {
     pub raw: Option<i64>,
     /// The process data words.
     pub words: Vec<u16>,
+    /// The parameter channel's return code, when its status bit marks an error.
+    pub return_code: Option<ReturnCode>,
     /// The fields in order.
     pub fields: Vec<Field>,
     /// The first problem found, if any.
     pub error: Option<String>,
     /// Bytes consumed from the capture.
     pub len: usize,
+    /// The telegram's bytes.
+    pub bytes: Vec<u8>,
 }
 
 /// One item of a split capture: a telegram (valid or not), or bytes that start none.
@@ -134,24 +127,28 @@ fn tokens(text: &str) -> Vec<(usize, &str)> {
 /// The bytes of one token: hex digits in pairs, optionally after one `0x`/`0X` prefix
 /// (`02`, `0x02`, `020186`, `0x020186`). `place` says where the token is, for the message.
 fn token_bytes(token: &str, place: &str, out: &mut Vec<u8>) -> Result<()> {
+    // What the input holds is shown without its control characters.
+    let shown = crate::decode::escape(token);
+    let place = crate::decode::escape(place);
     let digits = token
         .strip_prefix("0x")
         .or_else(|| token.strip_prefix("0X"))
         .unwrap_or(token);
     if let Some(bad) = digits.chars().find(|c| !c.is_ascii_hexdigit()) {
         return Err(CliError::usage(format!(
-            "{place}: `{token}` is not hex (`{bad}` is not a hex digit); give bytes like \
-             `02 01 86`, `020186` or `0x02,0x01,0x86`"
+            "{place}: `{shown}` is not hex (`{}` is not a hex digit); give bytes like \
+             `02 01 86`, `020186` or `0x02,0x01,0x86`",
+            crate::decode::escape(&bad.to_string())
         )));
     }
     if digits.is_empty() {
         return Err(CliError::usage(format!(
-            "{place}: `{token}` has no hex digits after the prefix"
+            "{place}: `{shown}` has no hex digits after the prefix"
         )));
     }
     if digits.len() % 2 == 1 {
         return Err(CliError::usage(format!(
-            "{place}: `{token}` has an odd number of hex digits ({}); a byte is two digits \
+            "{place}: `{shown}` has an odd number of hex digits ({}); a byte is two digits \
              (`02`, not `2`), so a digit is missing or left over",
             digits.len()
         )));
@@ -160,7 +157,7 @@ fn token_bytes(token: &str, place: &str, out: &mut Vec<u8>) -> Result<()> {
         let byte = std::str::from_utf8(pair)
             .ok()
             .and_then(|s| u8::from_str_radix(s, 16).ok())
-            .ok_or_else(|| CliError::usage(format!("{place}: `{token}` is not hex")))?;
+            .ok_or_else(|| CliError::usage(format!("{place}: `{shown}` is not hex")))?;
         out.push(byte);
     }
     Ok(())
@@ -223,7 +220,7 @@ pub fn read_capture(path: &str) -> Result<Capture> {
     let source = if path == "-" {
         "standard input".to_owned()
     } else {
-        path.to_owned()
+        crate::decode::escape(path)
     };
     let text = String::from_utf8(raw).map_err(|e| {
         CliError::usage(format!(
@@ -235,13 +232,7 @@ pub fn read_capture(path: &str) -> Result<Capture> {
     parse_text(&text, &source)
 }
 
-pub(crate) fn hex(bytes: &[u8]) -> String {
-    bytes
-        .iter()
-        .map(|b| format!("{b:02X}"))
-        .collect::<Vec<_>>()
-        .join(" ")
-}
+pub(crate) use crate::decode::hex;
 
 /// Split `capture` into telegrams with the MOVILINK framing (start character SD1 0x02 or SD2
 /// 0x1D, length from the PDU type) and explain each. Bytes that start no telegram are reported
@@ -276,6 +267,7 @@ pub fn split(capture: &Capture) -> Vec<Item> {
                 f.offset += p;
             }
             e.len = n;
+            e.bytes = rest.get(..n).unwrap_or(rest).to_vec();
             out.push(Item::Telegram(e));
             p += n.max(1);
             continue;
@@ -309,12 +301,7 @@ pub fn split(capture: &Capture) -> Vec<Item> {
 pub fn explain(bytes: &[u8]) -> Explained {
     let mut fields = Vec::new();
     let mut push = |offset: usize, b: &[u8], name: &str, meaning: String| {
-        fields.push(Field {
-            offset,
-            bytes: hex(b),
-            name: name.to_owned(),
-            meaning,
-        });
+        fields.push(Field::new(offset, b, name, meaning));
     };
     let mut error = None;
     let sd = bytes.first().copied().unwrap_or(0);
@@ -483,14 +470,50 @@ pub fn explain(bytes: &[u8]) -> Explained {
             .and_then(|p| p.management.service())
             .map(Service::name),
         raw: channel
-            .filter(|p| !p.management.is_error())
+            .filter(|p| carries_value(p, direction == Some("response")))
             .map(|p| raw_value(p.index, p.data)),
+        return_code: channel
+            .filter(|p| p.management.is_error())
+            .map(|p| ReturnCode::from_data(p.data)),
         words: pd,
         fields,
         error,
         len,
         ..Explained::default()
     }
+}
+
+/// Whether the parameter channel's data are a value of its parameter: a write (request and
+/// answer), the answer to a read or to a read of the minimum, maximum or default; not a read
+/// request (its data are 0), a scale or attribute answer, or an error (a return code).
+pub(crate) fn carries_value(p: &ParamChannel, response: bool) -> bool {
+    if p.management.is_error() {
+        return false;
+    }
+    match p.management.service() {
+        Some(Service::Write | Service::WriteVolatile) => true,
+        Some(
+            Service::Read | Service::ReadMinimum | Service::ReadMaximum | Service::ReadDefault,
+        ) => response,
+        _ => false,
+    }
+}
+
+/// A return code as JSON: `{error_class, error_code, additional_code}`.
+pub(crate) fn return_code_json(rc: &ReturnCode) -> Value {
+    json!({"error_class": rc.error_class, "error_code": rc.error_code,
+           "additional_code": rc.additional_code})
+}
+
+/// A return code in words: `error class 8, error code 0, additional code 0x0010: …`.
+pub(crate) fn return_code_text(rc: &ReturnCode) -> String {
+    format!(
+        "error class {}, error code {}, additional code 0x{:04X}: {}",
+        rc.error_class,
+        rc.error_code,
+        rc.additional_code,
+        rc.describe()
+    )
 }
 
 /// The channel's data as the parameter's raw value: unsigned where the parameter's range
@@ -574,13 +597,9 @@ pub(crate) fn explain_param(
     );
     push(at + 2, &raw[2..4], "index", format!("{} = {name}", p.index));
     let data_meaning = if m.is_error() {
-        let rc = ReturnCode::from_data(p.data);
         format!(
-            "return code: error class {}, error code {}, additional code 0x{:04X}: {}",
-            rc.error_class,
-            rc.error_code,
-            rc.additional_code,
-            rc.describe()
+            "return code: {}",
+            return_code_text(&ReturnCode::from_data(p.data))
         )
     } else {
         match (m.service(), param) {
@@ -640,33 +659,43 @@ pub fn pdu_name(pdu: PduType) -> String {
     )
 }
 
-/// JSON of one explained telegram (`"type": "telegram"`); `line` is its first byte's input
-/// line, if it came from a file or stdin.
+/// One explained telegram in the common shape of every decoder ([`crate::decode`]); `line` is
+/// its first byte's input line, if it came from a file or stdin. MOVILINK's own keys:
+/// `pdu_type` (`0x86`), `service` (`read`, …) and `return_code` (`{error_class, error_code,
+/// additional_code}` of an error answer).
 pub fn to_json(e: &Explained, line: Option<usize>) -> Value {
-    json!({
-        "type": "telegram",
-        "offset": e.offset,
-        "line": line,
-        "length": e.len,
-        "bytes": e.fields.iter().map(|f| f.bytes.as_str()).collect::<Vec<_>>().join(" "),
-        "direction": e.direction,
-        "valid": e.error.is_none(),
-        "error": e.error,
-        "address": e.address,
-        "pdu_type": e.pdu_type.map(|t| format!("0x{:02X}", t.raw())),
-        "pdu_name": e.pdu_type.map(pdu_name),
-        "service": e.service,
-        "index": e.index,
-        "number": e.index.and_then(sew::by_index).map(|q| q.menu_label().to_string()),
-        "raw": e.raw,
-        "process_data": e.words,
-        "fields": e.fields.iter().map(|f| json!({
-            "offset": f.offset, "bytes": f.bytes, "field": f.name, "meaning": f.meaning,
-        })).collect::<Vec<_>>(),
-    })
+    let mut t = crate::decode::Telegram::new("movilink");
+    t.offset = Some(e.offset);
+    t.line = line;
+    t.length = e.len;
+    t.bytes = e.bytes.clone();
+    t.error = e.error.clone();
+    t.direction = e.direction;
+    t.kind = e.pdu_type.map(pdu_name);
+    t.address = e.address.map(i64::from);
+    t.param = e.index.map(|i| {
+        (
+            crate::decode::target(drive_profile::Family::Movidrive, i, 0),
+            e.raw,
+        )
+    });
+    t.refusal = e.return_code.as_ref().map(return_code_text);
+    t.process_data = e.words.clone();
+    t.fields = e.fields.clone();
+    t.extra(
+        "pdu_type",
+        json!(e.pdu_type.map(|t| format!("0x{:02X}", t.raw()))),
+    )
+    .extra("service", json!(e.service))
+    .extra(
+        "return_code",
+        json!(e.return_code.as_ref().map(return_code_json)),
+    )
+    .to_json()
 }
 
-/// JSON of one item of a split capture: a telegram, or `"type": "error"` for skipped bytes.
+/// JSON of one item of a split capture: a telegram, or `"type": "skipped"` for bytes that
+/// start none.
 pub fn item_json(item: &Item, capture: &Capture) -> Value {
     let line = capture.line_of(item.offset());
     match item {
@@ -675,14 +704,12 @@ pub fn item_json(item: &Item, capture: &Capture) -> Value {
             offset,
             bytes,
             reason,
-        } => json!({
-            "type": "error",
-            "offset": offset,
-            "line": line,
-            "length": bytes.len(),
-            "bytes": hex(bytes),
-            "error": reason,
-        }),
+        } => {
+            let mut t =
+                crate::decode::Telegram::skipped("movilink", Some(*offset), bytes, reason.clone());
+            t.line = line;
+            t.to_json()
+        }
     }
 }
 
@@ -727,7 +754,7 @@ pub fn run(hex_args: &[String], file: Option<&str>, json: bool) -> Result<()> {
                 for f in &e.fields {
                     out.push_str(&format!(
                         "  {:>3}  {:<12} {:<11} {}\n",
-                        f.offset, f.bytes, f.name, f.meaning
+                        f.offset, f.bytes, f.name, f.text
                     ));
                 }
             }

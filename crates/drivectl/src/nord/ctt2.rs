@@ -20,7 +20,7 @@ use ctt2_uss::client::{ClientConfig, NordClient};
 use ctt2_uss::ctt2::link::{SimLink, SimulatedDoubleSlave};
 use ctt2_uss::ctt2::master::{Ctt2Master, MasterConfig};
 use ctt2_uss::ctt2::{
-    AsiAddress, AsiNetwork, Bank, Channel, DoubleSlaveAddress, IdObject, SlaveAddress,
+    AsiAddress, AsiNetwork, Bank, Channel, DoubleSlaveAddress, IdObject, Profile, SlaveAddress,
 };
 use serde_json::{Map, Value, json};
 
@@ -38,8 +38,11 @@ Examples:
   drivectl ctt2 --sim --asi-address 5A control enable --setpoint 50
 
 Every run talks to a new simulated drive after power-on, through the in-memory AS-i link with
-the transfer-time model of BU 0255 ch. 4.4 (16 × 154 µs × (2 + slaves) per byte). A real AS-i
-master needs its own link: implement ctt2_uss::ctt2::master::Ctt2Link for its command interface.";
+the transfer-time model of BU 0255 ch. 4.4 (16 × 154 µs × (2 + slaves) per byte). CTT2 has no
+response timeout to set: the double slave answers within 200 ms or with error 4 (ch. 4.3.5),
+and drivectl repeats a request answered with error 4 or 5 three times. `line` shows what the
+link uses. A real AS-i master needs its own link: implement ctt2_uss::ctt2::master::Ctt2Link
+for its command interface.";
 
 /// Arguments of `drivectl ctt2`.
 #[derive(Debug, Args)]
@@ -54,7 +57,8 @@ pub struct Ctt2Args {
     #[arg(long, global = true, default_value_t = 2, value_parser = clap::value_parser!(u8).range(2..=62))]
     slaves: u8,
     /// AS-i address of the double slave's 1st slave, 1A–31A (the 2nd slave is the same number
-    /// in bank B).
+    /// in bank B). Default 1A, the first extended address: an AS-i slave leaves the factory at
+    /// address 0, which exchanges no data until the AS-i master gives it one.
     #[arg(long, global = true, default_value = "1A", value_name = "ADDRESS")]
     asi_address: String,
     /// Count the transfer times on a virtual clock instead of waiting for them.
@@ -86,6 +90,13 @@ enum Ctt2Command {
         #[arg(long, default_value_t = 14, value_parser = clap::value_parser!(u8).range(1..=14))]
         len: u8,
     },
+    /// Show what the AS-i link uses: the simulated double slave and its addresses and
+    /// profiles, the AS-i network's size, the AS-i cycle and CTT2 byte time it models (BU 0255
+    /// 4.4), the answer window and repetitions, and the channels.
+    #[command(
+        after_help = "Examples:\n  drivectl ctt2 --sim line\n  drivectl ctt2 --sim --slaves 31 --asi-address 5A line --json"
+    )]
+    Line,
     /// Read the diagnosis object (standard read, index 1): fault or not, the drive's fault
     /// number and the microcontroller temperature.
     #[command(
@@ -237,6 +248,7 @@ pub fn run(args: &Ctt2Args) -> Result<()> {
                 master = client.into_inner();
                 r
             }
+            Ctt2Command::Line => line(&master, args, &address),
             Ctt2Command::Id { len } => match master.read_id(*len).await {
                 Ok(id) => print_id(&id, *len, args.json),
                 Err(e) => Err(CliError::failed(e.to_string())),
@@ -258,7 +270,7 @@ pub fn run(args: &Ctt2Args) -> Result<()> {
             },
         };
         let counters = *master.counters();
-        if !args.json && r.is_ok() {
+        if !args.json && r.is_ok() && counters.requests > 0 {
             errln!(
                 "drivectl: note: {} CTT2 request(s) ({} repeated after error 4/5) on {} AS-i \
                  slave(s), {} ms per byte: {} ms{}",
@@ -272,6 +284,72 @@ pub fn run(args: &Ctt2Args) -> Result<()> {
         }
         r
     })
+}
+
+/// `line`: what the link uses (nothing is sent).
+fn line(master: &Ctt2Master<SimLink>, args: &Ctt2Args, address: &DoubleSlaveAddress) -> Result<()> {
+    let config = master.config();
+    let link = master.link();
+    let byte_us = link.byte_time().as_nanos() as f64 / 1000.0;
+    // BU 0255 4.4: a CTT2 byte takes 16 AS-i cycles of 154 µs × (2 + slaves).
+    let cycle_us = byte_us / 16.0;
+    let pkw_index = match config.pkw_channel {
+        Channel::PkwWithAddress => 4,
+        _ => 47,
+    };
+    let window_ms = ctt2_uss::ctt2::slave::ANSWER_WINDOW.as_millis() as u64;
+    if args.json {
+        return outln!(
+            "{}",
+            json!({
+                "link": "simulated", "clock": if args.fast { "virtual" } else { "real" },
+                "asi_address": address.first.to_string(),
+                "second_slave": address.second.to_string(),
+                "profiles": [Profile::FIRST.to_string(), Profile::SECOND.to_string()],
+                "busio_in_bits": 5, "busio_out_bits": 6,
+                "slaves": link.network().slave_count(),
+                "asi_cycle_us": cycle_us, "byte_time_us": byte_us,
+                "answer_window_ms": window_ms, "retries": config.retries,
+                "retry_pause_ms": config.retry_pause.as_millis() as u64,
+                "pkw_index": pkw_index, "pzd_index": 3, "drive_address": 1,
+                "pkw_time_ms": ctt2_uss::ctt2::link::SIM_PKW_TIME.as_millis() as u64,
+            })
+        );
+    }
+    outln!(
+        "simulated AS-i link (in memory, {}): a NORDAC LINK double slave {} ({}, 4 BusIO bits \
+         each way) + {} ({}, BusIO 1 in / 2 out, the CTT2 channel) among {} AS-i slave(s)",
+        if args.fast {
+            "transfer times counted on a virtual clock"
+        } else {
+            "transfer times waited in real time"
+        },
+        address.first,
+        Profile::FIRST,
+        address.second,
+        Profile::SECOND,
+        link.network().slave_count()
+    )?;
+    outln!(
+        "AS-i cycle {} µs (154 µs × (2 + {} slaves)); a CTT2 byte takes 16 cycles: {} ms \
+         (BU 0255 4.4)",
+        trim_float(cycle_us, 1),
+        link.network().slave_count(),
+        trim_float(byte_us / 1000.0, 3)
+    )?;
+    outln!(
+        "answers within the {window_ms} ms window or error 4 (4.3.5); errors 4 and 5 repeated \
+         {} times after {} ms; PKW channel index {pkw_index} ({}), PZD channel index 3, drive \
+         address 1; the simulated drive works {} ms on a parameter order",
+        config.retries,
+        config.retry_pause.as_millis(),
+        if pkw_index == 4 {
+            "with the drive address"
+        } else {
+            "without the drive address"
+        },
+        ctt2_uss::ctt2::link::SIM_PKW_TIME.as_millis()
+    )
 }
 
 /// A backup's identification from the ID object.

@@ -25,18 +25,7 @@ use crate::movilink::decode::{Capture, parse_hex, read_capture};
 use crate::tool::client::{Target, nord_sub_parts};
 use crate::tool::output::{physical_text, trim_float};
 
-/// One explained field.
-#[derive(Debug, Clone)]
-pub struct Field {
-    /// Offset of the field's first byte in the capture.
-    pub offset: usize,
-    /// The bytes as hex.
-    pub bytes: String,
-    /// Field name.
-    pub name: String,
-    /// What it means.
-    pub meaning: String,
-}
+pub use crate::decode::Field;
 
 /// One explained message (CTT2) or telegram (USS).
 #[derive(Debug, Clone, Default)]
@@ -61,8 +50,18 @@ pub struct Message {
     pub ind: Option<u16>,
     /// The AK of a PKW part.
     pub ak: Option<u8>,
-    /// The value of a PKW part (written, read, a count or an error number).
+    /// The parameter value a PKW part carries (written, or read back).
     pub raw: Option<i64>,
+    /// The number of array elements an AK 6 answer carries.
+    pub count: Option<u16>,
+    /// The error number (PWE2) of an AK 7 answer.
+    pub pwe_error: Option<u16>,
+    /// A CTT2 negative answer's error code.
+    pub ctt2_error: Option<u8>,
+    /// The drive's negative answer in words (AK 7 with its error, a CTT2 error code).
+    pub refusal: Option<String>,
+    /// The message's bytes.
+    pub bytes: Vec<u8>,
     /// The parameter value in the table's unit, where the PKW part carries one (a write order,
     /// a value answer).
     pub value: Option<f64>,
@@ -80,12 +79,8 @@ pub struct Message {
 impl Message {
     fn push(&mut self, bytes: &[u8], at: usize, len: usize, name: &str, meaning: String) {
         let b = bytes.get(at..(at + len).min(bytes.len())).unwrap_or(&[]);
-        self.fields.push(Field {
-            offset: self.offset + at,
-            bytes: hex(b),
-            name: name.to_owned(),
-            meaning,
-        });
+        self.fields
+            .push(Field::new(self.offset + at, b, name, meaning));
     }
 
     fn fail(&mut self, why: String) {
@@ -93,13 +88,6 @@ impl Message {
             self.error = Some(why);
         }
     }
-}
-
-fn hex(b: &[u8]) -> String {
-    b.iter()
-        .map(|x| format!("{x:02X}"))
-        .collect::<Vec<_>>()
-        .join(" ")
 }
 
 fn be16(b: &[u8], at: usize) -> Option<u16> {
@@ -233,15 +221,17 @@ fn explain_pkw(m: &mut Message, bytes: &[u8], at: usize, words: u8, order: bool)
                 format!("double word {raw}")
             }
             6 => {
-                m.raw = Some(i64::from(pwe2));
+                m.count = Some(pwe2);
                 format!("{pwe2} array elements")
             }
             7 => {
-                m.raw = Some(i64::from(pwe2));
-                nord::pwe_error(pwe2).map_or_else(
+                m.pwe_error = Some(pwe2);
+                let text = nord::pwe_error(pwe2).map_or_else(
                     || format!("error {pwe2} (not in the manual's table)"),
                     |e| e.to_string(),
-                )
+                );
+                m.refusal = Some(format!("order not executable (AK 7): {text}"));
+                text
             }
             _ => "undefined response".to_owned(),
         }
@@ -400,6 +390,7 @@ fn explain_ctt2(bytes: &[u8], offset: usize, pending: &mut Option<Pending>) -> M
     let mut m = Message {
         offset,
         len: bytes.len(),
+        bytes: bytes.to_vec(),
         ..Message::default()
     };
     let Some(&code) = bytes.first() else {
@@ -529,6 +520,7 @@ fn explain_channel(m: &mut Message, bytes: &[u8], at: usize, index: u8, to_drive
     if matches!(index, 3 | 4) {
         match data.first() {
             Some(&a) => {
+                m.address = Some(a);
                 let t = if a == 1 {
                     "drive address 1 (always 1, section 4.3)".to_owned()
                 } else {
@@ -572,6 +564,8 @@ fn explain_ctt2_response(m: &mut Message, bytes: &[u8], code: u8, pending: &mut 
             || format!("{e}: not in the manual's table"),
             |x| x.to_string(),
         );
+        m.ctt2_error = Some(e);
+        m.refusal = Some(format!("the double slave's error code {t}"));
         m.push(bytes, 1, 1, "error code", t);
         return;
     }
@@ -686,6 +680,7 @@ pub fn split_ctt2(capture: &Capture) -> Vec<Message> {
             let mut m = Message {
                 offset: at,
                 len: skip,
+                bytes: rest.get(..skip).unwrap_or(rest).to_vec(),
                 direction: "unrecognised",
                 kind: "bytes that start no CTT2 message".to_owned(),
                 ..Message::default()
@@ -723,6 +718,7 @@ fn explain_uss(bytes: &[u8], offset: usize, layout: UssLayout, from_master: bool
     let mut m = Message {
         offset,
         len: bytes.len(),
+        bytes: bytes.to_vec(),
         direction: if from_master { "master" } else { "drive" },
         kind: "USS telegram".to_owned(),
         ..Message::default()
@@ -838,6 +834,7 @@ pub fn split_uss(capture: &Capture, layout: UssLayout) -> Vec<Message> {
             let mut m = Message {
                 offset: at,
                 len: skip,
+                bytes: rest.get(..skip).unwrap_or(rest).to_vec(),
                 direction: "unrecognised",
                 kind: "bytes before an STX".to_owned(),
                 ..Message::default()
@@ -868,26 +865,56 @@ pub fn split_uss(capture: &Capture, layout: UssLayout) -> Vec<Message> {
     out
 }
 
-/// One message as JSON.
-pub fn to_json(m: &Message, protocol: &str) -> Value {
-    let target = m.parameter.and_then(nord::by_index);
-    let (element, set) = match (m.parameter, m.ind) {
-        (Some(p), Some(i)) => nord_sub_parts(p, i & 0xFF00),
-        _ => (None, None),
+/// One message in the common shape of every decoder ([`crate::decode`]): the PKW part's
+/// parameter with its IND word as `read --json` names it (`label` `P102 set 3`, `selector`
+/// `{"set": 3, "ind": "0x0200"}`), `direction` `request` for the master's telegrams and
+/// `response` for the drive's, `address` the USS address or a CTT2 channel's drive address.
+/// NORD's own keys: `ak` (order or response ID), `ind` (the whole IND word, bits 0–7 too),
+/// `elements` (an AK 6 answer's count), `pwe_error` (an AK 7 answer's number); CTT2 also
+/// `code` (the message code), `ctt2_index` (the object or channel) and `ctt2_error`.
+pub fn to_json(m: &Message, protocol: &'static str, line: Option<usize>) -> Value {
+    if m.direction == "unrecognised" {
+        let why = m.error.clone().unwrap_or_else(|| m.kind.clone());
+        let mut t = crate::decode::Telegram::skipped(protocol, Some(m.offset), &m.bytes, why);
+        t.line = line;
+        return t.to_json();
+    }
+    let mut t = crate::decode::Telegram::new(protocol);
+    t.offset = Some(m.offset);
+    t.line = line;
+    t.length = m.len;
+    t.bytes = m.bytes.clone();
+    t.error = m.error.clone();
+    t.notes = m.notes.clone();
+    t.direction = match m.direction {
+        "master" | "request" => Some("request"),
+        "drive" | "response" => Some("response"),
+        _ => None,
     };
-    json!({
-        "type": "telegram", "protocol": protocol, "offset": m.offset, "length": m.len,
-        "direction": m.direction, "kind": m.kind, "valid": m.error.is_none(), "error": m.error,
-        "notes": m.notes, "code": m.code, "index": m.index, "address": m.address,
-        "ak": m.ak, "parameter": m.parameter, "ind": m.ind.map(|i| format!("0x{i:04X}")),
-        "array": element, "set": set,
-        "name_en": target.map(|p| p.name_en), "raw": m.raw, "value": m.value,
-        "unit": target.map(|p| p.unit),
-        "words": m.words,
-        "fields": m.fields.iter().map(|f| json!({
-            "offset": f.offset, "bytes": f.bytes, "field": f.name, "meaning": f.meaning,
-        })).collect::<Vec<_>>(),
-    })
+    t.kind = Some(m.kind.clone());
+    t.address = m.address.map(i64::from);
+    t.param = m.parameter.map(|pnu| {
+        let ind = m.ind.unwrap_or(0) & 0xFF00;
+        (
+            crate::decode::target(drive_profile::Family::Nord, pnu, ind),
+            m.raw,
+        )
+    });
+    t.refusal = m.refusal.clone();
+    t.process_data = m.words.clone();
+    t.fields = m.fields.clone();
+    let mut t = t
+        .extra("ak", json!(m.ak))
+        .extra("ind", json!(m.ind.map(|i| format!("0x{i:04X}"))))
+        .extra("elements", json!(m.count))
+        .extra("pwe_error", json!(m.pwe_error));
+    if protocol == "ctt2" {
+        t = t
+            .extra("code", json!(m.code))
+            .extra("ctt2_index", json!(m.index))
+            .extra("ctt2_error", json!(m.ctt2_error));
+    }
+    t.to_json()
 }
 
 /// Run `drivectl decode ctt2` (`uss` None) or `decode uss` with its layout.
@@ -908,7 +935,7 @@ pub fn run(uss: Option<UssLayout>, args: &[String], file: Option<&str>, json: bo
     let mut out = String::new();
     for m in &messages {
         if json {
-            out.push_str(&to_json(m, protocol).to_string());
+            out.push_str(&to_json(m, protocol, capture.lines.get(m.offset).copied()).to_string());
             out.push('\n');
             continue;
         }
@@ -925,7 +952,7 @@ pub fn run(uss: Option<UssLayout>, args: &[String], file: Option<&str>, json: bo
         for f in &m.fields {
             out.push_str(&format!(
                 "  {:>4}  {:<24} {:<12} {}\n",
-                f.offset, f.bytes, f.name, f.meaning
+                f.offset, f.bytes, f.name, f.text
             ));
         }
         for n in &m.notes {

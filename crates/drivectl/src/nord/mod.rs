@@ -115,6 +115,26 @@ pub enum NordCommand {
         #[command(flatten)]
         sub: Sub,
     },
+    /// What the table knows about a parameter — range, default, unit, resolution, parameter
+    /// sets, array elements, access — and the drive's current value in every set and element
+    /// (or the one --set/--array names); for an array, the drive's own count of elements (AK
+    /// 9).
+    ///
+    /// USS and CTT2 have no order that reads a parameter's description from the drive (BU 0255
+    /// 4.6.1.1 lists AK 0–14: values and the number of array elements only), so range and
+    /// default are the table's; MOVILINK's `info` reads them from the drive.
+    #[command(
+        after_help = "Examples:\n  drivectl uss --port /dev/ttyUSB0 --addr 1 info P102              every parameter set\n  \
+        drivectl uss --port /dev/ttyUSB0 --addr 1 info P102 --set 3 --json\n  \
+        drivectl uss --port /dev/ttyUSB0 --addr 1 info P700              every element, with AK 9's count"
+    )]
+    Info {
+        /// Parameter number (P102 or 102; a number outside the table shows only the drive's
+        /// value).
+        param: String,
+        #[command(flatten)]
+        sub: Sub,
+    },
     /// Write a parameter (checked against the table first), then read it back.
     #[command(after_help = WRITE_HELP)]
     Write {
@@ -181,10 +201,17 @@ pub enum NordCommand {
         /// What to do.
         #[arg(value_parser = ["enable", "stop", "quick-stop", "disable", "reset"])]
         action: String,
-        /// Setpoint SW1 in percent of P105 maximum frequency (4000h = 100 %; −200 < % < 200,
-        /// negative = counter-clockwise); sent with every control word. Default 0.
+        /// Setpoint SW1 in percent of P105 maximum frequency, sent with every control word;
+        /// negative = counter-clockwise; default 0. The word holds −200 % (8000h) … 199.9939 %
+        /// (7FFFh) in steps of 100/16384 % (4000h = 100 %, BU 0255 4.5.4): the nearest step is
+        /// sent when it reads as typed (10 → 0666h = 9.9976 %); a value more precise than the
+        /// word (100.0001) is refused naming the nearest step, unless --round.
         #[arg(long, allow_hyphen_values = true, value_name = "PERCENT")]
         setpoint: Option<String>,
+        /// Accept a setpoint SW1 cannot hold exactly and send the nearest one (said on
+        /// standard error).
+        #[arg(long)]
+        round: bool,
         /// The parameter set the drive runs with (control word bits 14/15), 1–4.
         #[arg(long, default_value_t = 1, value_name = "S", value_parser = clap::value_parser!(u8).range(1..=4))]
         set: u8,
@@ -505,17 +532,73 @@ pub fn write_value(param: &str, value: &str, sub: Sub, how: &ValueText) -> Resul
     })
 }
 
-/// A setpoint in percent as the SW1 word (4000h = 100 %), strictly parsed.
-pub fn setpoint_word(text: &str) -> Result<u16> {
+/// A setpoint as the SW1 word carries it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Setpoint {
+    /// The word (4000h = 100 %).
+    pub word: u16,
+    /// What the user typed, when the word is its nearest (`--round`).
+    pub rounded_from: Option<f64>,
+}
+
+/// A setpoint in percent as the SW1 word, strictly parsed: BU 0255 4.5.4 sends it as an
+/// integer −32768…32767 (8000h…7FFFh) with 4000h = 100 %, so it holds −200 % … 199.9939 %
+/// in steps of 100/16384 = 0.006103515625 %. The word holds a value when its nearest step,
+/// written with as many decimals as were typed, reads as typed (`10` → 0666h = 9.9976 %,
+/// `33.3` → 1550h = 33.3008 %); a value with more precision than the word has (`100.0001`) is
+/// refused naming the nearest step, unless `round`. A value past the word's ends is refused,
+/// not even `round` cuts it to fit.
+pub fn setpoint_word(text: &str, round: bool) -> Result<Setpoint> {
     let p = parse_decimal(text).ok_or_else(|| {
         CliError::usage(format!(
-            "`{text}` is not a setpoint in percent (e.g. 50, -25 or 12,5)"
+            "`{}` is not a setpoint in percent (e.g. 50, -25 or 12,5)",
+            crate::decode::escape(text)
         ))
     })?;
-    nord::setpoint_from_percent(p).map_err(|e| {
-        CliError::usage(format!(
-            "setpoint {text} %: {e}; a setpoint is −200 % < value < 200 % (4000h = 100 %)"
-        ))
+    let text = text.trim();
+    let percent_of = |w: i16| nord::percent_from_word(w as u16);
+    // Four decimals name every step apart (0.0061 % each), and are taken back as typed.
+    let shown = |w: i16| format!("{} % (0x{:04X})", trim_float(percent_of(w), 4), w as u16);
+    // The nearest step, then whether the word has it.
+    let steps =
+        drive_profile::scaling::round(p * f64::from(drive_profile::scaling::PERCENT_100) / 100.0);
+    let end = if !steps.is_finite() || steps > f64::from(i16::MAX) {
+        Some(i16::MAX)
+    } else if steps < f64::from(i16::MIN) {
+        Some(i16::MIN)
+    } else {
+        None
+    };
+    if let Some(end) = end {
+        return Err(CliError::usage(format!(
+            "setpoint {text} % is past what SW1 holds: {} … {} (BU 0255 4.5.4: −32768…32767, \
+             4000h = 100 %); the nearest setpoint it holds is {}; nothing was sent",
+            shown(i16::MIN),
+            shown(i16::MAX),
+            shown(end)
+        )));
+    }
+    let word = steps as i16;
+    let held = percent_of(word);
+    let decimals = text.split_once(['.', ',']).map_or(0, |(_, f)| f.len());
+    let at_typed = |x: f64| format!("{x:.decimals$}").parse::<f64>().unwrap_or(f64::NAN);
+    if (held - p).abs() <= 1e-9 * p.abs().max(1.0) || at_typed(held) == at_typed(p) {
+        return Ok(Setpoint {
+            word: word as u16,
+            rounded_from: None,
+        });
+    }
+    if !round {
+        return Err(CliError::usage(format!(
+            "SW1 cannot hold {text} % (steps of 100/16384 = 0.006103515625 %, 4000h = 100 %): \
+             the nearest setpoint it holds is {}; give that, or add --round to have it rounded; \
+             nothing was sent",
+            shown(word)
+        )));
+    }
+    Ok(Setpoint {
+        word: word as u16,
+        rounded_from: Some(p),
     })
 }
 
@@ -525,6 +608,7 @@ pub fn precheck(cmd: &NordCommand) -> Result<()> {
         NordCommand::Read { params, sub } | NordCommand::Watch { params, sub, .. } => {
             resolve_all(params, *sub).map(drop)
         }
+        NordCommand::Info { param, sub } => info_targets(param, *sub).map(drop),
         NordCommand::Write {
             param,
             value,
@@ -539,11 +623,23 @@ pub fn precheck(cmd: &NordCommand) -> Result<()> {
                 force: *force,
                 round: *round,
             };
-            write_value(param, value, *sub, &how).map(drop)
+            let v = write_value(param, value, *sub, &how)?;
+            // The table's checks that do not depend on the drive (access, range, value list;
+            // the EEPROM-wear rule needs P560, read later): a write they refuse reads and
+            // sends nothing.
+            let request = write::WriteRequest {
+                target: v.target,
+                raw: v.raw,
+                persistence: Persistence::Volatile,
+                force: *force,
+            };
+            write::check_with("", &request, write::with_hint).map(drop)
         }
         NordCommand::Control {
-            setpoint: Some(s), ..
-        } => setpoint_word(s).map(drop),
+            setpoint: Some(s),
+            round,
+            ..
+        } => setpoint_word(s, *round).map(drop),
         NordCommand::Restore(r) => backup::check_file(&r.file, Family::Nord, &[]),
         _ => Ok(()),
     }
@@ -624,8 +720,8 @@ where
             }
             let mut pc =
                 NordParamClient::new(c, &s.key, s.identity.clone()).raw_array(sub.array.is_some());
-            let persistence = if *volatile {
-                Persistence::Volatile
+            let (persistence, ram_only) = if *volatile {
+                (Persistence::Volatile, false)
             } else {
                 eeprom_or_ram(&mut pc, &v.target).await?
             };
@@ -636,18 +732,42 @@ where
                 force: *force,
             };
             let done = write::write_checked(&mut pc, &request, false).await?;
+            if ram_only {
+                errln!(
+                    "drivectl: note: P560 save to EEPROM is 0 (RAM only) on this drive: {} is \
+                     kept in RAM and lost at power-off (write P560 = 1 to keep changes)",
+                    v.target.label()
+                );
+            }
             write::print_written(&v.target, &done, json)
         }
+        NordCommand::Info { param, sub } => info(c, s, &info_targets(param, *sub)?, *sub).await,
         NordCommand::Status => status(c, s).await,
         NordCommand::Control {
             action,
             setpoint,
+            round,
             set,
             wait,
         } => {
+            let setpoint = setpoint
+                .as_deref()
+                .map(|t| setpoint_word(t, *round))
+                .transpose()?;
+            if let Some(Setpoint {
+                word,
+                rounded_from: Some(x),
+            }) = setpoint
+            {
+                errln!(
+                    "drivectl: note: SW1 cannot hold {x} %; sending the nearest setpoint it \
+                     holds, {} % (0x{word:04X})",
+                    trim_float(nord::percent_from_word(word), 4)
+                );
+            }
             let session = ControlSession {
                 action: action.as_str(),
-                setpoint: setpoint.as_deref().map(setpoint_word).transpose()?,
+                setpoint: setpoint.map(|s| s.word),
                 set: *set,
                 wait: Duration::from_secs(*wait),
             };
@@ -674,27 +794,21 @@ where
 
 /// Where a write without `--volatile` goes: to EEPROM as P560 says. With P560 = 0 the drive
 /// keeps it in RAM only, so it is a RAM-only write (AK 14/12, which does the same) that wears
-/// no EEPROM and is not held back by the EEPROM-wear rule; the user is told it is lost at
-/// power-off. P560 itself always counts as an EEPROM write.
+/// no EEPROM and is not held back by the EEPROM-wear rule; the second value says so, for the
+/// note after the write that the value is lost at power-off. P560 itself always counts as an
+/// EEPROM write.
 async fn eeprom_or_ram<C: ParameterChannel>(
     pc: &mut NordParamClient<'_, C>,
     target: &Target,
-) -> Result<Persistence> {
+) -> Result<(Persistence, bool)> {
     if target.index == param::SAVE_TO_EEPROM || target.param.is_none() {
-        return Ok(Persistence::NonVolatile);
+        return Ok((Persistence::NonVolatile, false));
     }
     let p560 = resolve_in(param::SAVE_TO_EEPROM)?;
     match pc.read(&p560).await {
-        Ok(0) => {
-            errln!(
-                "drivectl: note: P560 save to EEPROM is 0 (RAM only) on this drive: {} is kept \
-                 in RAM and lost at power-off (write P560 = 1 to keep changes)",
-                target.label()
-            );
-            Ok(Persistence::Volatile)
-        }
-        Ok(_) => Ok(Persistence::NonVolatile),
-        Err(e) => Err(e.into()),
+        Ok(0) => Ok((Persistence::Volatile, true)),
+        Ok(_) => Ok((Persistence::NonVolatile, false)),
+        Err(e) => Err(p560.error(e)),
     }
 }
 
@@ -763,6 +877,217 @@ fn actual_text(v: &Value) -> String {
         _ => {}
     }
     s
+}
+
+/// The targets `info` reads: what `--array`/`--set` name, else every array element in every
+/// parameter set.
+pub fn info_targets(key: &str, sub: Sub) -> Result<Vec<Target>> {
+    let first = resolve(key, sub, true)?;
+    let sets = first
+        .first()
+        .filter(|t| t.param.is_some())
+        .and_then(|t| nord::by_index(t.index))
+        .is_some_and(|p| p.parameter_set);
+    if !sets || sub.set.is_some() {
+        return Ok(first);
+    }
+    let mut all = Vec::new();
+    for set in 1..=4 {
+        all.extend(resolve(
+            key,
+            Sub {
+                set: Some(set),
+                ..sub
+            },
+            true,
+        )?);
+    }
+    Ok(all)
+}
+
+/// `info`: see [`NordCommand::Info`]. A refusal of one set or element is shown for it; a link
+/// failure stops.
+async fn info<C: ParameterChannel>(
+    c: &mut NordClient<C>,
+    s: &Session,
+    targets: &[Target],
+    sub: Sub,
+) -> Result<()> {
+    let Some(first) = targets.first().copied() else {
+        return Err(CliError::failed("no parameter to show"));
+    };
+    let p = first.param.and_then(|_| nord::by_index(first.index));
+    let mut pc = NordParamClient::new(c, &s.key, s.identity.clone()).raw_array(sub.array.is_some());
+    let mut current = Vec::new();
+    for t in targets {
+        match pc.read(t).await {
+            Ok(raw) => current.push((*t, Ok(raw))),
+            Err(ClientError::Device(d)) => current.push((*t, Err(d.message))),
+            Err(e) => return Err(t.error(e)),
+        }
+    }
+    // AK 9: the drive's own number of elements, for an array (or a raw PNU read as one).
+    let count = if p.map_or(sub.array.is_some(), |p| p.array_len.is_some()) {
+        match pc.client.count(first.index).await {
+            Ok(n) => Some(Ok(n)),
+            Err(e) => match client_error(e) {
+                ClientError::Device(d) => Some(Err(d.message)),
+                e => return Err(first.error(e)),
+            },
+        }
+    } else {
+        None
+    };
+    let physical = |raw: i64| first.param.map_or(raw as f64, |q| q.to_physical(raw));
+    let text_of = |raw: i64| {
+        first
+            .param
+            .map_or_else(|| raw.to_string(), |q| physical_text(q, raw))
+    };
+    if s.json {
+        let values: Vec<Value> = current
+            .iter()
+            .map(|(t, r)| {
+                let mut v = crate::decode::param_json(t, r.as_ref().ok().copied());
+                if let (Value::Object(m), Err(e)) = (&mut v, r) {
+                    m.insert("error".into(), e.clone().into());
+                }
+                v
+            })
+            .collect();
+        outln!(
+            "{}",
+            json!({
+                // The keys of `movilink info --json` and `params --json` where they mean the
+                // same: raw values plain, physical ones as `*_value` in the table's unit.
+                "index": first.index,
+                "number": p.map(|q| q.label().to_string()),
+                "name_de": p.map(|q| q.name_de), "name_en": p.map(|q| q.name_en),
+                "unit": p.map(|q| q.unit),
+                "range": p.and_then(|q| q.raw_range).map(|(lo, hi)| json!({
+                    "min": lo, "max": hi, "min_value": physical(lo), "max_value": physical(hi),
+                })),
+                "default": p.and_then(|q| q.default_raw),
+                "default_value": p.and_then(|q| q.default_raw).map(physical),
+                "resolution": p.and_then(|q| q.resolution).map(|r| json!({
+                    "step": r.step, "decimals": r.decimals, "text": r.text,
+                })),
+                "access": p.map(|q| q.access.to_string()),
+                "parameter_set": p.map(|q| q.parameter_set),
+                "array_len": p.and_then(|q| q.array_len),
+                "array_len_drive": count.as_ref().and_then(|c| c.as_ref().ok().copied()),
+                "limits_from": p.map(|_| "table"),
+                "values": values,
+            })
+        )?;
+        return info_outcome(&current);
+    }
+    match p {
+        Some(q) => outln!(
+            "{} {} ({}), PNU {} (0x{:03X})",
+            q.label(),
+            q.name_en,
+            q.name_de,
+            first.index,
+            first.index
+        )?,
+        None => outln!(
+            "PNU {} (0x{:03X}): not in the NORD table; only the drive's value is known",
+            first.index,
+            first.index
+        )?,
+    }
+    if let Some(q) = p {
+        let range = q.raw_range.map_or_else(
+            || "not in the table (a 16-bit word)".to_owned(),
+            |(lo, hi)| format!("{} … {} (raw {lo} … {hi})", text_of(lo), text_of(hi)),
+        );
+        outln!("  range       {range}")?;
+        outln!(
+            "  default     {}",
+            q.default_raw.map_or_else(
+                || "not in the table".to_owned(),
+                |d| format!("{} (raw {d})", text_of(d))
+            )
+        )?;
+        outln!(
+            "  resolution  {}",
+            q.resolution.map_or_else(
+                || "1 (an integer)".to_owned(),
+                |r| format!("{} {}", r.text, q.unit).trim_end().to_owned()
+            )
+        )?;
+        outln!(
+            "  access      {}",
+            if q.access.is_writable() {
+                "read-write"
+            } else {
+                "read-only"
+            }
+        )?;
+        outln!(
+            "  sets        {}",
+            if q.parameter_set {
+                "one value per parameter set 1–4 (IND bits 8–9; --set)"
+            } else {
+                "none (one value for every parameter set)"
+            }
+        )?;
+        let drive = match &count {
+            Some(Ok(n)) => format!("; the drive counts {n} (AK 9)"),
+            Some(Err(e)) => format!("; the drive's count (AK 9): {e}"),
+            None => String::new(),
+        };
+        outln!(
+            "  elements    {}{drive}",
+            q.array_len.map_or_else(
+                || "none (no array)".to_owned(),
+                |n| format!("{n}: [-01] … [-{n:02}] (--array 1…{n})")
+            )
+        )?;
+        outln!(
+            "  (range and default from the NORD table: USS and CTT2 have no order that reads \
+             them from the drive)"
+        )?;
+    } else if let Some(c) = &count {
+        outln!(
+            "  elements    {}",
+            match c {
+                Ok(n) => format!("the drive counts {n} (AK 9)"),
+                Err(e) => format!("the drive's count (AK 9): {e}"),
+            }
+        )?;
+    }
+    for (t, r) in &current {
+        match r {
+            Ok(raw) => outln!(
+                "  {:<11} {} (raw {raw})",
+                t.label(),
+                crate::tool::output::value_text(t, *raw)
+            )?,
+            Err(e) => outln!("  {:<11} refused: {e}", t.label())?,
+        }
+    }
+    info_outcome(&current)
+}
+
+/// The end of `info`: as `read` of several, a value the drive refused fails the command (the
+/// drive's answers are shown above).
+fn info_outcome(current: &[(Target, std::result::Result<i64, String>)]) -> Result<()> {
+    let refused: Vec<String> = current
+        .iter()
+        .filter(|(_, r)| r.is_err())
+        .map(|(t, _)| t.label())
+        .collect();
+    if refused.is_empty() {
+        return Ok(());
+    }
+    Err(CliError::failed(format!(
+        "{} of {} values could not be read: {} (the drive's answers are above)",
+        refused.len(),
+        current.len(),
+        refused.join(", ")
+    )))
 }
 
 /// `status`: see [`NordCommand::Status`].

@@ -272,10 +272,58 @@ fn values_are_physical_strict_and_16_bit() {
     let forced = ValueText { force: true, ..how };
     assert!(write_value("P102", "700", set3, &forced).is_err());
     assert!(write_value("P102", "700", set3, &how).is_err());
-    assert_eq!(setpoint_word("50").unwrap(), 0x2000);
-    assert_eq!(setpoint_word("-100").unwrap(), 0xC000);
-    assert!(setpoint_word("200").is_err());
-    assert!(setpoint_word("fifty").is_err());
+    assert_eq!(setpoint_word("50", false).unwrap().word, 0x2000);
+    assert_eq!(setpoint_word("-100", false).unwrap().word, 0xC000);
+    assert!(setpoint_word("fifty", false).is_err());
+}
+
+/// Issue 18: a setpoint SW1 cannot hold was sent as the nearest word without a word (100.0001 %
+/// as 4000h); it is refused naming the nearest step, or rounded with `--round`. A value is held
+/// when the nearest step reads as typed (10 % is 0666h = 9.9976 %: "10" at the precision
+/// typed). The bounds are the word's, BU 0255 4.5.4: −32768…32767 (8000h…7FFFh), 4000h = 100 %.
+#[test]
+fn issue18_a_setpoint_the_word_cannot_hold_is_refused_with_the_nearest() {
+    let e = setpoint_word("100.0001", false).unwrap_err().to_string();
+    assert!(e.contains("cannot hold 100.0001 %"), "{e}");
+    assert!(e.contains("100 % (0x4000)") && e.contains("--round"), "{e}");
+    let r = setpoint_word("100.0001", true).unwrap();
+    assert_eq!((r.word, r.rounded_from), (0x4000, Some(100.0001)));
+    // The nearest step as named is taken when typed back.
+    let e = setpoint_word("100.005", false).unwrap_err().to_string();
+    assert!(e.contains("100.0061 % (0x4001)"), "{e}");
+    assert_eq!(setpoint_word("100.0061", false).unwrap().word, 0x4001);
+    // Held at the precision typed: 10 % (1638.4 steps) is 0666h, 33.3 % is 1550h.
+    for (text, word) in [
+        ("10", 0x0666),
+        ("33.3", 0x1550),
+        ("-25", 0xF000),
+        ("12,5", 0x0800),
+    ] {
+        let s = setpoint_word(text, false).unwrap();
+        assert_eq!((s.word, s.rounded_from), (word, None), "{text}");
+    }
+    assert_eq!(setpoint_word("0.006103515625", false).unwrap().word, 1);
+    assert_eq!(setpoint_word("-0", false).unwrap().word, 0);
+    assert_eq!(setpoint_word("-200", false).unwrap().word, 0x8000);
+    assert_eq!(setpoint_word("199.9939", false).unwrap().word, 0x7FFF);
+    // Within half a step of an end it is the end's step (rounding, not cutting).
+    assert_eq!(setpoint_word("-200.0001", true).unwrap().word, 0x8000);
+    assert!(setpoint_word("-200.0001", false).is_err());
+    // Past the word's ends: refused even with --round (nothing is cut to fit), naming the end.
+    for (text, end) in [
+        ("200", "199.9939 % (0x7FFF)"),
+        ("-200.01", "-200 % (0x8000)"),
+    ] {
+        for round in [false, true] {
+            let e = setpoint_word(text, round).unwrap_err().to_string();
+            assert!(e.contains(end), "{text}: {e}");
+            assert!(e.contains("4.5.4"), "{text}: {e}");
+        }
+    }
+    let e = setpoint_word(&"9".repeat(400), true)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("0x7FFF"), "{e}");
 }
 
 #[tokio::test]

@@ -51,13 +51,17 @@ pub struct UssArgs {
     #[command(flatten)]
     line: LineArgs,
     /// Response timeout in milliseconds, 1–60000: from the end of a telegram to the start of
-    /// its answer (USS allows a drive 20 ms; the default adds room for USB adapters).
+    /// its answer. Default 50: the 20 ms a USS drive may take before it answers at most (the
+    /// USS response delay; NORD BU 0050 1.7), and 30 ms for USB adapters that hand characters
+    /// over late.
     #[arg(long, global = true, default_value_t = 50, value_parser = clap::value_parser!(u64).range(1..=MAX_TIMEOUT_MS))]
     timeout: u64,
     /// Retries after a timeout or a rejected answer, 0–255.
     #[arg(long, global = true, default_value_t = 2)]
     retries: u8,
-    /// USS address of the drive, 0–31.
+    /// USS address of the drive, 0–31 (the drive's USS address setting). Default 0: the
+    /// address a USS drive answers at until it is given another (NORD BU 0050's telegram
+    /// examples use it); `scan` finds the address a drive has.
     #[arg(long, global = true, default_value_t = 0, value_parser = clap::value_parser!(u8).range(0..=31))]
     addr: u8,
     /// PKW words in every telegram: 4 (PKE, IND, PWE1, PWE2) or 3 (no PWE1), as the drive is

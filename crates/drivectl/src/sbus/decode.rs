@@ -9,12 +9,15 @@
 
 use drive_core::can::{CanFrame, Frame, Id};
 use drive_profile::sew::ParamChannel;
+use drive_transport::can::candump::{LogErrorKind, LogReader};
 use sbus_can::ids::Kind;
 use sbus_can::telegram::{DecodeError, ProcessData, Telegram};
-use serde_json::{Map, Value, json};
+use serde_json::{Value, json};
 
 use crate::error::{CliError, Result};
-use crate::movilink::decode::{Field, explain_param, hex, pd_hint, raw_value};
+use crate::movilink::decode::{
+    Field, carries_value, explain_param, pd_hint, raw_value, return_code_json, return_code_text,
+};
 
 /// The explanation of one frame.
 #[derive(Debug, Clone)]
@@ -35,8 +38,8 @@ pub struct Explained {
     pub service: Option<&'static str>,
     /// The data as the parameter's raw value.
     pub raw: Option<i64>,
-    /// A return code's text, when the status bit is set.
-    pub return_code: Option<String>,
+    /// The return code, when the status bit is set.
+    pub return_code: Option<drive_profile::sew::ReturnCode>,
     /// Process data words.
     pub words: Vec<u16>,
     /// The fields in order.
@@ -46,12 +49,7 @@ pub struct Explained {
 }
 
 fn field(fields: &mut Vec<Field>, offset: usize, bytes: &[u8], name: &str, meaning: String) {
-    fields.push(Field {
-        offset,
-        bytes: hex(bytes),
-        name: name.to_owned(),
-        meaning,
-    });
+    fields.push(Field::new(offset, bytes, name, meaning));
 }
 
 /// The two 32-bit variables of a variable telegram in MOTOROLA and INTEL byte order (ch. 5.5:
@@ -222,8 +220,8 @@ fn explain_channel(e: &mut Explained, ch: &ParamChannel, response: bool, kind: K
         } else {
             "handshake 0 (answer at once)"
         };
-        m.meaning = m
-            .meaning
+        m.text = m
+            .text
             .replace("handshake 1", sync)
             .replace("handshake 0", sync);
     }
@@ -231,16 +229,9 @@ fn explain_channel(e: &mut Explained, ch: &ParamChannel, response: bool, kind: K
     e.index = Some(ch.index);
     e.service = ch.service().map(|s| s.name());
     match ch.result() {
-        Ok(d) => e.raw = Some(raw_value(ch.index, d)),
-        Err(rc) => {
-            e.return_code = Some(format!(
-                "error class {}, error code {}, additional code 0x{:04X}: {}",
-                rc.error_class,
-                rc.error_code,
-                rc.additional_code,
-                rc.describe()
-            ))
-        }
+        Ok(d) if carries_value(ch, response) => e.raw = Some(raw_value(ch.index, d)),
+        Ok(_) => {}
+        Err(rc) => e.return_code = Some(rc),
     }
     if kind == Kind::GroupParamRequest && !ch.service().is_some_and(|s| s.is_write()) {
         e.error = Some(
@@ -256,55 +247,60 @@ fn explain_channel(e: &mut Explained, ch: &ParamChannel, response: bool, kind: K
     }
 }
 
-/// The JSON object of one explained frame.
+/// The direction of a frame, from what its identifier names: a request (master → drive),
+/// a response (drive → master), or neither (SYNC, a variable telegram, another protocol).
+fn direction(e: &Explained) -> Option<&'static str> {
+    let (kind, _) = Kind::classify(e.frame.standard_id()?)?;
+    Some(if kind.from_drive() {
+        "response"
+    } else {
+        "request"
+    })
+}
+
+/// One explained frame in the common shape of every decoder ([`crate::decode`]): `offset` is
+/// `null` (a CAN frame is no part of a byte stream) and `bytes` the data bytes; `line` the
+/// log's line. SBus's own keys: `id`, `extended`, `remote`, `formed` (how the identifier is
+/// formed), `group` (the address is a group address), `service`, `return_code`, and `time` and
+/// `interface` for a log record.
 pub fn to_json(e: &Explained, line: Option<usize>, time: Option<(u64, &str)>) -> Value {
-    let mut m = Map::new();
-    m.insert("type".into(), "frame".into());
-    if let Some(l) = line {
-        m.insert("line".into(), l.into());
-    }
-    if let Some((t_us, iface)) = time {
-        m.insert(
-            "time".into(),
-            format!("{}.{:06}", t_us / 1_000_000, t_us % 1_000_000).into(),
+    let mut t = crate::decode::Telegram::new("sbus");
+    t.line = line;
+    t.length = e.frame.data().len();
+    t.bytes = e.frame.data().to_vec();
+    t.error = e.error.clone();
+    t.direction = if e.kind == "SYNC" { None } else { direction(e) };
+    t.kind = Some(e.kind.clone());
+    t.address = e.address.map(i64::from);
+    t.param = e.index.map(|i| {
+        (
+            crate::decode::target(drive_profile::Family::Movidrive, i, 0),
+            e.raw,
+        )
+    });
+    t.refusal = e.return_code.as_ref().map(return_code_text);
+    t.process_data = e.words.clone();
+    t.fields = e.fields.clone();
+    let mut t = t
+        .extra("id", e.frame.raw_id().into())
+        .extra("extended", e.frame.is_extended().into())
+        .extra("remote", e.frame.is_remote_frame().into())
+        .extra("formed", json!(e.formed))
+        .extra("group", e.group.into())
+        .extra("service", json!(e.service))
+        .extra(
+            "return_code",
+            json!(e.return_code.as_ref().map(return_code_json)),
         );
-        m.insert("interface".into(), iface.into());
+    if let Some((t_us, iface)) = time {
+        t = t
+            .extra(
+                "time",
+                format!("{}.{:06}", t_us / 1_000_000, t_us % 1_000_000).into(),
+            )
+            .extra("interface", iface.into());
     }
-    m.insert("id".into(), e.frame.raw_id().into());
-    m.insert("extended".into(), e.frame.is_extended().into());
-    m.insert("remote".into(), e.frame.is_remote_frame().into());
-    m.insert("data".into(), hex(e.frame.data()).into());
-    m.insert("kind".into(), e.kind.clone().into());
-    m.insert("formed".into(), json!(e.formed));
-    if let Some(a) = e.address {
-        m.insert(if e.group { "group" } else { "address" }.into(), a.into());
-    }
-    if let Some(i) = e.index {
-        m.insert("index".into(), i.into());
-        m.insert("service".into(), json!(e.service));
-    }
-    if let Some(r) = e.raw {
-        m.insert("raw".into(), r.into());
-    }
-    if let Some(rc) = &e.return_code {
-        m.insert("return_code".into(), rc.clone().into());
-    }
-    if !e.words.is_empty() {
-        m.insert("words".into(), json!(e.words));
-    }
-    m.insert(
-        "fields".into(),
-        Value::Array(
-            e.fields
-                .iter()
-                .map(|f| {
-                    json!({"offset": f.offset, "bytes": f.bytes, "name": f.name, "meaning": f.meaning})
-                })
-                .collect(),
-        ),
-    );
-    m.insert("error".into(), json!(e.error));
-    Value::Object(m)
+    t.to_json()
 }
 
 /// The text lines of one explained frame.
@@ -323,7 +319,7 @@ pub fn to_text(e: &Explained, place: &str) -> String {
     for f in &e.fields {
         out.push_str(&format!(
             "  byte {:<2} {:<24} {:<10} {}\n",
-            f.offset, f.bytes, f.name, f.meaning
+            f.offset, f.bytes, f.name, f.text
         ));
     }
     out
@@ -340,10 +336,18 @@ pub fn parse_id(text: &str, extended: bool) -> Result<Id> {
     } else {
         t.parse::<u32>()
     };
-    let value = value.map_err(|_| {
-        CliError::usage(format!(
-            "--id {text}: not a number (decimal, 0x… or …h hexadecimal)"
-        ))
+    let text = crate::decode::escape(text);
+    let value = value.map_err(|e| {
+        if *e.kind() == std::num::IntErrorKind::PosOverflow {
+            CliError::usage(format!(
+                "--id {text}: too large; a standard identifier is 0…2047 (11 bits), an extended \
+                 one (--extended) 0…1FFFFFFFh (29 bits)"
+            ))
+        } else {
+            CliError::usage(format!(
+                "--id {text}: not a number (decimal, 0x… or …h hexadecimal)"
+            ))
+        }
     })?;
     if extended {
         drive_core::can::ExtendedId::new(value)
@@ -407,17 +411,59 @@ pub fn run_frame(
 /// The most a log file may have (a day of a busy 1 Mbit/s bus is far more; split it).
 const LOG_LIMIT: u64 = 256 << 20;
 
+/// Whether `token` is a candump time stamp: seconds, a point and exactly six digits (the
+/// microseconds), in brackets.
+fn is_candump_stamp(token: &str) -> bool {
+    token
+        .strip_prefix('(')
+        .and_then(|t| t.strip_suffix(')'))
+        .and_then(|t| t.split_once('.'))
+        .is_some_and(|(s, us)| {
+            !s.is_empty()
+                && s.bytes().all(|b| b.is_ascii_digit())
+                && us.len() == 6
+                && us.bytes().all(|b| b.is_ascii_digit())
+        })
+}
+
+/// What is wrong with a line of a candump log, in words that say what the line must look
+/// like. `text` is the line (to quote its time stamp).
+fn log_error_text(kind: &LogErrorKind, text: Option<&str>) -> String {
+    let stamp = text.and_then(|t| t.split_whitespace().next());
+    match (kind, stamp) {
+        (LogErrorKind::Parse(_), Some(s)) if !is_candump_stamp(s) => format!(
+            "`{}` is no candump time stamp: candump writes the seconds since 1970 with exactly \
+             six digits after the point, in brackets, then the interface and the frame: \
+             `(1700000000.123456) can0 20B#3100207E00000000`",
+            crate::decode::escape(s)
+        ),
+        (other, _) => crate::decode::escape(&other.to_string()),
+    }
+}
+
 /// Run `drivectl decode sbus --log FILE`: every record of a candump log (`-`: standard input)
 /// explained; a line that is no record is reported with its number and the rest is read on.
 pub fn run_log(path: &str, sync_id: u16, json: bool) -> Result<()> {
-    use drive_transport::can::candump::LogReader;
     let bytes = crate::tool::infile::read_limited(std::path::Path::new(path), true, LOG_LIMIT)?;
+    // The lines as read, to quote a bad one (the reader strips a BOM from the first).
+    let lines: Vec<&[u8]> = bytes.split(|b| *b == b'\n').collect();
+    let line_text = |n: u64| {
+        usize::try_from(n)
+            .ok()
+            .and_then(|n| lines.get(n.checked_sub(1)?))
+            .and_then(|l| std::str::from_utf8(l).ok())
+            .map(|l| l.trim_start_matches('\u{feff}').trim())
+    };
+    let mut reader = LogReader::new(bytes.as_slice());
     let mut frames = 0usize;
     let mut invalid = 0usize;
     let mut unreadable = 0usize;
-    for item in LogReader::new(bytes.as_slice()) {
+    loop {
+        let item = reader.next_record();
+        let line = usize::try_from(reader.line()).ok();
         match item {
-            Ok(r) => {
+            Ok(None) => break,
+            Ok(Some(r)) => {
                 frames += 1;
                 let e = explain(&r.frame, sync_id);
                 if e.error.is_some() {
@@ -426,27 +472,27 @@ pub fn run_log(path: &str, sync_id: u16, json: bool) -> Result<()> {
                 if json {
                     outln!(
                         "{}",
-                        to_json(&e, None, Some((r.t_us, r.interface.as_str())))
+                        to_json(&e, line, Some((r.t_us, r.interface.as_str())))
                     )?;
                 } else {
                     let place = format!(
                         "({}.{:06}) {} ",
                         r.t_us / 1_000_000,
                         r.t_us % 1_000_000,
-                        r.interface
+                        crate::decode::escape(&r.interface)
                     );
                     out!("{}", to_text(&e, &place))?;
                 }
             }
             Err(e) => {
                 unreadable += 1;
+                let why = log_error_text(&e.kind, line_text(e.line));
                 if json {
-                    outln!(
-                        "{}",
-                        json!({"type": "error", "line": e.line, "error": e.kind.to_string()})
-                    )?;
+                    let mut t = crate::decode::Telegram::skipped("sbus", None, &[], why);
+                    t.line = usize::try_from(e.line).ok();
+                    outln!("{}", t.to_json())?;
                 } else {
-                    outln!("{path}: {e}")?;
+                    outln!("{}: line {}: {why}", crate::decode::escape(path), e.line)?;
                 }
             }
         }
@@ -461,7 +507,7 @@ pub fn run_log(path: &str, sync_id: u16, json: bool) -> Result<()> {
     }
     if unreadable > 0 {
         return Err(CliError::failed(format!(
-            "{unreadable} line(s) of {path} are no candump records"
+            "{unreadable} line(s) of {path} are no candump records (see above)"
         )));
     }
     Ok(())
@@ -486,14 +532,14 @@ mod tests {
             Some("8 × SBus address 1 + 512 + 3 = 523")
         );
         assert!(
-            e.fields[0].meaning.contains("answer at once"),
+            e.fields[0].text.contains("answer at once"),
             "{:?}",
             e.fields[0]
         );
         let r = explain(&frame(524, &[0x71, 0, 0x20, 0x7E, 0, 0x0F, 0x42, 0x40]), 0);
         assert_eq!(r.kind, "parameter response");
         assert_eq!(r.raw, Some(1_000_000));
-        assert!(r.fields[0].meaning.contains("after the next SYNC"));
+        assert!(r.fields[0].text.contains("after the next SYNC"));
         assert!(r.error.is_none());
     }
 
@@ -502,11 +548,7 @@ mod tests {
         let e = explain(&frame(267, &[0, 6, 0x13, 0x88, 0, 0]), 0);
         assert_eq!(e.kind, "process output data (PO)");
         assert_eq!(e.words, [6, 5000, 0]);
-        assert!(
-            e.fields[1].meaning.contains("1000 1/min"),
-            "{:?}",
-            e.fields[1]
-        );
+        assert!(e.fields[1].text.contains("1000 1/min"), "{:?}", e.fields[1]);
         let s = explain(&frame(0, &[]), 0);
         assert_eq!(s.kind, "SYNC");
         let bad = explain(&frame(267, &[0, 6]), 0);
@@ -535,11 +577,7 @@ mod tests {
             0,
         );
         assert_eq!(e.kind, "variable telegram or other protocol");
-        assert!(
-            e.fields[0]
-                .meaning
-                .starts_with("MOTOROLA: DataLow 11223344h")
-        );
+        assert!(e.fields[0].text.starts_with("MOTOROLA: DataLow 11223344h"));
     }
 
     #[test]
@@ -554,6 +592,11 @@ mod tests {
         );
         assert!(parse_id("2048", false).is_err());
         assert!(parse_id("4294967296", false).is_err());
+        // Past every width: said as too large, not as "not a number" (issue 18).
+        let e = parse_id("99999999999999999999", true)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("too large") && e.contains("29 bits"), "{e}");
         assert!(parse_id("-1", false).is_err());
         assert!(parse_id("0x1FFFFFFF", true).is_ok());
         assert!(parse_id("0x20000000", true).is_err());

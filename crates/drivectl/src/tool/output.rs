@@ -148,8 +148,7 @@ pub fn target_json(t: &Target) -> Map<String, Value> {
     m
 }
 
-/// [`value_json_in`] of a drive nothing is known of.
-#[cfg(test)]
+/// [`value_json_in`] of a drive nothing is known of (a decoded capture, a backup file).
 pub fn value_json(t: &Target, raw: i64) -> Value {
     value_json_in(t, raw, &Device::default())
 }
@@ -203,6 +202,11 @@ pub fn value_text_in(t: &Target, raw: i64, device: &Device) -> String {
         },
         None => format!("raw {raw} (0x{:08X})", raw as u32),
     }
+}
+
+/// [`value_text_in`] of a drive nothing is known of.
+pub fn value_text(t: &Target, raw: i64) -> String {
+    value_text_in(t, raw, &Device::default())
 }
 
 /// Print one value read from a drive: a line of text (`P102 set 3 acceleration time (PNU

@@ -29,7 +29,7 @@ fn meaning<'a>(m: &'a Message, field: &str) -> &'a str {
     m.fields
         .iter()
         .find(|f| f.name == field)
-        .map_or("", |f| f.meaning.as_str())
+        .map_or("", |f| f.text.as_str())
 }
 
 #[test]
@@ -204,21 +204,39 @@ fn uss_telegrams_carry_the_same_data_with_stx_lge_adr_and_bcc() {
 #[test]
 fn json_has_the_parameter_and_the_value() {
     let m = ctt2("13 2F 08 70 66 02 00 00 00 03 E8");
-    let v = to_json(&m[0], "ctt2");
+    let v = to_json(&m[0], "ctt2", None);
+    // The keys of `read --json` (issue 18: one shape for every decoder).
     assert_eq!(
         (
-            &v["parameter"],
-            &v["set"],
+            &v["index"],
+            &v["label"],
+            &v["selector"],
             &v["raw"],
             &v["value"],
             &v["unit"]
         ),
         (
             &json!(102),
-            &json!(3),
+            &json!("P102 set 3"),
+            &json!({"set": 3, "ind": "0x0200"}),
             &json!(1000),
             &json!(10.0),
             &json!("s")
         )
     );
+    assert_eq!(
+        (&v["code"], &v["ctt2_index"], &v["ak"]),
+        (&json!(19), &json!(47), &json!(7))
+    );
+    // A refusal is no value: AK 7's error number is `pwe_error`, in words `refusal`.
+    let m = ctt2("12 2F 08 52 70 66 02 00 00 00 00 01");
+    let v = to_json(&m[1], "ctt2", None);
+    assert_eq!((&v["raw"], &v["pwe_error"]), (&Value::Null, &json!(1)));
+    assert!(
+        v["refusal"].as_str().unwrap().contains("cannot be changed"),
+        "{v}"
+    );
+    // Bytes that start no message are `skipped`.
+    let m = ctt2("FF 10 01 03");
+    assert_eq!(to_json(&m[0], "ctt2", None)["type"], "skipped");
 }
