@@ -195,6 +195,8 @@ pub async fn info<L: SewLink>(link: &mut L, t: Target, json: bool) -> Result<()>
     let attr =
         sew::AttributeInfo::from_data(link.service(ParamChannel::read_attribute(t.index)).await?);
     let access = Access::from_bits_truncate(attr.attributes as u8);
+    // The drive's value too, as `read` shows it (the key `current` of every family's `info`).
+    let current = raw_of(&t, link.service(ParamChannel::read(t.index)).await?);
     let show = |data: u32| {
         let v = raw_of(&t, data);
         t.param
@@ -221,6 +223,7 @@ pub async fn info<L: SewLink>(link: &mut L, t: Target, json: bool) -> Result<()>
                 "size_index": scale.size_index, "conversion_index": scale.conversion_index,
                 "quantity": size_name,
                 "next_index": attr.next_index, "attributes": attr.attributes, "access": access.to_string(),
+                "current": [crate::tool::output::value_json(&t, current)],
             })
         )?;
     } else {
@@ -228,6 +231,10 @@ pub async fn info<L: SewLink>(link: &mut L, t: Target, json: bool) -> Result<()>
             .param
             .map_or_else(String::new, |p| format!("{} {} ", p.label(), p.name_en()));
         outln!("{name}(index {})", t.index)?;
+        outln!(
+            "  value      {}",
+            crate::tool::output::value_text(&t, current)
+        )?;
         outln!("  minimum    {}", show(min))?;
         outln!("  maximum    {}", show(max))?;
         outln!("  default    {}", show(default))?;

@@ -187,8 +187,8 @@ fn bad_input_is_refused_before_anything_is_sent() {
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("--volatile"), "{}", stderr(&o));
     let v = ok_json(&sim.run(&["--json", "write", "372", "1392", "--dataset", "1", "--ram"]));
-    assert_eq!(v[0]["selector"], serde_json::json!({"dataset": 6}));
-    assert_eq!(v[0]["label"], "372 data set 6");
+    assert_eq!(v[0]["selector"], serde_json::json!({"dataset": 1}));
+    assert_eq!(v[0]["label"], "372 data set 1");
 }
 
 #[test]

@@ -1482,7 +1482,7 @@ fn issue18_ctt2_info_and_line() {
         (&v["array_len"], &v["array_len_drive"]),
         (&serde_json::json!(3), &serde_json::json!(3))
     );
-    assert_eq!(v["values"].as_array().map(Vec::len), Some(3));
+    assert_eq!(v["current"].as_array().map(Vec::len), Some(3));
     let o = drivectl(&[
         "ctt2",
         "--sim",

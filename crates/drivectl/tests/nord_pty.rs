@@ -575,7 +575,7 @@ fn issue18_info_shows_the_table_and_the_drives_values() {
         (&json!("RW"), &json!(true), &Value::Null)
     );
     assert_eq!(v["limits_from"], "table");
-    let values = v["values"].as_array().unwrap();
+    let values = v["current"].as_array().unwrap();
     assert_eq!(values.len(), 4, "{v}");
     assert_eq!(
         (&values[2]["label"], &values[2]["raw"]),
@@ -583,13 +583,13 @@ fn issue18_info_shows_the_table_and_the_drives_values() {
     );
     // One set; an array with the drive's count.
     let v = ok_json(&sim.run(&["--json", "info", "P102", "--set", "3"])).remove(0);
-    assert_eq!(v["values"].as_array().unwrap().len(), 1);
+    assert_eq!(v["current"].as_array().unwrap().len(), 1);
     let v = ok_json(&sim.run(&["--json", "info", "P700"])).remove(0);
     assert_eq!(
         (&v["array_len"], &v["array_len_drive"], &v["access"]),
         (&json!(3), &json!(3), &json!("RO"))
     );
-    assert_eq!(v["values"][0]["meaning"], "no fault");
+    assert_eq!(v["current"][0]["meaning"], "no fault");
     // Text, and refusals checked before the port opens as for read.
     let o = sim.run(&["info", "P543", "--array", "2"]);
     assert!(o.status.success(), "{}", stderr(&o));

@@ -13,6 +13,9 @@
 //! * `cargo run --release -p drivectl --` is the binary (the same build);
 //! * commands that run until stopped (a simulator, the gateway, a broker) run in the
 //!   background and are stopped at the end;
+//! * a command that runs until Ctrl-C (`watch` without `--count`, `pd --count 0`, `sync`
+//!   without `--count`) gets Ctrl-C after two seconds, as a user ends it, and must end with
+//!   exit 0;
 //! * `scripts/test` is not run: it is what runs this test.
 //!
 //! Blocks that need hardware or root (SocketCAN's `vcan` module) are `console` blocks in the
@@ -82,6 +85,61 @@ fn family_of(line: &str) -> Option<String> {
     Some(family)
 }
 
+/// A command a user ends with Ctrl-C.
+fn runs_until_ctrl_c(line: &str) -> bool {
+    let words: Vec<&str> = line.split_whitespace().collect();
+    let has = |w: &str| words.contains(&w);
+    let count_zero = words.windows(2).any(|p| p == ["--count", "0"]);
+    (has("watch") && !has("--count"))
+        || (has("pd") && count_zero)
+        || (has("sync") && (!has("--count") || count_zero))
+}
+
+/// Run `cmd` (a bash command in its own process group) to its end, with Ctrl-C (SIGINT to the
+/// group) after `interrupt_after` if given, and killed after two minutes.
+fn run_to_end(mut cmd: Command, interrupt_after: Option<Duration>) -> std::process::Output {
+    use std::os::unix::process::CommandExt;
+    let child = cmd
+        .process_group(0)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let pgid = child.id();
+    let signal = move |sig: &str| {
+        let _ = Command::new("kill")
+            .args([sig, "--", &format!("-{pgid}")])
+            .stderr(Stdio::null())
+            .status();
+    };
+    let done = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let watcher = {
+        let done = done.clone();
+        std::thread::spawn(move || {
+            let started = Instant::now();
+            let mut interrupted = false;
+            while !done.load(std::sync::atomic::Ordering::SeqCst) {
+                if let Some(after) = interrupt_after
+                    && !interrupted
+                    && started.elapsed() >= after
+                {
+                    signal("-INT");
+                    interrupted = true;
+                }
+                if started.elapsed() >= Duration::from_secs(120) {
+                    signal("-KILL");
+                    return;
+                }
+                std::thread::sleep(Duration::from_millis(50));
+            }
+        })
+    };
+    let out = child.wait_with_output().unwrap();
+    done.store(true, std::sync::atomic::Ordering::SeqCst);
+    let _ = watcher.join();
+    out
+}
+
 /// A command that runs until it is stopped.
 fn runs_until_stopped(line: &str) -> bool {
     line.starts_with("mosquitto ")
@@ -127,7 +185,7 @@ fn issue18_every_readme_command_runs_as_written() {
             .env_remove("XDG_STATE_HOME");
         c
     };
-    let failures = {
+    let mut failures = {
         let mut failures = Vec::new();
         for (number, original) in commands(&readme) {
             if original == "scripts/test" {
@@ -163,7 +221,8 @@ fn issue18_every_readme_command_runs_as_written() {
                 continue;
             }
             let started = Instant::now();
-            let out = shell(&line).output().unwrap();
+            let ctrl_c = runs_until_ctrl_c(&line).then_some(Duration::from_secs(2));
+            let out = run_to_end(shell(&line), ctrl_c);
             ran += 1;
             if !out.status.success() {
                 failures.push(format!(
@@ -178,10 +237,14 @@ fn issue18_every_readme_command_runs_as_written() {
         failures
     };
     for mut b in background {
-        let alive = b.child.try_wait().unwrap().is_none();
+        if let Some(status) = b.child.try_wait().unwrap() {
+            failures.push(format!(
+                "README.md:{}: the background command ended early: {status:?}",
+                b.line
+            ));
+        }
         let _ = b.child.kill();
         let _ = b.child.wait();
-        assert!(alive, "README.md:{}: the background command ended early", b.line);
     }
     let _ = std::fs::remove_dir_all(&dir);
     assert!(ran > 50, "only {ran} commands found in README.md");
@@ -204,7 +267,8 @@ fn wait_ready(line: &str) {
     let deadline = Instant::now() + Duration::from_secs(5);
     match port {
         Some(p) => {
-            while std::net::TcpStream::connect(("127.0.0.1", p)).is_err() && Instant::now() < deadline
+            while std::net::TcpStream::connect(("127.0.0.1", p)).is_err()
+                && Instant::now() < deadline
             {
                 std::thread::sleep(Duration::from_millis(50));
             }
@@ -222,7 +286,11 @@ fn adapt(line: &str, ptys: &HashMap<String, String>) -> String {
         if l.contains("/dev/ttyUSB0") || l.contains("/dev/ttyACM0") {
             l = l.replace("/dev/ttyUSB0", pty).replace("/dev/ttyACM0", pty);
             if !l.contains("--parity") && family.as_deref() != Some("sbus") {
-                l = l.replacen(&format!("--port {pty}"), &format!("--port {pty} --parity none"), 1);
+                l = l.replacen(
+                    &format!("--port {pty}"),
+                    &format!("--port {pty} --parity none"),
+                    1,
+                );
             }
         }
         l = l.replace("/dev/pts/3", pty);

@@ -813,7 +813,10 @@ pub fn run(root: &Path, args: &[&str]) -> ExitCode {
         ExitCode::FAILURE
     } else if tally.skipped > 0 && std::env::var_os("CI").is_some() {
         // Under CI a check that could not run is not a pass.
-        println!("interop: {} check(s) skipped under CI: that fails", tally.skipped);
+        println!(
+            "interop: {} check(s) skipped under CI: that fails",
+            tally.skipped
+        );
         ExitCode::FAILURE
     } else {
         ExitCode::SUCCESS

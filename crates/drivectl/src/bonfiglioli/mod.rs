@@ -153,7 +153,8 @@ pub struct BonfiglioliArgs {
     /// Retries after a timeout or a corrupt answer.
     #[arg(long, global = true, default_value_t = 2)]
     retries: u8,
-    /// Drive address 1–247 (parameter 1376); 0 broadcasts a write to every drive.
+    /// Drive address 1–247 (parameter 1376); 0 broadcasts a write to every drive. Default 1:
+    /// 1376's factory setting.
     #[arg(long, global = true, default_value_t = 1)]
     addr: u8,
     /// The device: act (ACTIVE), acu (ACTIVE Cube), or auto: asked of the drive where it matters
@@ -1259,11 +1260,15 @@ async fn execute<IO: CharIo>(m: &mut MasterDriver<IO>, args: &BonfiglioliArgs) -
                 );
             }
             let ram_only = bonfiglioli::by_index(v.target.index).is_some_and(|p| p.ram_only);
-            if *volatile && v.target.sub <= 4 && !ram_only {
-                // The RAM-only twin of the data set.
-                v.target.sub += 5;
+            // RAM only: the data set + 5 on the wire (ch. 7), which the client sends for a
+            // volatile write. The target stays the data set itself (`--dataset 7` is data set 2
+            // in RAM): the manual names 5–9 for writes only, so the value is read back, and
+            // shown, as data set 2, the value in use.
+            let volatile = *volatile || v.target.sub >= 5 || ram_only;
+            if v.target.sub >= 5 {
+                v.target.sub -= 5;
             }
-            let persistence = if v.target.sub >= 5 || ram_only {
+            let persistence = if volatile {
                 Persistence::Volatile
             } else {
                 Persistence::NonVolatile
@@ -1337,6 +1342,7 @@ async fn execute<IO: CharIo>(m: &mut MasterDriver<IO>, args: &BonfiglioliArgs) -
                         "stop_bits": l.stop_bits.bits(), "bits_per_char": l.bits_per_char(),
                         "char_time_us": char_us,
                         "response_timeout_ms": c.response_timeout.as_millis() as u64,
+                        "address": args.addr,
                         "retries": c.retries,
                     })
                 )?;

@@ -72,7 +72,8 @@ pub struct MovilinkArgs {
     line: LineArgs,
     #[command(flatten)]
     master: MasterArgs,
-    /// Drive address: 0–99 single drive, 254 point-to-point.
+    /// Drive address: 0–99 single drive, 254 point-to-point. Default 0: P810's factory
+    /// setting.
     #[arg(long, global = true, default_value_t = 0)]
     addr: u8,
     /// One JSON object per result.
@@ -546,6 +547,7 @@ async fn execute<IO: CharIo>(m: &mut MasterDriver<IO>, args: &MovilinkArgs) -> R
                         "char_time_us": us(t.char_time), "start_pause_us": us(t.start_pause),
                         "max_gap_us": us(t.max_gap),
                         "response_timeout_ms": c.response_timeout.as_millis() as u64,
+                        "address": args.addr,
                         "retries": c.retries,
                     })
                 )?;

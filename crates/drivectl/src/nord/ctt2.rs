@@ -310,8 +310,10 @@ fn line(master: &Ctt2Master<SimLink>, args: &Ctt2Args, address: &DoubleSlaveAddr
                 "slaves": link.network().slave_count(),
                 "asi_cycle_us": cycle_us, "byte_time_us": byte_us,
                 "answer_window_ms": window_ms, "retries": config.retries,
+                // The key every family's `line --json` has: how long an answer is waited for.
+                "response_timeout_ms": window_ms,
                 "retry_pause_ms": config.retry_pause.as_millis() as u64,
-                "pkw_index": pkw_index, "pzd_index": 3, "drive_address": 1,
+                "pkw_index": pkw_index, "pzd_index": 3, "drive_address": 1, "address": 1,
                 "pkw_time_ms": ctt2_uss::ctt2::link::SIM_PKW_TIME.as_millis() as u64,
             })
         );

@@ -977,7 +977,12 @@ async fn info<C: ParameterChannel>(
                 "array_len": p.and_then(|q| q.array_len),
                 "array_len_drive": count.as_ref().and_then(|c| c.as_ref().ok().copied()),
                 "limits_from": p.map(|_| "table"),
-                "values": values,
+                // The drive's values (every set/element asked for), as `read --json` shows
+                // them; `values` is the value list in `params --json`.
+                "current": values,
+                "values": p.map(|q| q.values.iter().map(|v| json!({
+                    "value": v.value, "de": v.de, "en": v.en,
+                })).collect::<Vec<_>>()),
             })
         )?;
         return info_outcome(&current);

@@ -48,6 +48,7 @@ Examples:
   drivectl sbus --iface can0 scan
   drivectl sbus --iface can0 --addr 1 pd --out 0x0006,5000,0 --count 50
   drivectl sbus ids --addr 33                       the identifiers drive 33 uses (267, 268, …)
+  drivectl sbus plan --example > bus.toml           a plan file to start from
   drivectl sbus plan bus.toml                       check a bus's identifier plan
   drivectl sbus --iface can0 --addr 1 --capture s.log read P000   candump log of the session
 
@@ -65,11 +66,12 @@ pub struct SbusArgs {
     /// virtual (simulated drives in this process). Accepted before or after the subcommand.
     #[arg(long, global = true, default_value = "", hide_default_value = true)]
     iface: String,
-    /// SBus address of the drive (P813), 0–63.
+    /// SBus address of the drive (P813), 0–63. Default 0: P813's factory setting.
     #[arg(long, global = true, default_value_t = 0, value_parser = clap::value_parser!(u8).range(0..=63))]
     addr: u8,
     /// Response timeout per attempt in milliseconds, 1–60000 (a drive answers within 1 ms;
-    /// the default leaves room for USB adapters).
+    /// the default 50 leaves room for USB adapters). Less than an answer takes on the bus
+    /// (both frames at the bit rate and the 1 ms) is refused.
     #[arg(long, global = true, default_value_t = 50, value_parser = clap::value_parser!(u64).range(1..=MAX_TIMEOUT_MS))]
     timeout: u64,
     /// Retries after a timeout, 0–255.
@@ -241,10 +243,15 @@ enum SbusCommand {
     )]
     Plan {
         /// The plan file (`-`: standard input).
-        file: String,
+        #[arg(required_unless_present = "example")]
+        file: Option<String>,
         /// Also list each device's forbidden variable identifiers.
         #[arg(long)]
         forbidden: bool,
+        /// Print a commented plan file to start from (the manual's example of ch. 5.5, a
+        /// PLC and two drives with a variable telegram) instead of checking one.
+        #[arg(long, conflicts_with_all = ["file", "forbidden"])]
+        example: bool,
     },
 }
 
@@ -263,7 +270,17 @@ fn again(args: &SbusArgs) -> crate::tool::again::Again {
 pub fn run(args: &SbusArgs) -> Result<()> {
     match &args.command {
         SbusCommand::Ids { group } => return ids(args.addr, *group, args.sync_id, args.json),
-        SbusCommand::Plan { file, forbidden } => return plan::run(file, *forbidden, args.json),
+        SbusCommand::Plan { example: true, .. } => return out!("{}", plan::EXAMPLE),
+        SbusCommand::Plan {
+            file: Some(file),
+            forbidden,
+            ..
+        } => return plan::run(file, *forbidden, args.json),
+        SbusCommand::Plan { file: None, .. } => {
+            return Err(CliError::usage(
+                "give the plan file (or --example for one to start from)",
+            ));
+        }
         _ => {}
     }
     let iface = Iface::parse(&args.iface)?;
@@ -500,7 +517,7 @@ fn line(args: &SbusArgs, iface: &Iface, json: bool) -> Result<()> {
                 "iface": args.iface, "bitrate": known.then_some(rate.bits_per_second()),
                 "frame_8_bytes_us": known.then_some(us(frame)),
                 "least_timeout_us": us(least),
-                "response_timeout_ms": config.timeout.as_millis() as u64,
+                "response_timeout_ms": config.timeout.as_millis() as u64, "address": args.addr,
                 "retries": config.retries, "handshake": args.handshake,
                 "sync_id": args.sync_id,
             })

@@ -34,6 +34,40 @@ use serde_json::json;
 use crate::error::{CliError, Result};
 use crate::sbus::iface::parse_bitrate;
 
+/// `drivectl sbus plan --example`: a plan file to start from, every key with what it means.
+pub const EXAMPLE: &str = r#"# An SBus identifier plan for `drivectl sbus plan FILE`: the manual's example of ch. 5.5
+# (Bild 35), a drive (address 0) that is MOVLNK master of drive 1 and of group 2, with one
+# cyclic variable telegram.
+
+bitrate = "500k"                 # P816: 125k, 250k, 500k or 1M
+
+[[device]]
+name = "drive 0"
+address = 0                      # P813; leave out for a node that is no SBus slave (a PLC)
+group = 0                        # P814, 0 if left out
+sync_id = 0                      # P817, 0 if left out
+master_of = ["address 1", "group 2"]   # MOVLNK targets and master-slave groups
+
+[[device.object]]                # a variable telegram (IPOS _SBusCommDef)
+id = 1024
+kind = "cyclic"                  # cyclic, acyclic or receive
+cycle_ms = 100                   # cyclic only
+offset_ms = 0                    # cyclic only, 0 if left out
+len = 8                          # data bytes, 0-8
+format = "motorola"              # or "intel"
+
+[[device]]
+name = "drive 1"
+address = 1
+group = 2
+
+[[device.object]]
+id = 1024
+kind = "receive"
+len = 8
+format = "motorola"
+"#;
+
 /// The most a plan file may have (a plan of 64 devices with 32 objects each is far below).
 const PLAN_LIMIT: u64 = 4 << 20;
 
@@ -273,6 +307,13 @@ name = "device 2"
 address = 1
 group = 2
 "#;
+
+    #[test]
+    fn the_printed_example_parses_and_checks_clean() {
+        let plan = parse(EXAMPLE, "example").unwrap();
+        assert_eq!(plan.devices.len(), 2);
+        assert!(plan.check().is_empty(), "{:?}", plan.check());
+    }
 
     #[test]
     fn the_manual_example_parses_and_checks_clean() {

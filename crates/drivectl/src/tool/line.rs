@@ -71,7 +71,9 @@ pub const MAX_CHAR_GAP_MS: u64 = 10_000;
 /// Every option is accepted before or after the subcommand.
 #[derive(Debug, Args, Clone)]
 pub struct MasterArgs {
-    /// Response timeout in milliseconds, 1–60000 (MOVILINK allows a drive at most 50).
+    /// Response timeout in milliseconds, 1–60000. Default 50: the longest response delay
+    /// MOVILINK allows a drive. Less than the start pause a drive keeps before answering at the
+    /// baud rate is refused.
     #[arg(long, global = true, default_value_t = 50, value_parser = clap::value_parser!(u64).range(1..=MAX_TIMEOUT_MS))]
     pub timeout: u64,
     /// Retries after a timeout or a corrupt answer, 0–255 (255: 256 attempts, then give up).
