@@ -109,6 +109,9 @@ pub struct DriveFile {
     pub address: u8,
     /// `movidrive`, `nord` or `bonfiglioli`: must match the protocol when given.
     pub family: Option<String>,
+    /// Bonfiglioli: `act` (ACTIVE) or `acu` (ACTIVE Cube), for the status word 411's meaning
+    /// (its bits differ); without it 411 is decoded for what both share.
+    pub variant: Option<String>,
     /// `[[bus.drive.param]]`.
     #[serde(default, rename = "param")]
     pub params: Vec<Spanned<ParamFile>>,
@@ -325,6 +328,8 @@ pub struct Drive {
     pub points: Vec<Point>,
     /// Process data exchanged cyclically.
     pub process_data: Option<ProcessData>,
+    /// What is known of the drive for the meaning of its values (a Bonfiglioli variant).
+    pub device: crate::tool::meaning::Device,
 }
 
 /// One parameter of a drive on the broker.
@@ -847,6 +852,27 @@ fn check_drive(
             protocol.name()
         )));
     }
+    let device = match (d.variant.as_deref(), family) {
+        (None, _) => crate::tool::meaning::Device::default(),
+        (Some(v), Family::Bonfiglioli) => {
+            let variant = match v.to_ascii_lowercase().as_str() {
+                "act" => drive_profile::bonfiglioli::Variant::Act,
+                "acu" => drive_profile::bonfiglioli::Variant::Acu,
+                _ => {
+                    return Err(fail(format!(
+                        "{at}: variant = {v:?}: give \"act\" (ACTIVE) or \"acu\" (ACTIVE Cube)"
+                    )));
+                }
+            };
+            crate::tool::meaning::Device::bonfiglioli(variant, "given")
+        }
+        (Some(_), _) => {
+            return Err(fail(format!(
+                "{at}: variant is a key of Bonfiglioli drives (act or acu); {} drives have none",
+                family
+            )));
+        }
+    };
     let r = protocol.addresses();
     if !r.contains(&d.address) {
         return Err(fail(format!(
@@ -927,6 +953,7 @@ fn check_drive(
         address: d.address,
         points,
         process_data,
+        device,
     })
 }
 
@@ -1290,6 +1317,20 @@ writable = true
         assert!(err(&wrong).contains("data_set is for bonfiglioli parameters only"));
         let fam = MINIMAL.replace("address = 1", "address = 1\nfamily = \"nord\"");
         assert!(err(&fam).contains("movilink talks to"));
+        // A Bonfiglioli drive's variant, for the meaning of its status word 411.
+        let acu = bonf.replace("address = 1", "address = 1\nvariant = \"ACU\"");
+        let p = Plant::parse(&acu, "p").unwrap();
+        assert_eq!(
+            p.buses[0].drives[0].device,
+            crate::tool::meaning::Device::bonfiglioli(
+                drive_profile::bonfiglioli::Variant::Acu,
+                "given"
+            )
+        );
+        let bad = bonf.replace("address = 1", "address = 1\nvariant = \"cube\"");
+        assert!(err(&bad).contains("variant = \"cube\": give \"act\""), "{}", err(&bad));
+        let sew = MINIMAL.replace("address = 1", "address = 1\nvariant = \"act\"");
+        assert!(err(&sew).contains("variant is a key of Bonfiglioli drives"), "{}", err(&sew));
     }
 
     /// A config of one drive `d` on bus `b` of `protocol` with one point `pt` of `lines`.

@@ -138,6 +138,9 @@ pub enum SetOutcome {
     Written {
         /// Raw value read back after the write.
         raw: i64,
+        /// The drive holds another value than the one sent (it rounded or limited it): the raw
+        /// value sent, and what that means for a person (`Written::differs` of the write path).
+        differs: Option<(i64, String)>,
     },
     /// Refused before anything was sent (guard, not writable, stale, drive offline).
     Refused {

@@ -575,7 +575,7 @@ impl Out<'_> {
             now.saturating_duration_since(started),
         );
         let change = sched.done(Job::Write { drive }, now, answered);
-        if let SetOutcome::Written { raw } = outcome {
+        if let SetOutcome::Written { raw, .. } = outcome {
             self.send(Update::Value {
                 bus: self.ix,
                 drive,
@@ -854,12 +854,15 @@ async fn write_point<B: BusAccess>(
             };
             write_checked_with(&mut client, &req, false, &mut warn)
                 .await
-                .map(|w| w.back)
+                .map(|w| (w.back, w.differs.map(|d| (w.sent, d))))
         }
         Err(e) => Err(e),
     };
     match (result, client.error.take()) {
-        (Ok(back), _) => (SetOutcome::Written { raw: back }, Outcome::Answered),
+        (Ok((back, differs)), _) => (
+            SetOutcome::Written { raw: back, differs },
+            Outcome::Answered,
+        ),
         (Err(e), Some(ClientError::Device(_))) => (
             SetOutcome::DeviceRefused {
                 message: e.to_string(),
@@ -1377,11 +1380,29 @@ mod tests {
                 sleep(Duration::from_millis(500)).await;
                 // A value in the unit (1.5 s), then a raw one: written, read back, published.
                 let o = h.set(0, 0, SetValue::Value(json!(1.5))).await;
-                assert_eq!(o, SetOutcome::Written { raw: 1500 });
+                assert_eq!(
+                    o,
+                    SetOutcome::Written {
+                        raw: 1500,
+                        differs: None
+                    }
+                );
                 let o = h.set(0, 0, SetValue::Value(json!("2,5"))).await;
-                assert_eq!(o, SetOutcome::Written { raw: 2500 });
+                assert_eq!(
+                    o,
+                    SetOutcome::Written {
+                        raw: 2500,
+                        differs: None
+                    }
+                );
                 let o = h.set(1, 0, SetValue::Raw(2000)).await;
-                assert_eq!(o, SetOutcome::Written { raw: 2000 });
+                assert_eq!(
+                    o,
+                    SetOutcome::Written {
+                        raw: 2000,
+                        differs: None
+                    }
+                );
                 assert!(h.values(1, 0).iter().any(|v| v.1 == 2000));
                 assert_eq!(
                     h.state.borrow().written,

@@ -194,12 +194,11 @@ impl Outbox {
                 raw,
                 at,
             } => {
-                let Some(target) = plant
+                let Some((target, device)) = plant
                     .buses
                     .get(bus)
                     .and_then(|b| b.drives.get(drive))
-                    .and_then(|d| d.points.get(point))
-                    .map(|p| p.target)
+                    .and_then(|d| d.points.get(point).map(|p| (p.target, d.device)))
                 else {
                     return false;
                 };
@@ -211,7 +210,7 @@ impl Outbox {
                 };
                 if s.raw != Some(raw) || s.payload.is_none() || due(s) {
                     s.raw = Some(raw);
-                    s.payload = Some(payload::value(&target, raw, payload::millis(at)));
+                    s.payload = Some(payload::value(&target, raw, payload::millis(at), &device));
                     self.mark(ix);
                 }
                 true

@@ -6,6 +6,7 @@ use serde_json::{Map, Number, Value, json};
 
 use super::super::model::{BusFigures, DriveStatus, SetOutcome, SetValue};
 use crate::tool::client::Target;
+use crate::tool::meaning::Device;
 
 /// The largest `set` payload taken (bytes).
 pub const MAX_SET_PAYLOAD: usize = 4096;
@@ -33,7 +34,7 @@ fn rounded(v: f64, decimals: u8) -> Value {
 /// `value` (scaled with the parameter's table), `unit` (null where the table has none) and
 /// `text` (a value-list entry's English name, or the decoded meaning of a status word or fault,
 /// only where there is one) of `raw`.
-fn value_fields(t: &Target, raw: i64, m: &mut Map<String, Value>) {
+fn value_fields(t: &Target, raw: i64, device: &Device, m: &mut Map<String, Value>) {
     match t.param {
         Some(p) => {
             m.insert("value".into(), rounded(p.to_physical(raw), p.decimals()));
@@ -50,7 +51,7 @@ fn value_fields(t: &Target, raw: i64, m: &mut Map<String, Value>) {
             // fault's name), as `drivectl read` shows it.
             if let Some(n) = p.value_name(raw) {
                 m.insert("text".into(), json!(n.en));
-            } else if let Some(meaning) = crate::tool::meaning::meaning_of(t, raw) {
+            } else if let Some(meaning) = crate::tool::meaning::meaning_in(t, raw, device) {
                 m.insert("text".into(), json!(meaning.text));
             }
         }
@@ -61,10 +62,11 @@ fn value_fields(t: &Target, raw: i64, m: &mut Map<String, Value>) {
     }
 }
 
-/// `{"value":…,"unit":…,"raw":N,"ts":…}` (+ `"text"`).
-pub fn value(t: &Target, raw: i64, ts: u64) -> String {
+/// `{"value":…,"unit":…,"raw":N,"ts":…}` (+ `"text"`), the meaning for what is known of the
+/// drive (`device`: a Bonfiglioli variant).
+pub fn value(t: &Target, raw: i64, ts: u64, device: &Device) -> String {
     let mut m = Map::new();
-    value_fields(t, raw, &mut m);
+    value_fields(t, raw, device, &mut m);
     m.insert("raw".into(), json!(raw));
     m.insert("ts".into(), json!(ts));
     Value::Object(m).to_string()
@@ -101,7 +103,15 @@ pub fn process_data(inputs: &[u16], outputs: &[u16], ts: u64) -> String {
 /// The `…/result` of a `set`.
 pub fn result(outcome: &SetOutcome, t: &Target, id: Option<&Value>, ts: u64) -> String {
     let (ok, name, reason, message, raw) = match outcome {
-        SetOutcome::Written { raw } => (true, "written", None, None, Some(*raw)),
+        // The drive holds another value than the one sent: still written, and the message
+        // says what it holds and why.
+        SetOutcome::Written { raw, differs } => (
+            true,
+            "written",
+            None,
+            differs.as_ref().map(|(_, m)| m.as_str()),
+            Some(*raw),
+        ),
         SetOutcome::Refused { reason, message } => (
             false,
             "refused",
@@ -122,10 +132,15 @@ pub fn result(outcome: &SetOutcome, t: &Target, id: Option<&Value>, ts: u64) -> 
     m.insert("reason".into(), json!(reason));
     m.insert("message".into(), json!(message));
     m.insert("raw".into(), json!(raw));
+    if let SetOutcome::Written { differs, .. } = outcome {
+        // `sent`: the raw value sent, where the drive holds another (`raw`).
+        m.insert("differs".into(), json!(differs.is_some()));
+        m.insert("sent".into(), json!(differs.as_ref().map(|(s, _)| *s)));
+    }
     match raw {
         Some(r) => {
             let mut v = Map::new();
-            value_fields(t, r, &mut v);
+            value_fields(t, r, &Device::default(), &mut v);
             m.insert("value".into(), v.remove("value").unwrap_or(Value::Null));
             if let Some(text) = v.remove("text") {
                 m.insert("text".into(), text);
@@ -250,14 +265,17 @@ mod tests {
 
     #[test]
     fn value_json_scaled_with_unit_and_text() {
-        let v: Value = serde_json::from_str(&value(&target("P130"), 2500, 7)).unwrap();
+        let v: Value =
+            serde_json::from_str(&value(&target("P130"), 2500, 7, &Device::default())).unwrap();
         assert_eq!(v, json!({"value": 2.5, "unit": "s", "raw": 2500, "ts": 7}));
-        let v: Value = serde_json::from_str(&value(&target("P700"), 11, 8)).unwrap();
+        let v: Value =
+            serde_json::from_str(&value(&target("P700"), 11, 8, &Device::default())).unwrap();
         assert_eq!(v["value"], json!(11));
         assert_eq!(v["text"], json!("CFC"));
         assert_eq!(v["unit"], Value::Null);
         // A status word: its bits decoded, as `drivectl read` shows them.
-        let v: Value = serde_json::from_str(&value(&target("P010"), 0x0407, 9)).unwrap();
+        let v: Value =
+            serde_json::from_str(&value(&target("P010"), 0x0407, 9, &Device::default())).unwrap();
         assert_eq!(v["raw"], json!(0x0407));
         let text = v["text"].as_str().unwrap();
         assert!(
@@ -270,8 +288,28 @@ mod tests {
             sub: 0,
             param: None,
         };
-        let v: Value = serde_json::from_str(&value(&raw, -3, 9)).unwrap();
+        let v: Value = serde_json::from_str(&value(&raw, -3, 9, &Device::default())).unwrap();
         assert_eq!(v, json!({"value": -3, "unit": null, "raw": -3, "ts": 9}));
+    }
+
+    #[test]
+    fn issue18_bonfiglioli_411_carries_its_meaning_for_the_configured_variant() {
+        use crate::tool::meaning::Device;
+        use drive_profile::bonfiglioli::Variant;
+        let t = Target::resolve(Family::Bonfiglioli, "411", 0..=1599).unwrap();
+        let text = |d: &Device| -> String {
+            let v: Value = serde_json::from_str(&value(&t, 0x23, 1, d)).unwrap();
+            v["text"].as_str().unwrap_or_default().to_owned()
+        };
+        let shared = text(&Device::default());
+        assert!(shared.contains("switched on"), "{shared}");
+        let acu = text(&Device::bonfiglioli(Variant::Acu, "given"));
+        assert!(
+            acu.contains("ACU") && acu.contains("mains voltage"),
+            "{acu}"
+        );
+        let act = text(&Device::bonfiglioli(Variant::Act, "given"));
+        assert!(act.contains("ACT") && !act.contains("mains"), "{act}");
     }
 
     #[test]
@@ -298,7 +336,10 @@ mod tests {
         let p: Value = serde_json::from_str(&process_data(&[1, 2], &[6, 1500], 4)).unwrap();
         assert_eq!(p, json!({"in": [1, 2], "out": [6, 1500], "ts": 4}));
         let r: Value = serde_json::from_str(&result(
-            &SetOutcome::Written { raw: 3000 },
+            &SetOutcome::Written {
+                raw: 3000,
+                differs: None,
+            },
             &target("P130"),
             Some(&json!("a1")),
             5,
@@ -307,8 +348,25 @@ mod tests {
         assert_eq!(
             r,
             json!({"ok": true, "outcome": "written", "reason": null, "message": null,
-                   "raw": 3000, "value": 3.0, "id": "a1", "ts": 5})
+                   "raw": 3000, "value": 3.0, "id": "a1", "ts": 5, "differs": false,
+                   "sent": null})
         );
+        // Issue 18 B10: a write the drive holds differently says so on result.
+        let r: Value = serde_json::from_str(&result(
+            &SetOutcome::Written {
+                raw: 66000,
+                differs: Some((65536, "P130 was written with raw 65536 …".into())),
+            },
+            &target("P130"),
+            None,
+            6,
+        ))
+        .unwrap();
+        assert_eq!(
+            (&r["ok"], &r["differs"], &r["sent"], &r["raw"]),
+            (&json!(true), &json!(true), &json!(65536), &json!(66000))
+        );
+        assert!(r["message"].as_str().unwrap().contains("65536"), "{r}");
         let r: Value = serde_json::from_str(&result(
             &SetOutcome::Refused {
                 reason: "range",

@@ -227,7 +227,12 @@ async fn a_set_is_answered_through_the_bus() {
             assert_eq!((req.drive, req.point), (0, 0));
             assert_eq!(req.value, SetValue::Value(json!(3.5)));
             assert!(req.max_age <= Duration::from_secs(10) && req.max_age > Duration::from_secs(5));
-            req.reply.send(SetOutcome::Written { raw: 3500 }).unwrap();
+            req.reply
+                .send(SetOutcome::Written {
+                    raw: 3500,
+                    differs: None,
+                })
+                .unwrap();
             let r = c
                 .next_on(&format!("{BASE}/ramp/result"), WAIT)
                 .await
@@ -511,7 +516,12 @@ async fn a_result_ready_during_an_outage_is_published_at_reconnection() {
             b.stop();
             gw.until("the gateway sees the broker gone", |s| !s.connected)
                 .await;
-            req.reply.send(SetOutcome::Written { raw: 42 }).unwrap();
+            req.reply
+                .send(SetOutcome::Written {
+                    raw: 42,
+                    differs: None,
+                })
+                .unwrap();
             tokio::time::sleep(Duration::from_millis(100)).await;
             b.restart();
             // Subscribe before the gateway is back, so the (unretained) result is seen.
@@ -700,7 +710,10 @@ async fn a_result_ready_at_the_stop_is_published_before_offline() {
                 .unwrap()
                 .unwrap();
             // The bus answers and the gateway stops at the same moment.
-            let _ = req.reply.send(SetOutcome::Written { raw: 2000 });
+            let _ = req.reply.send(SetOutcome::Written {
+                raw: 2000,
+                differs: None,
+            });
             gw.shutdown().await;
             let got = c.collect(QUIET).await;
             let topics: Vec<String> = got
