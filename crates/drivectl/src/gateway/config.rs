@@ -779,22 +779,53 @@ fn check_line(at: &str, b: BusFile) -> std::result::Result<Bus, String> {
     }
     // As `drivectl movilink` and `drivectl uss` refuse it: a timeout shorter than the pause a
     // drive keeps before answering lets no answer arrive in time (the drives would flap).
+    // The same floors `drivectl` puts under `--timeout` in every family (issue 18 C).
     let before_answer = match protocol {
-        Protocol::Movilink => Some(("start pause", movilink::timing::start_pause(&line))),
+        Protocol::Movilink => Some((
+            format!(
+                "start pause a drive keeps before answering at {} baud",
+                line.baud
+            ),
+            movilink::timing::start_pause(&line),
+        )),
         Protocol::Uss => Some((
-            "start delay",
+            format!(
+                "start delay a drive keeps before answering at {} baud",
+                line.baud
+            ),
             ctt2_uss::serial::framing::UssTiming::from_line(&line).start_delay,
         )),
-        _ => None,
+        Protocol::ModbusRtu | Protocol::ModbusAscii => {
+            let mode = if protocol == Protocol::ModbusAscii {
+                bonfiglioli_modbus::framing::Mode::Ascii
+            } else {
+                bonfiglioli_modbus::framing::Mode::Rtu
+            };
+            Some((
+                format!(
+                    "exchange takes at {} baud (request, the drive's 10 ms answer delay, answer)",
+                    line.baud
+                ),
+                crate::bonfiglioli::least_timeout(mode, &line),
+            ))
+        }
+        Protocol::Sbus => drive_core::can::Bitrate::new(bitrate).map(|rate| {
+            (
+                format!(
+                    "parameter answer takes at {} kbit/s (both frames and the drive's 1 ms)",
+                    bitrate / 1000
+                ),
+                crate::sbus::least_timeout(rate, sbus_can::master::Handshake::Async),
+            )
+        }),
     };
     if let Some((what, pause)) = before_answer
         && timeout < pause
     {
         return Err(format!(
-            "{at}: timeout = {} ms is shorter than the {what} a drive keeps before answering at \
-             {} baud ({:.2} ms): no answer could arrive in time; give at least \"{}ms\"",
+            "{at}: timeout = {} ms is shorter than the {what} ({:.2} ms): no answer could \
+             arrive in time; give at least \"{}ms\"",
             timeout.as_millis(),
-            line.baud,
             pause.as_secs_f64() * 1e3,
             pause.as_micros().div_ceil(1000)
         ));
@@ -1138,6 +1169,21 @@ writable = true
                 "at 300 baud",
             ),
             (
+                with(
+                    "protocol = \"movilink\"\nport = \"/dev/ttyUSB0\"",
+                    "protocol = \"modbus-rtu\"\nport = \"/dev/ttyUSB0\"\ntimeout = \"5ms\"",
+                )
+                .replace("P130", "372"),
+                "10 ms answer delay",
+            ),
+            (
+                with(
+                    "protocol = \"movilink\"\nport = \"/dev/ttyUSB0\"",
+                    "protocol = \"sbus\"\niface = \"can0\"\ntimeout = \"1ms\"",
+                ),
+                "at 500 kbit/s",
+            ),
+            (
                 with("param = \"P130\"", "param = \"P9999\""),
                 "no movidrive parameter",
             ),
@@ -1328,9 +1374,17 @@ writable = true
             )
         );
         let bad = bonf.replace("address = 1", "address = 1\nvariant = \"cube\"");
-        assert!(err(&bad).contains("variant = \"cube\": give \"act\""), "{}", err(&bad));
+        assert!(
+            err(&bad).contains("variant = \"cube\": give \"act\""),
+            "{}",
+            err(&bad)
+        );
         let sew = MINIMAL.replace("address = 1", "address = 1\nvariant = \"act\"");
-        assert!(err(&sew).contains("variant is a key of Bonfiglioli drives"), "{}", err(&sew));
+        assert!(
+            err(&sew).contains("variant is a key of Bonfiglioli drives"),
+            "{}",
+            err(&sew)
+        );
     }
 
     /// A config of one drive `d` on bus `b` of `protocol` with one point `pt` of `lines`.
