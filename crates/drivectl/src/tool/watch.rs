@@ -194,6 +194,7 @@ async fn poll_loop<C: ParamClient>(
                 }
             }
         }
+        crate::tool::stale::note_stale(client.stale_bytes());
         let text = match options.format {
             Format::Table => {
                 let table = table(&time, options.interval, targets, &cells);
