@@ -11,7 +11,10 @@
 //!    [`Exchange::handle_timeout`] at [`Exchange::poll_timeout`];
 //! 4. each call may return an [`ExchangeEvent`]: a confirmed frame for the protocol to judge
 //!    ([`Exchange::complete`] it, [`Exchange::requeue`] the next exchange of the same job, or
-//!    [`Exchange::fail`] the attempt), a rejection, or no answer in time.
+//!    [`Exchange::fail`] the attempt), a rejection, or no answer in time;
+//! 5. as an [`Endpoint`](crate::Endpoint), the master forwards
+//!    [`Endpoint::frame_left`](crate::Endpoint::frame_left) to [`Exchange::left_at`] (a port
+//!    without wire time says when a frame has left) and reports [`Exchange::stale_chars`].
 //!
 //! What it enforces:
 //!
