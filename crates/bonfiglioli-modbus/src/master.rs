@@ -162,6 +162,14 @@ impl Master {
         self.job.is_none()
     }
 
+    /// Characters received so far that were never taken as an answer because they arrived
+    /// while a request waited for the bus or before it had completely left the wire: an FC 3
+    /// or FC 100 answer names neither the parameter nor the data set, so an answer an earlier
+    /// program left in the port is told from this request's answer only by when it came.
+    pub fn stale_chars(&self) -> u64 {
+        self.exchange.stale_chars()
+    }
+
     /// Change the response timeout (from the next transmission on).
     pub fn set_response_timeout(&mut self, timeout: Duration) {
         self.config.response_timeout = timeout;
@@ -313,5 +321,13 @@ impl Endpoint for Master {
 
     fn max_frame_len(&self) -> usize {
         MAX_FRAME
+    }
+
+    fn frame_left(&mut self, at: Instant) {
+        self.exchange.left_at(at);
+    }
+
+    fn stale_chars(&self) -> u64 {
+        self.exchange.stale_chars()
     }
 }

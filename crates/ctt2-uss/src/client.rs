@@ -42,6 +42,13 @@ pub trait ParameterChannel {
     /// Ask again for the answer to `order`, the order last submitted (USS: send the same
     /// telegram again; CTT2: read the parameter channel).
     fn poll(&mut self, order: Pkw) -> impl Future<Output = Result<Pkw, Self::Error>>;
+
+    /// Bytes the transport discarded so far because they arrived before a telegram had left
+    /// the port (an answer an earlier program left there, a late answer); 0 where the
+    /// transport has no such bytes.
+    fn stale_bytes(&self) -> u64 {
+        0
+    }
 }
 
 /// A transport's process-data channel.

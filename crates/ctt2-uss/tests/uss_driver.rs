@@ -431,6 +431,9 @@ impl drive_core::rt::CharIo for Tap {
     fn honours_write_start(&self) -> bool {
         drive_core::rt::CharIo::honours_write_start(&self.inner)
     }
+    fn wire_time(&self) -> drive_core::rt::WireTime {
+        drive_core::rt::CharIo::wire_time(&self.inner)
+    }
 }
 
 /// On the wire model: every answer starts at least the start delay (2 characters) after its

@@ -32,4 +32,21 @@ pub trait Endpoint {
 
     /// The longest frame [`Endpoint::poll_transmit`] writes.
     fn max_frame_len(&self) -> usize;
+
+    /// The frame the last [`Endpoint::poll_transmit`] returned has completely left the port at
+    /// `at`. A port that carries frames without wire time (a pseudo-terminal, an in-memory
+    /// pipe) or knows the moment better than the frame's length × character time says so; a
+    /// master judges characters that completed by then as stale (they cannot answer it). By
+    /// default nothing happens: the frame's wire time stands.
+    fn frame_left(&mut self, at: Instant) {
+        let _ = at;
+    }
+
+    /// Characters received so far that were never taken as an answer because they arrived
+    /// while a request waited for the bus or was still leaving it (stale: an answer an earlier
+    /// program left in the port, a late answer, another master); cumulative, 0 for an endpoint
+    /// that sends no requests.
+    fn stale_chars(&self) -> u64 {
+        0
+    }
 }

@@ -11,7 +11,10 @@
 //!    [`Exchange::handle_timeout`] at [`Exchange::poll_timeout`];
 //! 4. each call may return an [`ExchangeEvent`]: a confirmed frame for the protocol to judge
 //!    ([`Exchange::complete`] it, [`Exchange::requeue`] the next exchange of the same job, or
-//!    [`Exchange::fail`] the attempt), a rejection, or no answer in time.
+//!    [`Exchange::fail`] the attempt), a rejection, or no answer in time;
+//! 5. as an [`Endpoint`](crate::Endpoint), the master forwards
+//!    [`Endpoint::frame_left`](crate::Endpoint::frame_left) to [`Exchange::left_at`] (a port
+//!    without wire time says when a frame has left) and reports [`Exchange::stale_chars`].
 //!
 //! What it enforces:
 //!
@@ -27,7 +30,14 @@
 //!   give-up time fails the attempt, the receiver forgets everything when the next request is
 //!   transmitted, characters arriving while no request waits are only bus activity (they delay
 //!   the next transmission until the line was quiet for the idle gap), and the protocol checks
-//!   that a frame answers *its* request before completing it.
+//!   that a frame answers *its* request before completing it;
+//! * stale characters are never an answer: a character that arrives while the request waits
+//!   for the bus, or before the request has completely left the wire (its start plus its
+//!   length × character time, or the instant a port without wire time reports with
+//!   [`Exchange::left_at`]), cannot answer it. It is bus activity, never fed to the receiver,
+//!   and counted ([`Exchange::stale_chars`]). Many answers do not name what they answer
+//!   (Modbus FC 3, MOVILINK process data, USS PZD), so this rule, not the protocol's checks,
+//!   is what keeps an answer an earlier program left in the port from being taken.
 
 use core::time::Duration;
 
@@ -87,8 +97,9 @@ pub struct Busy;
 enum Phase {
     /// Waiting for the bus to allow the (re)transmission.
     Queued,
-    /// Transmitted; give up at `give_up` unless an answer is being received.
-    Waiting { give_up: Instant },
+    /// Transmitted; it has completely left the wire at `left` (characters completing by then
+    /// are stale); give up at `give_up` unless an answer is being received.
+    Waiting { left: Instant, give_up: Instant },
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -127,6 +138,8 @@ pub struct Exchange<F: Framing, const N: usize> {
     gate: TxGate,
     now: Instant,
     job: Option<Job>,
+    /// Characters that could not answer the request they arrived with (see the module docs).
+    stale: u64,
 }
 
 impl<F: Framing, const N: usize> Exchange<F, N> {
@@ -141,6 +154,7 @@ impl<F: Framing, const N: usize> Exchange<F, N> {
             gate,
             now: Instant::ZERO,
             job: None,
+            stale: 0,
         }
     }
 
@@ -207,6 +221,41 @@ impl<F: Framing, const N: usize> Exchange<F, N> {
         )
     }
 
+    /// Characters received so far that could not answer the request they arrived with: while
+    /// it waited for the bus, or before it had completely left the wire (an answer an earlier
+    /// program left in the port, a late answer to an earlier attempt, another master). They
+    /// were never fed to the receiver.
+    pub fn stale_chars(&self) -> u64 {
+        self.stale
+    }
+
+    /// When the request in flight has completely left the wire, while its answer is awaited:
+    /// its start plus its length × character time unless [`Exchange::left_at`] said otherwise.
+    pub fn request_left(&self) -> Option<Instant> {
+        match self.job {
+            Some(Job {
+                phase: Phase::Waiting { left, .. },
+                ..
+            }) => Some(left),
+            _ => None,
+        }
+    }
+
+    /// The request just transmitted finished leaving the port at `at`, not at the end of its
+    /// wire time: a port that carries frames without wire time (a pseudo-terminal, an
+    /// in-memory pipe) has delivered it once the write returned, and the other side may answer
+    /// from then on. Characters completing at or before `at` are stale. The response timeout
+    /// still counts from the end of the wire time. No effect unless an answer is awaited.
+    pub fn left_at(&mut self, at: Instant) {
+        if let Some(Job {
+            phase: Phase::Waiting { left, .. },
+            ..
+        }) = self.job.as_mut()
+        {
+            *left = at;
+        }
+    }
+
     /// Transmissions of the current exchange so far.
     pub fn attempts(&self) -> u16 {
         self.job.map_or(0, |j| j.attempts)
@@ -253,6 +302,7 @@ impl<F: Framing, const N: usize> Exchange<F, N> {
         job.attempts = job.attempts.saturating_add(1);
         if answered {
             job.phase = Phase::Waiting {
+                left: end,
                 give_up: end
                     .add_nanos(self.ns.response_timeout)
                     .add_nanos(self.ns.char_time),
@@ -311,7 +361,7 @@ impl<F: Framing, const N: usize> Exchange<F, N> {
         let job = self.job.as_ref()?;
         Some(match job.phase {
             Phase::Queued => self.gate.earliest_start().later(self.now),
-            Phase::Waiting { give_up } => self.receiver.poll_timeout().unwrap_or(give_up),
+            Phase::Waiting { give_up, .. } => self.receiver.poll_timeout().unwrap_or(give_up),
         })
     }
 
@@ -330,19 +380,29 @@ impl<F: Framing, const N: usize> Exchange<F, N> {
     pub fn response_deadline(&self) -> Option<Instant> {
         match self.job {
             Some(Job {
-                phase: Phase::Waiting { give_up },
+                phase: Phase::Waiting { give_up, .. },
                 ..
             }) if !self.receiver.is_receiving() => Some(give_up),
             _ => None,
         }
     }
 
-    /// Feed one character received from the bus.
+    /// Feed one character received from the bus. While no request is in flight it is bus
+    /// activity only; while the request waits for the bus or has not completely left the wire
+    /// it is stale (counted, never an answer).
     #[inline]
     pub fn handle_char(&mut self, c: RxChar) -> Option<ExchangeEvent<F::Frame, F::Error>> {
         self.advance(c.time);
         self.gate.on_activity(c.time);
-        let give_up = self.give_up()?;
+        let give_up = match self.job?.phase {
+            Phase::Waiting { left, give_up } if c.time > left => give_up,
+            // Queued, or it completed while the request was still on the wire: it cannot
+            // answer it (an earlier answer left in the port, a late one, another master).
+            _ => {
+                self.stale = self.stale.saturating_add(1);
+                return None;
+            }
+        };
         if !self.receiver.is_receiving() && c.time > give_up {
             // The answer did not start in time: this character is too late.
             return Some(ExchangeEvent::NoAnswer(self.fail()));
@@ -372,7 +432,7 @@ impl<F: Framing, const N: usize> Exchange<F, N> {
     fn give_up(&self) -> Option<Instant> {
         match self.job {
             Some(Job {
-                phase: Phase::Waiting { give_up },
+                phase: Phase::Waiting { give_up, .. },
                 ..
             }) => Some(give_up),
             _ => None,

@@ -189,6 +189,12 @@ impl Endpoint for Master {
     fn max_frame_len(&self) -> usize {
         16
     }
+    fn frame_left(&mut self, at: Instant) {
+        self.x.left_at(at);
+    }
+    fn stale_chars(&self) -> u64 {
+        self.x.stale_chars()
+    }
 }
 
 /// One request through the port's transaction loop ([`Port::transact`]): the answer, or the
@@ -752,4 +758,177 @@ async fn a_port_that_sends_now_keeps_tokios_time() {
     let (start, written, on_wire, _) = port.get_ref().0.writes[0].clone();
     assert_eq!(start, None);
     assert_eq!(on_wire, written);
+}
+
+// ----- Issue 18: stale characters on the port -----
+
+use drive_core::rt::WireTime;
+
+/// A line for the stale rules: characters readable from given instants and timed when read
+/// (as a serial port or a pseudo-terminal times them), bytes that appear while a frame is
+/// written (they arrived while it was leaving), the drive's answer a while after each write,
+/// and the wire time the line declares.
+struct Line {
+    wire: WireTime,
+    input: VecDeque<(TokioInstant, u8)>,
+    sleep: Option<Pin<Box<Sleep>>>,
+    /// Readable as soon as the next frame has been written.
+    during_write: Vec<u8>,
+    /// Readable this long after each write, with this delay.
+    answer: Option<(Duration, Vec<u8>)>,
+}
+
+impl Line {
+    fn new(wire: WireTime) -> Self {
+        Self {
+            wire,
+            input: VecDeque::new(),
+            sleep: None,
+            during_write: Vec::new(),
+            answer: None,
+        }
+    }
+    fn readable(&mut self, at: TokioInstant, bytes: &[u8]) {
+        self.input.extend(bytes.iter().map(|&b| (at, b)));
+        self.input.make_contiguous().sort_by_key(|&(t, _)| t);
+    }
+}
+
+impl CharIo for Line {
+    fn poll_read_chars(
+        &mut self,
+        cx: &mut Context<'_>,
+        buf: &mut [ReceivedChar],
+    ) -> Poll<std::io::Result<usize>> {
+        let now = TokioInstant::now();
+        let mut n = 0;
+        while let Some(&(at, byte)) = self.input.front() {
+            if at > now || n == buf.len() {
+                break;
+            }
+            self.input.pop_front();
+            buf[n] = ReceivedChar::new(byte, now);
+            n += 1;
+        }
+        if n > 0 {
+            return Poll::Ready(Ok(n));
+        }
+        if let Some(&(at, _)) = self.input.front() {
+            let sleep = self
+                .sleep
+                .get_or_insert_with(|| Box::pin(tokio::time::sleep_until(at)));
+            sleep.as_mut().reset(at);
+            if sleep.as_mut().poll(cx).is_ready() {
+                cx.waker().wake_by_ref();
+            }
+        }
+        Poll::Pending
+    }
+    fn poll_write(&mut self, _: &mut Context<'_>, buf: &[u8]) -> Poll<std::io::Result<usize>> {
+        let now = TokioInstant::now();
+        let during = std::mem::take(&mut self.during_write);
+        self.readable(now, &during);
+        if let Some((delay, bytes)) = self.answer.clone() {
+            self.readable(now + delay, &bytes);
+        }
+        Poll::Ready(Ok(buf.len()))
+    }
+    fn poll_flush(&mut self, _: &mut Context<'_>) -> Poll<std::io::Result<()>> {
+        Poll::Ready(Ok(()))
+    }
+    fn wire_time(&self) -> WireTime {
+        self.wire
+    }
+}
+
+/// The Toy master of this file, for a request to station 3 on `line` at 9600 baud (8E1,
+/// 1.146 ms per character): `(answer payload, what the transaction counted)`.
+async fn stale_session(line: Line) -> (Result<([u8; 8], usize), u16>, Tally) {
+    let settings = LineSettings::new(9600);
+    let config = ExchangeConfig {
+        response_timeout: Duration::from_millis(50),
+        retries: 0,
+        retry_pause: settings.char_times(4, 1),
+        unanswered_hold: Duration::ZERO,
+        min_idle_gap: Duration::ZERO,
+    };
+    let mut master = Master {
+        x: Exchange::new(Toy { line: settings }, config),
+        request: None,
+        result: None,
+    };
+    let mut port = Port::new(line, Clock::Real, settings.char_time());
+    master.send(3, &[10, 20], port.now());
+    run(&mut port, &mut master).await
+}
+
+fn frame(address: u8, payload: &[u8]) -> Vec<u8> {
+    let mut buf = [0u8; 16];
+    let n = encode(address, payload, &mut buf);
+    buf[..n].to_vec()
+}
+
+/// The request of `stale_session` is 6 characters: 6.875 ms on the wire at 9600 8E1.
+const REQUEST_WIRE_TIME: Duration = Duration::from_nanos(6 * 1_145_834);
+
+/// An answer an earlier program left waiting in the port is heard before the request goes out:
+/// stale (counted, never the answer) on every kind of port, even with no retries.
+#[tokio::test(start_paused = true)]
+async fn issue18_an_answer_waiting_in_the_port_is_stale_on_every_kind_of_port() {
+    for wire in [
+        WireTime::Real,
+        WireTime::None,
+        WireTime::Unknown,
+        WireTime::Exact,
+    ] {
+        let mut line = Line::new(wire);
+        line.readable(TokioInstant::now(), &frame(3, &[99, 99]));
+        line.answer = Some((
+            REQUEST_WIRE_TIME + Duration::from_millis(5),
+            frame(3, &[11, 21]),
+        ));
+        let (r, tally) = stale_session(line).await;
+        assert_eq!(r.unwrap().0[..3], [3, 11, 21], "{wire:?}");
+        assert_eq!((tally.sent, tally.stale), (1, 6), "{wire:?}");
+    }
+}
+
+/// What arrives while the request is being written arrived before it had left: stale on a
+/// serial port and on a pseudo-terminal (read right after the write); on a real line also what
+/// comes after the write returned but within the request's wire time.
+#[tokio::test(start_paused = true)]
+async fn issue18_what_arrives_while_the_request_leaves_is_stale() {
+    for wire in [WireTime::Real, WireTime::None] {
+        let mut line = Line::new(wire);
+        line.during_write = frame(3, &[99, 99]);
+        line.answer = Some((
+            REQUEST_WIRE_TIME + Duration::from_millis(5),
+            frame(3, &[11, 21]),
+        ));
+        let (r, tally) = stale_session(line).await;
+        assert_eq!(r.unwrap().0[..3], [3, 11, 21], "{wire:?}");
+        assert_eq!(tally.stale, 6, "{wire:?}");
+    }
+    // A real line: a frame 2 ms after the write is still within the request's 6.9 ms.
+    let mut line = Line::new(WireTime::Real);
+    let start = TokioInstant::now();
+    line.readable(start + Duration::from_millis(2), &frame(3, &[99, 99]));
+    line.answer = Some((
+        REQUEST_WIRE_TIME + Duration::from_millis(5),
+        frame(3, &[11, 21]),
+    ));
+    let (r, tally) = stale_session(line).await;
+    assert_eq!(r.unwrap().0[..3], [3, 11, 21]);
+    assert_eq!(tally.stale, 6);
+}
+
+/// A pseudo-terminal carries no wire time: the other side answers as soon as it has read the
+/// request, long before its wire time is over, and that answer is taken.
+#[tokio::test(start_paused = true)]
+async fn issue18_an_early_answer_on_a_pseudo_terminal_is_the_answer() {
+    let mut line = Line::new(WireTime::None);
+    line.answer = Some((Duration::from_millis(1), frame(3, &[11, 21])));
+    let (r, tally) = stale_session(line).await;
+    assert_eq!(r.unwrap().0[..3], [3, 11, 21]);
+    assert_eq!(tally.stale, 0);
 }

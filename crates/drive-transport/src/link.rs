@@ -93,7 +93,7 @@ use tokio::io::{AsyncRead, AsyncWrite, ReadBuf};
 use tokio::time::{Instant, Sleep};
 
 use drive_core::line::{LineSettings, Parity};
-use drive_core::rt::{CharIo, ReceivedChar, TIMER_RESOLUTION};
+use drive_core::rt::{CharIo, ReceivedChar, TIMER_RESOLUTION, WireTime};
 use drive_core::{CharError, SplitMix64};
 
 /// One character as a UART receives it.
@@ -827,6 +827,15 @@ impl CharIo for LinkEnd {
     fn honours_write_start(&self) -> bool {
         // With wire timing off the link delivers at once: nothing to place.
         true
+    }
+
+    fn wire_time(&self) -> WireTime {
+        if lock(&self.tx).timing {
+            WireTime::Exact
+        } else {
+            // Delivered at once, timed when read.
+            WireTime::None
+        }
     }
 }
 

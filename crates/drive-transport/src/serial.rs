@@ -3,7 +3,14 @@
 //! [`open`] opens the device at a neutral 9600 8N1 first and then applies baud rate, data bits,
 //! parity and stop bits one at a time, reading each back. A setting the device refuses (an
 //! error) or silently ignores (the read-back differs) becomes
-//! [`TransportError::Unsupported`] naming exactly that setting, with a hint.
+//! [`TransportError::Unsupported`] naming exactly that setting, with a hint. Once the settings
+//! are applied it discards what the port's input already holds (`tcflush(TCIFLUSH)`): bytes
+//! an earlier program left there (an answer to a request of a master that was killed) are never
+//! read as an answer; [`SerialPort::flushed_at_open`] says how many there were.
+//!
+//! A [`SerialPort`] is a [`CharIo`] itself: characters timed when read, and a frame that takes
+//! its wire time to leave ([`WireTime::Real`]), except on a pseudo-terminal, which has no wire
+//! time ([`WireTime::None`]).
 
 use std::fmt;
 use std::io;
@@ -11,6 +18,7 @@ use std::pin::Pin;
 use std::task::{Context, Poll};
 use std::time::Duration;
 
+use drive_core::rt::{CharIo, ReceivedChar, Stream, WireTime};
 use tokio::io::{AsyncRead, AsyncWrite, ReadBuf};
 use tokio_serial::SerialPort as _;
 
@@ -106,6 +114,10 @@ impl fmt::Display for SerialConfig {
 pub struct SerialPort {
     stream: tokio_serial::SerialStream,
     config: SerialConfig,
+    /// Bytes the input held when the port was opened (discarded).
+    flushed: u32,
+    /// A pseudo-terminal: no wire time.
+    pty: bool,
 }
 
 impl SerialPort {
@@ -117,6 +129,20 @@ impl SerialPort {
     /// Time one character occupies the wire.
     pub fn char_time(&self) -> Duration {
         self.config.char_time()
+    }
+
+    /// How many bytes the port's input held when it was opened, discarded by [`open`]: what an
+    /// earlier program left there (e.g. an answer to the request of a master that was
+    /// killed). Bytes still on their way then (a USB adapter's buffer) come later; a master
+    /// on the runtime layer's port never takes them for an answer either.
+    pub fn flushed_at_open(&self) -> u32 {
+        self.flushed
+    }
+
+    /// Whether the device is a pseudo-terminal (no wire time: a frame written to it has left
+    /// once the write returned).
+    pub fn is_pty(&self) -> bool {
+        self.pty
     }
 
     /// Discards bytes received but not yet read and bytes written but not yet sent
@@ -153,6 +179,35 @@ impl AsyncWrite for SerialPort {
 
     fn poll_shutdown(mut self: Pin<&mut Self>, cx: &mut Context<'_>) -> Poll<io::Result<()>> {
         Pin::new(&mut self.stream).poll_shutdown(cx)
+    }
+}
+
+/// Characters timed when read (as [`Stream`]); frames take their wire time except on a
+/// pseudo-terminal.
+impl CharIo for SerialPort {
+    fn poll_read_chars(
+        &mut self,
+        cx: &mut Context<'_>,
+        buf: &mut [ReceivedChar],
+    ) -> Poll<io::Result<usize>> {
+        Stream(&mut self.stream).poll_read_chars(cx, buf)
+    }
+
+    fn poll_write(&mut self, cx: &mut Context<'_>, buf: &[u8]) -> Poll<io::Result<usize>> {
+        Pin::new(&mut self.stream).poll_write(cx, buf)
+    }
+
+    /// Waits for the transmitter (`tcdrain`): on a UART the frame has left when it returns.
+    fn poll_flush(&mut self, cx: &mut Context<'_>) -> Poll<io::Result<()>> {
+        Pin::new(&mut self.stream).poll_flush(cx)
+    }
+
+    fn wire_time(&self) -> WireTime {
+        if self.pty {
+            WireTime::None
+        } else {
+            WireTime::Real
+        }
     }
 }
 
@@ -209,11 +264,47 @@ pub fn open(config: &SerialConfig) -> Result<SerialPort, TransportError> {
     if let Some(rs485) = &config.rs485 {
         apply_rs485(&stream, path, rs485)?;
     }
+    let flushed = flush_input(&stream, path)?;
 
     Ok(SerialPort {
         stream,
         config: config.clone(),
+        flushed,
+        pty: is_pty_path(path),
     })
+}
+
+/// Discard what the port's input holds (`tcflush(TCIFLUSH)`), after the settings are applied;
+/// returns how many bytes that was (`FIONREAD` just before; 0 where the device cannot say).
+fn flush_input(stream: &tokio_serial::SerialStream, path: &str) -> Result<u32, TransportError> {
+    let waiting = stream.bytes_to_read().unwrap_or(0);
+    stream
+        .clear(tokio_serial::ClearBuffer::Input)
+        .map_err(|e| TransportError::Setting {
+            setting: "discarding the input left in the port".into(),
+            path: path.into(),
+            source: io::Error::from(e),
+        })?;
+    Ok(waiting)
+}
+
+/// Whether `path` (symbolic links followed) is a pseudo-terminal's slave: Linux numbers them
+/// with the UNIX98 majors 136–143 (and 3 for the old BSD ones).
+#[cfg(target_os = "linux")]
+fn is_pty_path(path: &str) -> bool {
+    use std::os::unix::fs::MetadataExt as _;
+    std::fs::metadata(path).is_ok_and(|m| {
+        let major = libc::major(m.rdev());
+        (136..=143).contains(&major) || major == 3
+    })
+}
+
+/// Whether `path` looks like a pseudo-terminal's slave (`/dev/pts/N`, macOS `/dev/ttysNNN`).
+#[cfg(not(target_os = "linux"))]
+fn is_pty_path(path: &str) -> bool {
+    let real = std::fs::canonicalize(path).unwrap_or_else(|_| path.into());
+    let real = real.to_string_lossy();
+    real.starts_with("/dev/pts/") || real.starts_with("/dev/ttys")
 }
 
 fn classify_open_error(path: &str, err: tokio_serial::Error) -> TransportError {

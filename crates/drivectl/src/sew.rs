@@ -43,6 +43,11 @@ pub trait SewLink {
 
     /// The drive's address as a number, for `identify`.
     fn address_number(&self) -> u8;
+
+    /// Bytes the bus's driver discarded as stale so far (see [`ParamClient::stale_bytes`]).
+    fn stale_bytes(&self) -> u64 {
+        0
+    }
 }
 
 /// The tool layer's client for a MOVIDRIVE on any [`SewLink`].
@@ -137,6 +142,10 @@ impl<L: SewLink> ParamClient for SewClient<L> {
 
     fn link_settings(&self) -> &'static [u16] {
         self.link.link_settings()
+    }
+
+    fn stale_bytes(&self) -> u64 {
+        self.link.stale_bytes()
     }
 
     fn link_change(&self, target: &Target, raw: i64) -> String {

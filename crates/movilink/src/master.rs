@@ -232,6 +232,13 @@ impl Master {
         self.exchange.is_awaiting_response()
     }
 
+    /// Characters received so far that were never taken as a response because they arrived
+    /// while a request waited for the bus or before it had completely left the wire (a
+    /// process-data response does not say which request it answers).
+    pub fn stale_chars(&self) -> u64 {
+        self.exchange.stale_chars()
+    }
+
     /// The bus gate (earliest start of the next telegram).
     pub fn gate(&self) -> &TxGate {
         self.exchange.gate()
@@ -485,5 +492,13 @@ impl Endpoint for Master {
 
     fn max_frame_len(&self) -> usize {
         MAX_TELEGRAM_LEN
+    }
+
+    fn frame_left(&mut self, at: Instant) {
+        self.exchange.left_at(at);
+    }
+
+    fn stale_chars(&self) -> u64 {
+        Master::stale_chars(self)
     }
 }

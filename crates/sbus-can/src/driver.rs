@@ -27,6 +27,7 @@
 //! ```
 
 use std::io;
+use std::task::{Context, Poll, Waker};
 use std::time::Duration;
 
 use drive_core::Instant;
@@ -428,6 +429,13 @@ impl<C: CanIo> SbusMaster<C> {
             if let Some(ev) = self.master.poll_event() {
                 return Ok(Some(ev));
             }
+            // Listen before talking: what waits in the interface arrived before anything sent
+            // now, and the master hears it with the time it was read (read only after the
+            // request, an answer an earlier program left there would look like its answer).
+            if let Some(at) = self.feed_waiting()? {
+                now = self.timebase.now().later(at);
+                continue;
+            }
             if let Some(frame) = self.master.poll_transmit(now) {
                 // Scheduled for the master's time (a deadline, not tokio's later tick).
                 let start = self.timebase.to_tokio(now);
@@ -462,6 +470,31 @@ impl<C: CanIo> SbusMaster<C> {
         }
     }
 }
+
+impl<C: CanIo> SbusMaster<C> {
+    /// Feed the frames that wait in the interface now, without waiting; the time of the last
+    /// one fed, if any.
+    fn feed_waiting(&mut self) -> Result<Option<Instant>, DriverError> {
+        let mut cx = Context::from_waker(Waker::noop());
+        let mut last = None;
+        for _ in 0..WAITING_FRAMES {
+            match self.io.poll_recv(&mut cx) {
+                Poll::Ready(Ok(r)) => {
+                    let at = self.timebase.to_instant(r.at);
+                    self.master.handle_frame(&r.frame, at);
+                    last = Some(at);
+                }
+                Poll::Ready(Err(e)) => return Err(io_error(e)),
+                Poll::Pending => break,
+            }
+        }
+        Ok(last)
+    }
+}
+
+/// Frames read from the interface before a transmission, at most (the rest are read while
+/// waiting).
+const WAITING_FRAMES: usize = 64;
 
 async fn sleep_until(t: Option<tokio::time::Instant>) {
     match t {

@@ -311,6 +311,10 @@ pub struct MasterStats {
     pub syncs_skipped: u64,
     /// Received frames not taken.
     pub rejected: Rejections,
+    /// Responses and process input data received while a request waited to go out or before
+    /// its first transmission (an answer an earlier program left in the adapter, a late
+    /// answer to an earlier request): never its answer, and not counted as rejections.
+    pub stale: u64,
 }
 
 /// One address's entry of a scan.
@@ -694,7 +698,7 @@ impl Master {
         }
         let rx_at = self.rx_at;
         let Some(job) = self.job.filter(|j| j.attempts > 0 && rx_at >= j.first_sent) else {
-            self.stats.rejected.unsolicited += 1;
+            self.count_unanswering();
             return;
         };
         let Expect::Param { address: a, sent } = job.expect else {
@@ -727,6 +731,15 @@ impl Master {
             }) if a == address && attempts > 0 && self.rx_at >= first_sent => {
                 self.finish(Ok(Answer::ProcessInput(data)));
             }
+            _ => self.count_unanswering(),
+        }
+    }
+
+    /// A response that answers nothing: stale if it was received before the request in
+    /// flight went out, else unsolicited.
+    fn count_unanswering(&mut self) {
+        match self.job {
+            Some(j) if j.attempts == 0 || self.rx_at < j.first_sent => self.stats.stale += 1,
             _ => self.stats.rejected.unsolicited += 1,
         }
     }

@@ -355,15 +355,19 @@ async fn faults_never_give_a_wrong_value() {
     // of 5 arrives and is refused (another index).
     assert_eq!(m.read(a(1), 8517).await.unwrap(), 1_500_000);
     assert_eq!(m.stats().rejected.mismatch, 3);
+    // 7's late answer arrives while no call runs; the next call hears it before its request
+    // goes out: stale, not a rejection.
     tokio::time::sleep(Duration::from_millis(100)).await;
     assert_eq!(m.read(a(1), 8318).await.unwrap(), 1_000_000);
-    assert_eq!(m.stats().rejected.unsolicited, 1);
+    assert_eq!(m.stats().stale, 1);
+    assert_eq!(m.stats().rejected.unsolicited, 0);
 }
 
 /// An answer that arrived while no call ran (late, after its request was given up)
-/// waits in the interface's queue and is read only after the next request went out. It is
-/// older than that request and is refused, even for the same service and index (here it
-/// carries a stale value, 111). Before the receive time was compared, it was taken.
+/// waits in the interface's queue. It is older than the next request and is refused, even for
+/// the same service and index (here it carries a stale value, 111): the driver hears what
+/// waits before it sends (issue 18), and a frame read only after the request went out is
+/// judged by its receive time. Before the receive time was compared, it was taken.
 #[tokio::test(start_paused = true)]
 async fn queued_late_answer_is_older_than_the_request() {
     let mut first = true;
@@ -393,7 +397,62 @@ async fn queued_late_answer_is_older_than_the_request() {
     ));
     tokio::time::sleep(Duration::from_millis(100)).await;
     assert_eq!(m.read(a(1), 8318).await.unwrap(), 1_000_000);
-    assert_eq!(m.stats().rejected.unsolicited, 1);
+    assert_eq!(m.stats().stale, 1);
+    assert_eq!(m.stats().rejected.unsolicited, 0);
+}
+
+/// An interface that stamps a frame when it is read, as the slcan port does (it parses the
+/// adapter's line then).
+struct StampedWhenRead(ChanIo);
+
+impl CanIo for StampedWhenRead {
+    fn poll_recv(&mut self, cx: &mut Context<'_>) -> Poll<io::Result<ReceivedFrame>> {
+        self.0.poll_recv(cx).map_ok(|r| ReceivedFrame {
+            frame: r.frame,
+            at: TokioInstant::now(),
+        })
+    }
+
+    fn poll_send(&mut self, cx: &mut Context<'_>, frame: &CanFrame) -> Poll<io::Result<()>> {
+        self.0.poll_send(cx, frame)
+    }
+}
+
+/// Issue 18: the late answer (a stale value, 111) waits in an interface that stamps frames
+/// when they are read. Read only after the next request went out, it would look younger than
+/// that request and pass every check (same drive, service and index); the driver hears what
+/// waits before it sends, so it is counted as stale and the drive's answer is taken. It failed
+/// before: the read returned 111.
+#[tokio::test(start_paused = true)]
+async fn issue18_an_answer_waiting_in_an_interface_timed_when_read_is_stale() {
+    let mut first = true;
+    let fault: Fault = Box::new(move |f| {
+        if std::mem::take(&mut first) {
+            let mut d = f.data_array();
+            d[4..8].copy_from_slice(&111u32.to_be_bytes());
+            vec![(
+                CanFrame::standard(f.raw_id() as u16, &d).unwrap(),
+                Duration::from_millis(70),
+            )]
+        } else {
+            vec![(*f, Duration::ZERO)]
+        }
+    });
+    let (io, _log) = spawn_drives(vec![Responder::new(1)], Some(fault));
+    let mut m = SbusMaster::new(
+        StampedWhenRead(io),
+        MasterConfig {
+            retries: 0,
+            ..MasterConfig::default()
+        },
+    );
+    assert!(matches!(
+        m.read(a(1), 8318).await,
+        Err(DriverError::Timeout { .. })
+    ));
+    tokio::time::sleep(Duration::from_millis(100)).await;
+    assert_eq!(m.read(a(1), 8318).await.unwrap(), 1_000_000);
+    assert_eq!((m.stats().stale, m.stats().rejected.total()), (1, 0));
 }
 
 /// A seeded campaign: answers dropped, duplicated, delayed beyond the timeout or with a
@@ -475,14 +534,15 @@ async fn closed_interface_and_cancelled_call() {
     );
     let mut m = master(io, MasterConfig::default());
     // Cancelled after 10 ms: the next call drops the abandoned request; its late answer
-    // (at 30 ms) is counted, not taken as the answer to the next read of another index.
+    // (at 30 ms, while the next request waits for the late guard) is counted as stale, not
+    // taken as the answer to the next read of another index.
     assert!(
         tokio::time::timeout(Duration::from_millis(10), m.read(a(1), 8318))
             .await
             .is_err()
     );
     assert_eq!(m.read(a(1), 8319).await.unwrap(), 50_000);
-    assert_eq!(m.stats().rejected.unsolicited, 1);
+    assert_eq!(m.stats().stale, 1);
     // The other end goes away: Closed.
     let (io, _) = spawn_drives(vec![], None);
     let ChanIo { tx, rx } = io;

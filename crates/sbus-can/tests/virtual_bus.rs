@@ -722,7 +722,8 @@ async fn late_answers_are_never_taken_for_a_later_request() {
     assert_eq!(r.unsolicited + r.mismatch, 1, "{r:?}");
 
     // 2. Given up (one attempt), then the late answer (RAMP = 600) during the master's late
-    //    guard: counted, and the next write and read are the drive's.
+    //    guard, before the next request went out: counted as stale, and the next write and
+    //    read are the drive's.
     master.set_retries(0);
     node.inject(BusFault::Delay(Duration::from_millis(80)));
     let e = step(&mut drives, &mut node, master.read(a(1), RAMP))
@@ -740,10 +741,11 @@ async fn late_answers_are_never_taken_for_a_later_request() {
     assert_eq!(v.unwrap(), 700);
     let after_guard = master.stats().rejected;
     assert_eq!(
-        after_guard.unsolicited + after_guard.mismatch,
+        after_guard.unsolicited + after_guard.mismatch + master.stats().stale,
         2,
         "{after_guard:?}"
     );
+    assert_eq!(master.stats().stale, 1);
 
     // 3. No late guard: the next request (another index) is on the bus when the late answer
     //    comes; it is not its answer.

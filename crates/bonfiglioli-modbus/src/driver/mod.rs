@@ -79,6 +79,10 @@ pub struct DriverStats {
     pub rejected: u64,
     /// Exception answers.
     pub exceptions: u64,
+    /// Bytes never taken as an answer because they arrived before the request had left the
+    /// port (an answer an earlier program left there, a late answer, another master): an
+    /// FC 3/100 answer does not name what it answers, so only when it came tells it apart.
+    pub stale: u64,
 }
 
 /// The async master; see the [module docs](self).
@@ -164,6 +168,7 @@ impl<IO: CharIo> MasterDriver<IO> {
             .await;
         self.stats.retries += u64::from(tally.retries());
         self.stats.rejected += u64::from(tally.rejected);
+        self.stats.stale += u64::from(tally.stale);
         let address = address.get();
         r.map_err(|failed| match failed {
             Failed::NoAnswer {

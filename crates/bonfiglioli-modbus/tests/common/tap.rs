@@ -45,4 +45,8 @@ impl<IO: drive_core::rt::CharIo> drive_core::rt::CharIo for Tap<IO> {
     fn honours_write_start(&self) -> bool {
         self.inner.honours_write_start()
     }
+
+    fn wire_time(&self) -> drive_core::rt::WireTime {
+        self.inner.wire_time()
+    }
 }

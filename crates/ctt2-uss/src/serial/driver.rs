@@ -89,6 +89,9 @@ pub struct DriverStats {
     pub timeouts: u64,
     /// Answers not taken.
     pub rejected: u64,
+    /// Bytes never taken as an answer because they arrived before the telegram had left the
+    /// port (an answer an earlier program left there, a late answer, another master).
+    pub stale: u64,
 }
 
 /// Why a driver call failed.
@@ -248,6 +251,7 @@ impl<IO: CharIo> UssMaster<IO> {
             .await;
         self.stats.retries += u64::from(tally.retries());
         self.stats.rejected += u64::from(tally.rejected);
+        self.stats.stale += u64::from(tally.stale);
         r.map_err(|failed| match failed {
             Failed::NoAnswer {
                 attempts,
@@ -356,6 +360,10 @@ impl<IO: CharIo> ParameterChannel for UssMaster<IO> {
     async fn poll(&mut self, order: Pkw) -> Result<Pkw, DriverError> {
         // USS asks again by sending the same telegram.
         self.submit(order).await
+    }
+
+    fn stale_bytes(&self) -> u64 {
+        self.stats.stale
     }
 }
 

@@ -191,6 +191,13 @@ impl Master {
         self.exchange.attempts()
     }
 
+    /// Characters received so far that were never taken as an answer because they arrived
+    /// while a telegram waited for the bus or before it had completely left the wire (the PZD
+    /// of an answer do not say which telegram they answer).
+    pub fn stale_chars(&self) -> u64 {
+        self.exchange.stale_chars()
+    }
+
     /// Change the response timeout (from the next transmission on).
     pub fn set_response_timeout(&mut self, timeout: Duration) {
         self.config.response_timeout = timeout;
@@ -341,6 +348,14 @@ impl Endpoint for Master {
 
     fn max_frame_len(&self) -> usize {
         MAX_TELEGRAM
+    }
+
+    fn frame_left(&mut self, at: Instant) {
+        self.exchange.left_at(at);
+    }
+
+    fn stale_chars(&self) -> u64 {
+        self.exchange.stale_chars()
     }
 }
 

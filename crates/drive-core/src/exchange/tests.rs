@@ -288,3 +288,169 @@ fn min_idle_gap_holds_the_next_request_beyond_the_framings_start_gap() {
     y.complete();
     assert_eq!(y.gate().earliest_start(), us(16_000));
 }
+
+// ----- Issue 18: stale characters are never an answer -----
+
+/// Feed `bytes` as characters 1 ms apart from `start` µs on, without polling the timeout;
+/// the events.
+fn feed(x: &mut Exchange<Lp, 8>, bytes: &[u8], start: u64) -> Vec<ExchangeEvent<u8, LineError>> {
+    let mut out = Vec::new();
+    for (i, &b) in bytes.iter().enumerate() {
+        out.extend(x.handle_char(RxChar::new(b, us(start + 1_000 * (i as u64 + 1)))));
+    }
+    out
+}
+
+/// A request of four characters (4 ms) transmitted at `start` µs; its end.
+fn sent(x: &mut Exchange<Lp, 8>, start: u64) -> Instant {
+    x.begin(us(start)).unwrap();
+    assert!(x.may_transmit(us(start)));
+    x.transmitted(4, true)
+}
+
+#[test]
+fn issue18_an_answer_completing_before_the_request_has_left_is_stale() {
+    let mut x: Exchange<Lp, 8> = Exchange::new(Lp, config(0));
+    let end = sent(&mut x, 0);
+    assert_eq!(end, us(4_000));
+    assert_eq!(x.request_left(), Some(end));
+    // A complete, valid frame whose characters complete at 1, 2 and 3 ms, while the request
+    // is still on the wire: an earlier program's answer that was waiting in the port.
+    assert!(feed(&mut x, &[0xA5, 1, 99], 0).is_empty());
+    assert_eq!(x.stale_chars(), 3);
+    assert!(x.is_awaiting_response());
+    // A character completing exactly when the request has left started while it was still on
+    // the wire: stale too.
+    assert_eq!(x.handle_char(RxChar::new(0xA5, end)), None);
+    assert_eq!(x.stale_chars(), 4);
+    // The real answer after the request: taken, even with no retries left.
+    assert_eq!(
+        answer(&mut x, &[0xA5, 1, 42], 8_000),
+        [ExchangeEvent::Frame(42)]
+    );
+    assert_eq!(x.stale_chars(), 4);
+}
+
+#[test]
+fn issue18_characters_while_the_request_waits_for_the_bus_are_stale_and_hold_it_back() {
+    let mut x: Exchange<Lp, 8> = Exchange::new(Lp, config(0));
+    // Nothing in flight: bus activity only, not counted.
+    assert_eq!(x.handle_char(RxChar::new(0x11, us(1_000))), None);
+    assert_eq!(x.stale_chars(), 0);
+    // The request is queued; a whole answer arrives before it could go out.
+    x.begin(us(5_000)).unwrap();
+    assert!(feed(&mut x, &[0xA5, 1, 99], 5_000).is_empty());
+    assert_eq!(x.stale_chars(), 3);
+    // Listen before talking: the request waits until the line was quiet for the idle gap.
+    assert!(!x.may_transmit(us(8_000)));
+    assert_eq!(x.poll_timeout(), Some(us(8_000 + 3_000)));
+    assert!(x.may_transmit(us(11_000)));
+    x.transmitted(4, true);
+    assert_eq!(
+        answer(&mut x, &[0xA5, 1, 42], 18_000),
+        [ExchangeEvent::Frame(42)]
+    );
+}
+
+#[test]
+fn issue18_left_at_moves_the_end_for_a_port_without_wire_time() {
+    let mut x: Exchange<Lp, 8> = Exchange::new(Lp, config(0));
+    let end = sent(&mut x, 0);
+    // A pseudo-terminal delivered the request when the write returned, 100 µs after its
+    // start; the other side answers long before the request's wire time is over.
+    x.left_at(us(100));
+    assert_eq!(x.request_left(), Some(us(100)));
+    assert_eq!(x.handle_char(RxChar::new(0x55, us(100))), None);
+    assert_eq!(x.stale_chars(), 1);
+    assert_eq!(
+        answer(&mut x, &[0xA5, 1, 42], 500),
+        [ExchangeEvent::Frame(42)]
+    );
+    assert!(us(3_500) < end);
+    x.complete();
+    // The response timeout still counts from the end of the wire time.
+    let end = sent(&mut x, 20_000);
+    x.left_at(us(20_100));
+    assert_eq!(
+        x.response_deadline(),
+        Some(end + Duration::from_millis(50) + CHAR)
+    );
+    // No effect while nothing is awaited.
+    x.complete();
+    x.left_at(us(90_000));
+    assert_eq!(x.request_left(), None);
+}
+
+#[test]
+fn issue18_a_retry_judges_characters_against_its_own_transmission() {
+    let mut x: Exchange<Lp, 8> = Exchange::new(Lp, config(1));
+    sent(&mut x, 0);
+    let give_up = x.response_deadline().unwrap();
+    assert_eq!(
+        x.handle_timeout(give_up),
+        Some(ExchangeEvent::NoAnswer(Verdict::Retry))
+    );
+    // The retry goes out at once (the retry pause after the last activity, the request's
+    // end, has long passed); the late answer to the first attempt arrives while the retry is
+    // still on the wire.
+    let t = x.poll_timeout().unwrap();
+    assert!(x.may_transmit(t));
+    let end = x.transmitted(4, true);
+    let late = t.as_micros();
+    assert!(feed(&mut x, &[0xA5, 1, 99], late).is_empty());
+    assert_eq!(x.stale_chars(), 3);
+    assert_eq!(
+        answer(&mut x, &[0xA5, 1, 42], end.as_micros() + 4_000),
+        [ExchangeEvent::Frame(42)]
+    );
+}
+
+mod stale_props {
+    use super::*;
+    use proptest::prelude::*;
+
+    proptest! {
+        /// Whatever arrives while the request waits for the bus or is still on the wire —
+        /// any bytes, valid frames or garbage, with or without UART errors — is counted as
+        /// stale and never decides the request: the answer after it is taken as it is.
+        #[test]
+        fn stale_characters_never_decide_the_request(
+            queued in proptest::collection::vec((any::<u8>(), any::<bool>()), 0..20),
+            on_wire in proptest::collection::vec((any::<u8>(), 0u64..=4_000, any::<bool>()), 0..20),
+            value in any::<u8>(),
+            gap in 0u64..40_000,
+        ) {
+            let mut x: Exchange<Lp, 8> = Exchange::new(Lp, config(0));
+            x.begin(Instant::ZERO).unwrap();
+            // Queued characters, 1 ms apart, before the request may go out.
+            let mut t = 0;
+            for &(b, bad) in &queued {
+                t += 1_000;
+                let c = if bad {
+                    RxChar::with_error(b, us(t), crate::CharError::Parity)
+                } else {
+                    RxChar::new(b, us(t))
+                };
+                prop_assert_eq!(x.handle_char(c), None);
+            }
+            let start = x.poll_timeout().unwrap();
+            prop_assert!(x.may_transmit(start));
+            let end = x.transmitted(4, true);
+            let mut times: Vec<u64> = on_wire.iter().map(|&(_, dt, _)| dt).collect();
+            times.sort_unstable();
+            for (&(b, _, bad), dt) in on_wire.iter().zip(times) {
+                let at = start.add_nanos(dt * 1_000);
+                let c = if bad {
+                    RxChar::with_error(b, at, crate::CharError::Parity)
+                } else {
+                    RxChar::new(b, at)
+                };
+                prop_assert_eq!(x.handle_char(c), None);
+            }
+            prop_assert_eq!(x.stale_chars(), (queued.len() + on_wire.len()) as u64);
+                    prop_assert!(x.is_awaiting_response());
+            let ev = answer(&mut x, &[0xA5, 1, value], end.as_micros() + gap);
+            prop_assert_eq!(ev, vec![ExchangeEvent::Frame(value)]);
+        }
+    }
+}

@@ -80,6 +80,38 @@ pub trait CharIo: Send {
     fn honours_write_start(&self) -> bool {
         false
     }
+
+    /// How a frame written here leaves and how received characters are timed: what a
+    /// runtime needs to tell when a request has completely left, so that characters received
+    /// before are judged stale ([`crate::Endpoint::frame_left`]). A byte stream that delivers
+    /// at once ([`Stream`]: pseudo-terminals, pipes) says [`WireTime::None`], a real serial
+    /// port [`WireTime::Real`], the wire model [`WireTime::Exact`]. The default,
+    /// [`WireTime::Unknown`], is for wrappers that do not say (forward it from the wrapped
+    /// I/O): only what waits before a frame is sent counts as stale then.
+    fn wire_time(&self) -> WireTime {
+        WireTime::Unknown
+    }
+}
+
+/// How a [`CharIo`] carries frames ([`CharIo::wire_time`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum WireTime {
+    /// A frame takes its wire time (length × character time) and every received character is
+    /// stamped with its true arrival (drive-transport's wire model): the request has left at
+    /// its start plus its wire time, exactly.
+    Exact,
+    /// A real line (a UART behind a serial port): a frame takes its wire time, but characters
+    /// are stamped when the program reads them. What is waiting in the port right after a
+    /// request was written arrived while it was leaving; it has left once the write returned
+    /// (the port's flush waits for the transmitter) and not before its wire time.
+    Real,
+    /// No wire time (a pseudo-terminal, an in-memory pipe): a frame has left once the write
+    /// returned, and the other side may answer at once.
+    None,
+    /// Not known (a wrapper that does not forward it): the frame is taken to have left when it
+    /// was handed over, so only what waited in the port before counts as stale and no answer
+    /// is ever discarded for arriving early.
+    Unknown,
 }
 
 /// How late a tokio timer may end after its deadline: tokio's timers tick in 1 ms steps. A
@@ -116,6 +148,10 @@ impl<T: CharIo + ?Sized> CharIo for &mut T {
 
     fn honours_write_start(&self) -> bool {
         (**self).honours_write_start()
+    }
+
+    fn wire_time(&self) -> WireTime {
+        (**self).wire_time()
     }
 }
 
@@ -162,6 +198,10 @@ impl<T: AsyncRead + AsyncWrite + Unpin + Send> CharIo for Stream<T> {
 
     fn poll_flush(&mut self, cx: &mut Context<'_>) -> Poll<io::Result<()>> {
         Pin::new(&mut self.0).poll_flush(cx)
+    }
+
+    fn wire_time(&self) -> WireTime {
+        WireTime::None
     }
 }
 

@@ -28,8 +28,8 @@ pub use bus::{Bus, LineTime, Station, serve_alone};
 pub use can::{CanIo, ReceivedFrame, recv_frame, send_frame, send_frame_at};
 pub use clock::{Clock, Timebase};
 pub use io::{
-    CHUNK, CharIo, ReceivedChar, Stream, TIMER_RESOLUTION, Woken, read_or_sleep, write_all,
-    write_all_at,
+    CHUNK, CharIo, ReceivedChar, Stream, TIMER_RESOLUTION, WireTime, Woken, read_or_sleep,
+    write_all, write_all_at,
 };
 pub use port::{Failed, Flow, Port, Step, Tally};
 pub use serve::serve;

@@ -2,12 +2,15 @@
 
 use std::io;
 use std::pin::Pin;
+use std::task::{Context, Poll, Waker};
 use std::time::Duration;
 
 use tokio::time::{Instant as TokioInstant, Sleep};
 
 use super::clock::{Clock, Timebase};
-use super::io::{CHUNK, CharIo, ReceivedChar, Woken, read_or_sleep, write_all, write_all_at};
+use super::io::{
+    CHUNK, CharIo, ReceivedChar, WireTime, Woken, read_or_sleep, write_all, write_all_at,
+};
 use crate::char::RxChar;
 use crate::endpoint::Endpoint;
 use crate::time::Instant;
@@ -29,6 +32,19 @@ use crate::time::Instant;
 /// to every deadline that needs only a quiet line ([`Endpoint::poll_quiet_timeout`]); its other
 /// deadlines (a response timeout, a gap limit inside an answer) become real timers measured
 /// from the last event (the last transmission or the last character received).
+///
+/// Stale characters: before a frame is sent, what already waits in the port is fed first
+/// without waiting (a master with a request queued counts it as stale and holds the frame back
+/// until the line was quiet for its idle gap), so an answer an earlier program left in the port
+/// is never judged against the request sent after it. On a port whose characters are stamped
+/// when read ([`WireTime::Real`], [`WireTime::None`]) the port also reads what waits right
+/// after the write, tells the endpoint when the frame has left ([`Endpoint::frame_left`]:
+/// when the write returned, on a real line not before the frame's wire time) and then feeds
+/// those characters: they arrived while the frame was leaving and are stale too. On the wire
+/// model ([`WireTime::Exact`]) the arrival times are exact and the endpoint's own wire time of
+/// the frame decides; behind a wrapper that does not say ([`WireTime::Unknown`]) only what waits
+/// before the frame is sent is stale. [`Port::transact`] counts the stale characters in its
+/// [`Tally`].
 ///
 /// [`TIMER_RESOLUTION`]: super::TIMER_RESOLUTION
 #[derive(Debug)]
@@ -115,14 +131,18 @@ impl<IO: CharIo> Port<IO> {
         self.last_tx
     }
 
-    /// Write the frame the endpoint has due now, if any; returns its length. After a write
-    /// error the frame on the wire is broken: tell the endpoint (its `abort`) and call
-    /// [`Port::settle`].
+    /// Write the frame the endpoint has due now, if any; returns its length. What waits in the
+    /// port is fed first, and on a port whose characters are stamped when read what waits right
+    /// after the write is fed as having arrived while the frame was leaving (see the
+    /// [type docs](Port)). After an error the frame on the wire is broken or the line gone:
+    /// tell the endpoint (its `abort`) and call [`Port::settle`].
     pub async fn transmit<E: Endpoint>(
         &mut self,
         endpoint: &mut E,
         buf: &mut [u8],
     ) -> io::Result<Option<usize>> {
+        // Listen before talking: what waits in the port came before this frame.
+        self.feed_waiting(endpoint, None)?;
         let exact = self.exact_now();
         let now = exact.unwrap_or_else(|| self.time.now());
         let Some(n) = endpoint.poll_transmit(now, buf) else {
@@ -142,7 +162,99 @@ impl<IO: CharIo> Port<IO> {
         }
         self.time.sent(n);
         self.anchor = Some((TokioInstant::now(), self.time.now()));
+        self.after_write(endpoint, now, n)?;
         Ok(Some(n))
+    }
+
+    /// After a frame of `chars` characters that started at `start` was written: on a port whose
+    /// characters are stamped when read, the endpoint learns when the frame has left, then
+    /// hears what waits in the port now (it arrived while the frame was leaving).
+    fn after_write<E: Endpoint>(
+        &mut self,
+        endpoint: &mut E,
+        start: Instant,
+        chars: usize,
+    ) -> io::Result<()> {
+        let wire = self.io.wire_time();
+        // Exact arrival times (the wire model) need no help; the virtual clock's are made up.
+        if wire == WireTime::Exact || self.time.clock() == Clock::Virtual {
+            return Ok(());
+        }
+        if wire == WireTime::Unknown {
+            // Nothing is known of the line: only what waited before the frame was sent (fed
+            // already) is stale.
+            endpoint.frame_left(start);
+            return Ok(());
+        }
+        let n = self.read_ready()?;
+        let returned = self.time.now();
+        let left = match wire {
+            // The port's flush waited for the transmitter, but a USB adapter may still be
+            // sending: never before the frame's wire time.
+            WireTime::Real => {
+                let n = u64::try_from(chars).unwrap_or(u64::MAX);
+                let wire = crate::time::duration_nanos(self.time.char_time()).saturating_mul(n);
+                returned.later(start.add_nanos(wire))
+            }
+            _ => returned,
+        };
+        endpoint.frame_left(left);
+        if n > 0 {
+            self.feed(endpoint, n, Some(left));
+            self.feed_waiting(endpoint, Some(left))?;
+        }
+        Ok(())
+    }
+
+    /// Feed what waits in the port now, without waiting (a bounded number of reads); with
+    /// `not_after`, characters are timed no later than that (they were waiting then). Returns
+    /// how many characters were fed.
+    fn feed_waiting<E: Endpoint>(
+        &mut self,
+        endpoint: &mut E,
+        not_after: Option<Instant>,
+    ) -> io::Result<usize> {
+        let mut fed = 0;
+        for _ in 0..DRAIN_READS {
+            let n = self.read_ready()?;
+            if n == 0 {
+                break;
+            }
+            self.feed(endpoint, n, not_after);
+            fed += n;
+        }
+        Ok(fed)
+    }
+
+    /// Read what the port holds now into the receive buffer, without waiting: the number of
+    /// characters (0: none, or end of file, which the next [`Port::wait`] reports).
+    fn read_ready(&mut self) -> io::Result<usize> {
+        let mut cx = Context::from_waker(Waker::noop());
+        match self.io.poll_read_chars(&mut cx, &mut self.rx) {
+            Poll::Ready(r) => r,
+            Poll::Pending => Ok(0),
+        }
+    }
+
+    /// Feed the first `n` characters of the receive buffer with their arrival times (with
+    /// `not_after`, no later than that).
+    fn feed<E: Endpoint>(&mut self, endpoint: &mut E, n: usize, not_after: Option<Instant>) {
+        self.woken = None;
+        for c in self.rx.iter().take(n) {
+            let arrived = self.time.arrival(c.at);
+            let time = not_after.map_or(arrived, |t| arrived.min(t));
+            self.last_rx = Some(c.at);
+            endpoint.handle_char(RxChar {
+                byte: c.byte,
+                time,
+                error: c.error,
+            });
+        }
+        if self.time.clock() == Clock::Virtual
+            && let Some(at) = self.last_rx
+        {
+            self.anchor = Some((at, self.time.now()));
+        }
     }
 
     /// Wait for the endpoint's next deadline or for received characters, and feed what
@@ -186,21 +298,7 @@ impl<IO: CharIo> Port<IO> {
         match read_or_sleep(&mut self.io, &mut self.rx, sleep).await? {
             Woken::Read(0) => Ok(false),
             Woken::Read(n) => {
-                self.woken = None;
-                for c in self.rx.iter().take(n) {
-                    let time = self.time.arrival(c.at);
-                    self.last_rx = Some(c.at);
-                    endpoint.handle_char(RxChar {
-                        byte: c.byte,
-                        time,
-                        error: c.error,
-                    });
-                }
-                if self.time.clock() == Clock::Virtual
-                    && let Some(at) = self.last_rx
-                {
-                    self.anchor = Some((at, self.time.now()));
-                }
+                self.feed(endpoint, n, None);
                 Ok(true)
             }
             Woken::Timer => {
@@ -226,8 +324,9 @@ impl<IO: CharIo> Port<IO> {
         }
     }
 
-    /// One step of a master's transaction, the same for every protocol's driver: send the frame
-    /// the endpoint has due now ([`Step::Sent`]), else wait for its next deadline or for
+    /// One step of a master's transaction, the same for every protocol's driver: feed what
+    /// waits in the port ([`Step::Waited`]: the endpoint may have events now), else send the
+    /// frame the endpoint has due now ([`Step::Sent`]), else wait for its next deadline or for
     /// received characters and feed them ([`Step::Waited`]). A failed write is settled first
     /// (what did get out leaves the line); a closed port is `UnexpectedEof`. After an error
     /// the frame on the wire is broken or the line gone: the caller drops its request (its
@@ -237,6 +336,11 @@ impl<IO: CharIo> Port<IO> {
         endpoint: &mut E,
         buf: &mut [u8],
     ) -> io::Result<Step> {
+        // What waits is heard before anything is sent (and may complete or fail the request:
+        // the caller drains the endpoint's events before the next step).
+        if self.feed_waiting(endpoint, None)? > 0 {
+            return Ok(Step::Waited);
+        }
         match self.transmit(endpoint, buf).await {
             Ok(Some(n)) => return Ok(Step::Sent(n)),
             Ok(None) => {}
@@ -260,7 +364,8 @@ impl<IO: CharIo> Port<IO> {
     /// ([`Flow`]); the transaction ends with the first [`Flow::Done`], or when the master gives
     /// up ([`Failed::NoAnswer`], with the reason the last answer was rejected if one came after
     /// the last transmission), or when the port fails (`abort` drops the master's request,
-    /// [`Failed::Io`]). `tally` counts transmissions and rejected answers for the driver's
+    /// [`Failed::Io`]). `tally` counts transmissions, rejected answers and stale characters
+    /// (the master's [`Endpoint::stale_chars`] during the transaction) for the driver's
     /// statistics.
     pub async fn transact<E: Endpoint, T, R>(
         &mut self,
@@ -270,17 +375,18 @@ impl<IO: CharIo> Port<IO> {
         mut next: impl FnMut(&mut E) -> Option<Flow<T, R>>,
         abort: impl FnOnce(&mut E, Instant),
     ) -> Result<T, Failed<R>> {
+        let stale_before = master.stale_chars();
         let mut last_reject = None;
-        loop {
+        let result = 'transaction: loop {
             while let Some(flow) = next(master) {
                 match flow {
-                    Flow::Done(t) => return Ok(t),
+                    Flow::Done(t) => break 'transaction Ok(t),
                     Flow::Rejected(reason) => {
                         tally.rejected = tally.rejected.saturating_add(1);
                         last_reject = Some(reason);
                     }
                     Flow::GaveUp { attempts } => {
-                        return Err(Failed::NoAnswer {
+                        break 'transaction Err(Failed::NoAnswer {
                             attempts: u32::from(attempts),
                             last_reject,
                         });
@@ -295,10 +401,15 @@ impl<IO: CharIo> Port<IO> {
                 Ok(Step::Waited) => {}
                 Err(e) => {
                     abort(master, self.now());
-                    return Err(Failed::Io(e));
+                    break 'transaction Err(Failed::Io(e));
                 }
             }
-        }
+        };
+        let stale = master.stale_chars().saturating_sub(stale_before);
+        tally.stale = tally
+            .stale
+            .saturating_add(u32::try_from(stale).unwrap_or(u32::MAX));
+        result
     }
 
     /// After a failed write: let what did get out leave the line (best effort, at most 1 s).
@@ -308,6 +419,10 @@ impl<IO: CharIo> Port<IO> {
         let _ = tokio::time::timeout(Duration::from_secs(1), flush).await;
     }
 }
+
+/// Reads of what waits in the port before and right after a frame is sent, at most
+/// ([`CHUNK`] characters each); the rest is read by the next wait.
+const DRAIN_READS: usize = 16;
 
 /// The first `n` bytes of `buf`, the frame an endpoint said it wrote there; an endpoint that
 /// reports more than the buffer holds is a bug, reported instead of sending a cut frame.
@@ -370,6 +485,9 @@ pub struct Tally {
     pub sent: u32,
     /// Answers not taken.
     pub rejected: u32,
+    /// Characters never taken as an answer because they arrived before the request had left
+    /// (an answer an earlier program left in the port, a late one, another master).
+    pub stale: u32,
 }
 
 impl Tally {

@@ -383,6 +383,12 @@ impl SlcanPort<SerialPort> {
         let port = serial::open(&config)?;
         Self::new(port, path, bitrate).await
     }
+
+    /// How many bytes the serial port's input held when it was opened (discarded: lines an
+    /// earlier program left unread, see [`SerialPort::flushed_at_open`]).
+    pub fn flushed_at_open(&self) -> u32 {
+        self.io.flushed_at_open()
+    }
 }
 
 impl<S: AsyncRead + AsyncWrite + Unpin + Send> SlcanPort<S> {

@@ -198,3 +198,38 @@ async fn opening_a_character_device_without_a_terminal_says_it_is_not_a_serial_p
         other => panic!("expected Unsupported, got {other:?}"),
     }
 }
+
+/// Issue 18: what an earlier program left in the port (here: an answer the drive side wrote
+/// while nobody read) is discarded when the port is opened and counted; what comes after the
+/// open is read.
+#[tokio::test]
+async fn issue18_open_discards_what_the_input_holds_and_counts_it() {
+    let mut pty = PtyPair::open().unwrap();
+    // A first program opens the port, the drive answers, the program leaves without reading.
+    let first = serial::open(&pty.slave_config(9600)).unwrap();
+    assert_eq!(first.flushed_at_open(), 0);
+    pty.write_all(&[0x01, 0x03, 0x02, 0x05, 0x6E, 0xBB, 0x7A])
+        .await
+        .unwrap();
+    pty.flush().await.unwrap();
+    // The pty carries the bytes into the slave's input on its own time.
+    tokio::time::sleep(Duration::from_millis(50)).await;
+    drop(first);
+    let mut port = serial::open(&pty.slave_config(9600)).unwrap();
+    assert_eq!(port.flushed_at_open(), 7);
+    timeout(LIMIT, async {
+        assert_eq!(send_and_receive(&mut pty, &mut port, b"new").await, b"new");
+    })
+    .await
+    .expect("pty round trip timed out");
+}
+
+/// A pseudo-terminal has no wire time; a serial port is a `CharIo` that says so.
+#[tokio::test]
+async fn issue18_a_pty_port_is_known_to_have_no_wire_time() {
+    use drive_core::rt::{CharIo, WireTime};
+    let pty = PtyPair::open().unwrap();
+    let port = serial::open(&pty.slave_config(9600)).unwrap();
+    assert!(port.is_pty());
+    assert_eq!(port.wire_time(), WireTime::None);
+}

@@ -14,7 +14,7 @@ use std::collections::HashMap;
 use std::ops::RangeInclusive;
 use std::time::Duration;
 
-use bonfiglioli_modbus::driver::{CharIo, DriverConfig, DriverError, MasterDriver, Stream};
+use bonfiglioli_modbus::driver::{CharIo, DriverConfig, DriverError, MasterDriver};
 use bonfiglioli_modbus::frame::{Address, DataSet, DiagSubFunction, ExceptionCode};
 use bonfiglioli_modbus::framing::Mode;
 use bonfiglioli_modbus::slave::Width;
@@ -36,7 +36,7 @@ use crate::tool::line::{LineArgs, runtime};
 use crate::tool::meaning::{Device, KnownVariant};
 use crate::tool::motor::{AtEnd, Motion, MotorGuard, Stopped};
 use crate::tool::output::physical_text;
-use crate::tool::{backup, read, watch, write};
+use crate::tool::{backup, read, stale, watch, write};
 
 /// Parameter numbers outside the table that may be read and written raw (the start address
 /// carries 0–1599).
@@ -710,6 +710,10 @@ impl<IO: CharIo> ParamClient for BonfiglioliClient<'_, IO> {
         Family::Bonfiglioli
     }
 
+    fn stale_bytes(&self) -> u64 {
+        self.driver.stats().stale
+    }
+
     async fn drive_key(&mut self) -> std::result::Result<String, ClientError> {
         if let Some(k) = &self.key {
             return Ok(k.clone());
@@ -1131,8 +1135,11 @@ pub fn run(args: &BonfiglioliArgs) -> Result<()> {
     rt.block_on(async {
         // The mode's character format: RTU 8 data bits, ASCII 7 (ch. 6.7).
         let port = open(args, config.line)?;
-        let mut master = MasterDriver::new(Stream(port), config);
-        execute(&mut master, args).await
+        stale::note_flushed(port.flushed_at_open());
+        let mut master = MasterDriver::new(port, config);
+        let r = execute(&mut master, args).await;
+        stale::note_stale(master.stats().stale);
+        r
     })
 }
 

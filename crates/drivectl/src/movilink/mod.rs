@@ -12,7 +12,7 @@ pub mod sim;
 use clap::{Args, Subcommand};
 use drive_profile::Family;
 use drive_profile::sew::{self, ControlWord1, StatusWord1, index};
-use movilink::driver::{CharIo, DriverConfig, DriverError, MasterDriver, Stream};
+use movilink::driver::{CharIo, DriverConfig, DriverError, MasterDriver};
 use movilink::{Address, ParamChannel, PduType, Telegram};
 use serde_json::json;
 use std::ops::RangeInclusive;
@@ -25,7 +25,7 @@ use crate::tool::client::{ClientError, Target, ValueText, canonical_port, parse_
 use crate::tool::line::{LineArgs, MasterArgs, runtime};
 use crate::tool::motor::{AtEnd, Motion, MotorGuard, Stopped};
 use crate::tool::output::{physical_text, trim_float};
-use crate::tool::{backup, watch, write};
+use crate::tool::{backup, stale, watch, write};
 
 /// Indices outside the table that may be read and written raw (MOVIDRIVE indices start at
 /// 8300; numbers below 1000 are menu numbers).
@@ -279,6 +279,10 @@ pub const NOT_RESTORED: &[u16] = &[
 ];
 
 impl<IO: CharIo> SewLink for MovilinkLink<'_, IO> {
+    fn stale_bytes(&self) -> u64 {
+        self.driver.stats().stale
+    }
+
     async fn service(&mut self, request: ParamChannel) -> std::result::Result<u32, ClientError> {
         self.driver
             .param(self.address, PduType::PARAM_0PD_ACYCLIC, request)
@@ -435,8 +439,11 @@ pub fn run(args: &MovilinkArgs) -> Result<()> {
     let rt = runtime()?;
     rt.block_on(async {
         let port = args.line.open(&args.port)?;
-        let mut master = MasterDriver::new(Stream(port), config);
-        execute(&mut master, args).await
+        stale::note_flushed(port.flushed_at_open());
+        let mut master = MasterDriver::new(port, config);
+        let r = execute(&mut master, args).await;
+        stale::note_stale(master.stats().stale);
+        r
     })
 }
 
@@ -866,7 +873,7 @@ mod tests {
     use crate::tool::client::DeviceErrorKind;
     use crate::tool::client::ParamClient;
     use drive_core::rt::{Timebase, serve};
-    use movilink::driver::Clock;
+    use movilink::driver::{Clock, Stream};
     use movilink::{Backend, RequestContext, ReturnCode, Slave, SlaveConfig};
 
     /// A drive whose first `failures` parameter services answer "internal communication

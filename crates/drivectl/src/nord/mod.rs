@@ -432,6 +432,10 @@ impl<C: ParameterChannel> ParamClient for NordParamClient<'_, C> {
         Family::Nord
     }
 
+    fn stale_bytes(&self) -> u64 {
+        self.client.channel().stale_bytes()
+    }
+
     async fn drive_key(&mut self) -> std::result::Result<String, ClientError> {
         Ok(self.key.clone())
     }

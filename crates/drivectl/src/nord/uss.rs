@@ -17,7 +17,7 @@ use ctt2_uss::client::{ClientConfig, NordClient};
 use ctt2_uss::serial::driver::{DriverConfig, UssMaster};
 use ctt2_uss::serial::framing::UssTiming;
 use ctt2_uss::serial::{Layout, UssAddress};
-use drive_core::rt::{CharIo, Stream};
+use drive_core::rt::CharIo;
 use drive_profile::nord::ControlWord;
 use serde_json::{Map, Value, json};
 
@@ -25,6 +25,7 @@ use super::{NordCommand, NordParamClient, Session, execute, precheck, state_text
 use crate::error::{CliError, Result};
 use crate::tool::client::{ParamClient, canonical_port};
 use crate::tool::line::{LineArgs, MAX_TIMEOUT_MS, runtime};
+use crate::tool::stale;
 
 /// Below `drivectl uss --help`.
 const USS_HELP: &str = "\
@@ -172,7 +173,8 @@ pub fn run(args: &UssArgs) -> Result<()> {
     let rt = runtime()?;
     rt.block_on(async {
         let port = args.line.open(&args.port)?;
-        let master = UssMaster::new(Stream(port), config);
+        stale::note_flushed(port.flushed_at_open());
+        let master = UssMaster::new(port, config);
         match &args.command {
             UssCommand::Nord(cmd) => {
                 let mut identity = Map::new();
@@ -186,7 +188,9 @@ pub fn run(args: &UssArgs) -> Result<()> {
                     actuals: args.pzd.saturating_sub(1).min(3),
                 };
                 let mut client = NordClient::new(master, ClientConfig::default());
-                execute(&mut client, &session, cmd).await
+                let r = execute(&mut client, &session, cmd).await;
+                stale::note_stale(client.channel().stats().stale);
+                r
             }
             UssCommand::Scan { from, to } => scan(master, args, *from, *to).await,
             UssCommand::Line => line(&master, args),
@@ -211,6 +215,7 @@ async fn scan<IO: CharIo>(master: UssMaster<IO>, args: &UssArgs, from: u8, to: u
     let bar = crate::tool::backup::progress(usize::from(to - from) + 1, "scanning");
     let mut io = master.into_inner();
     let mut found = 0;
+    let mut stale_bytes = 0;
     for a in from..=to {
         bar.set_message(format!("address {a}"));
         let config = DriverConfig {
@@ -241,6 +246,7 @@ async fn scan<IO: CharIo>(master: UssMaster<IO>, args: &UssArgs, from: u8, to: u
                 Err(_) => {}
             }
         }
+        stale_bytes += client.channel().stats().stale;
         io = client.into_inner().into_inner();
         bar.inc(1);
         if !answered {
@@ -272,6 +278,7 @@ async fn scan<IO: CharIo>(master: UssMaster<IO>, args: &UssArgs, from: u8, to: u
         })?;
     }
     bar.finish_and_clear();
+    stale::note_stale(stale_bytes);
     if !args.json {
         outln!("{found} drive(s) answered between {from} and {to}")?;
     }

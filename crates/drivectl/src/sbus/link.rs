@@ -169,6 +169,7 @@ pub async fn open(
             let port = drive_transport::can::slcan::SlcanPort::open(path, *bitrate)
                 .await
                 .map_err(|e| CliError::failed(e.to_string()))?;
+            crate::tool::stale::note_flushed(port.flushed_at_open());
             Ok((Box::new(port), None))
         }
         Iface::Virtual => {

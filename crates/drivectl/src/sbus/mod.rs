@@ -300,7 +300,9 @@ pub fn run(args: &SbusArgs) -> Result<()> {
         let result = match capture {
             None => {
                 let mut master = SbusMaster::new(io, config);
-                execute(&mut master, args, &iface).await
+                let r = execute(&mut master, args, &iface).await;
+                note_stale(&master);
+                r
             }
             Some(file) => {
                 // Streamed to the temporary file as the frames come (memory stays bounded over a
@@ -309,6 +311,7 @@ pub fn run(args: &SbusArgs) -> Result<()> {
                 let log = Capture::new(io, writer, iface.log_name());
                 let mut master = SbusMaster::new(log, config);
                 let result = execute(&mut master, args, &iface).await;
+                note_stale(&master);
                 let kept = save_capture(master.into_inner(), file, args.capture.as_deref());
                 // The command's own error comes first; a failed capture is reported after it.
                 match (result, kept) {
@@ -325,6 +328,11 @@ pub fn run(args: &SbusArgs) -> Result<()> {
         }
         result
     })
+}
+
+/// The note for the frames the SBus master heard before its request went out.
+fn note_stale<C: drive_core::rt::CanIo>(master: &SbusMaster<C>) {
+    crate::tool::stale::note_stale_frames(master.stats().stale);
 }
 
 /// Finish the capture log of a finished command: flushed, then moved into place.

@@ -115,6 +115,13 @@ pub trait ParamClient {
     fn device(&self) -> super::meaning::Device {
         super::meaning::Device::default()
     }
+
+    /// Bytes the link discarded so far because they arrived before a request had left the
+    /// port (an answer an earlier program left there, a late answer): never taken as an
+    /// answer, reported by [`crate::tool::stale::note_stale`].
+    fn stale_bytes(&self) -> u64 {
+        0
+    }
 }
 
 /// A parameter as named on the command line: its table entry if known, and its bus address.

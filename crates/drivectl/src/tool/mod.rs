@@ -13,6 +13,8 @@
 //! * [`read`](mod@read): reading several parameters in one call;
 //! * [`meaning`]: what a raw value means (value names, decoded status and fault words);
 //! * [`watch`]: several parameters polled with timestamps (a table, lines, CSV or JSON);
+//! * [`stale`]: the notes about bytes discarded as stale (left in the port by an earlier
+//!   program, or arrived before a request had left);
 //! * [`output`]: values as text or JSON.
 
 #[macro_use]
@@ -30,6 +32,7 @@ pub mod motor;
 pub mod outfile;
 pub mod read;
 pub mod simrun;
+pub mod stale;
 pub mod watch;
 pub mod wear;
 pub mod write;

@@ -277,6 +277,7 @@ async fn poll_loop<C: ParamClient>(
             }
         }
         let device = client.device();
+        crate::tool::stale::note_stale(client.stale_bytes());
         let text = match options.format {
             Format::Table => {
                 let table = table(&time, options.interval, targets, &cells, &device);

@@ -116,6 +116,9 @@ pub struct DriverStats {
     /// Negative answers of drives ([`DriverError::Device`], or an error in the parameter
     /// channel of an [`MasterDriver::exchange`] response).
     pub device_errors: u64,
+    /// Bytes never taken as a response because they arrived before the request had left the
+    /// port (a response an earlier program left there, a late response, another master).
+    pub stale: u64,
 }
 
 /// Wire times of the last answered exchange (see [`MasterDriver::last_timing`]).

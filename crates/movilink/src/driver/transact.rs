@@ -18,8 +18,21 @@ pub(super) struct Outcome {
 }
 
 impl<IO: CharIo> MasterDriver<IO> {
-    /// Run one request through the sans-IO master until it completes.
+    /// Run one request through the sans-IO master until it completes; the stale bytes it met
+    /// are counted.
     pub(super) async fn transact(
+        &mut self,
+        request: Telegram,
+        timeout: Duration,
+        retries: u8,
+    ) -> Result<Outcome, DriverError> {
+        let stale = self.master.stale_chars();
+        let r = self.run(request, timeout, retries).await;
+        self.stats.stale += self.master.stale_chars().saturating_sub(stale);
+        r
+    }
+
+    async fn run(
         &mut self,
         request: Telegram,
         timeout: Duration,

@@ -70,6 +70,10 @@ impl<IO: CharIo> CharIo for Tap<IO> {
     fn honours_write_start(&self) -> bool {
         self.inner.honours_write_start()
     }
+
+    fn wire_time(&self) -> drive_core::rt::WireTime {
+        self.inner.wire_time()
+    }
 }
 
 /// A port whose next write takes `partial` bytes and then fails (once).

@@ -12,7 +12,7 @@ use std::task::{Context, Poll};
 use std::time::Duration;
 
 use drive_core::can::CanFrame;
-use drive_core::rt::{CanIo, CharIo, ReceivedChar, ReceivedFrame};
+use drive_core::rt::{CanIo, CharIo, ReceivedChar, ReceivedFrame, WireTime};
 use drive_transport::link::{FaultConfig, FaultStats, LinkEnd};
 use tokio::time::{Instant as TokioInstant, Sleep};
 
@@ -54,6 +54,10 @@ impl CharIo for LineIo {
 
     fn honours_write_start(&self) -> bool {
         self.0.honours_write_start()
+    }
+
+    fn wire_time(&self) -> WireTime {
+        self.0.wire_time()
     }
 }
 
@@ -257,6 +261,13 @@ impl CharIo for Reopen<LineIo> {
             _ => false,
         }
     }
+
+    fn wire_time(&self) -> WireTime {
+        match &self.state {
+            State::Open(io) => io.wire_time(),
+            _ => WireTime::Unknown,
+        }
+    }
 }
 
 /// A boxed CAN interface.
@@ -428,6 +439,10 @@ impl CharIo for SharedLine {
     fn honours_write_start(&self) -> bool {
         lock(&self.inner).io.honours_write_start()
     }
+
+    fn wire_time(&self) -> WireTime {
+        lock(&self.inner).io.wire_time()
+    }
 }
 
 #[derive(Debug, Default)]
@@ -532,5 +547,9 @@ impl CharIo for FaultSwitch {
 
     fn honours_write_start(&self) -> bool {
         self.end.honours_write_start()
+    }
+
+    fn wire_time(&self) -> WireTime {
+        CharIo::wire_time(&self.end)
     }
 }
