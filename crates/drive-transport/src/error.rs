@@ -48,6 +48,16 @@ pub enum TransportError {
         hint: String,
     },
 
+    /// The path names a device that is no serial port a drive can be on (the pseudo-terminal
+    /// multiplexer `/dev/ptmx`, which opens a new pty nobody listens to).
+    #[error("{path} is not a serial port: {hint}")]
+    NotAPort {
+        /// The path that was given.
+        path: String,
+        /// What to give instead.
+        hint: String,
+    },
+
     /// A configuration value is out of range before any device was touched.
     #[error("invalid {setting}: {reason}")]
     InvalidConfig {
@@ -152,6 +162,11 @@ pub enum LineOption {
 }
 
 impl TransportError {
+    /// Whether the path the user gave cannot be a port at all (a front end's usage error).
+    pub fn not_a_port(&self) -> bool {
+        matches!(self, TransportError::NotAPort { .. })
+    }
+
     /// The line setting the device refused, if that is what this error is (its message names
     /// the setting and what to try; a front end adds its own option's name).
     pub fn refused_setting(&self) -> Option<LineOption> {
@@ -183,9 +198,9 @@ impl TransportError {
             TransportError::PermissionDenied { .. } => io::ErrorKind::PermissionDenied,
             TransportError::Busy { .. } => io::ErrorKind::ResourceBusy,
             TransportError::Unsupported { .. } => io::ErrorKind::Unsupported,
-            TransportError::InvalidConfig { .. } | TransportError::SlcanBitrate { .. } => {
-                io::ErrorKind::InvalidInput
-            }
+            TransportError::InvalidConfig { .. }
+            | TransportError::SlcanBitrate { .. }
+            | TransportError::NotAPort { .. } => io::ErrorKind::InvalidInput,
             TransportError::CanInterfaceNotFound { .. } => io::ErrorKind::NotFound,
             TransportError::SlcanRefused { .. } => io::ErrorKind::Other,
             TransportError::SlcanNoAnswer { .. } => io::ErrorKind::TimedOut,

@@ -249,6 +249,15 @@ pub fn open(config: &SerialConfig) -> Result<SerialPort, TransportError> {
     }
 
     let path = config.path.as_str();
+    if is_pty_multiplexer(path) {
+        return Err(TransportError::NotAPort {
+            path: path.into(),
+            hint: "it is the pseudo-terminal multiplexer, which opens a new pseudo-terminal \
+                   nobody listens to; give the pty a simulator printed (/dev/pts/N) or the \
+                   adapter's port"
+                .into(),
+        });
+    }
     let builder = tokio_serial::new(path, 9600)
         .data_bits(tokio_serial::DataBits::Eight)
         .parity(tokio_serial::Parity::None)
@@ -286,6 +295,24 @@ fn flush_input(stream: &tokio_serial::SerialStream, path: &str) -> Result<u32, T
             source: io::Error::from(e),
         })?;
     Ok(waiting)
+}
+
+/// Whether `path` (symbolic links followed) is the pseudo-terminal multiplexer: `/dev/ptmx` or
+/// `/dev/pts/ptmx` (Linux: character device 5:2), whose every open makes a new pty master.
+pub fn is_pty_multiplexer(path: &str) -> bool {
+    #[cfg(target_os = "linux")]
+    {
+        use std::os::unix::fs::{FileTypeExt as _, MetadataExt as _};
+        if let Ok(m) = std::fs::metadata(path)
+            && m.file_type().is_char_device()
+            && libc::major(m.rdev()) == 5
+            && libc::minor(m.rdev()) == 2
+        {
+            return true;
+        }
+    }
+    let real = std::fs::canonicalize(path).unwrap_or_else(|_| path.into());
+    real.file_name().is_some_and(|n| n == "ptmx")
 }
 
 /// Whether `path` (symbolic links followed) is a pseudo-terminal's slave: Linux numbers them
@@ -443,8 +470,8 @@ fn apply_data_bits(
     };
     let setting = format!("{data_bits} data bits");
     let hint = format!(
-        "this device refuses {data_bits} data bits; inverters normally use 8 data bits \
-         (pseudo-terminals support only 8)"
+        "this device refuses {data_bits} data bits (pseudo-terminals take only 8); give the \
+         data bits the drive uses"
     );
     stream
         .set_data_bits(wanted)

@@ -1682,3 +1682,43 @@ fn issue18_decode_sbus_log_says_what_a_candump_time_stamp_looks_like() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Issue 18 D: `--port /dev/pts/ptmx` was accepted (it opens a new pty master nobody listens
+/// to, so every request timed out); the multiplexer, also through a symbolic link, is refused
+/// as no port in every family, a usage error.
+#[test]
+fn issue18_the_pty_multiplexer_is_no_port_in_any_family() {
+    let link = std::env::temp_dir().join(format!("drivectl-ptmx-{}", std::process::id()));
+    let _ = std::fs::remove_file(&link);
+    std::os::unix::fs::symlink("/dev/ptmx", &link).unwrap();
+    let link = link.to_str().unwrap().to_owned();
+    for port in ["/dev/ptmx", "/dev/pts/ptmx", link.as_str()] {
+        let slcan = format!("slcan:{port}");
+        for args in [
+            vec![
+                "movilink", "--port", port, "--parity", "none", "read", "P130",
+            ],
+            vec!["uss", "--port", port, "--parity", "none", "read", "P102"],
+            vec![
+                "bonfiglioli",
+                "--port",
+                port,
+                "--parity",
+                "none",
+                "read",
+                "372",
+            ],
+            vec!["sbus", "--iface", &slcan, "read", "P130"],
+        ] {
+            let o = drivectl(&args);
+            assert_eq!(o.status.code(), Some(2), "{args:?}: {}", stderr(&o));
+            assert!(
+                stderr(&o).contains("is not a serial port")
+                    && stderr(&o).contains("pseudo-terminal multiplexer"),
+                "{args:?}: {}",
+                stderr(&o)
+            );
+        }
+    }
+    let _ = std::fs::remove_file(&link);
+}

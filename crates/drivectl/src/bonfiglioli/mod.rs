@@ -1165,8 +1165,7 @@ fn open(
                 again_with_data_bits(args, Some(8))
             ))
         }
-        Some(_) => CliError::usage(crate::tool::line::open_error(&e)),
-        None => CliError::failed(crate::tool::line::open_error(&e)),
+        _ => crate::tool::line::open_cli_error(&e),
     })
 }
 

@@ -767,6 +767,12 @@ fn check_line(at: &str, b: BusFile) -> std::result::Result<Bus, String> {
         let path = b
             .port
             .ok_or_else(|| format!("{at}: give port = \"/dev/ttyUSB0\" (or simulate = true)"))?;
+        if drive_transport::serial::is_pty_multiplexer(&path) {
+            return Err(format!(
+                "{at}: port = {path:?} is the pseudo-terminal multiplexer, no serial port: give \
+                 the adapter's port (or a simulator's /dev/pts/N)"
+            ));
+        }
         Endpoint::Serial { path, line }
     };
     let timeout = duration(
@@ -1167,6 +1173,10 @@ writable = true
                     "port = \"/dev/ttyUSB0\"\nbaud = 300\ntimeout = \"20ms\"",
                 ),
                 "at 300 baud",
+            ),
+            (
+                with("port = \"/dev/ttyUSB0\"", "port = \"/dev/ptmx\""),
+                "is the pseudo-terminal multiplexer",
             ),
             (
                 with(

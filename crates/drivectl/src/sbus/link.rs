@@ -168,7 +168,7 @@ pub async fn open(
         Iface::Slcan { path, bitrate } => {
             let port = drive_transport::can::slcan::SlcanPort::open(path, *bitrate)
                 .await
-                .map_err(|e| CliError::failed(e.to_string()))?;
+                .map_err(|e| crate::tool::line::open_cli_error(&e))?;
             crate::tool::stale::note_flushed(port.flushed_at_open());
             Ok((Box::new(port), None))
         }

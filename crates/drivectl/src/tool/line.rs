@@ -40,13 +40,18 @@ impl LineArgs {
 /// user's to change (exit 2, naming the option, as `sim` refuses parity on a pty); a missing
 /// or busy port is a failure (exit 1).
 pub fn open_settings(path: &str, settings: LineSettings) -> Result<SerialPort> {
-    serial::open(&SerialConfig::with_line(path, settings)).map_err(|e| {
-        if e.refused_setting().is_some() {
-            CliError::usage(open_error(&e))
-        } else {
-            CliError::failed(open_error(&e))
-        }
-    })
+    serial::open(&SerialConfig::with_line(path, settings)).map_err(|e| open_cli_error(&e))
+}
+
+/// A port's refusal as the command line's error: a setting the device refuses or a path that
+/// is no port at all (`/dev/ptmx`) is the user's to change (exit 2); a missing or busy port is a
+/// failure (exit 1).
+pub fn open_cli_error(e: &TransportError) -> CliError {
+    if e.refused_setting().is_some() || e.not_a_port() {
+        CliError::usage(open_error(e))
+    } else {
+        CliError::failed(open_error(e))
+    }
 }
 
 /// A port's refusal with the drivectl option for the refused setting.
