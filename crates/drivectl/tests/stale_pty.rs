@@ -228,7 +228,9 @@ fn issue18_timeout_extremes_with_a_stale_modbus_answer() {
     let (_, v411) = bonfiglioli_raw(&sim, "411", &[]);
     for _ in 0..5 {
         leave(&sim.path, &fc3(372), Duration::from_millis(100));
-        let (o, raw) = bonfiglioli_raw(&sim, "411", &["--timeout", "1", "--retries", "0"]);
+        // The least timeout drivectl takes at 9600 baud (33 ms: both frames and the 10 ms
+        // answer delay; 1 ms is refused before the port opens).
+        let (o, raw) = bonfiglioli_raw(&sim, "411", &["--timeout", "33", "--retries", "0"]);
         assert_ne!(raw, v372, "{}", stderr(&o));
         match o.status.code() {
             Some(0) => assert_eq!(raw, v411),
