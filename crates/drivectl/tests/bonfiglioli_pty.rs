@@ -820,3 +820,33 @@ fn issue18_control_enables_an_acu_with_positioning_control() {
     assert_eq!(v[0]["state"], "operation enabled", "{v:?}");
     assert!(sim.run(&["control", "stop"]).status.success());
 }
+
+/// Issue 18 B7: on an ACTIVE Cube 484 is write-only, and `control enable --freq` read it back
+/// and failed every time. The reference is never read back; the output says how the write was
+/// confirmed (the drive's echo of the write) and shows the actual frequency.
+#[test]
+fn issue18_b7_a_write_only_reference_is_confirmed_by_its_echo_on_an_acu() {
+    let sim = Sim::start("rtu", &["--variant", "acu"]);
+    for variant in [&[][..], &["--variant", "acu"][..]] {
+        let mut args = variant.to_vec();
+        args.extend_from_slice(&["control", "enable", "--freq", "5"]);
+        let o = sim.run(&args);
+        assert!(o.status.success(), "{args:?}: {}", stderr(&o));
+        let out = String::from_utf8_lossy(&o.stdout);
+        assert!(
+            out.contains("confirmed by the drive's echo") && out.contains("never read back"),
+            "{out}"
+        );
+        assert!(
+            stderr(&o).contains("keeps running after drivectl ends"),
+            "{}",
+            stderr(&o)
+        );
+        let mut json = vec!["--json"];
+        json.extend_from_slice(&args);
+        let v = ok_json(&sim.run(&json));
+        assert_eq!(v[0]["reference"]["confirmed_by"], "echo", "{v:?}");
+        assert_eq!(v[0]["reference"]["hz"], 5.0, "{v:?}");
+        assert!(sim.run(&["control", "stop"]).status.success());
+    }
+}
