@@ -775,14 +775,6 @@ fn check_line(at: &str, b: BusFile) -> std::result::Result<Bus, String> {
         }
         Endpoint::Serial { path, line }
     };
-    let timeout = duration(
-        &format!("{at}: timeout"),
-        b.timeout.as_deref(),
-        default_timeout(protocol),
-    )?;
-    if timeout.is_zero() || timeout > Duration::from_secs(60) {
-        return Err(format!("{at}: timeout: give 1ms–60s"));
-    }
     // As `drivectl movilink` and `drivectl uss` refuse it: a timeout shorter than the pause a
     // drive keeps before answering lets no answer arrive in time (the drives would flap).
     // The same floors `drivectl` puts under `--timeout` in every family (issue 18 C).
@@ -825,6 +817,19 @@ fn check_line(at: &str, b: BusFile) -> std::result::Result<Bus, String> {
             )
         }),
     };
+    // Without a timeout in the file, the protocol's default, raised to the floor below where
+    // the line is so slow that an answer takes longer (Modbus at 1200 baud: 193 ms).
+    let floor = before_answer.as_ref().map(|(_, pause)| {
+        Duration::from_millis(u64::try_from(pause.as_micros().div_ceil(1000)).unwrap_or(u64::MAX))
+    });
+    let timeout = duration(
+        &format!("{at}: timeout"),
+        b.timeout.as_deref(),
+        default_timeout(protocol).max(floor.unwrap_or_default()),
+    )?;
+    if timeout.is_zero() || timeout > Duration::from_secs(60) {
+        return Err(format!("{at}: timeout: give 1ms–60s"));
+    }
     if let Some((what, pause)) = before_answer
         && timeout < pause
     {
@@ -1394,6 +1399,31 @@ writable = true
             err(&sew).contains("variant is a key of Bonfiglioli drives"),
             "{}",
             err(&sew)
+        );
+    }
+
+    #[test]
+    fn issue18_a_default_timeout_no_answer_can_meet_is_raised_to_the_floor() {
+        let slow = MINIMAL
+            .replace("\"movilink\"", "\"modbus-rtu\"")
+            .replace(
+                "port = \"/dev/ttyUSB0\"",
+                "port = \"/dev/ttyUSB0\"\nbaud = 1200",
+            )
+            .replace("P130", "372");
+        let p = Plant::parse(&slow, "p").unwrap();
+        let Endpoint::Serial { line, .. } = &p.buses[0].endpoint else {
+            panic!("{:?}", p.buses[0].endpoint);
+        };
+        assert_eq!(line.baud, 1200);
+        let least = crate::bonfiglioli::least_timeout(bonfiglioli_modbus::framing::Mode::Rtu, line);
+        assert!(least > Duration::from_millis(100), "{least:?}");
+        assert!(p.buses[0].timeout >= least, "{:?}", p.buses[0].timeout);
+        // At 9600 baud the protocol's default stands.
+        let fast = slow.replace("baud = 1200", "baud = 9600");
+        assert_eq!(
+            Plant::parse(&fast, "p").unwrap().buses[0].timeout,
+            Duration::from_millis(100)
         );
     }
 
