@@ -549,6 +549,67 @@ pub async fn pd_warnings<L: SewLink>(
     (slots, warnings)
 }
 
+/// The stop a SEW `pd` session ends with (`movilink pd`, `sbus pd`): the output words with the
+/// stop command in the low byte of every control word slot, the other words as they were.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct PdStop {
+    /// The words sent to stop.
+    pub words: Vec<u16>,
+    /// The command in the control word slots.
+    pub cmd: drive_profile::sew::ControlWord1,
+    /// The first control word slot (for the message).
+    slot: usize,
+}
+
+impl PdStop {
+    /// The stop of a session sending `words` with control words in `slots`; `None` when no
+    /// output word is a control word (nothing can stop the drive over process data).
+    pub fn new(
+        words: &[u16],
+        slots: &[usize],
+        cmd: drive_profile::sew::ControlWord1,
+    ) -> Option<Self> {
+        let slot = *slots.first()?;
+        Some(Self {
+            words: with_command(words, slots, cmd),
+            cmd,
+            slot,
+        })
+    }
+
+    /// What was sent, for the guard's message: `stop (control word 0x0002)`.
+    pub fn sent(&self) -> String {
+        format!(
+            "{} (control word 0x{:04X})",
+            self.cmd.command().name(),
+            self.words.get(self.slot).copied().unwrap_or(0)
+        )
+    }
+
+    /// How the session ends ([`crate::tool::motor::AtEnd`]): stopped with `stop`, else left as
+    /// the last exchange set it, with the reason.
+    pub fn at_end(stop: Option<&PdStop>, keep_running: bool) -> crate::tool::motor::AtEnd {
+        use crate::tool::motor::AtEnd;
+        match (keep_running, stop) {
+            (true, _) => AtEnd::KeepRunning("--keep-running"),
+            (false, None) => AtEnd::KeepRunning("no process output word is a control word"),
+            (false, Some(_)) => AtEnd::Stop,
+        }
+    }
+
+    /// The `pd` arguments that stop the drive, for the hint (`pd --out 0x0002,5000,0`): the
+    /// stop command `cmd` in the control word slots, PO1 (the factory setting's control word)
+    /// where none is known.
+    pub fn hint(words: &[u16], slots: &[usize], cmd: drive_profile::sew::ControlWord1) -> String {
+        let slots = if slots.is_empty() { &[0][..] } else { slots };
+        let w: Vec<String> = with_command(words, slots, cmd)
+            .iter()
+            .map(|w| format!("0x{w:04X}"))
+            .collect();
+        format!("pd --out {}", w.join(","))
+    }
+}
+
 /// What [`pd_preflight`] found out before process data.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Preflight {
@@ -621,5 +682,37 @@ fn client_error_text(e: &ClientError) -> &str {
     match e {
         ClientError::Device(d) => &d.message,
         ClientError::Link(m) => m,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::tool::motor::AtEnd;
+    use drive_profile::sew::ControlWord1;
+
+    #[test]
+    fn the_pd_stop_goes_into_the_control_word_slots_only() {
+        // PO1 control word 1 (enable), PO2 speed, PO3 another control word with its high byte.
+        let words = [0x0006, 5000, 0x1206];
+        let stop = PdStop::new(&words, &[0, 2], ControlWord1::STOP).unwrap();
+        assert_eq!(stop.words, [0x0002, 5000, 0x1202]);
+        assert_eq!(stop.sent(), "stop (control word 0x0002)");
+        assert_eq!(PdStop::at_end(Some(&stop), false), AtEnd::Stop);
+        // No control word: nothing stops it; --keep-running wins anyway.
+        assert_eq!(PdStop::new(&words, &[], ControlWord1::STOP), None);
+        assert!(matches!(
+            PdStop::at_end(None, false),
+            AtEnd::KeepRunning(r) if r.contains("control word")
+        ));
+        assert_eq!(
+            PdStop::at_end(Some(&stop), true),
+            AtEnd::KeepRunning("--keep-running")
+        );
+        // The hint: the factory setting's PO1 where no slot is known.
+        assert_eq!(
+            PdStop::hint(&words, &[], ControlWord1::INHIBIT),
+            "pd --out 0x0001,0x1388,0x1206"
+        );
     }
 }

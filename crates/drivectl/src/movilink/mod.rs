@@ -19,11 +19,12 @@ use std::ops::RangeInclusive;
 use std::time::Duration;
 
 use crate::error::{CliError, Result};
+use crate::sew::PdStop;
 use crate::sew::{SewLink, device_error};
 use crate::tool::again::Again;
 use crate::tool::client::{ClientError, Target, ValueText, canonical_port, parse_int};
 use crate::tool::line::{LineArgs, MasterArgs, runtime};
-use crate::tool::motor::{AtEnd, Motion, MotorGuard, Stopped};
+use crate::tool::motor::{Motion, MotorGuard, Stopped};
 use crate::tool::output::{physical_text, trim_float};
 use crate::tool::{backup, stale, watch, write};
 
@@ -705,20 +706,6 @@ struct PdSession<'a> {
     again: Again,
 }
 
-impl PdSession<'_> {
-    /// The command that stops the drive: one exchange of the same PDU type with the stop
-    /// command in the control word slots (the factory setting's PO1 where none is known).
-    fn stop_command(&self, words: &[u16], slots: &[usize]) -> String {
-        let cmd = self.end.unwrap_or(ControlWord1::STOP);
-        let slots = if slots.is_empty() { &[0][..] } else { slots };
-        let stop: Vec<String> = crate::sew::with_command(words, slots, cmd)
-            .iter()
-            .map(|w| format!("0x{w:04X}"))
-            .collect();
-        self.again.then(&format!("pd --out {}", stop.join(",")))
-    }
-}
-
 async fn pd<IO: CharIo>(m: &mut MasterDriver<IO>, pdu_type: &str, s: &PdSession<'_>) -> Result<()> {
     let (addr, json) = (s.addr, s.json);
     let pdu = parse_int(pdu_type)
@@ -768,18 +755,14 @@ async fn pd<IO: CharIo>(m: &mut MasterDriver<IO>, pdu_type: &str, s: &PdSession<
     )?;
     // The stop telegram: the control word slots get the stop command (their high byte kept),
     // every other word stays as it was.
-    let stop_words = s
-        .end
-        .filter(|_| !slots.is_empty())
-        .map(|cmd| (crate::sew::with_command(&words, &slots, cmd), cmd));
-    let at_end = match (s.end, &stop_words) {
-        (None, _) => AtEnd::KeepRunning("--keep-running"),
-        // No control word among the outputs: nothing can stop the drive over process data
-        // (warned above); the session ends as the last exchange left it.
-        (Some(_), None) => AtEnd::KeepRunning("no process output word is a control word"),
-        (Some(_), Some(_)) => AtEnd::Stop,
-    };
-    let guard = MotorGuard::install(at_end, s.stop_command(&words, &slots));
+    // No control word among the outputs: nothing can stop the drive over process data
+    // (warned above); the session ends as the last exchange left it.
+    let stop = s.end.and_then(|cmd| PdStop::new(&words, &slots, cmd));
+    let hint = PdStop::hint(&words, &slots, s.end.unwrap_or(ControlWord1::STOP));
+    let guard = MotorGuard::install(
+        PdStop::at_end(stop.as_ref(), s.end.is_none()),
+        s.again.then(&hint),
+    );
     // Cyclic types run as a cyclic session (one telegram every --interval, which keeps the
     // drive's RS-485 timeout P812 fed); acyclic ones are single exchanges --interval apart. An
     // interrupt ends the loop after the exchange in progress.
@@ -821,19 +804,13 @@ async fn pd<IO: CharIo>(m: &mut MasterDriver<IO>, pdu_type: &str, s: &PdSession<
         Ok(())
     };
     let send_stop = async |m: &mut MasterDriver<IO>| -> Result<Stopped> {
-        let Some((w, cmd)) = &stop_words else {
+        let Some(stop) = &stop else {
             return Err(CliError::failed("no control word to stop the drive with"));
         };
-        let request = Telegram::request(addr, pdu).with_process_data(w);
+        let request = Telegram::request(addr, pdu).with_process_data(&stop.words);
         let response = m.exchange(request).await.map_err(driver_error)?;
         Ok(Stopped {
-            sent: format!(
-                "{} (control word 0x{:04X})",
-                cmd.command().name(),
-                w.get(slots.first().copied().unwrap_or(0))
-                    .copied()
-                    .unwrap_or(0)
-            ),
+            sent: stop.sent(),
             reports: response
                 .process_data()
                 .first()

@@ -13,10 +13,11 @@ use serde_json::json;
 
 use crate::error::{CliError, Result};
 use crate::sbus::link::driver_error;
+use crate::sew::PdStop;
 use crate::tool::again::Again;
 use crate::tool::client::parse_int;
 use crate::tool::interrupt::Interrupt;
-use crate::tool::motor::{AtEnd, Motion, MotorGuard, Stopped};
+use crate::tool::motor::{Motion, MotorGuard, Stopped};
 use crate::tool::output::trim_float;
 
 /// Arguments of `drivectl sbus pd`.
@@ -170,35 +171,15 @@ pub async fn pd<C: CanIo>(
             )));
         }
     }
-    let stop_words = end.filter(|_| !slots.is_empty()).map(|cmd| {
-        let mut w = words;
-        for (x, y) in w
-            .iter_mut()
-            .zip(crate::sew::with_command(&words, &slots, cmd))
-        {
-            *x = y;
-        }
-        (w, cmd)
-    });
-    let at_end = match (end, &stop_words) {
-        (None, _) => AtEnd::KeepRunning("--keep-running"),
-        (Some(_), None) => AtEnd::KeepRunning("no process output word is a control word"),
-        (Some(_), Some(_)) => AtEnd::Stop,
-    };
-    let stop_command = {
-        let cmd = end.unwrap_or(ControlWord1::STOP);
-        let slots = if slots.is_empty() { &[0][..] } else { &slots };
-        let w: Vec<String> = crate::sew::with_command(&words, slots, cmd)
-            .iter()
-            .map(|w| format!("0x{w:04X}"))
-            .collect();
-        let mut rest = format!("pd --out {}", w.join(","));
-        if let Some(g) = group {
-            rest.push_str(&format!(" --group {}", g.get()));
-        }
-        again.then(&rest)
-    };
-    let guard = MotorGuard::install(at_end, stop_command);
+    let stop = end.and_then(|cmd| PdStop::new(&words, &slots, cmd));
+    let mut hint = PdStop::hint(&words, &slots, end.unwrap_or(ControlWord1::STOP));
+    if let Some(g) = group {
+        hint.push_str(&format!(" --group {}", g.get()));
+    }
+    let guard = MotorGuard::install(
+        PdStop::at_end(stop.as_ref(), end.is_none()),
+        again.then(&hint),
+    );
     let work = async |m: &mut SbusMaster<C>, motion: &Motion<'_>| -> Result<()> {
         let stop = motion.interrupt();
         let mut done = 0u32;
@@ -219,18 +200,16 @@ pub async fn pd<C: CanIo>(
         Ok(())
     };
     let send_stop = async |m: &mut SbusMaster<C>| -> Result<Stopped> {
-        let Some((w, cmd)) = stop_words else {
+        let Some(stop) = &stop else {
             return Err(CliError::failed("no control word to stop the drive with"));
         };
+        let mut w = [0u16; 3];
+        for (x, y) in w.iter_mut().zip(&stop.words) {
+            *x = *y;
+        }
         let pi = exchange_quiet(m, addr, group, args.sync, w).await?;
         Ok(Stopped {
-            sent: format!(
-                "{} (control word 0x{:04X})",
-                cmd.command().name(),
-                w.get(slots.first().copied().unwrap_or(0))
-                    .copied()
-                    .unwrap_or(0)
-            ),
+            sent: stop.sent(),
             reports: pi.map_or_else(
                 || "no answer by design (group)".to_owned(),
                 |p| StatusWord1::from_bits(p.0[0]).to_string(),
