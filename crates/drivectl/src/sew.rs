@@ -216,24 +216,22 @@ pub async fn info<L: SewLink>(link: &mut L, t: Target, json: bool) -> Result<()>
     if json {
         outln!(
             "{}",
-            json!({
-                // The keys of `params … --json` where they mean the same: raw values plain,
-                // physical ones as `*_value` in the table's unit.
-                "index": t.index,
-                "number": t.param.map(|p| p.label().to_string()),
-                "name_de": t.param.map(|p| p.name_de()),
-                "name_en": t.param.map(|p| p.name_en()),
-                "unit": t.param.map(|p| p.unit()),
-                "range": {
-                    "min": raw_of(&t, min), "max": raw_of(&t, max),
-                    "min_value": physical(raw_of(&t, min)), "max_value": physical(raw_of(&t, max)),
-                },
-                "default": raw_of(&t, default), "default_value": physical(raw_of(&t, default)),
-                "size_index": scale.size_index, "conversion_index": scale.conversion_index,
-                "quantity": size_name,
-                "next_index": attr.next_index, "attributes": attr.attributes, "access": access.to_string(),
-                "current": [crate::tool::output::value_json(&t, current)],
-            })
+            crate::tool::output::info_json(
+                &t,
+                json!({
+                    // The keys of `params … --json` where they mean the same: raw values plain,
+                    // physical ones as `*_value` in the table's unit.
+                    "range": {
+                        "min": raw_of(&t, min), "max": raw_of(&t, max),
+                        "min_value": physical(raw_of(&t, min)), "max_value": physical(raw_of(&t, max)),
+                    },
+                    "default": raw_of(&t, default), "default_value": physical(raw_of(&t, default)),
+                    "size_index": scale.size_index, "conversion_index": scale.conversion_index,
+                    "quantity": size_name,
+                    "next_index": attr.next_index, "attributes": attr.attributes, "access": access.to_string(),
+                    "current": [crate::tool::output::value_json(&t, current)],
+                })
+            )
         )?;
     } else {
         let name = t

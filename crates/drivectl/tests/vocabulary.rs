@@ -26,16 +26,18 @@ const VALUE_KEYS: [&str; 11] = [
 ];
 
 /// What every family's `info --json` has.
-const INFO_KEYS: [&str; 10] = [
+const INFO_KEYS: [&str; 12] = [
     "access",
     "current",
     "default",
     "default_value",
     "index",
+    "label",
     "name_de",
     "name_en",
     "number",
     "range",
+    "selector",
     "unit",
 ];
 

@@ -1473,30 +1473,28 @@ async fn info<IO: CharIo>(
             .collect();
         outln!(
             "{}",
-            json!({
-                "index": t.index,
-                "number": t.param.map(|p| p.label().to_string()),
-                "name_de": t.param.map(|p| p.name_de()),
-                "name_en": t.param.map(|p| p.name_en()),
-                "unit": t.param.map(|p| p.unit()),
-                "range": range,
-                "default": default,
-                "default_value": default.map(physical),
-                "access": t.param.map(|p| p.access().to_string()),
-                "decimals": col("decimals"),
-                "data_type": col("data_type"),
-                "type_source": col("type_source"),
-                "bits": table.and_then(|p| p.data_type.bits()),
-                "width": width_text,
-                "data_sets": col("data_set"),
-                "ram_only": col("ram_only"),
-                "not_in_operation": col("not_in_operation"),
-                "bus_only": col("bus_only"),
-                "bus_access": col("bus_access"),
-                "values": col("values"),
-                "chapters": col("chapters"),
-                "current": values,
-            })
+            crate::tool::output::info_json(
+                &t,
+                json!({
+                    "range": range,
+                    "default": default,
+                    "default_value": default.map(physical),
+                    "access": t.param.map(|p| p.access().to_string()),
+                    "decimals": col("decimals"),
+                    "data_type": col("data_type"),
+                    "type_source": col("type_source"),
+                    "bits": table.and_then(|p| p.data_type.bits()),
+                    "width": width_text,
+                    "data_sets": col("data_set"),
+                    "ram_only": col("ram_only"),
+                    "not_in_operation": col("not_in_operation"),
+                    "bus_only": col("bus_only"),
+                    "bus_access": col("bus_access"),
+                    "values": col("values"),
+                    "chapters": col("chapters"),
+                    "current": values,
+                })
+            )
         )?;
         return outcome();
     }

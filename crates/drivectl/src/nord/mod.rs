@@ -966,6 +966,12 @@ async fn info<C: ParameterChannel>(
                 // same: raw values plain, physical ones as `*_value` in the table's unit.
                 "index": first.index,
                 "number": p.map(|q| q.label().to_string()),
+                // One target: its label and selector; several (every set or element): the
+                // parameter, each one's in `current`.
+                "label": if targets.len() == 1 { first.label() } else {
+                    p.map_or_else(|| first.label(), |q| q.label().to_string())
+                },
+                "selector": if targets.len() == 1 { first.selector_json() } else { Value::Null },
                 "name_de": p.map(|q| q.name_de), "name_en": p.map(|q| q.name_en),
                 "unit": p.map(|q| q.unit),
                 "range": p.and_then(|q| q.raw_range).map(|(lo, hi)| json!({

@@ -148,6 +148,16 @@ pub fn target_json(t: &Target) -> Map<String, Value> {
     m
 }
 
+/// Every family's `info --json` object: what names the target ([`target_json`]), then the
+/// family's own description `fields` (an object: `range`, `default`, `access`, `current`, …).
+pub fn info_json(t: &Target, fields: Value) -> Value {
+    let mut m = target_json(t);
+    if let Value::Object(f) = fields {
+        m.extend(f);
+    }
+    Value::Object(m)
+}
+
 /// [`value_json_in`] of a drive nothing is known of (a decoded capture, a backup file).
 pub fn value_json(t: &Target, raw: i64) -> Value {
     value_json_in(t, raw, &Device::default())
