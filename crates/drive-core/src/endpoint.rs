@@ -1,5 +1,5 @@
 //! The interface between a sans-IO state machine and whatever drives it (the runtime layer's
-//! [`Port`](crate::rt::Port) and serve loop, a test pump, an embedded main loop).
+//! `rt::Port` and serve loop with the `tokio` feature, a test pump, an embedded main loop).
 
 use crate::char::RxChar;
 use crate::time::Instant;

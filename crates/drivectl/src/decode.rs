@@ -3,7 +3,8 @@
 //! parameter a telegram names in the keys of `read --json`, and text from the input shown
 //! without its control characters.
 //!
-//! Every object a decoder prints has every key of [`COMMON_KEYS`] (`null` where the telegram
+//! Every object a decoder prints has every common key (`COMMON_KEYS` in the tests, listed in
+//! `docs/decode-json.md`; `null` where the telegram
 //! has nothing for it); a protocol adds only its own keys beside them (MOVILINK `pdu_type`,
 //! CTT2 `code`, Modbus `function`, …).
 //!
@@ -278,7 +279,7 @@ impl Telegram {
         self
     }
 
-    /// The object: every key of [`COMMON_KEYS`], then the protocol's own.
+    /// The object: every common key (`docs/decode-json.md`), then the protocol's own.
     pub fn to_json(&self) -> Value {
         let mut m = Map::new();
         m.insert("type".into(), self.type_.into());

@@ -552,7 +552,8 @@ fn ascii_chars(text: &str, from_args: bool) -> Result<Vec<u8>> {
     ascii_capture(text, from_args).map(|c| c.bytes)
 }
 
-/// [`ascii_chars`] with the input line of every character (none for arguments).
+/// The characters of an ASCII capture (the text itself when it has a `:`, else hex bytes of
+/// the characters) with the input line of every character (none for arguments).
 fn ascii_capture(text: &str, from_args: bool) -> Result<Capture> {
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     if !text.contains(':') {

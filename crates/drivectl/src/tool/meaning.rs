@@ -65,7 +65,8 @@ pub fn meaning(p: AnyParam, raw: i64) -> Option<Meaning> {
     meaning_with(p, raw, &Device::default())
 }
 
-/// [`meaning`] on the drive `device` describes.
+/// What `raw` of parameter `p` means on the drive `device` describes: a decoded status or fault
+/// word, else the name of the value in the table's value list, else nothing.
 pub fn meaning_with(p: AnyParam, raw: i64, device: &Device) -> Option<Meaning> {
     let word = match p.family() {
         Family::Movidrive => movidrive(p, raw),
@@ -80,7 +81,7 @@ pub fn meaning_with(p: AnyParam, raw: i64, device: &Device) -> Option<Meaning> {
     })
 }
 
-/// What `raw` of `t` means: [`meaning`] of its table entry, with what only the whole target
+/// What `raw` of `t` means: [`meaning_with`] of its table entry, with what only the whole target
 /// knows (a NORD array element: P700 [-02] is a warning, [-03] a reason for switch-on
 /// disabled).
 pub fn meaning_of(t: &super::client::Target, raw: i64) -> Option<Meaning> {
