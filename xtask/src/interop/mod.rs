@@ -573,16 +573,20 @@ fn master_checks(env: &mut Env, tally: &mut Tally, drivectl: &Path, mode: Mode) 
             .ok()
             .filter(|r| r.success())
             .and_then(|r| first_json(&r.stdout));
-        let got = |k: &str| {
-            json.as_ref()
-                .and_then(|j| j.get(k))
-                .and_then(serde_json::Value::as_u64)
+        // The keys every family's `read --json` has (README, "One vocabulary"): the index, the
+        // selector, the raw value.
+        let got = |path: &[&str]| {
+            let mut v = json.as_ref()?;
+            for k in path {
+                v = v.get(k)?;
+            }
+            v.as_u64()
         };
-        let ok = got("parameter") == Some(parameter)
-            && got("dataset") == Some(dataset)
-            && got("raw") == Some(raw);
+        let ok = got(&["index"]) == Some(parameter)
+            && got(&["selector", "dataset"]) == Some(dataset)
+            && got(&["raw"]) == Some(raw);
         tally.check(ok, &scope, what, &format!(
-            "`read {p} --dataset {d}`: expected {{\"parameter\": {p}, \"dataset\": {d}, \"raw\": {raw}}}, got {}",
+            "`read {p} --dataset {d}`: expected {{\"index\": {p}, \"selector\": {{\"dataset\": {d}}}, \"raw\": {raw}}}, got {}",
             outcome(&r)
         ));
     };
