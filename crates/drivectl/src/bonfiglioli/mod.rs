@@ -28,6 +28,7 @@ use serde_json::{Map, Value, json};
 
 use crate::error::{CliError, Result};
 use crate::tool::again::Again;
+use crate::tool::client::OnTarget as _;
 use crate::tool::client::{
     ClientError, DeviceError, DeviceErrorKind, ParamClient, Target, ValueText, canonical_port,
 };

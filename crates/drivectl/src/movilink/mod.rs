@@ -363,7 +363,7 @@ impl<IO: CharIo> SewLink for MovilinkLink<'_, IO> {
 /// Resolve a MOVIDRIVE parameter: `P813`, `813`, `8600`, `0x2198`; indices outside the table
 /// are allowed (raw access).
 pub fn resolve(key: &str) -> Result<Target> {
-    Target::resolve(Family::Movidrive, key, RAW_INDICES)
+    Ok(Target::resolve(Family::Movidrive, key, RAW_INDICES)?)
 }
 
 fn address(a: u8) -> Result<Address> {
@@ -469,7 +469,7 @@ fn precheck(command: &MovilinkCommand) -> Result<()> {
                 force: *force,
                 round: *round,
             };
-            resolve(param)?.value_from_text(value, &how).map(|_| ())
+            Ok(resolve(param)?.value_from_text(value, &how).map(|_| ())?)
         }
         MovilinkCommand::Restore(r) => backup::check_file(&r.file, Family::Movidrive, NOT_RESTORED),
         _ => Ok(()),

@@ -436,7 +436,7 @@ fn precheck(command: &SbusCommand) -> Result<()> {
                 force: *force,
                 round: *round,
             };
-            resolve(param)?.value_from_text(value, &how).map(|_| ())
+            Ok(resolve(param)?.value_from_text(value, &how).map(|_| ())?)
         }
         SbusCommand::Scan { from, to } if from > to => Err(CliError::usage(format!(
             "scan --from {from} --to {to}: the range must satisfy 0 ≤ --from ≤ --to ≤ 63"
