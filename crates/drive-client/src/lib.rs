@@ -11,7 +11,9 @@
 //!   link settings only when confirmed, the write, the read-back) with typed refusals
 //!   ([`WriteError`]);
 //! * [`meaning`]: what a raw value means (value names, decoded status and fault words);
-//! * [`text`]: values as text and strict number parsing.
+//! * [`text`]: values as text and strict number parsing;
+//! * [`motor`]: the rule of everything that enables or drives a motor — stopped on every early
+//!   end ([`Interrupt`]), left running only on purpose — for every front end to say its way.
 //!
 //! Errors are typed and carry no front end's words: the command line and the gateway each say
 //! them their own way.
@@ -19,13 +21,16 @@
 #![warn(missing_docs)]
 
 pub mod client;
+pub mod interrupt;
 pub mod meaning;
+pub mod motor;
 pub mod target;
 pub mod text;
 pub mod wear;
 pub mod write;
 
 pub use client::{ClientError, DeviceError, DeviceErrorKind, ParamClient};
+pub use interrupt::{Cause, Interrupt};
 pub use meaning::{Device, KnownVariant, Meaning};
 pub use target::{
     Parsed, Target, TargetError, ValueError, ValueText, nord_sub, nord_sub_parts, nord_subs,

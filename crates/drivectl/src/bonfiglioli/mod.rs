@@ -1929,7 +1929,7 @@ async fn control<IO: CharIo>(m: &mut MasterDriver<IO>, s: &ControlSession<'_>) -
             let interrupt =
                 Interrupt::install("the drive may not have reached the state asked for");
             let armed = std::cell::Cell::new(false);
-            control_steps(m, s, target, &Motion::new(&interrupt, &armed)).await?
+            control_steps(m, s, target, &Motion::new(interrupt.inner(), &armed)).await?
         }
     };
     let word = reached.word;

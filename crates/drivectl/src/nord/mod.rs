@@ -1380,7 +1380,7 @@ where
             g.run(c, work, stop).await?
         }
         None => {
-            let motion = Motion::new(&interrupt, &armed);
+            let motion = Motion::new(interrupt.inner(), &armed);
             let (answer, last) = work(c, &motion).await?;
             if let Some(sig) = interrupt.signal() {
                 // A stop, quick stop or disable keeps acting in the drive: say what it was
