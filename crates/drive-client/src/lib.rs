@@ -12,6 +12,12 @@
 //!   ([`WriteError`]);
 //! * [`meaning`]: what a raw value means (value names, decoded status and fault words);
 //! * [`text`]: values as text and strict number parsing;
+//! * one client per family: [`sew`] (MOVIDRIVE, written once over the [`sew::SewLink`] of
+//!   MOVILINK and SBus), [`nord`] (NORDAC LINK over USS or CTT2), [`bonfiglioli`] (ACT/ACU over
+//!   Modbus RTU or ASCII), each generic over the protocol crate's transport (`CharIo`, `CanIo`;
+//!   opening a port is `drive-transport`'s);
+//! * [`front`]: what a front end names in its own words where a client's message points at it
+//!   (the command line's options, the gateway's config keys), and the notes it hears;
 //! * [`motor`]: the rule of everything that enables or drives a motor — stopped on every early
 //!   end ([`Interrupt`]), left running only on purpose — for every front end to say its way.
 //!
@@ -20,16 +26,21 @@
 
 #![warn(missing_docs)]
 
+pub mod bonfiglioli;
 pub mod client;
+pub mod front;
 pub mod interrupt;
 pub mod meaning;
 pub mod motor;
+pub mod nord;
+pub mod sew;
 pub mod target;
 pub mod text;
 pub mod wear;
 pub mod write;
 
 pub use client::{ClientError, DeviceError, DeviceErrorKind, ParamClient};
+pub use front::{FrontEnd, Note, Plain, Setting};
 pub use interrupt::{Cause, Interrupt};
 pub use meaning::{Device, KnownVariant, Meaning};
 pub use target::{
