@@ -41,8 +41,13 @@ pub mod param {
 }
 
 /// The target of the table parameter `number` as a whole: its first array element and
-/// parameter set 1 where it has them; `None` outside the table.
-pub fn table_target(number: u16) -> Option<Target> {
+/// parameter set 1 where it has them; a number outside the table is an error.
+pub fn table_target(number: u16) -> Result<Target, ClientError> {
+    table_entry(number)
+        .ok_or_else(|| ClientError::Link(format!("P{number} is not in the NORD table")))
+}
+
+fn table_entry(number: u16) -> Option<Target> {
     let mut t = Target::resolve(Family::Nord, &number.to_string(), RAW_INDICES).ok()?;
     // A PNU typed as a number is the table's parameter too.
     if t.param.is_none()
@@ -56,12 +61,6 @@ pub fn table_target(number: u16) -> Option<Target> {
     let set = p.parameter_set.then_some(1);
     t.sub = nord_sub(t.index, element, set);
     Some(t)
-}
-
-/// [`table_target`] as a client needs it: a parameter missing from the table is an error.
-fn table_target_in(number: u16) -> Result<Target, ClientError> {
-    table_target(number)
-        .ok_or_else(|| ClientError::Link(format!("P{number} is not in the NORD table")))
 }
 
 /// Whether `t` is an array element (AK 6, 7, 11, 12): the table says so, or `raw_array` (the
@@ -262,7 +261,7 @@ impl<C: ParameterChannel> ParamClient for NordParamClient<'_, C> {
 
     async fn identify(&mut self) -> Result<Map<String, Value>, ClientError> {
         let mut m = self.identity.clone();
-        let level = table_target_in(param::CONFIGURATION_LEVEL)?;
+        let level = table_target(param::CONFIGURATION_LEVEL)?;
         let configuration = match self.read(&level).await {
             Ok(v) => Value::from(v),
             Err(ClientError::Device(_)) => Value::Null,
@@ -290,7 +289,7 @@ mod tests {
         // P105 has parameter sets: set 1.
         let t = table_target(param::MAXIMUM_FREQUENCY).unwrap();
         assert_eq!(t.label(), "P105 set 1");
-        assert!(table_target(1999).is_none());
+        assert!(table_target(1999).is_err());
     }
 
     #[test]
