@@ -163,8 +163,9 @@ fn bonfiglioli_walk() -> Result<()> {
 /// 9600-baud wire timing: scan, identify, read and write parameters, enable, watch the speed
 /// ramp, stop.
 async fn movilink_session() -> Result<()> {
-    use crate::movilink::{driver_error, firmware_text, raw_of, resolve};
+    use crate::movilink::{driver_error, firmware_text, resolve};
     use crate::tool::output::print_value;
+    use drive_client::sew::raw_of;
     use drive_profile::sew::{ControlWord1, StatusWord1, index};
     use drive_transport::link::{LinkConfig, pair};
     use movilink::driver::{DriverConfig, MasterDriver};
@@ -679,11 +680,12 @@ async fn bonfiglioli_session() -> Result<()> {
 /// clock: the ID and diagnosis objects, a parameter written and read back, the drive enabled
 /// at 50 % through the state machine (the manual's 5.1.1/5.1.2) and stopped.
 async fn nord_session() -> Result<()> {
-    use crate::nord::{NordParamClient, Sub, resolve, state_text};
+    use crate::nord::{Sub, resolve, state_text};
     use crate::tool::client::ParamClient;
     use ctt2_uss::client::{ClientConfig, NordClient};
     use ctt2_uss::ctt2::link::{SimLink, SimulatedDoubleSlave};
     use ctt2_uss::ctt2::master::{Ctt2Master, MasterConfig};
+    use drive_client::nord::NordParamClient;
     use drive_profile::Persistence;
     use drive_profile::nord::{ControlWord, State, command};
 
@@ -725,7 +727,8 @@ async fn nord_session() -> Result<()> {
     .next()
     .ok_or_else(|| failed(&"P102"))?;
     {
-        let mut pc = NordParamClient::new(&mut client, "demo", serde_json::Map::new());
+        let mut pc = NordParamClient::new(&mut client, "demo", serde_json::Map::new())
+            .with_front_end(&crate::front::Cli);
         pc.write(&p102, 1000, Persistence::NonVolatile)
             .await
             .map_err(|e| failed(&CliError::from(e)))?;

@@ -15,6 +15,7 @@ mod decode;
 mod demo;
 mod error;
 mod examples;
+mod front;
 mod gateway;
 mod movilink;
 mod nord;

@@ -1,211 +1,41 @@
 //! What `drivectl movilink` and `drivectl sbus` share: a MOVIDRIVE's parameter channel is the
-//! same on RS-485 and on CAN (the same services, return codes and parameter table), so the
-//! tool layer's [`ParamClient`] for a MOVIDRIVE is written once, on [`SewLink`], and each bus
-//! gives only its way to the drive: the MOVILINK master on a serial line, the SBus master on a
-//! CAN interface.
+//! same on RS-485 and on CAN, so the client is drive-client's one [`SewClient`] on a
+//! [`SewLink`] (MOVILINK's or SBus's), and the commands on it are written once here: read,
+//! watch, write (answered, or to a group or broadcast), info, backup, restore, and the
+//! process-data preflight with its warnings on standard error.
 
-use drive_profile::sew::{self, ParamChannel, ReturnCode, index};
-use drive_profile::{Access, Family, Persistence};
+use drive_client::sew::{
+    Description, bus_timeout, describe, pd_warnings, raw_of, with_command, write_service,
+};
+use drive_profile::sew::{self, ParamChannel};
+use drive_profile::{Access, Persistence};
 use serde_json::{Map, Value, json};
 
+pub use drive_client::sew::{SewClient, SewLink};
+
 use crate::error::Result;
-use crate::tool::client::{ClientError, DeviceError, DeviceErrorKind, ParamClient, Target};
+use crate::front::Cli;
+use crate::tool::client::{ParamClient, Target};
 use crate::tool::output::physical_text;
 
-/// One MOVIDRIVE's parameter channel over some bus.
-pub trait SewLink {
-    /// Run `request` (a parameter service) on the drive: the answer's data, a refusal of the
-    /// drive ([`device_error`]) or a link failure.
-    async fn service(&mut self, request: ParamChannel) -> std::result::Result<u32, ClientError>;
-
-    /// The bus the drive is on, for the EEPROM-wear log: a serial port's or CAN interface's
-    /// canonical name (see `tool::client::canonical_port`).
-    fn bus_key(&self) -> String;
-
-    /// The drive's own address for the EEPROM-wear log (a point-to-point address is resolved
-    /// by asking the drive).
-    async fn drive_address(&mut self) -> std::result::Result<String, ClientError>;
-
-    /// Indices of the drive's settings for this bus (address, timeouts): writing one needs
-    /// confirmation.
-    fn link_settings(&self) -> &'static [u16];
-
-    /// Indices a restore over this bus never writes.
-    fn not_restored(&self) -> &'static [u16];
-
-    /// What writing `raw` to the link setting `target` does, for a person.
-    fn link_change(&self, target: &Target, raw: i64) -> String;
-
-    /// The link setting `target` was written with `raw`: follow it where possible.
-    fn follow_link_change(&mut self, target: &Target, raw: i64) -> String {
-        self.link_change(target, raw)
-    }
-
-    /// The drive's address as a number, for `identify`.
-    fn address_number(&self) -> u8;
-
-    /// Bytes the bus's driver discarded as stale so far (see [`ParamClient::stale_bytes`]).
-    fn stale_bytes(&self) -> u64 {
-        0
-    }
-}
-
-/// The tool layer's client for a MOVIDRIVE on any [`SewLink`].
-#[derive(Debug)]
-pub struct SewClient<L> {
-    /// The way to the drive.
-    pub link: L,
-    /// The drive's key for the EEPROM-wear log, once known.
-    key: Option<String>,
-}
-
-impl<L> SewClient<L> {
-    /// The client of the drive behind `link`.
-    pub fn new(link: L) -> Self {
-        Self { link, key: None }
-    }
-}
-
-/// How often a service answered with "internal communication error" (6/2) is sent in all: the
-/// manual says to repeat it, and to power-cycle the drive when it persists.
-pub const SERVICE_ATTEMPTS: u32 = 3;
-
-/// What a SEW return code means for the tool layer.
-pub fn device_error_kind(code: ReturnCode) -> DeviceErrorKind {
-    if [
-        ReturnCode::ILLEGAL_INDEX,
-        ReturnCode::NOT_IMPLEMENTED,
-        ReturnCode::OPTION_CARD_MISSING,
-    ]
-    .contains(&code)
-    {
-        DeviceErrorKind::Absent
-    } else if (code.error_class, code.error_code) == (6, 2) {
-        DeviceErrorKind::Transient
-    } else {
-        DeviceErrorKind::Refused
-    }
-}
-
-/// The tool layer's error of a drive's refusal `code`, with `message` for a person.
-pub fn device_error(code: ReturnCode, message: String) -> ClientError {
-    ClientError::Device(DeviceError {
-        kind: device_error_kind(code),
-        message,
-    })
-}
-
-/// The 32-bit data of a raw value (it has passed the width check: signed or unsigned 32 bits).
-pub fn data_of(raw: i64) -> u32 {
-    raw as u32
-}
-
-/// A raw value of 32-bit data: signed where the parameter's range goes below zero, else
-/// unsigned (as the drive reads it); signed outside the table.
-pub fn raw_of(t: &Target, data: u32) -> i64 {
-    match t.param.map(|p| p.wire_range()) {
-        Some((lo, _)) if lo >= 0 => i64::from(data),
-        _ => i64::from(data as i32),
-    }
-}
-
-impl<L: SewLink> SewClient<L> {
-    /// `request`, repeated while the drive answers "internal communication error".
-    async fn service(&mut self, request: ParamChannel) -> std::result::Result<u32, ClientError> {
-        let mut attempts = 0;
-        loop {
-            attempts += 1;
-            match self.link.service(request).await {
-                // The manual: "repeat the read or write service".
-                Err(ClientError::Device(d))
-                    if d.kind == DeviceErrorKind::Transient && attempts < SERVICE_ATTEMPTS => {}
-                done => return done,
-            }
-        }
-    }
-}
-
-impl<L: SewLink> ParamClient for SewClient<L> {
-    fn family(&self) -> Family {
-        Family::Movidrive
-    }
-
-    async fn drive_key(&mut self) -> std::result::Result<String, ClientError> {
-        if let Some(k) = &self.key {
-            return Ok(k.clone());
-        }
-        let address = self.link.drive_address().await?;
-        let key = format!("{} {address}", self.link.bus_key());
-        self.key = Some(key.clone());
-        Ok(key)
-    }
-
-    fn link_settings(&self) -> &'static [u16] {
-        self.link.link_settings()
-    }
-
-    fn stale_bytes(&self) -> u64 {
-        self.link.stale_bytes()
-    }
-
-    fn link_change(&self, target: &Target, raw: i64) -> String {
-        self.link.link_change(target, raw)
-    }
-
-    fn follow_link_change(&mut self, target: &Target, raw: i64) -> String {
-        let before = self.link.address_number();
-        let note = self.link.follow_link_change(target, raw);
-        if self.link.address_number() != before {
-            self.key = None;
-        }
-        note
-    }
-
-    fn not_restored(&self) -> &'static [u16] {
-        self.link.not_restored()
-    }
-
-    async fn read(&mut self, target: &Target) -> std::result::Result<i64, ClientError> {
-        let data = self.service(ParamChannel::read(target.index)).await?;
-        Ok(raw_of(target, data))
-    }
-
-    async fn write(
-        &mut self,
-        target: &Target,
-        raw: i64,
-        persistence: Persistence,
-    ) -> std::result::Result<(), ClientError> {
-        let data = data_of(raw);
-        let request = match persistence {
-            Persistence::Volatile => ParamChannel::write_volatile(target.index, data),
-            Persistence::NonVolatile => ParamChannel::write(target.index, data),
-        };
-        self.service(request).await.map(drop)
-    }
-
-    async fn identify(&mut self) -> std::result::Result<Map<String, Value>, ClientError> {
-        let device_type = self.service(ParamChannel::read(index::UNIT_TYPE)).await?;
-        let firmware = self.service(ParamChannel::read(index::FIRMWARE)).await?;
-        let mut m = Map::new();
-        m.insert("address".into(), self.link.address_number().into());
-        m.insert("device_type".into(), device_type.into());
-        m.insert("firmware".into(), firmware.into());
-        Ok(m)
-    }
+/// The client of the drive behind `link`, its messages in the command line's words.
+pub fn client<L: SewLink>(link: L) -> SewClient<L> {
+    SewClient::new(link).with_front_end(&Cli)
 }
 
 /// `info`: minimum, maximum, default, scale and attributes of `t`.
 pub async fn info<L: SewLink>(link: &mut L, t: Target, json: bool) -> Result<()> {
-    let min = link.service(ParamChannel::read_minimum(t.index)).await?;
-    let max = link.service(ParamChannel::read_maximum(t.index)).await?;
-    let default = link.service(ParamChannel::read_default(t.index)).await?;
-    let scale = sew::ScaleInfo::from_data(link.service(ParamChannel::read_scale(t.index)).await?);
-    let attr =
-        sew::AttributeInfo::from_data(link.service(ParamChannel::read_attribute(t.index)).await?);
+    let Description {
+        minimum: min,
+        maximum: max,
+        default,
+        scale,
+        attribute: attr,
+        current,
+    } = describe(link, t.index).await?;
     let access = Access::from_bits_truncate(attr.attributes as u8);
     // The drive's value too, as `read` shows it (the key `current` of every family's `info`).
-    let current = raw_of(&t, link.service(ParamChannel::read(t.index)).await?);
+    let current = raw_of(&t, current);
     let show = |data: u32| {
         let v = raw_of(&t, data);
         t.param
@@ -263,7 +93,7 @@ pub async fn info<L: SewLink>(link: &mut L, t: Target, json: bool) -> Result<()>
 /// then one line (or JSON object) per parameter.
 pub async fn read<L: SewLink>(link: L, params: &[String], json: bool) -> Result<()> {
     let targets = resolve_all(params)?;
-    crate::tool::read::read_all(&mut SewClient::new(link), &targets, json).await
+    crate::tool::read::read_all(&mut client(link), &targets, json).await
 }
 
 /// `watch`: the parameters polled at a steady rhythm until `--count` or Ctrl-C.
@@ -277,7 +107,7 @@ pub async fn watch<L: SewLink>(
     let targets = resolve_all(params)?;
     let options = args.options(json)?;
     watch::watch(
-        &mut SewClient::new(link),
+        &mut client(link),
         &targets,
         options,
         &mut |s| out!("{s}"),
@@ -344,7 +174,7 @@ pub async fn write<L: SewLink>(
     yes: bool,
     json: bool,
 ) -> Result<()> {
-    let done = crate::tool::write::write_checked(&mut SewClient::new(link), request, yes).await?;
+    let done = crate::tool::write::write_checked(&mut client(link), request, yes).await?;
     crate::tool::write::print_written(&request.target, &done, json)
 }
 
@@ -376,19 +206,15 @@ where
     F: AsyncFnOnce(&mut L, ParamChannel) -> Result<()>,
 {
     use crate::tool::write;
-    let mut client = SewClient::new(link);
-    write::check_link_setting(&client, request, yes)?;
-    let drive_key = client.drive_key().await?;
-    if let Some(warning) = write::check(&mut client, request).await? {
+    let mut c = client(link);
+    write::check_link_setting(&c, request, yes)?;
+    let drive_key = c.drive_key().await?;
+    if let Some(warning) = write::check(&mut c, request).await? {
         errln!("drivectl: warning: {warning}");
     }
     let t = request.target;
-    let data = data_of(request.raw);
-    let channel = match request.persistence {
-        Persistence::Volatile => ParamChannel::write_volatile(t.index, data),
-        Persistence::NonVolatile => ParamChannel::write(t.index, data),
-    };
-    send(&mut client.link, channel).await?;
+    let channel = write_service(t.index, request.raw, request.persistence);
+    send(&mut c.link, channel).await?;
     if let Err(e) = write::record(&drive_key, request) {
         errln!("drivectl: warning: {e}");
     }
@@ -423,14 +249,7 @@ pub async fn backup<L: SewLink>(
     json: bool,
 ) -> Result<()> {
     let stop = crate::tool::interrupt::Interrupt::install("the backup file was not written");
-    crate::tool::backup::backup(
-        &mut SewClient::new(link),
-        &args.out,
-        args.overwrite,
-        json,
-        &stop,
-    )
-    .await
+    crate::tool::backup::backup(&mut client(link), &args.out, args.overwrite, json, &stop).await
 }
 
 /// `restore`: a backup file written back and verified.
@@ -442,109 +261,7 @@ pub async fn restore<L: SewLink>(
     let stop = crate::tool::interrupt::Interrupt::install(
         "the drive may be half restored; run the same restore again to finish it",
     );
-    crate::tool::backup::restore(
-        &mut SewClient::new(link),
-        &args.file,
-        args.options(),
-        json,
-        &stop,
-    )
-    .await
-}
-
-/// Per process output word (the first `words`, at most 3): whether the drive takes it as a
-/// control word (its setpoint description P870–P872 is 9, control word 1, or 10, control word
-/// 2), or why the description could not be read.
-pub async fn control_word_slots<L: SewLink>(
-    link: &mut L,
-    words: usize,
-) -> Vec<std::result::Result<bool, ClientError>> {
-    let mut slots = Vec::new();
-    for i in [index::PO1_DESCRIPTION, 8305, 8306].into_iter().take(words) {
-        slots.push(
-            link.service(ParamChannel::read(i))
-                .await
-                .map(|d| matches!(d, 9 | 10)),
-        );
-    }
-    slots
-}
-
-/// `words` with the command `cmd` in the low byte of every control word slot (its high byte
-/// kept): the stop telegram at the end of process data.
-pub fn with_command(
-    words: &[u16],
-    slots: &[usize],
-    cmd: drive_profile::sew::ControlWord1,
-) -> Vec<u16> {
-    let mut w = words.to_vec();
-    for &i in slots {
-        if let Some(x) = w.get_mut(i) {
-            *x = (*x & 0xFF00) | cmd.bits();
-        }
-    }
-    w
-}
-
-/// Before process data: the control word slots among the process output words, and the
-/// warnings a person should see: no control word (when `stopping`: the drive cannot be stopped
-/// over process data at the end), the bus's timeout (`timeout`: P812 RS-485, P815 SBus) 0 (off),
-/// P876 PO data enable off. A parameter the drive does not answer gets a warning, not an error:
-/// the session itself says what is wrong.
-pub async fn pd_warnings<L: SewLink>(
-    link: &mut L,
-    words: usize,
-    stopping: bool,
-    timeout: (u16, &str),
-) -> (Vec<usize>, Vec<String>) {
-    let mut warnings = Vec::new();
-    let mut slots = Vec::new();
-    for (slot, r) in control_word_slots(link, words)
-        .await
-        .into_iter()
-        .enumerate()
-    {
-        match r {
-            Ok(true) => slots.push(slot),
-            Ok(false) => {}
-            Err(e) => warnings.push(format!(
-                "cannot read the setpoint description of PO{} ({})",
-                slot + 1,
-                client_error_text(&e)
-            )),
-        }
-    }
-    if stopping && slots.is_empty() {
-        warnings.push(
-            "no process output word of this drive is a control word (P870–P872): it cannot be \
-             stopped over process data at the end"
-                .to_owned(),
-        );
-    }
-    let (timeout_index, timeout_name) = timeout;
-    match link.service(ParamChannel::read(timeout_index)).await {
-        Ok(0) => warnings.push(format!(
-            "the drive's {timeout_name} is 0 (off): it keeps running when the master goes quiet{}",
-            if stopping {
-                ""
-            } else {
-                " (and --keep-running leaves it running)"
-            }
-        )),
-        Ok(_) => {}
-        Err(e) => warnings.push(format!(
-            "cannot read the {timeout_name} ({})",
-            client_error_text(&e)
-        )),
-    }
-    if let Ok(0) = link
-        .service(ParamChannel::read(index::PO_DATA_ENABLE))
-        .await
-    {
-        warnings
-            .push("P876 PO data enable is off: the drive ignores process output data".to_owned());
-    }
-    (slots, warnings)
+    crate::tool::backup::restore(&mut client(link), &args.file, args.options(), json, &stop).await
 }
 
 /// The stop a SEW `pd` session ends with (`movilink pd`, `sbus pd`): the output words with the
@@ -618,7 +335,7 @@ pub struct Preflight {
     pub timeout: Option<std::time::Duration>,
 }
 
-/// [`pd_warnings`] with the warnings on standard error (`drivectl movilink pd`, `sbus pd`), and
+/// drive-client's [`pd_warnings`] with the warnings on standard error (`drivectl movilink pd`, `sbus pd`), and
 /// the bus timeout the exchanges must keep fed.
 pub async fn pd_preflight<L: SewLink>(
     link: &mut L,
@@ -626,24 +343,13 @@ pub async fn pd_preflight<L: SewLink>(
     stopping: bool,
     timeout: (u16, &str),
 ) -> Preflight {
-    let (slots, warnings) = pd_warnings(link, words, stopping, timeout).await;
+    let (slots, warnings) = pd_warnings(link, words, stopping, timeout, &Cli).await;
     for w in warnings {
         errln!("drivectl: warning: {w}");
     }
     Preflight {
         slots,
         timeout: bus_timeout(link, timeout.0).await,
-    }
-}
-
-/// The bus timeout at `index` (P812, P815: milliseconds in the drive), `None` when it is off
-/// (0, and for P815 also 650 s, the manual: "no monitoring") or unreadable.
-pub async fn bus_timeout<L: SewLink>(link: &mut L, index: u16) -> Option<std::time::Duration> {
-    match link.service(ParamChannel::read(index)).await {
-        Ok(0) => None,
-        Ok(650_000) if index == index::SBUS_TIMEOUT => None,
-        Ok(ms) => Some(std::time::Duration::from_millis(u64::from(ms))),
-        Err(_) => None,
     }
 }
 
@@ -674,13 +380,6 @@ pub fn pd_interval(
         (None, None) => default,
     };
     Ok(std::time::Duration::from_millis(ms))
-}
-
-fn client_error_text(e: &ClientError) -> &str {
-    match e {
-        ClientError::Device(d) => &d.message,
-        ClientError::Link(m) => m,
-    }
 }
 
 #[cfg(test)]

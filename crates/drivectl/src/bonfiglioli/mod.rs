@@ -1,110 +1,44 @@
 //! `drivectl bonfiglioli …`: talk to a Bonfiglioli ACTIVE (ACT) or ACTIVE Cube (ACU) over
 //! Modbus RTU or ASCII with the function codes 3/6 (16 bit) and 100/101 (32 bit).
 //!
-//! A thin mapping onto the tool layer: [`BonfiglioliClient`] is the [`ParamClient`] of the
-//! `bonfiglioli-modbus` driver; reads, writes, watch, backup and restore are the tool layer's.
+//! A thin mapping onto the tool layer: drive-client's [`BonfiglioliClient`] is the
+//! [`ParamClient`] of the `bonfiglioli-modbus` driver, with its messages in the command line's
+//! words ([`Cli`]); reads, writes, watch, backup and restore are the tool layer's.
 //! [`Target::sub`] is the data set (0 = all four, 1–4, and 5–9 their RAM-only twins). What only
-//! this bus has lives here: the widths (from the table, or `--word`/`--long` where the manual
-//! gives no data type), the FC 8 counters (`diag`), the address scan, `status` and `control`.
+//! this bus has lives here: the widths given (`--word`/`--long` where the manual gives no data
+//! type), the FC 8 counters (`diag`), the address scan, `status` and `control`.
 
 pub mod decode;
 pub mod sim;
 
-use std::collections::HashMap;
-use std::ops::RangeInclusive;
 use std::time::Duration;
 
 use bonfiglioli_modbus::driver::{CharIo, DriverConfig, DriverError, MasterDriver};
-use bonfiglioli_modbus::frame::{Address, DataSet, DiagSubFunction, ExceptionCode};
+use bonfiglioli_modbus::frame::{Address, DataSet, DiagSubFunction};
 use bonfiglioli_modbus::framing::Mode;
 use bonfiglioli_modbus::slave::Width;
 use clap::{Args, Subcommand};
 use drive_profile::bonfiglioli::{
-    self, ActStateMachine, AcuPositioningStateMachine, AcuStateMachine, DataType, State, Variant,
+    self, ActStateMachine, AcuPositioningStateMachine, AcuStateMachine, State, Variant,
 };
 use drive_profile::state::StateMachine;
 use drive_profile::{Family, ParamMeta, Persistence};
 use serde_json::{Map, Value, json};
 
+use drive_client::bonfiglioli::{BonfiglioliClient, VariantFound, data_of, raw_of, table_width};
+pub use drive_client::bonfiglioli::{LINK_SETTINGS, NOT_RESTORED, RAW_INDICES, param};
+
 use crate::error::{CliError, Result};
+use crate::front::Cli;
 use crate::tool::again::Again;
 use crate::tool::client::OnTarget as _;
-use crate::tool::client::{
-    ClientError, DeviceError, DeviceErrorKind, ParamClient, Target, ValueText, canonical_port,
-};
+use crate::tool::client::{ClientError, DeviceErrorKind, ParamClient, Target, ValueText};
 use crate::tool::interrupt::Interrupt;
 use crate::tool::line::{LineArgs, runtime};
 use crate::tool::meaning::{Device, KnownVariant};
 use crate::tool::motor::{AtEnd, Motion, MotorGuard, Stopped};
 use crate::tool::output::physical_text;
 use crate::tool::{backup, read, stale, watch, write};
-
-/// Parameter numbers outside the table that may be read and written raw (the start address
-/// carries 0–1599).
-pub const RAW_INDICES: RangeInclusive<u16> = 0..=1599;
-
-/// Parameter numbers of the table this command uses by name.
-pub mod param {
-    /// Baud rate (a link setting).
-    pub const BAUD_RATE: u16 = 10;
-    /// Configuration.
-    pub const CONFIGURATION: u16 = 30;
-    /// Program: a command (factory reset and others), never restored.
-    pub const PROGRAM: u16 = 34;
-    /// Current fault.
-    pub const CURRENT_FAULT: u16 = 260;
-    /// Warnings.
-    pub const WARNINGS: u16 = 270;
-    /// Protocol type (a link setting: 2 = Modbus RTU, 3 = Modbus ASCII).
-    pub const PROTOCOL: u16 = 395;
-    /// Control word (RAM only).
-    pub const CONTROL_WORD: u16 = 410;
-    /// Status word.
-    pub const STATUS_WORD: u16 = 411;
-    /// Local/remote (1 = state machine).
-    pub const LOCAL_REMOTE: u16 = 412;
-    /// RS232/RS485 watchdog timer (a link setting).
-    pub const WATCHDOG: u16 = 413;
-    /// Reference frequency RAM (write-only on the ACU).
-    pub const FREQUENCY_RAM: u16 = 484;
-    /// Reference percentage RAM (write-only on the ACU).
-    pub const PERCENTAGE_RAM: u16 = 524;
-    /// Modbus parity (a link setting).
-    pub const PARITY: u16 = 1375;
-    /// Modbus address (a link setting).
-    pub const ADDRESS: u16 = 1376;
-}
-
-/// The drive's own settings for the Modbus link: baud rate 10, protocol type 395, watchdog
-/// 413, parity 1375, address 1376 (`drivectl params bonfiglioli --search modbus`).
-pub const LINK_SETTINGS: &[u16] = &[
-    param::BAUD_RATE,
-    param::PROTOCOL,
-    param::WATCHDOG,
-    param::PARITY,
-    param::ADDRESS,
-];
-
-/// What a restore never writes: the command 34 (program), the RAM-only control word and
-/// setpoints (410, 484, 524), the link settings that would cut the connection (baud rate,
-/// protocol, parity, address), and *local/remote* 412. The 413 watchdog is restored with
-/// `restore --yes` only. `control` sets 412 = 1 in RAM only (data set 5), and a read returns
-/// the value in use whether it came from the EEPROM or from such a RAM write: the manual offers
-/// no read of the stored value (ch. 7 names data sets 5–9 for writes only). A backup taken
-/// after `control` therefore holds 412 = 1, and restoring it would store 1 in the EEPROM of all
-/// four data sets, handing the drive to the bus for good; who controls the drive (contacts,
-/// bus, keypad) is set on purpose, not restored.
-pub const NOT_RESTORED: &[u16] = &[
-    param::BAUD_RATE,
-    param::PROGRAM,
-    param::PROTOCOL,
-    param::CONTROL_WORD,
-    param::LOCAL_REMOTE,
-    param::FREQUENCY_RAM,
-    param::PERCENTAGE_RAM,
-    param::PARITY,
-    param::ADDRESS,
-];
 
 const BONFIGLIOLI_HELP: &str = "\
 Examples:
@@ -331,314 +265,36 @@ enum BonfiglioliCommand {
     Restore(backup::RestoreArgs),
 }
 
-/// How the width of a parameter without a data type is found.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum UnknownWidth {
-    /// Refuse: the user must give `--word` or `--long`.
-    Refuse,
-    /// Try FC 3 and fall back to FC 100 when the drive says the type does not match (the
-    /// manual's advice; used by backup and restore, which say so).
-    Probe,
-}
-
-/// The Modbus driver as the tool layer's [`ParamClient`]: one drive at one address.
-#[derive(Debug)]
-pub struct BonfiglioliClient<'a, IO> {
-    driver: &'a mut MasterDriver<IO>,
-    address: Address,
-    port: String,
-    /// `--word` / `--long`.
-    width: Option<Width>,
-    unknown: UnknownWidth,
-    /// Widths found by probing, per parameter number.
-    probed: HashMap<u16, Width>,
-    key: Option<String>,
-    /// ACT or ACU, once given or found ([`BonfiglioliClient::find_variant`]).
-    variant: Option<KnownVariant>,
-    /// The value a link setting held before this command wrote it, when it could be read: what
-    /// the write changes for the link ([`ParamClient::follow_link_change`]).
-    link_before: Option<(u16, i64)>,
-    /// The command that reaches the drive once a link setting's new value applies (the hint of
-    /// the link-change note).
-    link_reach: Option<String>,
-}
-
-impl<'a, IO: CharIo> BonfiglioliClient<'a, IO> {
-    /// The drive at `address` behind `driver` on `port`; `width` overrides the table.
-    pub fn new(
-        driver: &'a mut MasterDriver<IO>,
-        address: Address,
-        port: &str,
-        width: Option<Width>,
-    ) -> Self {
-        Self {
-            driver,
-            address,
-            port: port.to_owned(),
-            width,
-            unknown: UnknownWidth::Refuse,
-            probed: HashMap::new(),
-            key: None,
-            variant: None,
-            link_before: None,
-            link_reach: None,
-        }
-    }
-
-    /// The widths of parameters without a data type, by parameter number, as the caller
-    /// knows them (the gateway's `width` key): used as `--word`/`--long` are, for those
-    /// parameters only.
-    pub fn with_widths(mut self, widths: impl IntoIterator<Item = (u16, Width)>) -> Self {
-        self.probed.extend(widths);
-        self
-    }
-
-    /// The command that reaches the drive after the link-setting write this command makes
-    /// ([`reach_after`]), for the note that says what changes.
-    pub fn reaching_with(mut self, command: Option<String>) -> Self {
-        self.link_reach = command;
-        self
-    }
-
-    /// The variant `--variant` gives (none for `auto`): known without asking the drive.
-    pub fn given(mut self, variant: Option<Variant>) -> Self {
-        self.variant = variant.map(|variant| KnownVariant {
-            variant,
-            from: "given",
-        });
-        self
-    }
-
-    /// The drive's variant: the one given, else found by asking the drive once (see
-    /// [`Variant`]: its status word's bit 4, then a read of 484), said on standard error when
-    /// `say`. `None` when the drive shows neither (a warning says so when `say`).
-    pub async fn find_variant(
-        &mut self,
-        say: bool,
-    ) -> std::result::Result<Option<KnownVariant>, ClientError> {
-        if self.variant.is_some() {
-            return Ok(self.variant);
-        }
-        let word = self
-            .driver
-            .read(self.address, param::STATUS_WORD, DataSet::ALL, Width::Word)
-            .await
-            .map_err(|e| client_error(Width::Word, e))?;
-        let (found, why) = match Variant::of_status_word(word as u16) {
-            Some(v) => (
-                Some((v, "status word bit 4")),
-                format!(
-                    "its status word 411 = 0x{:04X} has bit 4 (mains voltage) set, which an ACT \
-                     never sets (manual ch. 9.1.3)",
-                    word as u16
-                ),
-            ),
-            None => match self
-                .driver
-                .read(
-                    self.address,
-                    param::FREQUENCY_RAM,
-                    DataSet::ALL,
-                    Width::Long,
-                )
-                .await
-            {
-                Ok(_) => (
-                    Some((Variant::Act, "484 readable")),
-                    "it answers a read of 484, which an ACTIVE Cube refuses (manual ch. 10.2.3)"
-                        .to_owned(),
-                ),
-                Err(DriverError::Device { exception, vabus }) => {
-                    match Variant::of_484_read(false, vabus) {
-                        Some(v) => (
-                            Some((v, "484 not readable")),
-                            "it refuses to read 484 (VABus error 3, not readable), as only an \
-                             ACTIVE Cube does (manual ch. 10.2.3)"
-                                .to_owned(),
-                        ),
-                        None => (
-                            None,
-                            format!(
-                                "its status word has bit 4 clear and a read of 484 was refused \
-                                 ({})",
-                                DriverError::Device { exception, vabus }
-                            ),
-                        ),
-                    }
-                }
-                Err(e) => return Err(client_error(Width::Long, e)),
-            },
-        };
-        self.variant = found.map(|(variant, from)| KnownVariant { variant, from });
-        if say {
-            match self.variant {
-                Some(k) => errln!(
-                    "drivectl: note: the drive at address {} is an {}: {why}; --variant {} \
-                     skips this check",
-                    self.address.get(),
-                    k.variant,
-                    k.variant.key()
-                ),
-                None => errln!(
-                    "drivectl: warning: cannot tell an ACT from an ACU at address {}: {why}; \
-                     the status word is decoded for what both share: give --variant act or \
-                     --variant acu",
-                    self.address.get()
-                ),
-            }
-        }
-        Ok(self.variant)
-    }
-
-    /// Find the width of parameters without a data type by trying (backup, restore).
-    pub fn probing(mut self) -> Self {
-        self.unknown = UnknownWidth::Probe;
-        self
-    }
-
-    /// What `target` held before this command wrote it, if that was read.
-    fn before_of(&self, target: &Target) -> Option<i64> {
-        self.link_before
-            .filter(|(index, _)| *index == target.index)
-            .map(|(_, raw)| raw)
-    }
-
-    /// Read what the link setting `target` holds now, so that its write can say what changes
-    /// (nothing, when the value is the same). A refused read leaves it unknown.
-    pub async fn remember_link_setting(
-        &mut self,
-        target: &Target,
-    ) -> std::result::Result<(), ClientError> {
-        self.link_before = match self.read(target).await {
-            Ok(raw) => Some((target.index, raw)),
-            Err(ClientError::Device(_)) => None,
-            Err(e) => return Err(e),
-        };
-        Ok(())
-    }
-
-    /// Parameters whose width was found by trying.
-    pub fn probed(&self) -> usize {
-        self.probed.len()
-    }
-
-    async fn read_width(
-        &mut self,
-        t: &Target,
-        width: Width,
-    ) -> std::result::Result<u32, DriverError> {
-        let ds = data_set(t.sub);
-        self.driver.read(self.address, t.index, ds, width).await
-    }
-}
-
-/// The data set of a target's sub-index (checked by clap to be 0–9).
-fn data_set(sub: u16) -> DataSet {
-    u8::try_from(sub)
-        .ok()
-        .and_then(DataSet::new)
-        .unwrap_or(DataSet::ALL)
-}
-
-/// The width of `t`: `--word`/`--long` when given, else the table's data type; `None` where
-/// the manual gives none.
-pub fn table_width(t: &Target, given: Option<Width>) -> Option<Width> {
-    given.or_else(
-        || match bonfiglioli::by_index(t.index).map(|p| p.data_type) {
-            Some(DataType::UInt | DataType::Int) => Some(Width::Word),
-            Some(DataType::Long) => Some(Width::Long),
-            _ => None,
-        },
-    )
-}
-
 /// Refuse a parameter without a data type when neither `--word` nor `--long` was given.
 pub fn check_width_known(t: &Target, given: Option<Width>) -> Result<()> {
     if table_width(t, given).is_some() {
         return Ok(());
     }
-    Err(CliError::usage(format!(
-        "the manual gives no data type for {}{}: add --word (16 bit, FC 3/6) or --long \
-         (32 bit, FC 100/101); nothing is guessed",
-        t.label(),
-        t.param
-            .map_or_else(String::new, |p| format!(" {}", p.name_en()))
+    Err(CliError::usage(drive_client::bonfiglioli::unknown_width(
+        t, &Cli,
     )))
 }
 
-/// A raw value of the bus data: signed where the parameter's range goes below zero (or the
-/// table does not know it), 16-bit values sign-extended from 16 bits.
-pub fn raw_of(t: &Target, width: Width, data: u32) -> i64 {
-    let signed = t
-        .param
-        .and_then(|p| p.raw_range())
-        .is_none_or(|(lo, _)| lo < 0);
-    match (width, signed) {
-        (Width::Word, true) => i64::from(data as u16 as i16),
-        (Width::Word, false) => i64::from(data as u16),
-        (Width::Long, true) => i64::from(data as i32),
-        (Width::Long, false) => i64::from(data),
-    }
+/// The client of the drive at `address` behind `driver` on `port` (`width`: `--word` or
+/// `--long`), its messages in the command line's words.
+fn client<'a, IO: CharIo>(
+    driver: &'a mut MasterDriver<IO>,
+    address: Address,
+    port: &str,
+    width: Option<Width>,
+) -> BonfiglioliClient<'a, IO> {
+    BonfiglioliClient::new(driver, address, port, width).with_front_end(&Cli)
 }
 
-/// The bus data of a raw value for `width`, or `None` when it does not fit.
-pub fn data_of(width: Width, raw: i64) -> Option<u32> {
-    match width {
-        Width::Word => (-32768..=65535).contains(&raw).then_some(raw as u16 as u32),
-        Width::Long => (i64::from(i32::MIN)..=i64::from(u32::MAX))
-            .contains(&raw)
-            .then_some(raw as u32),
-    }
-}
-
-/// Whether a refusal says the access had the wrong width: exception 2 (the manual: "data type
-/// does not match"), or exception 4 with VABus 14 or 10.
-fn wrong_width(e: &DriverError) -> bool {
-    match e {
-        DriverError::Device { exception, vabus } => {
-            *exception == ExceptionCode::ILLEGAL_DATA_ADDRESS
-                || (*exception == ExceptionCode::SLAVE_DEVICE_FAILURE
-                    && matches!(vabus, Some(10 | 14)))
-        }
-        _ => false,
-    }
-}
-
-/// The tool layer's error for a driver error of an access with `width` (the caller names the
-/// parameter).
+/// A driver error of an access with `width` as a client error, the way out of a refusal in the
+/// command line's words (`try --long`).
 pub fn client_error(width: Width, e: DriverError) -> ClientError {
-    let DriverError::Device { vabus, .. } = &e else {
-        return ClientError::Link(e.to_string());
-    };
-    let vabus = *vabus;
-    let kind = match vabus {
-        // Unknown parameter; not readable (write-only, 484/524 on the ACU).
-        Some(11 | 3) => DeviceErrorKind::Absent,
-        _ => DeviceErrorKind::Refused,
-    };
-    let hint = if wrong_width(&e) {
-        match width {
-            Width::Word => " (the drive says it is not 16-bit: try --long)".to_owned(),
-            Width::Long => " (the drive says it is not 32-bit: try --word)".to_owned(),
-        }
-    } else if vabus == Some(9) {
-        " (data set 0 reads only where the four data sets hold the same value: give --dataset \
-         1, 2, 3 or 4)"
-            .to_owned()
-    } else {
-        String::new()
-    };
-    ClientError::Device(DeviceError {
-        kind,
-        message: format!("{e}{hint}"),
-    })
+    drive_client::bonfiglioli::client_error(width, e, &Cli)
 }
 
-/// What writing `raw` to the link setting `target` does to the link of the drive at `address`,
-/// which held `before` (if known): nothing when it is the same; a baud rate or parity from the
-/// next reset (34 = 123) or power cycle on (ch. 5.2.1); a protocol or an address at once
-/// (ch. 5.2.2, 6); with the option that reaches the drive then, or the whole command
-/// (`reach`, [`reach_after`]).
+/// What writing `raw` to a link setting does, in the command line's words (the note of a
+/// client's write).
+#[cfg(test)]
 fn link_change_text(
     target: &Target,
     raw: i64,
@@ -646,213 +302,32 @@ fn link_change_text(
     before: Option<i64>,
     reach: Option<&str>,
 ) -> String {
-    let then = |option: String| reach.map_or(option, |cmd| format!("`{cmd}`"));
-    let text = |raw: i64| {
-        target
-            .param
-            .map_or_else(|| raw.to_string(), |p| physical_text(p, raw))
-    };
-    let value = text(raw);
-    if before == Some(raw) {
-        return format!(
-            "{} already holds {value}: nothing changes for the link",
-            target.label()
-        );
-    }
-    // A baud rate or parity stays until the reset; a protocol changes at once.
-    let until = before.map_or_else(String::new, |b| format!(" (until then {})", text(b)));
-    let was = before.map_or_else(String::new, |b| format!(" (it held {})", text(b)));
-    const AFTER_RESET: &str = "after the next reset (34 = 123) or power cycle (manual ch. 5.2.1)";
-    match target.index {
-        param::ADDRESS => format!(
-            "the drive answers at address {raw} from now on, no longer at {}: {}",
-            address.get(),
-            then(format!("use --addr {raw}"))
+    drive_client::bonfiglioli::link_change_text(target, raw, address, before, reach, &Cli)
+}
+
+/// Say what asking the drive at `address` for its variant found, on standard error: the
+/// variant and what showed it, or that it cannot be told (`--variant` is the way out).
+pub fn say_variant(address: u8, variant: Option<KnownVariant>, why: &str) {
+    match variant {
+        Some(k) => errln!(
+            "drivectl: note: the drive at address {address} is an {}: {why}; --variant {} \
+             skips this check",
+            k.variant,
+            k.variant.key()
         ),
-        param::BAUD_RATE => match bonfiglioli::link::baud_of_code(raw) {
-            Some(baud) => format!(
-                "the drive talks at {baud} baud {AFTER_RESET}{until}: then {}",
-                then(format!("use --baud {baud}"))
-            ),
-            None => format!("{value} is not a baud rate of the drive (1–6)"),
-        },
-        param::PARITY => match bonfiglioli::link::parity_of_code(raw) {
-            Some(parity) => format!(
-                "the drive uses parity {parity} {AFTER_RESET}{until}: then {}",
-                then(format!("use --parity {parity}"))
-            ),
-            None => format!("{value} is not a parity of the drive (0–2)"),
-        },
-        param::PROTOCOL => match u16::try_from(raw).ok() {
-            Some(bonfiglioli::link::PROTOCOL_RTU) => format!(
-                "the drive speaks Modbus RTU from now on (effective at once, ch. 6){was}: {}",
-                then("use --mode rtu".to_owned())
-            ),
-            Some(bonfiglioli::link::PROTOCOL_ASCII) => format!(
-                "the drive speaks Modbus ASCII from now on (effective at once, ch. 6){was}: {}",
-                then("use --mode ascii".to_owned())
-            ),
-            _ => format!(
-                "the drive stops speaking Modbus at once ({value}, ch. 6): no Modbus master \
-                 reaches it any more; set 395 back to 2 or 3 with the KP500 keypad (ch. 5.1)"
-            ),
-        },
-        param::WATCHDOG if raw == 0 => "the drive will no longer watch the link (413 = 0): \
-             a master that stops leaves it running"
-            .to_owned(),
-        _ => format!(
-            "the drive will trip when no valid request arrives for {value} (413 watchdog){was}"
+        None => errln!(
+            "drivectl: warning: cannot tell an ACT from an ACU at address {address}: {why}; \
+             the status word is decoded for what both share: give --variant act or \
+             --variant acu"
         ),
     }
 }
 
-impl<IO: CharIo> ParamClient for BonfiglioliClient<'_, IO> {
-    fn family(&self) -> Family {
-        Family::Bonfiglioli
+/// [`say_variant`] of what [`BonfiglioliClient::find_variant`] found, when it asked the drive.
+fn say_found(found: &VariantFound) {
+    if let Some(why) = &found.why {
+        say_variant(found.address, found.variant, why);
     }
-
-    fn stale_bytes(&self) -> u64 {
-        self.driver.stats().stale
-    }
-
-    async fn drive_key(&mut self) -> std::result::Result<String, ClientError> {
-        if let Some(k) = &self.key {
-            return Ok(k.clone());
-        }
-        let key = format!("{} {}", canonical_port(&self.port), self.address.get());
-        self.key = Some(key.clone());
-        Ok(key)
-    }
-
-    fn link_settings(&self) -> &'static [u16] {
-        LINK_SETTINGS
-    }
-
-    fn link_change(&self, target: &Target, raw: i64) -> String {
-        link_change_text(
-            target,
-            raw,
-            self.address,
-            self.before_of(target),
-            self.link_reach.as_deref(),
-        )
-    }
-
-    fn follow_link_change(&mut self, target: &Target, raw: i64) -> String {
-        let note = self.link_change(target, raw);
-        if target.index == param::ADDRESS
-            && let Some(a) = u8::try_from(raw).ok().and_then(Address::new)
-        {
-            self.address = a;
-            self.key = None;
-        }
-        note
-    }
-
-    fn not_restored(&self) -> &'static [u16] {
-        NOT_RESTORED
-    }
-
-    fn device(&self) -> Device {
-        self.variant
-            .map_or_else(Device::default, |k| Device::bonfiglioli(k.variant, k.from))
-    }
-
-    async fn read(&mut self, target: &Target) -> std::result::Result<i64, ClientError> {
-        let width = match table_width(target, self.width)
-            .or_else(|| self.probed.get(&target.index).copied())
-        {
-            Some(w) => w,
-            None if self.unknown == UnknownWidth::Probe => {
-                match self.read_width(target, Width::Word).await {
-                    Ok(v) => {
-                        self.probed.insert(target.index, Width::Word);
-                        return Ok(raw_of(target, Width::Word, v));
-                    }
-                    Err(e) if wrong_width(&e) => {
-                        let v = self
-                            .read_width(target, Width::Long)
-                            .await
-                            .map_err(|e| client_error(Width::Long, e))?;
-                        self.probed.insert(target.index, Width::Long);
-                        return Ok(raw_of(target, Width::Long, v));
-                    }
-                    Err(e) => return Err(client_error(Width::Word, e)),
-                }
-            }
-            None => {
-                return Err(ClientError::Link(
-                    check_width_known(target, None)
-                        .err()
-                        .map_or_else(String::new, |e| e.to_string()),
-                ));
-            }
-        };
-        self.read_width(target, width)
-            .await
-            .map(|v| raw_of(target, width, v))
-            .map_err(|e| client_error(width, e))
-    }
-
-    async fn write(
-        &mut self,
-        target: &Target,
-        raw: i64,
-        persistence: Persistence,
-    ) -> std::result::Result<(), ClientError> {
-        let width = table_width(target, self.width)
-            .or_else(|| self.probed.get(&target.index).copied())
-            .ok_or_else(|| {
-                ClientError::Link(format!(
-                    "the width of {} is not known; add --word or --long",
-                    target.label()
-                ))
-            })?;
-        let data = data_of(width, raw).ok_or_else(|| {
-            ClientError::Link(format!(
-                "value {raw} does not fit {} bits; nothing was sent",
-                if width == Width::Word { 16 } else { 32 }
-            ))
-        })?;
-        let ram_only = target
-            .param
-            .is_some_and(|_| bonfiglioli::by_index(target.index).is_some_and(|p| p.ram_only));
-        // RAM only: the twin data set (+5) of a stored one; parameters kept in RAM anyway
-        // (410, 484, 524) are written where they are.
-        let ds = match (persistence, target.sub) {
-            (Persistence::Volatile, d @ 0..=4) if !ram_only => d + 5,
-            (_, d) => d,
-        };
-        self.driver
-            .write(self.address, target.index, data_set(ds), width, data)
-            .await
-            .map_err(|e| client_error(width, e))
-    }
-
-    async fn identify(&mut self) -> std::result::Result<Map<String, Value>, ClientError> {
-        // The manual defines no device type or firmware parameter: the configuration (30)
-        // identifies the drive's function as far as the bus can tell.
-        let t = resolve_in(&param::CONFIGURATION.to_string(), 0)?;
-        let configuration = match self.read(&t).await {
-            Ok(v) => Value::from(v),
-            Err(ClientError::Device(_)) => Value::Null,
-            Err(e) => return Err(e),
-        };
-        let variant = self.find_variant(true).await?;
-        let mut m = Map::new();
-        m.insert("address".into(), self.address.get().into());
-        m.insert("device_type".into(), Value::Null);
-        m.insert("firmware".into(), Value::Null);
-        m.insert("configuration".into(), configuration);
-        // ACT or ACU (null when the drive shows neither), and how that is known.
-        m.insert("variant".into(), variant.map(|k| k.variant.key()).into());
-        m.insert("variant_from".into(), variant.map(|k| k.from).into());
-        Ok(m)
-    }
-}
-
-fn resolve_in(key: &str, dataset: u8) -> std::result::Result<Target, ClientError> {
-    resolve(key, dataset).map_err(|e| ClientError::Link(e.to_string()))
 }
 
 /// Resolve a parameter number (`372`, `P372`) in `dataset`; numbers outside the table are
@@ -917,7 +392,7 @@ async fn write_broadcast<IO: CharIo>(
     yes: bool,
     json: bool,
 ) -> Result<()> {
-    let mut c = BonfiglioliClient::new(m, Address::BROADCAST, port, width);
+    let mut c = client(m, Address::BROADCAST, port, width);
     write::check_link_setting(&c, request, yes)?;
     let drive = c.drive_key().await?;
     if let Some(warning) = write::check(&mut c, request).await? {
@@ -1218,7 +693,7 @@ async fn execute<IO: CharIo>(m: &mut MasterDriver<IO>, args: &BonfiglioliArgs) -
     match &args.command {
         BonfiglioliCommand::Read { params, access } => {
             let targets = resolve_all(params, *access)?;
-            let mut c = BonfiglioliClient::new(m, address(args.addr)?, &args.port, access.width())
+            let mut c = client(m, address(args.addr)?, &args.port, access.width())
                 .given(given_variant(args));
             find_variant_for(&mut c, &targets).await?;
             read::read_all(&mut c, &targets, json).await
@@ -1230,7 +705,7 @@ async fn execute<IO: CharIo>(m: &mut MasterDriver<IO>, args: &BonfiglioliArgs) -
         } => {
             let targets = resolve_all(params, *access)?;
             let options = watch_args.options(json)?;
-            let mut c = BonfiglioliClient::new(m, address(args.addr)?, &args.port, access.width())
+            let mut c = client(m, address(args.addr)?, &args.port, access.width())
                 .given(given_variant(args));
             find_variant_for(&mut c, &targets).await?;
             watch::watch(
@@ -1289,7 +764,7 @@ async fn execute<IO: CharIo>(m: &mut MasterDriver<IO>, args: &BonfiglioliArgs) -
             if args.addr == 0 {
                 return write_broadcast(m, &args.port, &request, access.width(), *yes, json).await;
             }
-            let mut c = BonfiglioliClient::new(m, address(args.addr)?, &args.port, access.width())
+            let mut c = client(m, address(args.addr)?, &args.port, access.width())
                 .reaching_with(reach_after(args, request.target.index, request.raw));
             if LINK_SETTINGS.contains(&request.target.index) && *yes {
                 // What the write changes for the link (nothing, when the value is the same).
@@ -1304,17 +779,18 @@ async fn execute<IO: CharIo>(m: &mut MasterDriver<IO>, args: &BonfiglioliArgs) -
         BonfiglioliCommand::Scan { from, to } => scan(m, *from, *to, json).await,
         BonfiglioliCommand::Status => {
             let addr = address(args.addr)?;
-            let mut c =
-                BonfiglioliClient::new(m, addr, &args.port, None).given(given_variant(args));
-            let variant = c.find_variant(true).await.map_err(CliError::from)?;
-            status(m, addr, variant, json).await
+            let mut c = client(m, addr, &args.port, None).given(given_variant(args));
+            let found = c.find_variant().await.map_err(CliError::from)?;
+            say_found(&found);
+            status(m, addr, found.variant, json).await
         }
         BonfiglioliCommand::Control { action, freq } => {
             let addr = address(args.addr)?;
             let freq = freq.as_deref().map(freq_raw).transpose()?;
-            let mut c =
-                BonfiglioliClient::new(m, addr, &args.port, None).given(given_variant(args));
-            let Some(known) = c.find_variant(true).await.map_err(CliError::from)? else {
+            let mut c = client(m, addr, &args.port, None).given(given_variant(args));
+            let found = c.find_variant().await.map_err(CliError::from)?;
+            say_found(&found);
+            let Some(known) = found.variant else {
                 return Err(CliError::usage(
                     "control needs to know the device (the ACT and the ACU have different state \
                      tables); nothing was written: add --variant act or --variant acu",
@@ -1370,14 +846,14 @@ async fn execute<IO: CharIo>(m: &mut MasterDriver<IO>, args: &BonfiglioliArgs) -
             Ok(())
         }
         BonfiglioliCommand::Backup(b) => {
-            let mut c = BonfiglioliClient::new(m, address(args.addr)?, &args.port, None).probing();
+            let mut c = client(m, address(args.addr)?, &args.port, None).probing();
             let stop = Interrupt::install("the backup file was not written");
             backup::backup(&mut c, &b.out, b.overwrite, json, &stop).await?;
             note_probed(c.probed());
             Ok(())
         }
         BonfiglioliCommand::Restore(r) => {
-            let mut c = BonfiglioliClient::new(m, address(args.addr)?, &args.port, None).probing();
+            let mut c = client(m, address(args.addr)?, &args.port, None).probing();
             let stop = Interrupt::install(
                 "the drive may be half restored; run the same restore again to finish it",
             );
@@ -1412,8 +888,8 @@ async fn info<IO: CharIo>(
         Some(p) if p.is_data_set() => vec![1, 2, 3, 4],
         _ => vec![0],
     };
-    let mut c = BonfiglioliClient::new(m, address(args.addr)?, &args.port, access.width())
-        .given(given_variant(args));
+    let mut c =
+        client(m, address(args.addr)?, &args.port, access.width()).given(given_variant(args));
     let probing = table_width(&t, access.width()).is_none();
     if probing {
         c = c.probing();
@@ -1448,7 +924,7 @@ async fn info<IO: CharIo>(
             )))
         }
     };
-    let width = table_width(&t, access.width()).or_else(|| c.probed.get(&t.index).copied());
+    let width = c.width_of(&t);
     let width_text = width.map(|w| match w {
         Width::Word => "16 bit (FC 3/6)",
         Width::Long => "32 bit (FC 100/101)",
@@ -1634,12 +1110,13 @@ async fn find_variant_for<IO: CharIo>(
     targets: &[Target],
 ) -> Result<()> {
     if targets.iter().any(|t| t.index == param::STATUS_WORD) {
-        c.find_variant(true).await.map_err(|e| {
+        let found = c.find_variant().await.map_err(|e| {
             CliError::failed(format!(
                 "finding out whether the drive is an ACT or an ACU: {}",
                 CliError::from(e)
             ))
         })?;
+        say_found(&found);
     }
     Ok(())
 }
@@ -1727,14 +1204,14 @@ async fn scan<IO: CharIo>(m: &mut MasterDriver<IO>, from: u8, to: u8, json: bool
             continue;
         }
         found += 1;
-        let mut c = BonfiglioliClient::new(m, addr, "", None).probing();
+        let mut c = client(m, addr, "", None).probing();
         let configuration = c
             .read(&resolve(&param::CONFIGURATION.to_string(), 0)?)
             .await
             .ok();
         let status = c.read(&resolve("411", 0)?).await.ok();
         // A drive that answers but refuses what tells the variant shows none.
-        let variant = c.find_variant(false).await.ok().flatten();
+        let variant = c.find_variant().await.ok().and_then(|f| f.variant);
         bar.suspend(|| -> Result<()> {
             if json {
                 outln!(
@@ -2047,7 +1524,7 @@ async fn control_steps<IO: CharIo>(
     // The ACU with positioning control (configuration 30 = x40) has no shortcut 4' (ch. 10.2).
     let positioning = s.variant == Variant::Acu && {
         let t30 = resolve(&param::CONFIGURATION.to_string(), 0)?;
-        let mut c = BonfiglioliClient::new(m, addr, "", None).probing();
+        let mut c = client(m, addr, "", None).probing();
         match c.read(&t30).await {
             Ok(config) => config % 100 == 40,
             Err(ClientError::Device(d)) => {
@@ -2138,6 +1615,7 @@ async fn write_cw<IO: CharIo>(m: &mut MasterDriver<IO>, addr: Address, cw: u16) 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use bonfiglioli_modbus::frame::ExceptionCode;
 
     #[test]
     fn widths_come_from_the_table_or_the_user() {

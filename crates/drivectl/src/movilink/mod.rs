@@ -1,8 +1,8 @@
 //! `drivectl movilink …`: talk to a MOVIDRIVE over MOVILINK (RS-485 / RS-232).
 //!
-//! A thin mapping: [`MovilinkLink`] is the `movilink` driver as a [`SewLink`], the way to a
-//! MOVIDRIVE that SBus has too; read, watch, write, info, backup, restore and the process-data
-//! preflight are `crate::sew`'s, shared with `drivectl sbus`. What only MOVILINK has lives here:
+//! A thin mapping: drive-client's [`MovilinkLink`] is the `movilink` driver as a `SewLink`, the
+//! way to a MOVIDRIVE that SBus has too; read, watch, write, info, backup, restore and the
+//! process-data preflight are `crate::sew`'s, shared with `drivectl sbus`. What only MOVILINK has lives here:
 //! the address rules (254 point-to-point, groups 101–199, broadcast 255), the address scan,
 //! PDU types for process data, `line`.
 
@@ -15,22 +15,22 @@ use drive_profile::sew::{self, ControlWord1, StatusWord1, index};
 use movilink::driver::{CharIo, DriverConfig, DriverError, MasterDriver};
 use movilink::{Address, ParamChannel, PduType, Telegram};
 use serde_json::json;
-use std::ops::RangeInclusive;
 use std::time::Duration;
+
+use drive_client::sew::RAW_INDICES;
+#[cfg(test)]
+pub use drive_client::sew::movilink::LINK_SETTINGS;
+use drive_client::sew::movilink::MovilinkLink;
+pub use drive_client::sew::movilink::NOT_RESTORED;
 
 use crate::error::{CliError, Result};
 use crate::sew::PdStop;
-use crate::sew::{SewLink, device_error};
 use crate::tool::again::Again;
-use crate::tool::client::{ClientError, Target, ValueText, canonical_port, parse_int};
+use crate::tool::client::{Target, ValueText, parse_int};
 use crate::tool::line::{LineArgs, MasterArgs, runtime};
 use crate::tool::motor::{Motion, MotorGuard, Stopped};
-use crate::tool::output::{physical_text, trim_float};
+use crate::tool::output::trim_float;
 use crate::tool::{backup, stale, watch, write};
-
-/// Indices outside the table that may be read and written raw (MOVIDRIVE indices start at
-/// 8300; numbers below 1000 are menu numbers).
-pub const RAW_INDICES: RangeInclusive<u16> = 1000..=0xFFFF;
 
 /// Where the EEPROM-wear log lives, for `--help`.
 const WEAR_LOG_HELP: &str = "\
@@ -224,140 +224,13 @@ enum MovilinkCommand {
     Restore(backup::RestoreArgs),
 }
 
-/// The MOVILINK driver as a way to one MOVIDRIVE's parameter channel (acyclic PARAM + 0PD
-/// services); the tool layer's client is [`SewClient`](crate::sew::SewClient) on it.
-#[derive(Debug)]
-pub struct MovilinkLink<'a, IO> {
-    driver: &'a mut MasterDriver<IO>,
-    address: Address,
-    port: String,
-}
-
-/// The way to the drive at `address` behind `driver` on `port` (the gateway's buses build
-/// theirs with it too).
+/// The way to the drive at `address` behind `driver` on `port`.
 pub fn link<'a, IO>(
     driver: &'a mut MasterDriver<IO>,
     address: Address,
     port: &str,
 ) -> MovilinkLink<'a, IO> {
-    MovilinkLink {
-        driver,
-        address,
-        port: port.to_owned(),
-    }
-}
-
-/// The settings of the RS-485 link a MOVILINK master talks over: P810 address, P811 group
-/// address, P812 RS-485 timeout delay.
-pub const LINK_SETTINGS: &[u16] = &[
-    index::RS485_ADDRESS,
-    index::RS485_GROUP_ADDRESS,
-    index::RS485_TIMEOUT,
-];
-
-pub use crate::sew::raw_of;
-
-/// The tool layer's error of a driver error: a drive's return code is a device error, the
-/// rest are link failures.
-pub fn client_error(e: DriverError) -> ClientError {
-    match e {
-        DriverError::Device(code) => device_error(code, e.to_string()),
-        other => ClientError::Link(other.to_string()),
-    }
-}
-
-/// What a MOVIDRIVE restore never writes: P802 factory setting, P803 parameter lock, P804 reset
-/// statistics data (a command: 1–3 clear the fault memory or a counter), P810/P811 RS-485
-/// address and group address (writing them would cut the connection the restore runs on), P840
-/// manual reset.
-pub const NOT_RESTORED: &[u16] = &[
-    index::FACTORY_SETTING,
-    index::PARAMETER_LOCK,
-    index::RESET_STATISTICS,
-    index::RS485_ADDRESS,
-    index::RS485_GROUP_ADDRESS,
-    index::MANUAL_RESET,
-];
-
-impl<IO: CharIo> SewLink for MovilinkLink<'_, IO> {
-    fn stale_bytes(&self) -> u64 {
-        self.driver.stats().stale
-    }
-
-    async fn service(&mut self, request: ParamChannel) -> std::result::Result<u32, ClientError> {
-        self.driver
-            .param(self.address, PduType::PARAM_0PD_ACYCLIC, request)
-            .await
-            .map(|p| p.data)
-            .map_err(client_error)
-    }
-
-    fn bus_key(&self) -> String {
-        canonical_port(&self.port)
-    }
-
-    async fn drive_address(&mut self) -> std::result::Result<String, ClientError> {
-        // Point-to-point (254) reaches whichever drive is connected: its own address (P810)
-        // names it. Groups and broadcast are keyed by their address.
-        if self.address.get() == 254 {
-            let a = self
-                .service(ParamChannel::read(index::RS485_ADDRESS))
-                .await?;
-            Ok(format!("{a}"))
-        } else {
-            Ok(self.address.get().to_string())
-        }
-    }
-
-    fn link_settings(&self) -> &'static [u16] {
-        LINK_SETTINGS
-    }
-
-    fn link_change(&self, target: &Target, raw: i64) -> String {
-        match target.index {
-            index::RS485_ADDRESS if self.address.get() == 254 => format!(
-                "the drive will answer at address {raw} (--addr {raw}) and still at 254 \
-                 (point-to-point)"
-            ),
-            index::RS485_ADDRESS => format!(
-                "the drive will answer at address {raw}, no longer at {} (use --addr {raw})",
-                self.address.get()
-            ),
-            index::RS485_GROUP_ADDRESS => format!(
-                "the drive will take group telegrams to address {raw} (--addr {raw} writes to \
-                 the group)"
-            ),
-            index::RS485_TIMEOUT if raw == 0 => "the drive will no longer watch the RS-485 \
-                 link for a timeout (0 s): a master that stops leaves it running"
-                .to_owned(),
-            _ => format!(
-                "the drive will stop with an RS-485 timeout when no telegram arrives for {} \
-                 (P812)",
-                target
-                    .param
-                    .map_or_else(|| raw.to_string(), |p| physical_text(p, raw))
-            ),
-        }
-    }
-
-    fn follow_link_change(&mut self, target: &Target, raw: i64) -> String {
-        let note = self.link_change(target, raw);
-        if target.index == index::RS485_ADDRESS
-            && self.address.get() != 254
-            && let Some(a) = u8::try_from(raw).ok().and_then(Address::new)
-        {
-            self.address = a;
-        }
-        note
-    }
-
-    fn not_restored(&self) -> &'static [u16] {
-        NOT_RESTORED
-    }
-
-    fn address_number(&self) -> u8 {
-        self.address.get()
-    }
+    MovilinkLink::new(driver, address, port)
 }
 
 /// Resolve a MOVIDRIVE parameter: `P813`, `813`, `8600`, `0x2198`; indices outside the table
@@ -846,9 +719,10 @@ fn print_pd(addr: Address, pdu: PduType, out: &[u16], pi: &[u16], json: bool) ->
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sew::{SERVICE_ATTEMPTS, device_error_kind};
+    use crate::tool::client::ClientError;
     use crate::tool::client::DeviceErrorKind;
     use crate::tool::client::ParamClient;
+    use drive_client::sew::{SERVICE_ATTEMPTS, device_error_kind};
     use drive_core::rt::{Timebase, serve};
     use movilink::driver::{Clock, Stream};
     use movilink::{Backend, RequestContext, ReturnCode, Slave, SlaveConfig};

@@ -3,9 +3,9 @@
 //!
 //! Both transports carry the same USS parameter channel (PKW) and process data (PZD), so every
 //! command here is written once, generic over `ctt2_uss::client::NordClient<C>` with `C` any
-//! transport implementing [`ParameterChannel`] and [`ProcessChannel`]: [`NordParamClient`] is
-//! the tool layer's [`ParamClient`]; read, write, watch, backup and restore are the tool
-//! layer's. What only NORD has lives here: array elements and parameter sets (`--array K`,
+//! transport implementing [`ParameterChannel`] and [`ProcessChannel`]: drive-client's
+//! [`NordParamClient`] is the [`ParamClient`], with its messages in the command line's words
+//! ([`Cli`]); read, write, watch, backup and restore are the tool layer's. What only NORD has lives here: array elements and parameter sets (`--array K`,
 //! `--set S`, 1-based as the manual counts them), `status` (status word with the state
 //! A–H, actual values in % and Hz, P700) and `control` (the state machine of section 4.5.3
 //! over process data).
@@ -19,49 +19,26 @@ pub mod decode;
 pub mod sim;
 pub mod uss;
 
-use std::ops::RangeInclusive;
 use std::time::Duration;
 
 use clap::{Args, Subcommand};
 use ctt2_uss::client::{self, NordClient, ParameterChannel, ProcessChannel};
-use ctt2_uss::uss::pkw::{Ind, Order, Reply, Storage};
 use ctt2_uss::uss::pzd::PzdIn;
-use drive_profile::nord::{self, ControlWord, NordStateMachine, State, StatusWord, Width, command};
+use drive_profile::nord::{self, ControlWord, NordStateMachine, State, StatusWord, command};
 use drive_profile::{Family, Persistence};
 use serde_json::{Map, Value, json};
 
+pub use drive_client::nord::param;
+use drive_client::nord::{NordParamClient, RAW_INDICES};
+
 use crate::error::{CliError, Result};
+use crate::front::Cli;
 use crate::tool::client::OnTarget as _;
-use crate::tool::client::{
-    ClientError, DeviceError, DeviceErrorKind, ParamClient, Target, ValueText, nord_sub,
-    parse_decimal,
-};
+use crate::tool::client::{ClientError, ParamClient, Target, ValueText, nord_sub, parse_decimal};
 use crate::tool::interrupt::Interrupt;
 use crate::tool::motor::{AtEnd, Motion, MotorGuard, Stopped};
 use crate::tool::output::{physical_text, trim_float};
 use crate::tool::{backup, watch, write};
-
-/// Parameter numbers outside the table that may be read and written raw: the 11 bits of the
-/// PNU (PKE bits 0–10).
-pub const RAW_INDICES: RangeInclusive<u16> = 0..=2047;
-
-/// Parameter numbers (PNUs) of the table this command uses by name.
-pub mod param {
-    /// Maximum frequency: the 100 % of frequency setpoints and actual values.
-    pub const MAXIMUM_FREQUENCY: u16 = 105;
-    /// Torque current limit: the 100 % of current setpoints and actual values.
-    pub const CURRENT_LIMIT: u16 = 112;
-    /// Control word source (5 = AS-i).
-    pub const CONTROL_WORD_SOURCE: u16 = 509;
-    /// Bus actual values 1–3: what IW1–IW3 carry.
-    pub const BUS_ACTUAL_VALUE: u16 = 543;
-    /// Save to EEPROM (0 = RAM only, 1 = RAM and EEPROM).
-    pub const SAVE_TO_EEPROM: u16 = 560;
-    /// Present fault [-01], warning [-02], reason for switch-on disabled [-03].
-    pub const PRESENT_FAULT: u16 = 700;
-    /// Configuration level.
-    pub const CONFIGURATION_LEVEL: u16 = 744;
-}
 
 /// Examples below `drivectl uss|ctt2 write --help`; the `ctt2` help gets its own prefix
 /// ([`ctt2::with_help`]).
@@ -298,199 +275,20 @@ pub fn resolve_all(params: &[String], sub: Sub) -> Result<Vec<Target>> {
     Ok(all)
 }
 
-/// Whether `t` is an array element (AK 6, 7, 11, 12): the table says so, or `raw_array` (the
-/// user gave `--array`) outside the table.
-fn is_array(t: &Target, raw_array: bool) -> bool {
-    match t.param.and_then(|_| nord::by_index(t.index)) {
-        Some(p) => p.array_len.is_some(),
-        None => raw_array,
-    }
-}
-
-/// The raw value of a value read: a word of a parameter whose range does not go below zero
-/// is unsigned (whatever PWE1 says), any other keeps the sign the drive sent.
-pub fn raw_of(t: &Target, value: i32, width: Width) -> i64 {
-    let unsigned = t
-        .param
-        .and_then(|p| p.raw_range())
-        .is_some_and(|(lo, _)| lo >= 0);
-    match (width, unsigned) {
-        (Width::Word, true) => i64::from(value as u16),
-        (Width::DoubleWord, true) => i64::from(value as u32),
-        _ => i64::from(value),
-    }
-}
-
-/// The order reading `t`: AK 1, or AK 6 for an array element.
-fn read_order(t: &Target, raw_array: bool) -> std::result::Result<Order, ClientError> {
-    let ind = Ind(t.sub);
-    if is_array(t, raw_array) {
-        Order::read_array(t.index, ind)
-    } else {
-        Order::read(t.index, ind)
-    }
-    .map_err(|e| ClientError::Link(e.to_string()))
-}
-
-/// The order writing `raw` to `t` as a word: AK 2/7 to EEPROM (as P560 says) or AK 14/12 to
-/// RAM only.
-fn write_order(
-    t: &Target,
-    raw: i64,
-    persistence: Persistence,
-    raw_array: bool,
-) -> std::result::Result<Order, ClientError> {
-    let storage = match persistence {
-        Persistence::Volatile => Storage::Ram,
-        Persistence::NonVolatile => Storage::Eeprom,
-    };
-    Order::write(
-        t.index,
-        Ind(t.sub),
-        Width::Word,
-        is_array(t, raw_array),
-        storage,
-        raw,
-    )
-    .map_err(|e| ClientError::Link(format!("{e}; nothing was sent")))
-}
-
-/// What a PWE2 error number means for the tool: 0 (no such parameter) and 3 (no such element
-/// or set) are absent from this drive; everything else is a refusal.
-fn device_error_kind(error: u16) -> DeviceErrorKind {
-    match error {
-        0 | 3 => DeviceErrorKind::Absent,
-        _ => DeviceErrorKind::Refused,
-    }
-}
-
-/// The tool layer's error for a client error (the caller names the parameter).
-pub fn client_error<E: std::fmt::Display>(e: client::ClientError<E>) -> ClientError {
-    match e {
-        client::ClientError::Drive { order, error } => {
-            let hint = match error.0 {
-                1 => " (read-only: the drive does not take writes to it)",
-                2 => " (the value is outside the drive's range)",
-                3 => " (the drive has no such array element or parameter set)",
-                4 => " (the drive says it is no array: leave out --array)",
-                _ => "",
-            };
-            ClientError::Device(DeviceError {
-                kind: device_error_kind(error.0),
-                message: format!(
-                    "the drive refused AK {} ({}): {error}{hint}",
-                    order.ak(),
-                    nord::ak_request(order.ak()).map_or("order", |r| r.function_en)
-                ),
-            })
-        }
-        other => ClientError::Link(other.to_string()),
-    }
-}
-
 /// A client error without a parameter (process data).
 fn link_error<E: std::fmt::Display>(e: client::ClientError<E>) -> CliError {
     CliError::failed(e.to_string())
 }
 
-/// `NordClient` as the tool layer's [`ParamClient`]: one drive behind one transport.
-///
-/// The drive keeps answering its previous order until the new one is done, and the
-/// plausibility check cannot tell that answer from the new one's when both orders address the
-/// same PNU and IND (erratum E21: AK 7 fits every order, a write's echo fits a read).
-/// `NordClient` therefore sends "no order" (AK 0) before its first order — the drive may still
-/// answer an order of an earlier command — and before an order on the PNU and IND of the one
-/// before.
-#[derive(Debug)]
-pub struct NordParamClient<'a, C> {
-    client: &'a mut NordClient<C>,
-    key: String,
-    identity: Map<String, Value>,
-    raw_array: bool,
+/// The client of the drive behind `c` (`s` names and identifies it), its messages in the
+/// command line's words.
+fn param_client<'a, C>(c: &'a mut NordClient<C>, s: &Session) -> NordParamClient<'a, C> {
+    NordParamClient::new(c, &s.key, s.identity.clone()).with_front_end(&Cli)
 }
 
-impl<'a, C> NordParamClient<'a, C> {
-    /// The drive behind `client`, named `key` in the EEPROM-wear log, identified in a backup by
-    /// `identity` (the transport's fields: address, ID object, …).
-    pub fn new(client: &'a mut NordClient<C>, key: &str, identity: Map<String, Value>) -> Self {
-        Self {
-            client,
-            key: key.to_owned(),
-            identity,
-            raw_array: false,
-        }
-    }
-
-    /// Raw parameters (outside the table) are array elements (`--array` was given).
-    pub fn raw_array(mut self, array: bool) -> Self {
-        self.raw_array = array;
-        self
-    }
-}
-
-impl<C: ParameterChannel> ParamClient for NordParamClient<'_, C> {
-    fn family(&self) -> Family {
-        Family::Nord
-    }
-
-    fn stale_bytes(&self) -> u64 {
-        self.client.channel().stale_bytes()
-    }
-
-    async fn drive_key(&mut self) -> std::result::Result<String, ClientError> {
-        Ok(self.key.clone())
-    }
-
-    async fn read(&mut self, target: &Target) -> std::result::Result<i64, ClientError> {
-        let order = read_order(target, self.raw_array)?;
-        match self.client.order(order).await {
-            Ok(Reply::Value { value, width, .. }) => Ok(raw_of(target, value, width)),
-            Ok(reply) => Err(ClientError::Link(format!(
-                "unexpected answer {reply:?} to AK {}",
-                order.ak()
-            ))),
-            Err(e) => Err(client_error(e)),
-        }
-    }
-
-    async fn write(
-        &mut self,
-        target: &Target,
-        raw: i64,
-        persistence: Persistence,
-    ) -> std::result::Result<(), ClientError> {
-        let order = write_order(target, raw, persistence, self.raw_array)?;
-        match self.client.order(order).await {
-            Ok(Reply::Value { .. }) => Ok(()),
-            Ok(reply) => Err(ClientError::Link(format!(
-                "unexpected answer {reply:?} to AK {}",
-                order.ak()
-            ))),
-            Err(e) => Err(client_error(e)),
-        }
-    }
-
-    async fn identify(&mut self) -> std::result::Result<Map<String, Value>, ClientError> {
-        let mut m = self.identity.clone();
-        let level = resolve_in(param::CONFIGURATION_LEVEL)?;
-        let configuration = match self.read(&level).await {
-            Ok(v) => Value::from(v),
-            Err(ClientError::Device(_)) => Value::Null,
-            Err(e) => return Err(e),
-        };
-        m.entry("device_type").or_insert(Value::Null);
-        m.entry("firmware").or_insert(Value::Null);
-        m.insert("configuration_level".into(), configuration);
-        Ok(m)
-    }
-}
-
-/// The target of a table parameter by number, no element, set 1.
+/// The target of the table parameter `number` as a whole (first element, set 1).
 fn resolve_in(number: u16) -> std::result::Result<Target, ClientError> {
-    resolve(&number.to_string(), Sub::default(), true)
-        .ok()
-        .and_then(|v| v.into_iter().next())
-        .ok_or_else(|| ClientError::Link(format!("P{number} is not in the NORD table")))
+    drive_client::nord::table_target(number)
 }
 
 /// The target of `number` with element `array` and set `set` (1-based).
@@ -678,8 +476,7 @@ where
     match cmd {
         NordCommand::Read { params, sub } => {
             let targets = resolve_all(params, *sub)?;
-            let mut pc =
-                NordParamClient::new(c, &s.key, s.identity.clone()).raw_array(sub.array.is_some());
+            let mut pc = param_client(c, s).raw_array(sub.array.is_some());
             crate::tool::read::read_all(&mut pc, &targets, json).await
         }
         NordCommand::Watch {
@@ -689,8 +486,7 @@ where
         } => {
             let targets = resolve_all(params, *sub)?;
             let options = watch_args.options(json)?;
-            let mut pc =
-                NordParamClient::new(c, &s.key, s.identity.clone()).raw_array(sub.array.is_some());
+            let mut pc = param_client(c, s).raw_array(sub.array.is_some());
             watch::watch(
                 &mut pc,
                 &targets,
@@ -723,8 +519,7 @@ where
                     physical_text(p, v.raw)
                 );
             }
-            let mut pc =
-                NordParamClient::new(c, &s.key, s.identity.clone()).raw_array(sub.array.is_some());
+            let mut pc = param_client(c, s).raw_array(sub.array.is_some());
             let (persistence, ram_only) = if *volatile {
                 (Persistence::Volatile, false)
             } else {
@@ -779,12 +574,12 @@ where
             control(c, s, &session).await
         }
         NordCommand::Backup(b) => {
-            let mut pc = NordParamClient::new(c, &s.key, s.identity.clone());
+            let mut pc = param_client(c, s);
             let stop = Interrupt::install("the backup file was not written");
             backup::backup(&mut pc, &b.out, b.overwrite, json, &stop).await
         }
         NordCommand::Restore(r) => {
-            let mut pc = NordParamClient::new(c, &s.key, s.identity.clone());
+            let mut pc = param_client(c, s);
             if !r.dry_run {
                 warn_ram_only(&mut pc).await;
             }
@@ -922,7 +717,7 @@ async fn info<C: ParameterChannel>(
         return Err(CliError::failed("no parameter to show"));
     };
     let p = first.param.and_then(|_| nord::by_index(first.index));
-    let mut pc = NordParamClient::new(c, &s.key, s.identity.clone()).raw_array(sub.array.is_some());
+    let mut pc = param_client(c, s).raw_array(sub.array.is_some());
     let mut current = Vec::new();
     for t in targets {
         match pc.read(t).await {
@@ -933,12 +728,10 @@ async fn info<C: ParameterChannel>(
     }
     // AK 9: the drive's own number of elements, for an array (or a raw PNU read as one).
     let count = if p.map_or(sub.array.is_some(), |p| p.array_len.is_some()) {
-        match pc.client.count(first.index).await {
+        match pc.element_count(first.index).await {
             Ok(n) => Some(Ok(n)),
-            Err(e) => match client_error(e) {
-                ClientError::Device(d) => Some(Err(d.message)),
-                e => return Err(first.error(e)),
-            },
+            Err(ClientError::Device(d)) => Some(Err(d.message)),
+            Err(e) => return Err(first.error(e)),
         }
     } else {
         None
@@ -1120,7 +913,7 @@ where
     let sw = answer.status();
     let state = sw.state();
     let set = sw.parameter_set();
-    let mut pc = NordParamClient::new(c, &s.key, s.identity.clone());
+    let mut pc = param_client(c, s);
     let p105 = target_of(param::MAXIMUM_FREQUENCY, None, Some(set))?;
     let p112 = target_of(param::CURRENT_LIMIT, None, Some(set))?;
     let hz = read_physical(&mut pc, &p105).await?;
@@ -1255,7 +1048,7 @@ where
     let iw = s.actuals.min(1);
     // P509 0 (control terminals or keypad): the drive does not take the bus control word.
     {
-        let mut pc = NordParamClient::new(c, &s.key, s.identity.clone());
+        let mut pc = param_client(c, s);
         let t = target_of(param::CONTROL_WORD_SOURCE, None, None)?;
         if let Some(0) = read_optional(&mut pc, &t).await? {
             errln!(

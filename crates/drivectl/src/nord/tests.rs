@@ -12,6 +12,8 @@ use drive_profile::Persistence;
 use drive_profile::nord::{self, ControlWord, State, StatusWord};
 
 use super::*;
+use crate::tool::client::DeviceErrorKind;
+use drive_client::nord::raw_of;
 
 /// The fake transport's only error: the line is dead.
 #[derive(Debug)]

@@ -21,11 +21,12 @@ use drive_core::rt::CharIo;
 use drive_profile::nord::ControlWord;
 use serde_json::{Map, Value, json};
 
-use super::{NordCommand, NordParamClient, Session, execute, precheck, state_text, target_of};
+use super::{NordCommand, Session, execute, precheck, state_text, target_of};
 use crate::error::{CliError, Result};
 use crate::tool::client::{ParamClient, canonical_port};
 use crate::tool::line::{LineArgs, MAX_TIMEOUT_MS, runtime};
 use crate::tool::stale;
+use drive_client::nord::NordParamClient;
 
 /// Below `drivectl uss --help`.
 const USS_HELP: &str = "\

@@ -34,7 +34,8 @@ use crate::tool::{watch, write};
 use drive_transport::can::candump::Capture;
 
 use self::iface::Iface;
-use self::link::{NOT_RESTORED, SbusLink, driver_error, open, virtual_addresses};
+use self::link::{driver_error, open, virtual_addresses};
+use drive_client::sew::sbus::{NOT_RESTORED, SbusLink};
 
 /// The longest response timeout (ms).
 const MAX_TIMEOUT_MS: u64 = 60_000;

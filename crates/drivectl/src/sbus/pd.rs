@@ -127,7 +127,7 @@ pub async fn pd<C: CanIo>(
             (vec![0], None)
         }
         None => {
-            let mut l = crate::sbus::link::SbusLink {
+            let mut l = drive_client::sew::sbus::SbusLink {
                 master: m,
                 address: addr,
                 handshake: sbus_can::master::Handshake::Async,

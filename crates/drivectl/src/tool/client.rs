@@ -2,7 +2,9 @@
 //! ([`ParamClient`], [`Target`], the strict number parsing); this module says its errors in the
 //! command line's words, with the options that are the way out (`--raw`, `--force`, `--round`).
 
-pub use drive_client::client::{ClientError, DeviceError, DeviceErrorKind, ParamClient};
+#[cfg(test)]
+pub use drive_client::client::DeviceError;
+pub use drive_client::client::{ClientError, DeviceErrorKind, ParamClient};
 pub use drive_client::target::{
     Target, TargetError, ValueError, ValueText, nord_sub, nord_sub_parts, nord_subs,
 };

@@ -41,9 +41,9 @@ fn label(t: &Target) -> String {
 /// gateway never writes them, as it refuses them at a `set`.
 fn link_settings(protocol: Protocol) -> &'static [u16] {
     match protocol {
-        Protocol::Movilink => crate::movilink::LINK_SETTINGS,
-        Protocol::Sbus => crate::sbus::link::LINK_SETTINGS,
-        Protocol::ModbusRtu | Protocol::ModbusAscii => crate::bonfiglioli::LINK_SETTINGS,
+        Protocol::Movilink => drive_client::sew::movilink::LINK_SETTINGS,
+        Protocol::Sbus => drive_client::sew::sbus::LINK_SETTINGS,
+        Protocol::ModbusRtu | Protocol::ModbusAscii => drive_client::bonfiglioli::LINK_SETTINGS,
         Protocol::Uss => &[],
     }
 }
@@ -102,9 +102,9 @@ pub(super) fn resolve(protocol: Protocol, p: &ParamFile, at: &str) -> Result<Res
     // The family's resolvers refuse only a parameter they do not know here (the selectors are
     // checked below): said in the config's terms, not with the command line's options.
     let raw = match family {
-        Family::Nord => crate::nord::RAW_INDICES,
-        Family::Bonfiglioli => crate::bonfiglioli::RAW_INDICES,
-        _ => crate::movilink::RAW_INDICES,
+        Family::Nord => drive_client::nord::RAW_INDICES,
+        Family::Bonfiglioli => drive_client::bonfiglioli::RAW_INDICES,
+        _ => drive_client::sew::RAW_INDICES,
     };
     let param_error = |_: crate::error::CliError| {
         fail(
@@ -301,7 +301,7 @@ fn bonfiglioli(
         ));
     }
     let bits = |w: Width| if w == Width::Word { 16 } else { 32 };
-    let known = crate::bonfiglioli::table_width(&t, None);
+    let known = drive_client::bonfiglioli::table_width(&t, None);
     let width = match (value(&p.width), known) {
         (Some(w), _) if w != 16 && w != 32 => {
             return Err(fail(

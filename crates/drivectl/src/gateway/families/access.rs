@@ -24,14 +24,15 @@ use serde_json::Map;
 
 use super::io::{CanBox, LineIo, SharedLine};
 use super::wire::WireDesc;
-use crate::bonfiglioli::BonfiglioliClient;
 use crate::gateway::bus::{BusAccess, LinkTally, Op};
 use crate::gateway::config::Bus;
-use crate::movilink::MovilinkLink;
-use crate::nord::NordParamClient;
-use crate::sbus::link::SbusLink;
-use crate::sew::SewClient;
 use crate::tool::client::{ClientError, ParamClient, Target, canonical_port};
+use drive_client::Plain;
+use drive_client::bonfiglioli::BonfiglioliClient;
+use drive_client::nord::NordParamClient;
+use drive_client::sew::movilink::MovilinkLink;
+use drive_client::sew::sbus::SbusLink;
+use drive_client::sew::{SewClient, SewLink, control_word_slots, pd_warnings, with_command};
 
 /// The USB serial adapters' burst delivery (an FTDI chip hands characters over every 16 ms):
 /// the gap accepted inside an answer on a real port, as `drivectl` does by default. The
@@ -157,7 +158,7 @@ fn sew_fault_text(sw: StatusWord1) -> Option<String> {
 /// A MOVIDRIVE's bus timeout `timeout_index` (P812, P815; raw milliseconds; `None` when off or
 /// not read) and which of the first `words` process input words is status word 1 (its actual
 /// value description P873–P875 is 6).
-async fn sew_timeout_and_status<L: crate::sew::SewLink>(
+async fn sew_timeout_and_status<L: SewLink>(
     link: &mut L,
     timeout_index: u16,
     words: usize,
@@ -246,7 +247,7 @@ impl<IO: CharIo> MovilinkBus<IO> {
 impl<IO: CharIo> MovilinkBus<IO> {
     fn client_of(&mut self, address: u8) -> Result<SewClient<MovilinkLink<'_, IO>>, String> {
         let a = Self::address(address)?;
-        Ok(SewClient::new(crate::movilink::link(
+        Ok(SewClient::new(MovilinkLink::new(
             &mut self.driver,
             a,
             &self.port,
@@ -266,7 +267,7 @@ impl<IO: CharIo> MovilinkBus<IO> {
             .driver
             .exchange(request)
             .await
-            .map_err(crate::movilink::client_error)?;
+            .map_err(drive_client::sew::movilink::client_error)?;
         Ok(answer.process_data().to_vec())
     }
 
@@ -346,7 +347,7 @@ impl<C: drive_core::rt::CanIo> SbusBus<C> {
             .master
             .process_data(a, sbus_can::ProcessData(words))
             .await
-            .map_err(crate::sbus::link::client_error)?;
+            .map_err(drive_client::sew::sbus::client_error)?;
         Ok(input.0.iter().take(out.len()).copied().collect())
     }
 
@@ -640,14 +641,14 @@ impl BusAccess for Access {
             Proto::Movilink(b) => {
                 let mut c = b.client_of(address).map_err(ClientError::Link)?;
                 let timeout = (sew_index::RS485_TIMEOUT, "RS-485 timeout P812");
-                let (_, w) = crate::sew::pd_warnings(&mut c.link, out.len(), true, timeout).await;
+                let (_, w) = pd_warnings(&mut c.link, out.len(), true, timeout, &Plain).await;
                 let (t, s) = sew_timeout_and_status(&mut c.link, timeout.0, out.len()).await;
                 (w, t.map(|t| (t, timeout.1, "F43 RS-485 timeout")), s)
             }
             Proto::Sbus(b) => {
                 let mut c = b.client_of(address).map_err(ClientError::Link)?;
                 let timeout = (sew_index::SBUS_TIMEOUT, "SBus timeout P815");
-                let (_, w) = crate::sew::pd_warnings(&mut c.link, out.len(), true, timeout).await;
+                let (_, w) = pd_warnings(&mut c.link, out.len(), true, timeout, &Plain).await;
                 let (t, s) = sew_timeout_and_status(&mut c.link, timeout.0, out.len()).await;
                 (w, t.map(|t| (t, timeout.1, "F47 SBus timeout")), s)
             }
@@ -718,11 +719,11 @@ impl BusAccess for Access {
                 let found = match &mut self.proto {
                     Proto::Movilink(b) => {
                         let mut c = b.client_of(address).map_err(ClientError::Link)?;
-                        crate::sew::control_word_slots(&mut c.link, out.len()).await
+                        control_word_slots(&mut c.link, out.len()).await
                     }
                     Proto::Sbus(b) => {
                         let mut c = b.client_of(address).map_err(ClientError::Link)?;
-                        crate::sew::control_word_slots(&mut c.link, out.len()).await
+                        control_word_slots(&mut c.link, out.len()).await
                     }
                     _ => Vec::new(),
                 };
@@ -739,7 +740,7 @@ impl BusAccess for Access {
                             .to_owned(),
                     ));
                 }
-                words = crate::sew::with_command(out, &slots, ControlWord1::STOP);
+                words = with_command(out, &slots, ControlWord1::STOP);
             }
             Proto::Uss(_) => {
                 // The first PZD word is the control word (STW): "Stillsetzen", the ramp down.
