@@ -32,9 +32,10 @@
 //! judging a received frame against it ([`Protocol::judge`]) and reporting the shell's events in
 //! its own vocabulary ([`Protocol::report`]).
 //!
-//! A protocol crate's master type is a thin newtype over the shell that implements
-//! [`AsMaster`]; a character master gets [`Endpoint`] through it, and every runtime driver's
-//! needs.
+//! A protocol crate's master type is this shell with its protocol
+//! (`type ModbusMaster = Master<Modbus, Exchange<ModbusFraming, MAX_FRAME>>`), made from the
+//! protocol's configuration ([`Configure`]); a character master is an [`Endpoint`], and every
+//! master has what the runtime driver needs ([`Control`]).
 
 use core::convert::Infallible;
 use core::fmt::Debug;
@@ -84,6 +85,12 @@ pub trait Protocol {
         request: &mut Self::Request,
         frame: Self::Frame,
     ) -> Judgement<Self::Answer, Self::Reason, Self::Failure>;
+
+    /// The response timeout or the retries were changed ([`Master::set_response_timeout`],
+    /// [`Master::set_retries`]): a protocol that keeps them in its configuration updates it.
+    fn settings_changed(&mut self, response_timeout: Duration, retries: u8) {
+        let _ = (response_timeout, retries);
+    }
 
     /// Report `event` of `request` to the user: push what it means in the protocol's words to
     /// `events` (nothing, one or several events).
@@ -209,6 +216,10 @@ pub trait Carrier {
     fn set_response_timeout(&mut self, timeout: Duration);
     /// Change the number of retransmissions (the request in flight too).
     fn set_retries(&mut self, retries: u8);
+    /// The response timeout.
+    fn response_timeout(&self) -> Duration;
+    /// The number of retransmissions.
+    fn retries(&self) -> u8;
     /// Transmissions of the request in flight so far.
     fn attempts(&self) -> u16;
     /// Input that could not answer the request it arrived with, so far (characters on a line,
@@ -238,6 +249,12 @@ impl<F: Framing, const N: usize> Carrier for Exchange<F, N> {
     fn set_retries(&mut self, retries: u8) {
         Exchange::set_retries(self, retries);
     }
+    fn response_timeout(&self) -> Duration {
+        self.config().response_timeout
+    }
+    fn retries(&self) -> u8 {
+        self.config().retries
+    }
     fn attempts(&self) -> u16 {
         Exchange::attempts(self)
     }
@@ -255,9 +272,36 @@ pub struct Master<P: Protocol, X> {
     events: Queue<P::Event, EVENTS>,
 }
 
+/// A protocol whose master is made from a configuration: `Master::new(config)`.
+pub trait Configure: Protocol + Sized {
+    /// The master's configuration.
+    type Config;
+    /// The carrier it runs on.
+    type Carrier: Carrier;
+
+    /// The protocol's state and the carrier for `config`.
+    fn build(config: Self::Config) -> (Self, Self::Carrier);
+
+    /// The configuration.
+    fn config(&self) -> &Self::Config;
+}
+
+impl<P: Configure> Master<P, P::Carrier> {
+    /// A master with `config`; nothing in flight, the bus assumed idle.
+    pub fn new(config: P::Config) -> Self {
+        let (protocol, carrier) = P::build(config);
+        Self::from_parts(protocol, carrier)
+    }
+
+    /// The configuration (with the response timeout and retries as last set).
+    pub fn config(&self) -> &P::Config {
+        self.protocol.config()
+    }
+}
+
 impl<P: Protocol, X> Master<P, X> {
     /// A master speaking `protocol` over `carrier`; nothing in flight.
-    pub fn new(protocol: P, carrier: X) -> Self {
+    pub fn from_parts(protocol: P, carrier: X) -> Self {
         Self {
             protocol,
             carrier,
@@ -349,11 +393,15 @@ impl<P: Protocol, X: Carrier> Master<P, X> {
     /// Change the response timeout; applies from the next transmission on.
     pub fn set_response_timeout(&mut self, timeout: Duration) {
         self.carrier.set_response_timeout(timeout);
+        self.protocol
+            .settings_changed(self.carrier.response_timeout(), self.carrier.retries());
     }
 
     /// Change the number of retransmissions; applies to the request in flight too.
     pub fn set_retries(&mut self, retries: u8) {
         self.carrier.set_retries(retries);
+        self.protocol
+            .settings_changed(self.carrier.response_timeout(), self.carrier.retries());
     }
 
     /// Transmissions of the request in flight so far.
@@ -515,6 +563,17 @@ where
         self.carrier.stale_chars()
     }
 
+    /// Whether a request was transmitted and its answer is awaited (as opposed to a request
+    /// waiting for the bus, or no request).
+    pub fn is_awaiting_response(&self) -> bool {
+        self.carrier.is_awaiting_response()
+    }
+
+    /// The bus gate (earliest start of the next frame).
+    pub fn gate(&self) -> &crate::gate::TxGate {
+        self.carrier.gate()
+    }
+
     fn on_exchange(&mut self, ev: ExchangeEvent<P::Frame, F::Error>) {
         let Some(request) = self.job else { return };
         match ev {
@@ -588,60 +647,67 @@ impl<P: FrameProtocol> Master<P, CanExchange> {
     }
 }
 
-/// A protocol crate's master type: a newtype over a [`Master`]. A character master
-/// (`Carrier = Exchange<…>`) is an [`Endpoint`] through it, and every such master is what the
-/// runtime driver runs.
-pub trait AsMaster {
-    /// Its protocol.
-    type Protocol: Protocol;
-    /// Its carrier.
-    type Carrier: Carrier;
-    /// The shell.
-    fn master(&self) -> &Master<Self::Protocol, Self::Carrier>;
-    /// The shell, for changing.
-    fn master_mut(&mut self) -> &mut Master<Self::Protocol, Self::Carrier>;
+/// What a runtime driver needs of a sans-IO master beyond its medium's interface
+/// ([`Endpoint`], [`CanEndpoint`](crate::can::CanEndpoint)): every [`Master`] has it, a
+/// protocol master with more than one kind of work in flight (SBus: a scan) implements it
+/// itself.
+pub trait Control {
+    /// Whether nothing is in flight.
+    fn is_idle(&self) -> bool;
+    /// Drop what is in flight at `now` (a cancelled call left it, or the port failed).
+    fn abort(&mut self, now: Instant);
+    /// Drop the events not yet polled.
+    fn clear_events(&mut self);
+    /// Input never taken as an answer because it could not answer the request it arrived with
+    /// (cumulative: characters on a line, frames on CAN).
+    fn stale(&self) -> u64;
 }
 
-impl<P: Protocol, X: Carrier> AsMaster for Master<P, X> {
-    type Protocol = P;
-    type Carrier = X;
-    fn master(&self) -> &Self {
-        self
+impl<P: Protocol, X: Carrier> Control for Master<P, X> {
+    #[inline]
+    fn is_idle(&self) -> bool {
+        Master::is_idle(self)
     }
-    fn master_mut(&mut self) -> &mut Self {
-        self
+    fn abort(&mut self, now: Instant) {
+        Master::abort(self, now);
+    }
+    fn clear_events(&mut self) {
+        Master::clear_events(self);
+    }
+    fn stale(&self) -> u64 {
+        Master::stale(self)
     }
 }
 
-impl<T, F, const N: usize> Endpoint for T
+/// A character master is an [`Endpoint`].
+impl<P, F, const N: usize> Endpoint for Master<P, Exchange<F, N>>
 where
-    T: AsMaster<Carrier = Exchange<F, N>>,
-    T::Protocol: CharProtocol<Framing = F>,
-    F: Framing<Frame = <T::Protocol as Protocol>::Frame>,
-    <T::Protocol as Protocol>::Reason: From<F::Error>,
+    P: CharProtocol<Framing = F>,
+    F: Framing<Frame = P::Frame>,
+    P::Reason: From<F::Error>,
 {
     #[inline]
     fn handle_char(&mut self, c: RxChar) {
-        self.master_mut().handle_char(c);
+        Self::handle_char(self, c);
     }
 
     #[inline]
     fn handle_timeout(&mut self, now: Instant) {
-        self.master_mut().handle_timeout(now);
+        Self::handle_timeout(self, now);
     }
 
     #[inline]
     fn poll_transmit(&mut self, now: Instant, buf: &mut [u8]) -> Option<usize> {
-        self.master_mut().poll_transmit(now, buf)
+        Self::poll_transmit(self, now, buf)
     }
 
     #[inline]
     fn poll_timeout(&self) -> Option<Instant> {
-        self.master().poll_timeout()
+        Self::poll_timeout(self)
     }
 
     fn poll_quiet_timeout(&self) -> Option<Instant> {
-        self.master().poll_quiet_timeout()
+        Self::poll_quiet_timeout(self)
     }
 
     fn max_frame_len(&self) -> usize {
@@ -649,11 +715,11 @@ where
     }
 
     fn frame_left(&mut self, at: Instant) {
-        self.master_mut().frame_left(at);
+        Self::frame_left(self, at);
     }
 
     fn stale_chars(&self) -> u64 {
-        self.master().stale_chars()
+        Self::stale_chars(self)
     }
 }
 

@@ -556,7 +556,7 @@ async fn sbus_session() -> Result<()> {
 /// 19200-baud wire timing, in Modbus RTU and then ASCII: the manual's examples, an exception
 /// with its VABus cause, the diagnostic counters, and (RTU) a run-up through the state machine.
 async fn bonfiglioli_session() -> Result<()> {
-    use bonfiglioli_modbus::driver::{DriverConfig, DriverError, MasterDriver};
+    use bonfiglioli_modbus::driver::{DriverConfig, DriverError, ModbusDriver as MasterDriver};
     use bonfiglioli_modbus::frame::{Address, DataSet, DiagSubFunction};
     use bonfiglioli_modbus::framing::Mode;
     use bonfiglioli_modbus::sim;
@@ -659,7 +659,7 @@ async fn bonfiglioli_session() -> Result<()> {
             stats.transactions,
             stats.retries,
             stats.timeouts,
-            stats.exceptions,
+            stats.device_errors,
             started.elapsed().as_secs_f64()
         )?;
         drop(m);

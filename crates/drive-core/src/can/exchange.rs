@@ -276,6 +276,14 @@ impl Carrier for CanExchange {
         self.config.retries = retries;
     }
 
+    fn response_timeout(&self) -> Duration {
+        self.config.response_timeout
+    }
+
+    fn retries(&self) -> u8 {
+        self.config.retries
+    }
+
     fn attempts(&self) -> u16 {
         self.job.map_or(0, |j| j.attempts)
     }

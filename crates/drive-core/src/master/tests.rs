@@ -153,7 +153,7 @@ fn line(retries: u8) -> Master<Toy, Exchange<Lp, 8>> {
         unanswered_hold: Duration::from_millis(25),
         min_idle_gap: Duration::ZERO,
     };
-    Master::new(Toy::default(), Exchange::new(Lp, config))
+    Master::from_parts(Toy::default(), Exchange::new(Lp, config))
 }
 
 /// Send the request (due at `at`) and feed `answer` starting 5 ms after its end; the events.
@@ -261,7 +261,7 @@ fn can(retries: u8) -> Master<Toy, CanExchange> {
         retries,
         late_guard: Duration::from_millis(10),
     };
-    Master::new(Toy::default(), CanExchange::new(config))
+    Master::from_parts(Toy::default(), CanExchange::new(config))
 }
 
 #[test]
