@@ -167,7 +167,7 @@ async fn movilink_session() -> Result<()> {
     use crate::tool::output::print_value;
     use drive_profile::sew::{ControlWord1, StatusWord1, index};
     use drive_transport::link::{LinkConfig, pair};
-    use movilink::driver::{DriverConfig, MasterDriver};
+    use movilink::driver::{DriverConfig, MovilinkDriver as MasterDriver, ParamServices};
     use movilink::sim;
     use movilink::{Address, PduType, Telegram};
     use std::time::Duration;

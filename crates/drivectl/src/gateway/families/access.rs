@@ -205,10 +205,10 @@ fn serial_tally(retries: u64, rejected: u64) -> LinkTally {
 // ---------------------------------------------------------------------------------------------
 // MOVILINK
 
-/// A MOVILINK bus: one [`movilink::driver::MasterDriver`] on the line.
+/// A MOVILINK bus: one [`movilink::driver::MovilinkDriver`] on the line.
 #[derive(Debug)]
 pub struct MovilinkBus<IO> {
-    driver: movilink::driver::MasterDriver<IO>,
+    driver: movilink::driver::MovilinkDriver<IO>,
     port: String,
     last: movilink::driver::DriverStats,
 }
@@ -225,7 +225,7 @@ impl<IO: CharIo> MovilinkBus<IO> {
             ..movilink::driver::DriverConfig::default()
         };
         Self {
-            driver: movilink::driver::MasterDriver::new(io, config),
+            driver: movilink::driver::MovilinkDriver::new(io, config),
             port: port.to_owned(),
             last: movilink::driver::DriverStats::default(),
         }
