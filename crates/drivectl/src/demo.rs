@@ -296,7 +296,7 @@ async fn sbus_session() -> Result<()> {
     use drive_core::can::Bitrate;
     use drive_profile::sew::{ControlWord1, ParamChannel, StatusWord1, index, speed_from_word};
     use drive_transport::can::virtual_bus::VirtualBus;
-    use sbus_can::driver::SbusMaster;
+    use sbus_can::driver::{ParamServices, SbusDriver};
     use sbus_can::ids::{Kind, SlaveIds};
     use sbus_can::master::{Handshake, MasterConfig};
     use sbus_can::movlnk::{MlData, MovlnkCommand};
@@ -319,7 +319,7 @@ async fn sbus_session() -> Result<()> {
         .movlnk_handle(1)
         .ok_or_else(|| bad("no simulated drive 1".into()))?;
     let sim = tokio::spawn(async move { drives.serve(drives_node).await });
-    let mut m = SbusMaster::new(vbus.node(), MasterConfig::default());
+    let mut m = SbusDriver::new(vbus.node(), MasterConfig::default());
     let started = Instant::now();
     let ms = |t: Instant| t.saturating_duration_since(started).as_secs_f64() * 1e3;
     let (d1, d2) = (addr(1)?, addr(2)?);

@@ -18,7 +18,7 @@ use drive_core::rt::CharIo;
 use drive_profile::Family;
 use drive_profile::nord::ControlWord;
 use drive_profile::sew::StatusWord1;
-use sbus_can::driver::SbusMaster;
+use sbus_can::driver::SbusDriver;
 use sbus_can::master::Handshake;
 use serde_json::Map;
 
@@ -284,9 +284,9 @@ impl<IO: CharIo> MovilinkBus<IO> {
 // ---------------------------------------------------------------------------------------------
 // SBus
 
-/// An SBus bus: one [`SbusMaster`] on the CAN interface.
+/// An SBus bus: one [`SbusDriver`] on the CAN interface.
 pub struct SbusBus<C> {
-    master: SbusMaster<C>,
+    master: SbusDriver<C>,
     iface: String,
     last: sbus_can::master::MasterStats,
 }
@@ -303,13 +303,13 @@ impl<C: drive_core::rt::CanIo> SbusBus<C> {
     /// The bus `bus` on `io` (the interface named `iface`).
     pub fn new(io: C, bus: &Bus, iface: &str) -> Self {
         let config = sbus_can::master::MasterConfig {
-            timeout: bus.timeout,
+            response_timeout: bus.timeout,
             retries: bus.retries,
             late_guard: bus.timeout,
             ..sbus_can::master::MasterConfig::default()
         };
         Self {
-            master: SbusMaster::new(io, config),
+            master: SbusDriver::new(io, config),
             iface: iface.to_owned(),
             last: sbus_can::master::MasterStats::default(),
         }
