@@ -682,13 +682,13 @@ async fn nord_session() -> Result<()> {
     use crate::nord::{NordParamClient, Sub, resolve, state_text};
     use crate::tool::client::ParamClient;
     use ctt2_uss::client::{ClientConfig, NordClient};
-    use ctt2_uss::ctt2::link::{SimLink, SimulatedDoubleSlave};
-    use ctt2_uss::ctt2::master::{Ctt2Master, MasterConfig};
+    use ctt2_uss::ctt2::link::{SimulatedDoubleSlave, SimulatedLink};
+    use ctt2_uss::ctt2::master::{Ctt2Driver, DriverConfig};
     use drive_profile::Persistence;
     use drive_profile::nord::{ControlWord, State, command};
 
     let failed = |e: &dyn std::fmt::Display| CliError::failed(format!("demo: {e}"));
-    let link = SimLink::new(SimulatedDoubleSlave::default(), 2).map_err(|e| failed(&e))?;
+    let link = SimulatedLink::new(SimulatedDoubleSlave::default(), 2).map_err(|e| failed(&e))?;
     let byte = link.byte_time();
     outln!(
         "== NORD session: CTT2 through a simulated AS-i master ↔ NORDAC LINK double slave 1A/1B, 2 \
@@ -697,7 +697,7 @@ async fn nord_session() -> Result<()> {
     )?;
     let started = tokio::time::Instant::now();
     let ms = || trim_float(started.elapsed().as_secs_f64() * 1e3, 0);
-    let mut master = Ctt2Master::new(link, MasterConfig::default());
+    let mut master = Ctt2Driver::new(link, DriverConfig::default());
     let id = master.read_id_object().await.map_err(|e| failed(&e))?;
     outln!(
         "  ID object: manufacturer 0x{:04X}, device 0x{:04X}, drive firmware {}.{}, configuration \
