@@ -27,8 +27,9 @@
 //!
 //! Optional layers on top:
 //!
-//! * `tokio`: `driver`, the async master (`MasterDriver`) over any `CharIo` of the runtime
-//!   layer (the in-memory wire model of `drive-transport`, serial ports, ptys);
+//! * `tokio`: `driver`, the async master (`MovilinkDriver`, drive-core's runtime driver) over
+//!   any `CharIo` of the runtime layer (the in-memory wire model of `drive-transport`, serial
+//!   ports, ptys), with the SEW parameter services of `drive_profile::sew::ParamServices`;
 //! * `sim`: `sim`, simulated MOVIDRIVE drives answering on a `CharIo`.
 //!
 //! ```

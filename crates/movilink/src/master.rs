@@ -15,13 +15,13 @@
 //! protocol; this module is only MOVILINK's part of it, [`Movilink`]: its checks and its
 //! cyclic handshake. What it enforces:
 //!
-//! * a start pause after the last bus activity before each request ([`TxGate`]),
+//! * a start pause after the last bus activity before each request ([`TxGate`](crate::timing::TxGate)),
 //! * the response timeout (default 50 ms, the manual's maximum response delay) from the end of
 //!   the request's BCC to the start of the response's SD2,
 //! * acceptance of a response only with SD2, the request's address (for a point-to-point
 //!   request to 254 also any unicast address), the request's PDU type and a correct BCC, and
 //!   only once the quiet line after its BCC confirmed its end (see [`Receiver`](crate::receiver::Receiver); reported by
-//!   [`Master::handle_timeout`] at the time of [`Master::poll_timeout`]),
+//!   `handle_timeout` at the time of `poll_timeout`),
 //! * retries after a timeout or a rejected response, up to [`MasterConfig::retries`] (then
 //!   [`MasterEvent::Timeout`], also with 255 retries), each at least two start pauses after the
 //!   last bus activity,
