@@ -1,6 +1,6 @@
 //! Bonfiglioli ACTIVE (ACT) and ACTIVE Cube (ACU) over Modbus RTU or ASCII:
 //! [`BonfiglioliClient`], the [`ParamClient`] of one drive behind `bonfiglioli_modbus`'s
-//! [`MasterDriver`], with the function codes 3/6 (16 bit) and 100/101 (32 bit).
+//! [`ModbusDriver`], with the function codes 3/6 (16 bit) and 100/101 (32 bit).
 //!
 //! [`Target::sub`] is the data set (0 = all four, 1–4, and 5–9 their RAM-only twins). The
 //! width of a parameter comes from the table's data type, else from the caller (given for all
@@ -11,7 +11,7 @@
 use std::collections::HashMap;
 use std::ops::RangeInclusive;
 
-use bonfiglioli_modbus::driver::{CharIo, DriverError, MasterDriver};
+use bonfiglioli_modbus::driver::{CharIo, DriverError, ModbusDriver};
 use bonfiglioli_modbus::frame::{Address, DataSet, ExceptionCode};
 use bonfiglioli_modbus::framing::Mode;
 use bonfiglioli_modbus::slave::Width;
@@ -125,7 +125,7 @@ pub struct VariantFound {
 /// The Modbus driver as a [`ParamClient`]: one drive at one address.
 #[derive(Debug)]
 pub struct BonfiglioliClient<'a, IO> {
-    driver: &'a mut MasterDriver<IO>,
+    driver: &'a mut ModbusDriver<IO>,
     address: Address,
     port: String,
     /// The width given for every parameter without a data type.
@@ -150,7 +150,7 @@ impl<'a, IO: CharIo> BonfiglioliClient<'a, IO> {
     /// The drive at `address` behind `driver` on the port named `port`; `width` is the width of
     /// every parameter without a data type in the table (`None`: see [`UnknownWidth`]).
     pub fn new(
-        driver: &'a mut MasterDriver<IO>,
+        driver: &'a mut ModbusDriver<IO>,
         address: Address,
         port: &str,
         width: Option<Width>,

@@ -7,7 +7,7 @@
 //! * [`ParamClient`]: read and write a parameter by its table entry, what each family's client
 //!   implements over its protocol crate; [`ClientError`] keeps a drive's refusal apart from a
 //!   failing link;
-//! * [`write`]: the one write path (width, table, guard, the EEPROM-wear rule of a [`WearLog`],
+//! * [`write`](mod@write): the one write path (width, table, guard, the EEPROM-wear rule of a [`WearLog`],
 //!   link settings only when confirmed, the write, the read-back) with typed refusals
 //!   ([`WriteError`]);
 //! * [`meaning`]: what a raw value means (value names, decoded status and fault words);

@@ -14,6 +14,8 @@ pub mod sbus;
 use std::ops::RangeInclusive;
 use std::time::Duration;
 
+pub use drive_profile::sew::SERVICE_ATTEMPTS;
+use drive_profile::sew::services::is_transient;
 use drive_profile::sew::{AttributeInfo, ControlWord1, ParamChannel, ReturnCode, ScaleInfo, index};
 use drive_profile::{Family, Persistence};
 use serde_json::{Map, Value};
@@ -96,10 +98,6 @@ impl<L> SewClient<L> {
     }
 }
 
-/// How often a service answered with "internal communication error" (6/2) is sent in all: the
-/// manual says to repeat it, and to power-cycle the drive when it persists.
-pub const SERVICE_ATTEMPTS: u32 = 3;
-
 /// What a SEW return code means for a client.
 pub fn device_error_kind(code: ReturnCode) -> DeviceErrorKind {
     if [
@@ -110,7 +108,7 @@ pub fn device_error_kind(code: ReturnCode) -> DeviceErrorKind {
     .contains(&code)
     {
         DeviceErrorKind::Absent
-    } else if (code.error_class, code.error_code) == (6, 2) {
+    } else if is_transient(code) {
         DeviceErrorKind::Transient
     } else {
         DeviceErrorKind::Refused
@@ -149,7 +147,9 @@ pub fn write_service(index: u16, raw: i64, persistence: Persistence) -> ParamCha
 }
 
 impl<L: SewLink> SewClient<L> {
-    /// `request`, repeated while the drive answers "internal communication error".
+    /// `request`, repeated while the drive answers "internal communication error", at most
+    /// [`SERVICE_ATTEMPTS`] times in all (drive-profile's rule of every SEW bus,
+    /// [`ParamServices::service_repeated`](drive_profile::sew::ParamServices::service_repeated)).
     async fn service(&mut self, request: ParamChannel) -> Result<u32, ClientError> {
         let mut attempts = 0;
         loop {

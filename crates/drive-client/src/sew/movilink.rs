@@ -1,8 +1,8 @@
 //! MOVILINK on RS-485 / RS-232 as a [`SewLink`]: the `movilink` driver's acyclic PARAM + 0PD
 //! services to one address.
 
-use ::movilink::driver::{CharIo, DriverError, MasterDriver};
-use ::movilink::{Address, PduType};
+use ::movilink::Address;
+use ::movilink::driver::{CharIo, DriverError, MovilinkDriver, ParamServices};
 use drive_profile::sew::{ParamChannel, index};
 
 use super::{SewLink, device_error};
@@ -37,7 +37,7 @@ pub const NOT_RESTORED: &[u16] = &[
 #[derive(Debug)]
 pub struct MovilinkLink<'a, IO> {
     /// The driver of the line.
-    pub driver: &'a mut MasterDriver<IO>,
+    pub driver: &'a mut MovilinkDriver<IO>,
     /// The drive's address (254: point-to-point; a group or broadcast for unanswered writes).
     pub address: Address,
     /// The port's name, for the EEPROM-wear log.
@@ -46,7 +46,7 @@ pub struct MovilinkLink<'a, IO> {
 
 impl<'a, IO> MovilinkLink<'a, IO> {
     /// The way to the drive at `address` behind `driver` on the port named `port`.
-    pub fn new(driver: &'a mut MasterDriver<IO>, address: Address, port: &str) -> Self {
+    pub fn new(driver: &'a mut MovilinkDriver<IO>, address: Address, port: &str) -> Self {
         Self {
             driver,
             address,
@@ -70,8 +70,8 @@ impl<IO: CharIo> SewLink for MovilinkLink<'_, IO> {
     }
 
     async fn service(&mut self, request: ParamChannel) -> Result<u32, ClientError> {
-        self.driver
-            .param(self.address, PduType::PARAM_0PD_ACYCLIC, request)
+        // The SEW service on RS-485: an acyclic PARAM + 0PD telegram.
+        ParamServices::service(self.driver, self.address, request)
             .await
             .map(|p| p.data)
             .map_err(client_error)
@@ -173,7 +173,7 @@ mod tests {
     #[tokio::test]
     async fn a_link_change_names_the_new_address_only_in_a_front_ends_words() {
         let (a, _b) = tokio::io::duplex(64);
-        let mut driver = MasterDriver::new(Stream(a), DriverConfig::default());
+        let mut driver = MovilinkDriver::new(Stream(a), DriverConfig::default());
         let p810 = Target::resolve(Family::Movidrive, "P810", super::super::RAW_INDICES).unwrap();
         let p811 = Target::resolve(Family::Movidrive, "P811", super::super::RAW_INDICES).unwrap();
         let one = Address::new(1).unwrap();

@@ -13,7 +13,7 @@ pub mod sim;
 
 use std::time::Duration;
 
-use bonfiglioli_modbus::driver::{CharIo, DriverConfig, DriverError, MasterDriver};
+use bonfiglioli_modbus::driver::{CharIo, DriverConfig, DriverError, ModbusDriver as MasterDriver};
 use bonfiglioli_modbus::frame::{Address, DataSet, DiagSubFunction};
 use bonfiglioli_modbus::framing::Mode;
 use bonfiglioli_modbus::slave::Width;

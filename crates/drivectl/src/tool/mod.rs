@@ -7,7 +7,7 @@
 //!   typed values into raw ones;
 //! * [`write`](mod@write): the one write path (width check always, write guard and EEPROM-wear
 //!   log unless forced, read-back);
-//! * [`wear`]: the EEPROM-wear write log that keeps the guard's rule across runs;
+//! * [`drive_client::wear`]: the EEPROM-wear write log that keeps the guard's rule across runs;
 //! * [`backup`]: backup and restore of every family's parameters, with progress and atomic
 //!   files;
 //! * [`read`](mod@read): reading several parameters in one call;
