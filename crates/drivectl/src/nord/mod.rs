@@ -29,7 +29,7 @@ use drive_profile::{Family, Persistence};
 use serde_json::{Map, Value, json};
 
 pub use drive_client::nord::param;
-use drive_client::nord::{NordParamClient, RAW_INDICES};
+use drive_client::nord::{NordParamClient, RAW_INDICES, table_target};
 
 use crate::error::{CliError, Result};
 use crate::front::Cli;
@@ -284,11 +284,6 @@ fn link_error<E: std::fmt::Display>(e: client::ClientError<E>) -> CliError {
 /// command line's words.
 fn param_client<'a, C>(c: &'a mut NordClient<C>, s: &Session) -> NordParamClient<'a, C> {
     NordParamClient::new(c, &s.key, s.identity.clone()).with_front_end(&Cli)
-}
-
-/// The target of the table parameter `number` as a whole (first element, set 1).
-fn resolve_in(number: u16) -> std::result::Result<Target, ClientError> {
-    drive_client::nord::table_target(number)
 }
 
 /// The target of `number` with element `array` and set `set` (1-based).
@@ -604,7 +599,7 @@ async fn eeprom_or_ram<C: ParameterChannel>(
     if target.index == param::SAVE_TO_EEPROM || target.param.is_none() {
         return Ok((Persistence::NonVolatile, false));
     }
-    let p560 = resolve_in(param::SAVE_TO_EEPROM)?;
+    let p560 = table_target(param::SAVE_TO_EEPROM)?;
     match pc.read(&p560).await {
         Ok(0) => Ok((Persistence::Volatile, true)),
         Ok(_) => Ok((Persistence::NonVolatile, false)),
@@ -614,7 +609,7 @@ async fn eeprom_or_ram<C: ParameterChannel>(
 
 /// A restore writes with AK 2/7, which P560 = 0 keeps in RAM: say so before writing.
 async fn warn_ram_only<C: ParameterChannel>(pc: &mut NordParamClient<'_, C>) {
-    let Ok(t) = resolve_in(param::SAVE_TO_EEPROM) else {
+    let Ok(t) = table_target(param::SAVE_TO_EEPROM) else {
         return;
     };
     if let Ok(0) = pc.read(&t).await {
