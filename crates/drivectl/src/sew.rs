@@ -335,8 +335,8 @@ pub struct Preflight {
     pub timeout: Option<std::time::Duration>,
 }
 
-/// drive-client's [`pd_warnings`] with the warnings on standard error (`drivectl movilink pd`, `sbus pd`), and
-/// the bus timeout the exchanges must keep fed.
+/// drive-client's [`pd_warnings`] with the warnings on standard error (`drivectl movilink pd`,
+/// `sbus pd`), and the bus timeout the exchanges must keep fed.
 pub async fn pd_preflight<L: SewLink>(
     link: &mut L,
     words: usize,
