@@ -728,7 +728,7 @@ async fn nord_session() -> Result<()> {
     .ok_or_else(|| failed(&"P102"))?;
     {
         let mut pc = NordParamClient::new(&mut client, "demo", serde_json::Map::new())
-            .with_front_end(&crate::front::Cli);
+            .with_front_end(&crate::tool::front::Cli);
         pc.write(&p102, 1000, Persistence::NonVolatile)
             .await
             .map_err(|e| failed(&CliError::from(e)))?;

@@ -15,7 +15,6 @@ mod decode;
 mod demo;
 mod error;
 mod examples;
-mod front;
 mod gateway;
 mod movilink;
 mod nord;

@@ -14,8 +14,8 @@ use serde_json::{Map, Value, json};
 pub use drive_client::sew::{SewClient, SewLink};
 
 use crate::error::Result;
-use crate::front::Cli;
 use crate::tool::client::{ParamClient, Target};
+use crate::tool::front::Cli;
 use crate::tool::output::physical_text;
 
 /// The client of the drive behind `link`, its messages in the command line's words.

@@ -29,10 +29,10 @@ use drive_client::bonfiglioli::{BonfiglioliClient, VariantFound, data_of, raw_of
 pub use drive_client::bonfiglioli::{LINK_SETTINGS, NOT_RESTORED, RAW_INDICES, param};
 
 use crate::error::{CliError, Result};
-use crate::front::Cli;
 use crate::tool::again::Again;
 use crate::tool::client::OnTarget as _;
 use crate::tool::client::{ClientError, DeviceErrorKind, ParamClient, Target, ValueText};
+use crate::tool::front::Cli;
 use crate::tool::interrupt::Interrupt;
 use crate::tool::line::{LineArgs, runtime};
 use crate::tool::meaning::{Device, KnownVariant};

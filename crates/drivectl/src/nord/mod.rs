@@ -32,9 +32,9 @@ pub use drive_client::nord::param;
 use drive_client::nord::{NordParamClient, RAW_INDICES, table_target};
 
 use crate::error::{CliError, Result};
-use crate::front::Cli;
 use crate::tool::client::OnTarget as _;
 use crate::tool::client::{ClientError, ParamClient, Target, ValueText, nord_sub, parse_decimal};
+use crate::tool::front::Cli;
 use crate::tool::interrupt::Interrupt;
 use crate::tool::motor::{AtEnd, Motion, MotorGuard, Stopped};
 use crate::tool::output::{physical_text, trim_float};

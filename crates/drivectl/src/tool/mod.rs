@@ -5,6 +5,8 @@
 //! * [`client`]: the [`ParamClient`](client::ParamClient) trait (read/write a parameter by its
 //!   table entry), naming parameters on the command line ([`Target`](client::Target)) and turning
 //!   typed values into raw ones;
+//! * [`front`]: the command line as drive-client's front end (its options in the clients'
+//!   messages);
 //! * [`write`](mod@write): the one write path (width check always, write guard and EEPROM-wear
 //!   log unless forced, read-back);
 //! * [`drive_client::wear`]: the EEPROM-wear write log that keeps the guard's rule across runs;
@@ -24,6 +26,7 @@ pub mod backup;
 pub mod client;
 #[cfg(test)]
 pub mod fake;
+pub mod front;
 pub mod infile;
 pub mod interrupt;
 pub mod line;
