@@ -28,6 +28,37 @@ fn movilink_read_param_prints_p130_of_the_simulated_drive() {
     );
 }
 
+/// README.md's "Use it as a library" shows this example as it is (without its doc comment).
+/// Skipped where the README is not there (the packaged crate).
+#[test]
+fn readme_shows_movilink_read_param_as_it_is() {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    let Ok(readme) = std::fs::read_to_string(root.join("../../README.md")) else {
+        return;
+    };
+    let example = std::fs::read_to_string(root.join("examples/movilink_read_param.rs"))
+        .expect("the example's source");
+    let code: String = example
+        .lines()
+        .filter(|l| !l.starts_with("//!"))
+        .skip_while(|l| l.is_empty())
+        .map(|l| format!("{l}\n"))
+        .collect();
+    let section = readme
+        .split("## Use it as a library")
+        .nth(1)
+        .expect("README.md has a section \"Use it as a library\"");
+    let shown = section
+        .split("```rust\n")
+        .nth(1)
+        .and_then(|s| s.split("```\n").next())
+        .expect("the section shows a Rust program");
+    assert_eq!(
+        shown, code,
+        "README.md shows another program than examples/movilink_read_param.rs"
+    );
+}
+
 /// Runs example `name` and returns what it printed. `cargo test` builds the examples next to
 /// the test binaries (`target/<profile>/examples/`); one that is not there (`cargo test --test
 /// examples` alone, on a fresh target directory) is built first.
