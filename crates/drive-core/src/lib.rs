@@ -28,6 +28,10 @@
 //!   sans-IO master on a serial `rt::Port` or a `rt::CanPort`, one transaction at a time),
 //!   which every protocol's async driver is.
 //!
+//! Features: `std` (default), `tokio` (the runtime layer `rt`, on tokio) and `alloc-count`
+//! (`alloc_count`: the counting global allocator of the no-allocation tests, for test
+//! binaries only).
+//!
 //! The crate is `no_std` without its default `std` feature, and nothing outside the runtime
 //! layer (`rt`, feature `tokio`) allocates.
 #![cfg_attr(not(feature = "std"), no_std)]
