@@ -17,6 +17,13 @@
 //! [`drive_profile::bonfiglioli`] (the parameter table, Modbus exceptions, VABus errors,
 //! control/status words and state machines).
 //!
+//! Features: `std` (default), `tokio` (`driver`: the async master `ModbusDriver` on
+//! drive-core's runtime layer), `sim` (`sim`: simulated ACT/ACU drives on drive-sim's model).
+//! What a program needs is at the root: [`Address`], [`DataSet`], [`Width`], [`Mode`]; with
+//! `tokio`, `ModbusDriver`, `DriverConfig` and `DriverError`; with `sim`, `SimulatedDrive`.
+//! `examples/bonfiglioli_read_param.rs` reads parameter 372 from a simulated drive in a dozen
+//! lines (`cargo run -p bonfiglioli-modbus --example bonfiglioli_read_param`).
+//!
 //! Like every protocol crate of drivebus it is sans-IO (no I/O, no clock: time is an argument)
 //! and `no_std` without its default `std` feature.
 //!
@@ -30,10 +37,12 @@
 //! assert_eq!(&pdu[..n], [0x03, 0x21, 0x74, 0x00, 0x01]);
 //! ```
 #![cfg_attr(not(feature = "std"), no_std)]
+#![cfg_attr(docsrs, feature(doc_cfg))]
 #![warn(missing_docs)]
 
 pub mod ascii;
 #[cfg(feature = "tokio")]
+#[cfg_attr(docsrs, doc(cfg(feature = "tokio")))]
 pub mod driver;
 pub mod frame;
 pub mod framing;
@@ -41,8 +50,19 @@ pub mod master;
 pub mod pdu;
 pub mod rtu;
 #[cfg(feature = "sim")]
+#[cfg_attr(docsrs, doc(cfg(feature = "sim")))]
 pub mod sim;
 pub mod slave;
+
+pub use frame::{Address, DataSet, StartAddress};
+pub use slave::Width;
+
+#[cfg(feature = "tokio")]
+#[cfg_attr(docsrs, doc(cfg(feature = "tokio")))]
+pub use driver::{DriverConfig, DriverError, ModbusDriver};
+#[cfg(feature = "sim")]
+#[cfg_attr(docsrs, doc(cfg(feature = "sim")))]
+pub use sim::SimulatedDrive;
 
 pub use framing::{
     FrameError, MAX_FRAME, ModbusFraming, Mode, Received, Receiver, RxEvent, Side, decode_frame,

@@ -46,7 +46,9 @@ use std::io;
 
 use drive_core::rt::{self, Bus, CharIo, Clock, LineTime, Station};
 use drive_core::{Endpoint, Instant, LineSettings, RxChar};
-use drive_sim::bonfiglioli::{self as model, SimulatedBonfiglioli, Variant};
+/// Which drive is simulated (ACT or ACU): drive-sim's, re-exported for [`SimulatedDrive::new`].
+pub use drive_sim::bonfiglioli::Variant;
+use drive_sim::bonfiglioli::{self as model, SimulatedBonfiglioli};
 
 use crate::frame::{Address, ExceptionCode, StartAddress};
 use crate::framing::{MAX_FRAME, Mode};

@@ -21,15 +21,57 @@
 //! * [`drive_profile::nord`]: NORD's parameter table with resolution scaling, control/status
 //!   words and state machine, the USS AK/PWE error tables and the CTT2 codes.
 //!
+//! Features: `std` (default), `tokio` (the async drivers and the client), `sim` (simulated
+//! drives on drive-sim's model, on a line and behind a simulated AS-i master).
+//!
+//! What a program needs is at the root: the drive's addresses ([`UssAddress`],
+//! [`AsiAddress`], [`DoubleSlaveAddress`]), the USS telegram [`Layout`] and the PKW/PZD data
+//! ([`Order`], [`Pkw`], [`Reply`], [`Storage`], [`PzdOut`], [`PzdIn`]); with `tokio` the
+//! client over either transport (`NordClient`, `ClientConfig`, `ClientError` and `Address`,
+//! which value of a parameter), the USS driver (`UssDriver`, `UssDriverConfig`,
+//! `UssDriverError`) and the CTT2 driver over an AS-i master (`Ctt2Driver`, `Ctt2Link`,
+//! `Ctt2DriverConfig`, `Ctt2DriverError`); with `sim` the simulated drives (`SimulatedDrive` on
+//! a USS line, `SimulatedLink` with a `SimulatedDoubleSlave` for CTT2).
+//! `examples/uss_read_param.rs` and `examples/ctt2_read_param.rs` read P102 from a simulated
+//! drive in a dozen lines (`cargo run -p ctt2-uss --example uss_read_param`).
+//!
 //! Like every protocol crate of drivebus it is sans-IO (no I/O, no clock: time is an argument)
 //! and `no_std` without its default `std` feature.
 #![cfg_attr(not(feature = "std"), no_std)]
+#![cfg_attr(docsrs, feature(doc_cfg))]
 #![warn(missing_docs)]
 
 #[cfg(feature = "tokio")]
+#[cfg_attr(docsrs, doc(cfg(feature = "tokio")))]
 pub mod client;
 pub mod ctt2;
 pub mod serial;
 #[cfg(feature = "sim")]
+#[cfg_attr(docsrs, doc(cfg(feature = "sim")))]
 pub mod sim;
 pub mod uss;
+
+pub use ctt2::{AsiAddress, DoubleSlaveAddress, IdObject};
+pub use serial::{Layout, UssAddress};
+pub use uss::{Order, Pkw, PkwError, PzdIn, PzdOut, Reply, Storage};
+
+#[cfg(feature = "tokio")]
+#[cfg_attr(docsrs, doc(cfg(feature = "tokio")))]
+pub use client::{Address, ClientConfig, ClientError, NordClient};
+#[cfg(feature = "tokio")]
+#[cfg_attr(docsrs, doc(cfg(feature = "tokio")))]
+pub use ctt2::master::{
+    Ctt2Driver, Ctt2Link, DriverConfig as Ctt2DriverConfig, DriverError as Ctt2DriverError,
+};
+#[cfg(feature = "tokio")]
+#[cfg_attr(docsrs, doc(cfg(feature = "tokio")))]
+pub use serial::driver::{
+    DriverConfig as UssDriverConfig, DriverError as UssDriverError, UssDriver,
+};
+
+#[cfg(feature = "sim")]
+#[cfg_attr(docsrs, doc(cfg(feature = "sim")))]
+pub use ctt2::link::{SimulatedDoubleSlave, SimulatedLink};
+#[cfg(feature = "sim")]
+#[cfg_attr(docsrs, doc(cfg(feature = "sim")))]
+pub use serial::sim::SimulatedDrive;

@@ -28,12 +28,18 @@
 //!   sans-IO master on a serial `rt::Port` or a `rt::CanPort`, one transaction at a time),
 //!   which every protocol's async driver is.
 //!
+//! Features: `std` (default), `tokio` (the runtime layer `rt`, on tokio) and `alloc-count`
+//! (`alloc_count`: the counting global allocator of the no-allocation tests, for test
+//! binaries only).
+//!
 //! The crate is `no_std` without its default `std` feature, and nothing outside the runtime
 //! layer (`rt`, feature `tokio`) allocates.
 #![cfg_attr(not(feature = "std"), no_std)]
+#![cfg_attr(docsrs, feature(doc_cfg))]
 #![warn(missing_docs)]
 
 #[cfg(feature = "alloc-count")]
+#[cfg_attr(docsrs, doc(cfg(feature = "alloc-count")))]
 pub mod alloc_count;
 pub mod can;
 pub mod char;
@@ -46,6 +52,7 @@ pub mod master;
 mod queue;
 pub mod rng;
 #[cfg(feature = "tokio")]
+#[cfg_attr(docsrs, doc(cfg(feature = "tokio")))]
 pub mod rt;
 pub mod time;
 

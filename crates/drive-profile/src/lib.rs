@@ -19,12 +19,14 @@
 //! assert_eq!(percent_from_word(0x4000), 100.0);
 //! ```
 #![cfg_attr(not(feature = "std"), no_std)]
+#![cfg_attr(docsrs, feature(doc_cfg))]
 #![warn(missing_docs)]
 
 pub mod bonfiglioli;
 pub mod columns;
 pub mod family;
 #[cfg(feature = "std")]
+#[cfg_attr(docsrs, doc(cfg(feature = "std")))]
 pub mod guard;
 #[allow(missing_docs, clippy::all)]
 #[rustfmt::skip]

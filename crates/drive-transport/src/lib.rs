@@ -55,6 +55,11 @@
 //! # }
 //! ```
 //!
+//! # Features
+//!
+//! `vcan-tests` adds nothing to the library: it turns on the tests against a real SocketCAN
+//! interface `vcan0` (README.md says how to set one up).
+//!
 //! # Unsafe code
 //!
 //! The ioctls and pseudo-terminal calls need `unsafe`; all of it lives in one private module

@@ -32,6 +32,11 @@
 //!   ports, ptys), with the SEW parameter services of `drive_profile::sew::ParamServices`;
 //! * `sim`: `sim`, simulated MOVIDRIVE drives answering on a `CharIo`.
 //!
+//! What a program needs is at the root: with `tokio`, `MovilinkDriver`, its `DriverConfig` and
+//! `DriverError` and the `ParamServices` (read, write, …); with `sim`, `SimulatedMovidrive`.
+//! `examples/movilink_read_param.rs` reads P130 by its menu number from a simulated drive in a
+//! dozen lines (`cargo run -p movilink --example movilink_read_param`).
+//!
 //! ```
 //! use movilink::{codec, Address, ParamChannel, PduType, Telegram};
 //!
@@ -48,16 +53,19 @@
 //! assert_eq!(resp.param().unwrap().result(), Ok(3000));
 //! ```
 #![cfg_attr(not(feature = "std"), no_std)]
+#![cfg_attr(docsrs, feature(doc_cfg))]
 #![warn(missing_docs)]
 
 pub mod codec;
 #[cfg(feature = "tokio")]
+#[cfg_attr(docsrs, doc(cfg(feature = "tokio")))]
 pub mod driver;
 pub mod error;
 pub mod frame;
 pub mod master;
 pub mod receiver;
 #[cfg(feature = "sim")]
+#[cfg_attr(docsrs, doc(cfg(feature = "sim")))]
 pub mod sim;
 pub mod slave;
 pub mod timing;
@@ -72,3 +80,10 @@ pub use master::{MasterConfig, MasterEvent, MovilinkMaster, SendError};
 pub use receiver::{AddressFilter, Receiver, RxChar, RxEvent, TelegramFraming};
 pub use slave::{Backend, RequestContext, Slave, SlaveConfig, SlaveEvent};
 pub use timing::{Instant, LineTiming, TxGate};
+
+#[cfg(feature = "tokio")]
+#[cfg_attr(docsrs, doc(cfg(feature = "tokio")))]
+pub use driver::{DriverConfig, DriverError, MovilinkDriver, ParamServices};
+#[cfg(feature = "sim")]
+#[cfg_attr(docsrs, doc(cfg(feature = "sim")))]
+pub use sim::SimulatedMovidrive;

@@ -23,26 +23,44 @@
 //! * `plan` (feature `std`): the identifier plan checker for a whole bus (the rules of
 //!   ch. 5.5, sync identifier, addresses, object limits).
 //!
+//! What a program needs is at the root: [`Address`], [`MasterConfig`], [`ProcessData`]; with
+//! `tokio`, `SbusDriver`, `DriverError` and the `ParamServices` (read, write, …); with `sim`,
+//! `SimulatedSbusBus` and `SimulatedSbusDrive`. `examples/sbus_read_param.rs` reads P130 by its
+//! menu number from a simulated drive on the in-memory CAN bus
+//! (`cargo run -p sbus-can --example sbus_read_param`).
+//!
 //! Frames are [`drive_core::can::CanFrame`], an [`embedded_can::Frame`](drive_core::can::Frame),
 //! so any `embedded-can` driver can carry them. Like every protocol crate of drivebus this one
 //! is sans-IO (no I/O, no clock: time is an argument) and `no_std` without its default `std`
 //! feature.
 #![cfg_attr(not(feature = "std"), no_std)]
+#![cfg_attr(docsrs, feature(doc_cfg))]
 #![warn(missing_docs)]
 
 pub mod busload;
 #[cfg(feature = "tokio")]
+#[cfg_attr(docsrs, doc(cfg(feature = "tokio")))]
 pub mod driver;
 pub mod ids;
 pub mod master;
 pub mod movlnk;
 #[cfg(feature = "std")]
+#[cfg_attr(docsrs, doc(cfg(feature = "std")))]
 pub mod plan;
 #[cfg(feature = "sim")]
+#[cfg_attr(docsrs, doc(cfg(feature = "sim")))]
 pub mod sim;
 pub mod slave;
 pub mod telegram;
 pub mod variable;
 
 pub use ids::{Address, Kind};
+pub use master::{MasterConfig, SbusMaster};
 pub use telegram::{DecodeError, ProcessData, Telegram};
+
+#[cfg(feature = "tokio")]
+#[cfg_attr(docsrs, doc(cfg(feature = "tokio")))]
+pub use driver::{DriverError, ParamServices, SbusDriver};
+#[cfg(feature = "sim")]
+#[cfg_attr(docsrs, doc(cfg(feature = "sim")))]
+pub use sim::{SimulatedSbusBus, SimulatedSbusDrive};

@@ -15,10 +15,12 @@
 //! PKW/PZD data); `docs/protocols/uss.md` cites the sources.
 
 #[cfg(feature = "tokio")]
+#[cfg_attr(docsrs, doc(cfg(feature = "tokio")))]
 pub mod driver;
 pub mod framing;
 pub mod master;
 #[cfg(feature = "sim")]
+#[cfg_attr(docsrs, doc(cfg(feature = "sim")))]
 pub mod sim;
 pub mod slave;
 pub mod telegram;
