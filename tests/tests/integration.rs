@@ -8,5 +8,6 @@
     clippy::panic
 )]
 
+mod architecture;
 mod movilink_faults;
 mod tables_and_sim;

@@ -14,7 +14,7 @@ use std::collections::HashMap;
 use std::ops::RangeInclusive;
 use std::time::Duration;
 
-use bonfiglioli_modbus::driver::{CharIo, DriverConfig, DriverError, MasterDriver};
+use bonfiglioli_modbus::driver::{CharIo, DriverConfig, DriverError, ModbusDriver as MasterDriver};
 use bonfiglioli_modbus::frame::{Address, DataSet, DiagSubFunction, ExceptionCode};
 use bonfiglioli_modbus::framing::Mode;
 use bonfiglioli_modbus::slave::Width;

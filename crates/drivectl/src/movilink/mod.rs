@@ -12,7 +12,9 @@ pub mod sim;
 use clap::{Args, Subcommand};
 use drive_profile::Family;
 use drive_profile::sew::{self, ControlWord1, StatusWord1, index};
-use movilink::driver::{CharIo, DriverConfig, DriverError, MasterDriver};
+use movilink::driver::{
+    CharIo, DriverConfig, DriverError, MovilinkDriver as MasterDriver, ParamServices,
+};
 use movilink::{Address, ParamChannel, PduType, Telegram};
 use serde_json::json;
 use std::ops::RangeInclusive;

@@ -7,8 +7,7 @@
 //!   typed values into raw ones;
 //! * [`write`](mod@write): the one write path (width check always, write guard and EEPROM-wear
 //!   log unless forced, read-back);
-//! * [`wear`](drive_client::wear): the EEPROM-wear write log that keeps the guard's rule across
-//!   runs (`drive_client`'s);
+//! * [`drive_client::wear`]: the EEPROM-wear write log that keeps the guard's rule across runs;
 //! * [`backup`]: backup and restore of every family's parameters on the command line
 //!   (`drive_client`'s engines, the files, text and JSON); [`progress`]: progress bars;
 //! * [`read`](mod@read): reading several parameters in one call;

@@ -1,10 +1,8 @@
 //! Values as text or JSON, the same for every family.
 
-use std::fmt::Write as _;
 use std::io::Write as _;
 use std::sync::atomic::{AtomicBool, Ordering};
 
-use drive_profile::ParamMeta;
 use serde_json::{Map, Value, json};
 
 use super::client::Target;
@@ -94,32 +92,7 @@ pub fn final_error(e: &CliError) {
     }
 }
 
-/// A physical value with the parameter's decimals, unit and value name, e.g. `1.50 s` or
-/// `9 (control word 1)`.
-pub fn physical_text(p: &dyn ParamMeta, raw: i64) -> String {
-    let v = p.to_physical(raw);
-    let d = usize::from(p.decimals());
-    let mut s = format!("{v:.d$}");
-    if !p.unit().is_empty() {
-        s.push(' ');
-        s.push_str(p.unit());
-    }
-    if let Some(name) = p.value_name(raw) {
-        let _ = write!(s, " ({})", name.en);
-    }
-    s
-}
-
-/// A float with at most `decimals` places and no trailing zeros.
-pub fn trim_float(v: f64, decimals: u8) -> String {
-    let d = usize::from(decimals);
-    let s = format!("{v:.d$}");
-    if s.contains('.') {
-        s.trim_end_matches('0').trim_end_matches('.').to_owned()
-    } else {
-        s
-    }
-}
+pub use drive_client::text::{physical_text, trim_float};
 
 /// What names a target in every JSON object that shows one of its values: `index` (the bus
 /// index: SEW index, NORD PNU, Bonfiglioli parameter number), `number` (the table's number,
