@@ -283,3 +283,71 @@ fn rows_hold_every_data_set_and_nord_p560_last() {
     let nord = rows(Family::Nord);
     assert_eq!(nord.last().map(|t| t.index), Some(NORD_SAVE_TO_EEPROM));
 }
+
+#[test]
+fn the_file_text_is_the_drivebus_backup_v1_layout_byte_for_byte() {
+    // What drivectl has written since version 1: the identification, the format's fields and
+    // one object per value, keys in order, pretty-printed with two spaces, no final newline.
+    let row = |index| {
+        rows(Family::Movidrive)
+            .into_iter()
+            .find(|t| t.index == index)
+    };
+    let (Some(speed), Some(ramp)) = (row(8318), row(index::RAMP_T11_UP_CW)) else {
+        panic!("P000 and P130 are in the MOVIDRIVE table");
+    };
+    let mut identity = Map::new();
+    identity.insert("device_type".into(), 7.into());
+    identity.insert("address".into(), 1.into());
+    let b = Backup {
+        family: Family::Movidrive,
+        identity,
+        saved: vec![
+            Entry {
+                target: speed,
+                raw: -1500,
+            },
+            Entry {
+                target: ramp,
+                raw: 2000,
+            },
+        ],
+        absent: 0,
+        unreadable: Vec::new(),
+    };
+    let expected = r#"{
+  "address": 1,
+  "device_type": 7,
+  "family": "movidrive",
+  "format": "drivebus-backup",
+  "parameters": [
+    {
+      "index": 8318,
+      "name": "Speed [1/min]",
+      "number": "P000",
+      "raw": -1500,
+      "sub": 0,
+      "writable": false
+    },
+    {
+      "index": 8470,
+      "name": "Ramp t11 up CW [s]",
+      "number": "P130",
+      "raw": 2000,
+      "sub": 0,
+      "writable": true
+    }
+  ],
+  "version": 1
+}"#;
+    assert_eq!(b.text().unwrap(), expected);
+    // And it reads back as the values it holds (the read-only one kept aside).
+    let file = BackupFile::parse(expected.as_bytes(), Family::Movidrive, &[], &[]).unwrap();
+    let entries: Vec<(u16, i64)> = file
+        .entries
+        .iter()
+        .map(|e| (e.target.index, e.raw))
+        .collect();
+    assert_eq!(entries, [(8470, 2000)]);
+    assert_eq!(file.skipped.len(), 1);
+}
