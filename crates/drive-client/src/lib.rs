@@ -12,6 +12,10 @@
 //!   ([`WriteError`]);
 //! * [`meaning`]: what a raw value means (value names, decoded status and fault words);
 //! * [`text`]: values as text and strict number parsing;
+//! * [`backup`]: the `drivebus-backup` file (its bytes, and the checks of one read back) and
+//!   the backup of a drive; [`restore`]: plan, apply and verify a restore, with typed skips,
+//!   refusals and a half-finished restore that says what was and was not written; both tell a
+//!   front end how far they are through [`Progress`];
 //! * [`motor`]: the rule of everything that enables or drives a motor — stopped on every early
 //!   end ([`Interrupt`]), left running only on purpose — for every front end to say its way.
 //!
@@ -20,11 +24,16 @@
 
 #![warn(missing_docs)]
 
+pub mod backup;
 pub mod client;
 pub mod interrupt;
 pub mod meaning;
 pub mod motor;
+pub mod progress;
+pub mod restore;
 pub mod target;
+#[cfg(any(test, feature = "testing"))]
+pub mod testing;
 pub mod text;
 pub mod wear;
 pub mod write;
@@ -32,6 +41,7 @@ pub mod write;
 pub use client::{ClientError, DeviceError, DeviceErrorKind, ParamClient};
 pub use interrupt::{Cause, Interrupt};
 pub use meaning::{Device, KnownVariant, Meaning};
+pub use progress::{Notice, Phase, Progress};
 pub use target::{
     Parsed, Target, TargetError, ValueError, ValueText, nord_sub, nord_sub_parts, nord_subs,
 };
