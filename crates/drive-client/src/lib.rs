@@ -18,6 +18,10 @@
 //!   opening a port is `drive-transport`'s);
 //! * [`front`]: what a front end names in its own words where a client's message points at it
 //!   (the command line's options, the gateway's config keys), and the notes it hears;
+//! * [`backup`]: the `drivebus-backup` file (its bytes, and the checks of one read back) and
+//!   the backup of a drive; [`restore`]: plan, apply and verify a restore, with typed skips,
+//!   refusals and a half-finished restore that says what was and was not written; both tell a
+//!   front end how far they are through [`Progress`];
 //! * [`motor`]: the rule of everything that enables or drives a motor — stopped on every early
 //!   end ([`Interrupt`]), left running only on purpose — for every front end to say its way.
 //!
@@ -26,6 +30,7 @@
 
 #![warn(missing_docs)]
 
+pub mod backup;
 pub mod bonfiglioli;
 pub mod client;
 pub mod front;
@@ -33,8 +38,12 @@ pub mod interrupt;
 pub mod meaning;
 pub mod motor;
 pub mod nord;
+pub mod progress;
+pub mod restore;
 pub mod sew;
 pub mod target;
+#[cfg(any(test, feature = "testing"))]
+pub mod testing;
 pub mod text;
 pub mod wear;
 pub mod write;
@@ -43,6 +52,7 @@ pub use client::{ClientError, DeviceError, DeviceErrorKind, ParamClient};
 pub use front::{FrontEnd, Note, Plain, Setting};
 pub use interrupt::{Cause, Interrupt};
 pub use meaning::{Device, KnownVariant, Meaning};
+pub use progress::{Notice, Phase, Progress};
 pub use target::{
     Parsed, Target, TargetError, ValueError, ValueText, nord_sub, nord_sub_parts, nord_subs,
 };

@@ -1,113 +1,68 @@
-//! Backup and restore of a drive's parameters, for every family, over a [`ParamClient`].
+//! Backup and restore on the command line, for every family: `drive_client`'s
+//! [backup](drive_client::backup) and [restore](drive_client::restore) engines with the file
+//! read and written here, what they did printed as text or JSON, the progress bar, and their
+//! refusals said with the options that are the way out (`--overwrite`, `--force`, `--yes`,
+//! `--any-device`).
 //!
-//! The backup is a JSON document with every readable parameter of the family's table (one value
-//! per bus index and sub-index) and the drive's identification (`device_type`, `firmware`). Its
-//! path is checked before the first read ([`OutputFile`]: regular files only, a symlink is
-//! followed, an existing file is replaced only with `--overwrite`) and the file is written to a
-//! temporary name and renamed, so an interrupted backup never leaves a truncated file behind.
+//! The backup file's path is checked before the first read ([`OutputFile`]: regular files only,
+//! a symlink is followed, an existing file is replaced only with `--overwrite`) and the file is
+//! written to a temporary name and renamed, so an interrupted backup never leaves a truncated
+//! file behind; its bytes are the library's ([`drive_client::backup::Backup::text`]).
 //!
-//! Restore checks the whole file before it writes anything: it must hold parameters, every
-//! entry must name a parameter of the table once and fit its width (a UTF-8 byte order mark, as
-//! Notepad writes it, is skipped), and every identification field the file and the drive both
-//! know (device type, variant, configuration; `null` is unknown) must match, except the
-//! drive's place on the bus (its address): `--any-device` overrides; another firmware is a
-//! warning. Every value that differs from the drive's passes the one write path's checks
-//! (access, range, value list, EEPROM wear; `--force` skips all but the width); every refusal
-//! is listed at once. A value of the drive's settings of the link the restore talks over
-//! ([`ParamClient::link_settings`]: a timeout, a group address) is written only with `--yes`.
+//! Restore reads the file (never a device node, at most [`MAX_LEN`]) and checks the whole of it
+//! before it writes anything ([`BackupFile::parse`]). Every identification field the file and
+//! the drive both know must match except the address: `--any-device` overrides; another
+//! firmware is a warning. Every value that differs passes the one write path's checks (access,
+//! range, value list, EEPROM wear; `--force` skips all but the width); every refusal is listed
+//! at once. A setting of the link the restore talks over is written only with `--yes`.
 //! `--dry-run` stops there and shows the changes as old → new. Otherwise the changed values are
 //! written non-volatilely and logged in the EEPROM-wear log, shown as old → new, and every
 //! entry compared is read back; a mismatch shows the expected and the read value.
 //!
-//! Everything shown names its value by [`Target::title`] (the label with its data set,
-//! parameter set or array element: `372 data set 2 Rated speed`, `P102 set 2 acceleration
-//! time`); the JSON objects (`change`, `mismatch`, the `skipped` list of the `restore` summary)
-//! carry the keys of [`target_json`]. The backup file's own layout is unchanged.
-//!
-//! A restore lists every entry it does not write and why ([`Skip`]): not restored by rule
-//! ([`ParamClient::not_restored`]: a link setting whose change would cut the connection, a
-//! command or lock, a RAM-only value), read-only, absent on this drive, unreadable (the drive
-//! refused the read: the restore fails at the end), a link setting without `--yes`, refused by
-//! the drive (the restore fails at the end); values the drive already holds are counted.
-//!
-//! A restore that stops halfway (a signal: exit 128 + its number; the drive gone) lists what was
-//! written and what was not: running it again finishes it, since values the drive already holds
-//! are not written.
+//! Everything shown names its value by [`Target::title`]; the JSON objects (`change`,
+//! `mismatch`, the `skipped` list of the `restore` summary) carry the keys of [`target_json`].
+//! A restore lists every entry it does not write and why ([`Skip`]: `reason` in JSON); values
+//! the drive already holds are counted. A restore that stops halfway (a signal: exit 128 + its
+//! number; the drive gone) lists what was written and what was not: running it again finishes
+//! it.
 
-use std::collections::BTreeSet;
 use std::path::Path;
 
-use drive_profile::family::{self, AnyParam};
+use drive_client::backup::{self as engine, BackupFile, FileError, MAX_LEN, Skip};
+use drive_client::progress::FieldDiff;
+use drive_client::restore::{self as restoring, Change, Halt, RestoreError};
+use drive_client::{Cause, Notice};
+use drive_profile::Family;
 use drive_profile::guard::GuardError;
-use drive_profile::{Access, Family, Persistence};
-use serde_json::{Map, Value, json};
+use serde_json::{Value, json};
 
-use super::client::{ClientError, DeviceErrorKind, ParamClient, Target};
-use super::interrupt::Interrupt;
+pub use drive_client::backup::{FORMAT, VERSION};
+
+use super::client::{ParamClient, Target};
+// The tests' scripted drive answers with these.
+#[cfg(test)]
+use super::client::{ClientError, DeviceErrorKind};
+use super::interrupt::{Interrupt, Stop};
 use super::outfile::OutputFile;
 use super::output::{physical_text, target_json};
-use super::write::{self, WriteRequest};
+use super::progress::Bar;
+pub use super::progress::progress;
+use super::write::{self, FileWearLog, WriteError};
 use crate::error::{CliError, Result};
 use crate::tool::client::OnTarget as _;
 
-/// Format name in the file's `format` field.
-pub const FORMAT: &str = "drivebus-backup";
-/// Version of the file layout.
-pub const VERSION: u64 = 1;
-/// The format of the first MOVILINK-only backups (still restored, as MOVIDRIVE backups).
-const LEGACY_MOVILINK: &str = "drivebus-movilink-backup";
-
-/// The parameters a backup covers: numbered rows (SEW's fault-memory sub-entries share the
-/// index of their parent), one per bus index and sub-index; a data-set parameter
-/// ([`Access::DATA_SET`], Bonfiglioli) once per data set 1–4 (its sub-index is the data set;
-/// data set 0 addresses all four and is never saved or restored); a NORD parameter once per
-/// array element and parameter set (its sub-index is the IND word), with P560 "save to EEPROM"
-/// last, so that a restore that turns it off does not send the values after it to RAM only.
-fn rows(family: Family) -> Vec<Target> {
-    let mut seen = BTreeSet::new();
-    let mut rows: Vec<Target> = family::params(family)
-        .filter(|p| p.number().is_some())
-        .filter(|p| seen.insert((p.bus_index(), p.sub_index().unwrap_or(0))))
-        .flat_map(|p| {
-            subs(p).into_iter().map(move |sub| Target {
-                sub,
-                ..Target::of(p)
-            })
-        })
-        .collect();
-    if family == Family::Nord {
-        rows.sort_by_key(|t| t.index == NORD_SAVE_TO_EEPROM);
-    }
-    rows
+/// ` by SIGTERM` (the signal that interrupted the work), or nothing.
+fn by(cause: &Cause) -> String {
+    Stop::of(cause.code).map_or_else(String::new, |s| format!(" by {}", s.name()))
 }
 
-/// NORD P560 "save to EEPROM" (PNU 230h): 0 keeps every later parameter write in RAM only.
-const NORD_SAVE_TO_EEPROM: u16 = 0x230;
-
-/// The sub-indices a backup holds of `p`: the data sets 1–4 of a data-set parameter, every
-/// IND word of a NORD parameter (array elements × parameter sets), else its own sub-index.
-fn subs(p: AnyParam) -> Vec<u16> {
-    if p.family() == Family::Nord {
-        // Every array element in every parameter set: the IND word is the sub-index.
-        return super::client::nord_subs(p.bus_index());
+/// The error of work ended by a signal: its exit code is the shell's for that signal (128 + its
+/// number; 1 when no signal is known).
+fn interrupted(cause: &Cause, message: String) -> CliError {
+    match Stop::of(cause.code) {
+        Some(s) => CliError::with_code(message, s.exit_code()),
+        None => CliError::failed(message),
     }
-    if p.access().contains(Access::DATA_SET) {
-        vec![1, 2, 3, 4]
-    } else {
-        vec![p.sub_index().unwrap_or(0)]
-    }
-}
-
-/// A progress bar for `len` steps.
-pub fn progress(len: usize, what: &str) -> indicatif::ProgressBar {
-    let bar = indicatif::ProgressBar::new(len as u64);
-    bar.set_style(
-        indicatif::ProgressStyle::with_template(&format!(
-            "{what} {{pos}}/{{len}} {{bar:30}} {{msg}}"
-        ))
-        .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
-    );
-    bar
 }
 
 /// Read every parameter and write the backup file `out` (checked before the first read; an
@@ -120,65 +75,39 @@ pub async fn backup<C: ParamClient>(
     stop: &Interrupt,
 ) -> Result<()> {
     let file = OutputFile::prepare(out, overwrite)?;
-    let family = client.family();
-    let mut doc = client.identify().await?;
-    let rows = rows(family);
-    let bar = progress(rows.len(), "reading");
-    let mut entries = Vec::new();
-    let mut skipped = 0;
-    let mut unreadable: Vec<(Target, String)> = Vec::new();
-    for t in &rows {
-        if stop.requested() {
-            bar.abandon();
-            return Err(interrupted(
-                stop,
-                format!(
-                    "the backup was interrupted{} after {} of {} parameters; {} was not written",
-                    by(stop),
-                    entries.len(),
-                    rows.len(),
-                    out.display()
-                ),
-            ));
-        }
-        bar.set_message(t.label());
-        match client.read(t).await {
-            Ok(raw) => entries.push(json!({
-                "index": t.index, "sub": t.sub, "number": t.label(),
-                "name": t.param.map(|p| p.name_en()),
-                "raw": raw, "writable": t.param.is_some_and(|p| p.access().is_writable()),
-            })),
-            // A drive without an option card answers "not implemented" or "option card
-            // missing" for its parameters: they are not part of this drive's backup.
-            Err(ClientError::Device(d)) if d.kind == DeviceErrorKind::Absent => skipped += 1,
-            // Any other refusal is a gap in the backup: saved without it, and said.
-            Err(ClientError::Device(d)) => unreadable.push((*t, d.message)),
-            Err(e) => {
-                bar.abandon();
-                return Err(CliError::failed(format!(
-                    "{}; {} was not written",
-                    t.error(e),
-                    out.display()
-                )));
+    let not_written = |what: String| format!("{what}; {} was not written", out.display());
+    let done = engine::backup(client, &mut Bar::new(|_| {}), stop.inner())
+        .await
+        .map_err(|e| match e {
+            engine::BackupError::Identify(e) => e.into(),
+            engine::BackupError::Interrupted {
+                cause,
+                saved,
+                total,
+            } => interrupted(
+                &cause,
+                not_written(format!(
+                    "the backup was interrupted{} after {saved} of {total} parameters",
+                    by(&cause)
+                )),
+            ),
+            engine::BackupError::Read { target, error } => {
+                CliError::failed(not_written(target.error(error).to_string()))
             }
-        }
-        bar.inc(1);
-    }
-    bar.finish_and_clear();
-    let saved = entries.len();
-    doc.insert("format".into(), FORMAT.into());
-    doc.insert("version".into(), VERSION.into());
-    doc.insert("family".into(), family.name().into());
-    doc.insert("parameters".into(), Value::Array(entries));
-    let text = serde_json::to_string_pretty(&Value::Object(doc))
+            other => CliError::failed(not_written(other.to_string())),
+        })?;
+    let text = done
+        .text()
         .map_err(|e| CliError::failed(format!("cannot encode the backup: {e}")))?;
     file.commit(&text)?;
+    let (saved, skipped) = (done.saved.len(), done.absent);
     if json {
-        let unreadable: Vec<Value> = unreadable
+        let unreadable: Vec<Value> = done
+            .unreadable
             .iter()
             .map(|(t, why)| {
                 let mut o = target_json(t);
-                o.insert("error".into(), why.as_str().into());
+                o.insert("error".into(), why.message.as_str().into());
                 Value::Object(o)
             })
             .collect();
@@ -193,8 +122,9 @@ pub async fn backup<C: ParamClient>(
             out.display()
         )?;
     }
-    if !unreadable.is_empty() {
-        let list: Vec<String> = unreadable
+    if !done.unreadable.is_empty() {
+        let list: Vec<String> = done
+            .unreadable
             .iter()
             .map(|(t, why)| format!("{} ({why})", t.label()))
             .collect();
@@ -207,122 +137,62 @@ pub async fn backup<C: ParamClient>(
     Ok(())
 }
 
-/// ` by SIGTERM` (the signal that interrupted the work), or nothing.
-fn by(stop: &Interrupt) -> String {
-    stop.signal()
-        .map_or_else(String::new, |s| format!(" by {}", s.name()))
-}
-
-/// The error of work ended by a signal: its exit code is the shell's for that signal (128 + its
-/// number; 1 when no signal is known).
-fn interrupted(stop: &Interrupt, message: String) -> CliError {
-    match stop.signal() {
-        Some(s) => CliError::with_code(message, s.exit_code()),
-        None => CliError::failed(message),
+/// The reason of a skip as JSON's `reason`.
+fn code(s: &Skip) -> &'static str {
+    match s {
+        Skip::LinkSetting => "link_setting",
+        Skip::Command => "command",
+        Skip::RamOnly => "ram_only",
+        Skip::ReadOnly => "read_only",
+        Skip::Absent(_) => "absent",
+        Skip::Unreadable(_) => "unreadable",
+        Skip::Unconfirmed(_) => "needs_yes",
+        Skip::Refused(_) => "refused",
+        _ => "other",
     }
 }
 
-/// One entry of a backup file, checked against the table.
-#[derive(Debug)]
-struct Entry {
-    target: Target,
-    raw: i64,
-}
-
-/// Why a restore did not write an entry of its file. Every one is listed (text and JSON).
-#[derive(Debug, Clone, PartialEq, Eq)]
-enum Skip {
-    /// Not restored by rule: a setting of the link the restore talks over whose change would
-    /// cut the connection (address, baud rate, …).
-    LinkSetting,
-    /// Not restored by rule: a command or lock, which acts on the drive (factory setting,
-    /// parameter lock, reset, program).
-    Command,
-    /// Not restored by rule: a RAM-only value (a bus control word or setpoint).
-    RamOnly,
-    /// Read-only in the table.
-    ReadOnly,
-    /// This drive does not have it (the drive's answer).
-    Absent(String),
-    /// The drive refused to read it (its answer): it could not be compared.
-    Unreadable(String),
-    /// A setting of the link the restore talks over (a timeout, a group address) that differs:
-    /// written only with `--yes`. What the write would do to the link.
-    NeedsYes(String),
-    /// The drive refused the write (its answer).
-    Refused(String),
-}
-
-impl Skip {
-    /// The reason as JSON's `reason`.
-    fn code(&self) -> &'static str {
-        match self {
-            Skip::LinkSetting => "link_setting",
-            Skip::Command => "command",
-            Skip::RamOnly => "ram_only",
-            Skip::ReadOnly => "read_only",
-            Skip::Absent(_) => "absent",
-            Skip::Unreadable(_) => "unreadable",
-            Skip::NeedsYes(_) => "needs_yes",
-            Skip::Refused(_) => "refused",
+/// The reason for a person (the heading of its group in the text).
+fn reason(s: &Skip) -> &'static str {
+    match s {
+        Skip::LinkSetting => {
+            "not restored by rule: settings of the link the restore talks over, whose change \
+             would cut the connection"
         }
-    }
-
-    /// The reason for a person (the heading of its group in the text).
-    fn reason(&self) -> &'static str {
-        match self {
-            Skip::LinkSetting => {
-                "not restored by rule: settings of the link the restore talks over, whose \
-                 change would cut the connection"
-            }
-            Skip::Command => "not restored by rule: commands and locks, which act on the drive",
-            Skip::RamOnly => {
-                "not restored by rule: RAM-only values (bus control words and setpoints)"
-            }
-            Skip::ReadOnly => "read-only",
-            Skip::Absent(_) => "absent on this drive",
-            Skip::Unreadable(_) => "the drive refused to read them, so they were not compared",
-            Skip::NeedsYes(_) => {
-                "settings of the link the restore talks over; add --yes to write them"
-            }
-            Skip::Refused(_) => "refused by the drive",
+        Skip::Command => "not restored by rule: commands and locks, which act on the drive",
+        Skip::RamOnly => "not restored by rule: RAM-only values (bus control words and setpoints)",
+        Skip::ReadOnly => "read-only",
+        Skip::Absent(_) => "absent on this drive",
+        Skip::Unreadable(_) => "the drive refused to read them, so they were not compared",
+        Skip::Unconfirmed(_) => {
+            "settings of the link the restore talks over; add --yes to write them"
         }
-    }
-
-    /// The drive's answer or what a write would do, where there is one.
-    fn detail(&self) -> Option<&str> {
-        match self {
-            Skip::Absent(d) | Skip::Unreadable(d) | Skip::NeedsYes(d) | Skip::Refused(d) => Some(d),
-            _ => None,
-        }
-    }
-
-    /// The order of the groups in the text.
-    fn rank(&self) -> u8 {
-        match self {
-            Skip::LinkSetting => 0,
-            Skip::Command => 1,
-            Skip::RamOnly => 2,
-            Skip::ReadOnly => 3,
-            Skip::Absent(_) => 4,
-            Skip::NeedsYes(_) => 5,
-            Skip::Unreadable(_) => 6,
-            Skip::Refused(_) => 7,
-        }
+        Skip::Refused(_) => "refused by the drive",
+        _ => "not restored",
     }
 }
 
-/// Why the rules keep `t` (one of the client's `not_restored`) out of every restore: a link
-/// setting (one of `link_settings`), a RAM-only value, or else a command.
-fn by_rule(t: &Target, link_settings: &[u16]) -> Skip {
-    if link_settings.contains(&t.index) {
-        Skip::LinkSetting
-    } else if t.family == Family::Bonfiglioli
-        && drive_profile::bonfiglioli::by_index(t.index).is_some_and(|p| p.ram_only)
-    {
-        Skip::RamOnly
-    } else {
-        Skip::Command
+/// The drive's answer or what a write would do, where there is one.
+fn detail(s: &Skip) -> Option<&str> {
+    match s {
+        Skip::Absent(d) | Skip::Unreadable(d) | Skip::Refused(d) => Some(&d.message),
+        Skip::Unconfirmed(change) => Some(change),
+        _ => None,
+    }
+}
+
+/// The order of the groups in the text.
+fn rank(s: &Skip) -> u8 {
+    match s {
+        Skip::LinkSetting => 0,
+        Skip::Command => 1,
+        Skip::RamOnly => 2,
+        Skip::ReadOnly => 3,
+        Skip::Absent(_) => 4,
+        Skip::Unconfirmed(_) => 5,
+        Skip::Unreadable(_) => 6,
+        Skip::Refused(_) => 7,
+        _ => 8,
     }
 }
 
@@ -331,9 +201,9 @@ fn by_rule(t: &Target, link_settings: &[u16]) -> Skip {
 /// holds every readable value; `--json` lists them).
 fn skipped_lines(skipped: &[(Target, Skip)]) -> Vec<String> {
     let mut sorted: Vec<&(Target, Skip)> = skipped.iter().collect();
-    sorted.sort_by_key(|(_, s)| s.rank());
+    sorted.sort_by_key(|(_, s)| rank(s));
     let mut lines = Vec::new();
-    for group in sorted.chunk_by(|a, b| a.1.rank() == b.1.rank()) {
+    for group in sorted.chunk_by(|a, b| rank(&a.1) == rank(&b.1)) {
         let Some((_, first)) = group.first() else {
             continue;
         };
@@ -342,14 +212,14 @@ fn skipped_lines(skipped: &[(Target, Skip)]) -> Vec<String> {
         } else {
             group
                 .iter()
-                .map(|(t, s)| match s.detail() {
+                .map(|(t, s)| match detail(s) {
                     Some(d) => format!("{} ({d})", t.label()),
                     None => t.label(),
                 })
                 .collect::<Vec<_>>()
                 .join(", ")
         };
-        lines.push(format!("skipped ({}): {list}", first.reason()));
+        lines.push(format!("skipped ({}): {list}", reason(first)));
     }
     lines
 }
@@ -373,36 +243,19 @@ fn skipped_json(skipped: &[(Target, Skip)]) -> Value {
             .iter()
             .map(|(t, s)| {
                 let mut o = target_json(t);
-                o.insert("reason".into(), s.code().into());
-                let message = match s.detail() {
-                    Some(d) => format!("{}: {d}", s.reason()),
-                    None => s.reason().to_owned(),
+                o.insert("reason".into(), code(s).into());
+                let message = match detail(s) {
+                    Some(d) => format!("{}: {d}", reason(s)),
+                    None => reason(s).to_owned(),
                 };
                 o.insert("message".into(), message.into());
-                if matches!(s, Skip::NeedsYes(_)) {
+                if matches!(s, Skip::Unconfirmed(_)) {
                     o.insert("hint".into(), "--yes".into());
                 }
                 Value::Object(o)
             })
             .collect(),
     )
-}
-
-/// `value[key]` without the `Index` operator: the field, or `Null` when it is missing or `value`
-/// is not an object (a backup file is user input; nothing here may panic on it).
-fn field<'a>(value: &'a Value, key: &str) -> &'a Value {
-    value.get(key).unwrap_or(&Value::Null)
-}
-
-/// A value of the legacy MOVILINK format, which stored every 32-bit value sign-extended
-/// (`i64::from(raw as i32)`): for a parameter that carries no negative values, a negative
-/// 32-bit value is the unsigned one it stood for (P221 = 3 000 000 000 was saved as
-/// −1 294 967 296). Anything else is left as it is for the width check to judge.
-fn legacy_raw(raw: i64, (lo, _): (i64, i64)) -> i64 {
-    match i32::try_from(raw) {
-        Ok(v) if v < 0 && lo >= 0 => i64::from(v as u32),
-        _ => raw,
-    }
 }
 
 /// The guard's message with what `restore` offers as a way out.
@@ -415,144 +268,46 @@ fn restore_hint(e: &GuardError) -> String {
     format!("; {hint}")
 }
 
-/// A backup file, checked against the table.
-#[derive(Debug)]
-struct Loaded {
-    /// The entries a restore compares with the drive and writes where they differ.
-    entries: Vec<Entry>,
-    /// The entries no restore writes (read-only, not restored by rule).
-    skipped: Vec<(Target, Skip)>,
-    /// The file's identification of the drive it was saved from (every top-level field but
-    /// the format's own and the list).
-    identity: Map<String, Value>,
+/// A refusal of the write path for a change, as `restore` says it.
+fn refusal_text(e: &WriteError) -> String {
+    match e {
+        WriteError::Guard { error, message } => message.clone() + &restore_hint(error),
+        e => CliError::from(e.clone()).to_string(),
+    }
 }
 
-/// Parse and check a backup file; every problem is reported with its entry. Each value must
-/// fit its parameter's width; the table's other rules are the write path's, for the values
-/// that differ from the drive's. Entries of read-only parameters and of `not_restored` ones
-/// (classified with `link_settings`) are kept aside, to be listed.
+/// A backup file's problem, said with its path: a usage error.
+fn file_error(file: &Path, e: &FileError) -> CliError {
+    let f = file.display();
+    CliError::usage(match e {
+        FileError::NotUtf8 { at } => {
+            format!("{f} is not a drivectl backup (not UTF-8 text at byte {at})")
+        }
+        FileError::Json(e) => format!("{f} is not a drivectl backup (invalid JSON: {e})"),
+        FileError::Format => format!("{f} is not a {FORMAT} version {VERSION} file"),
+        FileError::OtherFamily { saved, family } => {
+            format!("{f} is a backup of a {saved} drive, not of a {family} drive")
+        }
+        FileError::NoFamily { family } => {
+            format!("{f} names no drive family (`family`); it is not a {family} backup")
+        }
+        FileError::NoList => format!("{f} has no `parameters` list; it is not a drivectl backup"),
+        FileError::Empty => format!("{f} holds no parameters; there is nothing to restore"),
+        FileError::Entry { entry, problem } => format!("{f}: entry {entry}: {problem}"),
+        other => format!("{f}: {other}"),
+    })
+}
+
+/// Read and check a backup file (see [`BackupFile::parse`]); every problem is reported with
+/// its entry.
 fn load(
     file: &Path,
     family: Family,
     not_restored: &[u16],
     link_settings: &[u16],
-) -> Result<Loaded> {
-    // A backup of the largest table is about 60 KB; 16 MiB is no backup.
-    let bytes = super::infile::read_limited(file, false, 16 << 20)?;
-    let text = String::from_utf8(bytes).map_err(|e| {
-        CliError::usage(format!(
-            "{} is not a drivectl backup (not UTF-8 text at byte {})",
-            file.display(),
-            e.utf8_error().valid_up_to()
-        ))
-    })?;
-    // Notepad saves UTF-8 with a byte order mark.
-    let text = text.strip_prefix('\u{feff}').unwrap_or(&text);
-    let doc: Value = serde_json::from_str(text).map_err(|e| {
-        CliError::usage(format!(
-            "{} is not a drivectl backup (invalid JSON: {e})",
-            file.display()
-        ))
-    })?;
-    let legacy = field(&doc, "format") == LEGACY_MOVILINK && family == Family::Movidrive;
-    if !(field(&doc, "format") == FORMAT || legacy) || field(&doc, "version") != VERSION {
-        return Err(CliError::usage(format!(
-            "{} is not a {FORMAT} version {VERSION} file",
-            file.display()
-        )));
-    }
-    if !legacy && field(&doc, "family") != family.name() {
-        return Err(CliError::usage(match field(&doc, "family").as_str() {
-            Some(other) => format!(
-                "{} is a backup of a {other} drive, not of a {family} drive",
-                file.display()
-            ),
-            None => format!(
-                "{} names no drive family (`family`); it is not a {family} backup",
-                file.display()
-            ),
-        }));
-    }
-    let list = field(&doc, "parameters").as_array().ok_or_else(|| {
-        CliError::usage(format!(
-            "{} has no `parameters` list; it is not a drivectl backup",
-            file.display()
-        ))
-    })?;
-    if list.is_empty() {
-        return Err(CliError::usage(format!(
-            "{} holds no parameters; there is nothing to restore",
-            file.display()
-        )));
-    }
-    let mut entries: Vec<Entry> = Vec::new();
-    let mut skipped = Vec::new();
-    let mut seen = std::collections::BTreeMap::new();
-    for (i, e) in list.iter().enumerate() {
-        let bad =
-            |why: String| CliError::usage(format!("{}: entry {}: {why}", file.display(), i + 1));
-        let index = field(e, "index")
-            .as_u64()
-            .and_then(|v| u16::try_from(v).ok())
-            .ok_or_else(|| bad("no valid `index`".into()))?;
-        let sub = match field(e, "sub") {
-            Value::Null => 0,
-            v => v
-                .as_u64()
-                .and_then(|v| u16::try_from(v).ok())
-                .ok_or_else(|| bad("no valid `sub`".into()))?,
-        };
-        let raw = field(e, "raw")
-            .as_i64()
-            .ok_or_else(|| bad("no integer `raw` value".into()))?;
-        let param = family::params(family)
-            .find(|p| p.bus_index() == index && subs(*p).contains(&sub))
-            .ok_or_else(|| bad(format!("index {index} is not in the {family} table")))?;
-        let raw = if legacy {
-            legacy_raw(raw, param.wire_range())
-        } else {
-            raw
-        };
-        let target = Target {
-            sub,
-            ..Target::of(param)
-        };
-        if !param.access().is_writable() {
-            skipped.push((target, Skip::ReadOnly));
-            continue;
-        }
-        if not_restored.contains(&index) {
-            skipped.push((target, by_rule(&target, link_settings)));
-            continue;
-        }
-        target.check_width(raw).map_err(|e| bad(e.to_string()))?;
-        // One parameter twice would be written twice (and its EEPROM with it), the last one
-        // winning: a file like that was not made by drivectl.
-        if let Some(first) = seen.insert((index, sub), i + 1) {
-            return Err(bad(format!(
-                "{} appears twice (entries {first} and {})",
-                target.label(),
-                i + 1
-            )));
-        }
-        entries.push(Entry { target, raw });
-    }
-    let identity = doc
-        .as_object()
-        .map(|m| {
-            m.iter()
-                .filter(|(k, _)| {
-                    !["format", "version", "family", "parameters"].contains(&k.as_str())
-                })
-                .map(|(k, v)| (k.clone(), v.clone()))
-                .collect()
-        })
-        .unwrap_or_default();
-    Ok(Loaded {
-        entries,
-        skipped,
-        identity,
-    })
+) -> Result<BackupFile> {
+    let bytes = super::infile::read_limited(file, false, MAX_LEN)?;
+    BackupFile::parse(&bytes, family, not_restored, link_settings).map_err(|e| file_error(file, &e))
 }
 
 /// Check a restore file without a drive (before a port is opened): it must be a backup of
@@ -652,74 +407,121 @@ fn change_json(t: &Target, old: i64, new: i64) -> Value {
     Value::Object(o)
 }
 
+/// Print every change, old → new, by its label.
+fn print_changes(changes: &[Change], json: bool) -> Result<()> {
+    for c in changes {
+        if json {
+            outln!("{}", change_json(&c.target, c.from, c.to))?;
+        } else {
+            outln!("{}", change_text(&c.target, c.from, c.to))?;
+        }
+    }
+    Ok(())
+}
+
 /// The physical value of `raw` as JSON (raw outside the table).
 fn physical_json(t: &Target, raw: i64) -> Value {
     t.param
         .map_or(Value::from(raw), |p| json!(p.to_physical(raw)))
 }
 
-/// Identity fields that say where the drive is, not what it is: a backup may be restored onto
-/// a drive at another address (cloning a drive is what a backup is for).
-const PLACE_FIELDS: &[&str] = &["address", "asi_address"];
-
 /// An identity value for a person: a string as it is, anything else as JSON.
 fn identity_text(v: &Value) -> String {
     v.as_str().map_or_else(|| v.to_string(), str::to_owned)
 }
 
-/// Compare the drive's identification with the file's: every field both name with a known
-/// (non-null) value must match (device type, variant, configuration, …) unless `any_device`,
-/// except the drive's place on the bus ([`PLACE_FIELDS`]); another firmware is a warning.
-fn check_identity(
-    file: &Path,
-    saved: &Map<String, Value>,
-    drive: &Map<String, Value>,
-    any_device: bool,
-) -> Result<()> {
-    let mut differ: Vec<(&str, &Value, &Value)> = Vec::new();
-    for (key, sv) in saved {
-        if PLACE_FIELDS.contains(&key.as_str()) || key == "firmware" {
-            continue;
+/// `<file> was saved from a drive of device type 7, variant act; this drive is device type 8,
+/// variant acu`.
+fn other_device(file: &Path, differ: &[FieldDiff]) -> String {
+    let side = |pick: fn(&FieldDiff) -> &Value| {
+        differ
+            .iter()
+            .map(|d| format!("{} {}", d.key.replace('_', " "), identity_text(pick(d))))
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    format!(
+        "{} was saved from a drive of {}; this drive is {}",
+        file.display(),
+        side(|d| &d.saved),
+        side(|d| &d.drive)
+    )
+}
+
+/// What a restore of `file` says while it runs, on standard error.
+fn say(file: &Path, notice: &Notice) {
+    match notice {
+        Notice::OtherDevice(differ) => {
+            errln!("drivectl: warning: {}", other_device(file, differ));
         }
-        if let Some(dv) = drive.get(key)
-            && !sv.is_null()
-            && !dv.is_null()
-            && sv != dv
-        {
-            differ.push((key, sv, dv));
-        }
-    }
-    if !differ.is_empty() {
-        let side = |pick: fn(&(&str, &Value, &Value)) -> String| {
-            differ.iter().map(pick).collect::<Vec<_>>().join(", ")
-        };
-        let msg = format!(
-            "{} was saved from a drive of {}; this drive is {}",
-            file.display(),
-            side(|(k, s, _)| format!("{} {}", k.replace('_', " "), identity_text(s))),
-            side(|(k, _, d)| format!("{} {}", k.replace('_', " "), identity_text(d)))
-        );
-        if !any_device {
-            return Err(CliError::usage(format!(
-                "{msg}: nothing was written; add --any-device to restore it anyway"
-            )));
-        }
-        errln!("drivectl: warning: {msg}");
-    }
-    let (sf, df) = (
-        saved.get("firmware").unwrap_or(&Value::Null),
-        drive.get("firmware").unwrap_or(&Value::Null),
-    );
-    if !sf.is_null() && !df.is_null() && sf != df {
-        errln!(
+        Notice::OtherFirmware(f) => errln!(
             "drivectl: warning: {} was saved from firmware {}; this drive runs firmware {}: \
              parameters may differ between firmware versions",
             file.display(),
-            identity_text(sf),
-            identity_text(df)
-        );
+            identity_text(&f.saved),
+            identity_text(&f.drive)
+        ),
+        Notice::Warning(w) => errln!("drivectl: warning: {w}"),
+        Notice::NotRecorded(e) => errln!("drivectl: warning: {e}"),
+        Notice::LinkFollowed { target, note } => {
+            errln!("drivectl: note: {}: {note}", target.label());
+        }
+        other => errln!("drivectl: note: {other:?}"),
     }
-    Ok(())
+}
+
+/// The entries of `skipped` refused or unreadable by the drive: `P130 (its answer)`.
+fn answered(skipped: &[(Target, Skip)], unreadable: bool) -> Vec<String> {
+    skipped
+        .iter()
+        .filter_map(|(t, s)| match s {
+            Skip::Refused(why) if !unreadable => Some(format!("{} ({why})", t.label())),
+            Skip::Unreadable(why) if unreadable => Some(format!("{} ({why})", t.label())),
+            _ => None,
+        })
+        .collect()
+}
+
+/// A restore's error before anything was written, or while verifying (`written`: the labels of
+/// what was written).
+fn restore_error(file: &Path, e: RestoreError, written: &[String]) -> CliError {
+    match e {
+        RestoreError::File(e) => file_error(file, &e),
+        RestoreError::Identify(e) | RestoreError::Key(e) => e.into(),
+        RestoreError::OtherDevice(differ) => CliError::usage(format!(
+            "{}: nothing was written; add --any-device to restore it anyway",
+            other_device(file, &differ)
+        )),
+        RestoreError::Interrupted {
+            phase: drive_client::Phase::Verifying,
+            cause,
+        } => interrupted(
+            &cause,
+            format!(
+                "the restore was interrupted{} while verifying: {} change(s) were written ({}), \
+                 not all were read back; run the restore again to check",
+                by(&cause),
+                written.len(),
+                written.join(", ")
+            ),
+        ),
+        RestoreError::Interrupted { cause, .. } => interrupted(
+            &cause,
+            format!(
+                "the restore was interrupted{} while reading the drive; nothing was written",
+                by(&cause)
+            ),
+        ),
+        RestoreError::Read { target, error } => {
+            CliError::failed(format!("{}; nothing was written", target.error(error)))
+        }
+        RestoreError::Verify { target, error } => CliError::failed(format!(
+            "{} change(s) were written, but verifying failed: {}; run the restore again to check",
+            written.len(),
+            target.error(error)
+        )),
+        other => CliError::failed(other.to_string()),
+    }
 }
 
 /// Write a backup back and verify it (see the [module docs](self)).
@@ -730,104 +532,27 @@ pub async fn restore<C: ParamClient>(
     json: bool,
     stop: &Interrupt,
 ) -> Result<()> {
-    let Loaded {
-        entries,
-        mut skipped,
-        identity: saved_identity,
-    } = load(
+    let loaded = load(
         file,
         client.family(),
         client.not_restored(),
         client.link_settings(),
     )?;
-    let in_file = entries.len() + skipped.len();
-    let identity = client.identify().await?;
-    check_identity(file, &saved_identity, &identity, opts.any_device)?;
-    let bar = progress(entries.len(), "reading");
-    // The entries compared with the drive (the ones verified at the end) and the changes.
-    let mut compared: Vec<&Entry> = Vec::new();
-    let mut changes = Vec::new();
-    for e in &entries {
-        if stop.requested() {
-            bar.abandon();
-            return Err(interrupted(
-                stop,
-                format!(
-                    "the restore was interrupted{} while reading the drive; nothing was written",
-                    by(stop)
-                ),
-            ));
-        }
-        bar.set_message(e.target.label());
-        let current = match client.read(&e.target).await {
-            Ok(v) => v,
-            Err(ClientError::Device(d)) if d.kind == DeviceErrorKind::Absent => {
-                skipped.push((e.target, Skip::Absent(d.message)));
-                bar.inc(1);
-                continue;
-            }
-            Err(ClientError::Device(d)) => {
-                skipped.push((e.target, Skip::Unreadable(d.message)));
-                bar.inc(1);
-                continue;
-            }
-            Err(err) => {
-                bar.abandon();
-                return Err(CliError::failed(format!(
-                    "{}; nothing was written",
-                    e.target.error(err)
-                )));
-            }
-        };
-        bar.inc(1);
-        if current == e.raw {
-            compared.push(e);
-            continue;
-        }
-        // A setting of the link the restore runs over moves the drive away from it (a
-        // timeout that ends the connection): only when confirmed.
-        if !opts.yes && client.link_settings().contains(&e.target.index) {
-            skipped.push((
-                e.target,
-                Skip::NeedsYes(client.link_change(&e.target, e.raw)),
-            ));
-            continue;
-        }
-        compared.push(e);
-        changes.push((
-            WriteRequest {
-                target: e.target,
-                raw: e.raw,
-                persistence: Persistence::NonVolatile,
-                force: opts.force,
-            },
-            current,
-        ));
-    }
-    bar.finish_and_clear();
-    let unchanged = compared.len() - changes.len();
-    // Every write is checked before the first one is sent: a file that would be refused
-    // halfway leaves the drive as it was. Every refusal is listed, not just the first.
-    let drive_key = client.drive_key().await?;
-    let mut warnings = Vec::new();
-    let mut refusals = Vec::new();
-    for (req, _) in &changes {
-        match drive_client::write::check(&drive_key, req, &write::FileWearLog::from_env()) {
-            Ok(w) => warnings.extend(w),
-            Err(write::WriteError::Guard { error, message }) => {
-                refusals.push(message + &restore_hint(&error));
-            }
-            Err(e) => refusals.push(CliError::from(e).to_string()),
-        }
-    }
+    let log = FileWearLog::from_env();
+    let rules = restoring::Options {
+        force: opts.force,
+        any_device: opts.any_device,
+        confirm_link_settings: opts.yes,
+    };
+    let mut bar = Bar::new(|n: &Notice| say(file, n));
+    let stop = stop.inner();
+    let plan = restoring::plan(client, &loaded, &rules, &log, &mut bar, stop)
+        .await
+        .map_err(|e| restore_error(file, e, &[]))?;
+    let refusals: Vec<String> = plan.refusals.iter().map(refusal_text).collect();
+    let (changes, unchanged) = (plan.changes.len(), plan.unchanged());
     if opts.dry_run {
-        for (req, old) in &changes {
-            if json {
-                outln!("{}", change_json(&req.target, *old, req.raw))?;
-            } else {
-                outln!("{}", change_text(&req.target, *old, req.raw))?;
-            }
-        }
+        print_changes(&plan.changes, json)?;
         for r in &refusals {
             errln!("drivectl: would be refused: {r}");
         }
@@ -835,22 +560,22 @@ pub async fn restore<C: ParamClient>(
             outln!(
                 "{}",
                 json!({"type": "restore", "dry_run": true, "file": file.display().to_string(),
-                       "entries": entries.len(), "changes": changes.len(),
+                       "entries": plan.entries, "changes": changes,
                        "unchanged": unchanged, "refused": refusals,
-                       "skipped": skipped_json(&skipped)})
+                       "skipped": skipped_json(&plan.skipped)})
             )?;
         } else {
-            for l in skipped_lines(&skipped) {
+            for l in skipped_lines(&plan.skipped) {
                 outln!("{l}")?;
             }
             outln!(
-                "dry run: {} of {in_file} parameter(s) in {} differ from the drive and would be \
+                "dry run: {changes} of {} parameter(s) in {} differ from the drive and would be \
                  written, {unchanged} already hold the saved value, {} skipped{}; nothing was \
                  written",
-                changes.len(),
+                plan.in_file,
                 file.display(),
-                skipped.len(),
-                listed(&skipped)
+                plan.skipped.len(),
+                listed(&plan.skipped)
             )?;
         }
         if !refusals.is_empty() {
@@ -876,156 +601,86 @@ pub async fn restore<C: ParamClient>(
             }
         )));
     }
-    for w in &warnings {
-        errln!("drivectl: warning: {w}");
-    }
-    let bar = progress(changes.len(), "writing");
-    let mut written: Vec<&(WriteRequest, i64)> = Vec::new();
-    // Where the writing stopped, why, and whether the write in flight may have arrived.
-    let mut halted: Option<(usize, String, bool)> = None;
-    for (i, change) in changes.iter().enumerate() {
-        let req = &change.0;
-        if stop.requested() {
-            halted = Some((i, format!("interrupted{}", by(stop)), false));
-            break;
-        }
-        bar.set_message(req.target.label());
-        match client.write(&req.target, req.raw, req.persistence).await {
-            Ok(()) => {
-                if let Err(e) = write::record(&drive_key, req) {
-                    bar.suspend(|| errln!("drivectl: warning: {e}"));
-                }
-                if client.link_settings().contains(&req.target.index) {
-                    let note = client.follow_link_change(&req.target, req.raw);
-                    bar.suspend(|| errln!("drivectl: note: {}: {note}", req.target.label()));
-                }
-                written.push(change);
+    let applied = match restoring::apply(client, &plan, &log, &mut bar, stop).await {
+        Ok(applied) => applied,
+        Err(RestoreError::Halted(h)) => {
+            let written = &h.applied.written;
+            print_changes(written, json)?;
+            let written_labels: Vec<String> = written.iter().map(|c| c.target.label()).collect();
+            let skipped = plan.skipped_after(&h.applied.refused);
+            let missing: Vec<String> = h.not_written.iter().map(|c| c.target.label()).collect();
+            let uncertain = h.uncertain().map(Target::label);
+            if json {
+                outln!(
+                    "{}",
+                    json!({"type": "restore", "file": file.display().to_string(),
+                           "complete": false, "entries": plan.entries,
+                           "written": written_labels, "refused": answered(&skipped, false),
+                           "not_written": missing, "uncertain": uncertain,
+                           "skipped": skipped_json(&skipped)})
+                )?;
             }
-            Err(ClientError::Device(why)) => {
-                skipped.push((req.target, Skip::Refused(why.message)));
-            }
-            Err(err) => {
-                halted = Some((i, req.target.error(err).to_string(), true));
-                break;
-            }
-        }
-        bar.inc(1);
-    }
-    // What was written, old → new, by its label.
-    for (req, old) in &written {
-        if json {
-            outln!("{}", change_json(&req.target, *old, req.raw))?;
-        } else {
-            outln!("{}", change_text(&req.target, *old, req.raw))?;
-        }
-    }
-    let written_labels: Vec<String> = written.iter().map(|(r, _)| r.target.label()).collect();
-    let refused: Vec<String> = skipped
-        .iter()
-        .filter_map(|(t, s)| match s {
-            Skip::Refused(why) => Some(format!("{} ({why})", t.label())),
-            _ => None,
-        })
-        .collect();
-    if let Some((at, why, in_flight)) = halted {
-        bar.abandon();
-        let rest = changes.get(at..).unwrap_or_default();
-        let missing: Vec<String> = rest.iter().map(|(r, _)| r.target.label()).collect();
-        let uncertain = in_flight.then(|| missing.first().cloned()).flatten();
-        if json {
-            outln!(
-                "{}",
-                json!({"type": "restore", "file": file.display().to_string(), "complete": false,
-                       "entries": entries.len(), "written": written_labels, "refused": refused,
-                       "not_written": missing, "uncertain": uncertain,
-                       "skipped": skipped_json(&skipped)})
-            )?;
-        }
-        let message = format!(
-            "restore stopped ({why}): the drive is half restored: {} of {} change(s) written ({}), \
-             {} not written ({}){}; run the same restore again to finish it (values the drive \
-             already holds are not written again)",
-            written.len(),
-            changes.len(),
-            if written.is_empty() {
-                "none".to_owned()
-            } else {
-                written_labels.join(", ")
-            },
-            missing.len(),
-            missing.join(", "),
-            uncertain.map_or_else(String::new, |u| format!(
-                "; {u} was being written when the link failed and may or may not have arrived"
-            )),
-        );
-        return Err(if in_flight {
-            CliError::failed(message)
-        } else {
-            interrupted(stop, message)
-        });
-    }
-    bar.finish_and_clear();
-    let bar = progress(compared.len(), "verifying");
-    let mut mismatches = Vec::new();
-    for e in &compared {
-        if stop.requested() {
-            bar.abandon();
-            return Err(interrupted(
-                stop,
-                format!(
-                    "the restore was interrupted{} while verifying: {} change(s) were written \
-                     ({}), not all were read back; run the restore again to check",
-                    by(stop),
-                    written.len(),
-                    written_labels.join(", ")
-                ),
-            ));
-        }
-        let back = client.read(&e.target).await.map_err(|err| {
-            bar.abandon();
-            CliError::failed(format!(
-                "{} change(s) were written, but verifying failed: {}; run the restore again to check",
+            let why = match &h.why {
+                Halt::Interrupted(cause) => format!("interrupted{}", by(cause)),
+                Halt::Link { target, error } => target.error(error.clone()).to_string(),
+                other => format!("{other:?}"),
+            };
+            let message = format!(
+                "restore stopped ({why}): the drive is half restored: {} of {changes} change(s) \
+                 written ({}), {} not written ({}){}; run the same restore again to finish it \
+                 (values the drive already holds are not written again)",
                 written.len(),
-                e.target.error(err)
-            ))
-        })?;
-        if back != e.raw {
-            mismatches.push((*e, back));
+                if written.is_empty() {
+                    "none".to_owned()
+                } else {
+                    written_labels.join(", ")
+                },
+                missing.len(),
+                missing.join(", "),
+                uncertain.map_or_else(String::new, |u| format!(
+                    "; {u} was being written when the link failed and may or may not have arrived"
+                )),
+            );
+            return Err(match &h.why {
+                Halt::Interrupted(cause) => interrupted(cause, message),
+                _ => CliError::failed(message),
+            });
         }
-        bar.inc(1);
-    }
-    bar.finish_and_clear();
-    for (e, back) in &mismatches {
-        let t = &e.target;
+        Err(e) => return Err(restore_error(file, e, &[])),
+    };
+    print_changes(&applied.written, json)?;
+    let written: Vec<String> = applied.written.iter().map(|c| c.target.label()).collect();
+    let mismatches = restoring::verify(client, &plan, &mut bar, stop)
+        .await
+        .map_err(|e| restore_error(file, e, &written))?;
+    for m in &mismatches {
+        let t = &m.target;
         if json {
             let mut o = target_json(t);
             o.insert("type".into(), "mismatch".into());
-            o.insert("expected_raw".into(), e.raw.into());
-            o.insert("expected".into(), physical_json(t, e.raw));
-            o.insert("raw".into(), (*back).into());
-            o.insert("value".into(), physical_json(t, *back));
+            o.insert("expected_raw".into(), m.expected.into());
+            o.insert("expected".into(), physical_json(t, m.expected));
+            o.insert("raw".into(), m.back.into());
+            o.insert("value".into(), physical_json(t, m.back));
             outln!("{}", Value::Object(o))?;
         } else {
             outln!(
                 "{}: expected {}, the drive holds {}",
                 t.title(),
-                value_text(t, e.raw),
-                value_text(t, *back)
+                value_text(t, m.expected),
+                value_text(t, m.back)
             )?;
         }
     }
-    let unreadable: Vec<String> = skipped
-        .iter()
-        .filter_map(|(t, s)| match s {
-            Skip::Unreadable(why) => Some(format!("{} ({why})", t.label())),
-            _ => None,
-        })
-        .collect();
+    let skipped = plan.skipped_after(&applied.refused);
+    let refused = answered(&skipped, false);
+    let unreadable = answered(&skipped, true);
+    let compared = plan.compared.len();
     if json {
         outln!(
             "{}",
             json!({"type": "restore", "file": file.display().to_string(), "complete": true,
-                   "entries": entries.len(), "written": written.len(), "unchanged": unchanged,
+                   "entries": plan.entries, "written": written.len(), "unchanged": unchanged,
                    "refused": refused, "mismatches": mismatches.len(),
                    "skipped": skipped_json(&skipped)})
         )?;
@@ -1035,10 +690,9 @@ pub async fn restore<C: ParamClient>(
         }
         if written.is_empty() && refused.is_empty() && unreadable.is_empty() {
             outln!(
-                "{}: all {} parameter(s) compared already held the saved values; nothing was \
-                 written ({} skipped{})",
+                "{}: all {compared} parameter(s) compared already held the saved values; nothing \
+                 was written ({} skipped{})",
                 file.display(),
-                compared.len(),
                 skipped.len(),
                 if skipped.is_empty() {
                     ""
@@ -1054,7 +708,7 @@ pub async fn restore<C: ParamClient>(
                 written.len(),
                 skipped.len(),
                 listed(&skipped),
-                compared.len() - mismatches.len()
+                compared - mismatches.len()
             )?;
         }
     }

@@ -10,8 +10,8 @@
 //! * [`write`](mod@write): the one write path (width check always, write guard and EEPROM-wear
 //!   log unless forced, read-back);
 //! * [`drive_client::wear`]: the EEPROM-wear write log that keeps the guard's rule across runs;
-//! * [`backup`]: backup and restore of every family's parameters, with progress and atomic
-//!   files;
+//! * [`backup`]: backup and restore of every family's parameters on the command line
+//!   (`drive_client`'s engines, the files, text and JSON); [`progress`]: progress bars;
 //! * [`read`](mod@read): reading several parameters in one call;
 //! * [`meaning`]: what a raw value means (value names, decoded status and fault words);
 //! * [`watch`]: several parameters polled with timestamps (a table, lines, CSV or JSON);
@@ -33,6 +33,7 @@ pub mod line;
 pub use drive_client::meaning;
 pub mod motor;
 pub mod outfile;
+pub mod progress;
 pub mod read;
 pub mod simrun;
 pub mod stale;
