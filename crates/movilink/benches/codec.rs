@@ -14,7 +14,7 @@
 
 use std::hint::black_box;
 
-use criterion::{Criterion, Throughput, criterion_group, criterion_main};
+use criterion::{Criterion, Throughput, criterion_group};
 use movilink::{
     Address, MasterConfig, MasterEvent, MovilinkMaster, ParamChannel, PduType, Slave, SlaveConfig,
     Telegram,
@@ -76,5 +76,39 @@ fn exchange(c: &mut Criterion) {
     g.finish();
 }
 
+
+/// Instruction counts: `MOVILINK_CALLGRIND=N` runs the master ↔ drive parameter read of
+/// `movilink_exchange` N times and exits, for `valgrind --tool=callgrind`
+/// ((count(N) − count(0)) / N is one read, exact on a noisy machine).
+fn callgrind(n: u64) {
+    let drive = Address::new(1).unwrap_or(Address::BROADCAST);
+    let mut bus = bus::Bus::new(
+        MovilinkMaster::new(MasterConfig::default()),
+        Slave::new(SlaveConfig::new(drive), bus::TestDrive::default()),
+    );
+    let req =
+        Telegram::request(drive, PduType::PARAM_0PD_ACYCLIC).with_param(ParamChannel::read(8318));
+    let mut done = 0u64;
+    for _ in 0..n {
+        let now = bus.now;
+        let _ = bus.master.send(black_box(req), now);
+        bus.run(|e| {
+            if let MasterEvent::ParamDone(_) = e {
+                done += 1;
+            }
+        });
+        while bus.slave.poll_event().is_some() {}
+    }
+    assert_eq!(done, n);
+}
+
 criterion_group!(benches, codec, exchange);
-criterion_main!(benches);
+
+fn main() {
+    if let Some(n) = std::env::var("MOVILINK_CALLGRIND").ok().and_then(|s| s.parse().ok()) {
+        callgrind(n);
+        return;
+    }
+    benches();
+    Criterion::default().configure_from_args().final_summary();
+}
