@@ -76,7 +76,6 @@ fn exchange(c: &mut Criterion) {
     g.finish();
 }
 
-
 /// Instruction counts: `MOVILINK_CALLGRIND=N` runs the master ↔ drive parameter read of
 /// `movilink_exchange` N times and exits, for `valgrind --tool=callgrind`
 /// ((count(N) − count(0)) / N is one read, exact on a noisy machine).
@@ -105,7 +104,10 @@ fn callgrind(n: u64) {
 criterion_group!(benches, codec, exchange);
 
 fn main() {
-    if let Some(n) = std::env::var("MOVILINK_CALLGRIND").ok().and_then(|s| s.parse().ok()) {
+    if let Some(n) = std::env::var("MOVILINK_CALLGRIND")
+        .ok()
+        .and_then(|s| s.parse().ok())
+    {
         callgrind(n);
         return;
     }
