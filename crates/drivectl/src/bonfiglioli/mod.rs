@@ -486,19 +486,19 @@ fn driver_config(args: &BonfiglioliArgs) -> Result<DriverConfig> {
     let line = line_of(mode, &args.line, args.data_bits);
     let timeout = Duration::from_millis(args.timeout);
     let least = least_timeout(mode, &line);
-    if timeout < least {
-        let frame = longest_frame(mode);
-        return Err(CliError::usage(format!(
-            "a response timeout of {} ms is shorter than an exchange takes at {} baud: the \
-             request and the answer (up to {frame} characters each, {:.1} ms each) and the \
-             drive's answer delay of 10 ms (manual ch. 6.8) need {} ms; use --timeout {} or more",
-            args.timeout,
+    let frame = longest_frame(mode);
+    crate::tool::line::check_timeout(
+        timeout,
+        least,
+        &format!(
+            "an exchange takes at {} baud ({:.2} ms: the request and the answer, up to {frame} \
+             characters each, {:.1} ms each, and the drive's answer delay of 10 ms, manual ch. \
+             6.8)",
             line.baud,
+            least.as_secs_f64() * 1e3,
             (line.char_time() * frame).as_secs_f64() * 1e3,
-            least.as_millis(),
-            least.as_millis()
-        )));
-    }
+        ),
+    )?;
     Ok(DriverConfig {
         response_timeout: timeout,
         retries: args.retries,
@@ -600,11 +600,7 @@ fn given_variant(args: &BonfiglioliArgs) -> Option<Variant> {
 
 /// Run `drivectl bonfiglioli`.
 pub fn run(args: &BonfiglioliArgs) -> Result<()> {
-    if args.port.is_empty() {
-        return Err(CliError::usage(
-            "no serial port given; add --port PATH (e.g. /dev/ttyUSB0; `drivectl ports` lists them)",
-        ));
-    }
+    crate::tool::line::require_port(&args.port)?;
     precheck(args)?;
     let config = driver_config(args)?;
     let rt = runtime()?;

@@ -273,17 +273,15 @@ fn driver_config(line: &LineArgs, master: &MasterArgs) -> Result<DriverConfig> {
     let settings = line.line();
     let pause = movilink::timing::start_pause(&settings);
     let timeout = master.response_timeout();
-    if timeout < pause {
-        let needed = pause.as_micros().div_ceil(1000);
-        return Err(CliError::usage(format!(
-            "a response timeout of {} ms is shorter than the start pause a drive waits before \
-             answering at {} baud ({:.2} ms): no answer could arrive in time; use --timeout \
-             {needed} or more",
-            timeout.as_millis(),
+    crate::tool::line::check_timeout(
+        timeout,
+        pause,
+        &format!(
+            "the start pause a drive waits before answering at {} baud ({:.2} ms)",
             settings.baud,
-            pause.as_secs_f64() * 1e3,
-        )));
-    }
+            pause.as_secs_f64() * 1e3
+        ),
+    )?;
     Ok(DriverConfig {
         line: settings,
         response_timeout: timeout,
@@ -305,11 +303,7 @@ fn again(args: &MovilinkArgs) -> Again {
 
 /// Run `drivectl movilink`.
 pub fn run(args: &MovilinkArgs) -> Result<()> {
-    if args.port.is_empty() {
-        return Err(CliError::usage(
-            "no serial port given; add --port PATH (e.g. /dev/ttyUSB0; `drivectl ports` lists them)",
-        ));
-    }
+    crate::tool::line::require_port(&args.port)?;
     let config = driver_config(&args.line, &args.master)?;
     precheck(&args.command)?;
     let rt = runtime()?;

@@ -115,17 +115,15 @@ fn driver_config(args: &UssArgs, address: UssAddress) -> Result<DriverConfig> {
     let line = args.line.line();
     let timing = UssTiming::from_line(&line);
     let timeout = Duration::from_millis(args.timeout);
-    if timeout < timing.start_delay {
-        return Err(CliError::usage(format!(
-            "a response timeout of {} ms is shorter than the start delay a drive keeps before \
-             answering at {} baud ({:.2} ms): no answer could arrive in time; use --timeout {} \
-             or more",
-            args.timeout,
+    crate::tool::line::check_timeout(
+        timeout,
+        timing.start_delay,
+        &format!(
+            "the start delay a drive keeps before answering at {} baud ({:.2} ms)",
             line.baud,
-            timing.start_delay.as_secs_f64() * 1e3,
-            timing.start_delay.as_micros().div_ceil(1000)
-        )));
-    }
+            timing.start_delay.as_secs_f64() * 1e3
+        ),
+    )?;
     Ok(DriverConfig {
         response_timeout: timeout,
         retries: args.retries,
@@ -153,11 +151,7 @@ fn again(args: &UssArgs) -> String {
 
 /// Run `drivectl uss`.
 pub fn run(args: &UssArgs) -> Result<()> {
-    if args.port.is_empty() {
-        return Err(CliError::usage(
-            "no serial port given; add --port PATH (e.g. /dev/ttyUSB0; `drivectl ports` lists them)",
-        ));
-    }
+    crate::tool::line::require_port(&args.port)?;
     let config = driver_config(args, address(args.addr)?)?;
     match &args.command {
         UssCommand::Nord(cmd) => {

@@ -385,26 +385,24 @@ fn check_timeout(config: &MasterConfig, rate: Bitrate, iface: &Iface) -> Result<
         _ => rate,
     };
     let least = least_timeout(rate, config.handshake);
-    if config.response_timeout >= least {
-        return Ok(());
-    }
-    let needed = least.as_micros().div_ceil(1000);
-    Err(CliError::usage(format!(
-        "a response timeout of {} ms is shorter than a parameter answer takes at {} ({:.2} ms: \
-         request and response frames and the drive's 1 ms answer window{}): no answer could \
-         arrive in time; use --timeout {needed} or more",
-        config.response_timeout.as_millis(),
-        match iface {
-            Iface::SocketCan(name) => format!("the slowest SBus rate, 125 kbit/s, on {name}"),
-            _ => format!("{} kbit/s", rate.bits_per_second() / 1000),
-        },
-        least.as_secs_f64() * 1e3,
-        if config.handshake == Handshake::Sync {
-            ", and the SYNC that releases it"
-        } else {
-            ""
-        }
-    )))
+    crate::tool::line::check_timeout(
+        config.response_timeout,
+        least,
+        &format!(
+            "a parameter answer takes at {} ({:.2} ms: request and response frames and the \
+             drive's 1 ms answer window{})",
+            match iface {
+                Iface::SocketCan(name) => format!("the slowest SBus rate, 125 kbit/s, on {name}"),
+                _ => format!("{} kbit/s", rate.bits_per_second() / 1000),
+            },
+            least.as_secs_f64() * 1e3,
+            if config.handshake == Handshake::Sync {
+                ", and the SYNC that releases it"
+            } else {
+                ""
+            }
+        ),
+    )
 }
 
 fn master_config(args: &SbusArgs) -> MasterConfig {

@@ -110,3 +110,50 @@ pub fn runtime() -> Result<tokio::runtime::Runtime> {
         .build()
         .map_err(|e| CliError::failed(format!("cannot start the async runtime: {e}")))
 }
+
+/// The one check of every family that a port was given (`--port`, empty by default so that
+/// `--help` and the offline commands work without one).
+pub fn require_port(port: &str) -> Result<()> {
+    if port.is_empty() {
+        return Err(CliError::usage(
+            "no serial port given; add --port PATH (e.g. /dev/ttyUSB0; `drivectl ports` lists them)",
+        ));
+    }
+    Ok(())
+}
+
+/// The one check of every family that `--timeout` can be met: a response timeout shorter than
+/// `least` (what an answer needs on this line at the least, `needs` saying what that is, with
+/// its figure) is refused naming the least `--timeout` in whole milliseconds that works.
+pub fn check_timeout(timeout: Duration, least: Duration, needs: &str) -> Result<()> {
+    if timeout >= least {
+        return Ok(());
+    }
+    Err(CliError::usage(format!(
+        "a response timeout of {} ms is shorter than {needs}: no answer could arrive in time; \
+         use --timeout {} or more",
+        timeout.as_millis(),
+        least.as_micros().div_ceil(1000)
+    )))
+}
+
+#[cfg(test)]
+mod checks {
+    use super::*;
+
+    #[test]
+    fn a_timeout_below_the_least_is_refused_naming_the_whole_milliseconds_that_work() {
+        let least = Duration::from_micros(3_440);
+        assert!(check_timeout(least, least, "x").is_ok());
+        let e = check_timeout(Duration::from_millis(3), least, "the start pause (3.44 ms)")
+            .unwrap_err()
+            .to_string();
+        assert_eq!(
+            e,
+            "a response timeout of 3 ms is shorter than the start pause (3.44 ms): no answer \
+             could arrive in time; use --timeout 4 or more"
+        );
+        assert!(require_port("").is_err());
+        assert!(require_port("/dev/ttyS0").is_ok());
+    }
+}
