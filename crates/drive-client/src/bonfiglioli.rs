@@ -19,7 +19,7 @@ use drive_profile::bonfiglioli::{self as profile, DataType, Variant};
 use drive_profile::{Family, Persistence};
 use serde_json::{Map, Value};
 
-use crate::client::{ClientError, DeviceError, DeviceErrorKind, ParamClient};
+use crate::client::{ClientError, DeviceCode, DeviceError, DeviceErrorKind, ParamClient};
 use crate::front::{FrontEnd, Note, Plain, Setting};
 use crate::meaning::{Device, KnownVariant};
 use crate::target::Target;
@@ -398,10 +398,10 @@ fn wrong_width(e: &DriverError) -> bool {
 /// The client error of a driver error of an access with `width` (the caller names the
 /// parameter); the way out of a refusal is named in `front`'s words.
 pub fn client_error(width: Width, e: DriverError, front: &dyn FrontEnd) -> ClientError {
-    let DriverError::Device { vabus, .. } = &e else {
+    let DriverError::Device { exception, vabus } = &e else {
         return ClientError::Link(e.to_string());
     };
-    let vabus = *vabus;
+    let (exception, vabus) = (*exception, *vabus);
     let kind = match vabus {
         // Unknown parameter; not readable (write-only, 484/524 on the ACU).
         Some(11 | 3) => DeviceErrorKind::Absent,
@@ -430,6 +430,10 @@ pub fn client_error(width: Width, e: DriverError, front: &dyn FrontEnd) -> Clien
     };
     ClientError::Device(DeviceError {
         kind,
+        code: DeviceCode::Modbus {
+            exception: exception.0,
+            vabus,
+        },
         message: format!("{e}{hint}"),
     })
 }

@@ -22,8 +22,32 @@ pub enum ClientError {
 pub struct DeviceError {
     /// What kind of refusal.
     pub kind: DeviceErrorKind,
+    /// The drive's own code, as its protocol carries it.
+    pub code: DeviceCode,
     /// The drive's answer, for a person (with the code).
     pub message: String,
+}
+
+/// The code a drive refused with, in its protocol's terms, for a caller that acts on a
+/// particular one (the manuals' tables name them).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[non_exhaustive]
+pub enum DeviceCode {
+    /// SEW (MOVILINK, SBus): the parameter channel's return code (error class, error code,
+    /// additional code).
+    Sew(drive_profile::sew::ReturnCode),
+    /// NORD (USS, CTT2): the error number in PWE of a refused order (AK 7).
+    Nord(u16),
+    /// Bonfiglioli (Modbus): the exception code and, where the drive was asked for it, its
+    /// VABus error.
+    Modbus {
+        /// The Modbus exception code (1–4).
+        exception: u8,
+        /// The drive's VABus error code.
+        vabus: Option<u16>,
+    },
+    /// No code: a refusal a front end or a test made up.
+    None,
 }
 
 /// What a negative answer means for the tool.

@@ -14,7 +14,7 @@ use drive_profile::nord::{self as profile, Width};
 use drive_profile::{Family, Persistence};
 use serde_json::{Map, Value};
 
-use crate::client::{ClientError, DeviceError, DeviceErrorKind, ParamClient};
+use crate::client::{ClientError, DeviceCode, DeviceError, DeviceErrorKind, ParamClient};
 use crate::front::{FrontEnd, Plain, Setting};
 use crate::target::{Target, nord_sub};
 
@@ -151,6 +151,7 @@ pub fn client_error<E: std::fmt::Display>(
             };
             ClientError::Device(DeviceError {
                 kind: device_error_kind(error.0),
+                code: DeviceCode::Nord(error.0),
                 message: format!(
                     "the drive refused AK {} ({}): {error}{hint}",
                     order.ak(),

@@ -402,6 +402,7 @@ fn every_refusal_is_found_before_the_first_write() {
         plan.changes[0].target,
         DeviceError {
             kind: DeviceErrorKind::Refused,
+            code: crate::DeviceCode::None,
             message: "controller inhibit needed".into(),
         },
     )];

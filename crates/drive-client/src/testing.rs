@@ -6,7 +6,7 @@
 use drive_profile::{Family, Persistence};
 use serde_json::{Map, Value};
 
-use crate::client::{ClientError, DeviceError, DeviceErrorKind, ParamClient};
+use crate::client::{ClientError, DeviceCode, DeviceError, DeviceErrorKind, ParamClient};
 use crate::interrupt::{Cause, Interrupt};
 use crate::target::Target;
 
@@ -67,6 +67,7 @@ impl<I: Trip> FakeClient<I> {
 pub fn refusal(kind: DeviceErrorKind, message: &str) -> ClientError {
     ClientError::Device(DeviceError {
         kind,
+        code: DeviceCode::None,
         message: message.into(),
     })
 }

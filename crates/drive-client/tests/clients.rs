@@ -15,7 +15,7 @@ use bonfiglioli_modbus::framing::Mode;
 use drive_client::bonfiglioli::BonfiglioliClient;
 use drive_client::sew::movilink::MovilinkLink;
 use drive_client::sew::{SewClient, describe};
-use drive_client::{ClientError, DeviceErrorKind, ParamClient, Target};
+use drive_client::{ClientError, DeviceCode, DeviceErrorKind, ParamClient, Target};
 use drive_core::{LineSettings, Parity};
 use drive_profile::{Family, Persistence};
 use drive_transport::link::{self, LinkConfig};
@@ -52,7 +52,17 @@ async fn a_movidrive_over_movilink_reads_writes_identifies_and_refuses_typed() {
         assert!(d.minimum <= d.current && d.current <= d.maximum, "{d:?}");
         // An index the drive does not have: its refusal, sorted as absent (a backup skips it).
         match c.read(&sew("9999")).await {
-            Err(ClientError::Device(e)) => assert_eq!(e.kind, DeviceErrorKind::Absent, "{e}"),
+            Err(ClientError::Device(e)) => {
+                assert_eq!(e.kind, DeviceErrorKind::Absent, "{e}");
+                // The drive's own code, as the parameter channel carried it.
+                let DeviceCode::Sew(code) = e.code else {
+                    panic!("a SEW drive's refusal carries its return code: {e:?}");
+                };
+                assert_eq!(
+                    drive_client::sew::device_error_kind(code),
+                    DeviceErrorKind::Absent
+                );
+            }
             other => panic!("expected the drive's refusal, got {other:?}"),
         }
         // Point-to-point: the drive names itself by its own address (P810).
@@ -101,6 +111,20 @@ async fn an_active_cube_over_modbus_rtu_in_its_data_sets_and_by_its_variant() {
         assert_eq!(c.read(&in_set(2)).await.unwrap(), before + 100);
         assert_eq!(c.read(&in_set(1)).await.unwrap(), before);
         assert_eq!(c.drive_key().await.unwrap(), "/dev/ttyS8 1");
+        // 376 = 0 kW the drive refuses: exception 4 with the VABus error it names (1, an
+        // illegal parameter value); a caller can match on both.
+        let p376 = drive_client::bonfiglioli::target(376, 2).unwrap();
+        match c.write(&p376, 0, Persistence::Volatile).await {
+            Err(ClientError::Device(e)) => assert_eq!(
+                e.code,
+                DeviceCode::Modbus {
+                    exception: 4,
+                    vabus: Some(1)
+                },
+                "{e}"
+            ),
+            other => panic!("376 = 0 was not refused: {other:?}"),
+        }
     };
     let (served, ()) = tokio::join!(sim.serve(wire), client);
     served.unwrap();

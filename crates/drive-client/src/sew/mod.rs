@@ -20,7 +20,7 @@ use drive_profile::sew::{AttributeInfo, ControlWord1, ParamChannel, ReturnCode, 
 use drive_profile::{Family, Persistence};
 use serde_json::{Map, Value};
 
-use crate::client::{ClientError, DeviceError, DeviceErrorKind, ParamClient};
+use crate::client::{ClientError, DeviceCode, DeviceError, DeviceErrorKind, ParamClient};
 use crate::front::{FrontEnd, Plain, Setting};
 use crate::target::Target;
 
@@ -119,6 +119,7 @@ pub fn device_error_kind(code: ReturnCode) -> DeviceErrorKind {
 pub fn device_error(code: ReturnCode, message: String) -> ClientError {
     ClientError::Device(DeviceError {
         kind: device_error_kind(code),
+        code: DeviceCode::Sew(code),
         message,
     })
 }

@@ -956,6 +956,7 @@ pub(crate) mod fake {
             if s.refuse_writes.contains(&t.index) {
                 return Err(ClientError::Device(DeviceError {
                     kind: DeviceErrorKind::Refused,
+                    code: drive_client::DeviceCode::None,
                     message: "return code 0x0810: controller inhibit needed".into(),
                 }));
             }
