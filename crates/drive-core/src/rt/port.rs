@@ -152,8 +152,11 @@ impl<IO: CharIo> Port<IO> {
     /// Write the frame the endpoint has due now, if any; returns its length. What waits in the
     /// port is fed first, and on a port whose characters are stamped when read what waits right
     /// after the write is fed as having arrived while the frame was leaving (see the
-    /// [type docs](Port)). After an error the frame on the wire is broken or the line gone:
-    /// tell the endpoint (its `abort`) and call [`Port::settle`].
+    /// [type docs](Port)). What was fed may have ended the endpoint's work (an answer, a
+    /// give-up): look at its events before [`Port::wait`], which waits for input alone when
+    /// the endpoint has no deadline ([`Port::step`] does this in the right order). After an
+    /// error the frame on the wire is broken or the line gone: tell the endpoint (its
+    /// `abort`) and call [`Port::settle`].
     pub async fn transmit<E: Endpoint>(
         &mut self,
         endpoint: &mut E,
@@ -161,6 +164,16 @@ impl<IO: CharIo> Port<IO> {
     ) -> io::Result<Option<usize>> {
         // Listen before talking: what waits in the port came before this frame.
         self.feed_waiting(endpoint, None)?;
+        self.send_due(endpoint, buf).await
+    }
+
+    /// [`Port::transmit`] once what waits in the port has been fed: write the frame the
+    /// endpoint has due now, if any.
+    async fn send_due<E: Endpoint>(
+        &mut self,
+        endpoint: &mut E,
+        buf: &mut [u8],
+    ) -> io::Result<Option<usize>> {
         let exact = self.exact_now();
         let now = exact.unwrap_or_else(|| self.time.now());
         let Some(n) = endpoint.poll_transmit(now, buf) else {
@@ -350,17 +363,23 @@ impl<IO: CharIo> Port<IO> {
     /// (what did get out leaves the line); a closed port is `UnexpectedEof`. After an error
     /// the frame on the wire is broken or the line gone: the caller drops its request (its
     /// master's `abort`).
+    ///
+    /// Whatever the endpoint hears ends the step: input may complete its request or make it
+    /// give up, and an endpoint with nothing in flight has no deadline, so a wait after that
+    /// would wait for input alone, for ever.
     pub async fn step<E: Endpoint>(
         &mut self,
         endpoint: &mut E,
         buf: &mut [u8],
     ) -> io::Result<Step> {
         // What waits is heard before anything is sent (and may complete or fail the request:
-        // the caller drains the endpoint's events before the next step).
+        // the caller drains the endpoint's events before the next step). The port is read
+        // once: a second read before sending could hear the end of an answer and leave the
+        // step waiting for a request that is already done.
         if self.feed_waiting(endpoint, None)? > 0 {
             return Ok(Step::Waited);
         }
-        match self.transmit(endpoint, buf).await {
+        match self.send_due(endpoint, buf).await {
             Ok(Some(n)) => return Ok(Step::Sent(n)),
             Ok(None) => {}
             Err(e) => {
