@@ -7,7 +7,7 @@
 use libfuzzer_sys::fuzz_target;
 use movilink::timing::Instant;
 use movilink::{
-    Address, AddressFilter, Backend, CharError, Direction, LineTiming, Master, MasterConfig,
+    Address, AddressFilter, Backend, CharError, Direction, LineTiming, MovilinkMaster, MasterConfig,
     ParamChannel, PduType, Receiver, RequestContext, ReturnCode, RxChar, Slave, SlaveConfig,
     Telegram, TelegramFraming, decode, encode,
 };
@@ -45,7 +45,7 @@ fuzz_target!(|data: &[u8]| {
         AddressFilter::Any,
         LineTiming::MOVILINK,
     ));
-    let mut master = Master::new(MasterConfig::default());
+    let mut master = MovilinkMaster::new(MasterConfig::default());
     let mut slave = Slave::new(SlaveConfig::new(own), Echo);
     let request =
         Telegram::request(own, PduType::PARAM_1PD).with_param(ParamChannel::read(8318));

@@ -12,7 +12,7 @@
 #![no_main]
 
 use ctt2_uss::serial::framing::{Side, UssFraming, UssReceiver};
-use ctt2_uss::serial::master::{Master, MasterConfig};
+use ctt2_uss::serial::master::{UssMaster, MasterConfig};
 use ctt2_uss::serial::slave::{Backend, Slave, SlaveConfig};
 use ctt2_uss::serial::telegram::{Adr, Layout, MAX_TELEGRAM, Telegram, UssAddress};
 use ctt2_uss::uss::pkw::{Order, Pkw, Reply};
@@ -81,7 +81,7 @@ fuzz_target!(|data: &[u8]| {
     let own = UssAddress::new(1).unwrap_or_default();
     let mut rx_slave = UssReceiver::new(UssFraming::new(Side::Slave(own), layout, &line));
     let mut rx_master = UssReceiver::new(UssFraming::new(Side::Master, layout, &line));
-    let mut master = Master::new(MasterConfig::new(line));
+    let mut master = UssMaster::new(MasterConfig::new(line));
     let mut slave = Slave::new(SlaveConfig::new(own, layout, line), Echo);
     let request = Telegram::new(Adr::new(own), layout, Pkw::default(), &pzd).expect("request");
     let _ = master.send(request, Instant::ZERO);

@@ -4,7 +4,7 @@
 //! This is a minimal pump written for the tests, independent of the crate's async driver: the
 //! sans-IO [`Master`] and [`Slave`] run on tokio's paused clock, which the pump moves exactly
 //! (`tokio::time::advance`) from one event to the next: a state machine's
-//! [`poll_timeout`](Master::poll_timeout) or the end of a burst of characters on the line.
+//! [`poll_timeout`](MovilinkMaster::poll_timeout) or the end of a burst of characters on the line.
 //! Each received [`TimedChar`] becomes an [`RxChar`] stamped with its exact arrival time
 //! (the time since the pump's epoch); a character the UART flagged (`parity_ok == false`:
 //! parity or framing error) arrives with [`CharError::Parity`].
@@ -24,8 +24,9 @@ use std::time::Duration;
 
 use drive_transport::link::{self, Fault, FaultConfig, FaultStats, LinkConfig, LinkEnd, TimedChar};
 use movilink::{
-    Address, Backend, CharError, Master, MasterConfig, MasterEvent, ParamChannel, RejectReason,
-    RequestContext, ReturnCode, RxChar, Service, Slave, SlaveConfig, SlaveEvent, Telegram,
+    Address, Backend, CharError, MasterConfig, MasterEvent, MovilinkMaster, ParamChannel,
+    RejectReason, RequestContext, ReturnCode, RxChar, Service, Slave, SlaveConfig, SlaveEvent,
+    Telegram,
 };
 use tokio::io::AsyncWrite;
 use tokio::time::Instant as TokioInstant;
@@ -186,7 +187,7 @@ pub type FaultPlan = Box<dyn FnMut(Side, &[u8]) -> Vec<(usize, Fault)>>;
 /// A master and a drive on an in-memory link; see the [module docs](self).
 pub struct LinkBus {
     /// The master state machine.
-    pub master: Master,
+    pub master: MovilinkMaster,
     /// The drive state machine.
     pub slave: Slave<TestBackend>,
     master_end: LinkEnd,
@@ -239,7 +240,7 @@ impl LinkBus {
         let config = LinkConfig::new(9600).with_faults(faults);
         let (master_end, drive_end) = link::pair(config);
         Self {
-            master: Master::new(MasterConfig::default()),
+            master: MovilinkMaster::new(MasterConfig::default()),
             slave: Slave::new(SlaveConfig::new(drive_address()), TestBackend::default()),
             master_end,
             drive_end,

@@ -21,7 +21,7 @@ use std::hint::black_box;
 
 use bonfiglioli_modbus::frame::{Address, Request, Response, StartAddress};
 use bonfiglioli_modbus::framing::{self, MAX_FRAME, Mode};
-use bonfiglioli_modbus::master::{Master, MasterConfig, MasterEvent};
+use bonfiglioli_modbus::master::{MasterConfig, MasterEvent, ModbusMaster};
 use bonfiglioli_modbus::pdu::MAX_PDU;
 use bonfiglioli_modbus::rtu;
 use bonfiglioli_modbus::slave::{Slave, SlaveConfig};
@@ -153,7 +153,7 @@ fn main() {
         "exchange" => {
             let line = LineSettings::new(19200);
             let mut bus = bus::Bus::new(
-                Master::new(MasterConfig::new(Mode::Rtu, line)),
+                ModbusMaster::new(MasterConfig::new(Mode::Rtu, line)),
                 Slave::new(
                     SlaveConfig::new(a, Mode::Rtu, line),
                     bus::Trivial::default(),
@@ -161,7 +161,7 @@ fn main() {
             );
             for _ in 0..n {
                 let now = bus.now;
-                let _ = bus.master.send(a, black_box(req), now);
+                let _ = bus.master.send((a, black_box(req)), now);
                 bus.run(|e| {
                     if let MasterEvent::Response(Response::ReadWord { value }) = e {
                         acc += u64::from(value);

@@ -25,7 +25,7 @@ use std::hint::black_box;
 
 use bonfiglioli_modbus::frame::{Address, Request, Response, StartAddress};
 use bonfiglioli_modbus::framing::{self, MAX_FRAME, Mode};
-use bonfiglioli_modbus::master::{Master, MasterConfig, MasterEvent};
+use bonfiglioli_modbus::master::{MasterConfig, MasterEvent, ModbusMaster};
 use bonfiglioli_modbus::pdu::MAX_PDU;
 use bonfiglioli_modbus::slave::{Slave, SlaveConfig};
 use bonfiglioli_modbus::{ascii, rtu};
@@ -248,7 +248,7 @@ fn exchange(c: &mut Criterion) {
     g.throughput(Throughput::Elements(1));
     let line = LineSettings::new(19200);
     let mut bus = bus::Bus::new(
-        Master::new(MasterConfig::new(Mode::Rtu, line)),
+        ModbusMaster::new(MasterConfig::new(Mode::Rtu, line)),
         Slave::new(
             SlaveConfig::new(addr(), Mode::Rtu, line),
             bus::Trivial::default(),
@@ -257,7 +257,7 @@ fn exchange(c: &mut Criterion) {
     let req = request();
     let mut check = || {
         let now = bus.now;
-        let _ = bus.master.send(addr(), black_box(req), now);
+        let _ = bus.master.send((addr(), black_box(req)), now);
         let mut value = None;
         let settled = bus.run(|e| {
             if let MasterEvent::Response(Response::ReadWord { value: v }) = e {

@@ -1,6 +1,6 @@
 //! The tokio master driver against a sans-IO drive served by `drive_core::rt::serve`.
 //!
-//! `modbus_driver/fc3_read_untimed_virtual`: FC 3 reads through [`MasterDriver`] over the
+//! `modbus_driver/fc3_read_untimed_virtual`: FC 3 reads through [`ModbusDriver`] over the
 //! untimed in-memory link of drive-transport (characters delivered at once), both sides on
 //! `Clock::Virtual`: software overhead only (driver, sans-IO master and slave, the serve loop,
 //! two tokio tasks). Throughput in reads/s = 1 / median; target ≥ 50 000 reads/s.
@@ -13,7 +13,7 @@
 
 use std::time::Instant;
 
-use bonfiglioli_modbus::driver::{Clock, DriverConfig, MasterDriver};
+use bonfiglioli_modbus::driver::{Clock, DriverConfig, ModbusDriver};
 use bonfiglioli_modbus::frame::{Address, DataSet};
 use bonfiglioli_modbus::framing::Mode;
 use bonfiglioli_modbus::slave::{Slave, SlaveConfig, Width};
@@ -47,7 +47,7 @@ fn untimed_reads(c: &mut Criterion) {
             let mut time = Timebase::new(Clock::Virtual, line.char_time());
             let _ = serve(&mut drives, &mut time, wire).await;
         });
-        MasterDriver::new(
+        ModbusDriver::new(
             port,
             DriverConfig {
                 clock: Clock::Virtual,

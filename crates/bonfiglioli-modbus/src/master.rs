@@ -1,6 +1,8 @@
-//! The master state machine, sans-IO: one request in flight over RTU or ASCII, on the shared
-//! transaction skeleton [`drive_core::Exchange`] (gate, response timeout, retries, give-up,
-//! late answers). This module adds Modbus's checks:
+//! The master state machine, sans-IO: one request in flight over RTU or ASCII. It is drive-core's
+//! one master ([`drive_core::master::Master`]: one request in flight, attempts, retries,
+//! give-up, late answers, stale characters) on the transaction skeleton of a line
+//! ([`drive_core::Exchange`]: gate, response timeout); this module is only Modbus's part of it,
+//! [`Modbus`]:
 //!
 //! * a response is taken only from the addressed drive, for the request's function code (or
 //!   its exception, the function code with bit 7 set), and a write's echo must repeat the
@@ -12,13 +14,17 @@
 //!   activity (the manual: at least 2 ms after an answer), and never before the framing's idle
 //!   gap (3.5 characters in RTU);
 //! * the default response timeout is the manual's 500 ms.
+//!
+//! What the master counts as stale ([`master::Master::stale_chars`]) matters here: an FC 3 or
+//! FC 100 answer names neither the parameter nor the data set, so an answer an earlier program
+//! left in the port is told from this request's answer only by when it came.
 
+use core::convert::Infallible;
 use core::time::Duration;
 
-use drive_core::{
-    Endpoint, Exchange, ExchangeConfig, ExchangeEvent, Instant, LineSettings, Queue, RxChar,
-    Verdict,
-};
+use drive_core::exchange::Busy;
+use drive_core::master::{self, CharProtocol, Configure, Judgement, Protocol};
+use drive_core::{Exchange, ExchangeConfig, LineSettings, Queue};
 
 use crate::frame::{Address, Request, Response};
 use crate::framing::{FrameError, MAX_FRAME, ModbusFraming, Mode, Received, Side, encode_request};
@@ -31,7 +37,7 @@ pub const TURNAROUND: Duration = Duration::from_millis(2);
 /// earliest, so they have executed it by then.
 pub const BROADCAST_HOLD: Duration = Duration::from_millis(10);
 
-/// Configuration of a [`Master`].
+/// Configuration of a [`ModbusMaster`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct MasterConfig {
     /// RTU or ASCII.
@@ -100,24 +106,23 @@ pub enum RejectReason {
     EchoMismatch,
 }
 
-/// What happened; drained with [`Master::poll_event`].
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-#[non_exhaustive]
-pub enum MasterEvent {
-    /// The answer to the request (possibly an exception answer).
-    Response(Response),
-    /// A broadcast was handed to the port; it is complete (nobody answers).
-    Sent,
-    /// No valid answer after `attempts` transmissions; the request is dropped.
-    Timeout {
-        /// Transmissions made (up to 256 with 255 retries).
-        attempts: u16,
-    },
-    /// An answer was not taken (the attempt failed; a retry or a timeout follows).
-    Rejected(RejectReason),
+impl From<FrameError> for RejectReason {
+    fn from(e: FrameError) -> Self {
+        RejectReason::Frame(e)
+    }
 }
 
-/// [`Master::send`] refused a request.
+/// What happened; drained with [`ModbusMaster::poll_event`](master::Master::poll_event):
+/// drive-core's master events with a Modbus response as the answer.
+///
+/// * `Response`: the answer to the request (possibly an exception answer);
+/// * `Sent`: a broadcast was handed to the port; it is complete (nobody answers);
+/// * `Timeout { attempts }`: no valid answer after `attempts` transmissions; the request is
+///   dropped;
+/// * `Rejected`: an answer was not taken (the attempt failed; a retry or a timeout follows).
+pub type MasterEvent = master::MasterEvent<Response, RejectReason>;
+
+/// [`ModbusMaster`]'s `send` refused a request.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, thiserror::Error)]
 #[non_exhaustive]
 pub enum SendError {
@@ -129,140 +134,87 @@ pub enum SendError {
     BroadcastRead,
 }
 
-/// The master state machine; see the [module docs](self).
-#[derive(Debug, Clone)]
-pub struct Master {
-    config: MasterConfig,
-    exchange: Exchange<ModbusFraming, MAX_FRAME>,
-    job: Option<(Address, Request)>,
-    events: Queue<MasterEvent, 8>,
+impl From<Busy> for SendError {
+    fn from(_: Busy) -> Self {
+        SendError::Busy
+    }
 }
 
-impl Master {
-    /// A master with `config`; the bus is assumed idle.
-    pub fn new(config: MasterConfig) -> Self {
+/// Modbus's part of the master: the checks of a request and of its answer.
+#[derive(Debug, Clone, Copy)]
+pub struct Modbus {
+    config: MasterConfig,
+}
+
+impl Configure for Modbus {
+    type Config = MasterConfig;
+    type Carrier = Exchange<ModbusFraming, MAX_FRAME>;
+
+    fn build(config: MasterConfig) -> (Self, Self::Carrier) {
         let framing = ModbusFraming::new(config.mode, Side::Master, &config.line);
         let xc = config.exchange(&framing);
-        let exchange = Exchange::new(framing, xc);
-        Self {
-            config,
-            exchange,
-            job: None,
-            events: Queue::new(),
-        }
+        (Self { config }, Exchange::new(framing, xc))
     }
 
-    /// The configuration.
-    pub fn config(&self) -> &MasterConfig {
+    fn config(&self) -> &MasterConfig {
         &self.config
     }
+}
 
-    /// Whether no request is in flight.
-    pub fn is_idle(&self) -> bool {
-        self.job.is_none()
-    }
+impl Protocol for Modbus {
+    type Input = (Address, Request);
+    type Request = (Address, Request);
+    type Frame = Received;
+    type Answer = Response;
+    type Reason = RejectReason;
+    type Failure = Infallible;
+    type Event = MasterEvent;
+    type SendError = SendError;
 
-    /// Characters received so far that were never taken as an answer because they arrived
-    /// while a request waited for the bus or before it had completely left the wire: an FC 3
-    /// or FC 100 answer names neither the parameter nor the data set, so an answer an earlier
-    /// program left in the port is told from this request's answer only by when it came.
-    pub fn stale_chars(&self) -> u64 {
-        self.exchange.stale_chars()
-    }
-
-    /// Change the response timeout (from the next transmission on).
-    pub fn set_response_timeout(&mut self, timeout: Duration) {
-        self.config.response_timeout = timeout;
-        self.exchange.set_response_timeout(timeout);
-    }
-
-    /// Change the number of retransmissions.
-    pub fn set_retries(&mut self, retries: u8) {
-        self.config.retries = retries;
-        self.exchange.set_retries(retries);
-    }
-
-    /// Start `request` to `address` at `now`.
-    pub fn send(
+    fn prepare(
         &mut self,
-        address: Address,
-        request: Request,
-        now: Instant,
-    ) -> Result<(), SendError> {
-        if self.job.is_some() {
-            return Err(SendError::Busy);
-        }
+        (address, request): (Address, Request),
+    ) -> Result<Self::Request, SendError> {
         if address.is_broadcast() && !request.is_write() {
             return Err(SendError::BroadcastRead);
         }
-        self.exchange.begin(now).map_err(|_| SendError::Busy)?;
-        self.job = Some((address, request));
-        Ok(())
+        Ok((address, request))
     }
 
-    /// The driver could not finish writing the request: it is dropped.
-    pub fn abort(&mut self, now: Instant) {
-        self.job = None;
-        self.exchange.abort(now);
+    #[inline]
+    fn answered(&self, (address, _): &Self::Request) -> bool {
+        !address.is_broadcast()
     }
 
-    /// The next event.
-    pub fn poll_event(&mut self) -> Option<MasterEvent> {
-        self.events.pop()
-    }
-
-    fn on_exchange(&mut self, ev: ExchangeEvent<Received, FrameError>) {
-        match ev {
-            ExchangeEvent::Frame(Received::Response(address, response)) => {
-                self.on_response(address, response)
-            }
+    fn judge(
+        &mut self,
+        (sent_to, request): &mut Self::Request,
+        frame: Received,
+    ) -> Judgement<Response, RejectReason, Infallible> {
+        let fc = request.function().code();
+        let (address, response) = match frame {
+            Received::Response(address, response) => (address, response),
             // A request on the line (another master?) is no answer.
-            ExchangeEvent::Frame(Received::Request(..)) => {
-                self.reject(RejectReason::WrongFunction {
-                    expected: self.job.map_or(0, |(_, r)| r.function().code()),
+            Received::Request(..) => {
+                return Judgement::Foreign(RejectReason::WrongFunction {
+                    expected: fc,
                     got: 0,
                 });
             }
-            ExchangeEvent::Rejected(e, verdict) => {
-                self.events
-                    .push(MasterEvent::Rejected(RejectReason::Frame(e)));
-                self.on_verdict(verdict);
-            }
-            ExchangeEvent::NoAnswer(verdict) => self.on_verdict(verdict),
-        }
-    }
-
-    fn on_verdict(&mut self, verdict: Verdict) {
-        if let Verdict::GiveUp { attempts } = verdict {
-            self.events.push(MasterEvent::Timeout { attempts });
-            self.job = None;
-        }
-    }
-
-    fn reject(&mut self, reason: RejectReason) {
-        self.events.push(MasterEvent::Rejected(reason));
-        let verdict = self.exchange.fail();
-        self.on_verdict(verdict);
-    }
-
-    fn on_response(&mut self, address: Address, response: Response) {
-        let Some((sent_to, request)) = self.job else {
-            return;
         };
-        if address != sent_to {
-            return self.reject(RejectReason::WrongAddress {
+        if address != *sent_to {
+            return Judgement::Foreign(RejectReason::WrongAddress {
                 expected: sent_to.get(),
                 got: address.get(),
             });
         }
-        let fc = request.function().code();
         if response.function_code() != fc {
-            return self.reject(RejectReason::WrongFunction {
+            return Judgement::Corrupt(RejectReason::WrongFunction {
                 expected: fc,
                 got: response.function_code(),
             });
         }
-        let echo_ok = match (request, response) {
+        let echo_ok = match (*request, response) {
             (Request::WriteWord { start, value }, Response::WriteWord { start: s, value: v }) => {
                 (start, value) == (s, v)
             }
@@ -273,61 +225,41 @@ impl Master {
             _ => true,
         };
         if !echo_ok {
-            return self.reject(RejectReason::EchoMismatch);
+            return Judgement::Corrupt(RejectReason::EchoMismatch);
         }
-        self.exchange.complete();
-        self.job = None;
-        self.events.push(MasterEvent::Response(response));
+        Judgement::Ours(response)
+    }
+
+    fn settings_changed(&mut self, response_timeout: Duration, retries: u8) {
+        (self.config.response_timeout, self.config.retries) = (response_timeout, retries);
+    }
+
+    #[inline]
+    fn report(
+        &mut self,
+        _: &Self::Request,
+        event: MasterEvent,
+        events: &mut Queue<MasterEvent, { master::EVENTS }>,
+    ) {
+        events.push(event);
     }
 }
 
-impl Endpoint for Master {
-    fn handle_char(&mut self, c: RxChar) {
-        if let Some(ev) = self.exchange.handle_char(c) {
-            self.on_exchange(ev);
-        }
-    }
+impl CharProtocol for Modbus {
+    type Framing = ModbusFraming;
 
-    fn handle_timeout(&mut self, now: Instant) {
-        if let Some(ev) = self.exchange.handle_timeout(now) {
-            self.on_exchange(ev);
-        }
-    }
-
-    fn poll_transmit(&mut self, now: Instant, buf: &mut [u8]) -> Option<usize> {
-        let (address, request) = self.job?;
-        if !self.exchange.may_transmit(now) {
-            return None;
-        }
-        let n = encode_request(self.config.mode, address, &request, buf).ok()?;
-        let answered = !address.is_broadcast();
-        self.exchange.transmitted(n, answered);
-        if !answered {
-            self.job = None;
-            self.events.push(MasterEvent::Sent);
-        }
-        Some(n)
-    }
-
-    fn poll_timeout(&self) -> Option<Instant> {
-        self.job?;
-        self.exchange.poll_timeout()
-    }
-
-    fn poll_quiet_timeout(&self) -> Option<Instant> {
-        self.job?;
-        self.exchange.poll_quiet_timeout()
-    }
-
-    fn max_frame_len(&self) -> usize {
-        MAX_FRAME
-    }
-
-    fn frame_left(&mut self, at: Instant) {
-        self.exchange.left_at(at);
-    }
-
-    fn stale_chars(&self) -> u64 {
-        self.exchange.stale_chars()
+    #[inline]
+    fn encode(
+        &mut self,
+        (address, request): &Self::Request,
+        buf: &mut [u8],
+        _: &mut ModbusFraming,
+    ) -> Option<usize> {
+        encode_request(self.config.mode, *address, request, buf).ok()
     }
 }
+
+/// The master state machine; see the [module docs](self): drive-core's one master with
+/// [`Modbus`] on a line. It is an [`Endpoint`](drive_core::Endpoint); [`master::Master::send`]
+/// takes the address and the request.
+pub type ModbusMaster = master::Master<Modbus, Exchange<ModbusFraming, MAX_FRAME>>;

@@ -16,7 +16,7 @@
 //! the runtime layer's [`serve`](drive_core::rt::serve) loop.
 //!
 //! ```
-//! use bonfiglioli_modbus::driver::{DriverConfig, MasterDriver};
+//! use bonfiglioli_modbus::driver::{DriverConfig, ModbusDriver};
 //! use bonfiglioli_modbus::frame::{Address, DataSet};
 //! use bonfiglioli_modbus::framing::Mode;
 //! use bonfiglioli_modbus::sim::SimulatedDrive;
@@ -31,7 +31,7 @@
 //! let mut drive = SimulatedDrive::new(1, Variant::Acu, Mode::Rtu, line);
 //! let sim = tokio::spawn(async move { drive.serve(wire).await });
 //!
-//! let mut master = MasterDriver::new(port, DriverConfig::new(Mode::Rtu, line));
+//! let mut master = ModbusDriver::new(port, DriverConfig::new(Mode::Rtu, line));
 //! let drive1 = Address::new(1).ok_or("address")?;
 //! let ds2 = DataSet::new(2).ok_or("data set")?;
 //! master.write(drive1, 372, ds2, Width::Word, 1390).await?; // rated speed, data set 2

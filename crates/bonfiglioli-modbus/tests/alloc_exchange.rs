@@ -10,7 +10,7 @@ use bonfiglioli_modbus::frame::{
 use bonfiglioli_modbus::framing::{
     self, MAX_FRAME, ModbusFraming, Mode, Received, Receiver, RxEvent, Side,
 };
-use bonfiglioli_modbus::master::{Master, MasterConfig, MasterEvent};
+use bonfiglioli_modbus::master::{MasterConfig, MasterEvent, ModbusMaster};
 use bonfiglioli_modbus::pdu::MAX_PDU;
 use bonfiglioli_modbus::slave::{Slave, SlaveConfig, Width};
 use drive_core::alloc_count::CountingAllocator;
@@ -47,7 +47,7 @@ fn encode_decode_receiver_and_exchanges_allocate_nothing() {
     // Everything is set up (and the buses built) before counting starts.
     let mut buses = [Mode::Rtu, Mode::Ascii].map(|mode| {
         bus::Bus::new(
-            Master::new(MasterConfig::new(mode, line)),
+            ModbusMaster::new(MasterConfig::new(mode, line)),
             Slave::new(SlaveConfig::new(a, mode, line), bus::Trivial::default()),
         )
     });
@@ -99,7 +99,7 @@ fn encode_decode_receiver_and_exchanges_allocate_nothing() {
         for _ in 0..20 {
             for req in requests {
                 let now = bus.now;
-                bus.master.send(a, req, now).unwrap();
+                bus.master.send((a, req), now).unwrap();
                 let mut response = None;
                 assert!(bus.run(|e| {
                     if let MasterEvent::Response(r) = e {

@@ -17,7 +17,7 @@ use tap::Tap;
 use std::collections::HashMap;
 use std::time::Duration;
 
-use bonfiglioli_modbus::driver::{Clock, DriverConfig, DriverError, MasterDriver};
+use bonfiglioli_modbus::driver::{Clock, DriverConfig, DriverError, LinkError, ModbusDriver};
 use bonfiglioli_modbus::frame::{
     Address, DataSet, DiagSubFunction, ExceptionCode, Request, Response, StartAddress,
 };
@@ -114,8 +114,8 @@ fn a(n: u8) -> Address {
 /// Run `f` with a master driver talking to one slave at address 1 (and 3) of `mode`.
 async fn with_drive<F, Fut>(mode: Mode, f: F) -> Vec<Slave<Table>>
 where
-    F: FnOnce(MasterDriver<link::LinkEnd>) -> Fut,
-    Fut: std::future::Future<Output = MasterDriver<link::LinkEnd>>,
+    F: FnOnce(ModbusDriver<link::LinkEnd>) -> Fut,
+    Fut: std::future::Future<Output = ModbusDriver<link::LinkEnd>>,
 {
     let (port, wire) = link::pair(LinkConfig::from_line(line()));
     let drives = vec![
@@ -129,7 +129,7 @@ where
         drives
     });
     let config = DriverConfig::new(mode, line());
-    let master = f(MasterDriver::new(port, config)).await;
+    let master = f(ModbusDriver::new(port, config)).await;
     drop(master);
     sim.await.unwrap()
 }
@@ -266,10 +266,10 @@ async fn a_missing_drive_costs_the_timeout_and_the_retries() {
             .read(a(9), 372, DataSet::new(2).unwrap(), Width::Word)
             .await
         {
-            Err(DriverError::Timeout {
+            Err(DriverError::Link(LinkError::Timeout {
                 address: 9,
                 attempts: 3,
-            }) => {}
+            })) => {}
             other => panic!("{other:?}"),
         }
         // Three attempts of 500 ms each, plus the frames and pauses.
@@ -307,7 +307,7 @@ async fn answers_come_10_ms_after_a_request_and_requests_2_ms_after_an_answer() 
         let mut time = Timebase::new(Clock::Real, char_time);
         let _ = serve(&mut drives, &mut time, wire).await;
     });
-    let mut m = MasterDriver::new(port, DriverConfig::new(Mode::Rtu, line));
+    let mut m = ModbusDriver::new(port, DriverConfig::new(Mode::Rtu, line));
     for _ in 0..3 {
         m.read(a(1), 372, DataSet::new(2).unwrap(), Width::Word)
             .await

@@ -20,10 +20,10 @@ use tap::Tap;
 
 use std::time::Duration;
 
-use bonfiglioli_modbus::driver::{Clock, DriverConfig, DriverStats, MasterDriver};
+use bonfiglioli_modbus::driver::{Clock, DriverConfig, DriverStats, ModbusDriver};
 use bonfiglioli_modbus::frame::{Address, DataSet, Request, Response, StartAddress};
 use bonfiglioli_modbus::framing::Mode;
-use bonfiglioli_modbus::master::{Master, MasterConfig, MasterEvent};
+use bonfiglioli_modbus::master::{MasterConfig, MasterEvent, ModbusMaster};
 use bonfiglioli_modbus::slave::{Counters, Slave, SlaveConfig, Width};
 use drive_core::rt::{Timebase, serve};
 use drive_core::{LineSettings, Parity, SplitMix64};
@@ -65,7 +65,7 @@ async fn run(mode: Mode, line: LineSettings, faults: FaultConfig, ops: u64) -> R
         let [drive] = drives;
         drive
     });
-    let mut driver = MasterDriver::new(port, DriverConfig::new(mode, line));
+    let mut driver = ModbusDriver::new(port, DriverConfig::new(mode, line));
     let mut rng = SplitMix64::new(faults.seed ^ 0xA5A5);
     let mut out = Run::default();
     // Either the last value written, or (after a failed write, which the drive may or may not
@@ -139,7 +139,7 @@ async fn fc3_read_cycle_against_the_manuals_bound() {
         let mut time = Timebase::new(Clock::Real, line.char_time());
         let _ = serve(&mut drives, &mut time, wire).await;
     });
-    let mut driver = MasterDriver::new(port, DriverConfig::new(Mode::Rtu, line));
+    let mut driver = ModbusDriver::new(port, DriverConfig::new(Mode::Rtu, line));
     let start = StartAddress::new(DataSet::ALL, 372).unwrap();
     let expected = bus::Trivial::default().value(start, Width::Word);
     // The first read starts on an idle line; the cycle is measured from the second read's
@@ -174,7 +174,7 @@ async fn fc3_read_cycle_against_the_manuals_bound() {
     // (benches/common/bus.rs advances time to each deadline to the nanosecond). Answer end to
     // answer end = the pause, the request, the answer delay and the answer.
     let mut bus = bus::Bus::new(
-        Master::new(MasterConfig::new(Mode::Rtu, line)),
+        ModbusMaster::new(MasterConfig::new(Mode::Rtu, line)),
         Slave::new(
             SlaveConfig::new(a(), Mode::Rtu, line),
             bus::Trivial::default(),
@@ -184,7 +184,7 @@ async fn fc3_read_cycle_against_the_manuals_bound() {
     let mut ends = Vec::new();
     for _ in 0..=n {
         let now = bus.now;
-        bus.master.send(a(), req, now).unwrap();
+        bus.master.send((a(), req), now).unwrap();
         let mut value = None;
         assert!(bus.run(|e| {
             if let MasterEvent::Response(Response::ReadWord { value: v }) = e {
@@ -342,7 +342,7 @@ async fn fc3_exchange_on_the_wire_model_against_the_bound() {
         let mut time = Timebase::new(Clock::Real, ch);
         let _ = serve(&mut drives, &mut time, wire).await;
     });
-    let mut driver = MasterDriver::new(port, DriverConfig::new(Mode::Rtu, line));
+    let mut driver = ModbusDriver::new(port, DriverConfig::new(Mode::Rtu, line));
     let n = 50usize;
     for _ in 0..n {
         driver

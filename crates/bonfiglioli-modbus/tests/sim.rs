@@ -13,7 +13,7 @@
 
 use std::time::Duration;
 
-use bonfiglioli_modbus::driver::{DriverConfig, DriverError, MasterDriver};
+use bonfiglioli_modbus::driver::{DriverConfig, DriverError, LinkError, ModbusDriver};
 use bonfiglioli_modbus::frame::{Address, DataSet, ExceptionCode, Request, Response, StartAddress};
 use bonfiglioli_modbus::framing::Mode;
 use bonfiglioli_modbus::sim::{self, SimulatedBus};
@@ -40,7 +40,7 @@ fn line(mode: Mode) -> LineSettings {
 fn bus(
     mode: Mode,
     variant: Variant,
-) -> (MasterDriver<LinkEnd>, tokio::task::JoinHandle<SimulatedBus>) {
+) -> (ModbusDriver<LinkEnd>, tokio::task::JoinHandle<SimulatedBus>) {
     let (port, wire) = link::pair(LinkConfig::from_line(line(mode)));
     let mut sim = sim::bus(&[1, 2], variant, mode, line(mode));
     let task = tokio::spawn(async move {
@@ -48,7 +48,7 @@ fn bus(
         sim
     });
     (
-        MasterDriver::new(port, DriverConfig::new(mode, line(mode))),
+        ModbusDriver::new(port, DriverConfig::new(mode, line(mode))),
         task,
     )
 }
@@ -201,7 +201,7 @@ async fn a_new_modbus_address_takes_effect_at_once() {
     m.write(a(2), 1376, ds(5), Width::Word, 17).await.unwrap();
     assert_eq!(m.read(a(17), 372, ds(2), Width::Word).await.unwrap(), 1390);
     match m.read(a(2), 372, ds(2), Width::Word).await {
-        Err(DriverError::Timeout { address: 2, .. }) => {}
+        Err(DriverError::Link(LinkError::Timeout { address: 2, .. })) => {}
         other => panic!("{other:?}"),
     }
     drop(m);
@@ -215,7 +215,7 @@ async fn a_new_modbus_address_takes_effect_at_once() {
 async fn issue18_the_line_parameters_say_what_the_drive_serves() {
     for (mode, protocol) in [(Mode::Rtu, 2), (Mode::Ascii, 3)] {
         let (mut m, _sim) = bus(mode, Variant::Acu);
-        let read = async |m: &mut MasterDriver<LinkEnd>, p| {
+        let read = async |m: &mut ModbusDriver<LinkEnd>, p| {
             m.read(a(2), p, DataSet::ALL, Width::Word).await.unwrap()
         };
         // 19200 baud = 4, even parity = 0 (line()), the protocol of the mode, address 2.
@@ -240,17 +240,17 @@ async fn issue18_a_new_protocol_type_takes_effect_at_once() {
     let task = tokio::spawn(async move {
         let _ = sim.serve(wire).await;
     });
-    let mut rtu = MasterDriver::new(port, DriverConfig::new(Mode::Rtu, line(Mode::Rtu)));
+    let mut rtu = ModbusDriver::new(port, DriverConfig::new(Mode::Rtu, line(Mode::Rtu)));
     // The write is answered in RTU; the drive listens for ASCII from then on.
     rtu.write(a(1), 395, DataSet::ALL, Width::Word, 3)
         .await
         .unwrap();
     match rtu.read(a(1), 372, ds(2), Width::Word).await {
-        Err(DriverError::Timeout { .. }) => {}
+        Err(DriverError::Link(LinkError::Timeout { .. })) => {}
         other => panic!("RTU after 395 = 3: {other:?}"),
     }
     let port = rtu.into_inner();
-    let mut ascii = MasterDriver::new(port, DriverConfig::new(Mode::Ascii, line(Mode::Ascii)));
+    let mut ascii = ModbusDriver::new(port, DriverConfig::new(Mode::Ascii, line(Mode::Ascii)));
     assert_eq!(
         ascii
             .read(a(1), 395, DataSet::ALL, Width::Word)
@@ -264,7 +264,7 @@ async fn issue18_a_new_protocol_type_takes_effect_at_once() {
         .await
         .unwrap();
     match ascii.read(a(1), 372, ds(2), Width::Word).await {
-        Err(DriverError::Timeout { .. }) => {}
+        Err(DriverError::Link(LinkError::Timeout { .. })) => {}
         other => panic!("ASCII after 395 = 0: {other:?}"),
     }
     drop(ascii);

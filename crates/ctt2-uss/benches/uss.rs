@@ -29,7 +29,7 @@
 use std::hint::black_box;
 
 use criterion::{Criterion, Throughput};
-use ctt2_uss::serial::master::{Master, MasterConfig, MasterEvent};
+use ctt2_uss::serial::master::{MasterConfig, MasterEvent, UssMaster};
 use ctt2_uss::serial::slave::{Backend, Slave, SlaveConfig};
 use ctt2_uss::serial::telegram::{Adr, Layout, MAX_TELEGRAM, Telegram, UssAddress};
 use ctt2_uss::uss::DriveError;
@@ -69,7 +69,7 @@ fn model_bus() -> bus::Bus<Model> {
     let line = LineSettings::new(19200);
     let a = UssAddress::new(7).unwrap();
     bus::Bus::new(
-        Master::new(MasterConfig::new(line)),
+        UssMaster::new(MasterConfig::new(line)),
         vec![Slave::new(
             SlaveConfig::new(a, Layout::PKW4_PZD2, line),
             Model(drive_sim::nord::SimulatedNord::new()),
@@ -92,7 +92,7 @@ fn new_bus() -> bus::Bus<bus::Store> {
     let line = LineSettings::new(19200);
     let a = UssAddress::new(7).unwrap();
     bus::Bus::new(
-        Master::new(MasterConfig::new(line)),
+        UssMaster::new(MasterConfig::new(line)),
         vec![Slave::new(
             SlaveConfig::new(a, Layout::PKW4_PZD2, line),
             bus::Store::default(),

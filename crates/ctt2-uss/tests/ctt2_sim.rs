@@ -9,8 +9,8 @@
 use std::time::Duration;
 
 use ctt2_uss::client::{Address, ClientConfig, NordClient};
-use ctt2_uss::ctt2::link::{SIM_PKW_TIME, SimLink, SimLinkError, SimulatedDoubleSlave};
-use ctt2_uss::ctt2::master::{Ctt2Link, Ctt2Master, MasterConfig, MasterError};
+use ctt2_uss::ctt2::link::{SIM_PKW_TIME, SimulatedDoubleSlave, SimulatedLink, SimulatedLinkError};
+use ctt2_uss::ctt2::master::{Ctt2Driver, Ctt2Link, DriverConfig, DriverError};
 use ctt2_uss::ctt2::{BusIoIn, Channel, DiagnosisCode, ErrorCode, MAX_RESPONSE};
 use ctt2_uss::uss::{Ind, Order, Pkw, PzdOut, Storage};
 use drive_core::Instant;
@@ -32,19 +32,19 @@ impl<L: Ctt2Link> Ctt2Link for Tap<L> {
     }
 }
 
-fn link(slaves: u8) -> SimLink {
-    SimLink::new(SimulatedDoubleSlave::default(), slaves).unwrap()
+fn link(slaves: u8) -> SimulatedLink {
+    SimulatedLink::new(SimulatedDoubleSlave::default(), slaves).unwrap()
 }
 
-fn tapped(slaves: u8, config: MasterConfig) -> NordClient<Ctt2Master<Tap<SimLink>>> {
+fn tapped(slaves: u8, config: DriverConfig) -> NordClient<Ctt2Driver<Tap<SimulatedLink>>> {
     let tap = Tap {
         inner: link(slaves),
         log: Vec::new(),
     };
-    NordClient::new(Ctt2Master::new(tap, config), ClientConfig::default())
+    NordClient::new(Ctt2Driver::new(tap, config), ClientConfig::default())
 }
 
-async fn raw(link: &mut SimLink, request: &[u8]) -> Vec<u8> {
+async fn raw(link: &mut SimulatedLink, request: &[u8]) -> Vec<u8> {
     let mut a = [0u8; MAX_RESPONSE];
     let n = link.transact(request, &mut a).await.unwrap();
     a[..n].to_vec()
@@ -66,7 +66,7 @@ async fn id_object_with_31_slaves_takes_18_byte_times() {
     let link = link(31);
     assert_eq!(link.network().slave_count(), 31);
     assert_eq!(link.byte_time(), Duration::from_micros(81_312));
-    let mut master = Ctt2Master::new(link, MasterConfig::default());
+    let mut master = Ctt2Driver::new(link, DriverConfig::default());
     let t0 = master.link_mut().now();
     let tokio_t0 = tokio::time::Instant::now();
     let id = master.read_id_object().await.unwrap();
@@ -105,7 +105,7 @@ async fn byte_time_of_the_smallest_network() {
     let t0 = l.now();
     assert_eq!(raw(&mut l, &[16, 1, 3]).await, [80, 0, 0, 45]);
     assert_eq!(us(l.now()) - us(t0), 7 * 9_856);
-    assert!(SimLink::new(SimulatedDoubleSlave::default(), 63).is_err());
+    assert!(SimulatedLink::new(SimulatedDoubleSlave::default(), 63).is_err());
     let mut full = link(62);
     assert_eq!(full.network().slave_count(), 62);
     assert_eq!(raw(&mut full, &[16, 1, 1]).await, [80, 0]);
@@ -200,12 +200,12 @@ async fn error_4_busy() {
 
     // The master repeats error 4 three times, then reports it as a typed error.
     l.sim_mut().set_answer_time(Duration::from_millis(250));
-    let mut master = Ctt2Master::new(l, MasterConfig::default());
+    let mut master = Ctt2Driver::new(l, DriverConfig::default());
     let e = master.read_pzd(3).await.unwrap_err();
     assert!(
         matches!(
             e,
-            MasterError::Negative {
+            DriverError::Device {
                 request: Ctt2MessageType::NordRead,
                 error: ErrorCode::Busy,
                 attempts: 4
@@ -237,7 +237,7 @@ async fn error_5_previous_request_pending() {
     let n = l.receive(&mut a).await.unwrap();
     assert_eq!(&a[..n], [82, 1, 0x0B, 0x70, 0, 0, 0, 0, 0, 0]);
     assert_eq!(us(l.now()) - us(t_first), 150_000 + 10 * 9_856);
-    assert_eq!(l.receive(&mut a).await, Err(SimLinkError::NoRequest));
+    assert_eq!(l.receive(&mut a).await, Err(SimulatedLinkError::NoRequest));
     // Afterwards all is well again.
     assert_eq!(raw(&mut l, &[16, 1, 3]).await, [80, 0, 0, 45]);
     assert_eq!(l.slave().counters().errors[4], 1);
@@ -247,7 +247,7 @@ async fn error_5_previous_request_pending() {
 /// E4), the write's answer 83, then reads of the PKW channel until the answer fits.
 #[tokio::test(start_paused = true)]
 async fn pkw_write_p102_set_3_through_nord_client() {
-    let mut client = tapped(2, MasterConfig::default());
+    let mut client = tapped(2, DriverConfig::default());
     client
         .write(
             Address {
@@ -333,7 +333,7 @@ async fn pkw_write_p102_set_3_through_nord_client() {
 async fn pkw_previous_answer_until_done() {
     let mut l = link(2);
     l.sim_mut().set_pkw_time(Duration::from_millis(500));
-    let mut master = Ctt2Master::new(l, MasterConfig::default());
+    let mut master = Ctt2Driver::new(l, DriverConfig::default());
     let before = master.read_pkw().await.unwrap();
     assert_eq!(before.words(), [0x7000, 0x0000, 0x0000, 0x0009]); // AK 7, PWE2 error 9
     let order = Order::write(
@@ -366,11 +366,11 @@ async fn pkw_previous_answer_until_done() {
     assert_eq!(master.read_pkw().await.unwrap(), answer);
 
     // The same on index 4, with the address byte.
-    let mut m4 = Ctt2Master::new(
+    let mut m4 = Ctt2Driver::new(
         master.into_inner(),
-        MasterConfig {
+        DriverConfig {
             pkw_channel: Channel::PkwWithAddress,
-            ..MasterConfig::default()
+            ..DriverConfig::default()
         },
     );
     assert_eq!(m4.read_pkw().await.unwrap(), answer);
@@ -386,7 +386,7 @@ async fn pkw_previous_answer_until_done() {
 /// Examples 5.1.1 and 5.1.2 through `NordClient::drive_to` over CTT2 write/read messages.
 #[tokio::test(start_paused = true)]
 async fn pzd_sequences_through_drive_to() {
-    let mut client = tapped(2, MasterConfig::default());
+    let mut client = tapped(2, DriverConfig::default());
     let answer = client
         .drive_to(State::ReadyToSwitchOn, &[0], 0)
         .await
@@ -440,7 +440,7 @@ async fn pzd_sequences_through_drive_to() {
 /// The diagnosis object follows the drive's fault.
 #[tokio::test(start_paused = true)]
 async fn diagnosis_shows_a_fault() {
-    let mut master = Ctt2Master::new(link(2), MasterConfig::default());
+    let mut master = Ctt2Driver::new(link(2), DriverConfig::default());
     let d = master.read_diagnosis().await.unwrap();
     assert_eq!(d.code, Some(DiagnosisCode::NoFault));
     let now = master.link_mut().now();
@@ -457,7 +457,7 @@ async fn diagnosis_shows_a_fault() {
 /// CTT2 makes In bit 4 = 0 a quick stop.
 #[tokio::test(start_paused = true)]
 async fn busio_bits_act_per_p480_p481() {
-    let mut client = tapped(2, MasterConfig::default());
+    let mut client = tapped(2, DriverConfig::default());
     client
         .write(Address::new(509), Width::Word, Storage::Ram, 0)
         .await
@@ -514,7 +514,7 @@ async fn busio_bits_act_per_p480_p481() {
     assert!(out.bit(3));
 }
 
-fn first_id(link: &SimLink) -> ctt2_uss::ctt2::asi::DoubleSlaveId {
+fn first_id(link: &SimulatedLink) -> ctt2_uss::ctt2::asi::DoubleSlaveId {
     link.network()
         .double_slave_at(ctt2_uss::ctt2::AsiAddress::new(1, ctt2_uss::ctt2::Bank::B).unwrap())
         .unwrap()
@@ -522,7 +522,7 @@ fn first_id(link: &SimLink) -> ctt2_uss::ctt2::asi::DoubleSlaveId {
 
 #[tokio::test(start_paused = true)]
 async fn pzd_write_and_read_separately() {
-    let mut master = Ctt2Master::new(link(2), MasterConfig::default());
+    let mut master = Ctt2Driver::new(link(2), DriverConfig::default());
     master
         .write_pzd(&PzdOut::new(ControlWord(0x047E), &[]))
         .await

@@ -14,7 +14,7 @@
 mod bus;
 
 use ctt2_uss::serial::framing::{Side, UssFraming, UssReceiver};
-use ctt2_uss::serial::master::{Master, MasterConfig, MasterEvent};
+use ctt2_uss::serial::master::{MasterConfig, MasterEvent, UssMaster};
 use ctt2_uss::serial::slave::{Slave, SlaveConfig};
 use ctt2_uss::serial::telegram::{Adr, Layout, MAX_TELEGRAM, Telegram, UssAddress};
 use ctt2_uss::uss::pkw::{Ind, Order};
@@ -37,7 +37,7 @@ fn nothing_allocates() {
     let mut receivers =
         layouts.map(|l| UssReceiver::new(UssFraming::new(Side::Slave(a), l, &line)));
     let mut bus = bus::Bus::new(
-        Master::new(MasterConfig::new(line)),
+        UssMaster::new(MasterConfig::new(line)),
         vec![Slave::new(
             SlaveConfig::new(a, Layout::PKW4_PZD2, line),
             bus::Store::default(),

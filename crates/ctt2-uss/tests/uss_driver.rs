@@ -1,4 +1,4 @@
-//! The async USS master (`UssMaster` under `NordClient`) against simulated NORD drives over
+//! The async USS master (`UssDriver` under `NordClient`) against simulated NORD drives over
 //! drive-transport's in-memory link, on tokio's paused clock: every order AK 0–14, refusals,
 //! parameter sets, P560 and RAM-only writes, the plausibility repeat with a slow drive, the
 //! manual's control sequences through the process data, broadcast and mirror telegrams,
@@ -17,7 +17,7 @@ use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use ctt2_uss::client::{Address, ClientConfig, ClientError, NordClient, ParameterChannel};
-use ctt2_uss::serial::driver::{DriverConfig, DriverError, UssMaster};
+use ctt2_uss::serial::driver::{DriverConfig, DriverError, LinkError, RequestError, UssDriver};
 use ctt2_uss::serial::sim::{self, SimulatedBus, SimulatedDrive};
 use ctt2_uss::serial::{Layout, UssAddress};
 use ctt2_uss::uss::pkw::{Ind, Order, Pke, Pkw, Reply, Storage};
@@ -33,7 +33,7 @@ fn addr(a: u8) -> UssAddress {
 
 const LAYOUT: Layout = Layout::PKW4_PZD4;
 
-type Client = NordClient<UssMaster<LinkEnd>>;
+type Client = NordClient<UssDriver<LinkEnd>>;
 
 /// A client for drive `a` and one simulated drive at `a` (changed by `setup`) on a link at
 /// `baud`; the drive comes back when the client is dropped.
@@ -50,7 +50,7 @@ fn one_drive(
         drive.serve(wire).await.unwrap();
         drive
     });
-    let master = UssMaster::new(port, DriverConfig::new(addr(a), LAYOUT, line));
+    let master = UssDriver::new(port, DriverConfig::new(addr(a), LAYOUT, line));
     (NordClient::new(master, ClientConfig::default()), sim)
 }
 
@@ -299,7 +299,7 @@ async fn drive_to_operation_enabled_and_back() {
 }
 
 /// A bus of drives at `addresses`, served on the wire end; a master for `to`.
-fn bus(addresses: &[u8], to: u8, baud: u32) -> (UssMaster<LinkEnd>, JoinHandle<SimulatedBus>) {
+fn bus(addresses: &[u8], to: u8, baud: u32) -> (UssDriver<LinkEnd>, JoinHandle<SimulatedBus>) {
     let line = LineSettings::new(baud);
     let (port, wire) = link::pair(LinkConfig::from_line(line));
     let list: Vec<UssAddress> = addresses.iter().map(|&a| addr(a)).collect();
@@ -309,7 +309,7 @@ fn bus(addresses: &[u8], to: u8, baud: u32) -> (UssMaster<LinkEnd>, JoinHandle<S
         bus
     });
     (
-        UssMaster::new(port, DriverConfig::new(addr(to), LAYOUT, line)),
+        UssDriver::new(port, DriverConfig::new(addr(to), LAYOUT, line)),
         sim,
     )
 }
@@ -321,7 +321,7 @@ async fn drives_0_to_31_share_one_line() {
     let line = LineSettings::new(19200);
     // One master per address, one after the other, on the same port.
     for (i, a) in [0u8, 1, 17, 31].into_iter().enumerate() {
-        let m = UssMaster::new(port, DriverConfig::new(addr(a), LAYOUT, line));
+        let m = UssDriver::new(port, DriverConfig::new(addr(a), LAYOUT, line));
         let mut c = NordClient::new(m, ClientConfig::default());
         let at = Address::new(102);
         c.write(at, Width::Word, Storage::Ram, 1000 + i as i64)
@@ -355,7 +355,10 @@ async fn broadcast_is_executed_by_every_drive_and_answered_by_none() {
     );
     // A read broadcast is refused before anything is sent.
     let read = Order::read(102, Ind::ZERO).unwrap().to_pkw();
-    assert!(matches!(m.broadcast(read).await, Err(DriverError::Send(_))));
+    assert!(matches!(
+        m.broadcast(read).await,
+        Err(DriverError::Request(RequestError::Send(_)))
+    ));
     // The next telegram to drive 1 is answered normally.
     let mut c = NordClient::new(m, ClientConfig::default());
     assert_eq!(c.read(Address::new(102)).await.unwrap(), 1234);
@@ -463,7 +466,7 @@ async fn start_delay_of_two_characters_at_9600_19200_38400() {
                 .await
                 .unwrap();
         });
-        let master = UssMaster::new(port, DriverConfig::new(addr(1), LAYOUT, line));
+        let master = UssDriver::new(port, DriverConfig::new(addr(1), LAYOUT, line));
         let mut c = NordClient::new(master, ClientConfig::default());
         let n = 20;
         for _ in 0..n {
@@ -531,11 +534,11 @@ async fn no_drive_times_out_after_three_attempts() {
     assert!(
         matches!(
             r,
-            Err(DriverError::Timeout {
+            Err(DriverError::Link(LinkError::Timeout {
                 address: 9,
                 attempts: 3,
                 ..
-            })
+            }))
         ),
         "{r:?}"
     );
@@ -568,7 +571,7 @@ async fn a_corrupted_answer_is_rejected_and_the_telegram_sent_again() {
         drive.serve(wire).await.unwrap();
         drive
     });
-    let mut m = UssMaster::new(port, DriverConfig::new(addr(1), LAYOUT, line));
+    let mut m = UssDriver::new(port, DriverConfig::new(addr(1), LAYOUT, line));
     let answer = m
         .submit(Order::read(102, Ind::ZERO).unwrap().to_pkw())
         .await
@@ -590,7 +593,7 @@ async fn the_three_word_pkw_reads_and_writes_words() {
         drive.serve(wire).await.unwrap();
         drive
     });
-    let m = UssMaster::new(port, DriverConfig::new(addr(8), layout, line));
+    let m = UssDriver::new(port, DriverConfig::new(addr(8), layout, line));
     let mut c = NordClient::new(m, ClientConfig::default());
     c.write(Address::new(102), Width::Word, Storage::Eeprom, 250)
         .await
@@ -605,7 +608,9 @@ async fn the_three_word_pkw_reads_and_writes_words() {
     assert!(matches!(
         c.write(Address::new(102), Width::DoubleWord, Storage::Eeprom, 70000)
             .await,
-        Err(ClientError::Transport(DriverError::Telegram(_)))
+        Err(ClientError::Transport(DriverError::Request(
+            RequestError::Telegram(_)
+        )))
     ));
     drop(c);
     let drive = sim.await.unwrap();
@@ -619,7 +624,7 @@ async fn issue18_a_timeout_names_the_line_and_layout_in_use() {
     let line = LineSettings::new(38400).with_parity(drive_core::line::Parity::None);
     let (port, _wire) = link::pair(LinkConfig::from_line(line));
     let layout = Layout::new(3, 2).unwrap();
-    let mut m = UssMaster::new(port, DriverConfig::new(addr(4), layout, line));
+    let mut m = UssDriver::new(port, DriverConfig::new(addr(4), layout, line));
     let e = m
         .submit(Order::read(102, Ind::ZERO).unwrap().to_pkw())
         .await

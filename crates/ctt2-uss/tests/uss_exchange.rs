@@ -17,7 +17,7 @@ mod bus;
 use std::time::Duration;
 
 use bus::{Bus, Store};
-use ctt2_uss::serial::master::{Master, MasterConfig, MasterEvent, RejectReason, SendError};
+use ctt2_uss::serial::master::{MasterConfig, MasterEvent, RejectReason, SendError, UssMaster};
 use ctt2_uss::serial::slave::{Slave, SlaveConfig, SlaveEvent};
 use ctt2_uss::serial::telegram::{
     Adr, FrameError, Layout, MAX_TELEGRAM, Telegram, UssAddress, bcc,
@@ -41,7 +41,7 @@ fn bus_of(addresses: &[u8]) -> Bus<Store> {
         .iter()
         .map(|&a| Slave::new(SlaveConfig::new(addr(a), L, line()), Store::default()))
         .collect();
-    Bus::new(Master::new(MasterConfig::new(line())), slaves)
+    Bus::new(UssMaster::new(MasterConfig::new(line())), slaves)
 }
 
 fn telegram(adr: Adr, pkw: Pkw) -> Telegram {
@@ -332,7 +332,7 @@ fn the_slave_answers_after_its_response_delay() {
         let mut config = SlaveConfig::new(addr(3), L, line());
         config.response_delay = delay;
         let mut bus = Bus::new(
-            Master::new(MasterConfig::new(line())),
+            UssMaster::new(MasterConfig::new(line())),
             vec![Slave::new(config, Store::default())],
         );
         bus.log = Some(Vec::new());
@@ -425,7 +425,7 @@ fn a_three_word_slave_refuses_a_double_word_it_cannot_send() {
     }
     let l3 = Layout::new(3, 0).unwrap();
     let line = line();
-    let mut master = Master::new(MasterConfig::new(line));
+    let mut master = UssMaster::new(MasterConfig::new(line));
     let mut slave = Slave::new(SlaveConfig::new(addr(1), l3, line), Wide);
     let t = Telegram::new(Adr::new(addr(1)), l3, read(102), &[]).unwrap();
     master.send(t, Instant::ZERO).unwrap();

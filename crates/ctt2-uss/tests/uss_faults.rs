@@ -1,6 +1,6 @@
 //! Fault injection on the USS serial line (drive-transport's link, 8E1, tokio's paused clock).
 //!
-//! 1. **The whole stack** (`UssMaster` under `NordClient` against a simulated NORD drive):
+//! 1. **The whole stack** (`UssDriver` under `NordClient` against a simulated NORD drive):
 //!    0.5 % per character of each fault type the link has (drop, insert, one flipped bit, a
 //!    5 ms delay) in both directions. Every such fault is detectable (parity, LGE and the gap
 //!    and trailing-character rules, BCC, the master's address check), so no value may be
@@ -29,7 +29,7 @@
 )]
 
 use ctt2_uss::client::{Address, ClientConfig, NordClient};
-use ctt2_uss::serial::driver::{DriverConfig, UssMaster};
+use ctt2_uss::serial::driver::{DriverConfig, UssDriver};
 use ctt2_uss::serial::framing::{Side, UssFraming, UssReceiver};
 use ctt2_uss::serial::sim::SimulatedDrive;
 use ctt2_uss::serial::telegram::{Adr, FrameError, Layout, MAX_TELEGRAM, Telegram, UssAddress};
@@ -78,7 +78,7 @@ async fn whole_stack(name: &str, faults: FaultConfig) {
         retries: 4,
         ..DriverConfig::new(a, layout, line)
     };
-    let master = UssMaster::new(port, config);
+    let master = UssDriver::new(port, config);
     let mut c = NordClient::new(master, ClientConfig::default());
     let mut rng = SplitMix64::new(9);
     let ops = 1000 * scale();

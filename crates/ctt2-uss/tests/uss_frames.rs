@@ -556,8 +556,7 @@ fn a_telegram_is_accepted_only_after_the_start_delay_of_silence() {
 
 #[test]
 fn residual_run_time_is_checked() {
-    use ctt2_uss::serial::master::{Master, MasterConfig, MasterEvent, RejectReason};
-    use drive_core::Endpoint;
+    use ctt2_uss::serial::master::{MasterConfig, MasterEvent, RejectReason, UssMaster};
     let l = line(9600);
     let ct = l.char_time().as_nanos() as u64;
     let timing = UssTiming::from_line(&l);
@@ -589,7 +588,7 @@ fn residual_run_time_is_checked() {
     // after STX, each below the gap limit, 22.5 characters of gaps in all (+ 15 characters):
     // over the limit.
     for (gap_tenths, ok) in [(5u64, true), (15, false)] {
-        let mut m = Master::new(MasterConfig::new(l));
+        let mut m = UssMaster::new(MasterConfig::new(l));
         m.send(request, Instant::ZERO).unwrap();
         let mut buf = [0u8; MAX_TELEGRAM];
         let n = m.poll_transmit(Instant::ZERO, &mut buf).unwrap();

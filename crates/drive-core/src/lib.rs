@@ -14,12 +14,19 @@
 //! * [`can`]: classical CAN: [`can::CanFrame`] (an `embedded-can` frame), bit rates, frame
 //!   lengths with bit stuffing, and [`can::CanEndpoint`], the interface of a sans-IO CAN node;
 //! * [`gate`]: [`TxGate`], when the next frame may start on a half-duplex bus;
-//! * [`exchange`]: [`Exchange`], the master's transaction skeleton (attempts, retries, give-up,
-//!   late answers);
+//! * [`exchange`]: [`Exchange`], the transaction skeleton of a character line (attempts,
+//!   retries, give-up, late answers, stale characters);
+//! * [`master`]: the one master every protocol's master is: [`master::Master`], the job/event
+//!   shell (one request in flight, attempts, retries, give-up, late answers, stale input) over a
+//!   small [`master::Protocol`] (prepare, encode, judge a received frame: ours, again, stale,
+//!   foreign, corrupt) and a carrier: [`Exchange`] for characters, [`can::CanExchange`] for CAN
+//!   frames;
 //! * [`Queue`]: the small event queue of the state machines; [`SplitMix64`]: the one seeded
 //!   random generator for fault injection and simulators;
 //! * `rt` (feature `tokio`): the runtime layer: `CharIo`, the byte-stream adapter, the clock
-//!   choice and the serve loop of simulated devices.
+//!   choice, the serve loop of simulated devices and the one runtime driver, `rt::Driver` (a
+//!   sans-IO master on a serial `rt::Port` or a `rt::CanPort`, one transaction at a time),
+//!   which every protocol's async driver is.
 //!
 //! The crate is `no_std` without its default `std` feature, and nothing outside the runtime
 //! layer (`rt`, feature `tokio`) allocates.
@@ -35,6 +42,7 @@ pub mod exchange;
 pub mod framing;
 pub mod gate;
 pub mod line;
+pub mod master;
 mod queue;
 pub mod rng;
 #[cfg(feature = "tokio")]

@@ -14,7 +14,8 @@
 use std::time::Duration;
 
 use drive_core::framing::{FrameTiming, Framing, LineError, Progress, Start};
-use drive_core::rt::{Clock, Failed, Flow, Port, Stream, Tally, Timebase, serve};
+use drive_core::master::Control;
+use drive_core::rt::{Clock, Driver, Failed, Flow, Port, Stream, Tally, Timebase, serve};
 use drive_core::{
     Endpoint, Exchange, ExchangeConfig, ExchangeEvent, Instant, LineSettings, Receiver, RxChar,
     RxEvent, Verdict,
@@ -197,38 +198,39 @@ impl Endpoint for Master {
     }
 }
 
-/// One request through the port's transaction loop ([`Port::transact`]): the answer, or the
-/// attempts after which the master gave up; and what the loop counted.
+impl Control for Master {
+    fn is_idle(&self) -> bool {
+        self.x.is_idle()
+    }
+    fn abort(&mut self, now: Instant) {
+        self.x.abort(now);
+    }
+    fn clear_events(&mut self) {}
+    fn stale(&self) -> u64 {
+        self.x.stale_chars()
+    }
+}
+
+/// One request through the runtime driver's transaction loop ([`Driver::run`]): the answer,
+/// or the attempts after which the master gave up; and what the loop counted.
 async fn run<IO: drive_core::rt::CharIo>(
-    port: &mut Port<IO>,
-    m: &mut Master,
+    driver: &mut Driver<Port<IO>, Master>,
 ) -> (Result<([u8; 8], usize), u16>, Tally) {
-    let mut buf = [0u8; 16];
     let mut tally = Tally::default();
-    let r = port
-        .transact(
-            m,
-            &mut buf,
-            &mut tally,
-            |m| {
-                m.result.take().map(|r| match r {
-                    Ok(frame) => Flow::<_, LineError>::Done(frame),
-                    Err(attempts) => Flow::GaveUp { attempts },
-                })
-            },
-            |m, now| m.x.abort(now),
-        )
+    let r = driver
+        .run(&mut tally, |m| {
+            m.result.take().map(|r| match r {
+                Ok(frame) => Flow::<_, LineError>::Done(frame),
+                Err(attempts) => Flow::GaveUp { attempts },
+            })
+        })
         .await;
     let r = match r {
         Ok(frame) => Ok(frame),
-        Err(Failed::NoAnswer {
-            attempts,
-            last_reject,
-        }) => {
-            assert_eq!(last_reject, None, "nothing answered at all");
-            Err(u16::try_from(attempts).unwrap())
-        }
+        Err(Failed::NoAnswer { attempts }) => Err(u16::try_from(attempts).unwrap()),
+        Err(Failed::Corrupt { reason, .. }) => panic!("nothing answered at all, but {reason:?}"),
         Err(Failed::Io(e)) => panic!("{e}"),
+        Err(Failed::Ended(e)) => match e {},
     };
     (r, tally)
 }
@@ -244,7 +246,7 @@ async fn session(clock: Clock) -> (Vec<(Result<([u8; 8], usize), u16>, Tally)>, 
         unanswered_hold: Duration::ZERO,
         min_idle_gap: Duration::ZERO,
     };
-    let mut master = Master {
+    let master = Master {
         x: Exchange::new(toy, config),
         request: None,
         result: None,
@@ -263,13 +265,15 @@ async fn session(clock: Clock) -> (Vec<(Result<([u8; 8], usize), u16>, Tally)>, 
         serve(&mut stations, &mut time, Stream(b)).await.unwrap();
         stations.iter().map(|s| s.requests).sum::<u32>()
     });
-    let mut port = Port::new(Stream(a), clock, line.char_time());
+    let port = Port::new(Stream(a), clock, line.char_time());
+    let mut driver = Driver::new(port, master);
     let mut results = Vec::new();
     for (address, payload) in [(3u8, [10u8, 20]), (7, [1, 2]), (9, [0, 0])] {
-        master.send(address, &payload, port.now());
-        results.push(run(&mut port, &mut master).await);
+        let now = driver.prepare();
+        driver.master_mut().send(address, &payload, now);
+        results.push(run(&mut driver).await);
     }
-    drop(port);
+    drop(driver);
     (results, stations.await.unwrap())
 }
 
@@ -284,7 +288,7 @@ async fn a_master_and_two_stations_of_another_protocol_on_the_real_clock() {
     // The loop counted one transmission for each answered request, two for the last.
     let tallies: Vec<(u32, u32, u32)> = results
         .iter()
-        .map(|(_, t)| (t.sent, t.retries(), t.rejected))
+        .map(|(_, t)| (t.sent, t.retries, t.rejected))
         .collect();
     assert_eq!(tallies, [(1, 0, 0), (1, 0, 0), (2, 1, 0)]);
 }
@@ -464,7 +468,7 @@ async fn the_virtual_clock_measures_a_gap_limit_from_the_last_character() {
         unanswered_hold: Duration::ZERO,
         min_idle_gap: Duration::ZERO,
     };
-    let mut master = Master {
+    let master = Master {
         x: Exchange::new(toy, config),
         request: None,
         result: None,
@@ -478,9 +482,11 @@ async fn the_virtual_clock_measures_a_gap_limit_from_the_last_character() {
             b,
         )
     });
-    let mut port = Port::new(Scripted::new(script), Clock::Virtual, line.char_time());
-    master.send(3, &[0, 1, 2, 3, 4, 5], port.now());
-    let (result, _) = run(&mut port, &mut master).await;
+    let port = Port::new(Scripted::new(script), Clock::Virtual, line.char_time());
+    let mut driver = Driver::new(port, master);
+    let now = driver.prepare();
+    driver.master_mut().send(3, &[0, 1, 2, 3, 4, 5], now);
+    let (result, _) = run(&mut driver).await;
     assert_eq!(
         result.map(|r| r.0[..7].to_vec()),
         Ok(vec![3, 1, 2, 3, 4, 5, 6])
@@ -852,14 +858,16 @@ async fn stale_session(line: Line) -> (Result<([u8; 8], usize), u16>, Tally) {
         unanswered_hold: Duration::ZERO,
         min_idle_gap: Duration::ZERO,
     };
-    let mut master = Master {
+    let master = Master {
         x: Exchange::new(Toy { line: settings }, config),
         request: None,
         result: None,
     };
-    let mut port = Port::new(line, Clock::Real, settings.char_time());
-    master.send(3, &[10, 20], port.now());
-    run(&mut port, &mut master).await
+    let port = Port::new(line, Clock::Real, settings.char_time());
+    let mut driver = Driver::new(port, master);
+    let now = driver.prepare();
+    driver.master_mut().send(3, &[10, 20], now);
+    run(&mut driver).await
 }
 
 fn frame(address: u8, payload: &[u8]) -> Vec<u8> {

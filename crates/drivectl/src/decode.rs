@@ -13,6 +13,7 @@
 use drive_profile::Family;
 use serde_json::{Map, Value, json};
 
+use crate::error::{CliError, Result};
 use crate::tool::client::Target;
 use crate::tool::output::value_json;
 
@@ -313,6 +314,168 @@ impl Telegram {
         }
         Value::Object(m)
     }
+}
+
+// The input every decoder reads: hex bytes from arguments, a file or standard input.
+
+/// A capture: the bytes, and for input read from a file or stdin the line each byte came from.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct Capture {
+    /// The bytes in input order.
+    pub bytes: Vec<u8>,
+    /// 1-based input line of each byte; empty for bytes given as arguments.
+    pub lines: Vec<usize>,
+}
+
+impl Capture {
+    /// The input line of the byte at `offset`, if the capture came from lines.
+    pub fn line_of(&self, offset: usize) -> Option<usize> {
+        self.lines.get(offset).copied()
+    }
+
+    /// Offsets (after 0) where a new input line starts: a telegram does not cross one unless
+    /// its check character proves it was wrapped.
+    pub fn line_starts(&self) -> Vec<usize> {
+        self.lines
+            .windows(2)
+            .enumerate()
+            .filter(|(_, w)| w.first() != w.get(1))
+            .map(|(i, _)| i + 1)
+            .collect()
+    }
+}
+
+/// Characters between bytes or groups of bytes: white space, commas and colons.
+fn is_separator(c: char) -> bool {
+    c.is_whitespace() || c == ',' || c == ':'
+}
+
+/// The tokens of `text` with the 1-based column (in characters) where each starts.
+fn tokens(text: &str) -> Vec<(usize, &str)> {
+    let mut out = Vec::new();
+    let mut start: Option<(usize, usize)> = None;
+    for (col, (i, c)) in text.char_indices().enumerate() {
+        match (is_separator(c), start) {
+            (true, Some((s, s_col))) => {
+                out.push((s_col + 1, text.get(s..i).unwrap_or("")));
+                start = None;
+            }
+            (false, None) => start = Some((i, col)),
+            _ => {}
+        }
+    }
+    if let Some((s, s_col)) = start {
+        out.push((s_col + 1, text.get(s..).unwrap_or("")));
+    }
+    out
+}
+
+/// The bytes of one token: hex digits in pairs, optionally after one `0x`/`0X` prefix
+/// (`02`, `0x02`, `020186`, `0x020186`). `place` says where the token is, for the message.
+fn token_bytes(token: &str, place: &str, out: &mut Vec<u8>) -> Result<()> {
+    // What the input holds is shown without its control characters.
+    let shown = escape(token);
+    let place = escape(place);
+    let digits = token
+        .strip_prefix("0x")
+        .or_else(|| token.strip_prefix("0X"))
+        .unwrap_or(token);
+    if let Some(bad) = digits.chars().find(|c| !c.is_ascii_hexdigit()) {
+        return Err(CliError::usage(format!(
+            "{place}: `{shown}` is not hex (`{}` is not a hex digit); give bytes like \
+             `02 01 86`, `020186` or `0x02,0x01,0x86`",
+            escape(&bad.to_string())
+        )));
+    }
+    if digits.is_empty() {
+        return Err(CliError::usage(format!(
+            "{place}: `{shown}` has no hex digits after the prefix"
+        )));
+    }
+    if digits.len() % 2 == 1 {
+        return Err(CliError::usage(format!(
+            "{place}: `{shown}` has an odd number of hex digits ({}); a byte is two digits \
+             (`02`, not `2`), so a digit is missing or left over",
+            digits.len()
+        )));
+    }
+    for pair in digits.as_bytes().chunks(2) {
+        let byte = std::str::from_utf8(pair)
+            .ok()
+            .and_then(|s| u8::from_str_radix(s, 16).ok())
+            .ok_or_else(|| CliError::usage(format!("{place}: `{shown}` is not hex")))?;
+        out.push(byte);
+    }
+    Ok(())
+}
+
+/// Parse hex arguments: `02 01 85`, `020185`, `0x02,0x01` and mixtures. Every token must be
+/// whole bytes: an odd number of digits or a non-hex character (a leading `-` too) is an error
+/// naming the argument and the token.
+pub fn parse_hex(args: &[String]) -> Result<Vec<u8>> {
+    let mut bytes = Vec::new();
+    for (n, a) in args.iter().enumerate() {
+        for (col, token) in tokens(a) {
+            let place = if args.len() == 1 {
+                format!("column {col}")
+            } else {
+                format!("argument {}, column {col}", n + 1)
+            };
+            token_bytes(token, &place, &mut bytes)?;
+        }
+    }
+    if bytes.is_empty() {
+        return Err(CliError::usage(
+            "no bytes given; give a telegram like `02 01 86 …`",
+        ));
+    }
+    Ok(bytes)
+}
+
+/// Parse a capture read from a file or stdin (`source` names it in messages): hex bytes as
+/// for [`parse_hex`], one telegram per line or a stream over several lines. A UTF-8 byte order
+/// mark, CR LF line ends, blank lines and `#` comments (to the end of the line) are allowed.
+pub fn parse_text(text: &str, source: &str) -> Result<Capture> {
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+    let mut capture = Capture::default();
+    for (n, line) in text.lines().enumerate() {
+        let content = line.split_once('#').map_or(line, |(before, _)| before);
+        let before = capture.bytes.len();
+        for (col, token) in tokens(content) {
+            let place = format!("{source} line {}, column {col}", n + 1);
+            token_bytes(token, &place, &mut capture.bytes)?;
+        }
+        let added = capture.bytes.len() - before;
+        capture.lines.extend(std::iter::repeat_n(n + 1, added));
+    }
+    if capture.bytes.is_empty() {
+        return Err(CliError::usage(format!(
+            "{source} holds no bytes; give hex like `02 01 86 …`, one telegram per line"
+        )));
+    }
+    Ok(capture)
+}
+
+/// The largest capture read (64 MiB of hex text: about 1.7 million telegrams).
+const MAX_CAPTURE: u64 = 64 << 20;
+
+/// Read a capture from `path`, or from standard input for `-` (a device node, or more than
+/// [`MAX_CAPTURE`], is refused).
+pub fn read_capture(path: &str) -> Result<Capture> {
+    let raw = crate::tool::infile::read_limited(std::path::Path::new(path), true, MAX_CAPTURE)?;
+    let source = if path == "-" {
+        "standard input".to_owned()
+    } else {
+        escape(path)
+    };
+    let text = String::from_utf8(raw).map_err(|e| {
+        CliError::usage(format!(
+            "{source} is not text (byte {} is not UTF-8); give hex like `02 01 86 …`, \
+             one telegram per line",
+            e.utf8_error().valid_up_to()
+        ))
+    })?;
+    parse_text(&text, &source)
 }
 
 #[cfg(test)]

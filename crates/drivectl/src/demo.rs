@@ -167,7 +167,7 @@ async fn movilink_session() -> Result<()> {
     use crate::tool::output::print_value;
     use drive_profile::sew::{ControlWord1, StatusWord1, index};
     use drive_transport::link::{LinkConfig, pair};
-    use movilink::driver::{DriverConfig, MasterDriver};
+    use movilink::driver::{DriverConfig, MovilinkDriver as MasterDriver, ParamServices};
     use movilink::sim;
     use movilink::{Address, PduType, Telegram};
     use std::time::Duration;
@@ -296,7 +296,7 @@ async fn sbus_session() -> Result<()> {
     use drive_core::can::Bitrate;
     use drive_profile::sew::{ControlWord1, ParamChannel, StatusWord1, index, speed_from_word};
     use drive_transport::can::virtual_bus::VirtualBus;
-    use sbus_can::driver::SbusMaster;
+    use sbus_can::driver::{ParamServices, SbusDriver};
     use sbus_can::ids::{Kind, SlaveIds};
     use sbus_can::master::{Handshake, MasterConfig};
     use sbus_can::movlnk::{MlData, MovlnkCommand};
@@ -319,7 +319,7 @@ async fn sbus_session() -> Result<()> {
         .movlnk_handle(1)
         .ok_or_else(|| bad("no simulated drive 1".into()))?;
     let sim = tokio::spawn(async move { drives.serve(drives_node).await });
-    let mut m = SbusMaster::new(vbus.node(), MasterConfig::default());
+    let mut m = SbusDriver::new(vbus.node(), MasterConfig::default());
     let started = Instant::now();
     let ms = |t: Instant| t.saturating_duration_since(started).as_secs_f64() * 1e3;
     let (d1, d2) = (addr(1)?, addr(2)?);
@@ -556,7 +556,7 @@ async fn sbus_session() -> Result<()> {
 /// 19200-baud wire timing, in Modbus RTU and then ASCII: the manual's examples, an exception
 /// with its VABus cause, the diagnostic counters, and (RTU) a run-up through the state machine.
 async fn bonfiglioli_session() -> Result<()> {
-    use bonfiglioli_modbus::driver::{DriverConfig, DriverError, MasterDriver};
+    use bonfiglioli_modbus::driver::{DriverConfig, DriverError, ModbusDriver as MasterDriver};
     use bonfiglioli_modbus::frame::{Address, DataSet, DiagSubFunction};
     use bonfiglioli_modbus::framing::Mode;
     use bonfiglioli_modbus::sim;
@@ -659,7 +659,7 @@ async fn bonfiglioli_session() -> Result<()> {
             stats.transactions,
             stats.retries,
             stats.timeouts,
-            stats.exceptions,
+            stats.device_errors,
             started.elapsed().as_secs_f64()
         )?;
         drop(m);
@@ -682,13 +682,13 @@ async fn nord_session() -> Result<()> {
     use crate::nord::{NordParamClient, Sub, resolve, state_text};
     use crate::tool::client::ParamClient;
     use ctt2_uss::client::{ClientConfig, NordClient};
-    use ctt2_uss::ctt2::link::{SimLink, SimulatedDoubleSlave};
-    use ctt2_uss::ctt2::master::{Ctt2Master, MasterConfig};
+    use ctt2_uss::ctt2::link::{SimulatedDoubleSlave, SimulatedLink};
+    use ctt2_uss::ctt2::master::{Ctt2Driver, DriverConfig};
     use drive_profile::Persistence;
     use drive_profile::nord::{ControlWord, State, command};
 
     let failed = |e: &dyn std::fmt::Display| CliError::failed(format!("demo: {e}"));
-    let link = SimLink::new(SimulatedDoubleSlave::default(), 2).map_err(|e| failed(&e))?;
+    let link = SimulatedLink::new(SimulatedDoubleSlave::default(), 2).map_err(|e| failed(&e))?;
     let byte = link.byte_time();
     outln!(
         "== NORD session: CTT2 through a simulated AS-i master ↔ NORDAC LINK double slave 1A/1B, 2 \
@@ -697,7 +697,7 @@ async fn nord_session() -> Result<()> {
     )?;
     let started = tokio::time::Instant::now();
     let ms = || trim_float(started.elapsed().as_secs_f64() * 1e3, 0);
-    let mut master = Ctt2Master::new(link, MasterConfig::default());
+    let mut master = Ctt2Driver::new(link, DriverConfig::default());
     let id = master.read_id_object().await.map_err(|e| failed(&e))?;
     outln!(
         "  ID object: manufacturer 0x{:04X}, device 0x{:04X}, drive firmware {}.{}, configuration \

@@ -16,7 +16,8 @@ use std::hint::black_box;
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use movilink::{
-    Address, Master, MasterConfig, MasterEvent, ParamChannel, PduType, Slave, SlaveConfig, Telegram,
+    Address, MasterConfig, MasterEvent, MovilinkMaster, ParamChannel, PduType, Slave, SlaveConfig,
+    Telegram,
 };
 
 #[path = "../tests/protocol/bus.rs"]
@@ -53,7 +54,7 @@ fn exchange(c: &mut Criterion) {
     g.throughput(Throughput::Elements(1));
     let drive = Address::new(1).unwrap_or(Address::BROADCAST);
     let mut bus = bus::Bus::new(
-        Master::new(MasterConfig::default()),
+        MovilinkMaster::new(MasterConfig::default()),
         Slave::new(SlaveConfig::new(drive), bus::TestDrive::default()),
     );
     let req =

@@ -13,7 +13,7 @@ use std::time::{Duration, Instant};
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use drive_transport::link::{self, LinkConfig};
-use movilink::driver::{Clock, DriverConfig, MasterDriver, Stream};
+use movilink::driver::{Clock, DriverConfig, MovilinkDriver, ParamServices, Stream};
 use movilink::sim::SimulatedMovidrive;
 use movilink::{Address, ParamChannel, PduType, Telegram};
 
@@ -32,7 +32,7 @@ fn untimed_reads(c: &mut Criterion) {
         clock: Clock::Virtual,
         ..DriverConfig::default()
     };
-    let mut driver = MasterDriver::new(Stream(a), config);
+    let mut driver = MovilinkDriver::new(Stream(a), config);
     let Some(drive) = Address::new(1) else { return };
     let mut g = c.benchmark_group("driver");
     g.bench_function("read_untimed_duplex", |bench| {
@@ -68,7 +68,7 @@ fn cyclic_virtual(c: &mut Criterion) {
         let (port, wire) = link::pair(LinkConfig::new(9600));
         let mut sim = SimulatedMovidrive::new(1);
         tokio::spawn(async move { sim.serve(wire).await });
-        MasterDriver::new(port, DriverConfig::default())
+        MovilinkDriver::new(port, DriverConfig::default())
     });
     let request = Telegram::request(drive, PduType::PARAM_3PD)
         .with_param(ParamChannel::no_service())

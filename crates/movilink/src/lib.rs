@@ -14,7 +14,7 @@
 //!   receiver of `drive-core`, every receive error of the manual as a [`RejectReason`];
 //! * [`master`] and [`slave`]: state machines in the quinn-proto style (`send`/`handle_char`/
 //!   `handle_timeout` in, `poll_transmit(now, …)`/`poll_timeout`/`poll_event` out); the master
-//!   runs on `drive-core`'s transaction skeleton ([`drive_core::Exchange`]), both are
+//!   is `drive-core`'s one master ([`drive_core::master::Master`]) with MOVILINK's checks, both are
 //!   [`drive_core::Endpoint`]s.
 //!
 //! The parameter channel, its services and return codes are SEW's, shared with SBus and the
@@ -27,8 +27,9 @@
 //!
 //! Optional layers on top:
 //!
-//! * `tokio`: `driver`, the async master (`MasterDriver`) over any `CharIo` of the runtime
-//!   layer (the in-memory wire model of `drive-transport`, serial ports, ptys);
+//! * `tokio`: `driver`, the async master (`MovilinkDriver`, drive-core's runtime driver) over
+//!   any `CharIo` of the runtime layer (the in-memory wire model of `drive-transport`, serial
+//!   ports, ptys), with the SEW parameter services of `drive_profile::sew::ParamServices`;
 //! * `sim`: `sim`, simulated MOVIDRIVE drives answering on a `CharIo`.
 //!
 //! ```
@@ -67,7 +68,7 @@ pub use frame::{
     Address, AddressKind, AttributeInfo, DataLength, Direction, MAX_TELEGRAM_LEN, MIN_TELEGRAM_LEN,
     Management, ParamChannel, PduType, SD1, SD2, ScaleInfo, Service, Telegram,
 };
-pub use master::{Master, MasterConfig, MasterEvent, SendError};
+pub use master::{MasterConfig, MasterEvent, MovilinkMaster, SendError};
 pub use receiver::{AddressFilter, Receiver, RxChar, RxEvent, TelegramFraming};
 pub use slave::{Backend, RequestContext, Slave, SlaveConfig, SlaveEvent};
 pub use timing::{Instant, LineTiming, TxGate};

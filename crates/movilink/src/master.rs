@@ -2,24 +2,26 @@
 //!
 //! One request is in flight at a time. The driver around it:
 //!
-//! 1. calls [`Master::send`] with a request telegram,
-//! 2. writes what [`Master::poll_transmit`] returns to the port (the bytes start on the wire at
-//!    the time given to it),
-//! 3. feeds received characters to [`Master::handle_char`] / [`Master::handle_rx`],
-//! 4. calls [`Master::handle_timeout`] when the time of [`Master::poll_timeout`] is reached,
-//! 5. drains [`Master::poll_event`] after each call.
+//! 1. calls `send` with a request telegram,
+//! 2. writes what `poll_transmit` returns to the port (the bytes start on the wire at the time
+//!    given to it),
+//! 3. feeds received characters to `handle_char` / `handle_rx`,
+//! 4. calls `handle_timeout` when the time of `poll_timeout` is reached,
+//! 5. drains `poll_event` after each call.
 //!
-//! The transaction skeleton (gate, response timeout, retries, give-up, late answers) is
-//! [`drive_core::Exchange`], shared with every protocol; this module adds MOVILINK's checks and
-//! its cyclic handshake. What it enforces:
+//! [`MovilinkMaster`] is drive-core's one master ([`drive_core::master::Master`]: one request
+//! in flight, attempts, retries, give-up, late answers, stale characters) on the transaction
+//! skeleton of a line ([`drive_core::Exchange`]: gate, response timeout), shared with every
+//! protocol; this module is only MOVILINK's part of it, [`Movilink`]: its checks and its
+//! cyclic handshake. What it enforces:
 //!
-//! * a start pause after the last bus activity before each request ([`TxGate`]),
+//! * a start pause after the last bus activity before each request ([`TxGate`](crate::timing::TxGate)),
 //! * the response timeout (default 50 ms, the manual's maximum response delay) from the end of
 //!   the request's BCC to the start of the response's SD2,
 //! * acceptance of a response only with SD2, the request's address (for a point-to-point
 //!   request to 254 also any unicast address), the request's PDU type and a correct BCC, and
 //!   only once the quiet line after its BCC confirmed its end (see [`Receiver`](crate::receiver::Receiver); reported by
-//!   [`Master::handle_timeout`] at the time of [`Master::poll_timeout`]),
+//!   `handle_timeout` at the time of `poll_timeout`),
 //! * retries after a timeout or a rejected response, up to [`MasterConfig::retries`] (then
 //!   [`MasterEvent::Timeout`], also with 255 retries), each at least two start pauses after the
 //!   last bus activity,
@@ -36,16 +38,18 @@
 
 use core::time::Duration;
 
-use drive_core::{Endpoint, Exchange, ExchangeConfig, ExchangeEvent, Queue, Verdict};
+use drive_core::exchange::Busy;
+use drive_core::master::{self, CharProtocol, Configure, Judgement, Protocol};
+use drive_core::{Exchange, ExchangeConfig, Queue};
 use drive_profile::sew::{Echo, MasterHandshake, Prepared};
 
 use crate::codec;
 use crate::error::{RejectReason, ReturnCode};
 use crate::frame::{Address, Direction, MAX_TELEGRAM_LEN, ParamChannel, Telegram};
-use crate::receiver::{AddressFilter, RxChar, TelegramFraming};
-use crate::timing::{BROADCAST_SPACING, DEFAULT_RESPONSE_TIMEOUT, Instant, LineTiming, TxGate};
+use crate::receiver::{AddressFilter, TelegramFraming};
+use crate::timing::{BROADCAST_SPACING, DEFAULT_RESPONSE_TIMEOUT, LineTiming};
 
-/// Configuration of a [`Master`].
+/// Configuration of a [`MovilinkMaster`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct MasterConfig {
     /// Response timeout: from the end of the request to the start of the response. The manual
@@ -85,7 +89,7 @@ impl MasterConfig {
     }
 }
 
-/// What happened; drained with [`Master::poll_event`].
+/// What happened; drained with the master's `poll_event`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[non_exhaustive]
 pub enum MasterEvent {
@@ -118,7 +122,7 @@ pub enum MasterEvent {
     },
 }
 
-/// Why [`Master::send`] refused a telegram.
+/// Why the master's `send` refused a telegram.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, thiserror::Error)]
 #[non_exhaustive]
 pub enum SendError {
@@ -130,8 +134,15 @@ pub enum SendError {
     NotARequest,
 }
 
+impl From<Busy> for SendError {
+    fn from(_: Busy) -> Self {
+        SendError::Busy
+    }
+}
+
+/// A request in flight: the telegram as transmitted and where its handshake stands.
 #[derive(Debug, Clone, Copy)]
-struct Job {
+pub struct Job {
     /// The request as transmitted (handshake bit applied).
     request: Telegram,
     /// The user's parameter channel while a "no service" exchange learns the drive's handshake.
@@ -142,15 +153,49 @@ struct Job {
     cycles: u16,
 }
 
-/// The master state machine; see the [module docs](self).
+impl Job {
+    /// The request as it is transmitted next.
+    pub fn request(&self) -> &Telegram {
+        &self.request
+    }
+
+    /// Replace the process data of the request (used by its next transmission, e.g. the next
+    /// cycle of a cyclic parameter service).
+    pub fn set_process_data(&mut self, words: &[u16]) {
+        self.request.set_process_data(words);
+    }
+}
+
+/// An answer taken: the response telegram, and the parameter service's result when it
+/// completed one.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Reply {
+    /// The response.
+    pub telegram: Telegram,
+    /// The parameter service's result (the data, or the drive's return code).
+    pub param: Option<Result<u32, ReturnCode>>,
+}
+
+/// A cyclic parameter service that the drive never executed (its handshake bit was not echoed).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct NotExecuted {
+    /// Exchanges made.
+    pub cycles: u16,
+}
+
+/// The master state machine; see the [module docs](self): drive-core's one master with
+/// [`Movilink`] on a line, an [`Endpoint`](drive_core::Endpoint). Its
+/// [`stale_chars`](master::Master::stale_chars) counts what came before the request had left
+/// (a process-data response does not say which request it answers); the request in flight is
+/// its [`request_mut`](master::Master::request_mut) (a [`Job`]).
 ///
 /// ```
-/// use movilink::master::{Master, MasterConfig, MasterEvent};
+/// use movilink::master::{MovilinkMaster, MasterConfig, MasterEvent};
 /// use movilink::receiver::RxChar;
 /// use movilink::timing::Instant;
 /// use movilink::{codec, Address, ParamChannel, PduType, Telegram};
 ///
-/// let mut m = Master::new(MasterConfig::default());
+/// let mut m = MovilinkMaster::new(MasterConfig::default());
 /// let drive = Address::new(1).unwrap();
 /// let req = Telegram::request(drive, PduType::PARAM_0PD_ACYCLIC).with_param(ParamChannel::read(8318));
 /// m.send(req, Instant::ZERO).unwrap();
@@ -174,19 +219,22 @@ struct Job {
 /// assert_eq!(m.poll_event(), Some(MasterEvent::ParamDone(Ok(1500))));
 /// assert!(m.is_idle());
 /// ```
+pub type MovilinkMaster = master::Master<Movilink, Exchange<TelegramFraming, MAX_TELEGRAM_LEN>>;
+
+/// MOVILINK's part of the master: the checks of a response and the cyclic handshake of every
+/// drive.
 #[derive(Debug, Clone)]
-pub struct Master {
+pub struct Movilink {
     config: MasterConfig,
-    exchange: Exchange<TelegramFraming, MAX_TELEGRAM_LEN>,
-    job: Option<Job>,
     /// Every drive's handshake bit (cyclic PDU types).
     handshake: MasterHandshake,
-    events: Queue<MasterEvent, 8>,
 }
 
-impl Master {
-    /// A master with `config`; the bus is assumed idle.
-    pub fn new(config: MasterConfig) -> Self {
+impl Configure for Movilink {
+    type Config = MasterConfig;
+    type Carrier = Exchange<TelegramFraming, MAX_TELEGRAM_LEN>;
+
+    fn build(config: MasterConfig) -> (Self, Self::Carrier) {
         let framing = TelegramFraming::new(
             Direction::Response,
             AddressFilter::Master {
@@ -194,66 +242,34 @@ impl Master {
             },
             config.timing,
         );
-        Self {
-            exchange: Exchange::new(framing, config.exchange()),
-            job: None,
-            handshake: MasterHandshake::new(),
-            events: Queue::new(),
+        let movilink = Movilink {
             config,
-        }
+            handshake: MasterHandshake::new(),
+        };
+        (movilink, Exchange::new(framing, config.exchange()))
     }
 
-    /// The configuration.
-    pub fn config(&self) -> &MasterConfig {
+    fn config(&self) -> &MasterConfig {
         &self.config
     }
+}
 
-    /// Whether no request is in flight (a new one may be sent).
-    pub fn is_idle(&self) -> bool {
-        self.job.is_none()
-    }
+impl Protocol for Movilink {
+    type Input = Telegram;
+    type Request = Job;
+    type Frame = Telegram;
+    type Answer = Reply;
+    type Reason = RejectReason;
+    type Failure = NotExecuted;
+    type Event = MasterEvent;
+    type SendError = SendError;
 
-    /// Change the response timeout; applies from the next transmission on (e.g. a short one
-    /// for an address scan).
-    pub fn set_response_timeout(&mut self, timeout: Duration) {
-        self.config.response_timeout = timeout;
-        self.exchange.set_response_timeout(timeout);
-    }
-
-    /// Change the number of retransmissions; applies to the request in flight too.
-    pub fn set_retries(&mut self, retries: u8) {
-        self.config.retries = retries;
-        self.exchange.set_retries(retries);
-    }
-
-    /// Whether a request was transmitted and its response is awaited (as opposed to a request
-    /// waiting for the bus, or no request).
-    pub fn is_awaiting_response(&self) -> bool {
-        self.exchange.is_awaiting_response()
-    }
-
-    /// Characters received so far that were never taken as a response because they arrived
-    /// while a request waited for the bus or before it had completely left the wire (a
-    /// process-data response does not say which request it answers).
-    pub fn stale_chars(&self) -> u64 {
-        self.exchange.stale_chars()
-    }
-
-    /// The bus gate (earliest start of the next telegram).
-    pub fn gate(&self) -> &TxGate {
-        self.exchange.gate()
-    }
-
-    /// Start a request at `now`. See the [module docs](self) for the handshake handling of
-    /// cyclic PDU types (the handshake bit of `request` is replaced).
-    pub fn send(&mut self, request: Telegram, now: Instant) -> Result<(), SendError> {
-        if self.job.is_some() {
-            return Err(SendError::Busy);
-        }
+    /// A request telegram, its handshake bit replaced for a cyclic PDU type (see the
+    /// [module docs](self)).
+    fn prepare(&mut self, request: Telegram) -> Result<Job, SendError> {
         if request.direction() != Direction::Request {
             return Err(SendError::NotARequest);
         }
-        self.exchange.begin(now).map_err(|_| SendError::Busy)?;
         let mut request = request;
         let address = request.address();
         let cyclic = request.pdu_type().is_cyclic();
@@ -272,233 +288,130 @@ impl Master {
                 }
             }
         }
-        self.job = Some(Job {
+        Ok(Job {
             request,
             deferred,
             param_job,
             cycles: 0,
-        });
-        Ok(())
+        })
     }
 
-    /// Replace the process data of the request in flight (used by its next transmission,
-    /// e.g. the next cycle of a cyclic parameter service). False if no request is in flight.
-    pub fn set_process_data(&mut self, words: &[u16]) -> bool {
-        match &mut self.job {
-            Some(job) => {
-                job.request.set_process_data(words);
-                true
-            }
-            None => false,
-        }
-    }
-
-    /// The driver could not finish writing the request at `now` (the telegram on the wire is
-    /// broken): the request is dropped and the next one waits two start pauses.
-    pub fn abort(&mut self, now: Instant) {
-        self.job = None;
-        self.exchange.abort(now);
-    }
-
-    /// The next request telegram, if one is due at `now` (`buf` must hold
-    /// [`MAX_TELEGRAM_LEN`] bytes; a smaller buffer gets nothing). Returns the number of
-    /// bytes written; they start on the wire at `now`.
     #[inline]
-    pub fn poll_transmit(&mut self, now: Instant, buf: &mut [u8]) -> Option<usize> {
-        let request = self.job.as_ref()?.request;
-        if !self.exchange.may_transmit(now) {
-            return None;
-        }
-        let n = codec::encode(&request, buf).ok()?;
-        let address = request.address();
-        let answered = address.expects_response();
-        if answered {
-            self.exchange.receiver_mut().framing_mut().filter =
-                AddressFilter::Master { expected: address };
-        }
-        self.exchange.transmitted(n, answered);
-        if !answered {
-            self.job = None;
-            self.events.push(MasterEvent::Sent { address });
-        }
-        Some(n)
+    fn answered(&self, job: &Job) -> bool {
+        job.request.address().expects_response()
     }
 
-    /// When [`Master::handle_timeout`] (or [`Master::poll_transmit`]) has work to do.
-    #[inline]
-    pub fn poll_timeout(&self) -> Option<Instant> {
-        self.job.as_ref()?;
-        self.exchange.poll_timeout()
-    }
-
-    /// The next event.
-    #[inline]
-    pub fn poll_event(&mut self) -> Option<MasterEvent> {
-        self.events.pop()
-    }
-
-    /// Feed characters received from the bus.
-    pub fn handle_rx(&mut self, chars: &[RxChar]) {
-        for c in chars {
-            self.handle_char(*c);
-        }
-    }
-
-    /// Feed one character received from the bus.
-    #[inline]
-    pub fn handle_char(&mut self, c: RxChar) {
-        if let Some(ev) = self.exchange.handle_char(c) {
-            self.on_exchange(ev);
-        }
-    }
-
-    /// Advance the time to `now`: transmissions may become due, a response may time out.
-    #[inline]
-    pub fn handle_timeout(&mut self, now: Instant) {
-        if let Some(ev) = self.exchange.handle_timeout(now) {
-            self.on_exchange(ev);
-        }
-    }
-
-    fn on_exchange(&mut self, ev: ExchangeEvent<Telegram, RejectReason>) {
-        match ev {
-            ExchangeEvent::Frame(t) => self.on_response(t),
-            ExchangeEvent::Rejected(r, verdict) => {
-                self.events.push(MasterEvent::Rejected(r));
-                self.on_verdict(verdict);
-            }
-            ExchangeEvent::NoAnswer(verdict) => self.on_verdict(verdict),
-        }
-    }
-
-    fn on_verdict(&mut self, verdict: Verdict) {
-        if let Verdict::GiveUp { attempts } = verdict {
-            self.events.push(MasterEvent::Timeout { attempts });
-            self.job = None;
-        }
-    }
-
-    /// The current exchange failed: retry or give up.
-    fn fail_attempt(&mut self) {
-        let verdict = self.exchange.fail();
-        self.on_verdict(verdict);
-    }
-
-    fn done(&mut self) {
-        self.exchange.complete();
-        self.job = None;
-    }
-
-    fn on_response(&mut self, response: Telegram) {
-        let Some(mut job) = self.job else { return };
+    fn judge(
+        &mut self,
+        job: &mut Job,
+        response: Telegram,
+    ) -> Judgement<Reply, RejectReason, NotExecuted> {
         let sent_type = job.request.pdu_type();
         if response.pdu_type() != sent_type {
-            self.events
-                .push(MasterEvent::Rejected(RejectReason::PduTypeMismatch {
-                    expected: sent_type.raw(),
-                    got: response.pdu_type().raw(),
-                }));
-            self.fail_attempt();
-            return;
+            return Judgement::Corrupt(RejectReason::PduTypeMismatch {
+                expected: sent_type.raw(),
+                got: response.pdu_type().raw(),
+            });
         }
+        let reply = |param| Reply {
+            telegram: response,
+            param,
+        };
         let (Some(sent), Some(got)) = (job.request.param(), response.param()) else {
-            self.events
-                .push(MasterEvent::Response { telegram: response });
-            self.done();
-            return;
+            return Judgement::Ours(reply(None));
         };
         if !sent_type.is_cyclic() {
             if job.param_job && !sent.is_answered_by(&got) {
-                self.events
-                    .push(MasterEvent::Rejected(RejectReason::ParamMismatch));
-                self.fail_attempt();
-                return;
+                return Judgement::Corrupt(RejectReason::ParamMismatch);
             }
-            self.events
-                .push(MasterEvent::Response { telegram: response });
-            if job.param_job {
-                self.events.push(MasterEvent::ParamDone(got.result()));
-            }
-            self.done();
-            return;
+            return Judgement::Ours(reply(job.param_job.then(|| got.result())));
         }
         // Cyclic: learn the drive's handshake bit.
         let address = job.request.address();
         self.handshake
             .learn(address.get(), got.management.handshake());
-        self.events
-            .push(MasterEvent::Response { telegram: response });
         if let Some(real) = job.deferred.take() {
             if let Some(p) = job.request.param_mut() {
                 *p = real.with_handshake(!got.management.handshake());
             }
-            self.requeue(job);
-        } else if !job.param_job {
-            self.done();
-        } else if MasterHandshake::echo(&sent, &got) == Echo::Done {
-            self.events.push(MasterEvent::ParamDone(got.result()));
-            self.done();
+            return Judgement::Again(reply(None), None);
+        }
+        if !job.param_job {
+            return Judgement::Ours(reply(None));
+        }
+        let echo = MasterHandshake::echo(&sent, &got);
+        if echo == Echo::Done {
+            return Judgement::Ours(reply(Some(got.result())));
+        }
+        let mut note = None;
+        if echo == Echo::Stale {
+            // The drive already holds the sent bit from an earlier service (our record of its
+            // bit was stale, e.g. after a request whose responses were all lost): it repeats
+            // that service's answer and will not execute ours until the bit toggles again.
+            note = Some(RejectReason::ParamMismatch);
+            if let Some(p) = job.request.param_mut() {
+                *p = p.with_handshake(!got.management.handshake());
+            }
+        }
+        job.cycles = job.cycles.saturating_add(1);
+        if job.cycles >= self.config.max_handshake_cycles {
+            Judgement::Abandon(reply(None), note, NotExecuted { cycles: job.cycles })
         } else {
-            if MasterHandshake::echo(&sent, &got) == Echo::Stale {
-                // The drive already holds the sent bit from an earlier service (our record of
-                // its bit was stale, e.g. after a request whose responses were all lost): it
-                // repeats that service's answer and will not execute ours until the bit
-                // toggles again.
-                self.events
-                    .push(MasterEvent::Rejected(RejectReason::ParamMismatch));
-                if let Some(p) = job.request.param_mut() {
-                    *p = p.with_handshake(!got.management.handshake());
-                }
-            }
-            job.cycles = job.cycles.saturating_add(1);
-            if job.cycles >= self.config.max_handshake_cycles {
-                self.events
-                    .push(MasterEvent::ParamNotExecuted { cycles: job.cycles });
-                self.done();
-            } else {
-                self.requeue(job);
-            }
+            Judgement::Again(reply(None), note)
         }
     }
 
-    /// Next exchange of the same job (handshake cycle): a fresh set of attempts.
-    fn requeue(&mut self, job: Job) {
-        self.job = Some(job);
-        self.exchange.requeue();
+    fn settings_changed(&mut self, response_timeout: Duration, retries: u8) {
+        (self.config.response_timeout, self.config.retries) = (response_timeout, retries);
+    }
+
+    /// The shell's events in MOVILINK's words: a response, then the parameter service's result
+    /// when it completed one.
+    fn report(
+        &mut self,
+        job: &Job,
+        event: master::MasterEvent<Reply, RejectReason, NotExecuted>,
+        events: &mut Queue<MasterEvent, { master::EVENTS }>,
+    ) {
+        use master::MasterEvent as Shell;
+        match event {
+            Shell::Response(reply) | Shell::Answer(reply) => {
+                events.push(MasterEvent::Response {
+                    telegram: reply.telegram,
+                });
+                if let Some(result) = reply.param {
+                    events.push(MasterEvent::ParamDone(result));
+                }
+            }
+            Shell::Sent => events.push(MasterEvent::Sent {
+                address: job.request.address(),
+            }),
+            Shell::Timeout { attempts } => events.push(MasterEvent::Timeout { attempts }),
+            Shell::Rejected(reason) => events.push(MasterEvent::Rejected(reason)),
+            Shell::Failed(NotExecuted { cycles }) => {
+                events.push(MasterEvent::ParamNotExecuted { cycles });
+            }
+            _ => {}
+        }
     }
 }
 
-impl Endpoint for Master {
-    fn handle_char(&mut self, c: RxChar) {
-        Master::handle_char(self, c);
-    }
+impl CharProtocol for Movilink {
+    type Framing = TelegramFraming;
 
-    fn handle_timeout(&mut self, now: Instant) {
-        Master::handle_timeout(self, now);
-    }
-
-    fn poll_transmit(&mut self, now: Instant, buf: &mut [u8]) -> Option<usize> {
-        Master::poll_transmit(self, now, buf)
-    }
-
-    fn poll_timeout(&self) -> Option<Instant> {
-        Master::poll_timeout(self)
-    }
-
-    fn poll_quiet_timeout(&self) -> Option<Instant> {
-        self.job.as_ref()?;
-        self.exchange.poll_quiet_timeout()
-    }
-
-    fn max_frame_len(&self) -> usize {
-        MAX_TELEGRAM_LEN
-    }
-
-    fn frame_left(&mut self, at: Instant) {
-        self.exchange.left_at(at);
-    }
-
-    fn stale_chars(&self) -> u64 {
-        Master::stale_chars(self)
+    /// The request's telegram; the answer receiver expects the request's address.
+    #[inline]
+    fn encode(
+        &mut self,
+        job: &Job,
+        buf: &mut [u8],
+        framing: &mut TelegramFraming,
+    ) -> Option<usize> {
+        let n = codec::encode(&job.request, buf).ok()?;
+        let address = job.request.address();
+        if address.expects_response() {
+            framing.filter = AddressFilter::Master { expected: address };
+        }
+        Some(n)
     }
 }

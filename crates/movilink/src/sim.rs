@@ -18,7 +18,7 @@
 //! for (benchmarks of the master's software overhead).
 //!
 //! ```
-//! use movilink::driver::{DriverConfig, MasterDriver};
+//! use movilink::driver::{DriverConfig, MovilinkDriver, ParamServices};
 //! use movilink::sim::SimulatedMovidrive;
 //! use movilink::Address;
 //! use drive_transport::link::{self, LinkConfig};
@@ -29,7 +29,7 @@
 //! let mut drive = SimulatedMovidrive::new(1);
 //! let sim = tokio::spawn(async move { drive.serve(wire).await });
 //!
-//! let mut master = MasterDriver::new(port, DriverConfig::default());
+//! let mut master = MovilinkDriver::new(port, DriverConfig::default());
 //! let drive1 = Address::new(1).ok_or("address")?;
 //! assert_eq!(master.read(drive1, 8301).await?, drive_sim::movidrive::UNIT_TYPE);
 //! master.write_volatile(drive1, 8470, 1500).await?; // P130 ramp t11 up CW = 1.5 s

@@ -4,8 +4,8 @@
 use drive_core::alloc_count::CountingAllocator;
 use movilink::timing::Instant;
 use movilink::{
-    Address, Master, MasterConfig, MasterEvent, ParamChannel, PduType, Receiver, RequestContext,
-    ReturnCode, RxChar, Slave, SlaveConfig, Telegram, decode, encode,
+    Address, MasterConfig, MasterEvent, MovilinkMaster, ParamChannel, PduType, Receiver,
+    RequestContext, ReturnCode, RxChar, Slave, SlaveConfig, Telegram, decode, encode,
 };
 
 #[global_allocator]
@@ -26,7 +26,7 @@ impl movilink::Backend for Drive {
 #[test]
 fn nothing_allocates() {
     let a = Address::new(1).unwrap();
-    let mut master = Master::new(MasterConfig::default());
+    let mut master = MovilinkMaster::new(MasterConfig::default());
     let mut slave = Slave::new(SlaveConfig::new(a), Drive(0));
     let mut rx = Receiver::new(movilink::TelegramFraming::slave(a, Address::NO_GROUP));
     let before = CountingAllocator::count();

@@ -23,12 +23,12 @@ use drive_core::Instant;
 use drive_core::can::CanEndpoint;
 use drive_profile::sew::ParamChannel;
 use sbus_can::Address;
-use sbus_can::master::{Answer, Handshake, Master, MasterConfig, MasterEvent};
+use sbus_can::master::{Answer, Handshake, MasterConfig, MasterEvent, SbusMaster};
 use sbus_can::sim::SimulatedSbusDrive;
 
 /// One parameter read of `m` from `d` at `t`, through both state machines.
 fn read_once(
-    m: &mut Master,
+    m: &mut SbusMaster,
     d: &mut impl CanEndpoint,
     address: Address,
     hs: Handshake,
@@ -70,7 +70,7 @@ fn reads(c: &mut Criterion) {
             Handshake::Async => "param_read_async",
             Handshake::Sync => "param_read_sync_mode",
         };
-        let mut m = Master::new(MasterConfig::default());
+        let mut m = SbusMaster::new(MasterConfig::default());
         let mut d = responder::Responder::new(1);
         let mut t = Instant::ZERO;
         g.bench_function(name, |b| {
@@ -105,7 +105,7 @@ fn reads_from_the_simulated_movidrive(c: &mut Criterion) {
         ("param_read_async", Handshake::Async),
         ("param_read_sync_mode", Handshake::Sync),
     ] {
-        let mut m = Master::new(MasterConfig::default());
+        let mut m = SbusMaster::new(MasterConfig::default());
         let mut d = SimulatedSbusDrive::new(1);
         let mut t = Instant::ZERO;
         // The answer is the drive's P000 speed, 0 at standstill: check it once.

@@ -14,7 +14,7 @@
 //!   writes, process data, the SYNC producer, scan), a [`CanEndpoint`](drive_core::can::CanEndpoint);
 //! * [`movlnk`]: the IPOSplus MOVLNK command (ch. 5.3) as typed data, and [`movlnk::MovlnkMaster`],
 //!   the drive as SBus master;
-//! * `driver` (feature `tokio`): `SbusMaster`, the async master over any `drive_core::rt::CanIo`.
+//! * `driver` (feature `tokio`): `SbusDriver`, the async master over any `drive_core::rt::CanIo`.
 //! * [`variable`]: variable telegrams (IPOS variables on free identifiers, MOTOROLA and INTEL
 //!   byte order) and [`variable::VariableNode`], one device's cyclic, acyclic and receive
 //!   objects as a sans-IO CAN endpoint;

@@ -1,19 +1,26 @@
 //! The SBus master (controller) state machine, sans-IO (manual ch. 5.1, 5.2).
 //!
-//! [`Master`] is a [`CanEndpoint`]: frames from the bus go to [`Master::handle_frame`], the
-//! passing of time to [`Master::handle_timeout`] at [`Master::poll_timeout`], frames to send
-//! come from [`Master::poll_transmit`] and results from [`Master::poll_event`]. One request is
-//! in flight at a time; the synchronisation producer runs beside it.
+//! [`SbusMaster`] is a [`CanEndpoint`]: frames from the bus go to [`SbusMaster::handle_frame`],
+//! the passing of time to [`SbusMaster::handle_timeout`] at [`SbusMaster::poll_timeout`],
+//! frames to send come from [`SbusMaster::poll_transmit`] and results from
+//! [`SbusMaster::poll_event`]. One request is in flight at a time; the synchronisation
+//! producer runs beside it.
+//!
+//! The request in flight is drive-core's one master ([`drive_core::master::Master`]) on the
+//! transaction skeleton of a CAN bus ([`CanExchange`]: the attempts and their deadlines,
+//! retries, give-up, the late guard, responses received before the request went out counted
+//! as stale), with SBus's part, [`Sbus`], judging the answers. Around it this master keeps what
+//! only SBus has: the SYNC producer, the PO-sync window and the scan.
 //!
 //! What it does:
 //!
-//! * **parameter services** to one drive ([`Master::param`]): every
+//! * **parameter services** to one drive ([`SbusMaster::param`]): every
 //!   [`Service`], in both handshake modes ([`Handshake`]). The
 //!   answer is the parameter response (8a + 516) of that address with the same service code,
 //!   subindex and index ([`ParamChannel::is_answered_by`]); any other response is a counted
 //!   rejection ([`Rejections::mismatch`]), never the answer. The status bit makes the answer a
 //!   [`MasterError::Drive`] with the drive's [`ReturnCode`];
-//! * **timeouts and retries**: each attempt waits [`MasterConfig::timeout`] (a sync-mode
+//! * **timeouts and retries**: each attempt waits [`MasterConfig::response_timeout`] (a sync-mode
 //!   attempt from the first SYNC after the request, see below); after
 //!   [`MasterConfig::retries`] retransmissions the request is given up with
 //!   [`MasterError::Timeout`] naming the address, the attempts and the timeout. After a give-up
@@ -31,9 +38,9 @@
 //!   request; with [`SyncProducer::External`] another node produces it. A sync-mode request
 //!   cannot hang either way: before a SYNC is seen its attempt ends one sync period plus the
 //!   timeout after the request;
-//! * **scan** ([`Master::scan`]): a read of P070 unit type (index 8301, read-only, harmless) to
+//! * **scan** ([`SbusMaster::scan`]): a read of P070 unit type (index 8301, read-only, harmless) to
 //!   every address of a range, all sent at once (each address answers on its own identifier),
-//!   one attempt, one timeout after the last request; [`Master::scan_results`];
+//!   one attempt, one timeout after the last request; [`SbusMaster::scan_results`];
 //! * **counters** ([`MasterStats`]): transactions, retries, timeouts, drive errors, SYNCs and
 //!   rejected frames by reason. Frames of other nodes (their requests, variable telegrams,
 //!   other protocols) are ignored and counted ([`Rejections::foreign`]).
@@ -42,10 +49,10 @@
 //! use drive_core::can::{CanEndpoint, CanFrame};
 //! use drive_core::Instant;
 //! use drive_profile::sew::ParamChannel;
-//! use sbus_can::master::{Answer, Handshake, Master, MasterConfig, MasterEvent};
+//! use sbus_can::master::{Answer, Handshake, MasterConfig, MasterEvent, SbusMaster};
 //! use sbus_can::Address;
 //!
-//! let mut m = Master::new(MasterConfig::default());
+//! let mut m = SbusMaster::new(MasterConfig::default());
 //! let drive = Address::new(1).unwrap();
 //! m.param(drive, ParamChannel::read(8318), Handshake::Async, Instant::ZERO).unwrap();
 //! let req = m.poll_transmit(Instant::ZERO).unwrap();
@@ -62,8 +69,12 @@
 use core::fmt;
 use core::time::Duration;
 
+use core::convert::Infallible;
+
 use drive_core::Queue;
-use drive_core::can::{CanEndpoint, CanFrame};
+use drive_core::can::{CanEndpoint, CanExchange, CanExchangeConfig, CanFrame};
+use drive_core::exchange::{Busy, Verdict};
+use drive_core::master::{self, Control, FrameProtocol, Heard, Judgement, Protocol};
 use drive_core::time::{Instant, duration_nanos};
 use drive_profile::sew::{ParamChannel, ReturnCode, Service, index};
 
@@ -73,7 +84,7 @@ use crate::telegram::{DecodeError, ProcessData, Telegram};
 /// Default time an attempt waits for its answer: 50 ms, MOVILINK's maximum response delay.
 /// SBus drives answer process data within 1 ms (ch. 5.1); the margin covers parameter
 /// services and USB adapters.
-pub const DEFAULT_TIMEOUT: Duration = Duration::from_millis(50);
+pub const DEFAULT_RESPONSE_TIMEOUT: Duration = Duration::from_millis(50);
 
 /// Default scan timeout per round.
 pub const DEFAULT_SCAN_TIMEOUT: Duration = Duration::from_millis(20);
@@ -121,18 +132,20 @@ pub enum SyncProducer {
     /// waits for its answer; the first SYNC [`SYNC_LEAD`] after the request, then every period.
     #[default]
     OnDemand,
-    /// This master, every period, from [`Master::new`] (or [`Master::set_sync_producer`]) on.
+    /// This master, every period, from [`SbusMaster::new`] (or
+    /// [`SbusMaster::set_sync_producer`]) on.
     Always,
-    /// Another node; this master sends none (except [`Master::sync`]) and uses the SYNCs it sees.
+    /// Another node; this master sends none (except [`SbusMaster::sync`]) and uses the SYNCs it
+    /// sees.
     External,
 }
 
-/// Configuration of a [`Master`].
+/// Configuration of a [`SbusMaster`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub struct MasterConfig {
     /// How long an attempt waits for its answer: from the request's hand-over, for sync-mode
-    /// requests from the first SYNC after it. Default [`DEFAULT_TIMEOUT`].
-    pub timeout: Duration,
+    /// requests from the first SYNC after it. Default [`DEFAULT_RESPONSE_TIMEOUT`].
+    pub response_timeout: Duration,
     /// Retransmissions after a timeout (0 = one attempt; 255 = 256 attempts, never more).
     pub retries: u8,
     /// P817 of the drives: the SYNC identifier, 0–2047 (factory setting 0).
@@ -140,7 +153,7 @@ pub struct MasterConfig {
     /// The SBus cycle, 5 ms.
     pub sync_period: Duration,
     /// The handshake mode of services that do not name one (the async driver's
-    /// `read`/`write`…, [`MovlnkMaster`](crate::movlnk::MovlnkMaster)); [`Master::param`] takes
+    /// `read`/`write`…, [`MovlnkMaster`](crate::movlnk::MovlnkMaster)); [`SbusMaster::param`] takes
     /// it as an argument.
     pub handshake: Handshake,
     /// The answer timeout of a scan (one attempt per address).
@@ -148,21 +161,21 @@ pub struct MasterConfig {
     /// Who sends SYNC.
     pub sync_producer: SyncProducer,
     /// After a request is given up, how long the next transmission waits (late answers to the
-    /// abandoned request are counted, not taken). Default: the timeout.
+    /// abandoned request are counted, not taken). Default: the response timeout.
     pub late_guard: Duration,
 }
 
 impl Default for MasterConfig {
     fn default() -> Self {
         Self {
-            timeout: DEFAULT_TIMEOUT,
+            response_timeout: DEFAULT_RESPONSE_TIMEOUT,
             retries: 2,
             sync_id: DEFAULT_SYNC_ID,
             sync_period: DEFAULT_SYNC_PERIOD,
             handshake: Handshake::Async,
             scan_timeout: DEFAULT_SCAN_TIMEOUT,
             sync_producer: SyncProducer::OnDemand,
-            late_guard: DEFAULT_TIMEOUT,
+            late_guard: DEFAULT_RESPONSE_TIMEOUT,
         }
     }
 }
@@ -196,7 +209,7 @@ pub enum MasterError {
         /// Transmissions made.
         attempts: u16,
         /// The wait of each attempt.
-        timeout: Duration,
+        response_timeout: Duration,
     },
 }
 
@@ -212,11 +225,11 @@ impl fmt::Display for MasterError {
             MasterError::Timeout {
                 address,
                 attempts,
-                timeout,
+                response_timeout,
             } => write!(
                 f,
                 "no answer from SBus address {address} after {attempts} attempts of {} ms each",
-                timeout.as_millis()
+                response_timeout.as_millis()
             ),
         }
     }
@@ -259,13 +272,19 @@ impl fmt::Display for RequestError {
 
 impl core::error::Error for RequestError {}
 
-/// What the master reports; drained with [`Master::poll_event`].
+impl From<Busy> for RequestError {
+    fn from(_: Busy) -> Self {
+        RequestError::Busy
+    }
+}
+
+/// What the master reports; drained with [`SbusMaster::poll_event`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 #[non_exhaustive]
 pub enum MasterEvent {
     /// The request in flight is done.
     Done(Result<Answer, MasterError>),
-    /// The scan is done; [`Master::scan_results`] has every address's entry.
+    /// The scan is done; [`SbusMaster::scan_results`] has every address's entry.
     ScanDone,
 }
 
@@ -292,7 +311,7 @@ impl Rejections {
     }
 }
 
-/// Counters of a [`Master`].
+/// Counters of a [`SbusMaster`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
 pub struct MasterStats {
     /// Requests put on the bus (first transmissions; scan requests count one each).
@@ -331,39 +350,176 @@ pub enum ScanEntry {
     Refused(ReturnCode),
 }
 
+/// What a request awaits.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Expect {
+pub enum Expect {
+    /// Nothing: a group telegram or a SYNC, complete once handed out.
     Nothing,
+    /// The parameter response of `address` to the service `sent`.
     Param {
+        /// The drive.
         address: Address,
+        /// The parameter channel sent (handshake bit applied, status bit clear).
         sent: ParamChannel,
     },
+    /// The process input data of `address`.
     ProcessInput {
+        /// The drive.
         address: Address,
     },
 }
 
+/// A request in flight: its frame, what it awaits and when it may go out.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Phase {
-    /// Waiting to be transmitted.
-    Queued,
-    /// Transmitted; the attempt ends at `deadline`; `synced`: a SYNC came after it.
-    Waiting { deadline: Instant, synced: bool },
-}
-
-#[derive(Debug, Clone, Copy)]
-struct Job {
+pub struct Request {
     frame: CanFrame,
     expect: Expect,
     /// Answered after the next SYNC.
     sync_mode: bool,
     /// A PO-sync telegram: sent in the cycle's window.
     po_window: bool,
-    attempts: u16,
-    /// When the first attempt was handed out: a frame received before it answers an earlier
-    /// request, whenever it is processed.
-    first_sent: Instant,
-    phase: Phase,
+}
+
+impl Request {
+    /// What it awaits.
+    pub fn expect(&self) -> Expect {
+        self.expect
+    }
+
+    /// Its frame.
+    pub fn frame(&self) -> &CanFrame {
+        &self.frame
+    }
+
+    fn address(&self) -> Address {
+        match self.expect {
+            Expect::Param { address, .. } | Expect::ProcessInput { address } => address,
+            Expect::Nothing => Address::default(),
+        }
+    }
+}
+
+/// Why a response was not taken (counted in [`Rejections`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Reject {
+    /// It answers another request or another master (another address, another kind).
+    Unsolicited,
+    /// A parameter response from the awaited address for another service, subindex or index.
+    Mismatch,
+}
+
+/// SBus's part of the request in flight: judging a response by address, service, subindex and
+/// index, and the sync-mode attempt's deadline.
+#[derive(Debug, Clone, Copy)]
+pub struct Sbus {
+    config: MasterConfig,
+    drive_errors: u64,
+}
+
+impl Protocol for Sbus {
+    type Input = Request;
+    type Request = Request;
+    type Frame = Telegram;
+    type Answer = Answer;
+    type Reason = Reject;
+    type Failure = Infallible;
+    type Event = MasterEvent;
+    type SendError = RequestError;
+
+    fn prepare(&mut self, request: Request) -> Result<Request, RequestError> {
+        Ok(request)
+    }
+
+    fn answered(&self, request: &Request) -> bool {
+        request.expect != Expect::Nothing
+    }
+
+    fn judge(
+        &mut self,
+        request: &mut Request,
+        t: Telegram,
+    ) -> Judgement<Answer, Reject, Infallible> {
+        match (t, request.expect) {
+            (
+                Telegram::ParamResponse { address, channel },
+                Expect::Param {
+                    address: awaited,
+                    sent,
+                },
+            ) => {
+                if address != awaited {
+                    Judgement::Foreign(Reject::Unsolicited)
+                } else if !sent.is_answered_by(&channel) {
+                    Judgement::Corrupt(Reject::Mismatch)
+                } else {
+                    Judgement::Ours(Answer::Param(channel))
+                }
+            }
+            (Telegram::ProcessInput { address, data }, Expect::ProcessInput { address: a })
+                if a == address =>
+            {
+                Judgement::Ours(Answer::ProcessInput(data))
+            }
+            _ => Judgement::Foreign(Reject::Unsolicited),
+        }
+    }
+
+    fn settings_changed(&mut self, response_timeout: Duration, retries: u8) {
+        (self.config.response_timeout, self.config.retries) = (response_timeout, retries);
+    }
+
+    /// The request's end as SBus reports it: an answer with the status bit set is the drive's
+    /// refusal.
+    fn report(
+        &mut self,
+        request: &Request,
+        event: master::MasterEvent<Answer, Reject>,
+        events: &mut Queue<MasterEvent, { master::EVENTS }>,
+    ) {
+        let address = request.address();
+        let result = match event {
+            master::MasterEvent::Response(Answer::Param(channel)) => match channel.result() {
+                Ok(_) => Ok(Answer::Param(channel)),
+                Err(code) => {
+                    self.drive_errors += 1;
+                    Err(MasterError::Drive { address, code })
+                }
+            },
+            master::MasterEvent::Response(answer) => Ok(answer),
+            master::MasterEvent::Sent => Ok(Answer::Sent),
+            master::MasterEvent::Timeout { attempts } => Err(MasterError::Timeout {
+                address,
+                attempts,
+                response_timeout: self.config.response_timeout,
+            }),
+            _ => return,
+        };
+        events.push(MasterEvent::Done(result));
+    }
+}
+
+impl FrameProtocol for Sbus {
+    fn encode(&mut self, request: &Request) -> CanFrame {
+        request.frame
+    }
+
+    /// A sync-mode attempt is bounded even if no SYNC ever comes; the first SYNC after it
+    /// narrows it to that SYNC plus the response timeout.
+    fn attempt_deadline(
+        &self,
+        request: &Request,
+        sent: Instant,
+        response_timeout: Duration,
+    ) -> Instant {
+        let timeout = duration_nanos(response_timeout);
+        if request.sync_mode {
+            sent.add_nanos(duration_nanos(self.config.sync_period))
+                .add_nanos(duration_nanos(SYNC_LEAD))
+                .add_nanos(timeout)
+        } else {
+            sent.add_nanos(timeout)
+        }
+    }
 }
 
 #[derive(Debug, Clone, Copy)]
@@ -377,66 +533,88 @@ struct Scan {
 
 /// The SBus master; see the [module docs](self).
 #[derive(Debug, Clone)]
-pub struct Master {
-    config: MasterConfig,
-    job: Option<Job>,
+pub struct SbusMaster {
+    /// The request in flight.
+    core: master::Master<Sbus, CanExchange>,
     scan: Option<Scan>,
     results: [ScanEntry; 64],
+    /// The scan's events (a request's are the core's).
     events: Queue<MasterEvent, 4>,
+    /// SYNCs, rejections and scan refusals; the rest is the core's.
     stats: MasterStats,
+    /// Scan requests put on the bus.
+    scan_requests: u64,
     now: Instant,
-    /// No transmission of a request before this (after a give-up).
-    hold_until: Instant,
     /// The next SYNC of the running producer.
     next_sync: Option<Instant>,
     /// The last SYNC sent or seen.
     last_sync: Option<Instant>,
-    /// The receive time of the frame being handled.
-    rx_at: Instant,
+    /// A SYNC came after the transmission awaiting its answer (its deadline was narrowed).
+    synced: bool,
 }
 
-impl Master {
+impl SbusMaster {
     /// A master with `config`. With [`SyncProducer::Always`] the first SYNC is due at once.
     pub fn new(config: MasterConfig) -> Self {
+        let exchange = CanExchange::new(CanExchangeConfig {
+            response_timeout: config.response_timeout,
+            retries: config.retries,
+            late_guard: config.late_guard,
+        });
+        let sbus = Sbus {
+            config,
+            drive_errors: 0,
+        };
         Self {
             next_sync: (config.sync_producer == SyncProducer::Always).then_some(Instant::ZERO),
-            config,
-            job: None,
+            core: master::Master::from_parts(sbus, exchange),
             scan: None,
             results: [ScanEntry::NotScanned; 64],
             events: Queue::new(),
             stats: MasterStats::default(),
+            scan_requests: 0,
             now: Instant::ZERO,
-            hold_until: Instant::ZERO,
             last_sync: None,
-            rx_at: Instant::ZERO,
+            synced: false,
         }
     }
 
     /// The configuration.
     pub fn config(&self) -> &MasterConfig {
-        &self.config
+        &self.core.protocol().config
+    }
+
+    fn config_mut(&mut self) -> &mut MasterConfig {
+        &mut self.core.protocol_mut().config
     }
 
     /// The counters so far.
     pub fn stats(&self) -> MasterStats {
-        self.stats
+        let tally = self.core.carrier().tally();
+        MasterStats {
+            transactions: self.scan_requests + tally.first_transmissions,
+            retries: tally.retries,
+            timeouts: tally.give_ups,
+            drive_errors: self.stats.drive_errors + self.core.protocol().drive_errors,
+            stale: tally.stale,
+            ..self.stats
+        }
     }
 
-    /// Change the timeout of each attempt; applies from the next transmission on.
-    pub fn set_timeout(&mut self, timeout: Duration) {
-        self.config.timeout = timeout;
+    /// Change the response timeout of each attempt; applies from the next transmission on.
+    pub fn set_response_timeout(&mut self, timeout: Duration) {
+        self.core.set_response_timeout(timeout);
     }
 
     /// Change the number of retransmissions; applies to the request in flight too.
     pub fn set_retries(&mut self, retries: u8) {
-        self.config.retries = retries;
+        self.core.set_retries(retries);
     }
 
     /// Change who sends SYNC, at `now` ([`SyncProducer::Always`] starts at once).
     pub fn set_sync_producer(&mut self, producer: SyncProducer, now: Instant) {
         self.advance(now);
-        self.config.sync_producer = producer;
+        self.config_mut().sync_producer = producer;
         match producer {
             SyncProducer::Always if self.next_sync.is_none() => self.next_sync = Some(self.now),
             SyncProducer::External => self.next_sync = None,
@@ -446,7 +624,7 @@ impl Master {
 
     /// Whether neither a request nor a scan is in flight.
     pub fn is_idle(&self) -> bool {
-        self.job.is_none() && self.scan.is_none()
+        self.core.is_idle() && self.scan.is_none()
     }
 
     /// The last SYNC sent or seen.
@@ -456,7 +634,7 @@ impl Master {
 
     /// The next event.
     pub fn poll_event(&mut self) -> Option<MasterEvent> {
-        self.events.pop()
+        self.core.poll_event().or_else(|| self.events.pop())
     }
 
     /// The entries of the last (or running) scan, by address 0–63.
@@ -469,11 +647,11 @@ impl Master {
     /// [`MasterConfig::late_guard`] if it was on the bus.
     pub fn abort(&mut self, now: Instant) {
         self.advance(now);
-        let on_bus = matches!(self.job, Some(j) if j.attempts > 0) || self.scan.is_some();
-        self.job = None;
-        self.scan = None;
-        if on_bus {
-            self.hold_until = self.now.saturating_add(self.config.late_guard);
+        // The request's late guard is the core's.
+        self.core.abort(self.now);
+        if self.scan.take().is_some() {
+            let guard = self.now.saturating_add(self.config().late_guard);
+            self.core.carrier_mut().set_hold(guard);
         }
         self.stop_sync_if_idle();
     }
@@ -490,17 +668,12 @@ impl Master {
     ) -> Result<(), RequestError> {
         let mut channel = channel.with_handshake(handshake.bit());
         channel.management = channel.management.with_error(false);
-        let frame = Telegram::ParamRequest { address, channel }.encode(self.config.sync_id);
-        self.begin(
-            frame,
-            Expect::Param {
-                address,
-                sent: channel,
-            },
-            handshake == Handshake::Sync,
-            false,
-            now,
-        )
+        let frame = self.encode(Telegram::ParamRequest { address, channel });
+        let expect = Expect::Param {
+            address,
+            sent: channel,
+        };
+        self.begin(frame, expect, handshake == Handshake::Sync, false, now)
     }
 
     /// A group parameter request (8g + 518) to every drive of `group`: write and write-volatile
@@ -518,7 +691,7 @@ impl Master {
         }
         let mut channel = channel.with_handshake(false);
         channel.management = channel.management.with_error(false);
-        let frame = Telegram::GroupParamRequest { group, channel }.encode(self.config.sync_id);
+        let frame = self.encode(Telegram::GroupParamRequest { group, channel });
         self.begin(frame, Expect::Nothing, false, false, now)
     }
 
@@ -554,20 +727,20 @@ impl Master {
         data: ProcessData,
         now: Instant,
     ) -> Result<(), RequestError> {
-        let frame = Telegram::GroupProcessOutput { group, data }.encode(self.config.sync_id);
+        let frame = self.encode(Telegram::GroupProcessOutput { group, data });
         self.begin(frame, Expect::Nothing, false, false, now)
     }
 
     /// One SYNC telegram, as a request ([`Answer::Sent`] once handed out); it also starts the
     /// cycle for waiting sync-mode requests.
     pub fn sync(&mut self, now: Instant) -> Result<(), RequestError> {
-        let frame = Telegram::Sync.encode(self.config.sync_id);
+        let frame = self.encode(Telegram::Sync);
         self.begin(frame, Expect::Nothing, false, false, now)
     }
 
     /// Scan the addresses `first..=last` (clamped to 63): a read of P070 unit type to each, all
     /// sent one after another, one attempt, answers awaited until `timeout` after the last
-    /// request. Ends with [`MasterEvent::ScanDone`]; entries in [`Master::scan_results`].
+    /// request. Ends with [`MasterEvent::ScanDone`]; entries in [`SbusMaster::scan_results`].
     pub fn scan(
         &mut self,
         first: Address,
@@ -599,6 +772,10 @@ impl Master {
         Ok(())
     }
 
+    fn encode(&self, telegram: Telegram) -> CanFrame {
+        telegram.encode(self.config().sync_id)
+    }
+
     fn process_output(
         &mut self,
         address: Address,
@@ -606,19 +783,13 @@ impl Master {
         synchronised: bool,
         now: Instant,
     ) -> Result<(), RequestError> {
-        let frame = Telegram::ProcessOutput {
+        let frame = self.encode(Telegram::ProcessOutput {
             address,
             synchronised,
             data,
-        }
-        .encode(self.config.sync_id);
-        self.begin(
-            frame,
-            Expect::ProcessInput { address },
-            synchronised,
-            synchronised,
-            now,
-        )
+        });
+        let expect = Expect::ProcessInput { address };
+        self.begin(frame, expect, synchronised, synchronised, now)
     }
 
     fn begin(
@@ -633,16 +804,13 @@ impl Master {
             return Err(RequestError::Busy);
         }
         self.advance(now);
-        self.job = Some(Job {
+        let request = Request {
             frame,
             expect,
             sync_mode,
             po_window,
-            attempts: 0,
-            first_sent: Instant::MAX,
-            phase: Phase::Queued,
-        });
-        Ok(())
+        };
+        self.core.send(request, self.now)
     }
 
     /// Feed one frame received at `now` (the end of its last bit). A response received before
@@ -650,8 +818,7 @@ impl Master {
     /// later (an interface's queue read after the request was sent).
     pub fn handle_frame(&mut self, frame: &CanFrame, now: Instant) {
         self.advance(now);
-        self.rx_at = now;
-        let telegram = match Telegram::decode(frame, self.config.sync_id) {
+        let telegram = match Telegram::decode(frame, self.config().sync_id) {
             Ok(t) => t,
             Err(DecodeError::NotSbus { .. }) => {
                 self.stats.rejected.foreign += 1;
@@ -667,112 +834,66 @@ impl Master {
                 self.stats.syncs_seen += 1;
                 self.on_sync(self.now);
             }
-            Telegram::ParamResponse { address, channel } => self.on_param(address, channel),
-            Telegram::ProcessInput { address, data } => self.on_pi(address, data),
+            Telegram::ParamResponse { address, channel } if self.scan.is_some() => {
+                self.on_scan_answer(address, channel);
+            }
+            Telegram::ParamResponse { .. } | Telegram::ProcessInput { .. } => {
+                match self.core.handle_frame(telegram, now) {
+                    Heard::Taken => self.stop_sync_if_idle(),
+                    Heard::Stale => {}
+                    Heard::Unsolicited | Heard::Rejected(Reject::Unsolicited) => {
+                        self.stats.rejected.unsolicited += 1;
+                    }
+                    Heard::Rejected(Reject::Mismatch) => self.stats.rejected.mismatch += 1,
+                }
+            }
             _ => self.stats.rejected.foreign += 1,
         }
     }
 
-    fn on_param(&mut self, address: Address, channel: ParamChannel) {
-        if let Some(scan) = self.scan {
-            let in_range = address.get() <= scan.last
-                && address.get() < scan.next
-                && self
-                    .results
-                    .get(usize::from(address.get()))
-                    .is_some_and(|e| *e == ScanEntry::Silent);
-            if !in_range {
-                self.stats.rejected.unsolicited += 1;
-            } else if !ParamChannel::read(SCAN_INDEX).is_answered_by(&channel) {
-                self.stats.rejected.mismatch += 1;
-            } else if let Some(e) = self.results.get_mut(usize::from(address.get())) {
-                *e = match channel.result() {
-                    Ok(v) => ScanEntry::UnitType(v),
-                    Err(rc) => {
-                        self.stats.drive_errors += 1;
-                        ScanEntry::Refused(rc)
-                    }
-                };
-            }
-            return;
-        }
-        let rx_at = self.rx_at;
-        let Some(job) = self.job.filter(|j| j.attempts > 0 && rx_at >= j.first_sent) else {
-            self.count_unanswering();
-            return;
-        };
-        let Expect::Param { address: a, sent } = job.expect else {
+    fn on_scan_answer(&mut self, address: Address, channel: ParamChannel) {
+        let Some(scan) = self.scan else { return };
+        let in_range = address.get() <= scan.last
+            && address.get() < scan.next
+            && self
+                .results
+                .get(usize::from(address.get()))
+                .is_some_and(|e| *e == ScanEntry::Silent);
+        if !in_range {
             self.stats.rejected.unsolicited += 1;
-            return;
-        };
-        if a != address {
-            self.stats.rejected.unsolicited += 1;
-        } else if !sent.is_answered_by(&channel) {
+        } else if !ParamChannel::read(SCAN_INDEX).is_answered_by(&channel) {
             self.stats.rejected.mismatch += 1;
-        } else {
-            let result = match channel.result() {
-                Ok(_) => Ok(Answer::Param(channel)),
-                Err(code) => {
+        } else if let Some(e) = self.results.get_mut(usize::from(address.get())) {
+            *e = match channel.result() {
+                Ok(v) => ScanEntry::UnitType(v),
+                Err(rc) => {
                     self.stats.drive_errors += 1;
-                    Err(MasterError::Drive { address, code })
+                    ScanEntry::Refused(rc)
                 }
             };
-            self.finish(result);
         }
-    }
-
-    fn on_pi(&mut self, address: Address, data: ProcessData) {
-        match self.job {
-            Some(Job {
-                expect: Expect::ProcessInput { address: a },
-                attempts,
-                first_sent,
-                ..
-            }) if a == address && attempts > 0 && self.rx_at >= first_sent => {
-                self.finish(Ok(Answer::ProcessInput(data)));
-            }
-            _ => self.count_unanswering(),
-        }
-    }
-
-    /// A response that answers nothing: stale if it was received before the request in
-    /// flight went out, else unsolicited.
-    fn count_unanswering(&mut self) {
-        match self.job {
-            Some(j) if j.attempts == 0 || self.rx_at < j.first_sent => self.stats.stale += 1,
-            _ => self.stats.rejected.unsolicited += 1,
-        }
-    }
-
-    fn finish(&mut self, result: Result<Answer, MasterError>) {
-        self.job = None;
-        self.events.push(MasterEvent::Done(result));
-        self.stop_sync_if_idle();
     }
 
     fn stop_sync_if_idle(&mut self) {
-        if self.config.sync_producer == SyncProducer::OnDemand
-            && !self.job.is_some_and(|j| j.sync_mode)
+        if self.config().sync_producer == SyncProducer::OnDemand
+            && !self.core.request().is_some_and(|r| r.sync_mode)
         {
             self.next_sync = None;
         }
     }
 
-    /// A SYNC went out or came in at `t`.
+    /// A SYNC went out or came in at `t`: the first after a sync-mode request's transmission
+    /// narrows its attempt to `t` plus the response timeout.
     fn on_sync(&mut self, t: Instant) {
         self.last_sync = Some(t);
-        let timeout = duration_nanos(self.config.timeout);
-        if let Some(job) = self.job.as_mut()
-            && job.sync_mode
-            && let Phase::Waiting {
-                deadline,
-                synced: false,
-            } = job.phase
+        let timeout = duration_nanos(self.config().response_timeout);
+        if !self.synced
+            && self.core.request().is_some_and(|r| r.sync_mode)
+            && let Some(deadline) = self.core.carrier().deadline()
         {
-            job.phase = Phase::Waiting {
-                deadline: deadline.min(t.add_nanos(timeout)),
-                synced: true,
-            };
+            let narrowed = deadline.min(t.add_nanos(timeout));
+            self.core.carrier_mut().set_deadline(narrowed);
+            self.synced = true;
         }
     }
 
@@ -783,33 +904,12 @@ impl Master {
             && scan.deadline.is_some_and(|d| self.now >= d)
         {
             self.scan = None;
-            self.hold_until = self.now;
+            self.core.carrier_mut().set_hold(self.now);
             self.events.push(MasterEvent::ScanDone);
         }
-        let Some(job) = self.job.as_mut() else { return };
-        let Phase::Waiting { deadline, .. } = job.phase else {
-            return;
-        };
-        if self.now < deadline {
-            return;
+        if let Some(Verdict::GiveUp { .. }) = self.core.handle_timeout(self.now) {
+            self.stop_sync_if_idle();
         }
-        if job.attempts <= u16::from(self.config.retries) {
-            job.phase = Phase::Queued;
-            self.stats.retries += 1;
-            return;
-        }
-        let address = match job.expect {
-            Expect::Param { address, .. } | Expect::ProcessInput { address } => address,
-            Expect::Nothing => Address::default(),
-        };
-        let error = MasterError::Timeout {
-            address,
-            attempts: job.attempts,
-            timeout: self.config.timeout,
-        };
-        self.stats.timeouts += 1;
-        self.hold_until = self.now.saturating_add(self.config.late_guard);
-        self.finish(Err(error));
     }
 
     /// The next frame to send at `now`: a due SYNC first, then the request or scan request.
@@ -818,7 +918,7 @@ impl Master {
         if let Some(f) = self.poll_sync() {
             return Some(f);
         }
-        if self.now < self.hold_until {
+        if self.now < self.core.carrier().hold_until() {
             return None;
         }
         if let Some(mut scan) = self.scan {
@@ -826,12 +926,11 @@ impl Master {
                 return None;
             }
             let address = Address::new(scan.next)?;
-            let frame = Telegram::ParamRequest {
+            let frame = self.encode(Telegram::ParamRequest {
                 address,
                 channel: ParamChannel::read(SCAN_INDEX),
-            }
-            .encode(self.config.sync_id);
-            self.stats.transactions += 1;
+            });
+            self.scan_requests += 1;
             if scan.next >= scan.last {
                 scan.deadline = Some(self.now.saturating_add(scan.timeout));
             }
@@ -839,65 +938,44 @@ impl Master {
             self.scan = Some(scan);
             return Some(frame);
         }
-        let job = self.job?;
-        if job.phase != Phase::Queued {
+        let request = *self.core.request()?;
+        if !self.core.carrier().is_queued() {
             return None;
         }
-        if job.po_window {
+        if request.po_window {
             match self.po_window_opens() {
                 Some(opens) if opens > self.now => return None,
                 Some(_) => {}
                 // No cycle running and this master produces SYNC: a drive drops a PO sync
                 // that comes before any SYNC, so the cycle starts now and the telegram goes
                 // out in its window.
-                None if self.config.sync_producer != SyncProducer::External => {
+                None if self.config().sync_producer != SyncProducer::External => {
                     self.next_sync = Some(self.now);
                     return self.poll_sync();
                 }
                 None => {}
             }
         }
-        Some(self.transmit(job))
+        self.transmit(request)
     }
 
-    fn transmit(&mut self, mut job: Job) -> CanFrame {
-        if job.attempts == 0 {
-            self.stats.transactions += 1;
-            job.first_sent = self.now;
-        }
-        job.attempts = job.attempts.saturating_add(1);
-        let frame = job.frame;
-        if job.expect == Expect::Nothing {
-            if Telegram::decode(&frame, self.config.sync_id) == Ok(Telegram::Sync) {
+    fn transmit(&mut self, request: Request) -> Option<CanFrame> {
+        let frame = self.core.poll_transmit(self.now)?;
+        self.synced = false;
+        if request.expect == Expect::Nothing {
+            if Telegram::decode(&frame, self.config().sync_id) == Ok(Telegram::Sync) {
                 self.stats.syncs_sent += 1;
                 self.on_sync(self.now);
             }
-            self.job = None;
-            self.events.push(MasterEvent::Done(Ok(Answer::Sent)));
-            return frame;
+            return Some(frame);
         }
-        let timeout = duration_nanos(self.config.timeout);
-        let deadline = if job.sync_mode {
-            // Bounded even if no SYNC ever comes; narrowed to SYNC + timeout by the first one.
-            self.now
-                .add_nanos(duration_nanos(self.config.sync_period))
-                .add_nanos(duration_nanos(SYNC_LEAD))
-                .add_nanos(timeout)
-        } else {
-            self.now.add_nanos(timeout)
-        };
-        job.phase = Phase::Waiting {
-            deadline,
-            synced: false,
-        };
-        self.job = Some(job);
-        if job.sync_mode
-            && self.config.sync_producer == SyncProducer::OnDemand
+        if request.sync_mode
+            && self.config().sync_producer == SyncProducer::OnDemand
             && self.next_sync.is_none()
         {
             self.next_sync = Some(self.now.saturating_add(SYNC_LEAD));
         }
-        frame
+        Some(frame)
     }
 
     /// When the PO-sync window of the current cycle opens (`None`: no cycle running, send at
@@ -909,7 +987,8 @@ impl Master {
     /// next one on its grid.
     fn po_window_opens(&self) -> Option<Instant> {
         let last = self.last_sync?;
-        let period = duration_nanos(self.config.sync_period);
+        let config = self.config();
+        let period = duration_nanos(config.sync_period);
         let start = duration_nanos(PO_SYNC_WINDOW_START).min(period / 2);
         let end = period
             .saturating_sub(duration_nanos(PO_SYNC_WINDOW_END_BEFORE))
@@ -921,7 +1000,7 @@ impl Master {
         if since <= end {
             return Some(self.now);
         }
-        if self.config.sync_producer != SyncProducer::External {
+        if config.sync_producer != SyncProducer::External {
             return self
                 .next_sync
                 .map(|next| next.later(self.now).add_nanos(start));
@@ -945,7 +1024,7 @@ impl Master {
         if self.now < next {
             return None;
         }
-        let period = duration_nanos(self.config.sync_period).max(1);
+        let period = duration_nanos(self.config().sync_period).max(1);
         let mut following = next.add_nanos(period);
         // More than a millisecond late: the cycles missed are skipped (the grid stays).
         while following <= self.now {
@@ -955,24 +1034,22 @@ impl Master {
         self.next_sync = Some(following);
         self.stats.syncs_sent += 1;
         self.on_sync(self.now);
-        Some(Telegram::Sync.encode(self.config.sync_id))
+        Some(self.encode(Telegram::Sync))
     }
 
-    /// When [`Master::handle_timeout`] or [`Master::poll_transmit`] has work to do.
+    /// When [`SbusMaster::handle_timeout`] or [`SbusMaster::poll_transmit`] has work to do.
     pub fn poll_timeout(&self) -> Option<Instant> {
+        let hold = self.core.carrier().hold_until().later(self.now);
         let request = if let Some(scan) = self.scan {
-            Some(scan.deadline.unwrap_or(self.hold_until.later(self.now)))
+            Some(scan.deadline.unwrap_or(hold))
         } else {
-            self.job.map(|job| match job.phase {
-                Phase::Waiting { deadline, .. } => deadline,
-                Phase::Queued => {
-                    let mut t = self.hold_until.later(self.now);
-                    if job.po_window
-                        && let Some(w) = self.po_window_opens()
-                    {
-                        t = t.later(w);
-                    }
-                    t
+            self.core.request().map(|request| {
+                if let Some(deadline) = self.core.carrier().deadline() {
+                    return deadline;
+                }
+                match self.po_window_opens() {
+                    Some(w) if request.po_window => hold.later(w),
+                    _ => hold,
                 }
             })
         };
@@ -981,23 +1058,44 @@ impl Master {
 
     fn advance(&mut self, now: Instant) {
         self.now = self.now.later(now);
+        self.core.carrier_mut().advance(self.now);
     }
 }
 
-impl CanEndpoint for Master {
+impl CanEndpoint for SbusMaster {
     fn handle_frame(&mut self, frame: &CanFrame, now: Instant) {
-        Master::handle_frame(self, frame, now);
+        SbusMaster::handle_frame(self, frame, now);
     }
 
     fn handle_timeout(&mut self, now: Instant) {
-        Master::handle_timeout(self, now);
+        SbusMaster::handle_timeout(self, now);
     }
 
     fn poll_transmit(&mut self, now: Instant) -> Option<CanFrame> {
-        Master::poll_transmit(self, now)
+        SbusMaster::poll_transmit(self, now)
     }
 
     fn poll_timeout(&self) -> Option<Instant> {
-        Master::poll_timeout(self)
+        SbusMaster::poll_timeout(self)
+    }
+}
+
+/// What the runtime driver needs: a scan is in flight as much as a request.
+impl Control for SbusMaster {
+    fn is_idle(&self) -> bool {
+        SbusMaster::is_idle(self)
+    }
+
+    fn abort(&mut self, now: Instant) {
+        SbusMaster::abort(self, now);
+    }
+
+    fn clear_events(&mut self) {
+        self.core.clear_events();
+        self.events.clear();
+    }
+
+    fn stale(&self) -> u64 {
+        self.core.stale()
     }
 }

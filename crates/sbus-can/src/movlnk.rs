@@ -41,7 +41,7 @@ use drive_core::can::{CanEndpoint, CanFrame};
 use drive_profile::sew::{ParamChannel, ReturnCode, Service};
 
 use crate::ids::Address;
-use crate::master::{Answer, Master, MasterConfig, MasterError, MasterEvent};
+use crate::master::{Answer, MasterConfig, MasterError, MasterEvent, SbusMaster};
 use crate::telegram::ProcessData;
 
 /// The interface a MOVLNK command uses (`MI.BusType`).
@@ -482,7 +482,7 @@ struct Running {
     error: Option<MovlnkError>,
 }
 
-/// A drive as SBus master executing MOVLNK commands (a [`CanEndpoint`] on [`Master`]).
+/// A drive as SBus master executing MOVLNK commands (a [`CanEndpoint`] on [`SbusMaster`]).
 ///
 /// ```
 /// use drive_core::can::{CanEndpoint, CanFrame};
@@ -500,7 +500,7 @@ struct Running {
 /// ```
 #[derive(Debug, Clone)]
 pub struct MovlnkMaster {
-    master: Master,
+    master: SbusMaster,
     running: Option<Running>,
     done: Option<MovlnkDone>,
 }
@@ -509,14 +509,14 @@ impl MovlnkMaster {
     /// An executor whose exchanges use `config` (timeout, retries, sync identifier).
     pub fn new(config: MasterConfig) -> Self {
         Self {
-            master: Master::new(config),
+            master: SbusMaster::new(config),
             running: None,
             done: None,
         }
     }
 
     /// The SBus master underneath (its counters, configuration).
-    pub fn master(&self) -> &Master {
+    pub fn master(&self) -> &SbusMaster {
         &self.master
     }
 
@@ -648,9 +648,9 @@ impl MovlnkMaster {
         }
     }
 
-    /// The timeout of each attempt.
-    pub fn set_timeout(&mut self, timeout: Duration) {
-        self.master.set_timeout(timeout);
+    /// The response timeout of each attempt.
+    pub fn set_response_timeout(&mut self, timeout: Duration) {
+        self.master.set_response_timeout(timeout);
     }
 }
 

@@ -47,7 +47,7 @@ use tokio::sync::{mpsc, oneshot};
 use tokio::time::Instant as TokioInstant;
 
 use crate::ids::Address;
-use crate::master::{DEFAULT_TIMEOUT, MasterConfig};
+use crate::master::{DEFAULT_RESPONSE_TIMEOUT, MasterConfig};
 use crate::movlnk::{MlData, MovlnkCommand, MovlnkDone, MovlnkError, MovlnkMaster};
 use crate::slave::{Backend, Slave, SlaveConfig, Tally};
 use crate::telegram::{ProcessData, Telegram};
@@ -57,12 +57,12 @@ pub const MASTER_PERIOD: Duration = Duration::from_millis(1);
 
 /// The configuration of a simulated drive's MOVLNK executor until
 /// [`SimulatedSbusDrive::set_movlnk_config`] changes it (a simulator decision; the manual gives
-/// no timing): one attempt of [`DEFAULT_TIMEOUT`] (50 ms) per exchange, no retries (the IPOS
+/// no timing): one attempt of [`DEFAULT_RESPONSE_TIMEOUT`] (50 ms) per exchange, no retries (the IPOS
 /// program repeats the command and sees the failure in `MI.Result`), asynchronous handshake,
 /// the other settings [`MasterConfig::default`]; the SYNC identifier is always the drive's P817.
 pub fn movlnk_config() -> MasterConfig {
     MasterConfig {
-        timeout: DEFAULT_TIMEOUT,
+        response_timeout: DEFAULT_RESPONSE_TIMEOUT,
         retries: 0,
         ..MasterConfig::default()
     }

@@ -1,4 +1,4 @@
-//! The async SBus master (`SbusMaster`) over an in-test `CanIo` (tokio channels) against the
+//! The async SBus master (`SbusDriver`) over an in-test `CanIo` (tokio channels) against the
 //! minimal responder, on tokio's paused clock: every service, sync mode, the SYNC producer's
 //! period, exact timeouts, fault injection (lost, corrupted, duplicated and delayed answers:
 //! never a wrong value), foreign frames, a closed interface and a cancelled call.
@@ -25,7 +25,7 @@ use drive_core::rt::{CanIo, ReceivedFrame};
 use drive_core::{Instant, SplitMix64};
 use drive_profile::sew::{AttributeInfo, ParamChannel, ReturnCode, ScaleInfo};
 use sbus_can::Address;
-use sbus_can::driver::{DriverError, SbusMaster, ScanHit};
+use sbus_can::driver::{DriverError, LinkError, ParamServices, SbusDriver, ScanHit};
 use sbus_can::master::{Handshake, MasterConfig};
 use sbus_can::telegram::ProcessData;
 use tokio::sync::mpsc::{UnboundedReceiver, UnboundedSender, unbounded_channel};
@@ -105,8 +105,8 @@ fn a(n: u8) -> Address {
     Address::new(n).unwrap()
 }
 
-fn master(io: ChanIo, config: MasterConfig) -> SbusMaster<ChanIo> {
-    SbusMaster::new(io, config)
+fn master(io: ChanIo, config: MasterConfig) -> SbusDriver<ChanIo> {
+    SbusDriver::new(io, config)
 }
 
 #[tokio::test(start_paused = true)]
@@ -168,7 +168,7 @@ async fn every_service() {
     let refused = m.write(a(1), 8318, 5).await.unwrap_err();
     assert!(matches!(
         refused,
-        DriverError::Drive {
+        DriverError::Device {
             code: ReturnCode::READ_ONLY,
             ..
         }
@@ -227,7 +227,7 @@ async fn timeout_is_exact() {
     let mut m = master(
         io,
         MasterConfig {
-            timeout: Duration::from_millis(20),
+            response_timeout: Duration::from_millis(20),
             ..MasterConfig::default()
         },
     );
@@ -236,11 +236,11 @@ async fn timeout_is_exact() {
     assert_eq!(t0.elapsed(), Duration::from_millis(60));
     assert!(matches!(
         err,
-        DriverError::Timeout {
+        DriverError::Link(LinkError::Timeout {
             attempts: 3,
-            timeout,
+            response_timeout,
             ..
-        } if timeout == Duration::from_millis(20)
+        }) if response_timeout == Duration::from_millis(20)
     ));
     assert_eq!(
         err.to_string(),
@@ -393,7 +393,7 @@ async fn queued_late_answer_is_older_than_the_request() {
     );
     assert!(matches!(
         m.read(a(1), 8318).await,
-        Err(DriverError::Timeout { .. })
+        Err(DriverError::Link(LinkError::Timeout { .. }))
     ));
     tokio::time::sleep(Duration::from_millis(100)).await;
     assert_eq!(m.read(a(1), 8318).await.unwrap(), 1_000_000);
@@ -439,7 +439,7 @@ async fn issue18_an_answer_waiting_in_an_interface_timed_when_read_is_stale() {
         }
     });
     let (io, _log) = spawn_drives(vec![Responder::new(1)], Some(fault));
-    let mut m = SbusMaster::new(
+    let mut m = SbusDriver::new(
         StampedWhenRead(io),
         MasterConfig {
             retries: 0,
@@ -448,7 +448,7 @@ async fn issue18_an_answer_waiting_in_an_interface_timed_when_read_is_stale() {
     );
     assert!(matches!(
         m.read(a(1), 8318).await,
-        Err(DriverError::Timeout { .. })
+        Err(DriverError::Link(LinkError::Timeout { .. }))
     ));
     tokio::time::sleep(Duration::from_millis(100)).await;
     assert_eq!(m.read(a(1), 8318).await.unwrap(), 1_000_000);
@@ -494,7 +494,7 @@ async fn fault_campaign_no_wrong_value() {
                 assert_eq!(v, value, "read {i} of {index}");
                 ok += 1;
             }
-            Err(DriverError::Timeout { .. }) => failed += 1,
+            Err(DriverError::Link(LinkError::Timeout { .. })) => failed += 1,
             Err(e) => panic!("{e}"),
         }
     }
@@ -551,6 +551,9 @@ async fn closed_interface_and_cancelled_call() {
     drop(_dtx);
     let mut m = master(ChanIo { tx, rx: mrx }, MasterConfig::default());
     let err = m.read(a(1), 8318).await.unwrap_err();
-    assert!(matches!(err, DriverError::Closed), "{err:?}");
+    assert!(
+        matches!(err, DriverError::Link(LinkError::Closed)),
+        "{err:?}"
+    );
     assert_eq!(err.to_string(), "the CAN interface was closed");
 }

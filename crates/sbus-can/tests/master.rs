@@ -21,7 +21,7 @@ use drive_profile::sew::{ParamChannel, ReturnCode, Service};
 use proptest::prelude::*;
 use sbus_can::Address;
 use sbus_can::master::{
-    Answer, Handshake, Master, MasterConfig, MasterError, MasterEvent, RequestError, ScanEntry,
+    Answer, Handshake, MasterConfig, MasterError, MasterEvent, RequestError, SbusMaster, ScanEntry,
     SyncProducer,
 };
 use sbus_can::telegram::{ProcessData, Telegram};
@@ -32,7 +32,7 @@ fn a(n: u8) -> Address {
 
 fn bus(drives: &[u8]) -> Bus {
     Bus::new(
-        Master::new(MasterConfig::default()),
+        SbusMaster::new(MasterConfig::default()),
         drives.iter().map(|&d| Responder::new(d)).collect(),
     )
 }
@@ -116,7 +116,7 @@ fn every_service_in_both_handshake_modes() {
 #[test]
 fn sync_mode_answer_follows_the_masters_sync() {
     let mut b = Bus::new(
-        Master::new(MasterConfig {
+        SbusMaster::new(MasterConfig {
             sync_id: 1000,
             ..MasterConfig::default()
         }),
@@ -159,11 +159,11 @@ fn sync_mode_without_sync_gives_up_in_bounded_time() {
     let config = MasterConfig {
         sync_producer: SyncProducer::External,
         retries: 1,
-        timeout: Duration::from_millis(10),
+        response_timeout: Duration::from_millis(10),
         late_guard: Duration::from_millis(10),
         ..MasterConfig::default()
     };
-    let mut b = Bus::new(Master::new(config), vec![Responder::new(3)]);
+    let mut b = Bus::new(SbusMaster::new(config), vec![Responder::new(3)]);
     b.master
         .param(
             a(3),
@@ -178,7 +178,7 @@ fn sync_mode_without_sync_gives_up_in_bounded_time() {
         MasterError::Timeout {
             address: a(3),
             attempts: 2,
-            timeout: Duration::from_millis(10)
+            response_timeout: Duration::from_millis(10)
         }
     );
     assert_eq!(b.now, Instant::from_millis(2 * (5 + 1 + 10)));
@@ -268,11 +268,11 @@ fn mismatching_response_is_rejected_not_taken() {
 fn late_answer_to_earlier_request_is_not_taken() {
     let config = MasterConfig {
         retries: 0,
-        timeout: Duration::from_millis(10),
+        response_timeout: Duration::from_millis(10),
         late_guard: Duration::from_millis(10),
         ..MasterConfig::default()
     };
-    let mut b = Bus::new(Master::new(config), vec![Responder::new(4)]);
+    let mut b = Bus::new(SbusMaster::new(config), vec![Responder::new(4)]);
     // Every answer of the drive arrives 15 ms late (after the 10 ms timeout).
     let mut slow = true;
     b.fault = Some(Box::new(move |f: &CanFrame| {
@@ -308,7 +308,7 @@ fn late_answer_to_earlier_request_is_not_taken() {
     assert_eq!(b.master.stats().rejected.unsolicited, 0);
 
     // Without the guard, a late answer reaching the next request is still refused by index.
-    let mut m = Master::new(MasterConfig {
+    let mut m = SbusMaster::new(MasterConfig {
         late_guard: Duration::ZERO,
         ..MasterConfig::default()
     });
@@ -428,7 +428,7 @@ fn process_data_async_and_sync() {
 #[test]
 fn po_sync_window_is_in_microseconds_sb_e30() {
     let mut b = Bus::new(
-        Master::new(MasterConfig {
+        SbusMaster::new(MasterConfig {
             sync_producer: SyncProducer::Always,
             ..MasterConfig::default()
         }),
@@ -471,7 +471,7 @@ fn po_sync_window_is_in_microseconds_sb_e30() {
 #[test]
 fn sync_producer_period_and_identifier() {
     let mut b = Bus::new(
-        Master::new(MasterConfig {
+        SbusMaster::new(MasterConfig {
             sync_producer: SyncProducer::Always,
             sync_id: 0x7FF,
             ..MasterConfig::default()
@@ -488,7 +488,7 @@ fn sync_producer_period_and_identifier() {
     assert_eq!(sent, expected);
     assert_eq!(b.master.stats().syncs_sent, 5);
     // Polled 12 ms late: one SYNC now, the grid stays (next at 35 ms), two cycles skipped.
-    let mut m = Master::new(MasterConfig {
+    let mut m = SbusMaster::new(MasterConfig {
         sync_producer: SyncProducer::Always,
         ..MasterConfig::default()
     });
@@ -497,7 +497,7 @@ fn sync_producer_period_and_identifier() {
     assert_eq!(m.poll_timeout(), Some(Instant::from_millis(20)));
     assert_eq!(m.stats().syncs_skipped, 2);
     // The one-off SYNC request.
-    let mut m = Master::new(MasterConfig::default());
+    let mut m = SbusMaster::new(MasterConfig::default());
     m.sync(Instant::ZERO).unwrap();
     assert_eq!(m.poll_transmit(Instant::ZERO).unwrap().to_string(), "000#");
     assert_eq!(m.poll_event(), Some(MasterEvent::Done(Ok(Answer::Sent))));
@@ -536,7 +536,7 @@ fn scan_finds_every_drive_in_one_round() {
 
 #[test]
 fn foreign_and_malformed_frames_are_counted() {
-    let mut m = Master::new(MasterConfig::default());
+    let mut m = SbusMaster::new(MasterConfig::default());
     m.param(
         a(1),
         ParamChannel::read(8318),
@@ -581,7 +581,7 @@ proptest! {
         frames in proptest::collection::vec((0u16..2048, proptest::collection::vec(any::<u8>(), 0..=8), 0u64..200_000), 0..40),
         hs in any::<bool>(),
     ) {
-        let mut m = Master::new(MasterConfig::default());
+        let mut m = SbusMaster::new(MasterConfig::default());
         let hs = if hs { Handshake::Sync } else { Handshake::Async };
         m.param(a(1), ParamChannel::read(8318), hs, Instant::ZERO).unwrap();
         let mut now = Instant::ZERO;

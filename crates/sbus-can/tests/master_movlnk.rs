@@ -269,7 +269,7 @@ fn formats_write_group_and_result_codes() {
     assert_eq!(drive.po, ProcessData([6, 100, 0]));
     // Nobody at address 9: timeout, Result -1; ReadPar and PI untouched.
     let mut m = MovlnkMaster::new(MasterConfig {
-        timeout: Duration::from_millis(5),
+        response_timeout: Duration::from_millis(5),
         retries: 0,
         ..MasterConfig::default()
     });

@@ -1,5 +1,5 @@
 //! SBus end to end on the virtual CAN bus of `drive-transport`, as a user runs it: the async
-//! master (`SbusMaster`) on one node, three simulated MOVIDRIVEs (`SimulatedSbusBus`, drives 1,
+//! master (`SbusDriver`) on one node, three simulated MOVIDRIVEs (`SimulatedSbusBus`, drives 1,
 //! 2, 3) on another, an observer node recording every frame with the end of its last bit, all
 //! on tokio's paused clock at 500 kbit/s unless a test says otherwise.
 //!
@@ -35,7 +35,7 @@ use drive_profile::sew::{ParamChannel, index};
 use drive_sim::movidrive::FAULT_SBUS_TIMEOUT;
 use drive_transport::can::virtual_bus::{BusConfig, BusFault, BusFaults, VirtualBus, VirtualNode};
 use sbus_can::Address;
-use sbus_can::driver::{DriverError, SbusMaster};
+use sbus_can::driver::{DriverError, LinkError, ParamServices, SbusDriver};
 use sbus_can::master::{Handshake, MasterConfig};
 use sbus_can::sim::{SimulatedSbusBus, SimulatedSbusDrive};
 use sbus_can::telegram::ProcessData;
@@ -67,7 +67,7 @@ fn observe(bus: &VirtualBus) -> (Log, JoinHandle<()>) {
 /// The master, the simulated drives (served in their own task) and the observer on one bus.
 struct Rig {
     bus: VirtualBus,
-    master: SbusMaster<VirtualNode>,
+    master: SbusDriver<VirtualNode>,
     sim: JoinHandle<(SimulatedSbusBus, io::Result<()>)>,
     log: Log,
     observer: JoinHandle<()>,
@@ -82,7 +82,7 @@ impl Rig {
             let r = drives.serve(node).await;
             (drives, r)
         });
-        let master = SbusMaster::new(bus.node(), master);
+        let master = SbusDriver::new(bus.node(), master);
         Rig {
             bus,
             master,
@@ -507,11 +507,11 @@ struct Counts {
 /// Every error must be a timeout naming the drive and all attempts.
 fn check_timeout(e: &DriverError, d: u8, attempts: u16) {
     match e {
-        DriverError::Timeout {
+        DriverError::Link(LinkError::Timeout {
             address,
             attempts: n,
             ..
-        } if address.get() == d && *n == attempts => {
+        }) if address.get() == d && *n == attempts => {
             let text = e.to_string();
             assert!(
                 text.contains(&format!("address {d} after {attempts} attempts")),
@@ -553,7 +553,7 @@ async fn campaign(seed: u64, ops: u64, delay_by: Duration) -> Counts {
     set(drives.drive_mut(2).unwrap(), index::PI1_DESCRIPTION + 2, 6);
     set(drives.drive_mut(3).unwrap(), index::PI1_DESCRIPTION + 1, 6);
     let mut node = bus.node();
-    let mut master = SbusMaster::new(bus.node(), MasterConfig::default());
+    let mut master = SbusDriver::new(bus.node(), MasterConfig::default());
     // Warm-up without faults: each drive in its state; their PIs differ.
     for d in 1..=3u8 {
         let po = ProcessData(PO[usize::from(d - 1)]);
@@ -700,7 +700,7 @@ async fn late_answers_are_never_taken_for_a_later_request() {
     set(drives.drive_mut(1).unwrap(), RAMP, 500);
     set(drives.drive_mut(1).unwrap(), OTHER, 800);
     let mut node = bus.node();
-    let mut master = SbusMaster::new(bus.node(), MasterConfig::default());
+    let mut master = SbusDriver::new(bus.node(), MasterConfig::default());
 
     // 1. Delayed past the 50 ms timeout: it comes while the retry waits.
     node.inject(BusFault::Delay(Duration::from_millis(70)));
@@ -749,7 +749,7 @@ async fn late_answers_are_never_taken_for_a_later_request() {
 
     // 3. No late guard: the next request (another index) is on the bus when the late answer
     //    comes; it is not its answer.
-    let mut unguarded = SbusMaster::new(
+    let mut unguarded = SbusDriver::new(
         master.into_inner(),
         MasterConfig {
             retries: 0,

@@ -5,7 +5,7 @@
 
 use bonfiglioli_modbus::frame::{ExceptionCode, StartAddress};
 use bonfiglioli_modbus::framing::MAX_FRAME;
-use bonfiglioli_modbus::master::{Master, MasterEvent};
+use bonfiglioli_modbus::master::{MasterEvent, ModbusMaster};
 use bonfiglioli_modbus::slave::{Backend, Slave, Width};
 use drive_core::time::earliest;
 use drive_core::{Endpoint, Instant, RxChar};
@@ -59,14 +59,14 @@ impl Backend for Trivial {
 /// A master and a drive on one simulated line, character time `char_ns`.
 #[derive(Debug)]
 pub struct Bus<B: Backend> {
-    pub master: Master,
+    pub master: ModbusMaster,
     pub slave: Slave<B>,
     pub now: Instant,
     pub char_ns: u64,
 }
 
 impl<B: Backend> Bus<B> {
-    pub fn new(master: Master, slave: Slave<B>) -> Self {
+    pub fn new(master: ModbusMaster, slave: Slave<B>) -> Self {
         let char_ns = master.config().line.char_time().as_nanos() as u64;
         Self {
             master,

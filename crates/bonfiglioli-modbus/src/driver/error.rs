@@ -1,9 +1,10 @@
-//! What a driver call can fail with: the drive's answer, or the line.
+//! What a driver call can fail with: the drive's answer, the line, or the request itself.
 
 use crate::frame::ExceptionCode;
 use crate::master::{RejectReason, SendError};
 
-/// Why a driver call failed.
+/// Why a driver call failed: the drive refused ([`DriverError::Device`]), the line failed
+/// ([`DriverError::Link`]) or the request cannot be made ([`DriverError::Request`]).
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum DriverError {
@@ -16,6 +17,18 @@ pub enum DriverError {
         /// The VABus error register's value read right after it.
         vabus: Option<u16>,
     },
+    /// No answer, answers that kept failing the checks, or the port.
+    #[error(transparent)]
+    Link(#[from] LinkError),
+    /// The request cannot be made; nothing was sent.
+    #[error(transparent)]
+    Request(#[from] RequestError),
+}
+
+/// How the line failed.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum LinkError {
     /// Nothing answered in time, in every attempt.
     #[error(
         "no answer from address {address} after {attempts} attempts; check address (parameter 1376), mode (RTU/ASCII, parameter 395), baud rate and parity, wiring and termination"
@@ -38,6 +51,21 @@ pub enum DriverError {
         /// Transmissions made.
         attempts: u32,
     },
+    /// The answer passed the master's checks but is not the kind the call asked for.
+    #[error("the answer from address {address} does not fit the request")]
+    Unexpected {
+        /// The request's address.
+        address: u8,
+    },
+    /// The port failed or was closed.
+    #[error("port i/o failed: {0}; check that the port still exists and no other program uses it")]
+    Io(#[from] std::io::Error),
+}
+
+/// Why a request cannot be made.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[non_exhaustive]
+pub enum RequestError {
     /// The parameter number is outside 0–1599.
     #[error("parameter {0} does not exist (parameter numbers are 0–1599)")]
     NoSuchParameter(u16),
@@ -47,12 +75,9 @@ pub enum DriverError {
         /// The value.
         value: u32,
     },
-    /// The request cannot be sent this way.
+    /// The master refused it (a broadcast read).
     #[error("invalid request: {0}")]
-    InvalidRequest(SendError),
-    /// The port failed or was closed.
-    #[error("port i/o failed: {0}; check that the port still exists and no other program uses it")]
-    Io(#[from] std::io::Error),
+    Invalid(SendError),
 }
 
 fn vabus_text(v: Option<u16>) -> String {

@@ -1,5 +1,6 @@
-//! The async master driver (feature `tokio`) on drive-core's runtime layer: the sans-IO
-//! [`Master`] over any [`CharIo`] (a serial port from drive-transport, an in-memory link).
+//! The async master driver (feature `tokio`): drive-core's one runtime driver
+//! ([`drive_core::rt::Driver`]) running the sans-IO [`ModbusMaster`] over any [`CharIo`] (a
+//! serial port from drive-transport, an in-memory link), and the Bonfiglioli services on it.
 //!
 //! Parameter reads and writes take the width from the call (16-bit FC 3/6 or 32-bit
 //! FC 100/101); the caller decides it from the parameter table (or from the user where the
@@ -12,22 +13,22 @@ mod error;
 use std::time::Duration;
 
 use drive_core::LineSettings;
-pub use drive_core::rt::{CharIo, Clock, Port, ReceivedChar, Stream};
-use drive_core::rt::{Failed, Flow, Tally};
+pub use drive_core::rt::{CharIo, Clock, DriverStats, Port, ReceivedChar, Stream};
+use drive_core::rt::{Driver, Failed, Flow, Tally};
 
-pub use self::error::DriverError;
+pub use self::error::{DriverError, LinkError, RequestError};
 use crate::frame::{
     Address, DataSet, DiagSubFunction, ExceptionCode, Request, Response, StartAddress,
 };
-use crate::framing::{MAX_FRAME, Mode};
-use crate::master::{Master, MasterConfig, MasterEvent};
+use crate::framing::Mode;
+use crate::master::{MasterConfig, MasterEvent, ModbusMaster};
 use crate::slave::Width;
 
 /// The VABus SST error register (ch. 6.6): reading it returns and clears the cause of the last
 /// exception 4.
 pub const ERROR_REGISTER: u16 = 11;
 
-/// Configuration of a [`MasterDriver`].
+/// Configuration of a [`ModbusDriver`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct DriverConfig {
     /// RTU or ASCII.
@@ -66,42 +67,21 @@ impl DriverConfig {
     }
 }
 
-/// Counts of what the driver did.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash)]
-pub struct DriverStats {
-    /// Requests started.
-    pub transactions: u64,
-    /// Retransmissions.
-    pub retries: u64,
-    /// Requests given up without any answer.
-    pub timeouts: u64,
-    /// Answers not taken.
-    pub rejected: u64,
-    /// Exception answers.
-    pub exceptions: u64,
-    /// Bytes never taken as an answer because they arrived before the request had left the
-    /// port (an answer an earlier program left there, a late answer, another master): an
-    /// FC 3/100 answer does not name what it answers, so only when it came tells it apart.
-    pub stale: u64,
-}
-
 /// The async master; see the [module docs](self).
 #[derive(Debug)]
-pub struct MasterDriver<IO> {
-    master: Master,
-    port: Port<IO>,
+pub struct ModbusDriver<IO> {
+    driver: Driver<Port<IO>, ModbusMaster>,
     config: DriverConfig,
     stats: DriverStats,
 }
 
-impl<IO: CharIo> MasterDriver<IO> {
+impl<IO: CharIo> ModbusDriver<IO> {
     /// A driver on `io` with `config`.
     pub fn new(io: IO, config: DriverConfig) -> Self {
-        let master = Master::new(config.master());
-        let char_time = config.line.char_time();
+        let master = ModbusMaster::new(config.master());
+        let port = Port::new(io, config.clock, config.line.char_time());
         Self {
-            master,
-            port: Port::new(io, config.clock, char_time),
+            driver: Driver::new(port, master),
             config,
             stats: DriverStats::default(),
         }
@@ -112,14 +92,14 @@ impl<IO: CharIo> MasterDriver<IO> {
         &self.config
     }
 
-    /// What the driver did so far.
+    /// What the driver did so far (`device_errors`: exception answers).
     pub fn stats(&self) -> DriverStats {
         self.stats
     }
 
     /// The port, for closing or inspection.
     pub fn into_inner(self) -> IO {
-        self.port.into_inner()
+        self.driver.into_link().into_inner()
     }
 
     /// One request through the master; the answer (an exception answer too) or why none came.
@@ -130,63 +110,39 @@ impl<IO: CharIo> MasterDriver<IO> {
         request: Request,
         timeout: Duration,
     ) -> Result<Option<Response>, DriverError> {
-        let now = self.port.now();
-        if !self.master.is_idle() {
-            // A previous call was cancelled mid-request.
-            self.master.abort(now);
-        }
-        while self.master.poll_event().is_some() {}
-        self.master.set_response_timeout(timeout);
-        self.master
-            .send(address, request, now)
-            .map_err(DriverError::InvalidRequest)?;
+        let now = self.driver.prepare();
+        let master = self.driver.master_mut();
+        master.set_response_timeout(timeout);
+        master
+            .send((address, request), now)
+            .map_err(RequestError::Invalid)?;
         self.stats.transactions += 1;
-        let mut buf = [0u8; MAX_FRAME];
         let mut tally = Tally::default();
-        let exceptions = &mut self.stats.exceptions;
+        let device_errors = &mut self.stats.device_errors;
         let r = self
-            .port
-            .transact(
-                &mut self.master,
-                &mut buf,
-                &mut tally,
-                |m| {
-                    m.poll_event().map(|event| match event {
-                        MasterEvent::Response(r) => {
-                            if matches!(r, Response::Exception { .. }) {
-                                *exceptions += 1;
-                            }
-                            Flow::Done(Some(r))
-                        }
-                        MasterEvent::Sent => Flow::Done(None),
-                        MasterEvent::Rejected(reason) => Flow::Rejected(reason),
-                        MasterEvent::Timeout { attempts } => Flow::GaveUp { attempts },
-                    })
-                },
-                |m, now| m.abort(now),
-            )
+            .driver
+            .run(&mut tally, |m| {
+                m.poll_event().map(|event| {
+                    if matches!(event, MasterEvent::Response(Response::Exception { .. })) {
+                        *device_errors += 1;
+                    }
+                    Flow::from(event)
+                })
+            })
             .await;
-        self.stats.retries += u64::from(tally.retries());
-        self.stats.rejected += u64::from(tally.rejected);
-        self.stats.stale += u64::from(tally.stale);
+        self.stats.count(&tally, &r);
         let address = address.get();
-        r.map_err(|failed| match failed {
-            Failed::NoAnswer {
-                attempts,
-                last_reject: Some(reason),
-            } => DriverError::Corrupt {
-                address,
-                reason,
-                attempts,
-            },
-            Failed::NoAnswer {
-                attempts,
-                last_reject: None,
-            } => {
-                self.stats.timeouts += 1;
-                DriverError::Timeout { address, attempts }
-            }
-            Failed::Io(e) => DriverError::Io(e),
+        r.map_err(|failed| {
+            DriverError::Link(match failed {
+                Failed::NoAnswer { attempts } => LinkError::Timeout { address, attempts },
+                Failed::Corrupt { reason, attempts } => LinkError::Corrupt {
+                    address,
+                    reason,
+                    attempts,
+                },
+                Failed::Ended(never) => match never {},
+                Failed::Io(e) => LinkError::Io(e),
+            })
         })
     }
 
@@ -195,9 +151,7 @@ impl<IO: CharIo> MasterDriver<IO> {
         match self.transact(address, request, timeout).await? {
             Some(Response::Exception { code, .. }) => Err(self.device_error(address, code).await),
             Some(r) => Ok(r),
-            None => Err(DriverError::InvalidRequest(
-                crate::master::SendError::BroadcastRead,
-            )),
+            None => Err(RequestError::Invalid(crate::master::SendError::BroadcastRead).into()),
         }
     }
 
@@ -239,7 +193,7 @@ impl<IO: CharIo> MasterDriver<IO> {
         match self.call(address, request).await? {
             Response::ReadWord { value } => Ok(u32::from(value)),
             Response::ReadLong { value } => Ok(value),
-            _ => Err(DriverError::InvalidRequest(crate::master::SendError::Busy)),
+            _ => Err(unexpected(address)),
         }
     }
 
@@ -257,7 +211,7 @@ impl<IO: CharIo> MasterDriver<IO> {
         let request = match width {
             Width::Word => Request::WriteWord {
                 start,
-                value: u16::try_from(value).map_err(|_| DriverError::TooWide { value })?,
+                value: u16::try_from(value).map_err(|_| RequestError::TooWide { value })?,
             },
             Width::Long => Request::WriteLong { start, value },
         };
@@ -280,7 +234,7 @@ impl<IO: CharIo> MasterDriver<IO> {
             .await?
         {
             Response::Diagnostics { data, .. } => Ok(data),
-            _ => Err(DriverError::InvalidRequest(crate::master::SendError::Busy)),
+            _ => Err(unexpected(address)),
         }
     }
 
@@ -292,21 +246,30 @@ impl<IO: CharIo> MasterDriver<IO> {
         timeout: Duration,
     ) -> Result<bool, DriverError> {
         let retries = self.config.retries;
-        self.master.set_retries(0);
+        self.driver.master_mut().set_retries(0);
         let request = Request::Diagnostics {
             sub: DiagSubFunction::BUS_MESSAGES,
             data: 0,
         };
         let r = self.transact(address, request, timeout).await;
-        self.master.set_retries(retries);
+        self.driver.master_mut().set_retries(retries);
         match r {
             Ok(_) => Ok(true),
-            Err(DriverError::Timeout { .. }) => Ok(false),
+            Err(DriverError::Link(LinkError::Timeout { .. })) => Ok(false),
             Err(e) => Err(e),
         }
     }
 }
 
 fn start(param: u16, data_set: DataSet) -> Result<StartAddress, DriverError> {
-    StartAddress::new(data_set, param).ok_or(DriverError::NoSuchParameter(param))
+    StartAddress::new(data_set, param).ok_or(RequestError::NoSuchParameter(param).into())
+}
+
+/// An answer of another kind than the call asked for (the master's function code check makes
+/// it impossible).
+fn unexpected(address: Address) -> DriverError {
+    LinkError::Unexpected {
+        address: address.get(),
+    }
+    .into()
 }

@@ -3,16 +3,16 @@
 //! [`drive_sim::nord::SimulatedNord`]), on an [`AsiNetwork`] whose size sets the CTT2 transfer
 //! time (section 4.4: 16 × 154 µs × (2 + slaves) per byte), on tokio's clock.
 //!
-//! [`SimLink`] is a [`Ctt2Link`], so a [`Ctt2Master`](super::master::Ctt2Master) and a
+//! [`SimulatedLink`] is a [`Ctt2Link`], so a [`Ctt2Driver`](super::master::Ctt2Driver) and a
 //! [`NordClient`](crate::client::NordClient) run on it unchanged. A transaction takes the
 //! request's bytes × byte time, then the drive's answer time, then the answer's bytes × byte
 //! time. The link keeps that time exactly (tokio's timers tick in whole milliseconds, the byte
-//! time does not); [`SimLink::now`] is that time.
+//! time does not); [`SimulatedLink::now`] is that time.
 //!
-//! Knobs for tests: [`SimLink::send`] and [`SimLink::receive`] separately (a second request
+//! Knobs for tests: [`SimulatedLink::send`] and [`SimulatedLink::receive`] separately (a second request
 //! before the first was answered gets error 5), [`SimulatedDoubleSlave::set_answer_time`]
 //! (slower than 200 ms: error 4), [`SimulatedDoubleSlave::set_pkw_time`] (how long the drive
-//! works on a parameter order), [`SimLink::exchange_busio`] (one AS-i cycle of the BusIO
+//! works on a parameter order), [`SimulatedLink::exchange_busio`] (one AS-i cycle of the BusIO
 //! bits).
 
 use core::time::Duration;
@@ -170,11 +170,11 @@ impl Backend for SimulatedDoubleSlave {
     }
 }
 
-/// What can go wrong on a [`SimLink`].
+/// What can go wrong on a [`SimulatedLink`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
 #[non_exhaustive]
-pub enum SimLinkError {
-    /// [`SimLink::receive`] without a request waiting for its answer.
+pub enum SimulatedLinkError {
+    /// [`SimulatedLink::receive`] without a request waiting for its answer.
     #[error("no request is waiting for an answer")]
     NoRequest,
     /// The answer buffer is too small.
@@ -190,7 +190,7 @@ pub enum SimLinkError {
 /// An AS-i link to one simulated double slave on an [`AsiNetwork`] (see the
 /// [module docs](self)).
 #[derive(Debug)]
-pub struct SimLink {
+pub struct SimulatedLink {
     slave: DoubleSlave<SimulatedDoubleSlave>,
     network: AsiNetwork,
     id: DoubleSlaveId,
@@ -201,7 +201,7 @@ pub struct SimLink {
     waiting: usize,
 }
 
-impl SimLink {
+impl SimulatedLink {
     /// The double slave at 1A/1B on a network of `slaves` AS-i slaves in all (2–62; the
     /// double slave counts 2, the others are extended slaves from 2A on).
     pub fn new(drive: SimulatedDoubleSlave, slaves: u8) -> Result<Self, NetworkError> {
@@ -279,9 +279,9 @@ impl SimLink {
     }
 
     /// Wait for the next answer and transfer it into `answer`; returns its length.
-    pub async fn receive(&mut self, answer: &mut [u8]) -> Result<usize, SimLinkError> {
+    pub async fn receive(&mut self, answer: &mut [u8]) -> Result<usize, SimulatedLinkError> {
         if self.waiting == 0 {
-            return Err(SimLinkError::NoRequest);
+            return Err(SimulatedLinkError::NoRequest);
         }
         loop {
             let now = self.now();
@@ -292,14 +292,14 @@ impl SimLink {
                 let got = answer.len();
                 let dst = answer
                     .get_mut(..n)
-                    .ok_or(SimLinkError::BufferTooSmall { needed: n, got })?;
+                    .ok_or(SimulatedLinkError::BufferTooSmall { needed: n, got })?;
                 dst.copy_from_slice(buf.get(..n).unwrap_or(&[]));
                 self.wait(self.network.transfer_time(n)).await;
                 return Ok(n);
             }
             match self.slave.poll_timeout() {
                 Some(t) => self.wait_until(t.later(now)).await,
-                None => return Err(SimLinkError::NoRequest),
+                None => return Err(SimulatedLinkError::NoRequest),
             }
         }
     }
@@ -351,10 +351,14 @@ impl SimLink {
     }
 }
 
-impl Ctt2Link for SimLink {
-    type Error = SimLinkError;
+impl Ctt2Link for SimulatedLink {
+    type Error = SimulatedLinkError;
 
-    async fn transact(&mut self, request: &[u8], answer: &mut [u8]) -> Result<usize, SimLinkError> {
+    async fn transact(
+        &mut self,
+        request: &[u8],
+        answer: &mut [u8],
+    ) -> Result<usize, SimulatedLinkError> {
         self.send(request).await;
         self.receive(answer).await
     }

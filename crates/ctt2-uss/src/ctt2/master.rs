@@ -1,23 +1,23 @@
-//! The CTT2 master (feature `tokio`): requests to the double slave over a [`Ctt2Link`], the
+//! The CTT2 driver (feature `tokio`): requests to the double slave over a [`Ctt2Link`], the
 //! one thing a user implements for the command interface of an AS-i master (one request in,
 //! one answer out).
 //!
-//! [`Ctt2Master`] reads the ID and diagnosis objects, writes and reads process data, and is a
+//! [`Ctt2Driver`] reads the ID and diagnosis objects, writes and reads process data, and is a
 //! [`ParameterChannel`] and a [`ProcessChannel`], so [`NordClient`](crate::client::NordClient)
 //! runs on it:
 //!
 //! * `submit` writes the order to the parameter channel (NORD write, index 47 by default or 4
-//!   with address, [`MasterConfig::pkw_channel`]) and then reads the channel back (NORD read),
+//!   with address, [`DriverConfig::pkw_channel`]) and then reads the channel back (NORD read),
 //!   because the answer to the write says nothing about the order (section 4.3.3); `poll` reads
 //!   the channel again. The client's plausibility check does the rest: the drive returns the
 //!   previous answer until the new order is done.
 //! * `exchange_process` is one NORD write/read on the PZD channel.
 //!
-//! A negative CTT2 answer is a [`MasterError::Negative`], with the error code. Errors **4**
+//! A negative CTT2 answer is a [`DriverError::Device`], with the error code. Errors **4**
 //! (busy: not done within 200 ms) and **5** (previous request not yet answered) say that the
-//! request was not carried out and that it may succeed later, so the master repeats the request
-//! after [`MasterConfig::retry_pause`] (one answer window by default: long enough for a
-//! previous request to finish) up to [`MasterConfig::retries`] times, then reports the error.
+//! request was not carried out and that it may succeed later, so the driver repeats the request
+//! after [`DriverConfig::retry_pause`] (one answer window by default: long enough for a
+//! previous request to finish) up to [`DriverConfig::retries`] times, then reports the error.
 //! Errors 1–3 are repeated never: the same request would fail again.
 
 use core::future::Future;
@@ -51,9 +51,9 @@ pub trait Ctt2Link {
     ) -> impl Future<Output = Result<usize, Self::Error>>;
 }
 
-/// Settings of a [`Ctt2Master`].
+/// Settings of a [`Ctt2Driver`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct MasterConfig {
+pub struct DriverConfig {
     /// The parameter channel: [`Channel::Pkw`] (index 47, without address, the default) or
     /// [`Channel::PkwWithAddress`] (index 4).
     pub pkw_channel: Channel,
@@ -63,7 +63,7 @@ pub struct MasterConfig {
     pub retry_pause: Duration,
 }
 
-impl Default for MasterConfig {
+impl Default for DriverConfig {
     fn default() -> Self {
         Self {
             pkw_channel: Channel::Pkw,
@@ -73,18 +73,17 @@ impl Default for MasterConfig {
     }
 }
 
-/// Why a CTT2 exchange failed.
+/// Why a CTT2 exchange failed: the double slave refused ([`DriverError::Device`]), the link
+/// or the answer failed ([`DriverError::Link`]), or the request cannot be made
+/// ([`DriverError::Request`]).
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
-pub enum MasterError<E: std::error::Error + 'static> {
-    /// The link failed.
-    #[error("AS-i link: {0}")]
-    Link(#[source] E),
+pub enum DriverError<E: std::error::Error + 'static> {
     /// The double slave answered "not OK" (after `attempts` tries for errors 4 and 5).
     #[error(
         "the double slave refused the {request:?} request with {error} (after {attempts} attempts)"
     )]
-    Negative {
+    Device {
         /// The request's type.
         request: Ctt2MessageType,
         /// The error code.
@@ -92,12 +91,24 @@ pub enum MasterError<E: std::error::Error + 'static> {
         /// Requests sent.
         attempts: u8,
     },
+    /// The link failed, or its answer is not one.
+    #[error(transparent)]
+    Link(LinkError<E>),
+    /// The request cannot be made; nothing was sent.
+    #[error(transparent)]
+    Request(RequestError),
+}
+
+/// How the link or its answer failed.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum LinkError<E: std::error::Error + 'static> {
+    /// The link failed.
+    #[error("AS-i link: {0}")]
+    Transport(#[source] E),
     /// The answer cannot be decoded.
     #[error("undecodable answer: {0}")]
     Decode(#[source] DecodeError),
-    /// The request cannot be encoded.
-    #[error("request cannot be encoded: {0}")]
-    Encode(#[source] EncodeError),
     /// An answer to another message type.
     #[error("answer {answer:?} to a {request:?} request")]
     UnexpectedAnswer {
@@ -111,30 +122,52 @@ pub enum MasterError<E: std::error::Error + 'static> {
     Object(#[source] ObjectError),
 }
 
-/// Counters of a [`Ctt2Master`].
+/// Why a request cannot be made.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[non_exhaustive]
+pub enum RequestError {
+    /// The request cannot be encoded.
+    #[error("request cannot be encoded: {0}")]
+    Encode(#[source] EncodeError),
+    /// The order does not fit the channel's data.
+    #[error("answer data: {0}")]
+    Object(#[source] ObjectError),
+}
+
+impl<E: std::error::Error + 'static> DriverError<E> {
+    fn link(e: LinkError<E>) -> Self {
+        DriverError::Link(e)
+    }
+
+    fn object(e: ObjectError) -> Self {
+        DriverError::Link(LinkError::Object(e))
+    }
+}
+
+/// Counters of a [`Ctt2Driver`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub struct MasterCounters {
+pub struct DriverCounters {
     /// Requests sent (repetitions included).
     pub requests: u64,
     /// Repetitions after error 4 or 5.
     pub retries: u64,
 }
 
-/// A CTT2 master over a [`Ctt2Link`] (see the [module docs](self)).
+/// A CTT2 driver over a [`Ctt2Link`] (see the [module docs](self)).
 #[derive(Debug)]
-pub struct Ctt2Master<L> {
+pub struct Ctt2Driver<L> {
     link: L,
-    config: MasterConfig,
-    counters: MasterCounters,
+    config: DriverConfig,
+    counters: DriverCounters,
 }
 
-impl<L> Ctt2Master<L> {
-    /// A master over `link`.
-    pub fn new(link: L, config: MasterConfig) -> Self {
+impl<L> Ctt2Driver<L> {
+    /// A driver over `link`.
+    pub fn new(link: L, config: DriverConfig) -> Self {
         Self {
             link,
             config,
-            counters: MasterCounters::default(),
+            counters: DriverCounters::default(),
         }
     }
 
@@ -154,21 +187,23 @@ impl<L> Ctt2Master<L> {
     }
 
     /// The settings.
-    pub fn config(&self) -> &MasterConfig {
+    pub fn config(&self) -> &DriverConfig {
         &self.config
     }
 
     /// The counters.
-    pub fn counters(&self) -> &MasterCounters {
+    pub fn counters(&self) -> &DriverCounters {
         &self.counters
     }
 }
 
-impl<L: Ctt2Link> Ctt2Master<L> {
+impl<L: Ctt2Link> Ctt2Driver<L> {
     /// Send `request` and return the data of its positive answer, repeating after error 4 or 5.
-    pub async fn request(&mut self, request: &Request) -> Result<Data, MasterError<L::Error>> {
+    pub async fn request(&mut self, request: &Request) -> Result<Data, DriverError<L::Error>> {
         let mut buf = [0u8; MAX_REQUEST];
-        let n = request.encode(&mut buf).map_err(MasterError::Encode)?;
+        let n = request
+            .encode(&mut buf)
+            .map_err(|e| DriverError::Request(RequestError::Encode(e)))?;
         let bytes = buf.get(..n).unwrap_or(&[]);
         let mut attempts = 0u8;
         loop {
@@ -179,21 +214,21 @@ impl<L: Ctt2Link> Ctt2Master<L> {
                 .link
                 .transact(bytes, &mut answer)
                 .await
-                .map_err(MasterError::Link)?;
+                .map_err(|e| DriverError::link(LinkError::Transport(e)))?;
             let answer = Response::decode(answer.get(..len).unwrap_or(&answer))
-                .map_err(MasterError::Decode)?;
+                .map_err(|e| DriverError::link(LinkError::Decode(e)))?;
             if answer.kind() != request.kind() {
-                return Err(MasterError::UnexpectedAnswer {
+                return Err(DriverError::link(LinkError::UnexpectedAnswer {
                     request: request.kind(),
                     answer,
-                });
+                }));
             }
             match answer {
                 Response::Ok { data, .. } => return Ok(data),
                 Response::Error { error, .. } => {
                     let transient = matches!(error, ErrorCode::Busy | ErrorCode::PreviousPending);
                     if !transient || attempts > self.config.retries {
-                        return Err(MasterError::Negative {
+                        return Err(DriverError::Device {
                             request: request.kind(),
                             error,
                             attempts,
@@ -207,34 +242,34 @@ impl<L: Ctt2Link> Ctt2Master<L> {
     }
 
     /// Read the first `len` bytes of the ID object (14: all of it).
-    pub async fn read_id(&mut self, len: u8) -> Result<IdObject, MasterError<L::Error>> {
+    pub async fn read_id(&mut self, len: u8) -> Result<IdObject, DriverError<L::Error>> {
         let data = self
             .request(&Request::StandardRead {
                 index: StandardIndex::Id,
                 len,
             })
             .await?;
-        IdObject::decode(data.as_slice()).map_err(MasterError::Object)
+        IdObject::decode(data.as_slice()).map_err(DriverError::object)
     }
 
     /// Read the whole ID object.
-    pub async fn read_id_object(&mut self) -> Result<IdObject, MasterError<L::Error>> {
+    pub async fn read_id_object(&mut self) -> Result<IdObject, DriverError<L::Error>> {
         self.read_id(ID_OBJECT_LEN as u8).await
     }
 
     /// Read the diagnosis object.
-    pub async fn read_diagnosis(&mut self) -> Result<DiagnosisObject, MasterError<L::Error>> {
+    pub async fn read_diagnosis(&mut self) -> Result<DiagnosisObject, DriverError<L::Error>> {
         let data = self
             .request(&Request::StandardRead {
                 index: StandardIndex::Diagnosis,
                 len: DIAGNOSIS_OBJECT_LEN as u8,
             })
             .await?;
-        DiagnosisObject::decode(data.as_slice()).map_err(MasterError::Object)
+        DiagnosisObject::decode(data.as_slice()).map_err(DriverError::object)
     }
 
     /// Write control word and setpoints (NORD write on the PZD channel).
-    pub async fn write_pzd(&mut self, out: &PzdOut) -> Result<(), MasterError<L::Error>> {
+    pub async fn write_pzd(&mut self, out: &PzdOut) -> Result<(), DriverError<L::Error>> {
         self.request(&Request::NordWrite {
             index: Channel::Pzd,
             data: Data::from_pzd_out(out),
@@ -244,14 +279,14 @@ impl<L: Ctt2Link> Ctt2Master<L> {
     }
 
     /// Read the status word and `actuals` actual values (0–3; NORD read on the PZD channel).
-    pub async fn read_pzd(&mut self, actuals: u8) -> Result<PzdIn, MasterError<L::Error>> {
+    pub async fn read_pzd(&mut self, actuals: u8) -> Result<PzdIn, DriverError<L::Error>> {
         let data = self
             .request(&Request::NordRead {
                 index: Channel::Pzd,
                 len: pzd_len(actuals),
             })
             .await?;
-        data.to_pzd_in().map_err(MasterError::Object)
+        data.to_pzd_in().map_err(DriverError::object)
     }
 
     /// Write control word and setpoints and read the status word and `actuals` actual values
@@ -260,7 +295,7 @@ impl<L: Ctt2Link> Ctt2Master<L> {
         &mut self,
         out: &PzdOut,
         actuals: u8,
-    ) -> Result<PzdIn, MasterError<L::Error>> {
+    ) -> Result<PzdIn, DriverError<L::Error>> {
         let data = self
             .request(&Request::NordWriteRead {
                 index: Channel::Pzd,
@@ -268,24 +303,25 @@ impl<L: Ctt2Link> Ctt2Master<L> {
                 data: Data::from_pzd_out(out),
             })
             .await?;
-        data.to_pzd_in().map_err(MasterError::Object)
+        data.to_pzd_in().map_err(DriverError::object)
     }
 
     /// Hand a parameter order to the drive (NORD write on the parameter channel). The positive
-    /// answer says nothing about the order: read the channel back ([`Ctt2Master::read_pkw`]).
-    pub async fn write_pkw(&mut self, pkw: &Pkw) -> Result<(), MasterError<L::Error>> {
+    /// answer says nothing about the order: read the channel back ([`Ctt2Driver::read_pkw`]).
+    pub async fn write_pkw(&mut self, pkw: &Pkw) -> Result<(), DriverError<L::Error>> {
         let index = self.config.pkw_channel;
-        let data = Data::from_pkw(index, pkw).map_err(MasterError::Object)?;
+        let data = Data::from_pkw(index, pkw)
+            .map_err(|e| DriverError::Request(RequestError::Object(e)))?;
         self.request(&Request::NordWrite { index, data }).await?;
         Ok(())
     }
 
     /// Read the parameter channel: the answer to the last order the drive has finished.
-    pub async fn read_pkw(&mut self) -> Result<Pkw, MasterError<L::Error>> {
+    pub async fn read_pkw(&mut self) -> Result<Pkw, DriverError<L::Error>> {
         let index = self.config.pkw_channel;
         let len = PKW_LEN as u8 + u8::from(index.has_address());
         let data = self.request(&Request::NordRead { index, len }).await?;
-        data.to_pkw(index).map_err(MasterError::Object)
+        data.to_pkw(index).map_err(DriverError::object)
     }
 }
 
@@ -294,8 +330,8 @@ fn pzd_len(actuals: u8) -> u8 {
     3 + 2 * actuals.min(3)
 }
 
-impl<L: Ctt2Link> ParameterChannel for Ctt2Master<L> {
-    type Error = MasterError<L::Error>;
+impl<L: Ctt2Link> ParameterChannel for Ctt2Driver<L> {
+    type Error = DriverError<L::Error>;
 
     async fn submit(&mut self, order: Pkw) -> Result<Pkw, Self::Error> {
         self.write_pkw(&order).await?;
@@ -308,8 +344,8 @@ impl<L: Ctt2Link> ParameterChannel for Ctt2Master<L> {
     }
 }
 
-impl<L: Ctt2Link> ProcessChannel for Ctt2Master<L> {
-    type Error = MasterError<L::Error>;
+impl<L: Ctt2Link> ProcessChannel for Ctt2Driver<L> {
+    type Error = DriverError<L::Error>;
 
     async fn exchange_process(&mut self, out: PzdOut, actuals: u8) -> Result<PzdIn, Self::Error> {
         self.write_read_pzd(&out, actuals).await

@@ -11,7 +11,7 @@
 //! * [`asi`]: [`AsiAddress`] ("5A"), [`Profile`], BusIO bits, an in-memory [`AsiNetwork`] and
 //!   the transfer-time model.
 //! * `master` (feature `tokio`): the `Ctt2Link` trait a user implements for an AS-i master and
-//!   the `Ctt2Master` on it, which is a `ParameterChannel` and `ProcessChannel` for the shared
+//!   the `Ctt2Driver` on it, which is a `ParameterChannel` and `ProcessChannel` for the shared
 //!   `client::NordClient`.
 //! * `link` (feature `sim`): an in-memory AS-i link to a simulated drive.
 //!

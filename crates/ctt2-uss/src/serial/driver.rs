@@ -1,8 +1,8 @@
-//! The async USS master (feature `tokio`) on drive-core's runtime layer: the sans-IO
-//! [`Master`] over any [`CharIo`] (a serial port from drive-transport, an in-memory link),
-//! talking to one drive.
+//! The async USS driver (feature `tokio`): drive-core's one runtime driver
+//! ([`drive_core::rt::Driver`]) running the sans-IO [`UssMaster`] over any [`CharIo`] (a serial
+//! port from drive-transport, an in-memory link), talking to one drive.
 //!
-//! [`UssMaster`] implements the client's [`ParameterChannel`] and [`ProcessChannel`], so a
+//! [`UssDriver`] implements the client's [`ParameterChannel`] and [`ProcessChannel`], so a
 //! [`NordClient`](crate::client::NordClient) runs orders to their plausible answers and the
 //! drive's state machine over it. A USS telegram always carries both parts, so:
 //!
@@ -24,18 +24,18 @@
 use std::time::Duration;
 
 use drive_core::LineSettings;
-pub use drive_core::rt::{CharIo, Clock, Port};
-use drive_core::rt::{Failed, Flow, Tally};
+pub use drive_core::rt::{CharIo, Clock, DriverStats, Port};
+use drive_core::rt::{Driver, Failed, Flow, Tally};
 
 use super::framing::UssTiming;
-use super::master::{Master, MasterConfig, MasterEvent, RejectReason, SendError};
-use super::telegram::{Adr, Layout, MAX_PZD, MAX_TELEGRAM, Telegram, TelegramError, UssAddress};
+use super::master::{MasterConfig, RejectReason, SendError, UssMaster};
+use super::telegram::{Adr, Layout, MAX_PZD, Telegram, TelegramError, UssAddress};
 use crate::client::{ParameterChannel, ProcessChannel};
 use crate::uss::pkw::Pkw;
 use crate::uss::pzd::{PzdIn, PzdOut};
 use drive_profile::nord::StatusWord;
 
-/// Configuration of a [`UssMaster`].
+/// Configuration of a [`UssDriver`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct DriverConfig {
     /// The drive's address.
@@ -78,26 +78,25 @@ impl DriverConfig {
     }
 }
 
-/// Counts of what the driver did.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash)]
-pub struct DriverStats {
-    /// Telegrams started.
-    pub transactions: u64,
-    /// Retransmissions.
-    pub retries: u64,
-    /// Telegrams given up without any answer.
-    pub timeouts: u64,
-    /// Answers not taken.
-    pub rejected: u64,
-    /// Bytes never taken as an answer because they arrived before the telegram had left the
-    /// port (an answer an earlier program left there, a late answer, another master).
-    pub stale: u64,
-}
-
-/// Why a driver call failed.
+/// Why a driver call failed: the line ([`DriverError::Link`]) or the request itself
+/// ([`DriverError::Request`]). A USS drive refuses an order inside its PKW answer (AK 7 with
+/// an error number), which the driver returns like any answer; the client layer
+/// ([`NordClient`](crate::client::NordClient)) makes it its `ClientError::Device`.
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum DriverError {
+    /// No answer, answers that kept failing the checks, or the port.
+    #[error(transparent)]
+    Link(#[from] LinkError),
+    /// The telegram cannot be made or sent; nothing was sent.
+    #[error(transparent)]
+    Request(#[from] RequestError),
+}
+
+/// How the line failed.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum LinkError {
     /// Nothing answered in time, in every attempt.
     #[error(
         "no answer from USS address {address} after {attempts} attempts at {line} with {} PKW + {} PZD words; check the address, that the drive's baud rate and parity are {line} too, its telegram layout (PKW and PZD words), wiring and termination",
@@ -120,7 +119,7 @@ pub enum DriverError {
         layout.pkw_words(),
         layout.pzd_words()
     )]
-    Rejected {
+    Corrupt {
         /// The drive's address.
         address: u8,
         /// The last check that failed.
@@ -132,6 +131,15 @@ pub enum DriverError {
         /// The telegram layout the master uses.
         layout: Layout,
     },
+    /// The port failed or was closed.
+    #[error("port i/o failed: {0}; check that the port still exists and no other program uses it")]
+    Io(#[from] std::io::Error),
+}
+
+/// Why a telegram cannot be made or sent.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[non_exhaustive]
+pub enum RequestError {
     /// The layout has no PKW part: no parameter orders.
     #[error("the telegram layout has no PKW part: parameters cannot be read or written")]
     NoParameterChannel,
@@ -149,16 +157,24 @@ pub enum DriverError {
     /// The telegram cannot be sent this way.
     #[error("{0}")]
     Send(#[from] SendError),
-    /// The port failed or was closed.
-    #[error("port i/o failed: {0}; check that the port still exists and no other program uses it")]
-    Io(#[from] std::io::Error),
 }
 
-/// The async USS master for one drive; see the [module docs](self).
+impl From<TelegramError> for DriverError {
+    fn from(e: TelegramError) -> Self {
+        DriverError::Request(e.into())
+    }
+}
+
+impl From<SendError> for DriverError {
+    fn from(e: SendError) -> Self {
+        DriverError::Request(e.into())
+    }
+}
+
+/// The async USS driver for one drive; see the [module docs](self).
 #[derive(Debug)]
-pub struct UssMaster<IO> {
-    master: Master,
-    port: Port<IO>,
+pub struct UssDriver<IO> {
+    driver: Driver<Port<IO>, UssMaster>,
     config: DriverConfig,
     stats: DriverStats,
     /// The PKW order last sent (repeated by process telegrams).
@@ -167,19 +183,18 @@ pub struct UssMaster<IO> {
     pzd: [u16; MAX_PZD],
 }
 
-impl<IO: CharIo> UssMaster<IO> {
+impl<IO: CharIo> UssDriver<IO> {
     /// A driver on `io` with `config`.
-    pub fn new(io: IO, config: DriverConfig) -> UssMaster<IO> {
-        UssMaster {
-            master: Master::new(config.master()),
-            port: Port::new(io, config.clock, config.line.char_time()),
+    pub fn new(io: IO, config: DriverConfig) -> UssDriver<IO> {
+        let port = Port::new(io, config.clock, config.line.char_time());
+        UssDriver {
+            driver: Driver::new(port, UssMaster::new(config.master())),
             config,
             stats: DriverStats::default(),
             pkw: Pkw::default(),
             pzd: [0; MAX_PZD],
         }
     }
-
     /// The configuration.
     pub fn config(&self) -> &DriverConfig {
         &self.config
@@ -199,12 +214,12 @@ impl<IO: CharIo> UssMaster<IO> {
 
     /// The port, for inspection or fault injection.
     pub fn port_mut(&mut self) -> &mut IO {
-        self.port.get_mut()
+        self.driver.link_mut().get_mut()
     }
 
     /// The port back.
     pub fn into_inner(self) -> IO {
-        self.port.into_inner()
+        self.driver.into_link().into_inner()
     }
 
     /// The telegram to the drive with `pkw` and the process data last set.
@@ -220,63 +235,56 @@ impl<IO: CharIo> UssMaster<IO> {
     /// One telegram through the master: the answer (None for a broadcast once sent) or why
     /// none came.
     pub async fn transact(&mut self, telegram: Telegram) -> Result<Option<Telegram>, DriverError> {
-        let now = self.port.now();
-        if !self.master.is_idle() {
-            // A previous call was cancelled mid-telegram.
-            self.master.abort(now);
-        }
-        while self.master.poll_event().is_some() {}
-        self.master.send(telegram, now)?;
+        let now = self.driver.prepare();
+        self.driver.master_mut().send(telegram, now)?;
         self.stats.transactions += 1;
-        let mut buf = [0u8; MAX_TELEGRAM];
-        let address = telegram.adr().address().get();
-        let (line, layout) = (self.config.line, self.config.layout);
         let mut tally = Tally::default();
         let r = self
-            .port
-            .transact(
-                &mut self.master,
-                &mut buf,
-                &mut tally,
-                |m| {
-                    m.poll_event().map(|event| match event {
-                        MasterEvent::Response(t) => Flow::Done(Some(t)),
-                        MasterEvent::Sent => Flow::Done(None),
-                        MasterEvent::Rejected(reason) => Flow::Rejected(reason),
-                        MasterEvent::Timeout { attempts } => Flow::GaveUp { attempts },
-                    })
-                },
-                |m, now| m.abort(now),
-            )
+            .driver
+            .run(&mut tally, |m| m.poll_event().map(Flow::from))
             .await;
-        self.stats.retries += u64::from(tally.retries());
-        self.stats.rejected += u64::from(tally.rejected);
-        self.stats.stale += u64::from(tally.stale);
-        r.map_err(|failed| match failed {
-            Failed::NoAnswer {
-                attempts,
-                last_reject: Some(reason),
-            } => DriverError::Rejected {
-                address,
-                reason,
-                attempts,
-                line,
-                layout,
-            },
-            Failed::NoAnswer {
-                attempts,
-                last_reject: None,
-            } => {
-                self.stats.timeouts += 1;
-                DriverError::Timeout {
+        self.stats.count(&tally, &r);
+        r.map_err(|failed| {
+            let (address, line, layout) = self.context();
+            DriverError::Link(match failed {
+                Failed::NoAnswer { attempts } => LinkError::Timeout {
                     address,
                     attempts,
                     line,
                     layout,
-                }
-            }
-            Failed::Io(e) => DriverError::Io(e),
+                },
+                Failed::Corrupt { reason, attempts } => LinkError::Corrupt {
+                    address,
+                    reason,
+                    attempts,
+                    line,
+                    layout,
+                },
+                Failed::Ended(never) => match never {},
+                Failed::Io(e) => LinkError::Io(e),
+            })
         })
+    }
+
+    /// What a link error names: the drive's address, the line and the layout.
+    fn context(&self) -> (u8, LineSettings, Layout) {
+        (
+            self.config.address.get(),
+            self.config.line,
+            self.config.layout,
+        )
+    }
+
+    /// No answer from a telegram that always gets one (only a broadcast is unanswered).
+    fn unanswered(&self) -> DriverError {
+        let (address, line, layout) = self.context();
+        LinkError::Timeout {
+            address,
+            attempts: 0,
+            line,
+            layout,
+        }
+        .into()
     }
 
     /// One telegram with `pkw` and the current process data to the drive; its answer.
@@ -286,18 +294,13 @@ impl<IO: CharIo> UssMaster<IO> {
         match self.transact(telegram).await? {
             Some(answer) => Ok(answer),
             // Only a broadcast is unanswered, and this telegram is none.
-            None => Err(DriverError::Timeout {
-                address: self.config.address.get(),
-                attempts: 0,
-                line: self.config.line,
-                layout: self.config.layout,
-            }),
+            None => Err(self.unanswered()),
         }
     }
 
     /// The PKW answer of `answer` to `order` (3-word PKW: PWE1 as the module docs say).
     fn answer_pkw(&self, order: Pkw, answer: &Telegram) -> Result<Pkw, DriverError> {
-        let mut pkw = answer.pkw().ok_or(DriverError::NoParameterChannel)?;
+        let mut pkw = answer.pkw().ok_or(RequestError::NoParameterChannel)?;
         if self.config.layout.pkw_words() == 3
             && pkw.pwe2 == order.pwe2
             && (order.pwe1 == 0 || order.pwe1 == 0xFFFF)
@@ -313,12 +316,7 @@ impl<IO: CharIo> UssMaster<IO> {
         let telegram = self.telegram(Adr::mirror(self.config.address), self.pkw)?;
         match self.transact(telegram).await? {
             Some(t) => Ok(t),
-            None => Err(DriverError::Timeout {
-                address: self.config.address.get(),
-                attempts: 0,
-                line: self.config.line,
-                layout: self.config.layout,
-            }),
+            None => Err(self.unanswered()),
         }
     }
 
@@ -335,7 +333,7 @@ impl<IO: CharIo> UssMaster<IO> {
         let words = 1 + out.setpoints().len();
         let layout = self.config.layout.pzd_words();
         if words > usize::from(layout) {
-            return Err(DriverError::PzdDoesNotFit { words, layout });
+            return Err(RequestError::PzdDoesNotFit { words, layout }.into());
         }
         self.pzd = [0; MAX_PZD];
         let given = core::iter::once(out.control().0).chain(out.setpoints().iter().copied());
@@ -346,12 +344,12 @@ impl<IO: CharIo> UssMaster<IO> {
     }
 }
 
-impl<IO: CharIo> ParameterChannel for UssMaster<IO> {
+impl<IO: CharIo> ParameterChannel for UssDriver<IO> {
     type Error = DriverError;
 
     async fn submit(&mut self, order: Pkw) -> Result<Pkw, DriverError> {
         if self.config.layout.pkw_words() == 0 {
-            return Err(DriverError::NoParameterChannel);
+            return Err(RequestError::NoParameterChannel.into());
         }
         let answer = self.exchange(order).await?;
         self.answer_pkw(order, &answer)
@@ -367,17 +365,18 @@ impl<IO: CharIo> ParameterChannel for UssMaster<IO> {
     }
 }
 
-impl<IO: CharIo> ProcessChannel for UssMaster<IO> {
+impl<IO: CharIo> ProcessChannel for UssDriver<IO> {
     type Error = DriverError;
 
     async fn exchange_process(&mut self, out: PzdOut, actuals: u8) -> Result<PzdIn, DriverError> {
         let needed = 1 + usize::from(actuals);
         let layout = self.config.layout.pzd_words();
         if needed > usize::from(layout) {
-            return Err(DriverError::PzdDoesNotFit {
+            return Err(RequestError::PzdDoesNotFit {
                 words: needed,
                 layout,
-            });
+            }
+            .into());
         }
         self.set_process_data(&out)?;
         let answer = self.exchange(self.pkw).await?;

@@ -1,6 +1,8 @@
-//! The USS master state machine, sans-IO: one telegram in flight, on the shared transaction
-//! skeleton [`drive_core::Exchange`] (start delay before every telegram, response timeout,
-//! retries, give-up, late answers). This module adds what is USS's:
+//! The USS master state machine, sans-IO: one telegram in flight. It is drive-core's one
+//! master ([`drive_core::master::Master`]: one request in flight, attempts, retries, give-up,
+//! late answers, stale characters) on the transaction skeleton of a line
+//! ([`drive_core::Exchange`]: the start delay before every telegram, the response timeout);
+//! this module is only what is USS's, [`Uss`]:
 //!
 //! * an answer is taken only with the request's ADR byte (the addressed slave answers with its
 //!   address; a mirror telegram comes back with the mirror bit) and in the request's
@@ -17,21 +19,21 @@
 //! ([`Order::check`](crate::uss::pkw::Order::check)); the master delivers every well-formed
 //! answer.
 
+use core::convert::Infallible;
 use core::time::Duration;
 
-use drive_core::{
-    Endpoint, Exchange, ExchangeConfig, ExchangeEvent, Instant, LineSettings, Queue, RxChar,
-    RxEvent, Verdict,
-};
+use drive_core::exchange::Busy;
+use drive_core::master::{self, CharProtocol, Configure, Judgement, Protocol};
+use drive_core::{Exchange, ExchangeConfig, LineSettings, Queue, RxChar};
 
-use super::framing::{RunClock, Side, UssFraming, UssTiming, judge};
+use super::framing::{RunClock, Side, UssFraming, UssTiming};
 use super::telegram::{Adr, FrameError, Layout, MAX_TELEGRAM, Telegram};
 use crate::uss::pkw::{Order, OrderKind, Pkw, ak};
 
 /// The USS limit of a slave's response delay (its processing time: under 20 ms).
 pub const DEFAULT_RESPONSE_TIMEOUT: Duration = Duration::from_millis(20);
 
-/// Configuration of a [`Master`].
+/// Configuration of a [`UssMaster`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct MasterConfig {
     /// The line (character time).
@@ -117,24 +119,17 @@ impl From<FrameError> for RejectReason {
     }
 }
 
-/// What happened; drained with [`Master::poll_event`].
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-#[non_exhaustive]
-pub enum MasterEvent {
-    /// The answer to the telegram.
-    Response(Telegram),
-    /// A broadcast was handed to the port; it is complete (nobody answers).
-    Sent,
-    /// No valid answer after `attempts` transmissions; the telegram is dropped.
-    Timeout {
-        /// Transmissions made.
-        attempts: u16,
-    },
-    /// An answer was not taken (the attempt failed; a retry or a timeout follows).
-    Rejected(RejectReason),
-}
+/// What happened; drained with [`UssMaster`]'s `poll_event`: drive-core's master events with
+/// the answer telegram.
+///
+/// * `Response`: the answer to the telegram;
+/// * `Sent`: a broadcast was handed to the port; it is complete (nobody answers);
+/// * `Timeout { attempts }`: no valid answer after `attempts` transmissions; the telegram is
+///   dropped;
+/// * `Rejected`: an answer was not taken (the attempt failed; a retry or a timeout follows).
+pub type MasterEvent = master::MasterEvent<Telegram, RejectReason>;
 
-/// [`Master::send`] refused a telegram.
+/// [`UssMaster`]'s `send` refused a telegram.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, thiserror::Error)]
 #[non_exhaustive]
 pub enum SendError {
@@ -152,69 +147,58 @@ pub enum SendError {
     Special,
 }
 
-/// The master state machine; see the [module docs](self).
-#[derive(Debug, Clone)]
-pub struct Master {
-    config: MasterConfig,
-    exchange: Exchange<UssFraming, MAX_TELEGRAM>,
-    clock: RunClock,
-    job: Option<Telegram>,
-    events: Queue<MasterEvent, 8>,
+impl From<Busy> for SendError {
+    fn from(_: Busy) -> Self {
+        SendError::Busy
+    }
 }
 
-impl Master {
-    /// A master with `config`; the bus is assumed idle.
-    pub fn new(config: MasterConfig) -> Master {
+/// The master state machine; see the [module docs](self): drive-core's one master with [`Uss`]
+/// on a line, an [`Endpoint`](drive_core::Endpoint). [`master::Master::stale_chars`] counts what
+/// came before the telegram had left (the PZD of an answer do not say which telegram they
+/// answer).
+pub type UssMaster = master::Master<Uss, Exchange<UssFraming, MAX_TELEGRAM>>;
+
+/// USS's part of the master: the checks of a telegram and of its answer, and the residual run
+/// time of the answer being received.
+#[derive(Debug, Clone, Copy)]
+pub struct Uss {
+    config: MasterConfig,
+    clock: RunClock,
+}
+
+impl Configure for Uss {
+    type Config = MasterConfig;
+    type Carrier = Exchange<UssFraming, MAX_TELEGRAM>;
+
+    fn build(config: MasterConfig) -> (Self, Self::Carrier) {
         let framing = UssFraming::new(Side::Master, Layout::PKW4_PZD2, &config.line)
             .with_timing(config.timing);
-        Master {
-            exchange: Exchange::new(framing, config.exchange()),
+        let uss = Uss {
             config,
             clock: RunClock::default(),
-            job: None,
-            events: Queue::new(),
-        }
+        };
+        (uss, Exchange::new(framing, config.exchange()))
     }
 
-    /// The configuration.
-    pub fn config(&self) -> &MasterConfig {
+    fn config(&self) -> &MasterConfig {
         &self.config
     }
+}
 
-    /// Whether no telegram is in flight.
-    pub fn is_idle(&self) -> bool {
-        self.job.is_none()
-    }
+impl Protocol for Uss {
+    type Input = Telegram;
+    type Request = Telegram;
+    type Frame = Telegram;
+    type Answer = Telegram;
+    type Reason = RejectReason;
+    type Failure = Infallible;
+    type Event = MasterEvent;
+    type SendError = SendError;
 
-    /// Transmissions of the telegram in flight so far.
-    pub fn attempts(&self) -> u16 {
-        self.exchange.attempts()
-    }
-
-    /// Characters received so far that were never taken as an answer because they arrived
-    /// while a telegram waited for the bus or before it had completely left the wire (the PZD
-    /// of an answer do not say which telegram they answer).
-    pub fn stale_chars(&self) -> u64 {
-        self.exchange.stale_chars()
-    }
-
-    /// Change the response timeout (from the next transmission on).
-    pub fn set_response_timeout(&mut self, timeout: Duration) {
-        self.config.response_timeout = timeout;
-        self.exchange.set_response_timeout(timeout);
-    }
-
-    /// Change the number of retransmissions.
-    pub fn set_retries(&mut self, retries: u8) {
-        self.config.retries = retries;
-        self.exchange.set_retries(retries);
-    }
-
-    /// Start `telegram` at `now`; its answer is expected in the same layout.
-    pub fn send(&mut self, telegram: Telegram, now: Instant) -> Result<(), SendError> {
-        if self.job.is_some() {
-            return Err(SendError::Busy);
-        }
+    /// A telegram may be sent unless it is special, or a broadcast that is a mirror telegram
+    /// or carries an order other than a write.
+    fn prepare(&mut self, telegram: Telegram) -> Result<Telegram, SendError> {
         let adr = telegram.adr();
         if adr.is_special() {
             return Err(SendError::Special);
@@ -229,133 +213,68 @@ impl Master {
                 return Err(SendError::BroadcastOrder(pkw.pke.ak()));
             }
         }
-        self.exchange.begin(now).map_err(|_| SendError::Busy)?;
-        self.exchange
-            .receiver_mut()
-            .framing_mut()
-            .set_layout(telegram.layout());
-        self.job = Some(telegram);
-        Ok(())
+        Ok(telegram)
     }
 
-    /// The driver could not finish writing the telegram: it is dropped.
-    pub fn abort(&mut self, now: Instant) {
-        self.job = None;
-        self.exchange.abort(now);
+    #[inline]
+    fn answered(&self, telegram: &Telegram) -> bool {
+        !telegram.adr().is_broadcast()
     }
 
-    /// The next event.
-    pub fn poll_event(&mut self) -> Option<MasterEvent> {
-        self.events.pop()
-    }
-
-    fn on_exchange(&mut self, ev: ExchangeEvent<Telegram, FrameError>) {
-        match ev {
-            ExchangeEvent::Frame(answer) => {
-                match judge(
-                    RxEvent::Frame(answer),
-                    &self.clock,
-                    self.exchange.receiver().framing(),
-                ) {
-                    RxEvent::Frame(t) => self.on_answer(t),
-                    RxEvent::Rejected(e) => self.reject(e.into()),
-                }
-            }
-            ExchangeEvent::Rejected(e, verdict) => {
-                self.events.push(MasterEvent::Rejected(e.into()));
-                self.on_verdict(verdict);
-            }
-            ExchangeEvent::NoAnswer(verdict) => self.on_verdict(verdict),
+    fn judge(
+        &mut self,
+        request: &mut Telegram,
+        answer: Telegram,
+    ) -> Judgement<Telegram, RejectReason, Infallible> {
+        // The answer just confirmed must have kept the residual run time.
+        if let Err(e) = self.clock.check(&self.config.timing, answer.layout()) {
+            return Judgement::Corrupt(e.into());
         }
-    }
-
-    fn on_verdict(&mut self, verdict: Verdict) {
-        if let Verdict::GiveUp { attempts } = verdict {
-            self.events.push(MasterEvent::Timeout { attempts });
-            self.job = None;
-        }
-    }
-
-    fn reject(&mut self, reason: RejectReason) {
-        self.events.push(MasterEvent::Rejected(reason));
-        let verdict = self.exchange.fail();
-        self.on_verdict(verdict);
-    }
-
-    fn on_answer(&mut self, answer: Telegram) {
-        let Some(request) = self.job else {
-            return;
-        };
         if answer.adr() != request.adr() {
-            return self.reject(RejectReason::WrongAddress {
+            return Judgement::Foreign(RejectReason::WrongAddress {
                 expected: request.adr(),
                 got: answer.adr(),
             });
         }
-        if request.adr().is_mirror() && answer != request {
-            return self.reject(RejectReason::MirrorChanged);
+        if request.adr().is_mirror() && answer != *request {
+            return Judgement::Corrupt(RejectReason::MirrorChanged);
         }
-        self.exchange.complete();
-        self.job = None;
-        self.events.push(MasterEvent::Response(answer));
+        Judgement::Ours(answer)
+    }
+
+    fn settings_changed(&mut self, response_timeout: Duration, retries: u8) {
+        (self.config.response_timeout, self.config.retries) = (response_timeout, retries);
+    }
+
+    #[inline]
+    fn report(
+        &mut self,
+        _: &Telegram,
+        event: MasterEvent,
+        events: &mut Queue<MasterEvent, { master::EVENTS }>,
+    ) {
+        events.push(event);
     }
 }
 
-impl Endpoint for Master {
+impl CharProtocol for Uss {
+    type Framing = UssFraming;
+
+    /// The answer is expected in the telegram's layout.
     #[inline]
-    fn handle_char(&mut self, c: RxChar) {
-        let was = self.exchange.receiver().is_receiving();
-        let ev = self.exchange.handle_char(c);
-        let fed = ev.is_some() && !matches!(ev, Some(ExchangeEvent::NoAnswer(_)));
-        // Check a confirmed answer against the telegram that ended before this character.
-        if let Some(ev) = ev {
-            self.on_exchange(ev);
-        }
-        let receiving = self.exchange.receiver().is_receiving();
-        self.clock.after_char(&c, was, fed, receiving);
+    fn encode(
+        &mut self,
+        telegram: &Telegram,
+        buf: &mut [u8],
+        framing: &mut UssFraming,
+    ) -> Option<usize> {
+        framing.set_layout(telegram.layout());
+        telegram.encode(buf).ok()
     }
 
-    fn handle_timeout(&mut self, now: Instant) {
-        if let Some(ev) = self.exchange.handle_timeout(now) {
-            self.on_exchange(ev);
-        }
-    }
-
-    fn poll_transmit(&mut self, now: Instant, buf: &mut [u8]) -> Option<usize> {
-        let telegram = self.job?;
-        if !self.exchange.may_transmit(now) {
-            return None;
-        }
-        let n = telegram.encode(buf).ok()?;
-        let answered = !telegram.adr().is_broadcast();
-        self.exchange.transmitted(n, answered);
-        if !answered {
-            self.job = None;
-            self.events.push(MasterEvent::Sent);
-        }
-        Some(n)
-    }
-
-    fn poll_timeout(&self) -> Option<Instant> {
-        self.job?;
-        self.exchange.poll_timeout()
-    }
-
-    fn poll_quiet_timeout(&self) -> Option<Instant> {
-        self.job?;
-        self.exchange.poll_quiet_timeout()
-    }
-
-    fn max_frame_len(&self) -> usize {
-        MAX_TELEGRAM
-    }
-
-    fn frame_left(&mut self, at: Instant) {
-        self.exchange.left_at(at);
-    }
-
-    fn stale_chars(&self) -> u64 {
-        self.exchange.stale_chars()
+    #[inline]
+    fn heard(&mut self, c: &RxChar, was_receiving: bool, event: bool, receiving: bool) {
+        self.clock.after_char(c, was_receiving, event, receiving);
     }
 }
 

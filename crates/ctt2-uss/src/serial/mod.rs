@@ -4,10 +4,11 @@
 //!   [`Telegram`] with its allocation-free codec and [`FrameError`];
 //! * [`framing`]: [`UssFraming`] on drive-core's character receiver (start delay, length from
 //!   LGE, character gap, residual run time, BCC) and the USS times from the line settings;
-//! * [`master`]: the sans-IO master on drive-core's transaction skeleton;
+//! * [`master`]: the sans-IO master, [`UssMaster`](master::UssMaster): drive-core's one master
+//!   with USS's checks;
 //! * [`slave`]: the sans-IO slave with its [`Backend`](slave::Backend);
-//! * `driver` (feature `tokio`): `UssMaster`, the async master implementing the client's
-//!   parameter and process channels;
+//! * `driver` (feature `tokio`): `UssDriver`, the async driver (drive-core's runtime driver)
+//!   implementing the client's parameter and process channels;
 //! * `sim` (feature `sim`): simulated NORD drives on a line.
 //!
 //! The framing is the public USS specification (NORD's manual BU 0255 describes only the

@@ -29,7 +29,7 @@
 //!
 //! ```
 //! use ctt2_uss::client::{Address, ClientConfig, NordClient};
-//! use ctt2_uss::serial::driver::{DriverConfig, UssMaster};
+//! use ctt2_uss::serial::driver::{DriverConfig, UssDriver};
 //! use ctt2_uss::serial::sim::SimulatedDrive;
 //! use ctt2_uss::serial::{Layout, UssAddress};
 //! use drive_core::LineSettings;
@@ -45,7 +45,7 @@
 //! let mut drive = SimulatedDrive::new(address, Layout::PKW4_PZD4, line);
 //! let sim = tokio::spawn(async move { drive.serve(wire).await });
 //!
-//! let master = UssMaster::new(port, DriverConfig::new(address, Layout::PKW4_PZD4, line));
+//! let master = UssDriver::new(port, DriverConfig::new(address, Layout::PKW4_PZD4, line));
 //! let mut client = NordClient::new(master, ClientConfig::default());
 //! // P102 ramp time, parameter set 2: 2.50 s.
 //! let p102 = Address { set: 1, ..Address::new(102) };

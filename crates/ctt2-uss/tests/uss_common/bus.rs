@@ -6,7 +6,7 @@
 
 use core::time::Duration;
 
-use ctt2_uss::serial::master::{Master, MasterEvent};
+use ctt2_uss::serial::master::{MasterEvent, UssMaster};
 use ctt2_uss::serial::slave::{Backend, Slave};
 use ctt2_uss::serial::telegram::MAX_TELEGRAM;
 use ctt2_uss::uss::pkw::{Order, OrderKind, Pkw, Reply};
@@ -106,7 +106,7 @@ pub type Tamper = fn(&mut [u8; MAX_TELEGRAM], usize) -> Option<usize>;
 /// A master and slaves on one simulated line, character time `char_ns`.
 #[derive(Debug)]
 pub struct Bus<B: Backend> {
-    pub master: Master,
+    pub master: UssMaster,
     pub slaves: Vec<Slave<B>>,
     pub now: Instant,
     pub char_ns: u64,
@@ -117,7 +117,7 @@ pub struct Bus<B: Backend> {
 }
 
 impl<B: Backend> Bus<B> {
-    pub fn new(master: Master, slaves: Vec<Slave<B>>) -> Self {
+    pub fn new(master: UssMaster, slaves: Vec<Slave<B>>) -> Self {
         let char_ns = master.config().line.char_time().as_nanos() as u64;
         Self {
             master,

@@ -7,7 +7,10 @@
 //!   benchmarks of software overhead;
 //! * [`Port`]: a master's side of a line: transmit what a sans-IO [`Endpoint`] hands out, wait
 //!   for its deadlines or for characters and feed them;
-//! * [`CanIo`]: a CAN interface (frames, not characters) for the CAN masters and drives;
+//! * [`CanIo`]: a CAN interface (frames, not characters) for the CAN masters and drives, and
+//!   [`CanPort`]: a CAN master's side of a bus;
+//! * [`Driver`]: the one runtime driver, a sans-IO master on a [`Link`] (a [`Port`] or a
+//!   [`CanPort`]), one transaction at a time; every protocol's async driver is one;
 //! * [`serve`]: the serve loop of simulated devices ([`Endpoint`]s) on one line, and [`Bus`]:
 //!   several simulated devices ([`Station`]s, endpoints with an address) served on one line.
 //!
@@ -18,18 +21,22 @@
 
 mod bus;
 mod can;
+mod can_port;
 pub mod can_serve;
 mod clock;
+mod driver;
 mod io;
 mod port;
 mod serve;
 
 pub use bus::{Bus, LineTime, Station, serve_alone};
 pub use can::{CanIo, ReceivedFrame, recv_frame, send_frame, send_frame_at};
+pub use can_port::CanPort;
 pub use clock::{Clock, Timebase};
+pub use driver::{Driver, DriverStats, ExchangeTiming, Failed, Flow, Link, Tally};
 pub use io::{
     CHUNK, CharIo, ReceivedChar, Stream, TIMER_RESOLUTION, WireTime, Woken, read_or_sleep,
     write_all, write_all_at,
 };
-pub use port::{Failed, Flow, Port, Step, Tally};
+pub use port::{Port, Step};
 pub use serve::serve;

@@ -43,8 +43,8 @@ use crate::time::Instant;
 /// those characters: they arrived while the frame was leaving and are stale too. On the wire
 /// model ([`WireTime::Exact`]) the arrival times are exact and the endpoint's own wire time of
 /// the frame decides; behind a wrapper that does not say ([`WireTime::Unknown`]) only what waits
-/// before the frame is sent is stale. [`Port::transact`] counts the stale characters in its
-/// [`Tally`].
+/// before the frame is sent is stale. [`Driver::run`](super::Driver::run) counts the stale
+/// characters in its [`Tally`](super::Tally).
 ///
 /// [`TIMER_RESOLUTION`]: super::TIMER_RESOLUTION
 #[derive(Debug)]
@@ -68,6 +68,9 @@ pub struct Port<IO> {
     woken: Option<Instant>,
     /// When the last frame was meant to start on tokio's clock (see [`Port::last_tx_start`]).
     last_tx: Option<TokioInstant>,
+    /// The frame buffer of [`Link::step`](super::Link::step), as long as the longest frame of
+    /// the endpoints stepped so far.
+    tx: Box<[u8]>,
 }
 
 impl<IO: CharIo> Port<IO> {
@@ -84,7 +87,22 @@ impl<IO: CharIo> Port<IO> {
             last_rx: None,
             woken: None,
             last_tx: None,
+            tx: Box::default(),
         }
+    }
+
+    /// The frame buffer for an endpoint whose frames are at most `len` bytes long (made once,
+    /// on first use), taken out until [`Port::put_tx_buffer`].
+    pub(super) fn take_tx_buffer(&mut self, len: usize) -> Box<[u8]> {
+        if self.tx.len() < len {
+            self.tx = vec![0; len].into_boxed_slice();
+        }
+        std::mem::take(&mut self.tx)
+    }
+
+    /// The frame buffer back.
+    pub(super) fn put_tx_buffer(&mut self, buf: Box<[u8]>) {
+        self.tx = buf;
     }
 
     /// Now, as the endpoint sees it: right after a timer wake-up on the real clock, the
@@ -324,7 +342,8 @@ impl<IO: CharIo> Port<IO> {
         }
     }
 
-    /// One step of a master's transaction, the same for every protocol's driver: feed what
+    /// One step of a master's transaction, the same for every protocol's driver (the serial
+    /// [`Link`](super::Link) of [`Driver`](super::Driver)): feed what
     /// waits in the port ([`Step::Waited`]: the endpoint may have events now), else send the
     /// frame the endpoint has due now ([`Step::Sent`]), else wait for its next deadline or for
     /// received characters and feed them ([`Step::Waited`]). A failed write is settled first
@@ -357,59 +376,6 @@ impl<IO: CharIo> Port<IO> {
                 "the port was closed",
             ))
         }
-    }
-
-    /// A master's whole transaction, the loop every protocol's driver runs around
-    /// [`Port::step`]: `next` drains the master's events one at a time and says what each means
-    /// ([`Flow`]); the transaction ends with the first [`Flow::Done`], or when the master gives
-    /// up ([`Failed::NoAnswer`], with the reason the last answer was rejected if one came after
-    /// the last transmission), or when the port fails (`abort` drops the master's request,
-    /// [`Failed::Io`]). `tally` counts transmissions, rejected answers and stale characters
-    /// (the master's [`Endpoint::stale_chars`] during the transaction) for the driver's
-    /// statistics.
-    pub async fn transact<E: Endpoint, T, R>(
-        &mut self,
-        master: &mut E,
-        buf: &mut [u8],
-        tally: &mut Tally,
-        mut next: impl FnMut(&mut E) -> Option<Flow<T, R>>,
-        abort: impl FnOnce(&mut E, Instant),
-    ) -> Result<T, Failed<R>> {
-        let stale_before = master.stale_chars();
-        let mut last_reject = None;
-        let result = 'transaction: loop {
-            while let Some(flow) = next(master) {
-                match flow {
-                    Flow::Done(t) => break 'transaction Ok(t),
-                    Flow::Rejected(reason) => {
-                        tally.rejected = tally.rejected.saturating_add(1);
-                        last_reject = Some(reason);
-                    }
-                    Flow::GaveUp { attempts } => {
-                        break 'transaction Err(Failed::NoAnswer {
-                            attempts: u32::from(attempts),
-                            last_reject,
-                        });
-                    }
-                }
-            }
-            match self.step(master, buf).await {
-                Ok(Step::Sent(_)) => {
-                    tally.sent = tally.sent.saturating_add(1);
-                    last_reject = None;
-                }
-                Ok(Step::Waited) => {}
-                Err(e) => {
-                    abort(master, self.now());
-                    break 'transaction Err(Failed::Io(e));
-                }
-            }
-        };
-        let stale = master.stale_chars().saturating_sub(stale_before);
-        tally.stale = tally
-            .stale
-            .saturating_add(u32::try_from(stale).unwrap_or(u32::MAX));
-        result
     }
 
     /// After a failed write: let what did get out leave the line (best effort, at most 1 s).
@@ -445,54 +411,4 @@ pub enum Step {
     Sent(usize),
     /// Time passed or characters arrived; the endpoint was told.
     Waited,
-}
-
-/// What a master's event means to [`Port::transact`].
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Flow<T, R> {
-    /// The transaction is complete with this result (an answer, or nothing for a request
-    /// nobody answers).
-    Done(T),
-    /// An answer was not taken (the master retries or gives up).
-    Rejected(R),
-    /// The master gave up after `attempts` transmissions.
-    GaveUp {
-        /// Transmissions made.
-        attempts: u16,
-    },
-}
-
-/// Why [`Port::transact`] ended without a result.
-#[derive(Debug)]
-pub enum Failed<R> {
-    /// The master gave up: no answer was taken after `attempts` transmissions;
-    /// `last_reject` is why the last answer after the last transmission was rejected (none
-    /// came: a timeout).
-    NoAnswer {
-        /// Transmissions made.
-        attempts: u32,
-        /// The last rejection after the last transmission.
-        last_reject: Option<R>,
-    },
-    /// The port failed; the master's request was aborted.
-    Io(io::Error),
-}
-
-/// What [`Port::transact`] counted.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash)]
-pub struct Tally {
-    /// Transmissions (the first and every retry).
-    pub sent: u32,
-    /// Answers not taken.
-    pub rejected: u32,
-    /// Characters never taken as an answer because they arrived before the request had left
-    /// (an answer an earlier program left in the port, a late one, another master).
-    pub stale: u32,
-}
-
-impl Tally {
-    /// Retransmissions: every transmission after the first.
-    pub fn retries(&self) -> u32 {
-        self.sent.saturating_sub(1)
-    }
 }

@@ -35,17 +35,26 @@
 //! [`ReturnCode`] is a negative answer of the parameter channel ([`channel`]); [`return_code_info`]
 //! finds its row in the manual's table, [`describe_return_code`] also covers codes the manual
 //! does not list.
+//!
+//! # Parameter services
+//!
+//! [`ParamServices`] ([`services`]) are the services of the parameter channel (read, write,
+//! write volatile, minimum, maximum, default, scale, attributes, and the repeat of a service
+//! answered 6/2) written once over the one call each bus gives: MOVILINK's and SBus's drivers
+//! implement it.
 
 pub mod channel;
 pub mod device;
 mod handshake;
 pub mod index;
+pub mod services;
 mod words;
 
 pub use channel::{
     AttributeInfo, DataLength, ErrorClass, Management, ParamChannel, ReturnCode, ScaleInfo, Service,
 };
 pub use handshake::{Echo, MasterHandshake, Prepared, SlaveHandshake};
+pub use services::{ParamServices, SERVICE_ATTEMPTS};
 pub use words::{BasicCommand, ControlWord1, StatusWord1, UnitStatus};
 
 use crate::columns::{Column, FieldSink, text_list};

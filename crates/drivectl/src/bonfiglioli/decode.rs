@@ -19,8 +19,8 @@ use bonfiglioli_modbus::rtu::{self, crc};
 use drive_profile::{ParamMeta, bonfiglioli};
 use serde_json::{Value, json};
 
+use crate::decode::{Capture, parse_hex, read_capture};
 use crate::error::{CliError, Result};
-use crate::movilink::decode::{Capture, parse_hex, read_capture};
 use crate::tool::output::physical_text;
 
 pub use crate::decode::Field;
@@ -563,7 +563,7 @@ fn ascii_capture(text: &str, from_args: bool) -> Result<Capture> {
                 lines: Vec::new(),
             })
         } else {
-            crate::movilink::decode::parse_text(text, "the capture")
+            crate::decode::parse_text(text, "the capture")
         };
     }
     let mut out = Capture::default();

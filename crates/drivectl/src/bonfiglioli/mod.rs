@@ -14,7 +14,7 @@ use std::collections::HashMap;
 use std::ops::RangeInclusive;
 use std::time::Duration;
 
-use bonfiglioli_modbus::driver::{CharIo, DriverConfig, DriverError, MasterDriver};
+use bonfiglioli_modbus::driver::{CharIo, DriverConfig, DriverError, ModbusDriver as MasterDriver};
 use bonfiglioli_modbus::frame::{Address, DataSet, DiagSubFunction, ExceptionCode};
 use bonfiglioli_modbus::framing::Mode;
 use bonfiglioli_modbus::slave::Width;
@@ -28,6 +28,7 @@ use serde_json::{Map, Value, json};
 
 use crate::error::{CliError, Result};
 use crate::tool::again::Again;
+use crate::tool::client::OnTarget as _;
 use crate::tool::client::{
     ClientError, DeviceError, DeviceErrorKind, ParamClient, Target, ValueText, canonical_port,
 };
@@ -1928,7 +1929,7 @@ async fn control<IO: CharIo>(m: &mut MasterDriver<IO>, s: &ControlSession<'_>) -
             let interrupt =
                 Interrupt::install("the drive may not have reached the state asked for");
             let armed = std::cell::Cell::new(false);
-            control_steps(m, s, target, &Motion::new(&interrupt, &armed)).await?
+            control_steps(m, s, target, &Motion::new(interrupt.inner(), &armed)).await?
         }
     };
     let word = reached.word;

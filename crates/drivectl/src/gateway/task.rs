@@ -30,8 +30,9 @@ use super::metrics::Metrics;
 use super::model::{BusIx, DriveIx, DriveStatus, SetOutcome, SetRequest, SetValue, Update};
 use super::schedule::{Change, Job, Next, Outcome, Scheduler};
 use crate::error::CliError;
-use crate::tool::client::{ClientError, ParamClient, Target, ValueText, parse_decimal};
-use crate::tool::write::{WriteRequest, check_with, write_checked_with};
+use crate::tool::client::ValueError;
+use crate::tool::client::{ClientError, ParamClient, Target, ValueText};
+use crate::tool::write::{WriteError, WriteRequest};
 
 /// How often a bus reports its figures.
 pub const FIGURES_EVERY: Duration = Duration::from_secs(5);
@@ -388,41 +389,35 @@ pub fn raw_value(point: &Point, value: &SetValue) -> Result<i64, (&'static str, 
     Ok(raw)
 }
 
-/// Why `text` is no value of `target` (after [`Target::value_from_text`] refused it), with a
-/// message in the gateway's terms.
-fn value_refusal(target: &Target, text: &str, e: &CliError) -> (&'static str, String) {
-    let Some(p) = target.param else {
-        return ("bad_request", e.to_string());
-    };
-    if p.value_list_exhaustive() && !p.values().is_empty() {
-        return ("value_list", e.to_string());
-    }
-    let Some(x) = parse_decimal(text) else {
-        return (
+/// Why `text` is no value of `target` ([`Target::value_from_text`]'s typed refusal), with a
+/// message in the gateway's terms (no command-line option).
+fn value_refusal(target: &Target, text: &str, e: &ValueError) -> (&'static str, String) {
+    match e {
+        ValueError::NotInSelection { .. } => ("value_list", e.to_string()),
+        ValueError::NotANumber { unit, .. } => (
             "bad_request",
             format!(
-                "`{text}` is not a number in {} nor a value name of {} {}; send {{\"raw\": N}} for a raw value",
-                if p.unit().is_empty() {
-                    "the parameter's unit"
-                } else {
-                    p.unit()
-                },
-                p.label(),
-                p.name_en()
-            ),
-        );
-    };
-    match p.from_physical(x) {
-        Err(err) => ("range", format!("{} {}: {err}", p.label(), p.name_en())),
-        Ok(raw) => (
-            "resolution",
-            format!(
-                "{} {} cannot hold {text} exactly: the nearest value it takes is {} (raw {raw})",
-                p.label(),
-                p.name_en(),
-                crate::tool::output::physical_text(p, raw)
+                "`{text}` is not a number in {unit} nor a value name of {}; send {{\"raw\": N}} \
+                 for a raw value",
+                target.title()
             ),
         ),
+        ValueError::OutOfRange { .. } => ("range", e.to_string()),
+        ValueError::NotExact { .. } => ("resolution", e.to_string()),
+        // A physical value past the bus width is past the table's range too: a set of a value
+        // is refused for its range, as the table words it (a raw value past the width is a
+        // `width` refusal, below).
+        ValueError::PastWidth { .. } => {
+            match (target.param, drive_client::text::parse_decimal(text)) {
+                (Some(p), Some(x)) => match p.from_physical(x) {
+                    Err(err) => ("range", format!("{} {}: {err}", p.label(), p.name_en())),
+                    Ok(_) => ("width", e.to_string()),
+                },
+                _ => ("width", e.to_string()),
+            }
+        }
+        ValueError::Width { .. } | ValueError::WidthRaw { .. } => ("width", e.to_string()),
+        _ => ("bad_request", e.to_string()),
     }
 }
 
@@ -724,55 +719,35 @@ impl<C: ParamClient> ParamClient for Watched<C> {
     }
 }
 
-/// Separates the guard's reason from its message in [`tagged`].
-const TAG: char = '\u{1f}';
-
-/// The guard's refusal as `reason TAG message`, without the command line's options.
-fn tagged(e: &GuardError) -> String {
-    let reason = match e {
-        GuardError::DoesNotFit { .. } => "width",
-        GuardError::ReadOnly { .. } => "access",
-        GuardError::OutOfRange { .. } => "range",
-        GuardError::NotInValueList { .. } => "value_list",
-        GuardError::TooFrequent { .. } => {
-            return format!(
-                "wear{TAG}{e}; writes of this point go to EEPROM (eeprom = true in the config): \
-                 write less often, or list it without eeprom for RAM writes"
-            );
-        }
-        _ => "refused",
-    };
-    format!("{reason}{TAG}{e}")
-}
-
-/// A refusal of the tool layer's write path as an outcome (`reason` from [`tagged`]; errors
-/// outside the guard, such as an unusable EEPROM-wear log, are `wear`).
-fn refusal_of(e: &CliError) -> SetOutcome {
-    let text = e.to_string();
-    let (reason, message) = match text.split_once(TAG) {
-        Some((r, m)) => {
-            let reason = match r {
-                "width" => "width",
-                "access" => "access",
-                "range" => "range",
-                "value_list" => "value_list",
-                "wear" => "wear",
-                _ => "refused",
-            };
-            (reason, m.to_owned())
-        }
-        // The EEPROM-wear log cannot be kept: the command line's way out names options the
-        // gateway does not have.
-        None => match text.strip_suffix(crate::tool::wear::CLI_WAY_OUT) {
-            Some(core) => (
+/// A refusal of the write path as an outcome, with the gateway's way out where there is one
+/// (its config keys, never a command-line option).
+fn refusal_of(e: &WriteError) -> SetOutcome {
+    let (reason, message) = match e {
+        WriteError::Width(_) => ("width", e.to_string()),
+        WriteError::Guard { error, message } => match error {
+            GuardError::DoesNotFit { .. } => ("width", message.clone()),
+            GuardError::ReadOnly { .. } => ("access", message.clone()),
+            GuardError::OutOfRange { .. } => ("range", message.clone()),
+            GuardError::NotInValueList { .. } => ("value_list", message.clone()),
+            GuardError::TooFrequent { .. } => (
                 "wear",
                 format!(
-                    "{core}; give the gateway a writable DRIVECTL_STATE_DIR (the systemd unit's \
-                     StateDirectory), or list the point without eeprom for RAM writes"
+                    "{message}; writes of this point go to EEPROM (eeprom = true in the config): \
+                     write less often, or list it without eeprom for RAM writes"
                 ),
             ),
-            None => ("wear", text),
+            _ => ("refused", message.clone()),
         },
+        // The EEPROM-wear log cannot be kept: the rule would be off.
+        WriteError::WearLog(w) => (
+            "wear",
+            format!(
+                "{w}; give the gateway a writable DRIVECTL_STATE_DIR (the systemd unit's \
+                 StateDirectory), or list the point without eeprom for RAM writes"
+            ),
+        ),
+        WriteError::NotInTable { .. } | WriteError::LinkSetting { .. } => ("access", e.to_string()),
+        _ => ("refused", e.to_string()),
     };
     SetOutcome::Refused { reason, message }
 }
@@ -842,22 +817,14 @@ async fn write_point<B: BusAccess>(
             ),
         );
     }
-    let checked = match client.drive_key().await {
-        Ok(key) => check_with(&key, &req, tagged).map(|_| ()),
-        Err(e) => Err(CliError::from(e)),
+    let (bus_name, drive_name) = (&bus.name, &d.name);
+    let mut warn = |w: &str| {
+        tracing::warn!(bus = %bus_name, drive = %drive_name, point = %p.name, "{w}");
     };
-    let result = match checked {
-        Ok(()) => {
-            let (bus_name, drive_name) = (&bus.name, &d.name);
-            let mut warn = |w: &str| {
-                tracing::warn!(bus = %bus_name, drive = %drive_name, point = %p.name, "{w}");
-            };
-            write_checked_with(&mut client, &req, false, &mut warn)
-                .await
-                .map(|w| (w.back, w.differs.map(|d| (w.sent, d))))
-        }
-        Err(e) => Err(e),
-    };
+    let log = drive_client::FileWearLog::from_env();
+    let result = drive_client::write::write_checked(&mut client, &req, false, &log, &mut warn)
+        .await
+        .map(|w| (w.back, w.differs.map(|d| (w.sent, d))));
     match (result, client.error.take()) {
         (Ok((back, differs)), _) => (
             SetOutcome::Written { raw: back, differs },

@@ -12,7 +12,9 @@ pub mod sim;
 use clap::{Args, Subcommand};
 use drive_profile::Family;
 use drive_profile::sew::{self, ControlWord1, StatusWord1, index};
-use movilink::driver::{CharIo, DriverConfig, DriverError, MasterDriver};
+use movilink::driver::{
+    CharIo, DriverConfig, DriverError, MovilinkDriver as MasterDriver, ParamServices,
+};
 use movilink::{Address, ParamChannel, PduType, Telegram};
 use serde_json::json;
 use std::ops::RangeInclusive;
@@ -363,7 +365,7 @@ impl<IO: CharIo> SewLink for MovilinkLink<'_, IO> {
 /// Resolve a MOVIDRIVE parameter: `P813`, `813`, `8600`, `0x2198`; indices outside the table
 /// are allowed (raw access).
 pub fn resolve(key: &str) -> Result<Target> {
-    Target::resolve(Family::Movidrive, key, RAW_INDICES)
+    Ok(Target::resolve(Family::Movidrive, key, RAW_INDICES)?)
 }
 
 fn address(a: u8) -> Result<Address> {
@@ -469,7 +471,7 @@ fn precheck(command: &MovilinkCommand) -> Result<()> {
                 force: *force,
                 round: *round,
             };
-            resolve(param)?.value_from_text(value, &how).map(|_| ())
+            Ok(resolve(param)?.value_from_text(value, &how).map(|_| ())?)
         }
         MovilinkCommand::Restore(r) => backup::check_file(&r.file, Family::Movidrive, NOT_RESTORED),
         _ => Ok(()),

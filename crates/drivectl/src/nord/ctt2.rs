@@ -1,7 +1,7 @@
 //! `drivectl ctt2 --sim …`: a NORDAC LINK over CTT2 through an AS-i master — here the
 //! in-memory AS-i link of `ctt2_uss::ctt2::link` with a simulated drive behind its double slave.
 //!
-//! The shared NORD commands run on `ctt2_uss::ctt2::master::Ctt2Master` (a parameter order is
+//! The shared NORD commands run on `ctt2_uss::ctt2::master::Ctt2Driver` (a parameter order is
 //! a NORD write of the PKW channel and NORD reads of it until the answer fits; process data are
 //! one NORD write/read of the PZD channel). What only CTT2 has lives here: the ID and diagnosis
 //! objects of the standard read (`id`, `diag`), the AS-i network the transfer time comes from
@@ -17,8 +17,8 @@
 
 use clap::{Args, Subcommand};
 use ctt2_uss::client::{ClientConfig, NordClient};
-use ctt2_uss::ctt2::link::{SimLink, SimulatedDoubleSlave};
-use ctt2_uss::ctt2::master::{Ctt2Master, MasterConfig};
+use ctt2_uss::ctt2::link::{SimulatedDoubleSlave, SimulatedLink};
+use ctt2_uss::ctt2::master::{Ctt2Driver, DriverConfig};
 use ctt2_uss::ctt2::{
     AsiAddress, AsiNetwork, Bank, Channel, DoubleSlaveAddress, IdObject, Profile, SlaveAddress,
 };
@@ -151,7 +151,7 @@ fn double_slave_address(text: &str) -> Result<DoubleSlaveAddress> {
 
 /// The simulated network: the double slave at `address` and `slaves − 2` other extended slaves
 /// at the lowest free addresses.
-fn network(address: DoubleSlaveAddress, slaves: u8) -> Result<SimLink> {
+fn network(address: DoubleSlaveAddress, slaves: u8) -> Result<SimulatedLink> {
     let failed = |e: ctt2_uss::ctt2::NetworkError| CliError::usage(format!("AS-i network: {e}"));
     let mut net = AsiNetwork::new();
     let id = net.add_double_slave(address).map_err(failed)?;
@@ -174,7 +174,7 @@ fn network(address: DoubleSlaveAddress, slaves: u8) -> Result<SimLink> {
             "--slaves {slaves}: the AS-i network holds at most 62 slaves"
         )));
     }
-    Ok(SimLink::on_network(
+    Ok(SimulatedLink::on_network(
         SimulatedDoubleSlave::default(),
         net,
         id,
@@ -212,15 +212,15 @@ pub fn run(args: &Ctt2Args) -> Result<()> {
             tokio::time::pause();
         }
         let byte_time = link.byte_time();
-        let config = MasterConfig {
+        let config = DriverConfig {
             pkw_channel: if args.pkw_index == 4 {
                 Channel::PkwWithAddress
             } else {
                 Channel::Pkw
             },
-            ..MasterConfig::default()
+            ..DriverConfig::default()
         };
-        let mut master = Ctt2Master::new(link, config);
+        let mut master = Ctt2Driver::new(link, config);
         let started = tokio::time::Instant::now();
         let r = match &args.command {
             Ctt2Command::Nord(cmd) => {
@@ -287,7 +287,11 @@ pub fn run(args: &Ctt2Args) -> Result<()> {
 }
 
 /// `line`: what the link uses (nothing is sent).
-fn line(master: &Ctt2Master<SimLink>, args: &Ctt2Args, address: &DoubleSlaveAddress) -> Result<()> {
+fn line(
+    master: &Ctt2Driver<SimulatedLink>,
+    args: &Ctt2Args,
+    address: &DoubleSlaveAddress,
+) -> Result<()> {
     let config = master.config();
     let link = master.link();
     let byte_us = link.byte_time().as_nanos() as f64 / 1000.0;

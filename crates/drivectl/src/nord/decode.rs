@@ -20,8 +20,8 @@
 use drive_profile::nord::{self, ControlWord, StatusWord};
 use serde_json::{Value, json};
 
+use crate::decode::{Capture, parse_hex, read_capture};
 use crate::error::{CliError, Result};
-use crate::movilink::decode::{Capture, parse_hex, read_capture};
 use crate::tool::client::{Target, nord_sub_parts};
 use crate::tool::output::{physical_text, trim_float};
 

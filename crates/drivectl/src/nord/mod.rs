@@ -31,6 +31,7 @@ use drive_profile::{Family, Persistence};
 use serde_json::{Map, Value, json};
 
 use crate::error::{CliError, Result};
+use crate::tool::client::OnTarget as _;
 use crate::tool::client::{
     ClientError, DeviceError, DeviceErrorKind, ParamClient, Target, ValueText, nord_sub,
     parse_decimal,
@@ -637,7 +638,7 @@ pub fn precheck(cmd: &NordCommand) -> Result<()> {
                 persistence: Persistence::Volatile,
                 force: *force,
             };
-            write::check_with("", &request, write::with_hint).map(drop)
+            write::check_drive("", &request).map(drop)
         }
         NordCommand::Control {
             setpoint: Some(s),
@@ -1379,7 +1380,7 @@ where
             g.run(c, work, stop).await?
         }
         None => {
-            let motion = Motion::new(&interrupt, &armed);
+            let motion = Motion::new(interrupt.inner(), &armed);
             let (answer, last) = work(c, &motion).await?;
             if let Some(sig) = interrupt.signal() {
                 // A stop, quick stop or disable keeps acting in the drive: say what it was

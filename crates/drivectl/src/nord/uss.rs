@@ -1,7 +1,7 @@
 //! `drivectl uss --port PATH [--addr N] …`: a NORD drive over USS on RS-485 (or the pty of
 //! `drivectl sim uss --pty`).
 //!
-//! The shared NORD commands run on `ctt2_uss::serial::driver::UssMaster`; what only the serial
+//! The shared NORD commands run on `ctt2_uss::serial::driver::UssDriver`; what only the serial
 //! line has lives here: the telegram layout (`--pkw 3|4`, `--pzd N`, the drive's setting), the
 //! address scan 0–31 and `line`.
 //!
@@ -14,7 +14,7 @@ use std::time::Duration;
 
 use clap::{Args, Subcommand};
 use ctt2_uss::client::{ClientConfig, NordClient};
-use ctt2_uss::serial::driver::{DriverConfig, UssMaster};
+use ctt2_uss::serial::driver::{DriverConfig, UssDriver};
 use ctt2_uss::serial::framing::UssTiming;
 use ctt2_uss::serial::{Layout, UssAddress};
 use drive_core::rt::CharIo;
@@ -174,7 +174,7 @@ pub fn run(args: &UssArgs) -> Result<()> {
     rt.block_on(async {
         let port = args.line.open(&args.port)?;
         stale::note_flushed(port.flushed_at_open());
-        let master = UssMaster::new(port, config);
+        let master = UssDriver::new(port, config);
         match &args.command {
             UssCommand::Nord(cmd) => {
                 let mut identity = Map::new();
@@ -211,7 +211,7 @@ fn check_pzd(cmd: &NordCommand, pzd: u8) -> Result<()> {
 
 /// `scan`: one telegram per address (no retries); for each drive that answers, its state and
 /// P744 configuration level.
-async fn scan<IO: CharIo>(master: UssMaster<IO>, args: &UssArgs, from: u8, to: u8) -> Result<()> {
+async fn scan<IO: CharIo>(master: UssDriver<IO>, args: &UssArgs, from: u8, to: u8) -> Result<()> {
     let bar = crate::tool::backup::progress(usize::from(to - from) + 1, "scanning");
     let mut io = master.into_inner();
     let mut found = 0;
@@ -222,7 +222,7 @@ async fn scan<IO: CharIo>(master: UssMaster<IO>, args: &UssArgs, from: u8, to: u
             retries: 0,
             ..driver_config(args, address(a)?)?
         };
-        let mut client = NordClient::new(UssMaster::new(io, config), ClientConfig::default());
+        let mut client = NordClient::new(UssDriver::new(io, config), ClientConfig::default());
         // A process telegram without bit 10: the drive answers, and ignores it.
         let actuals = args.pzd.saturating_sub(1).min(3);
         let answer = if args.pzd > 0 {
@@ -286,7 +286,7 @@ async fn scan<IO: CharIo>(master: UssMaster<IO>, args: &UssArgs, from: u8, to: u
 }
 
 /// `line`: the settings and times in use.
-fn line<IO: CharIo>(master: &UssMaster<IO>, args: &UssArgs) -> Result<()> {
+fn line<IO: CharIo>(master: &UssDriver<IO>, args: &UssArgs) -> Result<()> {
     let c = master.config();
     let l = c.line;
     let us = |d: Duration| d.as_nanos() as f64 / 1000.0;

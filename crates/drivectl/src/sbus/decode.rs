@@ -387,7 +387,7 @@ pub fn run_frame(
         })?,
         extended,
     )?;
-    let bytes = crate::movilink::decode::parse_hex(hex_args)?;
+    let bytes = crate::decode::parse_hex(hex_args)?;
     let frame = CanFrame::data_frame(id, &bytes).ok_or_else(|| {
         CliError::usage(format!(
             "{} data bytes: a CAN frame carries 0…8",

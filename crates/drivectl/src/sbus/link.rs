@@ -6,7 +6,7 @@ use drive_profile::sew::ParamChannel;
 use drive_profile::sew::index::{
     self, SBUS_ADDRESS, SBUS_BAUD_RATE, SBUS_GROUP_ADDRESS, SBUS_SYNC_ID, SBUS_TIMEOUT,
 };
-use sbus_can::driver::{DriverError, SbusMaster};
+use sbus_can::driver::{DriverError, SbusDriver};
 use sbus_can::ids::Address;
 use sbus_can::master::Handshake;
 use sbus_can::sim::SimulatedSbusBus;
@@ -44,7 +44,7 @@ pub const NOT_RESTORED: &[u16] = &[
 #[derive(Debug)]
 pub struct SbusLink<'a, C> {
     /// The master.
-    pub master: &'a mut SbusMaster<C>,
+    pub master: &'a mut SbusDriver<C>,
     /// The drive's SBus address.
     pub address: Address,
     /// The handshake mode of the parameter services.
@@ -56,7 +56,7 @@ pub struct SbusLink<'a, C> {
 /// The tool layer's error of a driver error.
 pub fn client_error(e: DriverError) -> ClientError {
     match e {
-        DriverError::Drive { code, .. } => device_error(code, e.to_string()),
+        DriverError::Device { code, .. } => device_error(code, e.to_string()),
         other => ClientError::Link(other.to_string()),
     }
 }

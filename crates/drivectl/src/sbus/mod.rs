@@ -2,7 +2,7 @@
 //!
 //! `ids` and `plan` need no bus; the bus commands talk through `--iface` (a SocketCAN
 //! interface, an slcan adapter on a serial port, or the built-in virtual bus with simulated
-//! drives) with `sbus_can::driver::SbusMaster`. The parameter commands are MOVILINK's, on the
+//! drives) with `sbus_can::driver::SbusDriver`. The parameter commands are MOVILINK's, on the
 //! shared MOVIDRIVE client ([`crate::sew`]): the same table, checks, wear log, backup and
 //! restore; what is SBus's own (identifiers, process data always three words, SYNC, groups)
 //! lives here.
@@ -20,7 +20,7 @@ use drive_core::can::Bitrate;
 
 use clap::{Args, Subcommand};
 use drive_profile::Family;
-use sbus_can::driver::SbusMaster;
+use sbus_can::driver::{ParamServices, SbusDriver};
 use sbus_can::ids::{Address, Direction, SlaveIds};
 use sbus_can::master::{Handshake, MasterConfig};
 use serde_json::json;
@@ -299,7 +299,7 @@ pub fn run(args: &SbusArgs) -> Result<()> {
         let (io, sim) = open(&iface, bitrate, &virtual_addresses(args.addr)).await?;
         let result = match capture {
             None => {
-                let mut master = SbusMaster::new(io, config);
+                let mut master = SbusDriver::new(io, config);
                 let r = execute(&mut master, args, &iface).await;
                 note_stale(&master);
                 r
@@ -309,7 +309,7 @@ pub fn run(args: &SbusArgs) -> Result<()> {
                 // long `pd` or `watch`), renamed into place at the end.
                 let writer = std::io::BufWriter::new(file.writer()?);
                 let log = Capture::new(io, writer, iface.log_name());
-                let mut master = SbusMaster::new(log, config);
+                let mut master = SbusDriver::new(log, config);
                 let result = execute(&mut master, args, &iface).await;
                 note_stale(&master);
                 let kept = save_capture(master.into_inner(), file, args.capture.as_deref());
@@ -331,7 +331,7 @@ pub fn run(args: &SbusArgs) -> Result<()> {
 }
 
 /// The note for the frames the SBus master heard before its request went out.
-fn note_stale<C: drive_core::rt::CanIo>(master: &SbusMaster<C>) {
+fn note_stale<C: drive_core::rt::CanIo>(master: &SbusDriver<C>) {
     crate::tool::stale::note_stale_frames(master.stats().stale);
 }
 
@@ -384,7 +384,7 @@ fn check_timeout(config: &MasterConfig, rate: Bitrate, iface: &Iface) -> Result<
         _ => rate,
     };
     let least = least_timeout(rate, config.handshake);
-    if config.timeout >= least {
+    if config.response_timeout >= least {
         return Ok(());
     }
     let needed = least.as_micros().div_ceil(1000);
@@ -392,7 +392,7 @@ fn check_timeout(config: &MasterConfig, rate: Bitrate, iface: &Iface) -> Result<
         "a response timeout of {} ms is shorter than a parameter answer takes at {} ({:.2} ms: \
          request and response frames and the drive's 1 ms answer window{}): no answer could \
          arrive in time; use --timeout {needed} or more",
-        config.timeout.as_millis(),
+        config.response_timeout.as_millis(),
         match iface {
             Iface::SocketCan(name) => format!("the slowest SBus rate, 125 kbit/s, on {name}"),
             _ => format!("{} kbit/s", rate.bits_per_second() / 1000),
@@ -408,7 +408,7 @@ fn check_timeout(config: &MasterConfig, rate: Bitrate, iface: &Iface) -> Result<
 
 fn master_config(args: &SbusArgs) -> MasterConfig {
     MasterConfig {
-        timeout: Duration::from_millis(args.timeout),
+        response_timeout: Duration::from_millis(args.timeout),
         retries: args.retries,
         sync_id: args.sync_id,
         handshake: handshake(args),
@@ -436,7 +436,7 @@ fn precheck(command: &SbusCommand) -> Result<()> {
                 force: *force,
                 round: *round,
             };
-            resolve(param)?.value_from_text(value, &how).map(|_| ())
+            Ok(resolve(param)?.value_from_text(value, &how).map(|_| ())?)
         }
         SbusCommand::Scan { from, to } if from > to => Err(CliError::usage(format!(
             "scan --from {from} --to {to}: the range must satisfy 0 ≤ --from ≤ --to ≤ 63"
@@ -452,7 +452,7 @@ fn address(a: u8) -> Result<Address> {
 }
 
 async fn execute<C: drive_core::rt::CanIo>(
-    m: &mut SbusMaster<C>,
+    m: &mut SbusDriver<C>,
     args: &SbusArgs,
     iface: &Iface,
 ) -> Result<()> {
@@ -525,7 +525,7 @@ fn line(args: &SbusArgs, iface: &Iface, json: bool) -> Result<()> {
                 "iface": args.iface, "bitrate": known.then_some(rate.bits_per_second()),
                 "frame_8_bytes_us": known.then_some(us(frame)),
                 "least_timeout_us": us(least),
-                "response_timeout_ms": config.timeout.as_millis() as u64, "address": args.addr,
+                "response_timeout_ms": config.response_timeout.as_millis() as u64, "address": args.addr,
                 "retries": config.retries, "handshake": args.handshake,
                 "sync_id": args.sync_id,
             })
@@ -550,7 +550,7 @@ fn line(args: &SbusArgs, iface: &Iface, json: bool) -> Result<()> {
     }
     outln!(
         "response timeout {} ms, {} retries, {} handshake, SYNC identifier {}",
-        config.timeout.as_millis(),
+        config.response_timeout.as_millis(),
         config.retries,
         args.handshake,
         args.sync_id
@@ -561,7 +561,7 @@ fn line(args: &SbusArgs, iface: &Iface, json: bool) -> Result<()> {
 /// so there is nothing to read back; the drives of a group share the wear-log entry of the
 /// group.
 async fn group_write<C: drive_core::rt::CanIo>(
-    m: &mut SbusMaster<C>,
+    m: &mut SbusDriver<C>,
     group: Address,
     iface: &Iface,
     request: &write::WriteRequest,
@@ -589,7 +589,7 @@ async fn group_write<C: drive_core::rt::CanIo>(
 }
 
 async fn scan<C: drive_core::rt::CanIo>(
-    m: &mut SbusMaster<C>,
+    m: &mut SbusDriver<C>,
     from: u8,
     to: u8,
     json: bool,
@@ -676,7 +676,7 @@ mod tests {
 
     fn config(ms: u64, handshake: Handshake) -> MasterConfig {
         MasterConfig {
-            timeout: Duration::from_millis(ms),
+            response_timeout: Duration::from_millis(ms),
             handshake,
             ..MasterConfig::default()
         }

@@ -6,7 +6,7 @@ use std::time::Duration;
 use clap::Args;
 use drive_core::rt::CanIo;
 use drive_profile::sew::{self, ControlWord1, StatusWord1, index};
-use sbus_can::driver::SbusMaster;
+use sbus_can::driver::SbusDriver;
 use sbus_can::ids::Address;
 use sbus_can::telegram::ProcessData;
 use serde_json::json;
@@ -98,7 +98,7 @@ pub struct SyncArgs {
 /// Run `pd`; `again` is the command line that reaches the drive again (for the hint that
 /// says how to stop it).
 pub async fn pd<C: CanIo>(
-    m: &mut SbusMaster<C>,
+    m: &mut SbusDriver<C>,
     addr: Address,
     args: &PdArgs,
     json: bool,
@@ -180,7 +180,7 @@ pub async fn pd<C: CanIo>(
         PdStop::at_end(stop.as_ref(), end.is_none()),
         again.then(&hint),
     );
-    let work = async |m: &mut SbusMaster<C>, motion: &Motion<'_>| -> Result<()> {
+    let work = async |m: &mut SbusDriver<C>, motion: &Motion<'_>| -> Result<()> {
         let stop = motion.interrupt();
         let mut done = 0u32;
         while args.count == 0 || done < args.count {
@@ -199,7 +199,7 @@ pub async fn pd<C: CanIo>(
         }
         Ok(())
     };
-    let send_stop = async |m: &mut SbusMaster<C>| -> Result<Stopped> {
+    let send_stop = async |m: &mut SbusDriver<C>| -> Result<Stopped> {
         let Some(stop) = &stop else {
             return Err(CliError::failed("no control word to stop the drive with"));
         };
@@ -220,7 +220,7 @@ pub async fn pd<C: CanIo>(
 }
 
 async fn exchange_quiet<C: CanIo>(
-    m: &mut SbusMaster<C>,
+    m: &mut SbusDriver<C>,
     addr: Address,
     group: Option<Address>,
     sync: bool,
@@ -247,7 +247,7 @@ async fn exchange_quiet<C: CanIo>(
 }
 
 async fn exchange<C: CanIo>(
-    m: &mut SbusMaster<C>,
+    m: &mut SbusDriver<C>,
     addr: Address,
     group: Option<Address>,
     sync: bool,
@@ -297,7 +297,7 @@ async fn exchange<C: CanIo>(
 
 /// Run `sync`: SYNC every `period` ms, `count` times (0: until Ctrl-C).
 pub async fn sync<C: CanIo>(
-    m: &mut SbusMaster<C>,
+    m: &mut SbusDriver<C>,
     args: &SyncArgs,
     sync_id: u16,
     json: bool,

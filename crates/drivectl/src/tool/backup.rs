@@ -48,6 +48,7 @@ use super::outfile::OutputFile;
 use super::output::{physical_text, target_json};
 use super::write::{self, WriteRequest};
 use crate::error::{CliError, Result};
+use crate::tool::client::OnTarget as _;
 
 /// Format name in the file's `format` field.
 pub const FORMAT: &str = "drivebus-backup";
@@ -408,10 +409,10 @@ fn legacy_raw(raw: i64, (lo, _): (i64, i64)) -> i64 {
 fn restore_hint(e: &GuardError) -> String {
     let hint = match e {
         GuardError::TooFrequent { .. } => "restore again in a second, or use --force",
-        GuardError::DoesNotFit { .. } => return write::with_hint(e),
+        GuardError::DoesNotFit { .. } => return write::hint_of(e).unwrap_or_default(),
         _ => "fix the file, or use --force to let the drive decide",
     };
-    format!("{e}; {hint}")
+    format!("; {hint}")
 }
 
 /// A backup file, checked against the table.
@@ -811,9 +812,12 @@ pub async fn restore<C: ParamClient>(
     let mut warnings = Vec::new();
     let mut refusals = Vec::new();
     for (req, _) in &changes {
-        match write::check_with(&drive_key, req, restore_hint) {
+        match drive_client::write::check(&drive_key, req, &write::FileWearLog::from_env()) {
             Ok(w) => warnings.extend(w),
-            Err(e) => refusals.push(e.to_string()),
+            Err(write::WriteError::Guard { error, message }) => {
+                refusals.push(message + &restore_hint(&error));
+            }
+            Err(e) => refusals.push(CliError::from(e).to_string()),
         }
     }
     if opts.dry_run {

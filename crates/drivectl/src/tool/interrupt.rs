@@ -11,8 +11,6 @@
 //! take long (a long `--timeout` with many `--retries`); the temporary files of output files
 //! not written yet are removed first.
 
-use std::sync::Arc;
-use std::sync::atomic::{AtomicI32, Ordering};
 use std::task::Poll;
 
 use tokio::signal::unix::{Signal, SignalKind, signal};
@@ -67,17 +65,19 @@ impl Stop {
         }
     }
 
-    fn of(number: i32) -> Option<Stop> {
+    /// The signal of `number`, if it is one of these.
+    pub fn of(number: i32) -> Option<Stop> {
         Stop::ALL.into_iter().find(|s| s.number() == number)
     }
 }
 
-/// The user (or the system) asked the work to stop.
+/// The user (or the system) asked the work to stop: `drive_client`'s [`Interrupt`] raised by
+/// the signals.
+///
+/// [`Interrupt`]: drive_client::Interrupt
 #[derive(Debug, Clone)]
 pub struct Interrupt {
-    /// The number of the first signal received, 0 while none came.
-    signal: Arc<AtomicI32>,
-    notify: Arc<tokio::sync::Notify>,
+    inner: drive_client::Interrupt,
 }
 
 /// The next of `streams` to deliver a signal.
@@ -130,8 +130,7 @@ impl Interrupt {
 
     fn unset() -> Self {
         Self {
-            signal: Arc::new(AtomicI32::new(0)),
-            notify: Arc::new(tokio::sync::Notify::new()),
+            inner: drive_client::Interrupt::new(),
         }
     }
 
@@ -148,30 +147,30 @@ impl Interrupt {
     }
 
     fn raise(&self, stop: Stop) {
-        // The first signal is the one reported.
-        let _ = self
-            .signal
-            .compare_exchange(0, stop.number(), Ordering::SeqCst, Ordering::SeqCst);
-        self.notify.notify_waiters();
+        self.inner.raise(drive_client::Cause {
+            name: stop.name().to_owned(),
+            code: stop.number(),
+        });
     }
 
     /// Wait until a signal came (at once if one did).
     pub async fn wait(&self) {
-        let notified = self.notify.notified();
-        if self.requested() {
-            return;
-        }
-        notified.await;
+        self.inner.wait().await;
     }
 
     /// Whether a signal came.
     pub fn requested(&self) -> bool {
-        self.signal.load(Ordering::SeqCst) != 0
+        self.inner.requested()
     }
 
     /// The first signal that came, if any.
     pub fn signal(&self) -> Option<Stop> {
-        Stop::of(self.signal.load(Ordering::SeqCst))
+        self.inner.cause().and_then(|c| Stop::of(c.code))
+    }
+
+    /// The library's flag the signals raise (for work written in `drive_client`).
+    pub fn inner(&self) -> &drive_client::Interrupt {
+        &self.inner
     }
 }
 

@@ -7,7 +7,7 @@
 //!   typed values into raw ones;
 //! * [`write`](mod@write): the one write path (width check always, write guard and EEPROM-wear
 //!   log unless forced, read-back);
-//! * [`wear`]: the EEPROM-wear write log that keeps the guard's rule across runs;
+//! * [`drive_client::wear`]: the EEPROM-wear write log that keeps the guard's rule across runs;
 //! * [`backup`]: backup and restore of every family's parameters, with progress and atomic
 //!   files;
 //! * [`read`](mod@read): reading several parameters in one call;
@@ -27,12 +27,11 @@ pub mod fake;
 pub mod infile;
 pub mod interrupt;
 pub mod line;
-pub mod meaning;
+pub use drive_client::meaning;
 pub mod motor;
 pub mod outfile;
 pub mod read;
 pub mod simrun;
 pub mod stale;
 pub mod watch;
-pub mod wear;
 pub mod write;

@@ -18,77 +18,14 @@
 //! enable`) exits 128 + the signal's number (130 for Ctrl-C) after sending the stop; a closed
 //! output pipe exits 141 as for any other command.
 
-use std::cell::Cell;
+pub use drive_client::motor::{AtEnd, Motion, Stopped};
+use drive_client::motor::{Ending, drive};
 
 use super::interrupt::{Interrupt, Stop};
 use crate::error::{CliError, Result};
 
-/// What the command does with the motor when its work is done without interruption.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum AtEnd {
-    /// Stop it (`pd` without `--keep-running`).
-    Stop,
-    /// Leave it running: that is what the command is for (`control enable`); an interruption
-    /// before the work is done still stops it.
-    Run,
-    /// Leave it as it is, also when interrupted, for the reason given (`pd --keep-running`: the
-    /// user asked for it; no control word to stop it with).
-    KeepRunning(&'static str),
-}
-
-/// What the family's stop did: the command it sent and what the drive answered.
-#[derive(Debug, Clone)]
-pub struct Stopped {
-    /// The stop as sent, e.g. `stop (control word 0x0002)` or `shutdown 0x047E`.
-    pub sent: String,
-    /// What the drive reports afterwards, e.g. its decoded status word; empty when it does not
-    /// answer by design (a group).
-    pub reports: String,
-}
-
-/// How the work ended, as the guard sees it.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Ending {
-    /// The work did what it was asked.
-    Done,
-    /// A signal came before the work was done (or while its last exchange was in flight).
-    Signal(Stop),
-    /// Standard output was closed.
-    ClosedPipe,
-    /// The work failed.
-    Failed,
-}
-
-/// The work's view of the guard: the interrupt to check between exchanges, and where it says
-/// that the motor may now move.
-#[derive(Debug)]
-pub struct Motion<'a> {
-    interrupt: &'a Interrupt,
-    armed: &'a Cell<bool>,
-}
-
-impl<'a> Motion<'a> {
-    /// The view of a command that does not move the motor (`control stop`): the same
-    /// interrupt checks, and nothing is stopped for it.
-    pub fn new(interrupt: &'a Interrupt, armed: &'a Cell<bool>) -> Self {
-        Self { interrupt, armed }
-    }
-
-    /// The interrupt: check [`Interrupt::requested`] between exchanges, and select on
-    /// [`Interrupt::wait`] in pauses.
-    pub fn interrupt(&self) -> &Interrupt {
-        self.interrupt
-    }
-
-    /// The next word sent can move the motor: from now on an early end sends the stop. (A stop
-    /// sent before anything could move the motor would only be noise, or fail on a line that
-    /// never worked.)
-    pub fn armed(&self) {
-        self.armed.set(true);
-    }
-}
-
-/// The guard of one command that drives a motor.
+/// The guard of one command that drives a motor: `drive_client::motor`'s rule on the signals,
+/// said on standard error.
 #[derive(Debug)]
 pub struct MotorGuard {
     interrupt: Interrupt,
@@ -142,79 +79,85 @@ impl MotorGuard {
         W: AsyncFnOnce(&mut M, &Motion<'_>) -> Result<T>,
         S: AsyncFnOnce(&mut M) -> Result<Stopped>,
     {
-        let armed = Cell::new(false);
-        let motion = Motion {
-            interrupt: &self.interrupt,
-            armed: &armed,
+        let driven = drive(
+            m,
+            self.at_end,
+            self.interrupt.inner(),
+            work,
+            stop,
+            CliError::is_closed_pipe,
+        )
+        .await;
+        let signal = self.interrupt.signal();
+        let why = || match (&driven.ending, signal) {
+            (Ending::Done, _) => "at the end".to_owned(),
+            (Ending::Interrupted(_), Some(s)) => format!("on {}", s.name()),
+            (Ending::Interrupted(c), None) => format!("on {}", c.name),
+            (Ending::OutputClosed, _) => "because standard output was closed".to_owned(),
+            (_, _) => "after the failure".to_owned(),
         };
-        let result = work(m, &motion).await;
-        // A signal during the last exchange counts: the work was not done when it came.
-        let ending = match (&result, self.interrupt.signal()) {
-            (_, Some(s)) => Ending::Signal(s),
-            (Ok(_), None) => Ending::Done,
-            (Err(e), None) if e.is_closed_pipe() => Ending::ClosedPipe,
-            (Err(_), None) => Ending::Failed,
-        };
-        let send_stop = armed.get()
-            && match (self.at_end, ending) {
-                (AtEnd::KeepRunning(_), _) | (AtEnd::Run, Ending::Done) => false,
-                (AtEnd::Stop, _) | (AtEnd::Run, _) => true,
-            };
-        if send_stop {
-            let why = match ending {
-                Ending::Done => "at the end".to_owned(),
-                Ending::Signal(s) => format!("on {}", s.name()),
-                Ending::ClosedPipe => "because standard output was closed".to_owned(),
-                Ending::Failed => "after the failure".to_owned(),
-            };
-            match stop(m).await {
-                Ok(s) if s.reports.is_empty() => errln!("drivectl: note: sent {} {why}", s.sent),
-                Ok(s) => errln!(
-                    "drivectl: note: sent {} {why}; the drive reports: {}",
-                    s.sent,
-                    s.reports
-                ),
-                Err(e) => {
-                    // One line that says all of it: what ended the work, that the stop was not
-                    // answered, and what to do.
-                    let unanswered = format!(
-                        "the stop sent {why} was not answered ({e}): the drive may still be \
-                         running; stop it with `{}`",
-                        self.stop_command
-                    );
-                    return Err(CliError::failed(match (&ending, result) {
-                        (Ending::Failed, Err(first)) => format!("{first}; {unanswered}"),
-                        (Ending::Signal(s), _) => {
+        let sent_stop = driven.stop.is_some();
+        match driven.stop {
+            Some(Ok(s)) if s.reports.is_empty() => {
+                errln!("drivectl: note: sent {} {}", s.sent, why());
+            }
+            Some(Ok(s)) => errln!(
+                "drivectl: note: sent {} {}; the drive reports: {}",
+                s.sent,
+                why(),
+                s.reports
+            ),
+            Some(Err(e)) => {
+                // One line that says all of it: what ended the work, that the stop was not
+                // answered, and what to do.
+                let unanswered = format!(
+                    "the stop sent {} was not answered ({e}): the drive may still be running; \
+                     stop it with `{}`",
+                    why(),
+                    self.stop_command
+                );
+                return Err(CliError::failed(
+                    match (&driven.ending, driven.result, signal) {
+                        (Ending::Failed, Err(first), _) => format!("{first}; {unanswered}"),
+                        (Ending::Interrupted(_), _, Some(s)) => {
                             format!("interrupted by {}; {unanswered}", s.name())
                         }
                         _ => unanswered,
-                    }));
+                    },
+                ));
+            }
+            None => {
+                if let Some(reason) = driven.kept_running {
+                    // Left as it is on purpose: say so, with the way out.
+                    errln!(
+                        "drivectl: note: the drive was left as the last exchange set it \
+                         ({reason}) and may be running; stop it with `{}`",
+                        self.stop_command
+                    );
                 }
             }
-        } else if let (true, AtEnd::KeepRunning(reason)) = (armed.get(), self.at_end) {
-            // Left as it is on purpose: say so, with the way out.
-            errln!(
-                "drivectl: note: the drive was left as the last exchange set it ({reason}) and \
-                 may be running; stop it with `{}`",
-                self.stop_command
-            );
         }
-        match (ending, result) {
+        match (driven.ending, driven.result) {
             (Ending::Done, Ok(v)) => Ok(v),
             // A command whose work is to run until interrupted ends normally.
-            (Ending::Signal(_), Ok(v)) if self.at_end != AtEnd::Run => Ok(v),
-            (Ending::Signal(s), Ok(_)) => Err(CliError::with_code(
-                format!(
-                    "interrupted by {}{}",
-                    s.name(),
-                    if send_stop {
-                        "; the drive was stopped (see above)"
-                    } else {
-                        " before anything that moves the motor was sent"
-                    }
-                ),
-                s.exit_code(),
-            )),
+            (Ending::Interrupted(_), Ok(v)) if self.at_end != AtEnd::Run => Ok(v),
+            (Ending::Interrupted(c), Ok(_)) => {
+                let (name, code) = match Stop::of(c.code) {
+                    Some(s) => (s.name().to_owned(), s.exit_code()),
+                    None => (c.name, 1),
+                };
+                Err(CliError::with_code(
+                    format!(
+                        "interrupted by {name}{}",
+                        if sent_stop {
+                            "; the drive was stopped (see above)"
+                        } else {
+                            " before anything that moves the motor was sent"
+                        }
+                    ),
+                    code,
+                ))
+            }
             (_, Err(e)) => Err(e),
             (_, Ok(v)) => Ok(v),
         }

@@ -3,6 +3,7 @@
 use super::client::{ClientError, ParamClient, Target};
 use super::output::print_value_in;
 use crate::error::{CliError, Result};
+use crate::tool::client::OnTarget as _;
 
 /// Read `targets` (all resolved before anything is sent) in the order given and print one
 /// line or JSON object each. A drive's refusal of one parameter is reported for it on

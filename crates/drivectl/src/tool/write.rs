@@ -1,245 +1,125 @@
-//! The one write path of every family: the width check always, then (unless forced) the write
-//! guard with the EEPROM-wear log, the write, and the value read back. A read-back that differs
-//! from what was sent (a drive that rounds to its steps or limits a value) is a warning and a
-//! field of [`Written`], never a plain success.
+//! The write path on the command line: `drive_client::write` (the width check always, then,
+//! unless forced, the write guard with the EEPROM-wear rule of the file log, the link settings
+//! only with `--yes`, the write and the read-back), its refusals said with the options that are
+//! the way out (`--force`, `--volatile`, `--yes`), and what a write did printed as `read` prints
+//! a value, with `sent` and `differs` in JSON.
 
-use drive_profile::Persistence;
-use drive_profile::guard::{GuardError, WriteGuard};
-
+use drive_client::write as path;
+use drive_profile::guard::GuardError;
 use serde_json::Value;
+
+pub use drive_client::write::{WriteError, WriteRequest, Written};
+pub use drive_client::{FileWearLog, WearLogError};
 
 use super::client::{ParamClient, Target};
 use super::meaning::Device;
-use super::output::{physical_text, print_value, value_json_in};
-use super::wear;
+use super::output::{print_value, value_json_in};
 use crate::error::{CliError, Result};
 
-/// One write as the user asked for it.
-#[derive(Debug, Clone, Copy)]
-pub struct WriteRequest {
-    /// The parameter.
-    pub target: Target,
-    /// The raw value.
-    pub raw: i64,
-    /// RAM only, or RAM and EEPROM.
-    pub persistence: Persistence,
-    /// Skip the table checks (access, range, value list, EEPROM wear); the width check stays.
-    pub force: bool,
+/// How a refusal for an unusable wear log ends on the command line (the gateway, which has no
+/// such options, says its own way out instead).
+pub const CLI_WAY_OUT: &str = "; set DRIVECTL_STATE_DIR to a writable directory, write with \
+                               --volatile, or --force to write without the rule";
+
+impl From<WriteError> for CliError {
+    fn from(e: WriteError) -> Self {
+        match e {
+            WriteError::Width(v) => v.into(),
+            WriteError::NotInTable { label, family } => CliError::usage(format!(
+                "{label} is not in the {family} parameter table; check the index (`drivectl \
+                 params {family} --search NAME`) or use --force to send it anyway"
+            )),
+            WriteError::Guard { error, message } => {
+                CliError::usage(message + &hint_of(&error).unwrap_or_default())
+            }
+            WriteError::LinkSetting { .. } => {
+                CliError::usage(format!("{e}; add --yes to write it"))
+            }
+            WriteError::WearLog(w) => CliError::failed(format!("{w}{CLI_WAY_OUT}")),
+            WriteError::Key(c) => c.into(),
+            e @ (WriteError::Client { .. } | WriteError::ReadBack { .. }) => {
+                CliError::failed(e.to_string())
+            }
+            other => CliError::failed(other.to_string()),
+        }
+    }
 }
 
-/// Check `req` as the user asked (see the [module docs](self)); returns the guard's warning to
-/// show, if any. Nothing is sent. A refusal carries the hints of the `write` command.
+/// Check `req` as the user asked without sending anything; returns the guard's warning to show,
+/// if any. A refusal carries the hints of the `write` command.
 pub async fn check<C: ParamClient>(client: &mut C, req: &WriteRequest) -> Result<Option<String>> {
     let drive = client.drive_key().await?;
-    check_with(&drive, req, with_hint)
+    Ok(path::check(&drive, req, &FileWearLog::from_env())?)
 }
 
-/// [`check`] for the drive named `drive` (its [`ParamClient::drive_key`]), with the caller's way
-/// out in a refusal (`hint` turns the guard's error into the message), for commands with other
-/// options than `write`.
-pub fn check_with(
-    drive: &str,
-    req: &WriteRequest,
-    hint: fn(&GuardError) -> String,
-) -> Result<Option<String>> {
-    req.target.check_width(req.raw)?;
-    if req.force {
-        return Ok(None);
-    }
-    let Some(param) = req.target.param else {
-        return Err(CliError::usage(format!(
-            "{} is not in the {} parameter table; check the index (`drivectl params {} --search NAME`) or use --force to send it anyway",
-            req.target.label(),
-            req.target.family,
-            req.target.family
-        )));
-    };
-    let mut guard = WriteGuard::new();
-    if req.persistence == Persistence::NonVolatile {
-        // The rule must not switch itself off: no log, no non-volatile write.
-        wear::ensure_usable()?;
-        wear::prime(&mut guard, drive, param, req.target.sub)?;
-    }
-    guard
-        .check(param, req.raw, req.persistence, wear::now())
-        .map_err(|e| CliError::usage(req.target.relabel(&hint(&e))))?;
-    Ok(WriteGuard::warning(param).map(|w| req.target.relabel(&w.to_string())))
+/// [`check`] for the drive named `drive` (its [`ParamClient::drive_key`]), before anything is
+/// opened (a command that knows no drive key yet checks the table with `""`).
+pub fn check_drive(drive: &str, req: &WriteRequest) -> Result<Option<String>> {
+    Ok(path::check(drive, req, &FileWearLog::from_env())?)
 }
 
-/// Refuse a write of the drive's own link settings (address, baud rate, timeouts of the link
-/// in use) unless the user confirmed it with `--yes`: such a write moves the drive away from
-/// the link it was written over.
+/// Refuse a write of the drive's own link settings unless the user confirmed it with `--yes`.
 pub fn check_link_setting<C: ParamClient>(client: &C, req: &WriteRequest, yes: bool) -> Result<()> {
-    if yes || !client.link_settings().contains(&req.target.index) {
-        return Ok(());
-    }
-    Err(CliError::usage(format!(
-        "{} is a setting of the link this command talks over: {}; add --yes to write it",
-        req.target.label(),
-        client.link_change(&req.target, req.raw)
-    )))
+    Ok(path::check_link_setting(client, req, yes)?)
 }
 
-/// What a checked write did: the raw value sent, the value the drive holds afterwards, and
-/// where the drive answers now when a link setting was written.
-#[derive(Debug, Clone)]
-pub struct Written {
-    /// The raw value sent.
-    pub sent: i64,
-    /// The value read back.
-    pub back: i64,
-    /// When the value read back is not the one sent: what happened, for a person (`P130 was
-    /// written with raw 65536 (65.54 s), but the drive holds 66000 (66.00 s): it rounded the
-    /// value to its step`); the write path has handed it to its `warn` already.
-    pub differs: Option<String>,
-    /// For a link setting: what changed for the link (`P810`: the drive answers at address 5).
-    pub link_note: Option<String>,
-}
-
-impl Written {
-    /// The value the drive holds, as JSON ([`value_json_in`]) with `sent` (the raw value sent) and
-    /// `differs` (whether the drive holds another one).
-    pub fn json(&self, target: &Target) -> Value {
-        let mut v = value_json_in(target, self.back, &Device::default());
-        if let Value::Object(m) = &mut v {
-            m.insert("sent".into(), self.sent.into());
-            m.insert("differs".into(), self.differs.is_some().into());
-        }
-        v
+/// The value the drive holds after a write, as JSON (`read --json`'s keys) with `sent` (the raw
+/// value sent) and `differs` (whether the drive holds another one).
+pub fn written_json(target: &Target, done: &Written) -> Value {
+    let mut v = value_json_in(target, done.back, &Device::default());
+    if let Value::Object(m) = &mut v {
+        m.insert("sent".into(), done.sent.into());
+        m.insert("differs".into(), done.differs.is_some().into());
     }
-}
-
-/// What a read-back `back` that differs from the raw value `sent` says, or `None` when they are
-/// the same.
-pub fn difference(target: &Target, sent: i64, back: i64) -> Option<String> {
-    if sent == back {
-        return None;
-    }
-    let Some(p) = target.param else {
-        return Some(format!(
-            "{} was written with raw {sent}, but the drive holds {back}",
-            target.label()
-        ));
-    };
-    let why = if p.from_physical(p.to_physical(sent)).ok() == Some(back) {
-        ": it rounded the value to its step"
-    } else if p
-        .raw_range()
-        .is_some_and(|(lo, hi)| back == lo || back == hi)
-    {
-        ": it limited the value to its range"
-    } else {
-        ""
-    };
-    Some(format!(
-        "{} was written with raw {sent} ({}), but the drive holds {back} ({}){why}",
-        target.label(),
-        physical_text(p, sent),
-        physical_text(p, back)
-    ))
+    v
 }
 
 /// Print what a write did: where the drive answers now (a link setting) on standard error, then
-/// the value it holds, as `read` prints one (text), or [`Written::json`].
+/// the value it holds, as `read` prints one (text), or [`written_json`].
 pub fn print_written(target: &Target, done: &Written, json: bool) -> Result<()> {
     if let Some(note) = &done.link_note {
         errln!("drivectl: note: {note}");
     }
     if json {
-        outln!("{}", done.json(target))
+        outln!("{}", written_json(target, done))
     } else {
         print_value(target, done.back, false)
     }
 }
 
-/// Check, write and read back: the value the drive holds afterwards. A write of a link setting
-/// needs `yes`; the client follows the change (a new address) before reading back. The guard's
-/// warning and a wear-log problem are shown on standard error.
+/// Check, write and read back (`drive_client::write::write_checked` with the file wear log):
+/// the value the drive holds afterwards; the guard's warning, a wear-log problem and a
+/// read-back that differs are shown on standard error.
 pub async fn write_checked<C: ParamClient>(
     client: &mut C,
     req: &WriteRequest,
     yes: bool,
 ) -> Result<Written> {
-    write_checked_with(client, req, yes, &mut |w: &str| {
+    let log = FileWearLog::from_env();
+    Ok(path::write_checked(client, req, yes, &log, &mut |w: &str| {
         errln!("drivectl: warning: {w}")
     })
-    .await
-}
-
-/// [`write_checked`] with the warnings handed to `warn` as they come (the gateway logs them;
-/// its standard error may be a JSON log).
-pub async fn write_checked_with<C: ParamClient>(
-    client: &mut C,
-    req: &WriteRequest,
-    yes: bool,
-    warn: &mut dyn FnMut(&str),
-) -> Result<Written> {
-    check_link_setting(client, req, yes)?;
-    if let Some(warning) = check(client, req).await? {
-        warn(&warning);
-    }
-    let drive = client.drive_key().await?;
-    client
-        .write(&req.target, req.raw, req.persistence)
-        .await
-        .map_err(|e| req.target.error(e))?;
-    if let Err(e) = record(&drive, req) {
-        warn(&e.to_string());
-    }
-    let link_note = client
-        .link_settings()
-        .contains(&req.target.index)
-        .then(|| client.follow_link_change(&req.target, req.raw));
-    // The write is done: a failing read-back must not look like a failed write.
-    let back = client.read(&req.target).await.map_err(|e| {
-        CliError::failed(format!(
-            "{} was written{}, but reading it back failed: {}",
-            req.target.label(),
-            link_note
-                .as_ref()
-                .map_or_else(String::new, |n| format!(" ({n})")),
-            CliError::from(e)
-        ))
-    })?;
-    let differs = difference(&req.target, req.raw, back);
-    if let Some(d) = &differs {
-        warn(d);
-    }
-    Ok(Written {
-        sent: req.raw,
-        back,
-        differs,
-        link_note,
-    })
+    .await?)
 }
 
 /// Enter a sent write into the EEPROM-wear log of drive `drive_key` (non-volatile writes of
-/// table parameters only).
-pub fn record(drive_key: &str, req: &WriteRequest) -> Result<()> {
-    if req.persistence == Persistence::NonVolatile
-        && let Some(param) = req.target.param
-    {
-        wear::record(drive_key, param, req.target.sub)?;
-    }
-    Ok(())
+/// table parameters only); a failure is for the caller to report.
+pub fn record(drive_key: &str, req: &WriteRequest) -> std::result::Result<(), WearLogError> {
+    path::record(drive_key, req, &FileWearLog::from_env())
 }
 
-/// The guard's message with what drivectl offers as a way out.
-pub fn with_hint(e: &GuardError) -> String {
+/// What drivectl offers as a way out of a guard's refusal (`; use --volatile …`), if anything.
+pub fn hint_of(e: &GuardError) -> Option<String> {
     let hint = match e {
         GuardError::DoesNotFit { .. } => "not even --force sends a value that would be cut",
-        GuardError::ReadOnly { .. } => "",
+        GuardError::ReadOnly { .. } => return None,
         GuardError::OutOfRange { .. } | GuardError::NotInValueList { .. } => {
             "use a value in range, or --force to let the drive decide"
         }
         GuardError::TooFrequent { .. } => "use --volatile for values that change often, or --force",
         _ => "--force sends it anyway",
     };
-    if hint.is_empty() {
-        e.to_string()
-    } else {
-        format!("{e}; {hint}")
-    }
+    Some(format!("; {hint}"))
 }
 
 #[cfg(test)]
@@ -247,6 +127,7 @@ mod tests {
     use super::*;
     use crate::tool::client::ClientError;
     use crate::tool::fake::FakeClient;
+    use drive_profile::Persistence;
 
     #[test]
     fn issue18_a_write_the_drive_holds_differently_is_said() {
@@ -264,16 +145,17 @@ mod tests {
             .unwrap();
         let mut warnings = Vec::new();
         let done = rt
-            .block_on(write_checked_with(
+            .block_on(path::write_checked(
                 &mut client,
                 &req,
                 false,
+                &drive_client::MemoryWearLog::default(),
                 &mut |w: &str| warnings.push(w.to_owned()),
             ))
             .unwrap();
         assert_eq!((done.sent, done.back), (65_536, 66_000));
-        assert_eq!(done.json(&target)["sent"], 65_536);
-        assert_eq!(done.json(&target)["differs"], true);
+        assert_eq!(written_json(&target, &done)["sent"], 65_536);
+        assert_eq!(written_json(&target, &done)["differs"], true);
         assert_eq!(
             done.differs.as_deref(),
             warnings.first().map(String::as_str)

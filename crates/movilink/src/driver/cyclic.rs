@@ -5,10 +5,10 @@ use std::time::Duration;
 
 use tokio::time::Instant as TokioInstant;
 
-use super::{CharIo, DriverError, MasterDriver};
+use super::{CharIo, DriverError, MovilinkDriver, RequestError};
 use crate::frame::{Address, ParamChannel, PduType, Telegram};
 
-/// A cyclic session with one drive, borrowed from a [`MasterDriver`].
+/// A cyclic session with one drive, borrowed from a [`MovilinkDriver`].
 ///
 /// Every call of [`CyclicSession::cycle`] or [`CyclicSession::param`] first waits for the next
 /// period boundary, then exchanges one telegram of the session's cyclic PDU type carrying the
@@ -18,7 +18,7 @@ use crate::frame::{Address, ParamChannel, PduType, Telegram};
 /// of catch-up telegrams, the next one is simply one period after the late one.
 #[derive(Debug)]
 pub struct CyclicSession<'a, IO> {
-    driver: &'a mut MasterDriver<IO>,
+    driver: &'a mut MovilinkDriver<IO>,
     address: Address,
     pdu: PduType,
     period: Duration,
@@ -26,7 +26,7 @@ pub struct CyclicSession<'a, IO> {
     output: [u16; 3],
 }
 
-impl<IO: CharIo> MasterDriver<IO> {
+impl<IO: CharIo> MovilinkDriver<IO> {
     /// Start a cyclic session with `address` using the cyclic `pdu` type (0x00–0x06), one
     /// telegram every `period`. The process output words start as the ones last sent to the
     /// drive (zeros before any); set them with [`CyclicSession::set_output`].
@@ -37,19 +37,13 @@ impl<IO: CharIo> MasterDriver<IO> {
         period: Duration,
     ) -> Result<CyclicSession<'_, IO>, DriverError> {
         if !pdu.is_cyclic() {
-            return Err(DriverError::InvalidRequest(
-                "a cyclic session needs a cyclic pdu type (0x00-0x06)",
-            ));
+            return Err(RequestError::NotCyclic.into());
         }
         if !address.expects_response() {
-            return Err(DriverError::InvalidRequest(
-                "a cyclic session needs a single drive (0-99) or 254",
-            ));
+            return Err(RequestError::NotSingle.into());
         }
         if period.is_zero() {
-            return Err(DriverError::InvalidRequest(
-                "the cycle period must not be zero",
-            ));
+            return Err(RequestError::ZeroPeriod.into());
         }
         let output = self.po_of(address);
         Ok(CyclicSession {
@@ -119,9 +113,7 @@ impl<IO: CharIo> CyclicSession<'_, IO> {
     /// keep being sent meanwhile, so the drive's timeout stays fed.
     pub async fn param(&mut self, request: ParamChannel) -> Result<ParamChannel, DriverError> {
         if !self.pdu.has_param() {
-            return Err(DriverError::InvalidRequest(
-                "this cyclic pdu type has no parameter channel; use a PARAM type (0x00, 0x02, 0x04, 0x06)",
-            ));
+            return Err(RequestError::NoParamInCycle.into());
         }
         self.wait_turn().await;
         let words = self.output;

@@ -2,13 +2,26 @@
 
 use crate::error::{RejectReason, ReturnCode};
 
-/// Why a driver call failed.
+/// Why a driver call failed: the drive refused ([`DriverError::Device`]), the line failed
+/// ([`DriverError::Link`]) or the request cannot be made ([`DriverError::Request`]).
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum DriverError {
     /// The drive answered the parameter service negatively; the code says why.
     #[error("the drive refused the service: {}; {}", .0.describe(), device_hint(.0))]
     Device(ReturnCode),
+    /// No answer, answers that kept failing the checks, or the port.
+    #[error(transparent)]
+    Link(#[from] LinkError),
+    /// The request cannot be made; nothing was sent.
+    #[error("invalid request: {0}")]
+    Request(#[from] RequestError),
+}
+
+/// How the line failed.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum LinkError {
     /// Nothing answered in time, in every attempt.
     #[error(
         "no answer from address {address} after {attempts} attempts; check address, baud rate, wiring, termination and P810"
@@ -40,12 +53,58 @@ pub enum DriverError {
         /// The request's address.
         address: u8,
     },
-    /// The request cannot be sent this way.
-    #[error("invalid request: {0}")]
-    InvalidRequest(&'static str),
+    /// The answer passed the master's checks but carried no parameter channel.
+    #[error("the answer carried no parameter channel")]
+    NoParamChannel,
+    /// The exchange completed without a response.
+    #[error("the exchange completed without a response")]
+    NoResponse,
     /// The port failed or was closed.
     #[error("port i/o failed: {0}; check that the port still exists and no other program uses it")]
     Io(#[from] std::io::Error),
+}
+
+/// Why a request cannot be made.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, thiserror::Error)]
+#[non_exhaustive]
+pub enum RequestError {
+    /// A parameter service in a PDU type without parameter channel.
+    #[error("the pdu type has no parameter channel; use one of the PARAM types")]
+    NoParamChannel,
+    /// An answer asked of a group or broadcast address.
+    #[error("group and broadcast addresses get no answer; use send_unanswered")]
+    Unanswered,
+    /// A response telegram where a request is due.
+    #[error("the telegram is not a request")]
+    NotARequest,
+    /// An unanswered telegram to an address that answers.
+    #[error(
+        "only group (100-199) and broadcast (255) telegrams go unanswered; use exchange or param"
+    )]
+    Answered,
+    /// A probe of a group or broadcast address.
+    #[error("group and broadcast addresses cannot be probed")]
+    NotProbeable,
+    /// A cyclic session with an acyclic PDU type.
+    #[error("a cyclic session needs a cyclic pdu type (0x00-0x06)")]
+    NotCyclic,
+    /// A cyclic session with a group or broadcast address.
+    #[error("a cyclic session needs a single drive (0-99) or 254")]
+    NotSingle,
+    /// A cyclic session without a period.
+    #[error("the cycle period must not be zero")]
+    ZeroPeriod,
+    /// A parameter service in a cyclic session whose PDU type has no parameter channel.
+    #[error(
+        "this cyclic pdu type has no parameter channel; use a PARAM type (0x00, 0x02, 0x04, 0x06)"
+    )]
+    NoParamInCycle,
+}
+
+impl From<std::io::Error> for DriverError {
+    fn from(e: std::io::Error) -> Self {
+        DriverError::Link(LinkError::Io(e))
+    }
 }
 
 fn device_hint(rc: &ReturnCode) -> &'static str {

@@ -1,11 +1,13 @@
 //! The async MOVILINK master (feature `tokio`).
 //!
-//! [`MasterDriver`] runs the sans-IO [`Master`] on a [`CharIo`] through
-//! the runtime layer's [`Port`] (shared with every protocol of drivebus): the port writes what
-//! the master hands out, feeds every received character with its arrival time and wakes the
-//! master at its deadlines. Every protocol rule (start pause, response timeout, acceptance
-//! checks, retries, handshake, broadcast spacing) is the sans-IO master's; the driver adds the
-//! service calls and their errors.
+//! [`MovilinkDriver`] is drive-core's one runtime driver ([`drive_core::rt::Driver`]) running
+//! the sans-IO [`MovilinkMaster`] on a [`CharIo`] through the runtime layer's [`Port`] (shared
+//! with every protocol of drivebus): the port writes what the master hands out, feeds every
+//! received character with its arrival time and wakes the master at its deadlines. Every
+//! protocol rule (start pause, response timeout, acceptance checks, retries, handshake,
+//! broadcast spacing) is the sans-IO master's; the driver adds the service calls and their
+//! errors. The SEW parameter services (read, write, …) are
+//! [`drive_profile::sew::ParamServices`], written once for MOVILINK and SBus.
 //!
 //! The line's timing comes from [`DriverConfig::line`] (baud rate, data bits, parity, stop
 //! bits). The clock ([`DriverConfig::clock`]):
@@ -22,8 +24,9 @@
 //!   response timeout is a real timer.
 //!
 //! The module is split into the driver itself (here), its error ([`DriverError`]), the
-//! services (`services.rs`: read, write, …, exchange, probe), the transaction loop
-//! (`transact.rs`) and cyclic sessions ([`CyclicSession`]). An example with a simulated drive
+//! services (`services.rs`: any parameter service, exchange, probe, and the bus's call of
+//! [`ParamServices`]), one request through the runtime driver (`transact.rs`) and cyclic
+//! sessions ([`CyclicSession`]). An example with a simulated drive
 //! is in the docs of the `sim` module.
 
 mod cyclic;
@@ -34,18 +37,19 @@ mod transact;
 use std::time::Duration;
 
 use drive_core::LineSettings;
-pub use drive_core::rt::{CharIo, Clock, Port, ReceivedChar, Stream};
-use tokio::time::Instant as TokioInstant;
+use drive_core::rt::Driver;
+pub use drive_core::rt::{CharIo, Clock, DriverStats, ExchangeTiming, Port, ReceivedChar, Stream};
+pub use drive_profile::sew::ParamServices;
 
 pub use self::cyclic::CyclicSession;
-pub use self::error::DriverError;
-use crate::master::{Master, MasterConfig};
+pub use self::error::{DriverError, LinkError, RequestError};
+use crate::master::{MasterConfig, MovilinkMaster};
 use crate::timing::{self, LineTiming};
 
-/// Index of P070 "unit type", read by [`MasterDriver::probe`].
+/// Index of P070 "unit type", read by [`MovilinkDriver::probe`].
 pub const UNIT_TYPE_INDEX: u16 = drive_profile::sew::index::UNIT_TYPE;
 
-/// Configuration of a [`MasterDriver`].
+/// Configuration of a [`MovilinkDriver`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct DriverConfig {
     /// Response timeout from the end of a request to the start of its response; default
@@ -101,63 +105,26 @@ impl DriverConfig {
     }
 }
 
-/// Counters of a [`MasterDriver`].
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash)]
-pub struct DriverStats {
-    /// Requests handed to the bus (each driver call that reached the bus).
-    pub transactions: u64,
-    /// Retransmissions after a timeout or a rejected answer.
-    pub retries: u64,
-    /// Requests that ended in [`DriverError::Timeout`].
-    pub timeouts: u64,
-    /// Received telegrams or characters dropped by the checks (parity, gap, address, PDU type,
-    /// BCC, mismatching answer).
-    pub rejected: u64,
-    /// Negative answers of drives ([`DriverError::Device`], or an error in the parameter
-    /// channel of an [`MasterDriver::exchange`] response).
-    pub device_errors: u64,
-    /// Bytes never taken as a response because they arrived before the request had left the
-    /// port (a response an earlier program left there, a late response, another master).
-    pub stale: u64,
-}
-
-/// Wire times of the last answered exchange (see [`MasterDriver::last_timing`]).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub struct ExchangeTiming {
-    /// When the (last) request transmission was handed to the port: on an idle line of the
-    /// wire model, the start of its first character.
-    pub request_start: TokioInstant,
-    /// Arrival of the response's last character (exact on the wire model).
-    pub response_end: TokioInstant,
-}
-
-impl ExchangeTiming {
-    /// From the start of the request to the end of the response.
-    pub fn duration(&self) -> Duration {
-        self.response_end
-            .saturating_duration_since(self.request_start)
-    }
-}
-
 /// The async MOVILINK master; see the [module docs](self).
 #[derive(Debug)]
-pub struct MasterDriver<IO> {
-    port: Port<IO>,
+pub struct MovilinkDriver<IO> {
+    driver: Driver<Port<IO>, MovilinkMaster>,
     config: DriverConfig,
-    master: Master,
+    /// `device_errors`: negative answers ([`DriverError::Device`], or an error in the
+    /// parameter channel of an [`MovilinkDriver::exchange`] response).
     stats: DriverStats,
-    /// Last process output words sent per address byte (used by [`MasterDriver::param`] with
-    /// PDU types that carry process data).
+    /// Last process output words sent per address byte (used by [`MovilinkDriver::param`]
+    /// with PDU types that carry process data).
     po: Box<[[u16; 3]]>,
     last_timing: Option<ExchangeTiming>,
 }
 
-impl<IO: CharIo> MasterDriver<IO> {
+impl<IO: CharIo> MovilinkDriver<IO> {
     /// A driver on `io` (the bus is assumed idle); the epoch of its times is now.
     pub fn new(io: IO, config: DriverConfig) -> Self {
+        let port = Port::new(io, config.clock, config.line.char_time());
         Self {
-            port: Port::new(io, config.clock, config.line.char_time()),
-            master: Master::new(config.master_config()),
+            driver: Driver::new(port, MovilinkMaster::new(config.master_config())),
             config,
             stats: DriverStats::default(),
             po: vec![[0u16; 3]; 256].into_boxed_slice(),
@@ -177,17 +144,17 @@ impl<IO: CharIo> MasterDriver<IO> {
 
     /// The port.
     pub fn get_ref(&self) -> &IO {
-        self.port.get_ref()
+        self.driver.link().get_ref()
     }
 
     /// The port, e.g. to inject faults on the wire model (do not read from it).
     pub fn get_mut(&mut self) -> &mut IO {
-        self.port.get_mut()
+        self.driver.link_mut().get_mut()
     }
 
     /// The port back.
     pub fn into_inner(self) -> IO {
-        self.port.into_inner()
+        self.driver.into_link().into_inner()
     }
 
     /// Wire times of the last exchange that was answered.

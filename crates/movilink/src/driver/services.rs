@@ -1,18 +1,44 @@
-//! The services of the master: parameter channel services, process data exchanges,
-//! unanswered telegrams and probing.
+//! The services of the master: any parameter channel service, process data exchanges,
+//! unanswered telegrams and probing; and the one call the SEW parameter services
+//! ([`ParamServices`]: read, write, …) need.
 
 use std::time::Duration;
 
 use super::transact::Outcome;
-use super::{CharIo, DriverError, MasterDriver, UNIT_TYPE_INDEX};
-use crate::frame::{Address, AttributeInfo, ParamChannel, PduType, ScaleInfo, Telegram};
+use super::{
+    CharIo, DriverError, LinkError, MovilinkDriver, ParamServices, RequestError, UNIT_TYPE_INDEX,
+};
+use crate::error::ReturnCode;
+use crate::frame::{Address, ParamChannel, PduType, Telegram};
 
-impl<IO: CharIo> MasterDriver<IO> {
+/// The SEW parameter services on RS-485: each one in an acyclic PARAM + 0PD telegram.
+impl<IO: CharIo> ParamServices for MovilinkDriver<IO> {
+    type Address = Address;
+    type Error = DriverError;
+
+    async fn service(
+        &mut self,
+        address: Address,
+        request: ParamChannel,
+    ) -> Result<ParamChannel, DriverError> {
+        self.param(address, PduType::PARAM_0PD_ACYCLIC, request)
+            .await
+    }
+
+    fn return_code(error: &DriverError) -> Option<ReturnCode> {
+        match error {
+            DriverError::Device(code) => Some(*code),
+            _ => None,
+        }
+    }
+}
+
+impl<IO: CharIo> MovilinkDriver<IO> {
     /// One parameter-channel service on `address` in a telegram of type `pdu` (normally
     /// [`PduType::PARAM_0PD_ACYCLIC`]); returns the answer's parameter channel. Cyclic types
     /// toggle the handshake bit (the sans-IO master learns the drive's bit first if needed).
     /// Types with process data repeat the process output words last sent to `address` with
-    /// [`MasterDriver::exchange`] (zeros before).
+    /// [`MovilinkDriver::exchange`] (zeros before).
     pub async fn param(
         &mut self,
         address: Address,
@@ -20,14 +46,10 @@ impl<IO: CharIo> MasterDriver<IO> {
         request: ParamChannel,
     ) -> Result<ParamChannel, DriverError> {
         if !pdu.has_param() {
-            return Err(DriverError::InvalidRequest(
-                "the pdu type has no parameter channel; use one of the PARAM types",
-            ));
+            return Err(RequestError::NoParamChannel.into());
         }
         if !address.expects_response() {
-            return Err(DriverError::InvalidRequest(
-                "group and broadcast addresses get no answer; use send_unanswered",
-            ));
+            return Err(RequestError::Unanswered.into());
         }
         let po = self.po_of(address);
         let telegram = Telegram::request(address, pdu)
@@ -41,113 +63,35 @@ impl<IO: CharIo> MasterDriver<IO> {
         }
         out.response
             .and_then(|t| t.param())
-            .ok_or(DriverError::InvalidRequest(
-                "the answer carried no parameter channel",
-            ))
-    }
-
-    /// Read the value of `index` (acyclic PARAM + 0PD).
-    pub async fn read(&mut self, address: Address, index: u16) -> Result<u32, DriverError> {
-        self.service(address, ParamChannel::read(index)).await
-    }
-
-    /// Write `value` to `index`, non-volatile (EEPROM). Not for cyclic writes: EEPROMs wear
-    /// out; see [`drive_profile::guard::WriteGuard`] and [`MasterDriver::write_volatile`].
-    pub async fn write(
-        &mut self,
-        address: Address,
-        index: u16,
-        value: u32,
-    ) -> Result<(), DriverError> {
-        self.service(address, ParamChannel::write(index, value))
-            .await
-            .map(drop)
-    }
-
-    /// Write `value` to `index`, volatile (RAM, lost at power-off).
-    pub async fn write_volatile(
-        &mut self,
-        address: Address,
-        index: u16,
-        value: u32,
-    ) -> Result<(), DriverError> {
-        self.service(address, ParamChannel::write_volatile(index, value))
-            .await
-            .map(drop)
-    }
-
-    /// Read the smallest settable value of `index`.
-    pub async fn read_minimum(&mut self, address: Address, index: u16) -> Result<u32, DriverError> {
-        self.service(address, ParamChannel::read_minimum(index))
-            .await
-    }
-
-    /// Read the largest settable value of `index`.
-    pub async fn read_maximum(&mut self, address: Address, index: u16) -> Result<u32, DriverError> {
-        self.service(address, ParamChannel::read_maximum(index))
-            .await
-    }
-
-    /// Read the default (factory setting) of `index`.
-    pub async fn read_default(&mut self, address: Address, index: u16) -> Result<u32, DriverError> {
-        self.service(address, ParamChannel::read_default(index))
-            .await
-    }
-
-    /// Read the size and conversion index of `index`.
-    pub async fn read_scale(
-        &mut self,
-        address: Address,
-        index: u16,
-    ) -> Result<ScaleInfo, DriverError> {
-        self.service(address, ParamChannel::read_scale(index))
-            .await
-            .map(ScaleInfo::from_data)
-    }
-
-    /// Read the access attributes of `index` and the next available index.
-    pub async fn read_attribute(
-        &mut self,
-        address: Address,
-        index: u16,
-    ) -> Result<AttributeInfo, DriverError> {
-        self.service(address, ParamChannel::read_attribute(index))
-            .await
-            .map(AttributeInfo::from_data)
+            .ok_or(LinkError::NoParamChannel.into())
     }
 
     /// Process data exchange with any PDU type (with or without parameter channel); returns
     /// the response telegram. A negative parameter answer is not an error here: read it with
     /// `response.param().map(|p| p.result())`. The process output words are remembered for
-    /// [`MasterDriver::param`].
+    /// [`MovilinkDriver::param`].
     pub async fn exchange(&mut self, request: Telegram) -> Result<Telegram, DriverError> {
         if request.direction() != crate::Direction::Request {
-            return Err(DriverError::InvalidRequest("the telegram is not a request"));
+            return Err(RequestError::NotARequest.into());
         }
         if !request.address().expects_response() {
-            return Err(DriverError::InvalidRequest(
-                "group and broadcast addresses get no answer; use send_unanswered",
-            ));
+            return Err(RequestError::Unanswered.into());
         }
         self.remember_po(&request);
         let out = self
             .transact(request, self.config.response_timeout, self.config.retries)
             .await?;
-        out.response.ok_or(DriverError::InvalidRequest(
-            "the exchange completed without a response",
-        ))
+        out.response.ok_or(LinkError::NoResponse.into())
     }
 
     /// A group (100–199) or broadcast (255) telegram: sent, never answered. Returns when the
     /// telegram has left the port; the next telegram waits the 25 ms broadcast spacing.
     pub async fn send_unanswered(&mut self, request: Telegram) -> Result<(), DriverError> {
         if request.direction() != crate::Direction::Request {
-            return Err(DriverError::InvalidRequest("the telegram is not a request"));
+            return Err(RequestError::NotARequest.into());
         }
         if request.address().expects_response() {
-            return Err(DriverError::InvalidRequest(
-                "only group (100-199) and broadcast (255) telegrams go unanswered; use exchange or param",
-            ));
+            return Err(RequestError::Answered.into());
         }
         self.remember_po(&request);
         self.transact(request, self.config.response_timeout, 0)
@@ -158,16 +102,14 @@ impl<IO: CharIo> MasterDriver<IO> {
     /// Probe `address` with one read of P070 "unit type" (index 8301), one attempt, response
     /// timeout `timeout`: `Ok(Some(unit type))` if a drive answers, `Ok(None)` if nothing
     /// does. A negative answer ([`DriverError::Device`]) or garbled answers
-    /// ([`DriverError::Corrupt`]) also mean that something is there.
+    /// ([`LinkError::Corrupt`]) also mean that something is there.
     pub async fn probe(
         &mut self,
         address: Address,
         timeout: Duration,
     ) -> Result<Option<u32>, DriverError> {
         if !address.expects_response() {
-            return Err(DriverError::InvalidRequest(
-                "group and broadcast addresses cannot be probed",
-            ));
+            return Err(RequestError::NotProbeable.into());
         }
         let telegram = Telegram::request(address, PduType::PARAM_0PD_ACYCLIC)
             .with_param(ParamChannel::read(UNIT_TYPE_INDEX));
@@ -179,23 +121,10 @@ impl<IO: CharIo> MasterDriver<IO> {
                 param: Some(Err(rc)),
                 ..
             }) => Err(DriverError::Device(rc)),
-            Ok(_) => Err(DriverError::InvalidRequest(
-                "the answer carried no parameter channel",
-            )),
-            Err(DriverError::Timeout { .. }) => Ok(None),
+            Ok(_) => Err(LinkError::NoParamChannel.into()),
+            Err(DriverError::Link(LinkError::Timeout { .. })) => Ok(None),
             Err(e) => Err(e),
         }
-    }
-
-    pub(super) async fn service(
-        &mut self,
-        address: Address,
-        request: ParamChannel,
-    ) -> Result<u32, DriverError> {
-        let p = self
-            .param(address, PduType::PARAM_0PD_ACYCLIC, request)
-            .await?;
-        Ok(p.data)
     }
 
     pub(super) fn po_of(&self, address: Address) -> [u16; 3] {

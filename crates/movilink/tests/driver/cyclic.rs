@@ -4,7 +4,7 @@
 use std::time::Duration;
 
 use drive_transport::link::{self, LinkConfig};
-use movilink::driver::{DriverConfig, DriverError, MasterDriver};
+use movilink::driver::{DriverConfig, DriverError, MovilinkDriver, ParamServices};
 use movilink::sim::SimulatedMovidrive;
 use movilink::{ParamChannel, PduType};
 use tokio::time::Instant;
@@ -16,7 +16,7 @@ async fn a_cyclic_session_keeps_the_drive_fed_and_runs_parameter_services() {
     let mut sim = SimulatedMovidrive::new(1);
     let (port, wire) = link::pair(LinkConfig::new(9600));
     let client = async move {
-        let mut m = MasterDriver::new(port, DriverConfig::default());
+        let mut m = MovilinkDriver::new(port, DriverConfig::default());
         // P812 RS-485 timeout = 200 ms (raw ms, volatile).
         m.write_volatile(addr(1), 8599, 200).await.unwrap();
         let mut s = m
@@ -55,7 +55,7 @@ async fn a_cyclic_session_keeps_the_drive_fed_and_runs_parameter_services() {
     // Nothing cyclic any more: after P812 the drive reacts (P833 default: rapid stop, warning).
     let (port, wire) = link::pair(LinkConfig::new(9600));
     let client = async move {
-        let m = MasterDriver::new(port, DriverConfig::default());
+        let m = MovilinkDriver::new(port, DriverConfig::default());
         tokio::time::sleep(Duration::from_millis(300)).await;
         drop(m);
     };
@@ -70,20 +70,20 @@ async fn a_cyclic_session_keeps_the_drive_fed_and_runs_parameter_services() {
 #[tokio::test(start_paused = true)]
 async fn cyclic_sessions_refuse_what_cannot_work() {
     let (port, _wire) = link::pair(LinkConfig::new(9600));
-    let mut m = MasterDriver::new(port, DriverConfig::default());
+    let mut m = MovilinkDriver::new(port, DriverConfig::default());
     let acyclic = m.cyclic(addr(1), PduType::PD3_ACYCLIC, Duration::from_millis(50));
-    assert!(matches!(acyclic, Err(DriverError::InvalidRequest(_))));
+    assert!(matches!(acyclic, Err(DriverError::Request(_))));
     let zero = m.cyclic(addr(1), PduType::PD3, Duration::ZERO);
-    assert!(matches!(zero, Err(DriverError::InvalidRequest(_))));
+    assert!(matches!(zero, Err(DriverError::Request(_))));
     let broadcast = m.cyclic(
         movilink::Address::BROADCAST,
         PduType::PD3,
         Duration::from_millis(50),
     );
-    assert!(matches!(broadcast, Err(DriverError::InvalidRequest(_))));
+    assert!(matches!(broadcast, Err(DriverError::Request(_))));
     let mut s = m
         .cyclic(addr(1), PduType::PD3, Duration::from_millis(50))
         .unwrap();
     let no_param = s.param(ParamChannel::read(8318)).await;
-    assert!(matches!(no_param, Err(DriverError::InvalidRequest(_))));
+    assert!(matches!(no_param, Err(DriverError::Request(_))));
 }

@@ -3,7 +3,7 @@
 use drive_sim::movidrive::UNIT_TYPE;
 use drive_transport::link::{self, Fault, LinkConfig};
 use movilink::RejectReason;
-use movilink::driver::{DriverConfig, DriverError, MasterDriver};
+use movilink::driver::{DriverConfig, DriverError, LinkError, MovilinkDriver, ParamServices};
 use movilink::sim::SimulatedMovidrive;
 
 use crate::common::addr;
@@ -17,7 +17,7 @@ async fn a_lost_response_is_retried() {
     }
     let mut sim = SimulatedMovidrive::new(1);
     let client = async move {
-        let mut m = MasterDriver::new(port, DriverConfig::default());
+        let mut m = MovilinkDriver::new(port, DriverConfig::default());
         let v = m.read(addr(1), 8301).await;
         (v.unwrap(), m.stats())
     };
@@ -37,7 +37,7 @@ async fn a_corrupt_response_is_retried() {
     wire.inject(Fault::Drop);
     let mut sim = SimulatedMovidrive::new(1);
     let client = async move {
-        let mut m = MasterDriver::new(port, DriverConfig::default());
+        let mut m = MovilinkDriver::new(port, DriverConfig::default());
         let v = m.read(addr(1), 8301).await;
         (v.unwrap(), m.stats())
     };
@@ -55,17 +55,17 @@ async fn answers_that_keep_failing_parity_are_corrupt() {
     }
     let mut sim = SimulatedMovidrive::new(1);
     let client = async move {
-        let mut m = MasterDriver::new(port, DriverConfig::default());
+        let mut m = MovilinkDriver::new(port, DriverConfig::default());
         m.read(addr(1), 8301).await
     };
     let (served, r) = tokio::join!(sim.serve(wire), client);
     served.unwrap();
     match r {
-        Err(DriverError::Corrupt {
+        Err(DriverError::Link(LinkError::Corrupt {
             address: 1,
             reason: RejectReason::Char(movilink::CharError::Parity),
             attempts: 3,
-        }) => {}
+        })) => {}
         other => panic!("{other:?}"),
     }
 }
@@ -77,15 +77,15 @@ async fn permanent_silence_is_a_timeout_after_every_attempt() {
         retries: 4,
         ..DriverConfig::default()
     };
-    let mut m = MasterDriver::new(port, config);
+    let mut m = MovilinkDriver::new(port, config);
     let err = m.read(addr(12), 8301).await.unwrap_err();
     assert!(
         matches!(
             err,
-            DriverError::Timeout {
+            DriverError::Link(LinkError::Timeout {
                 address: 12,
                 attempts: 5
-            }
+            })
         ),
         "{err:?}"
     );
@@ -95,10 +95,10 @@ async fn permanent_silence_is_a_timeout_after_every_attempt() {
     );
     let s = m.stats();
     assert_eq!((s.transactions, s.retries, s.timeouts), (1, 4, 1));
-    let mut m = MasterDriver::new(m.into_inner(), DriverConfig::default());
+    let mut m = MovilinkDriver::new(m.into_inner(), DriverConfig::default());
     assert!(matches!(
         m.read(addr(12), 8301).await,
-        Err(DriverError::Timeout { attempts: 3, .. })
+        Err(DriverError::Link(LinkError::Timeout { attempts: 3, .. }))
     ));
 }
 
@@ -106,7 +106,10 @@ async fn permanent_silence_is_a_timeout_after_every_attempt() {
 async fn a_closed_port_is_an_io_error() {
     let (port, peer) = link::pair(LinkConfig::new(9600));
     drop(peer);
-    let mut m = MasterDriver::new(port, DriverConfig::default());
+    let mut m = MovilinkDriver::new(port, DriverConfig::default());
     let err = m.read(addr(1), 8301).await.unwrap_err();
-    assert!(matches!(err, DriverError::Io(_)), "{err:?}");
+    assert!(
+        matches!(err, DriverError::Link(LinkError::Io(_))),
+        "{err:?}"
+    );
 }

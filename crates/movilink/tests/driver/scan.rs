@@ -4,7 +4,7 @@ use std::time::Duration;
 
 use drive_sim::movidrive::UNIT_TYPE;
 use drive_transport::link::{self, LinkConfig};
-use movilink::driver::{DriverConfig, MasterDriver};
+use movilink::driver::{DriverConfig, MovilinkDriver, ParamServices};
 use movilink::sim;
 
 use crate::common::addr;
@@ -14,7 +14,7 @@ async fn probe_finds_exactly_the_drives_on_the_bus() {
     let (port, wire) = link::pair(LinkConfig::new(9600));
     let mut bus = sim::bus(&[1, 5, 17], movilink::timing::LINE);
     let client = async move {
-        let mut m = MasterDriver::new(port, DriverConfig::default());
+        let mut m = MovilinkDriver::new(port, DriverConfig::default());
         let start = tokio::time::Instant::now();
         let mut found = Vec::new();
         for a in 0..=31u8 {

@@ -4,7 +4,7 @@ use std::time::Duration;
 
 use drive_sim::movidrive::UNIT_TYPE;
 use drive_transport::link::{self, LinkConfig};
-use movilink::driver::{DriverConfig, DriverError, MasterDriver};
+use movilink::driver::{DriverConfig, DriverError, MovilinkDriver, ParamServices};
 use movilink::sim::SimulatedMovidrive;
 use movilink::{Address, ParamChannel, PduType, ReturnCode, ScaleInfo, Telegram};
 
@@ -20,7 +20,7 @@ async fn speed_follows_the_ramp_after_a_process_data_exchange() {
     let (port, wire) = link::pair(LinkConfig::new(9600));
     let mut sim = SimulatedMovidrive::new(1);
     let client = async move {
-        let mut m = MasterDriver::new(port, DriverConfig::default());
+        let mut m = MovilinkDriver::new(port, DriverConfig::default());
         let a = addr(1);
         assert_eq!(m.read(a, SPEED).await.unwrap(), 0);
         // PO1 control word "enable", PO2 speed 5000 × 0.2 = 1000 1/min.
@@ -58,7 +58,7 @@ async fn every_service() {
     let (port, wire) = link::pair(LinkConfig::new(9600));
     let mut sim = SimulatedMovidrive::new(3);
     let client = async move {
-        let mut m = MasterDriver::new(port, DriverConfig::default());
+        let mut m = MovilinkDriver::new(port, DriverConfig::default());
         let a = addr(3);
         assert_eq!(m.read(a, 8301).await.unwrap(), UNIT_TYPE);
         assert_eq!(m.read(a, RAMP_UP).await.unwrap(), 2000);
@@ -104,11 +104,11 @@ async fn every_service() {
         // Requests that cannot work are refused before they reach the bus.
         assert!(matches!(
             m.param(a, PduType::PD3, ParamChannel::read(1)).await,
-            Err(DriverError::InvalidRequest(_))
+            Err(DriverError::Request(_))
         ));
         assert!(matches!(
             m.read(Address::BROADCAST, 1).await,
-            Err(DriverError::InvalidRequest(_))
+            Err(DriverError::Request(_))
         ));
         m.stats()
     };
@@ -127,7 +127,7 @@ async fn device_errors_are_typed() {
     let (port, wire) = link::pair(LinkConfig::new(9600));
     let mut sim = SimulatedMovidrive::new(1);
     let client = async move {
-        let mut m = MasterDriver::new(port, DriverConfig::default());
+        let mut m = MovilinkDriver::new(port, DriverConfig::default());
         let a = addr(1);
         let cases: [(Result<u32, DriverError>, ReturnCode); 5] = [
             (m.read(a, 9999).await, ReturnCode::ILLEGAL_INDEX),
@@ -182,7 +182,7 @@ async fn group_and_broadcast_writes_change_the_drive_without_an_answer() {
     let (port, wire) = link::pair(LinkConfig::new(9600));
     let mut sim = SimulatedMovidrive::new(7);
     let client = async move {
-        let mut m = MasterDriver::new(port, DriverConfig::default());
+        let mut m = MovilinkDriver::new(port, DriverConfig::default());
         let a = addr(7);
         // P811 group address 150.
         m.write_volatile(a, GROUP, 150).await.unwrap();
@@ -202,11 +202,11 @@ async fn group_and_broadcast_writes_change_the_drive_without_an_answer() {
         // Unicast telegrams are refused by send_unanswered, and groups by exchange.
         assert!(matches!(
             m.send_unanswered(Telegram::request(a, PduType::PD1)).await,
-            Err(DriverError::InvalidRequest(_))
+            Err(DriverError::Request(_))
         ));
         assert!(matches!(
             m.exchange(Telegram::request(addr(150), PduType::PD1)).await,
-            Err(DriverError::InvalidRequest(_))
+            Err(DriverError::Request(_))
         ));
         // Characters the drive sent: nothing but the answers to the unicast requests.
         m.get_ref().rx_fault_stats().written
@@ -222,7 +222,7 @@ async fn point_to_point_address_254() {
     let (port, wire) = link::pair(LinkConfig::new(9600));
     let mut sim = SimulatedMovidrive::new(42);
     let client = async move {
-        let mut m = MasterDriver::new(port, DriverConfig::default());
+        let mut m = MovilinkDriver::new(port, DriverConfig::default());
         assert_eq!(
             m.read(Address::POINT_TO_POINT, 8301).await.unwrap(),
             UNIT_TYPE
@@ -245,7 +245,7 @@ async fn changed_address_is_followed() {
     let (port, wire) = link::pair(LinkConfig::new(9600));
     let mut sim = SimulatedMovidrive::new(1);
     let client = async move {
-        let mut m = MasterDriver::new(port, DriverConfig::default());
+        let mut m = MovilinkDriver::new(port, DriverConfig::default());
         m.write_volatile(addr(1), 8597, 9).await.unwrap(); // P810 = 9
         assert_eq!(m.read(addr(9), 8597).await.unwrap(), 9);
         assert_eq!(

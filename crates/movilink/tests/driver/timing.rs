@@ -3,7 +3,7 @@
 use std::time::Duration;
 
 use drive_transport::link::{self, LinkConfig, LinkEnd};
-use movilink::driver::{DriverConfig, DriverError, MasterDriver};
+use movilink::driver::{DriverConfig, DriverError, LinkError, MovilinkDriver, ParamServices};
 use movilink::sim::SimulatedMovidrive;
 use movilink::{Address, ParamChannel, PduType, Telegram};
 use tokio::time::Instant;
@@ -20,7 +20,7 @@ async fn a_start_pause_precedes_every_telegram() {
     let (wire, drive_log) = Tap::new(wire);
     let mut sim = SimulatedMovidrive::new(1);
     let client = async move {
-        let mut m = MasterDriver::new(port, DriverConfig::default());
+        let mut m = MovilinkDriver::new(port, DriverConfig::default());
         let a = addr(1);
         for i in 0..5u32 {
             m.read(a, 8470).await.unwrap();
@@ -63,11 +63,14 @@ async fn time_until_timeout(timeout: Duration) -> Duration {
         retries: 0,
         ..DriverConfig::default()
     };
-    let mut m = MasterDriver::new(port, config);
+    let mut m = MovilinkDriver::new(port, config);
     let start = Instant::now();
     let r = m.read(addr(2), 8301).await;
     assert!(
-        matches!(r, Err(DriverError::Timeout { attempts: 1, .. })),
+        matches!(
+            r,
+            Err(DriverError::Link(LinkError::Timeout { attempts: 1, .. }))
+        ),
         "{r:?}"
     );
     start.elapsed()
@@ -99,7 +102,7 @@ async fn retransmissions_follow_the_timeout() {
             > 0
         {}
     });
-    let mut m = MasterDriver::new(port, DriverConfig::default());
+    let mut m = MovilinkDriver::new(port, DriverConfig::default());
     assert!(m.read(addr(2), 8301).await.is_err());
     drop(m);
     reader.await.unwrap();
@@ -122,7 +125,7 @@ async fn broadcast_spacing_is_25_ms() {
     let (wire, drive_log) = Tap::new(wire);
     let mut sim = SimulatedMovidrive::new(1);
     let client = async move {
-        let mut m = MasterDriver::new(port, DriverConfig::default());
+        let mut m = MovilinkDriver::new(port, DriverConfig::default());
         for target in [Address::BROADCAST, addr(120)] {
             let t = Telegram::request(target, PduType::PD2_ACYCLIC).with_process_data(&[1, 2]);
             m.send_unanswered(t).await.unwrap();
@@ -150,9 +153,12 @@ async fn two_start_pauses_after_an_aborted_telegram() {
     let (wire, drive_log) = Tap::new(wire);
     let mut sim = SimulatedMovidrive::new(1);
     let client = async move {
-        let mut m = MasterDriver::new(port, DriverConfig::default());
+        let mut m = MovilinkDriver::new(port, DriverConfig::default());
         let first = m.read(addr(1), 8301).await;
-        assert!(matches!(first, Err(DriverError::Io(_))), "{first:?}");
+        assert!(
+            matches!(first, Err(DriverError::Link(LinkError::Io(_)))),
+            "{first:?}"
+        );
         m.read(addr(1), 8301).await.unwrap();
     };
     let (served, ()) = tokio::join!(sim.serve(wire), client);
@@ -166,7 +172,7 @@ async fn two_start_pauses_after_an_aborted_telegram() {
 }
 
 /// Cyclic PD exchanges every `period` for `duration`.
-async fn feed_cyclic(m: &mut MasterDriver<LinkEnd>, period: Duration, duration: Duration) {
+async fn feed_cyclic(m: &mut MovilinkDriver<LinkEnd>, period: Duration, duration: Duration) {
     let end = Instant::now() + duration;
     while Instant::now() < end {
         let t = Telegram::request(addr(1), PduType::PD2).with_process_data(&[0x0006, 5000]);
@@ -185,7 +191,7 @@ async fn p812_timeout_triggers_the_p833_reaction_only_without_cyclic_telegrams()
     // Session 1: P812 = 200 ms, then a second of cyclic telegrams every 50 ms.
     let (port, wire) = link::pair(LinkConfig::new(9600));
     let client = async move {
-        let mut m = MasterDriver::new(port, DriverConfig::default());
+        let mut m = MovilinkDriver::new(port, DriverConfig::default());
         m.write_volatile(addr(1), 8599, 200).await.unwrap();
         feed_cyclic(&mut m, Duration::from_millis(50), Duration::from_secs(1)).await;
     };
@@ -201,7 +207,7 @@ async fn p812_timeout_triggers_the_p833_reaction_only_without_cyclic_telegrams()
     // Session 2: the master stops; 150 ms later nothing has happened yet …
     let (port, wire) = link::pair(LinkConfig::new(9600));
     let client = async move {
-        let mut m = MasterDriver::new(port, DriverConfig::default());
+        let mut m = MovilinkDriver::new(port, DriverConfig::default());
         feed_cyclic(&mut m, Duration::from_millis(1), Duration::from_millis(1)).await;
         tokio::time::sleep(Duration::from_millis(150)).await;
     };
@@ -213,7 +219,7 @@ async fn p812_timeout_triggers_the_p833_reaction_only_without_cyclic_telegrams()
     // … and after 200 ms the drive reacts with P833 (default: rapid stop / warning, fault 43).
     let (port, wire) = link::pair(LinkConfig::new(9600));
     let client = async move {
-        let m = MasterDriver::new(port, DriverConfig::default());
+        let m = MovilinkDriver::new(port, DriverConfig::default());
         tokio::time::sleep(Duration::from_millis(100)).await;
         drop(m);
     };
@@ -241,7 +247,7 @@ async fn a_cyclic_param_3pd_exchange_takes_the_wire_time_and_two_start_pauses() 
     let (port, wire) = link::pair(LinkConfig::new(9600));
     let mut sim = SimulatedMovidrive::new(1);
     let client = async move {
-        let mut m = MasterDriver::new(port, DriverConfig::default());
+        let mut m = MovilinkDriver::new(port, DriverConfig::default());
         let t = Telegram::request(addr(1), PduType::PARAM_3PD)
             .with_param(ParamChannel::no_service())
             .with_process_data(&[0x0006, 0, 0]);
@@ -301,7 +307,7 @@ async fn driver_and_simulator_follow_19200_baud() {
             line,
             ..DriverConfig::default()
         };
-        let mut m = MasterDriver::new(port, config);
+        let mut m = MovilinkDriver::new(port, config);
         let t = Telegram::request(addr(1), PduType::PARAM_3PD)
             .with_param(ParamChannel::no_service())
             .with_process_data(&[0x0006, 0, 0]);
@@ -420,7 +426,7 @@ async fn a_simulator_switched_to_the_virtual_clock_still_answers() {
     tokio::time::advance(Duration::from_secs(10)).await;
     let (a, b) = tokio::io::duplex(256);
     let client = async move {
-        let mut m = MasterDriver::new(Stream(a), DriverConfig::default());
+        let mut m = MovilinkDriver::new(Stream(a), DriverConfig::default());
         m.read(addr(1), 8470).await
     };
     let (served, value) = tokio::join!(sim.serve(Stream(b)), client);
@@ -434,7 +440,7 @@ async fn a_simulator_switched_to_the_virtual_clock_still_answers() {
             clock: Clock::Virtual,
             ..DriverConfig::default()
         };
-        let mut m = MasterDriver::new(Stream(a), config);
+        let mut m = MovilinkDriver::new(Stream(a), config);
         m.read(addr(1), 8470).await
     };
     let (served, value) = tokio::join!(sim.serve(Stream(b)), client);

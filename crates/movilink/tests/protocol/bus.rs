@@ -8,8 +8,8 @@ use drive_core::time::earliest;
 
 use movilink::timing::{CHAR_TIME, Instant, START_PAUSE};
 use movilink::{
-    AttributeInfo, Backend, Master, MasterEvent, ParamChannel, RequestContext, ReturnCode, RxChar,
-    ScaleInfo, Service, Slave,
+    AttributeInfo, Backend, MasterEvent, MovilinkMaster, ParamChannel, RequestContext, ReturnCode,
+    RxChar, ScaleInfo, Service, Slave,
 };
 
 /// A drive with a few parameters: (index, value, min, max, read-only).
@@ -143,7 +143,7 @@ pub struct Faults {
 /// A master and a drive on one simulated RS-485 line.
 #[derive(Debug)]
 pub struct Bus<B: Backend> {
-    pub master: Master,
+    pub master: MovilinkMaster,
     pub slave: Slave<B>,
     pub now: Instant,
     pub faults: Faults,
@@ -153,7 +153,7 @@ pub struct Bus<B: Backend> {
 }
 
 impl<B: Backend> Bus<B> {
-    pub fn new(master: Master, slave: Slave<B>) -> Self {
+    pub fn new(master: MovilinkMaster, slave: Slave<B>) -> Self {
         Self {
             master,
             slave,

@@ -3,8 +3,8 @@
 
 use movilink::timing::Instant;
 use movilink::{
-    Address, Master, MasterConfig, MasterEvent, ParamChannel, PduType, RejectReason, RxChar,
-    RxEvent, Slave, SlaveConfig, SlaveEvent, Telegram, codec,
+    Address, MasterConfig, MasterEvent, MovilinkMaster, ParamChannel, PduType, RejectReason,
+    RxChar, RxEvent, Slave, SlaveConfig, SlaveEvent, Telegram, codec,
 };
 
 use crate::bus::TestDrive;
@@ -122,7 +122,7 @@ fn dropped_character_is_rejected_by_gap() {
 /// rejects it and retries.
 #[test]
 fn inserted_character_in_response_is_not_accepted_by_master() {
-    let mut m = Master::new(MasterConfig::default());
+    let mut m = MovilinkMaster::new(MasterConfig::default());
     let req = Telegram::request(drive1(), PduType::PARAM_0PD_ACYCLIC)
         .with_param(ParamChannel::read(8471));
     m.send(req, Instant::ZERO).unwrap();
@@ -209,7 +209,7 @@ fn end_confirmation_does_not_delay_the_response() {
 fn lost_cyclic_responses_do_not_stall_the_next_service() {
     use crate::bus::Bus;
     let mut bus = Bus::new(
-        Master::new(MasterConfig::default()),
+        MovilinkMaster::new(MasterConfig::default()),
         Slave::new(SlaveConfig::new(drive1()), TestDrive::default()),
     );
     let cyclic = |p: ParamChannel| {

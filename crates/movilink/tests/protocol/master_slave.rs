@@ -2,8 +2,9 @@
 
 use movilink::timing::Instant;
 use movilink::{
-    Address, AttributeInfo, Master, MasterConfig, MasterEvent, ParamChannel, PduType, RejectReason,
-    ReturnCode, RxChar, ScaleInfo, SendError, Slave, SlaveConfig, SlaveEvent, Telegram, encode,
+    Address, AttributeInfo, MasterConfig, MasterEvent, MovilinkMaster, ParamChannel, PduType,
+    RejectReason, ReturnCode, RxChar, ScaleInfo, SendError, Slave, SlaveConfig, SlaveEvent,
+    Telegram, encode,
 };
 
 use super::bus::{Bus, TestDrive};
@@ -17,7 +18,7 @@ fn bus() -> Bus<TestDrive> {
 }
 
 fn bus_with(m: MasterConfig, s: SlaveConfig) -> Bus<TestDrive> {
-    Bus::new(Master::new(m), Slave::new(s, TestDrive::default()))
+    Bus::new(MovilinkMaster::new(m), Slave::new(s, TestDrive::default()))
 }
 
 fn param_request(pdu: PduType, p: ParamChannel) -> Telegram {
@@ -368,7 +369,7 @@ fn response_with_other_pdu_type_is_rejected() {
         retries: 0,
         ..MasterConfig::default()
     };
-    let mut m = Master::new(cfg);
+    let mut m = MovilinkMaster::new(cfg);
     m.send(
         Telegram::request(drive1(), PduType::PD1_ACYCLIC),
         Instant::ZERO,
@@ -402,7 +403,7 @@ fn acyclic_answer_to_other_index_is_rejected() {
         retries: 0,
         ..MasterConfig::default()
     };
-    let mut m = Master::new(cfg);
+    let mut m = MovilinkMaster::new(cfg);
     let req = Telegram::request(drive1(), PduType::PARAM_0PD_ACYCLIC)
         .with_param(ParamChannel::read(8471));
     m.send(req, Instant::ZERO).unwrap();
@@ -433,12 +434,12 @@ fn cyclic_service_not_executed_in_time() {
         max_handshake_cycles: 3,
         ..MasterConfig::default()
     };
-    let mut m = Master::new(cfg);
+    let mut m = MovilinkMaster::new(cfg);
     let mut t = 0u64;
     let mut buf = [0u8; 18];
     let stuck =
         Telegram::response(drive1(), PduType::PARAM_0PD).with_param(ParamChannel::no_service());
-    let answer = |m: &mut Master, t: &mut u64| {
+    let answer = |m: &mut MovilinkMaster, t: &mut u64| {
         let mut out = [0u8; 18];
         let n = encode(&stuck, &mut out).unwrap();
         for b in &out[..n] {
@@ -471,7 +472,7 @@ fn cyclic_service_not_executed_in_time() {
 
 #[test]
 fn send_errors() {
-    let mut m = Master::new(MasterConfig::default());
+    let mut m = MovilinkMaster::new(MasterConfig::default());
     assert_eq!(
         m.send(Telegram::response(drive1(), PduType::PD1), Instant::ZERO),
         Err(SendError::NotARequest)
@@ -482,7 +483,8 @@ fn send_errors() {
         m.send(Telegram::request(drive1(), PduType::PD1), Instant::ZERO),
         Err(SendError::Busy)
     );
-    assert!(m.set_process_data(&[5]));
+    let job = m.request_mut().expect("a request is in flight");
+    job.set_process_data(&[5]);
     let mut small = [0u8; 5];
     assert_eq!(m.poll_transmit(Instant::ZERO, &mut small), None);
 }

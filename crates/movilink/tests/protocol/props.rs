@@ -3,8 +3,8 @@
 
 use movilink::timing::Instant;
 use movilink::{
-    Address, CharError, Direction, Master, MasterConfig, ParamChannel, PduType, Receiver, RxChar,
-    RxEvent, Slave, SlaveConfig, Telegram, decode, encode,
+    Address, CharError, Direction, MasterConfig, MovilinkMaster, ParamChannel, PduType, Receiver,
+    RxChar, RxEvent, Slave, SlaveConfig, Telegram, decode, encode,
 };
 use proptest::prelude::*;
 
@@ -135,7 +135,7 @@ proptest! {
 
     #[test]
     fn state_machines_never_panic(chars in any_rx_chars(), send in any_telegram()) {
-        let mut m = Master::new(MasterConfig::default());
+        let mut m = MovilinkMaster::new(MasterConfig::default());
         let mut s = Slave::new(SlaveConfig::new(Address::new(1).unwrap()), TestDrive::default());
         let req = Telegram::request(send.address(), send.pdu_type())
             .with_param(send.param().unwrap_or_default());

@@ -5,8 +5,8 @@ use core::time::Duration;
 
 use movilink::timing::{BROADCAST_SPACING, CHAR_TIME, Instant, RESTART_PAUSE, START_PAUSE};
 use movilink::{
-    Address, Master, MasterConfig, MasterEvent, ParamChannel, PduType, RxChar, Slave, SlaveConfig,
-    Telegram, TxGate, encode,
+    Address, MasterConfig, MasterEvent, MovilinkMaster, ParamChannel, PduType, RxChar, Slave,
+    SlaveConfig, Telegram, TxGate, encode,
 };
 
 use super::bus::TestDrive;
@@ -55,7 +55,7 @@ fn gate_start_pause_restart_and_broadcast_spacing() {
 
 #[test]
 fn master_waits_start_pause_after_bus_activity() {
-    let mut m = Master::new(MasterConfig::default());
+    let mut m = MovilinkMaster::new(MasterConfig::default());
     // Traffic on the bus: a character ended at 5 ms.
     m.handle_char(RxChar::new(0x55, us(5_000)));
     m.send(Telegram::request(drive1(), PduType::PD1_ACYCLIC), us(6_000))
@@ -69,7 +69,7 @@ fn master_waits_start_pause_after_bus_activity() {
 
 #[test]
 fn master_abort_requires_two_start_pauses() {
-    let mut m = Master::new(MasterConfig::default());
+    let mut m = MovilinkMaster::new(MasterConfig::default());
     m.send(Telegram::request(drive1(), PduType::PD1_ACYCLIC), us(0))
         .unwrap();
     let mut buf = [0u8; 18];
@@ -84,7 +84,7 @@ fn master_abort_requires_two_start_pauses() {
 
 #[test]
 fn master_broadcast_spacing() {
-    let mut m = Master::new(MasterConfig::default());
+    let mut m = MovilinkMaster::new(MasterConfig::default());
     let bc = Telegram::request(Address::BROADCAST, PduType::PD3).with_process_data(&[6, 0x2000, 0]);
     m.send(bc, us(0)).unwrap();
     let mut buf = [0u8; 18];
@@ -119,7 +119,7 @@ fn master_response_timeout_default_50ms_and_configurable() {
             retries,
             ..MasterConfig::default()
         };
-        let mut m = Master::new(cfg);
+        let mut m = MovilinkMaster::new(cfg);
         m.send(Telegram::request(drive1(), PduType::PD1_ACYCLIC), us(0))
             .unwrap();
         let mut buf = [0u8; 18];
@@ -150,7 +150,7 @@ fn late_response_start_is_a_timeout() {
         retries: 0,
         ..MasterConfig::default()
     };
-    let mut m = Master::new(cfg);
+    let mut m = MovilinkMaster::new(cfg);
     m.send(Telegram::request(drive1(), PduType::PD1_ACYCLIC), us(0))
         .unwrap();
     let mut buf = [0u8; 18];

@@ -8,7 +8,7 @@ use std::time::Duration;
 
 use drive_core::Instant;
 use drive_core::can::{CanEndpoint, CanFrame};
-use sbus_can::master::{Master, MasterEvent};
+use sbus_can::master::{MasterEvent, SbusMaster};
 
 pub use responder::Responder;
 
@@ -23,7 +23,7 @@ pub type Fault = Box<dyn FnMut(&CanFrame) -> Vec<(CanFrame, Duration)>>;
 /// every frame with its time.
 pub struct Bus {
     pub now: Instant,
-    pub master: Master,
+    pub master: SbusMaster,
     pub drives: Vec<Responder>,
     pub fault: Option<Fault>,
     /// (time, sender: None = master, frame).
@@ -32,7 +32,7 @@ pub struct Bus {
 }
 
 impl Bus {
-    pub fn new(master: Master, drives: Vec<Responder>) -> Self {
+    pub fn new(master: SbusMaster, drives: Vec<Responder>) -> Self {
         Self {
             now: Instant::ZERO,
             master,

@@ -11,14 +11,14 @@ use std::time::Duration;
 
 use bonfiglioli_modbus::framing::Mode;
 use ctt2_uss::client::{ClientConfig, NordClient};
-use ctt2_uss::serial::driver::{DriverConfig as UssConfig, UssMaster};
+use ctt2_uss::serial::driver::{DriverConfig as UssConfig, UssDriver};
 use ctt2_uss::serial::{Layout, UssAddress, UssTiming};
 use drive_core::LineSettings;
 use drive_core::rt::CharIo;
 use drive_profile::Family;
 use drive_profile::nord::ControlWord;
 use drive_profile::sew::StatusWord1;
-use sbus_can::driver::SbusMaster;
+use sbus_can::driver::SbusDriver;
 use sbus_can::master::Handshake;
 use serde_json::Map;
 
@@ -45,7 +45,7 @@ pub enum AnyClient<'a> {
     /// SBus.
     Sbus(SewClient<SbusLink<'a, CanBox>>),
     /// USS.
-    Uss(NordParamClient<'a, UssMaster<SharedLine>>),
+    Uss(NordParamClient<'a, UssDriver<SharedLine>>),
     /// Modbus RTU or ASCII.
     Modbus(BonfiglioliClient<'a, LineIo>),
     /// An address the protocol cannot reach: every call fails with this message.
@@ -205,10 +205,10 @@ fn serial_tally(retries: u64, rejected: u64) -> LinkTally {
 // ---------------------------------------------------------------------------------------------
 // MOVILINK
 
-/// A MOVILINK bus: one [`movilink::driver::MasterDriver`] on the line.
+/// A MOVILINK bus: one [`movilink::driver::MovilinkDriver`] on the line.
 #[derive(Debug)]
 pub struct MovilinkBus<IO> {
-    driver: movilink::driver::MasterDriver<IO>,
+    driver: movilink::driver::MovilinkDriver<IO>,
     port: String,
     last: movilink::driver::DriverStats,
 }
@@ -225,7 +225,7 @@ impl<IO: CharIo> MovilinkBus<IO> {
             ..movilink::driver::DriverConfig::default()
         };
         Self {
-            driver: movilink::driver::MasterDriver::new(io, config),
+            driver: movilink::driver::MovilinkDriver::new(io, config),
             port: port.to_owned(),
             last: movilink::driver::DriverStats::default(),
         }
@@ -284,9 +284,9 @@ impl<IO: CharIo> MovilinkBus<IO> {
 // ---------------------------------------------------------------------------------------------
 // SBus
 
-/// An SBus bus: one [`SbusMaster`] on the CAN interface.
+/// An SBus bus: one [`SbusDriver`] on the CAN interface.
 pub struct SbusBus<C> {
-    master: SbusMaster<C>,
+    master: SbusDriver<C>,
     iface: String,
     last: sbus_can::master::MasterStats,
 }
@@ -303,13 +303,13 @@ impl<C: drive_core::rt::CanIo> SbusBus<C> {
     /// The bus `bus` on `io` (the interface named `iface`).
     pub fn new(io: C, bus: &Bus, iface: &str) -> Self {
         let config = sbus_can::master::MasterConfig {
-            timeout: bus.timeout,
+            response_timeout: bus.timeout,
             retries: bus.retries,
             late_guard: bus.timeout,
             ..sbus_can::master::MasterConfig::default()
         };
         Self {
-            master: SbusMaster::new(io, config),
+            master: SbusDriver::new(io, config),
             iface: iface.to_owned(),
             last: sbus_can::master::MasterStats::default(),
         }
@@ -374,7 +374,7 @@ impl<C: drive_core::rt::CanIo> SbusBus<C> {
 // ---------------------------------------------------------------------------------------------
 // USS
 
-/// A USS bus: one [`UssMaster`] per drive (each keeps its drive's last PKW order and process
+/// A USS bus: one [`UssDriver`] per drive (each keeps its drive's last PKW order and process
 /// data, which USS repeats), all on one [`SharedLine`] that keeps the start delay between
 /// telegrams of different drives.
 #[derive(Debug)]
@@ -385,7 +385,7 @@ pub struct UssBus {
     timeout: Duration,
     retries: u8,
     port: String,
-    drives: BTreeMap<u8, NordClient<UssMaster<SharedLine>>>,
+    drives: BTreeMap<u8, NordClient<UssDriver<SharedLine>>>,
     /// Totals of the drivers at the last tally.
     last: (u64, u64),
 }
@@ -421,7 +421,7 @@ impl UssBus {
         }
     }
 
-    fn drive(&mut self, address: u8) -> Result<&mut NordClient<UssMaster<SharedLine>>, String> {
+    fn drive(&mut self, address: u8) -> Result<&mut NordClient<UssDriver<SharedLine>>, String> {
         let a = UssAddress::new(address)
             .ok_or_else(|| format!("USS address {address}: a drive has 0–31"))?;
         let line = &self.line;
@@ -432,7 +432,7 @@ impl UssBus {
         };
         Ok(self.drives.entry(address).or_insert_with(|| {
             NordClient::new(
-                UssMaster::new(line.handle(), config),
+                UssDriver::new(line.handle(), config),
                 ClientConfig::default(),
             )
         }))
@@ -441,7 +441,7 @@ impl UssBus {
     fn client_of(
         &mut self,
         address: u8,
-    ) -> Result<NordParamClient<'_, UssMaster<SharedLine>>, String> {
+    ) -> Result<NordParamClient<'_, UssDriver<SharedLine>>, String> {
         let key = format!("{} uss {address}", canonical_port(&self.port));
         let client = self.drive(address)?;
         let mut identity = Map::new();
@@ -488,10 +488,10 @@ impl UssBus {
 // ---------------------------------------------------------------------------------------------
 // Modbus
 
-/// A Bonfiglioli Modbus bus (RTU or ASCII): one [`bonfiglioli_modbus::driver::MasterDriver`].
+/// A Bonfiglioli Modbus bus (RTU or ASCII): one [`bonfiglioli_modbus::driver::ModbusDriver`].
 #[derive(Debug)]
 pub struct ModbusBus<IO> {
-    driver: bonfiglioli_modbus::driver::MasterDriver<IO>,
+    driver: bonfiglioli_modbus::driver::ModbusDriver<IO>,
     port: String,
     last: bonfiglioli_modbus::driver::DriverStats,
     /// The config's `width` of parameters the manual gives no data type: (address, parameter,
@@ -531,7 +531,7 @@ impl<IO: CharIo> ModbusBus<IO> {
             })
             .collect();
         Self {
-            driver: bonfiglioli_modbus::driver::MasterDriver::new(io, config),
+            driver: bonfiglioli_modbus::driver::ModbusDriver::new(io, config),
             port: port.to_owned(),
             last: bonfiglioli_modbus::driver::DriverStats::default(),
             widths,

@@ -11,7 +11,7 @@ use super::*;
 use crate::gateway::bus::BusAccess;
 use crate::gateway::config::{Point, Protocol};
 use crate::tool::client::{ClientError, ParamClient};
-use crate::tool::write::{WriteRequest, check_with, with_hint, write_checked};
+use crate::tool::write::{WriteRequest, check_drive, write_checked};
 
 fn example() -> Plant {
     let mut plant = Plant::parse(EXAMPLE_CONFIG, "example").unwrap();
@@ -51,7 +51,7 @@ fn other_value(point: &Point, now: i64, avoid: &[i64]) -> i64 {
                 persistence: Persistence::Volatile,
                 force: false,
             };
-            check_with("test", &req, with_hint).is_ok()
+            check_drive("test", &req).is_ok()
         })
         .unwrap_or_else(|| panic!("no writable value for {}", point.name))
 }

@@ -11,6 +11,9 @@
 //!   bound a bus-load budget must use).
 //! * [`CanEndpoint`]: a sans-IO CAN participant (master, slave, simulated drive): frames and the
 //!   passing of time go in, frames to send and deadlines come out.
+//! * [`CanExchange`]: the transaction skeleton of a CAN master (attempts, retries, give-up, the
+//!   late guard, responses received before the request went out counted as stale), the carrier
+//!   of [`crate::master::Master`] on CAN.
 //!
 //! Nothing here allocates or panics on any frame.
 
@@ -18,6 +21,9 @@ use core::fmt;
 use core::time::Duration;
 
 pub use embedded_can::{ExtendedId, Frame, Id, StandardId};
+
+mod exchange;
+pub use exchange::{CanExchange, CanExchangeConfig, CanTally};
 
 use crate::time::Instant;
 

@@ -84,16 +84,16 @@ pub fn meaning_with(p: AnyParam, raw: i64, device: &Device) -> Option<Meaning> {
 /// What `raw` of `t` means: [`meaning_with`] of its table entry, with what only the whole target
 /// knows (a NORD array element: P700 [-02] is a warning, [-03] a reason for switch-on
 /// disabled).
-pub fn meaning_of(t: &super::client::Target, raw: i64) -> Option<Meaning> {
+pub fn meaning_of(t: &crate::target::Target, raw: i64) -> Option<Meaning> {
     meaning_in(t, raw, &Device::default())
 }
 
 /// [`meaning_of`] on the drive `device` describes (the gateway and the CLI pass what they know,
 /// e.g. a Bonfiglioli drive's variant).
-pub fn meaning_in(t: &super::client::Target, raw: i64, device: &Device) -> Option<Meaning> {
+pub fn meaning_in(t: &crate::target::Target, raw: i64, device: &Device) -> Option<Meaning> {
     let p = t.param?;
     if p.family() == Family::Nord {
-        let (element, _) = super::client::nord_sub_parts(t.index, t.sub);
+        let (element, _) = crate::target::nord_sub_parts(t.index, t.sub);
         if let Some(m) = nord(p.bus_index(), element, raw) {
             return Some(m);
         }

@@ -1,0 +1,127 @@
+//! The client of one drive: [`ParamClient`], what every family gives a front end (read and
+//! write a parameter by its table entry, the link's own settings, what identifies the drive),
+//! and [`ClientError`], a drive's refusal kept apart from a failing link.
+
+use drive_profile::{Family, Persistence};
+use serde_json::{Map, Value};
+
+use crate::target::Target;
+
+/// Why a client call failed.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum ClientError {
+    /// The drive answered negatively: the drive is there.
+    Device(DeviceError),
+    /// The line failed: no answer, garbled answers, the port is gone.
+    Link(String),
+}
+
+/// A negative answer of the drive, sorted by what a tool does about it (each protocol maps its
+/// own codes).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct DeviceError {
+    /// What kind of refusal.
+    pub kind: DeviceErrorKind,
+    /// The drive's answer, for a person (with the code).
+    pub message: String,
+}
+
+/// What a negative answer means for the tool.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum DeviceErrorKind {
+    /// This drive does not have the parameter (unknown index, not implemented, option card
+    /// missing): a backup leaves it out.
+    Absent,
+    /// A passing fault of the drive (e.g. SEW 6/2 "internal communication error: repeat the
+    /// service"): the same request may succeed when repeated.
+    Transient,
+    /// Anything else (value refused, parameter lock, controller inhibit needed, …).
+    Refused,
+}
+
+impl std::fmt::Display for ClientError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            ClientError::Device(d) => f.write_str(&d.message),
+            ClientError::Link(m) => f.write_str(m),
+        }
+    }
+}
+
+impl std::error::Error for ClientError {}
+
+impl std::fmt::Display for DeviceError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.message)
+    }
+}
+
+/// Read and write parameters of one drive by their table entries: what a protocol gives every
+/// front end. Values are raw (the family's table scales them, [`Target`]).
+///
+/// The futures are not `Send`: a client owns its drive's line and runs on one thread (the
+/// command line's current-thread runtime, a gateway bus task on a `LocalSet`).
+#[allow(async_fn_in_trait)]
+pub trait ParamClient {
+    /// The family whose table the drive's parameters come from.
+    fn family(&self) -> Family;
+
+    /// A name of the drive for the EEPROM-wear log: the canonical port path (symlinks and `//`
+    /// resolved, see [`crate::text::canonical_port`]) and the address the drive really has (a point-to-point
+    /// address is resolved by asking the drive), so that no second way to the same drive
+    /// starts a fresh log.
+    async fn drive_key(&mut self) -> std::result::Result<String, ClientError>;
+
+    /// Indices of the drive's own settings for the link this client talks over (address,
+    /// baud rate, timeouts): writing one needs confirmation.
+    fn link_settings(&self) -> &'static [u16] {
+        &[]
+    }
+
+    /// What writing `raw` to the link setting `target` does to the link, for a person (e.g.
+    /// "the drive will answer at address 5").
+    fn link_change(&self, target: &Target, raw: i64) -> String {
+        format!(
+            "writing {raw} to {} changes how the drive is reached",
+            target.label()
+        )
+    }
+
+    /// The link setting `target` was just written with `raw`: follow it where the client can
+    /// (talk to the new address from now on) and say where the drive answers now.
+    fn follow_link_change(&mut self, target: &Target, raw: i64) -> String {
+        self.link_change(target, raw)
+    }
+
+    /// Indices a restore never writes (commands, the link's own settings).
+    fn not_restored(&self) -> &'static [u16] {
+        &[]
+    }
+
+    /// The raw value of `target`.
+    async fn read(&mut self, target: &Target) -> std::result::Result<i64, ClientError>;
+
+    /// Write raw `raw` to `target` (the value has passed [`Target::check_width`]).
+    async fn write(
+        &mut self,
+        target: &Target,
+        raw: i64,
+        persistence: Persistence,
+    ) -> std::result::Result<(), ClientError>;
+
+    /// Fields that identify the drive in a backup (device type, firmware, …).
+    async fn identify(&mut self) -> std::result::Result<Map<String, Value>, ClientError>;
+
+    /// What is known of the drive beyond the table, for the meaning of its values (a
+    /// Bonfiglioli drive's variant decodes its status word): nothing by default.
+    fn device(&self) -> crate::meaning::Device {
+        crate::meaning::Device::default()
+    }
+
+    /// Bytes the link discarded so far because they arrived before a request had left the
+    /// port (an answer an earlier program left there, a late answer): never taken as an
+    /// answer; a front end reports them.
+    fn stale_bytes(&self) -> u64 {
+        0
+    }
+}
