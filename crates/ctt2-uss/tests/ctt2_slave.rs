@@ -7,8 +7,8 @@
 use std::time::Duration;
 
 use ctt2_uss::ctt2::{
-    Backend, Channel, Data, DiagnosisCode, DiagnosisObject, DoubleSlave, ErrorCode,
-    IdObject, MAX_REQUEST, Request, Response, SlaveConfig,
+    Backend, Channel, Data, DiagnosisCode, DiagnosisObject, DoubleSlave, ErrorCode, IdObject,
+    MAX_REQUEST, Request, Response, SlaveConfig,
 };
 use ctt2_uss::uss::{Ind, Order, PzdIn, PzdOut, Reply};
 use drive_core::Instant;
