@@ -48,5 +48,8 @@ fn another_threads_allocations_are_not_counted() {
     stop.store(true, Ordering::SeqCst);
     other.join().unwrap();
     assert!(other_made >= 1000, "{other_made}");
-    assert_eq!(n, 0, "the other thread's {other_made} allocations were counted");
+    assert_eq!(
+        n, 0,
+        "the other thread's {other_made} allocations were counted"
+    );
 }
