@@ -2,8 +2,8 @@
 //! injection, for the fault-injection campaign (`tests/tests/movilink_faults.rs`).
 //!
 //! This is a minimal pump written for the tests, independent of the crate's async driver: the
-//! sans-IO [`Master`] and [`Slave`] run on tokio's paused clock, which the pump moves exactly
-//! (`tokio::time::advance`) from one event to the next: a state machine's
+//! sans-IO [`MovilinkMaster`] and [`Slave`] run on tokio's paused clock, which the pump moves
+//! exactly (`tokio::time::advance`) from one event to the next: a state machine's
 //! [`poll_timeout`](MovilinkMaster::poll_timeout) or the end of a burst of characters on the line.
 //! Each received [`TimedChar`] becomes an [`RxChar`] stamped with its exact arrival time
 //! (the time since the pump's epoch); a character the UART flagged (`parity_ok == false`:

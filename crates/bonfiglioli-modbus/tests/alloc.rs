@@ -1,6 +1,5 @@
 //! Encode, decode and the receiver with Modbus framing do not allocate: a counting global
-//! allocator sees no allocation while they run (this binary has no other tests, so no other
-//! thread allocates meanwhile).
+//! allocator sees no allocation while they run (it counts the test thread's allocations only).
 
 use bonfiglioli_modbus::frame::{Address, ExceptionCode, Request, Response, StartAddress};
 use bonfiglioli_modbus::framing::{

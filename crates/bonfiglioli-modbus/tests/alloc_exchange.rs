@@ -1,6 +1,6 @@
 //! No allocation per frame: encode, decode, the receiver and whole master ↔ drive exchanges in
 //! memory (RTU and ASCII, every function code) run while a counting global allocator sees
-//! nothing (this binary has one test, so no other thread allocates meanwhile).
+//! nothing (it counts the test thread's allocations only).
 
 #![allow(clippy::unwrap_used, clippy::indexing_slicing, clippy::panic)]
 

@@ -1,6 +1,5 @@
 //! CTT2 encode, decode and the sans-IO double slave do not allocate: a counting global
-//! allocator sees no allocation while they run (this binary has no other tests, so no other
-//! thread allocates meanwhile).
+//! allocator sees no allocation while they run (it counts the test thread's allocations only).
 
 #![allow(clippy::unwrap_used, clippy::indexing_slicing, clippy::panic)]
 

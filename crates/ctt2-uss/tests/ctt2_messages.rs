@@ -5,7 +5,6 @@
 #![allow(clippy::unwrap_used, clippy::indexing_slicing, clippy::panic)]
 
 use ctt2_uss::ctt2::message::{code, error_code, ok_code, request_code};
-use ctt2_uss::ctt2::object::{DIAGNOSIS_OBJECT_LEN, ID_OBJECT_LEN};
 use ctt2_uss::ctt2::{
     Channel, DRIVE_ADDRESS, Data, DecodeError, DiagnosisCode, DiagnosisObject, EncodeError,
     ErrorCode, IdObject, MAX_DATA, ObjectError, Request, Response, StandardIndex,
@@ -202,8 +201,11 @@ fn manual_4_3_1_diagnosis_object() {
         None,
         "a 1-byte read has only the code"
     );
-    assert_eq!(ID_OBJECT_LEN, 14);
-    assert_eq!(DIAGNOSIS_OBJECT_LEN, 3);
+    assert_eq!(
+        DiagnosisObject::decode(&[0, 0, 45, 0]),
+        Err(ObjectError::TooLong { max: 3, got: 4 }),
+        "the diagnosis object has 3 bytes"
+    );
 }
 
 /// Section 4.3.2: reading the process data (ZSW, IW1–IW3) and the answer, with the status

@@ -7,8 +7,8 @@
 use std::time::Duration;
 
 use ctt2_uss::ctt2::{
-    ANSWER_WINDOW, Backend, Channel, Data, DiagnosisCode, DiagnosisObject, DoubleSlave, ErrorCode,
-    IdObject, MAX_REQUEST, Request, Response, SlaveConfig,
+    Backend, Channel, Data, DiagnosisCode, DiagnosisObject, DoubleSlave, ErrorCode, IdObject,
+    MAX_REQUEST, Request, Response, SlaveConfig,
 };
 use ctt2_uss::uss::{Ind, Order, PzdIn, PzdOut, Reply};
 use drive_core::Instant;
@@ -88,7 +88,6 @@ fn pkw_write(pnu: u16) -> Vec<u8> {
 /// error 4 exactly when the window ends.
 #[test]
 fn answer_window() {
-    assert_eq!(ANSWER_WINDOW, Duration::from_millis(200));
     let mut s = slave(120, 0);
     s.handle_request(&[16, 1, 3], t(1000));
     assert!(s.is_busy());

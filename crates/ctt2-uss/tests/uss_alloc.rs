@@ -1,6 +1,6 @@
 //! Encode, decode, the receiver with USS framing and whole master ↔ slave exchanges do not
-//! allocate: a counting global allocator sees no allocation while they run (this binary has
-//! no other tests, so no other thread allocates meanwhile).
+//! allocate: a counting global allocator sees no allocation while they run (it counts the test
+//! thread's allocations only).
 
 // A failing fixture is a failing test: panicking is the report.
 #![allow(

@@ -13,25 +13,34 @@
 //! assert_eq!(CountingAllocator::count(), before);
 //! ```
 //!
-//! Put it in a test binary with a single `#[test]` (or run the test threads one at a time): the
-//! count is global, so another thread's allocations would be counted too.
+//! The count is the calling thread's: another thread's allocations are not counted (the test
+//! harness's main thread allocates while a test runs, at a moment that depends on the machine's
+//! load), so the code under test must run on the thread that counts.
 
 use std::alloc::{GlobalAlloc, Layout, System};
-use std::sync::atomic::{AtomicUsize, Ordering};
+use std::cell::Cell;
 
-static ALLOCATIONS: AtomicUsize = AtomicUsize::new(0);
+std::thread_local! {
+    // `const`, without a destructor: reading and writing it never allocates.
+    static ALLOCATIONS: Cell<usize> = const { Cell::new(0) };
+}
+
+/// One more allocation on this thread (none counted while the thread's storage is torn down).
+fn count_one() {
+    let _ = ALLOCATIONS.try_with(|n| n.set(n.get().wrapping_add(1)));
+}
 
 /// The system allocator, counting every allocation and reallocation.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct CountingAllocator;
 
 impl CountingAllocator {
-    /// Allocations and reallocations since the program started.
+    /// Allocations and reallocations made by the calling thread since it started.
     pub fn count() -> usize {
-        ALLOCATIONS.load(Ordering::SeqCst)
+        ALLOCATIONS.try_with(Cell::get).unwrap_or(0)
     }
 
-    /// Run `f` and return its result with the number of allocations made meanwhile.
+    /// Run `f` and return its result with the number of allocations it made (on this thread).
     pub fn during<R>(f: impl FnOnce() -> R) -> (R, usize) {
         let before = Self::count();
         let r = f();
@@ -39,23 +48,23 @@ impl CountingAllocator {
     }
 }
 
-// SAFETY: every call is forwarded unchanged to the system allocator; the counter has no effect
-// on the memory handed out.
+// SAFETY: every call is forwarded unchanged to the system allocator; the counter (a
+// thread-local cell, which does not allocate) has no effect on the memory handed out.
 unsafe impl GlobalAlloc for CountingAllocator {
     unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        ALLOCATIONS.fetch_add(1, Ordering::SeqCst);
+        count_one();
         // SAFETY: the caller's contract for `alloc` is passed on unchanged.
         unsafe { System.alloc(layout) }
     }
 
     unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
-        ALLOCATIONS.fetch_add(1, Ordering::SeqCst);
+        count_one();
         // SAFETY: the caller's contract for `alloc_zeroed` is passed on unchanged.
         unsafe { System.alloc_zeroed(layout) }
     }
 
     unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        ALLOCATIONS.fetch_add(1, Ordering::SeqCst);
+        count_one();
         // SAFETY: the caller's contract for `realloc` is passed on unchanged.
         unsafe { System.realloc(ptr, layout, new_size) }
     }

@@ -33,8 +33,8 @@ pub const LINE: LineSettings = LineSettings::new(9600);
 pub const CHAR_TIME: Duration = LINE.char_time();
 /// The start pause at 9600 8E1, 3.44 ms as the manual says.
 pub const START_PAUSE: Duration = start_pause(&LINE);
-/// The restart pause at 9600 8E1: two start pauses.
-pub const RESTART_PAUSE: Duration = Duration::from_micros(2 * 3440);
+/// The restart pause at 9600 8E1: two start pauses (6.88 ms).
+pub const RESTART_PAUSE: Duration = LineTiming::MOVILINK.restart_pause();
 /// Minimum time from the BCC of a broadcast (or group) request to the next SD1.
 pub const BROADCAST_SPACING: Duration = Duration::from_millis(25);
 /// The maximum response delay a drive may take (request BCC → response SD2).
@@ -140,8 +140,7 @@ mod tests {
     fn times_of_the_manual_at_9600_8e1() {
         assert_eq!(CHAR_TIME, Duration::from_nanos(1_145_833));
         assert_eq!(START_PAUSE, Duration::from_micros(3440));
-        assert_eq!(RESTART_PAUSE, START_PAUSE * 2);
-        assert_eq!(LineTiming::MOVILINK.restart_pause(), RESTART_PAUSE);
+        assert_eq!(RESTART_PAUSE, Duration::from_micros(6880));
         assert_eq!(
             LineTiming::MOVILINK.wire_time(18),
             Duration::from_micros(20_625)

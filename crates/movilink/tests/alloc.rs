@@ -1,6 +1,5 @@
 //! Encode, decode, the receiver and the state machines do not allocate: a counting global
-//! allocator sees no allocation while they run (this binary has no other tests, so no other
-//! thread allocates meanwhile).
+//! allocator sees no allocation while they run (it counts the test thread's allocations only).
 
 use drive_core::alloc_count::CountingAllocator;
 use movilink::timing::Instant;

@@ -240,9 +240,14 @@ mod tests {
             };
             assert_eq!(cw.command(), expected, "{w:#06x}");
         }
-        assert_eq!(ControlWord1::STOP.bits(), 0x0002);
-        assert_eq!(ControlWord1::RAPID_STOP.bits(), 0x0000);
-        assert_eq!(ControlWord1::INHIBIT.bits(), 0x0001);
+        // The named words are the commands their names say.
+        assert_eq!(ControlWord1::STOP.command(), BasicCommand::Stop);
+        assert_eq!(ControlWord1::RAPID_STOP.command(), BasicCommand::RapidStop);
+        assert_eq!(
+            ControlWord1::INHIBIT.command(),
+            BasicCommand::ControllerInhibit
+        );
+        assert_eq!(ControlWord1::ENABLE.command(), BasicCommand::Enable);
         assert_eq!(
             format!("{:?}", ControlWord1::from_bits(0x0046)),
             "ControlWord1(no rapid stop | no stop | fault reset)"

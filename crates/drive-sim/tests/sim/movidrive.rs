@@ -106,10 +106,12 @@ fn new_takes_the_address_and_table_defaults() {
 fn identity_reads_back_nonzero() {
     let mut d = Movidrive::new(1);
     let t = Instant::ZERO;
-    assert_eq!(read(&mut d, index::UNIT_TYPE, t), Ok(UNIT_TYPE));
-    assert_ne!(UNIT_TYPE, 0);
-    assert_eq!(read(&mut d, index::FIRMWARE, t), Ok(822_609_711));
-    assert_eq!(FIRMWARE / 1000, 822_609);
+    let unit_type = read(&mut d, index::UNIT_TYPE, t).unwrap();
+    assert_ne!(unit_type, 0);
+    assert_eq!(unit_type, UNIT_TYPE);
+    // The manual's format "822609711 = 822 609 7.11": part number 822 609, version 7.11.
+    let firmware = read(&mut d, index::FIRMWARE, t).unwrap();
+    assert_eq!((firmware / 1000, firmware % 1000), (822_609, 711));
     assert_eq!(read(&mut d, index::RATED_CURRENT, t), Ok(4000));
     // identity survives a power cycle
     d.restart(ms(10));

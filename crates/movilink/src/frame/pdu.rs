@@ -212,9 +212,12 @@ mod tests {
                 assert_eq!(PduType::from_layout(param, words as u8, cyclic), Some(t));
             }
         }
-        let known = (0..=255u8).filter(|&b| PduType::new(b).is_some()).count();
-        assert_eq!(known, 14);
-        assert_eq!(PduType::ALL.len(), 14);
+        // `ALL` holds exactly the types `new` accepts: the 14 of the manual.
+        let known: Vec<PduType> = (0..=255u8).filter_map(PduType::new).collect();
+        assert_eq!(known.len(), 14);
+        let mut all = PduType::ALL.to_vec();
+        all.sort_by_key(|t| t.raw());
+        assert_eq!(all, known);
         assert_eq!(PduType::from_layout(false, 0, true), None);
         assert_eq!(PduType::PD3.to_acyclic(), PduType::PD3_ACYCLIC);
         assert_eq!(PduType::PD3_ACYCLIC.to_cyclic(), PduType::PD3);

@@ -1,6 +1,6 @@
-//! [`Mqtt::run`] against a real Mosquitto broker (started per test on a free port; each test
-//! skips with one message where Mosquitto cannot be had), with an update channel and fake bus
-//! set-receivers. Every wait has a timeout.
+//! [`Mqtt::run`] against a real Mosquitto broker (started per test on a free port; where
+//! Mosquitto cannot be had each test fails under CI and skips elsewhere, with one message), with
+//! an update channel and fake bus set-receivers. Every wait has a timeout.
 
 #[path = "../../../tests/common/mosquitto.rs"]
 mod mosquitto;
