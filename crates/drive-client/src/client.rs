@@ -8,11 +8,15 @@ use serde_json::{Map, Value};
 use crate::target::Target;
 
 /// Why a client call failed.
-#[derive(Debug, Clone, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[non_exhaustive]
 pub enum ClientError {
     /// The drive answered negatively: the drive is there.
+    #[error("{}", .0.message)]
     Device(DeviceError),
-    /// The line failed: no answer, garbled answers, the port is gone.
+    /// The line failed: no answer, garbled answers, the port is gone; the message says what
+    /// to check.
+    #[error("{0}")]
     Link(String),
 }
 
@@ -62,17 +66,6 @@ pub enum DeviceErrorKind {
     /// Anything else (value refused, parameter lock, controller inhibit needed, …).
     Refused,
 }
-
-impl std::fmt::Display for ClientError {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            ClientError::Device(d) => f.write_str(&d.message),
-            ClientError::Link(m) => f.write_str(m),
-        }
-    }
-}
-
-impl std::error::Error for ClientError {}
 
 impl std::fmt::Display for DeviceError {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {

@@ -470,7 +470,7 @@ impl Out<'_> {
         let label = match &result {
             Ok(_) => "ok",
             Err(ClientError::Device(_)) => "device_error",
-            Err(ClientError::Link(_)) => "timeout",
+            Err(_) => "timeout",
         };
         self.metrics.transaction(
             &self.bus.name,
@@ -480,8 +480,8 @@ impl Out<'_> {
             now.saturating_duration_since(started),
         );
         let outcome = match &result {
-            Err(ClientError::Link(_)) => Outcome::NoAnswer,
-            _ => Outcome::Answered,
+            Ok(_) | Err(ClientError::Device(_)) => Outcome::Answered,
+            Err(_) => Outcome::NoAnswer,
         };
         let change = sched.done(job, now, outcome);
         let at = SystemTime::now();
@@ -532,7 +532,7 @@ impl Out<'_> {
                 }
                 self.answered(drive).await
             }
-            Err(ClientError::Link(e)) => {
+            Err(e) => {
                 if change == Some(Change::WentOffline) {
                     tracing::warn!(
                         bus = %self.bus.name,
@@ -672,10 +672,7 @@ struct Watched<C> {
 impl<C: ParamClient> Watched<C> {
     fn keep<T>(&mut self, r: Result<T, ClientError>) -> Result<T, ClientError> {
         r.inspect_err(|e| {
-            self.error = Some(match e {
-                ClientError::Device(d) => ClientError::Device(d.clone()),
-                ClientError::Link(m) => ClientError::Link(m.clone()),
-            });
+            self.error = Some(e.clone());
         })
     }
 }
@@ -836,7 +833,7 @@ async fn write_point<B: BusAccess>(
             },
             Outcome::Answered,
         ),
-        (Err(e), Some(ClientError::Link(_))) => (
+        (Err(e), Some(_)) => (
             SetOutcome::LinkFailed {
                 message: e.to_string(),
             },

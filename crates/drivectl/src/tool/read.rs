@@ -26,7 +26,8 @@ pub async fn read_all<C: ParamClient>(
                 errln!("drivectl: {}: {d}", t.label());
                 refused.push(t.label());
             }
-            Err(ClientError::Link(m)) => {
+            // The link failed (or a failure this drivectl does not know yet): stop reading.
+            Err(m) => {
                 let unread: Vec<String> = targets.iter().skip(i).map(Target::label).collect();
                 return Err(CliError::failed(format!(
                     "{}: {m}; not read: {}",

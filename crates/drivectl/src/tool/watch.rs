@@ -267,7 +267,8 @@ async fn poll_loop<C: ParamClient>(
                     }
                     cells.push(Err(d.message));
                 }
-                Err(ClientError::Link(m)) => {
+                // The link failed (or a failure this drivectl does not know yet).
+                Err(m) => {
                     return Err(CliError::failed(format!(
                         "{}: {m}; the watch stopped after {} poll(s)",
                         t.label(),

@@ -289,8 +289,8 @@ async fn campaign(bus: &Bus, n: u32, faults: impl FnOnce(&SimulatedBus)) -> Camp
                 );
                 c.right += 1;
             }
-            Err(ClientError::Link(_)) => c.link_errors += 1,
             Err(ClientError::Device(_)) => c.device_errors += 1,
+            Err(_) => c.link_errors += 1,
         }
         let t = sim.access.take_tally();
         // Every reason is one /metrics knows (not counted as "other").
