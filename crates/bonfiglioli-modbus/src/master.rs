@@ -37,6 +37,25 @@ pub const TURNAROUND: Duration = Duration::from_millis(2);
 /// earliest, so they have executed it by then.
 pub const BROADCAST_HOLD: Duration = Duration::from_millis(10);
 
+/// The longest frame of a parameter exchange, in characters: a 32-bit write (FC 101) and its
+/// echo, address, function code, start address (2), value (4) and check: RTU 10 bytes with the
+/// CRC (2), ASCII `:`, 9 bytes as 18 hex digits with the LRC, CR LF (ch. 6.7).
+pub const fn longest_frame(mode: Mode) -> u32 {
+    match mode {
+        Mode::Rtu => 10,
+        Mode::Ascii => 1 + 2 * 9 + 2,
+    }
+}
+
+/// The least response timeout a parameter exchange can meet on `line`: the request and the
+/// answer (the longest, [`longest_frame`]) at the line's character time and the drive's answer
+/// delay ([`ANSWER_DELAY`](crate::slave::ANSWER_DELAY), 10 ms at the earliest, ch. 6.8), rounded
+/// up to whole milliseconds. A shorter [`MasterConfig::response_timeout`] cannot be met.
+pub fn least_response_timeout(mode: Mode, line: &LineSettings) -> Duration {
+    let needed = crate::slave::ANSWER_DELAY + line.char_time() * (2 * longest_frame(mode));
+    Duration::from_millis(u64::try_from(needed.as_micros().div_ceil(1000)).unwrap_or(u64::MAX))
+}
+
 /// Configuration of a [`ModbusMaster`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct MasterConfig {
@@ -263,3 +282,32 @@ impl CharProtocol for Modbus {
 /// [`Modbus`] on a line. It is an [`Endpoint`](drive_core::Endpoint); [`master::Master::send`]
 /// takes the address and the request.
 pub type ModbusMaster = master::Master<Modbus, Exchange<ModbusFraming, MAX_FRAME>>;
+
+#[cfg(test)]
+mod least_timeout_tests {
+    use super::*;
+    use drive_core::Parity;
+
+    #[test]
+    fn the_least_timeout_is_an_exchange_at_the_baud_rate() {
+        let rtu = Mode::Rtu.line_settings(2400, Parity::None);
+        // 11 bits at 2400 baud: 4.583 ms; 2 × 10 characters + 10 ms = 101.7 ms.
+        assert_eq!(
+            least_response_timeout(Mode::Rtu, &rtu),
+            Duration::from_millis(102)
+        );
+        let ascii = Mode::Ascii.line_settings(9600, Parity::Even);
+        // 10 bits at 9600 baud: 1.042 ms; 2 × 21 characters + 10 ms = 53.75 ms.
+        assert_eq!(
+            least_response_timeout(Mode::Ascii, &ascii),
+            Duration::from_millis(54)
+        );
+        // The manual's 500 ms (the default) covers every rate the drive has.
+        for (_, baud) in drive_profile::bonfiglioli::link::BAUD_RATES {
+            for mode in [Mode::Rtu, Mode::Ascii] {
+                let l = mode.line_settings(baud, Parity::Even);
+                assert!(least_response_timeout(mode, &l) < DEFAULT_RESPONSE_TIMEOUT);
+            }
+        }
+    }
+}

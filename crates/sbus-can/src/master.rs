@@ -97,6 +97,20 @@ pub const DEFAULT_SYNC_PERIOD: Duration = Duration::from_millis(5);
 /// leaves room for the request's own time on the wire at 125 kbit/s.
 pub const SYNC_LEAD: Duration = Duration::from_millis(1);
 
+/// The least response timeout a parameter answer can meet on the bus at `rate`: the request
+/// and the response frame (8 data bytes, worst-case bit stuffing), the drive's answer window
+/// (within the first millisecond, [`ANSWER_WINDOW`](crate::slave::ANSWER_WINDOW)) and, in sync
+/// mode, the SYNC that releases the answer ([`SYNC_LEAD`] after the request, then its own
+/// frame).
+pub fn least_response_timeout(rate: drive_core::can::Bitrate, handshake: Handshake) -> Duration {
+    let frame = crate::busload::frame_time(8, rate);
+    let mut t = frame + crate::slave::ANSWER_WINDOW + frame;
+    if handshake == Handshake::Sync {
+        t += SYNC_LEAD + crate::busload::frame_time(0, rate);
+    }
+    t
+}
+
 /// The PO-sync window in a cycle: from 2.5 ms after the SYNC ("frühestens 500 µs nach der
 /// 2. Millisekunde") to 0.5 ms before the next one ("spätestens 500 µs vor der 1.
 /// Millisekunde"); the manual prints ms for µs (erratum SB-E30).

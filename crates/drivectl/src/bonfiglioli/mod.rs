@@ -459,24 +459,7 @@ pub fn line_of(mode: Mode, line: &LineArgs, data_bits: Option<u8>) -> drive_core
     settings
 }
 
-/// The longest frame of an exchange drivectl makes, in characters: a 32-bit write (FC 101)
-/// and its echo, address, function code, start address (2), value (4) and check: RTU 10 bytes
-/// with the CRC (2), ASCII `:`, 9 bytes as 18 hex digits with the LRC, CR LF (ch. 6.7).
-pub const fn longest_frame(mode: Mode) -> u32 {
-    match mode {
-        Mode::Rtu => 10,
-        Mode::Ascii => 1 + 2 * 9 + 2,
-    }
-}
-
-/// The least response timeout an exchange needs on `line`: the request and the answer (the
-/// longest, [`longest_frame`]) at the line's character time and the drive's answer delay
-/// (10 ms at the earliest, ch. 6.8), rounded up to whole milliseconds.
-pub fn least_timeout(mode: Mode, line: &drive_core::LineSettings) -> Duration {
-    let frames = line.char_time() * (2 * longest_frame(mode));
-    let needed = bonfiglioli_modbus::slave::ANSWER_DELAY + frames;
-    Duration::from_millis(u64::try_from(needed.as_micros().div_ceil(1000)).unwrap_or(u64::MAX))
-}
+pub use bonfiglioli_modbus::master::{least_response_timeout as least_timeout, longest_frame};
 
 /// The driver configuration of the command-line options. A response timeout shorter than an
 /// exchange takes at the line's baud rate ([`least_timeout`]) is refused: no answer could come
@@ -1711,26 +1694,6 @@ mod tests {
         for baud in [2400, 9600, 19200, 57600, 115_200] {
             let l = line(baud, Mode::Ascii);
             assert!(scan_timeout(&l) > bonfiglioli_modbus::slave::ANSWER_DELAY + l.char_time());
-        }
-    }
-
-    #[test]
-    fn issue18_the_least_timeout_is_an_exchange_at_the_baud_rate() {
-        let rtu = Mode::Rtu.line_settings(2400, drive_core::Parity::None);
-        // 11 bits at 2400 baud: 4.583 ms; 2 × 10 characters + 10 ms = 101.7 ms.
-        assert_eq!(least_timeout(Mode::Rtu, &rtu), Duration::from_millis(102));
-        let ascii = Mode::Ascii.line_settings(9600, drive_core::Parity::Even);
-        // 10 bits at 9600 baud: 1.042 ms; 2 × 21 characters + 10 ms = 53.75 ms.
-        assert_eq!(
-            least_timeout(Mode::Ascii, &ascii),
-            Duration::from_millis(54)
-        );
-        // The manual's 500 ms covers every rate the drive has.
-        for (_, baud) in bonfiglioli::link::BAUD_RATES {
-            for mode in [Mode::Rtu, Mode::Ascii] {
-                let l = mode.line_settings(baud, drive_core::Parity::Even);
-                assert!(least_timeout(mode, &l) < Duration::from_millis(500));
-            }
         }
     }
 

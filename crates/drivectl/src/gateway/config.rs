@@ -804,7 +804,7 @@ fn check_line(at: &str, b: BusFile) -> std::result::Result<Bus, String> {
                     "exchange takes at {} baud (request, the drive's 10 ms answer delay, answer)",
                     line.baud
                 ),
-                crate::bonfiglioli::least_timeout(mode, &line),
+                bonfiglioli_modbus::master::least_response_timeout(mode, &line),
             ))
         }
         Protocol::Sbus => drive_core::can::Bitrate::new(bitrate).map(|rate| {
@@ -813,7 +813,7 @@ fn check_line(at: &str, b: BusFile) -> std::result::Result<Bus, String> {
                     "parameter answer takes at {} kbit/s (both frames and the drive's 1 ms)",
                     bitrate / 1000
                 ),
-                crate::sbus::least_timeout(rate, sbus_can::master::Handshake::Async),
+                sbus_can::master::least_response_timeout(rate, sbus_can::master::Handshake::Async),
             )
         }),
     };
@@ -1416,7 +1416,10 @@ writable = true
             panic!("{:?}", p.buses[0].endpoint);
         };
         assert_eq!(line.baud, 1200);
-        let least = crate::bonfiglioli::least_timeout(bonfiglioli_modbus::framing::Mode::Rtu, line);
+        let least = bonfiglioli_modbus::master::least_response_timeout(
+            bonfiglioli_modbus::framing::Mode::Rtu,
+            line,
+        );
         assert!(least > Duration::from_millis(100), "{least:?}");
         assert!(p.buses[0].timeout >= least, "{:?}", p.buses[0].timeout);
         // At 9600 baud the protocol's default stands.

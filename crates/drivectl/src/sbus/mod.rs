@@ -363,18 +363,7 @@ fn handshake(args: &SbusArgs) -> Handshake {
     }
 }
 
-/// The shortest time a parameter answer can take on the bus at `rate`: the request and the
-/// response frame (8 data bytes, worst-case bit stuffing), the drive's answer window (the
-/// manual: within the first millisecond) and, in sync mode, the SYNC that releases the answer
-/// ([`sbus_can::master::SYNC_LEAD`] after the request, then its own frame).
-pub fn least_timeout(rate: Bitrate, handshake: Handshake) -> Duration {
-    let frame = sbus_can::busload::frame_time(8, rate);
-    let mut t = frame + sbus_can::slave::ANSWER_WINDOW + frame;
-    if handshake == Handshake::Sync {
-        t += sbus_can::master::SYNC_LEAD + sbus_can::busload::frame_time(0, rate);
-    }
-    t
-}
+pub use sbus_can::master::least_response_timeout as least_timeout;
 
 /// Refuse a response timeout no answer could meet (as `drivectl movilink` and `uss` refuse
 /// one shorter than the drive's start pause). A SocketCAN interface's bit rate is the
