@@ -104,19 +104,23 @@ pub fn now() -> Instant {
 pub struct FileWearLog {
     /// The directory; `None`: found from the environment at each call.
     dir: Option<PathBuf>,
+    /// The directory this log (and its clones) found writable, so that a restore that checks
+    /// many writes probes it once; another directory is probed again.
+    writable: std::sync::Arc<Mutex<Option<PathBuf>>>,
 }
 
 impl FileWearLog {
     /// The log in the directory the environment names (`$DRIVECTL_STATE_DIR`, else
     /// `$XDG_STATE_HOME/drivectl`, else `~/.local/state/drivectl`).
     pub fn from_env() -> Self {
-        Self { dir: None }
+        Self::default()
     }
 
     /// The log in `dir`.
     pub fn in_dir(dir: impl Into<PathBuf>) -> Self {
         Self {
             dir: Some(dir.into()),
+            writable: std::sync::Arc::default(),
         }
     }
 
@@ -166,9 +170,11 @@ impl WearLog for FileWearLog {
     fn ensure_usable(&self) -> Result<(), WearLogError> {
         let d = self.state_dir()?;
         load(&d)?;
-        // The directory's writability is probed once per process (a restore checks many).
-        static WRITABLE: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
-        if WRITABLE.load(std::sync::atomic::Ordering::Relaxed) {
+        let mut writable = self
+            .writable
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        if writable.as_ref() == Some(&d) {
             return Ok(());
         }
         let probe = d.join(format!("{FILE}.probe.{}", std::process::id()));
@@ -180,7 +186,7 @@ impl WearLog for FileWearLog {
                 what: "cannot be written",
                 reason: e.to_string(),
             })?;
-        WRITABLE.store(true, std::sync::atomic::Ordering::Relaxed);
+        *writable = Some(d);
         Ok(())
     }
 
@@ -293,5 +299,23 @@ mod tests {
         assert!(m.last_write("d", p130, 0).unwrap().is_none());
         m.record("d", p130, 0).unwrap();
         assert!(m.last_write("d", p130, 0).unwrap().is_some());
+    }
+
+    /// A directory found writable once does not vouch for another: in one process (a gateway,
+    /// a program with two logs) each log probes its own directory.
+    #[test]
+    fn a_writable_directory_does_not_make_another_usable() {
+        let base = std::env::temp_dir().join(format!("wear-two-{}", std::process::id()));
+        std::fs::create_dir_all(&base).unwrap();
+        let good = FileWearLog::in_dir(base.join("state"));
+        good.ensure_usable().unwrap();
+        good.ensure_usable().unwrap();
+        // No log to read there yet, and no directory can be made there, not even by root.
+        let bad = FileWearLog::in_dir("/proc/self/drivebus-wear-test");
+        match bad.ensure_usable() {
+            Err(WearLogError::Unusable { what, .. }) => assert_eq!(what, "cannot be written"),
+            other => panic!("an unusable directory passed: {other:?}"),
+        }
+        let _ = std::fs::remove_dir_all(&base);
     }
 }
