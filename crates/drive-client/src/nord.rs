@@ -16,7 +16,7 @@ use serde_json::{Map, Value};
 
 use crate::client::{ClientError, DeviceCode, DeviceError, DeviceErrorKind, ParamClient};
 use crate::front::{FrontEnd, Plain, Setting};
-use crate::target::{Target, nord_sub};
+use crate::target::{Target, TargetError, nord_sub};
 
 /// Parameter numbers outside the table that may be read and written raw: the 11 bits of the
 /// PNU (PKE bits 0–10).
@@ -48,19 +48,115 @@ pub fn table_target(number: u16) -> Result<Target, ClientError> {
 }
 
 fn table_entry(number: u16) -> Option<Target> {
-    let mut t = Target::resolve(Family::Nord, &number.to_string(), RAW_INDICES).ok()?;
-    // A PNU typed as a number is the table's parameter too.
+    let t = resolve_key(&number.to_string()).ok()?;
+    let p = t.param.and_then(|_| profile::by_index(t.index))?;
+    let element = p.array_len.map(|_| 1);
+    let set = p.parameter_set.then_some(1);
+    Some(Target {
+        sub: nord_sub(t.index, element, set),
+        ..t
+    })
+}
+
+/// `key` in the NORD table (`P102`, `102`, `0x66`: a PNU typed as a number is the table's
+/// parameter too), or a PNU outside it for raw access.
+fn resolve_key(key: &str) -> Result<Target, TargetError> {
+    let t = Target::resolve(Family::Nord, key, RAW_INDICES)?;
     if t.param.is_none()
         && let Some(p) = drive_profile::family::lookup(Family::Nord, &t.index.to_string())
             .filter(|p| p.bus_index() == t.index)
     {
-        t = Target::of(p);
+        return Ok(Target::of(p));
     }
-    let p = t.param.and_then(|_| profile::by_index(t.index))?;
-    let element = p.array_len.map(|_| 1);
-    let set = p.parameter_set.then_some(1);
-    t.sub = nord_sub(t.index, element, set);
-    Some(t)
+    Ok(t)
+}
+
+/// Why a NORD parameter cannot be reached with the array element and parameter set asked
+/// for; nothing was sent. A front end says which of its options names them.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[non_exhaustive]
+pub enum SelectorError {
+    /// The key is no parameter.
+    #[error(transparent)]
+    Target(#[from] TargetError),
+    /// A parameter set was given for a parameter without sets.
+    #[error("{name} has no parameter sets; nothing was sent")]
+    NoSets {
+        /// The parameter (`P102 Acceleration time`).
+        name: String,
+    },
+    /// An array element was given for a parameter that is no array.
+    #[error("{name} is no array; nothing was sent")]
+    NotAnArray {
+        /// The parameter.
+        name: String,
+    },
+    /// An element past the array's length.
+    #[error(
+        "{name} has the elements [-01]…[-{len:02}]: element {element} is none of them; nothing was sent"
+    )]
+    NoSuchElement {
+        /// The parameter.
+        name: String,
+        /// Its number of elements.
+        len: u8,
+        /// The element asked for (1-based).
+        element: u8,
+    },
+    /// An array without an element where one element is needed.
+    #[error("{name} is an array of {len} elements: name one of them (1…{len}, [-01] = 1)")]
+    WholeArray {
+        /// The parameter.
+        name: String,
+        /// Its number of elements.
+        len: u8,
+    },
+}
+
+/// Resolve a NORD parameter (`P102`, `102`, a PNU outside the table for raw access) with its
+/// array element and parameter set (both 1-based), checked against the table: a set only for
+/// parameters with parameter sets (set 1 when none is given), an element only for arrays and
+/// within their length. An array without an element is every element when `every_element`,
+/// else refused. Outside the table nothing can be checked: the IND word is built as given.
+pub fn resolve(
+    key: &str,
+    element: Option<u8>,
+    set: Option<u8>,
+    every_element: bool,
+) -> Result<Vec<Target>, SelectorError> {
+    let t = resolve_key(key)?;
+    let Some(p) = t.param.and_then(|_| profile::by_index(t.index)) else {
+        return Ok(vec![Target {
+            sub: nord_sub(t.index, element, set),
+            ..t
+        }]);
+    };
+    let name = format!("{} {}", p.label(), p.name_en);
+    if set.is_some() && !p.parameter_set {
+        return Err(SelectorError::NoSets { name });
+    }
+    let set = p.parameter_set.then(|| set.unwrap_or(1));
+    let elements: Vec<Option<u8>> = match (p.array_len, element) {
+        (None, Some(_)) => return Err(SelectorError::NotAnArray { name }),
+        (None, None) => vec![None],
+        (Some(len), Some(k)) if k > len || k == 0 => {
+            return Err(SelectorError::NoSuchElement {
+                name,
+                len,
+                element: k,
+            });
+        }
+        (Some(_), Some(k)) => vec![Some(k)],
+        (Some(len), None) if every_element => (1..=len).map(Some).collect(),
+        (Some(len), None) => return Err(SelectorError::WholeArray { name, len }),
+    };
+    Ok(elements
+        .into_iter()
+        .map(|e| Target {
+            sub: nord_sub(t.index, e, set),
+            ..t
+        })
+        .collect())
 }
 
 /// Whether `t` is an array element (AK 6, 7, 11, 12): the table says so, or `raw_array` (the

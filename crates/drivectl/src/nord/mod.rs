@@ -29,11 +29,11 @@ use drive_profile::{Family, Persistence};
 use serde_json::{Map, Value, json};
 
 pub use drive_client::nord::param;
-use drive_client::nord::{NordParamClient, RAW_INDICES, table_target};
+use drive_client::nord::{NordParamClient, table_target};
 
 use crate::error::{CliError, Result};
 use crate::tool::client::OnTarget as _;
-use crate::tool::client::{ClientError, ParamClient, Target, ValueText, nord_sub, parse_decimal};
+use crate::tool::client::{ClientError, ParamClient, Target, ValueText, parse_decimal};
 use crate::tool::front::Cli;
 use crate::tool::interrupt::Interrupt;
 use crate::tool::motor::{AtEnd, Motion, MotorGuard, Stopped};
@@ -216,54 +216,24 @@ pub enum NordCommand {
 /// with parameter sets, `--array` only for arrays and within their length. An array without
 /// `--array` is every element when `every_element`, else refused.
 pub fn resolve(key: &str, sub: Sub, every_element: bool) -> Result<Vec<Target>> {
-    let mut t = Target::resolve(Family::Nord, key, RAW_INDICES)?;
-    // A PNU typed as a number (0x66) is the table's parameter too.
-    if t.param.is_none()
-        && let Some(p) = drive_profile::family::lookup(Family::Nord, &t.index.to_string())
-            .filter(|p| p.bus_index() == t.index)
-    {
-        t = Target::of(p);
-    }
-    let Some(p) = t.param.and_then(|_| nord::by_index(t.index)) else {
-        // Outside the table nothing can be checked: the IND word as the options say.
-        t.sub = nord_sub(t.index, sub.array, sub.set);
-        return Ok(vec![t]);
-    };
-    let name = format!("{} {}", p.label(), p.name_en);
-    if sub.set.is_some() && !p.parameter_set {
-        return Err(CliError::usage(format!(
+    use drive_client::nord::SelectorError as E;
+    drive_client::nord::resolve(key, sub.array, sub.set, every_element).map_err(|e| match e {
+        E::Target(e) => CliError::from(e),
+        E::NoSets { name } => CliError::usage(format!(
             "{name} has no parameter sets: it takes no --set; nothing was sent"
-        )));
-    }
-    let set = p.parameter_set.then(|| sub.set.unwrap_or(1));
-    let elements: Vec<Option<u8>> = match (p.array_len, sub.array) {
-        (None, Some(_)) => {
-            return Err(CliError::usage(format!(
-                "{name} is no array: it takes no --array; nothing was sent"
-            )));
-        }
-        (None, None) => vec![None],
-        (Some(n), Some(k)) if k > n => {
-            return Err(CliError::usage(format!(
-                "{name} has the elements [-01]…[-{n:02}]: --array {k} is none of them (1…{n}); \
-                 nothing was sent"
-            )));
-        }
-        (Some(_), Some(k)) => vec![Some(k)],
-        (Some(n), None) if every_element => (1..=n).map(Some).collect(),
-        (Some(n), None) => {
-            return Err(CliError::usage(format!(
-                "{name} is an array of {n} elements: add --array 1…{n} ([-01] = 1)"
-            )));
-        }
-    };
-    Ok(elements
-        .into_iter()
-        .map(|e| Target {
-            sub: nord_sub(t.index, e, set),
-            ..t
-        })
-        .collect())
+        )),
+        E::NotAnArray { name } => CliError::usage(format!(
+            "{name} is no array: it takes no --array; nothing was sent"
+        )),
+        E::NoSuchElement { name, len, element } => CliError::usage(format!(
+            "{name} has the elements [-01]…[-{len:02}]: --array {element} is none of them \
+             (1…{len}); nothing was sent"
+        )),
+        E::WholeArray { name, len } => CliError::usage(format!(
+            "{name} is an array of {len} elements: add --array 1…{len} ([-01] = 1)"
+        )),
+        other => CliError::usage(other.to_string()),
+    })
 }
 
 /// Resolve every name (arrays as all their elements).

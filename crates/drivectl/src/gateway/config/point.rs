@@ -106,7 +106,7 @@ pub(super) fn resolve(protocol: Protocol, p: &ParamFile, at: &str) -> Result<Res
         Family::Bonfiglioli => drive_client::bonfiglioli::RAW_INDICES,
         _ => drive_client::sew::RAW_INDICES,
     };
-    let param_error = |_: crate::error::CliError| {
+    let param_error = || {
         fail(
             param_at,
             format!(
@@ -121,7 +121,11 @@ pub(super) fn resolve(protocol: Protocol, p: &ParamFile, at: &str) -> Result<Res
     let (target, width) = match family {
         Family::Nord => (nord(p, key, param_at, &fail, &param_error)?, None),
         Family::Bonfiglioli => bonfiglioli(p, key, param_at, &fail, &param_error)?,
-        _ => (crate::movilink::resolve(key).map_err(param_error)?, None),
+        _ => (
+            Target::resolve(family, key, drive_client::sew::RAW_INDICES)
+                .map_err(|_| param_error())?,
+            None,
+        ),
     };
     if value(&p.writable) == Some(true) {
         let w = place(&p.writable, param_at);
@@ -167,11 +171,11 @@ fn nord(
     key: &str,
     param_at: usize,
     fail: &dyn Fn(usize, String) -> Fault,
-    param_error: &dyn Fn(crate::error::CliError) -> Fault,
+    param_error: &dyn Fn() -> Fault,
 ) -> Result<Target, Fault> {
     // Every element of an array: the parameter itself, its element chosen below.
-    let t = crate::nord::resolve(key, crate::nord::Sub::default(), true)
-        .map_err(param_error)?
+    let t = drive_client::nord::resolve(key, None, None, true)
+        .map_err(|_| param_error())?
         .into_iter()
         .next()
         .ok_or_else(|| fail(param_at, format!("param = {key:?}: no such parameter")))?;
@@ -265,7 +269,7 @@ fn bonfiglioli(
     key: &str,
     param_at: usize,
     fail: &dyn Fn(usize, String) -> Fault,
-    param_error: &dyn Fn(crate::error::CliError) -> Fault,
+    param_error: &dyn Fn() -> Fault,
 ) -> Result<(Target, Option<Width>), Fault> {
     let ds_at = place(&p.data_set, param_at);
     let ds = value(&p.data_set).unwrap_or(0);
@@ -275,7 +279,13 @@ fn bonfiglioli(
             format!("data_set = {ds}: give 0–9 (0 all four, 1–4 one, 5–9 the RAM images of 0–4)"),
         ));
     }
-    let t = crate::bonfiglioli::resolve(key, ds).map_err(param_error)?;
+    let mut t = Target::resolve(
+        Family::Bonfiglioli,
+        key,
+        drive_client::bonfiglioli::RAW_INDICES,
+    )
+    .map_err(|_| param_error())?;
+    t.sub = u16::from(ds);
     let table = t
         .param
         .and_then(|_| drive_profile::bonfiglioli::by_index(t.index));
