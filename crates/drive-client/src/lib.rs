@@ -34,6 +34,7 @@ pub mod backup;
 pub mod bonfiglioli;
 pub mod client;
 pub mod front;
+pub mod infile;
 pub mod interrupt;
 pub mod meaning;
 pub mod motor;

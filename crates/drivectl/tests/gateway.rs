@@ -12,7 +12,7 @@
 )]
 
 mod common;
-#[path = "common/mosquitto.rs"]
+#[path = "../../drivebus-gateway/tests/common/mosquitto.rs"]
 mod mosquitto;
 
 use std::path::PathBuf;

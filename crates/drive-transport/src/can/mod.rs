@@ -37,11 +37,13 @@
 
 #[cfg(target_os = "linux")]
 pub mod candump;
+pub mod iface;
 pub mod slcan;
 #[cfg(target_os = "linux")]
 pub mod socketcan;
 pub mod virtual_bus;
 
+pub use iface::{BitrateError, Iface, IfaceError, parse_bitrate};
 pub use slcan::{SlcanAdapter, SlcanPort};
 #[cfg(target_os = "linux")]
 pub use socketcan::SocketCanPort;

@@ -33,7 +33,7 @@ use crate::tool::outfile::OutputFile;
 use crate::tool::{watch, write};
 use drive_transport::can::candump::Capture;
 
-use self::iface::Iface;
+use self::iface::{Iface, IfaceName};
 use self::link::{driver_error, open, virtual_addresses};
 use drive_client::sew::sbus::{NOT_RESTORED, SbusLink};
 
@@ -284,7 +284,7 @@ pub fn run(args: &SbusArgs) -> Result<()> {
         }
         _ => {}
     }
-    let iface = Iface::parse(&args.iface)?;
+    let iface = iface::parse(&args.iface)?;
     let bitrate = iface::parse_bitrate(&args.bitrate)?;
     precheck(&args.command)?;
     let config = master_config(args);

@@ -12,7 +12,7 @@ use drive_transport::can::virtual_bus::VirtualBus;
 use sbus_can::sim::SimulatedSbusBus;
 
 use crate::error::{CliError, Result};
-use crate::sbus::iface::{Iface, parse_bitrate};
+use crate::sbus::iface::{self, Iface, parse_bitrate};
 use crate::tool::simrun;
 
 /// Arguments of `drivectl sim sbus`.
@@ -57,7 +57,7 @@ pub fn run(args: &SimArgs) -> Result<()> {
             args.bitrate
         ))
     })?;
-    let iface = args.iface.as_deref().map(Iface::parse).transpose()?;
+    let iface = args.iface.as_deref().map(iface::parse).transpose()?;
     if iface == Some(Iface::Virtual) {
         return Err(CliError::usage(
             "--iface virtual is a bus inside one drivectl process; to reach simulated drives \

@@ -2,59 +2,25 @@
 //! never more than a limit, so `restore /dev/zero` or `decode - < /dev/zero` ends with an error
 //! instead of reading forever.
 
-use std::io::Read as _;
 use std::path::Path;
+
+use drive_client::infile::InputError;
 
 use crate::error::{CliError, Result};
 
-/// The whole of `path` (`-`: standard input when `stdin_dash`), at most `limit` bytes. A
-/// regular file, a pipe (`<(…)`, standard input) or a symlink to one is read; a directory or a
-/// device node is refused (a serial port given by mistake would block forever).
+/// The whole of `path` (`-`: standard input when `stdin_dash`), at most `limit` bytes
+/// (`drive_client::infile::read_limited`), its refusals in the command line's words.
 pub fn read_limited(path: &Path, stdin_dash: bool, limit: u64) -> Result<Vec<u8>> {
-    let too_big = |what: &str| {
-        CliError::usage(format!(
-            "{what} is larger than {} MiB: not a file drivectl reads whole; check the path, or \
-             split the input",
-            limit >> 20
-        ))
-    };
-    let mut buf = Vec::new();
-    if stdin_dash && path == Path::new("-") {
-        std::io::stdin()
-            .lock()
-            .take(limit + 1)
-            .read_to_end(&mut buf)
-            .map_err(|e| CliError::failed(format!("cannot read standard input: {e}")))?;
-        if buf.len() as u64 > limit {
-            return Err(too_big("standard input"));
-        }
-        return Ok(buf);
-    }
-    let shown = path.display();
-    let meta = std::fs::metadata(path).map_err(|e| {
-        CliError::failed(format!(
-            "cannot read {shown}: {e}; check the path and that it is a readable file"
-        ))
-    })?;
-    use std::os::unix::fs::FileTypeExt as _;
-    let t = meta.file_type();
-    if !(t.is_file() || t.is_fifo()) {
-        let what = if t.is_dir() {
-            "a directory"
-        } else if t.is_char_device() || t.is_block_device() {
-            "a device node"
-        } else {
-            "not a regular file"
-        };
-        return Err(CliError::usage(format!("{shown} is {what}; give a file")));
-    }
-    std::fs::File::open(path)
-        .and_then(|f| f.take(limit + 1).read_to_end(&mut buf))
-        .map_err(|e| CliError::failed(format!("cannot read {shown}: {e}")))?;
-    if buf.len() as u64 > limit {
-        return Err(too_big(&shown.to_string()));
-    }
-    Ok(buf)
+    drive_client::infile::read_limited(path, stdin_dash, limit).map_err(|e| match e {
+        InputError::TooLarge { .. } => CliError::usage(format!(
+            "{e}: not a file drivectl reads whole; check the path, or split the input"
+        )),
+        InputError::NotAFile { .. } => CliError::usage(format!("{e}; give a file")),
+        InputError::Open { .. } => CliError::failed(format!(
+            "{e}; check the path and that it is a readable file"
+        )),
+        other => CliError::failed(other.to_string()),
+    })
 }
 
 #[cfg(test)]

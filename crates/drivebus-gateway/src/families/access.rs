@@ -24,15 +24,17 @@ use serde_json::Map;
 
 use super::io::{CanBox, LineIo, SharedLine};
 use super::wire::WireDesc;
-use crate::gateway::bus::{BusAccess, LinkTally, Op};
-use crate::gateway::config::Bus;
-use crate::tool::client::{ClientError, ParamClient, Target, canonical_port};
+use crate::bus::{BusAccess, LinkTally, Op};
+use crate::config::Bus;
 use drive_client::Plain;
 use drive_client::bonfiglioli::BonfiglioliClient;
 use drive_client::nord::NordParamClient;
 use drive_client::sew::movilink::MovilinkLink;
 use drive_client::sew::sbus::SbusLink;
 use drive_client::sew::{SewClient, SewLink, control_word_slots, pd_warnings, with_command};
+use drive_client::target::Target;
+use drive_client::text::canonical_port;
+use drive_client::{ClientError, ParamClient};
 
 /// The USB serial adapters' burst delivery (an FTDI chip hands characters over every 16 ms):
 /// the gap accepted inside an answer on a real port, as `drivectl` does by default. The
@@ -56,6 +58,22 @@ pub enum AnyClient<'a> {
         /// Why.
         message: String,
     },
+}
+
+impl std::fmt::Debug for AnyClient<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            AnyClient::Movilink(_) => f.write_str("AnyClient::Movilink"),
+            AnyClient::Sbus(_) => f.write_str("AnyClient::Sbus"),
+            AnyClient::Uss(_) => f.write_str("AnyClient::Uss"),
+            AnyClient::Modbus(_) => f.write_str("AnyClient::Modbus"),
+            AnyClient::Invalid { family, message } => f
+                .debug_struct("AnyClient::Invalid")
+                .field("family", family)
+                .field("message", message)
+                .finish(),
+        }
+    }
 }
 
 macro_rules! each {
@@ -186,7 +204,7 @@ async fn sew_timeout_and_status<L: SewLink>(
 /// The fault of any family from the raw value of its fault parameter `t`: zero is no fault.
 fn fault_text(t: &Target, raw: i64) -> Option<String> {
     (raw != 0).then(|| {
-        crate::tool::meaning::meaning_of(t, raw).map_or_else(|| format!("fault {raw}"), |m| m.text)
+        drive_client::meaning::meaning_of(t, raw).map_or_else(|| format!("fault {raw}"), |m| m.text)
     })
 }
 
@@ -759,17 +777,10 @@ impl BusAccess for Access {
             Proto::Movilink(_) | Proto::Sbus(_) => sew_fault(&mut self.client(address)).await,
             Proto::Uss(_) => {
                 // P700 [-01]: the present fault (0: none).
-                let t = crate::nord::resolve(
-                    "P700",
-                    crate::nord::Sub {
-                        array: Some(1),
-                        set: None,
-                    },
-                    false,
-                )
-                .ok()
-                .and_then(|v| v.into_iter().next())
-                .ok_or_else(|| ClientError::Link("P700 is not in the NORD table".to_owned()))?;
+                let t = drive_client::nord::resolve("P700", Some(1), None, false)
+                    .ok()
+                    .and_then(|v| v.into_iter().next())
+                    .ok_or_else(|| ClientError::Link("P700 is not in the NORD table".to_owned()))?;
                 let raw = self.client(address).read(&t).await?;
                 Ok(fault_text(&t, raw))
             }
@@ -799,7 +810,7 @@ impl BusAccess for Access {
 #[cfg(test)]
 mod fault_tests {
     use super::*;
-    use crate::tool::fake::FakeClient;
+    type FakeClient = drive_client::testing::FakeClient<drive_client::Interrupt>;
 
     /// The status topic's fault text of each family, from the raw value of its fault
     /// parameter: what `fault()` publishes after its one read.
@@ -819,16 +830,9 @@ mod fault_tests {
         let mut c = FakeClient::new(|_| Ok(0x0407));
         assert_eq!(sew_fault(&mut c).await.unwrap(), None);
         // NORD P700 [-01] and Bonfiglioli 260: zero is no fault, anything else is named.
-        let nord = crate::nord::resolve(
-            "P700",
-            crate::nord::Sub {
-                array: Some(1),
-                set: None,
-            },
-            false,
-        )
-        .unwrap()
-        .remove(0);
+        let nord = drive_client::nord::resolve("P700", Some(1), None, false)
+            .unwrap()
+            .remove(0);
         assert_eq!(fault_text(&nord, 0), None);
         assert!(fault_text(&nord, 3).is_some_and(|t| t.contains('3')));
         let bonf = table_target(Family::Bonfiglioli, "260").unwrap();

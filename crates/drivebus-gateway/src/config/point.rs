@@ -9,7 +9,7 @@ use drive_profile::Family;
 use toml::Spanned;
 
 use super::{Fault, ParamFile, Protocol};
-use crate::tool::client::{Target, nord_sub};
+use drive_client::target::{Target, nord_sub};
 
 /// A point's parameter as the bus reads and writes it.
 #[derive(Debug, Clone, Copy)]

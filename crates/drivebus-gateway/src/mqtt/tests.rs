@@ -2,7 +2,7 @@
 //! Mosquitto cannot be had each test fails under CI and skips elsewhere, with one message), with
 //! an update channel and fake bus set-receivers. Every wait has a timeout.
 
-#[path = "../../../tests/common/mosquitto.rs"]
+#[path = "../../tests/common/mosquitto.rs"]
 mod mosquitto;
 
 use std::sync::Arc;
@@ -13,9 +13,9 @@ use tokio::sync::{mpsc, oneshot, watch};
 use tokio::task::LocalSet;
 
 use super::{BrokerState, Mqtt};
-use crate::gateway::config::Plant;
-use crate::gateway::metrics::Metrics;
-use crate::gateway::model::{DriveStatus, SetOutcome, SetRequest, SetValue, Update};
+use crate::config::Plant;
+use crate::metrics::Metrics;
+use crate::model::{DriveStatus, SetOutcome, SetRequest, SetValue, Update};
 use mosquitto::{BrokerOptions, Mosquitto, TestClient, json as payload_json};
 
 const WAIT: Duration = Duration::from_secs(5);

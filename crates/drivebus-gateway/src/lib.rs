@@ -1,9 +1,13 @@
-//! `drivectl gateway`: every drive of a plant on an MQTT broker.
+//! drivebus-gateway: every drive of a plant on an MQTT broker (`drivectl gateway` runs it).
 //!
 //! One task per bus ([`task`]: a scheduler that knows every transaction's wire time), one
 //! MQTT task ([`mqtt`]: values, statuses, guarded writes), the Prometheus endpoint
 //! ([`metrics`]). All run on one thread (a `LocalSet`): the work is waiting on wires, and a
 //! bus's client futures need not be `Send`. See `docs/deploying.md`.
+
+// The bus tasks run on one thread (a `LocalSet`): the futures of [`bus::BusAccess`] need not be
+// `Send`, and callers of the trait's `async fn`s are the gateway's own tasks.
+#![allow(async_fn_in_trait)]
 
 pub mod bus;
 pub mod config;
@@ -16,86 +20,43 @@ pub mod mqtt;
 pub mod schedule;
 pub mod task;
 
+pub mod error;
+
 use std::sync::Arc;
 
-use clap::Args;
 use tokio::sync::mpsc;
 
-use crate::error::{CliError, Result};
-use config::{Endpoint, Plant};
+pub use config::{Endpoint, Plant};
+pub use error::{Error, Result};
+pub use families::EXAMPLE_CONFIG;
 
-/// `drivectl gateway`.
-#[derive(Debug, Args)]
-#[command(
-    after_help = "Examples:\n  drivectl gateway --example-config > plant.toml\n  drivectl gateway --config plant.toml --simulate\n  drivectl gateway --config plant.toml --broker mqtts://gw1@broker.plant.local:8883\n  drivectl gateway --config plant.toml --check"
-)]
-pub struct GatewayArgs {
-    /// The plant's config file (TOML; `-`: standard input).
-    #[arg(long, required_unless_present_any = ["example_config", "load"])]
-    pub config: Option<String>,
-    /// The broker, overriding the config's: mqtt://host:port, mqtts://host:port or mqtts://user@host:port.
-    #[arg(long)]
-    pub broker: Option<String>,
-    /// Run every bus against simulated drives (each family's simulator on the wire model).
-    #[arg(long)]
-    pub simulate: bool,
-    /// Print a commented example config (runs as it is with --simulate) and exit.
-    #[arg(long, conflicts_with_all = ["config", "broker", "simulate", "check"])]
-    pub example_config: bool,
-    /// Check the config, print each bus's wire demand, and exit.
-    #[arg(long)]
-    pub check: bool,
-    /// Log format: text or json (logs go to standard error).
-    #[arg(long, default_value = "text", value_parser = ["text", "json"])]
-    pub log_format: String,
-    /// Measure the bus tasks: BUSESxDRIVES simulated MOVILINK buses on the wire model in
-    /// virtual time (e.g. 64x31), then print the figures and exit.
-    #[arg(
-        long,
-        hide = true,
-        value_name = "BUSESxDRIVES",
-        conflicts_with_all = ["config", "broker", "simulate", "check", "example_config"]
-    )]
-    pub load: Option<String>,
-    /// Virtual seconds of a --load run.
-    #[arg(long, hide = true, default_value_t = 20)]
-    pub load_seconds: u64,
-    /// The poll period of every drive in a --load run.
-    #[arg(long, hide = true, default_value = "1s")]
-    pub load_period: String,
-    /// Log level: error, warn, info, debug or trace.
-    #[arg(long, default_value = "info", value_parser = ["error", "warn", "info", "debug", "trace"])]
-    pub log_level: String,
+/// The commented example config (runs as it is with every bus simulated).
+pub fn example_config() -> &'static str {
+    families::EXAMPLE_CONFIG
 }
 
-/// Run `drivectl gateway`.
-pub fn run(args: &GatewayArgs) -> Result<()> {
-    if args.example_config {
-        return crate::tool::output::emit(format_args!("{}", families::EXAMPLE_CONFIG));
-    }
-    if let Some(spec) = &args.load {
-        return load::run_cli(spec, args.load_seconds, &args.load_period);
-    }
-    let path = args.config.as_deref().unwrap_or("-");
-    let mut plant = Plant::load(path)?;
-    if let Some(b) = &args.broker {
-        plant.gateway.broker = config::check_broker(b).map_err(CliError::usage)?;
-    }
-    if args.simulate {
-        for bus in &mut plant.buses {
-            if !matches!(bus.endpoint, Endpoint::Simulated { .. }) {
-                bus.endpoint = families::simulated_endpoint(bus);
-            }
+/// Put every bus of `plant` on simulated drives (each family's simulator on the wire model).
+pub fn simulate_all(plant: &mut Plant) {
+    for bus in &mut plant.buses {
+        if !matches!(bus.endpoint, Endpoint::Simulated { .. }) {
+            bus.endpoint = families::simulated_endpoint(bus);
         }
     }
-    if args.check {
-        return families::print_check(&plant);
-    }
-    init_logs(&args.log_format, &args.log_level);
+}
+
+/// Replace the config's broker by `url` (`mqtt://host:port`, `mqtts://[user@]host:port`).
+pub fn set_broker(plant: &mut Plant, url: &str) -> Result<()> {
+    plant.gateway.broker = config::check_broker(url).map_err(Error::config)?;
+    Ok(())
+}
+
+/// Run the gateway on `plant` until a stop signal: a current-thread runtime with every task
+/// on one thread (see [`serve`]).
+pub fn run(plant: Plant) -> Result<()> {
     let rt = tokio::runtime::Builder::new_current_thread()
         .enable_all()
         .build()
-        .map_err(|e| CliError::failed(format!("cannot start the runtime: {e}")))?;
+        .map_err(|e| Error::failed(format!("cannot start the runtime: {e}")))?;
     let local = tokio::task::LocalSet::new();
     local.block_on(&rt, serve(plant))
 }
@@ -220,7 +181,9 @@ impl Signals {
 }
 
 /// Structured logs on standard error.
-fn init_logs(format: &str, level: &str) {
+/// Send the gateway's logs to standard error: `format` `text` or `json`, `level` `error`,
+/// `warn`, `info`, `debug` or `trace` (anything else is `info`).
+pub fn init_logs(format: &str, level: &str) {
     let level = match level {
         "error" => tracing::Level::ERROR,
         "warn" => tracing::Level::WARN,

@@ -10,7 +10,7 @@ use tokio::sync::mpsc;
 use super::config::Bus;
 use super::metrics::Metrics;
 use super::model::{BusIx, SetRequest, Update};
-use crate::tool::client::{ClientError, ParamClient};
+use drive_client::{ClientError, ParamClient};
 
 /// The kinds of transaction a bus task runs, for wire time and metrics.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]

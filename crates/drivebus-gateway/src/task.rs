@@ -29,10 +29,11 @@ use super::config::{Bus, Point};
 use super::metrics::Metrics;
 use super::model::{BusIx, DriveIx, DriveStatus, SetOutcome, SetRequest, SetValue, Update};
 use super::schedule::{Change, Job, Next, Outcome, Scheduler};
-use crate::error::CliError;
-use crate::tool::client::ValueError;
-use crate::tool::client::{ClientError, ParamClient, Target, ValueText};
-use crate::tool::write::{WriteError, WriteRequest};
+
+use drive_client::target::ValueError;
+use drive_client::target::{Target, ValueText};
+use drive_client::write::{WriteError, WriteRequest};
+use drive_client::{ClientError, ParamClient};
 
 /// How often a bus reports its figures.
 pub const FIGURES_EVERY: Duration = Duration::from_secs(5);
@@ -96,7 +97,7 @@ pub async fn run_bus<B: BusAccess>(ctx: BusContext, mut access: B) {
                 }
             }
             Err(e) => {
-                tracing::debug!(bus = %bus.name, drive = %d.name, error = %CliError::from(e), "process data settings not read")
+                tracing::debug!(bus = %bus.name, drive = %d.name, error = %e, "process data settings not read")
             }
         }
     }
@@ -116,7 +117,7 @@ pub async fn run_bus<B: BusAccess>(ctx: BusContext, mut access: B) {
                 }
             }
             Err(e) => {
-                tracing::debug!(bus = %bus.name, drive = %d.name, error = %CliError::from(e), "link watchdog not read")
+                tracing::debug!(bus = %bus.name, drive = %d.name, error = %e, "link watchdog not read")
             }
         }
     }
@@ -256,7 +257,7 @@ async fn stop_process_data<B: BusAccess>(access: &mut B, bus: &Bus, sched: &Sche
                 tracing::warn!(bus = %bus.name, drive = %d.name, "no stop sent: {why}; the drive keeps the last process data until its own bus timeout")
             }
             Err(e) => {
-                tracing::warn!(bus = %bus.name, drive = %d.name, error = %CliError::from(e), "the stop was not answered: the drive may still be running")
+                tracing::warn!(bus = %bus.name, drive = %d.name, error = %e, "the stop was not answered: the drive may still be running")
             }
         }
     }
@@ -859,7 +860,7 @@ pub(crate) mod fake {
 
     use super::super::bus::{BusAccess, LinkTally, Op};
     use super::super::config::{Bus, Plant};
-    use crate::tool::client::{ClientError, DeviceError, DeviceErrorKind, ParamClient, Target};
+    use drive_client::{ClientError, DeviceError, DeviceErrorKind, ParamClient, Target};
 
     /// What the test sees and changes while the bus runs.
     #[derive(Debug, Default)]
@@ -1064,8 +1065,8 @@ mod tests {
 
     use super::fake::{FakeBus, State, plant};
     use super::*;
-    use crate::gateway::config::Plant;
-    use crate::gateway::model::BusFigures;
+    use crate::config::Plant;
+    use crate::model::BusFigures;
 
     const WIRE: Duration = Duration::from_millis(5);
     /// P130's bus index.
@@ -1178,7 +1179,7 @@ mod tests {
     fn refused(outcome: &SetOutcome) -> &'static str {
         match outcome {
             SetOutcome::Refused { reason, .. } => {
-                let known = &crate::gateway::metrics::SET_OUTCOMES;
+                let known = &crate::metrics::SET_OUTCOMES;
                 assert!(
                     known[..known.len() - 1].contains(reason),
                     "{reason} is not in metrics::SET_OUTCOMES"
@@ -1523,7 +1524,7 @@ mod set_value_props {
         #[test]
         fn any_set_payload_parses_or_is_refused(bytes in proptest::collection::vec(any::<u8>(), 0..600)) {
             // Anything that is not a JSON object is refused, with a message saying what to send.
-            match crate::gateway::mqtt::payload::parse_set(&bytes) {
+            match crate::mqtt::payload::parse_set(&bytes) {
                 Ok(_) => prop_assert!(
                     serde_json::from_slice::<Value>(&bytes).is_ok_and(|v| v.is_object())
                 ),
@@ -1544,7 +1545,7 @@ mod set_value_props {
                 m.insert(extra.clone(), v);
             }
             let known = extra.is_empty() || ["value", "ts", "id"].contains(&extra.as_str());
-            let parsed = crate::gateway::mqtt::payload::parse_set(Value::Object(m).to_string().as_bytes());
+            let parsed = crate::mqtt::payload::parse_set(Value::Object(m).to_string().as_bytes());
             // An unknown key is refused (a misspelt "raw" must not pass as a value).
             if !known {
                 prop_assert!(parsed.is_err());

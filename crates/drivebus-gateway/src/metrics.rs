@@ -535,7 +535,7 @@ fn op_handles(
 /// Bind the metrics endpoint (an error names the address and what to change).
 pub async fn bind(addr: std::net::SocketAddr) -> crate::error::Result<tokio::net::TcpListener> {
     tokio::net::TcpListener::bind(addr).await.map_err(|e| {
-        crate::error::CliError::failed(format!(
+        crate::error::Error::failed(format!(
             "cannot listen on {addr} for /metrics: {e}; set [gateway] metrics to another \
              host:port or \"off\""
         ))

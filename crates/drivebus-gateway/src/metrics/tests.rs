@@ -8,7 +8,7 @@ use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio::net::TcpStream;
 
 use super::*;
-use crate::gateway::config::Plant;
+use crate::config::Plant;
 
 // ---- a per-thread counting allocator: tests run in parallel threads, so the count of one
 // test is not disturbed by the others.
@@ -612,7 +612,7 @@ fn head_end_finds_either_terminator() {
 #[test]
 fn the_deployment_pages_config_is_accepted() {
     // docs/deploying.md shows a cabinet's config: it must pass the same checks as a real one.
-    let page = include_str!("../../../../../docs/deploying.md");
+    let page = include_str!("../../../../docs/deploying.md");
     let block = page
         .split("```toml\n")
         .nth(1)

@@ -18,8 +18,8 @@ use drive_core::LineSettings;
 use drive_core::can::Bitrate;
 use drive_profile::sew::ParamChannel;
 
-use crate::gateway::bus::Op;
-use crate::gateway::config::{Bus, Endpoint, Protocol};
+use crate::bus::Op;
+use crate::config::{Bus, Endpoint, Protocol};
 
 /// What a bus's wire times depend on.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -16,7 +16,7 @@ use rustls::pki_types::pem::PemObject as _;
 use rustls::pki_types::{CertificateDer, PrivateKeyDer};
 
 use super::super::config::Gateway;
-use crate::error::{CliError, Result};
+use crate::error::{Error, Result};
 
 /// The largest password, certificate or key file read (a PEM bundle of the system's roots is
 /// about 200 KiB).
@@ -103,7 +103,7 @@ pub fn parse_url(url: &str) -> std::result::Result<BrokerUrl, String> {
 /// block the start for ever), at most [`FILE_LIMIT`] bytes. `what` names the config key.
 fn read_file(path: &str, what: &str) -> Result<Vec<u8>> {
     let fail = |why: String| {
-        CliError::usage(format!(
+        Error::config(format!(
             "[gateway] {what} = {path:?}: {why}; give a readable regular file"
         ))
     };
@@ -130,7 +130,7 @@ fn read_file(path: &str, what: &str) -> Result<Vec<u8>> {
 pub fn read_password(path: &str) -> Result<String> {
     let bytes = read_file(path, "password_file")?;
     let text = String::from_utf8(bytes).map_err(|_| {
-        CliError::usage(format!(
+        Error::config(format!(
             "[gateway] password_file = {path:?}: not UTF-8 text; write the password on its \
              first line"
         ))
@@ -139,7 +139,7 @@ pub fn read_password(path: &str) -> Result<String> {
     let line = text.split('\n').next().unwrap_or("");
     let line = line.strip_suffix('\r').unwrap_or(line);
     if line.is_empty() {
-        return Err(CliError::usage(format!(
+        return Err(Error::config(format!(
             "[gateway] password_file = {path:?}: the first line is empty; write the password \
              on it"
         )));
@@ -152,12 +152,12 @@ fn certificates(path: &str, what: &str) -> Result<Vec<CertificateDer<'static>>> 
     let certs = CertificateDer::pem_slice_iter(&pem)
         .collect::<std::result::Result<Vec<_>, _>>()
         .map_err(|e| {
-            CliError::usage(format!(
+            Error::config(format!(
                 "[gateway] {what} = {path:?}: not a PEM certificate file ({e})"
             ))
         })?;
     if certs.is_empty() {
-        return Err(CliError::usage(format!(
+        return Err(Error::config(format!(
             "[gateway] {what} = {path:?}: no certificate in it; give a PEM file with \
              -----BEGIN CERTIFICATE-----"
         )));
@@ -173,7 +173,7 @@ fn tls_config(g: &Gateway) -> Result<rustls::ClientConfig> {
         Some(path) => {
             for c in certificates(path, "ca_file")? {
                 roots.add(c).map_err(|e| {
-                    CliError::usage(format!(
+                    Error::config(format!(
                         "[gateway] ca_file = {path:?}: a certificate in it is not a usable CA \
                          ({e})"
                     ))
@@ -187,7 +187,7 @@ fn tls_config(g: &Gateway) -> Result<rustls::ClientConfig> {
                 let _ = roots.add(c);
             }
             if roots.is_empty() {
-                return Err(CliError::usage(format!(
+                return Err(Error::config(format!(
                     "mqtts: no CA certificates found on this system{}; give [gateway] ca_file \
                      (the PEM of the CA that signed the broker's certificate) or install the \
                      ca-certificates package",
@@ -204,7 +204,7 @@ fn tls_config(g: &Gateway) -> Result<rustls::ClientConfig> {
         rustls::crypto::ring::default_provider(),
     ))
     .with_safe_default_protocol_versions()
-    .map_err(|e| CliError::failed(format!("TLS set-up: {e}")))?
+    .map_err(|e| Error::failed(format!("TLS set-up: {e}")))?
     .with_root_certificates(roots);
     match &g.client_cert {
         None => Ok(builder.with_no_client_auth()),
@@ -212,12 +212,12 @@ fn tls_config(g: &Gateway) -> Result<rustls::ClientConfig> {
             let chain = certificates(cert, "client_cert")?;
             let key_pem = read_file(key, "client_key")?;
             let key_der = PrivateKeyDer::from_pem_slice(&key_pem).map_err(|e| {
-                CliError::usage(format!(
+                Error::config(format!(
                     "[gateway] client_key = {key:?}: no PEM private key in it ({e})"
                 ))
             })?;
             builder.with_client_auth_cert(chain, key_der).map_err(|e| {
-                CliError::usage(format!(
+                Error::config(format!(
                     "[gateway] client_cert = {cert:?} and client_key = {key:?} do not go \
                      together: {e}"
                 ))
@@ -233,9 +233,9 @@ pub fn gateway_status_topic(g: &Gateway) -> String {
 
 /// Everything the connection needs, read now: a missing or bad file is an error here.
 pub fn options(g: &Gateway) -> Result<(MqttOptions, BrokerUrl)> {
-    let url = parse_url(&g.broker).map_err(|e| CliError::usage(format!("[gateway] {e}")))?;
+    let url = parse_url(&g.broker).map_err(|e| Error::config(format!("[gateway] {e}")))?;
     if !url.tls && (g.ca_file.is_some() || g.client_cert.is_some()) {
-        return Err(CliError::usage(format!(
+        return Err(Error::config(format!(
             "[gateway] ca_file and client_cert are for TLS: the broker {:?} is mqtt://; use \
              mqtts://",
             g.broker
@@ -244,7 +244,7 @@ pub fn options(g: &Gateway) -> Result<(MqttOptions, BrokerUrl)> {
     let user = url.user.clone().or_else(|| g.username.clone());
     let password = g.password_file.as_deref().map(read_password).transpose()?;
     if password.is_some() && user.is_none() {
-        return Err(CliError::usage(
+        return Err(Error::config(
             "[gateway] password_file without a user: give username, or user@ in the broker URL",
         ));
     }
@@ -356,9 +356,7 @@ mod tests {
              protocol = \"movilink\"\nsimulate = true\n[[bus.drive]]\nname = \"d\"\naddress = 1\n\
              [[bus.drive.param]]\nparam = \"P130\"\nperiod = \"1s\"\n"
         );
-        crate::gateway::config::Plant::parse(&text, "test")
-            .unwrap()
-            .gateway
+        crate::config::Plant::parse(&text, "test").unwrap().gateway
     }
 
     #[test]

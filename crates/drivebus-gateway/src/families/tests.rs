@@ -8,10 +8,11 @@ use drive_transport::can::virtual_bus::BusFaults;
 use drive_transport::link::FaultConfig;
 
 use super::*;
-use crate::gateway::bus::BusAccess;
-use crate::gateway::config::{Point, Protocol};
-use crate::tool::client::{ClientError, ParamClient};
-use crate::tool::write::{WriteRequest, check_drive, write_checked};
+use crate::bus::BusAccess;
+use crate::config::{Point, Protocol};
+use drive_client::MemoryWearLog;
+use drive_client::write::{WriteRequest, check, write_checked};
+use drive_client::{ClientError, ParamClient};
 
 fn example() -> Plant {
     let mut plant = Plant::parse(EXAMPLE_CONFIG, "example").unwrap();
@@ -51,7 +52,7 @@ fn other_value(point: &Point, now: i64, avoid: &[i64]) -> i64 {
                 persistence: Persistence::Volatile,
                 force: false,
             };
-            check_drive("test", &req).is_ok()
+            check("test", &req, &MemoryWearLog::default()).is_ok()
         })
         .unwrap_or_else(|| panic!("no writable value for {}", point.name))
 }
@@ -72,7 +73,7 @@ async fn write_distinct(access: &mut Access, bus: &Bus) -> Vec<(u8, Point, i64)>
                 persistence: Persistence::Volatile,
                 force: false,
             };
-            let done = write_checked(&mut c, &req, false)
+            let done = write_checked(&mut c, &req, false, &MemoryWearLog::default(), &mut |_| {})
                 .await
                 .unwrap_or_else(|e| panic!("{}/{}/{}: {e}", bus.name, d.name, p.name));
             assert_eq!(done.back, raw, "{}/{}/{}", bus.name, d.name, p.name);
@@ -138,8 +139,12 @@ fn the_example_config_parses_and_every_bus_fits_the_wire() {
         Some(std::net::SocketAddr::from(([127, 0, 0, 1], 9464)))
     );
     // --check passes on it, and --simulate keeps it fitting.
-    print_check(&plant).unwrap();
-    print_check(&example()).unwrap();
+    for p in [&plant, &example()] {
+        let (text, verdict) = check_report(p);
+        verdict.unwrap();
+        assert_eq!(text.lines().count(), p.buses.len(), "{text}");
+        assert!(text.lines().all(|l| l.ends_with(": fits")), "{text}");
+    }
 }
 
 #[tokio::test(start_paused = true)]
@@ -213,10 +218,7 @@ async fn an_address_the_protocol_cannot_reach_fails_without_a_transaction() {
             "{}: {r:?}",
             p.name()
         );
-        assert_eq!(
-            sim.access.take_tally(),
-            crate::gateway::bus::LinkTally::default()
-        );
+        assert_eq!(sim.access.take_tally(), crate::bus::LinkTally::default());
     }
 }
 
@@ -296,8 +298,7 @@ async fn campaign(bus: &Bus, n: u32, faults: impl FnOnce(&SimulatedBus)) -> Camp
         // Every reason is one /metrics knows (not counted as "other").
         for (reason, _) in &t.rejected {
             assert!(
-                crate::gateway::metrics::REJECT_REASONS
-                    [..crate::gateway::metrics::REJECT_REASONS.len() - 1]
+                crate::metrics::REJECT_REASONS[..crate::metrics::REJECT_REASONS.len() - 1]
                     .contains(reason),
                 "{reason} is not in metrics::REJECT_REASONS"
             );
@@ -456,8 +457,10 @@ fn check_refuses_a_plant_whose_polls_ask_more_than_the_wire_and_names_the_bus() 
         .map(|b| b.name.as_str())
         .collect();
     assert!(!over.is_empty());
-    let e = print_check(&plant).unwrap_err();
-    assert_eq!(e.exit_code(), 1);
+    let (text, verdict) = check_report(&plant);
+    let e = verdict.unwrap_err();
+    assert!(matches!(e, crate::Error::Failed(_)), "{e}");
+    assert!(text.contains("does not fit"), "{text}");
     for name in over {
         assert!(e.to_string().contains(name), "{e}");
     }
@@ -467,8 +470,8 @@ fn check_refuses_a_plant_whose_polls_ask_more_than_the_wire_and_names_the_bus() 
 /// point is compared with the value the simulated drive holds (written distinctively first).
 /// Returns (values published, drive status changes to `timeout`).
 async fn published_under_faults(p: Protocol, faults: impl FnOnce(&SimulatedBus)) -> (u64, u64) {
-    use crate::gateway::bus::BusContext;
-    use crate::gateway::model::{DriveStatus, Update};
+    use crate::bus::BusContext;
+    use crate::model::{DriveStatus, Update};
     let plant = example();
     let mut bus = bus_of(&plant, p);
     for d in &mut bus.drives {
@@ -490,9 +493,9 @@ async fn published_under_faults(p: Protocol, faults: impl FnOnce(&SimulatedBus))
         bus: bus.clone(),
         updates: utx,
         sets: srx,
-        metrics: std::sync::Arc::new(crate::gateway::metrics::Metrics::new(&plant)),
+        metrics: std::sync::Arc::new(crate::metrics::Metrics::new(&plant)),
     };
-    let task = tokio::task::spawn_local(crate::gateway::task::run_bus(ctx, sim.access));
+    let task = tokio::task::spawn_local(crate::task::run_bus(ctx, sim.access));
     let end = tokio::time::Instant::now() + Duration::from_secs(60);
     let (mut values, mut timeouts) = (0, 0);
     loop {
@@ -688,7 +691,7 @@ async fn process_data_warnings_name_what_the_drive_is_set_to() {
     // P876 off and PO1 no longer a control word (P870 = 11, say: speed).
     let mut c = sim.access.client(1);
     for (key, raw) in [("P876", 0), ("P870", 11)] {
-        let t = crate::tool::client::Target::of(
+        let t = drive_client::target::Target::of(
             drive_profile::family::lookup(drive_profile::Family::Movidrive, key).unwrap(),
         );
         c.write(&t, raw, Persistence::Volatile).await.unwrap();
@@ -737,7 +740,9 @@ async fn issue18_a_modbus_points_width_is_used_for_its_reads_and_writes() {
         persistence: Persistence::Volatile,
         force: false,
     };
-    let done = write_checked(&mut c, &req, false).await.unwrap();
+    let done = write_checked(&mut c, &req, false, &MemoryWearLog::default(), &mut |_| {})
+        .await
+        .unwrap();
     assert_eq!(done.back, raw);
     // Another drive's client knows no width for it: nothing is guessed.
     let mut other = sim.access.client(2);
@@ -778,7 +783,7 @@ async fn issue18_a_process_data_period_at_or_above_the_bus_timeout_is_warned() {
     // MOVILINK: P812 set to 0.2 s.
     let ml = bus_of(&plant, Protocol::Movilink);
     let mut sim = simulated_bus(&ml);
-    let t = crate::tool::client::Target::of(
+    let t = drive_client::target::Target::of(
         drive_profile::family::lookup(drive_profile::Family::Movidrive, "P812").unwrap(),
     );
     sim.access
@@ -803,8 +808,8 @@ async fn issue18_a_process_data_period_at_or_above_the_bus_timeout_is_warned() {
 /// word in its input words, not at the next status read (5 s).
 #[tokio::test(start_paused = true)]
 async fn issue18_an_sbus_timeout_trip_is_reported_at_the_next_cycle() {
-    use crate::gateway::bus::BusContext;
-    use crate::gateway::model::{DriveStatus, Update};
+    use crate::bus::BusContext;
+    use crate::model::{DriveStatus, Update};
     tokio::task::LocalSet::new()
         .run_until(async {
             let text = "[gateway]\nname = \"gw\"\nbroker = \"mqtt://h\"\n[[bus]]\nname = \"can\"\n\
@@ -823,10 +828,10 @@ async fn issue18_an_sbus_timeout_trip_is_reported_at_the_next_cycle() {
                 bus: bus.clone(),
                 updates: utx,
                 sets: srx,
-                metrics: std::sync::Arc::new(crate::gateway::metrics::Metrics::new(&plant)),
+                metrics: std::sync::Arc::new(crate::metrics::Metrics::new(&plant)),
             };
             let start = tokio::time::Instant::now();
-            let task = tokio::task::spawn_local(crate::gateway::task::run_bus(ctx, sim.access));
+            let task = tokio::task::spawn_local(crate::task::run_bus(ctx, sim.access));
             let fault = tokio::time::timeout(Duration::from_secs(10), async {
                 loop {
                     match urx.recv().await {

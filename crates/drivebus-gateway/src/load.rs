@@ -153,104 +153,6 @@ where
     }
 }
 
-/// `drivectl gateway --load BUSESxDRIVES`: the load plant on each family's simulated MOVILINK
-/// bus on the wire model (9600 baud 8E1), `seconds` of virtual time, and the figures: per bus
-/// the transactions against what the wire allows, the processor time per transaction and the
-/// memory per bus.
-pub fn run_cli(spec: &str, seconds: u64, period: &str) -> crate::error::Result<()> {
-    use crate::error::CliError;
-    let bad = || {
-        CliError::usage(format!(
-            "--load {spec}: give BUSESxDRIVES, e.g. 64x31 (1–256 buses, 1–31 drives)"
-        ))
-    };
-    let (b, d) = spec.split_once(['x', 'X']).ok_or_else(bad)?;
-    let buses: usize = b.trim().parse().map_err(|_| bad())?;
-    let drives: usize = d.trim().parse().map_err(|_| bad())?;
-    if !(1..=256).contains(&buses) || !(1..=31).contains(&drives) || !(1..=3600).contains(&seconds)
-    {
-        return Err(bad());
-    }
-    let plant = plant(buses, drives, period)?;
-    let rt = tokio::runtime::Builder::new_current_thread()
-        .enable_all()
-        .start_paused(true)
-        .build()
-        .map_err(|e| CliError::failed(format!("cannot start the runtime: {e}")))?;
-    let local = tokio::task::LocalSet::new();
-    let wire = super::families::WireDesc::of(plant.buses.first().ok_or_else(bad)?)
-        .time(super::bus::Op::Read);
-    let cpu0 = cpu_time();
-    let report = local.block_on(
-        &rt,
-        load(&plant, std::time::Duration::from_secs(seconds), |bus| {
-            super::families::simulated_bus(bus).access
-        }),
-    );
-    let cpu = cpu_time().zip(cpu0).map(|(a, b)| a.saturating_sub(b));
-    let mut util: Vec<f64> = report.buses.iter().map(|b| b.figures.utilisation).collect();
-    util.sort_by(f64::total_cmp);
-    let pick = |q: f64| {
-        let i = ((util.len() - 1) as f64 * q).round() as usize;
-        util.get(i).copied().unwrap_or(0.0)
-    };
-    let tx = report.transactions.max(1);
-    crate::outln!(
-        "{buses} buses x {drives} drives, {seconds} s virtual, P130 every {period} per drive (demand {:.0} %)",
-        report.buses.first().map_or(0.0, |b| b.figures.demand) * 100.0
-    )?;
-    crate::outln!(
-        "wire time of a read (9600 baud 8E1): {:.3} ms; bound per bus {:.1} transactions/s",
-        wire.as_secs_f64() * 1e3,
-        1.0 / wire.as_secs_f64()
-    )?;
-    crate::outln!(
-        "transactions: {} ({:.1}/s per bus)",
-        report.transactions,
-        report.transactions as f64 / buses as f64 / seconds.saturating_sub(5).max(1) as f64
-    )?;
-    crate::outln!(
-        "utilisation of the wire bound per bus: min {:.4}, median {:.4}, max {:.4}",
-        pick(0.0),
-        pick(0.5),
-        pick(1.0)
-    )?;
-    crate::outln!(
-        "real time per transaction: {:.2} us; processor time per transaction: {}",
-        report.cpu_per_transaction.as_secs_f64() * 1e6,
-        cpu.map_or("unknown".to_owned(), |c| format!(
-            "{:.2} us",
-            c.as_secs_f64() * 1e6 / tx as f64
-        ))
-    )?;
-    let kib = |m: Option<u64>| {
-        m.map_or("unknown".to_owned(), |m| {
-            format!("{:.1} KiB", m as f64 / 1024.0)
-        })
-    };
-    crate::outln!(
-        "memory per bus (RSS growth / buses): the gateway's side {}, the simulated drives and links {}",
-        kib(report.rss_per_bus),
-        kib(report.rss_per_bus_made)
-    )?;
-    crate::outln!(
-        "(processor time includes the simulated drives and the character-level wire model, which run in this process)"
-    )?;
-    Ok(())
-}
-
-/// The processor time this process used (user + system), from `/proc/self/stat`.
-fn cpu_time() -> Option<Duration> {
-    let stat = std::fs::read_to_string("/proc/self/stat").ok()?;
-    // Fields after the command name in parentheses; utime and stime are the 14th and 15th.
-    let rest = stat.rsplit_once(')')?.1;
-    let mut f = rest.split_whitespace().skip(11);
-    let utime: u64 = f.next()?.parse().ok()?;
-    let stime: u64 = f.next()?.parse().ok()?;
-    // Clock ticks: 100 per second on Linux.
-    Some(Duration::from_millis((utime + stime) * 10))
-}
-
 #[cfg(test)]
 mod tests {
     use super::super::task::fake::FakeBus;
@@ -264,10 +166,10 @@ mod tests {
         tokio::task::LocalSet::new()
             .run_until(async {
                 let plant = plant(4, 31, "1s").unwrap();
-                let wire = crate::gateway::families::WireDesc::of(&plant.buses[0])
-                    .time(crate::gateway::bus::Op::Read);
+                let wire =
+                    crate::families::WireDesc::of(&plant.buses[0]).time(crate::bus::Op::Read);
                 let report = load(&plant, Duration::from_secs(16), |bus| {
-                    crate::gateway::families::simulated_bus(bus).access
+                    crate::families::simulated_bus(bus).access
                 })
                 .await;
                 for b in &report.buses {

@@ -19,7 +19,7 @@ use self::io::{CanBox, FaultControl, LineIo, Reopen};
 pub use self::wire::{WireDesc, demand};
 use super::bus::{BusContext, Op};
 use super::config::{Bus, Endpoint, Plant, Protocol};
-use crate::error::{CliError, Result};
+use crate::error::{Error, Result};
 
 /// The commented example config of `drivectl gateway --example-config`.
 pub const EXAMPLE_CONFIG: &str = include_str!("example.toml");
@@ -55,15 +55,18 @@ pub fn endpoint_text(e: &Endpoint, protocol: Protocol) -> String {
     }
 }
 
-/// `--check`: per bus its protocol, endpoint, drives, the wire time of a read and the demand
-/// of its polls; an error naming every bus whose demand is above 100 %.
-pub fn print_check(plant: &Plant) -> Result<()> {
+/// `--check`: per bus its wire demand, a line each (the text), and an error if the polls of a
+/// bus ask more than its wire carries.
+pub fn check_report(plant: &Plant) -> (String, Result<()>) {
+    use std::fmt::Write as _;
+    let mut text = String::new();
     let mut over = Vec::new();
     for bus in &plant.buses {
         let w = WireDesc::of(bus);
         let d = demand(bus);
         let fits = if d <= 1.0 { "fits" } else { "does not fit" };
-        outln!(
+        let _ = writeln!(
+            text,
             "bus {}: {} on {}, {} drive(s); a read takes {:.2} ms on the wire; the polls ask \
              for {:.1} % of the wire: {fits}",
             bus.name,
@@ -72,20 +75,21 @@ pub fn print_check(plant: &Plant) -> Result<()> {
             bus.drives.len(),
             w.time(Op::Read).as_secs_f64() * 1e3,
             d * 100.0
-        )?;
+        );
         if d > 1.0 {
             over.push(format!("{} ({:.0} %)", bus.name, d * 100.0));
         }
     }
-    if over.is_empty() {
+    let verdict = if over.is_empty() {
         Ok(())
     } else {
-        Err(CliError::failed(format!(
+        Err(Error::failed(format!(
             "the polls ask more than the wire carries on bus {}: lengthen their periods, \
              raise the baud rate or split the bus",
             over.join(", ")
         )))
-    }
+    };
+    (text, verdict)
 }
 
 /// What to check when a serial port cannot be opened or fails.
@@ -101,13 +105,63 @@ fn serial_line(bus: &Bus, path: &str, line: drive_core::LineSettings) -> LineIo 
     let p = path.to_owned();
     let opener: io::Opener<LineIo> = Box::new(move || {
         let p = p.clone();
-        Box::pin(async move {
-            crate::tool::line::open_settings(&p, line)
-                .map(|port| LineIo(Box::new(Stream(port))))
-                .map_err(|e| e.to_string())
-        })
+        Box::pin(async move { open_serial(&p, line).map(|port| LineIo(Box::new(Stream(port)))) })
     });
     LineIo(Box::new(Reopen::new(&bus.name, path, SERIAL_HINT, opener)))
+}
+
+/// Open the serial port `path` with `line` (every setting read back); a setting the device
+/// refuses names the config key that sets it.
+fn open_serial(
+    path: &str,
+    line: drive_core::LineSettings,
+) -> std::result::Result<drive_transport::serial::SerialPort, String> {
+    use drive_transport::LineOption;
+    let config = drive_transport::serial::SerialConfig::with_line(path, line);
+    drive_transport::serial::open(&config).map_err(|e| {
+        let key = match e.refused_setting() {
+            Some(LineOption::Baud) => "baud",
+            Some(LineOption::Parity) => "parity",
+            Some(LineOption::StopBits) => "stop_bits",
+            Some(LineOption::DataBits) => "data_bits",
+            _ => return e.to_string(),
+        };
+        format!("{e} (the bus's {key} in the config)")
+    })
+}
+
+/// Open the CAN interface named `name` (SocketCAN or an slcan adapter; `bitrate` is the
+/// config's, which an slcan name already carries).
+async fn open_can(
+    name: &str,
+    bitrate: drive_core::can::Bitrate,
+) -> std::result::Result<CanBox, String> {
+    use drive_transport::can::Iface;
+    let _ = bitrate;
+    match Iface::parse(name).map_err(|e| format!("iface = {name:?}: {e}"))? {
+        #[cfg(target_os = "linux")]
+        Iface::SocketCan(n) => drive_transport::can::SocketCanPort::open(&n)
+            .map(|p| Box::new(p) as CanBox)
+            .map_err(|e| e.to_string()),
+        #[cfg(not(target_os = "linux"))]
+        Iface::SocketCan(n) => Err(format!("{n}: SocketCAN is Linux's")),
+        Iface::Slcan { path, bitrate } => {
+            let port = drive_transport::can::SlcanPort::open(&path, bitrate)
+                .await
+                .map_err(|e| e.to_string())?;
+            if port.flushed_at_open() > 0 {
+                tracing::info!(
+                    iface = name,
+                    bytes = port.flushed_at_open(),
+                    "discarded what the adapter's port held at opening (left by an earlier program)"
+                );
+            }
+            Ok(Box::new(port))
+        }
+        Iface::Virtual => {
+            Err("iface = \"virtual\": write simulate = true for simulated drives".to_owned())
+        }
+    }
 }
 
 /// The bus's CAN interface, opened on first use and reopened after a failure.
@@ -116,13 +170,7 @@ fn can_io(bus: &Bus, iface: &str) -> CanBox {
     let bitrate = wire::bitrate_of(bus);
     let opener: io::Opener<CanBox> = Box::new(move || {
         let name = name.clone();
-        Box::pin(async move {
-            let parsed = crate::sbus::iface::Iface::parse(&name).map_err(|e| e.to_string())?;
-            let (io, _sim) = crate::sbus::link::open(&parsed, bitrate, &[])
-                .await
-                .map_err(|e| e.to_string())?;
-            Ok(io)
-        })
+        Box::pin(async move { open_can(&name, bitrate).await })
     });
     Box::new(Reopen::new(&bus.name, iface, CAN_HINT, opener))
 }

@@ -12,8 +12,10 @@ use drive_transport::serial::{Parity, StopBits};
 use serde::Deserialize;
 use toml::Spanned;
 
-use crate::error::{CliError, Result};
-use crate::tool::client::Target;
+use crate::error::{Error, Result};
+use drive_client::infile::InputError;
+use drive_client::target::Target;
+use drive_transport::can::{Iface, IfaceError};
 
 mod point;
 
@@ -329,7 +331,7 @@ pub struct Drive {
     /// Process data exchanged cyclically.
     pub process_data: Option<ProcessData>,
     /// What is known of the drive for the meaning of its values (a Bonfiglioli variant).
-    pub device: crate::tool::meaning::Device,
+    pub device: drive_client::meaning::Device,
 }
 
 /// One parameter of a drive on the broker.
@@ -432,9 +434,19 @@ impl Plant {
     /// Read and check `path` (`-`: standard input).
     pub fn load(path: &str) -> Result<Plant> {
         let bytes =
-            crate::tool::infile::read_limited(std::path::Path::new(path), true, CONFIG_LIMIT)?;
+            drive_client::infile::read_limited(std::path::Path::new(path), true, CONFIG_LIMIT)
+                .map_err(|e| match e {
+                    InputError::NotAFile { .. } => Error::config(format!("{e}; give a file")),
+                    InputError::TooLarge { .. } => {
+                        Error::config(format!("{e}: not a config file; check the path"))
+                    }
+                    InputError::Open { .. } => Error::failed(format!(
+                        "{e}; check the path and that it is a readable file"
+                    )),
+                    e => Error::failed(e.to_string()),
+                })?;
         let text = String::from_utf8(bytes)
-            .map_err(|_| CliError::usage(format!("{path}: not UTF-8 text")))?;
+            .map_err(|_| Error::config(format!("{path}: not UTF-8 text")))?;
         // A file saved by Notepad starts with a byte-order mark; TOML does not allow one.
         Self::parse(text.strip_prefix('\u{feff}').unwrap_or(&text), path)
     }
@@ -443,7 +455,7 @@ impl Plant {
     /// `plant.toml:14: bus "line1" drive "pump" point "ramp": set = 5: …`).
     pub fn parse(text: &str, origin: &str) -> Result<Plant> {
         let file: File = toml::from_str(text).map_err(|e: toml::de::Error| {
-            CliError::usage(match e.span() {
+            Error::config(match e.span() {
                 Some(at) => format!(
                     "{origin}:{}: {}",
                     line_of(text, at.start),
@@ -453,7 +465,7 @@ impl Plant {
             })
         })?;
         check(file).map_err(|f| {
-            CliError::usage(match f.at {
+            Error::config(match f.at {
                 Some(at) => format!("{origin}:{}: {}", line_of(text, at), f.message),
                 None => format!("{origin}: {}", f.message),
             })
@@ -528,10 +540,10 @@ fn check(file: File) -> std::result::Result<Plant, Fault> {
     let mut ports = HashSet::new();
     for (b, at) in buses.iter().zip(places) {
         let key = match &b.endpoint {
-            Endpoint::Serial { path, .. } => crate::tool::client::canonical_port(path),
+            Endpoint::Serial { path, .. } => drive_client::text::canonical_port(path),
             Endpoint::Can { iface, .. } => match iface.strip_prefix("slcan:") {
                 // The adapter's serial port, as for a serial bus (symlinks resolved).
-                Some(rest) => crate::tool::client::canonical_port(
+                Some(rest) => drive_client::text::canonical_port(
                     rest.rsplit_once('@').map_or(rest, |(path, _)| path),
                 ),
                 None => iface.clone(),
@@ -705,7 +717,7 @@ fn check_line(at: &str, b: BusFile) -> std::result::Result<Bus, String> {
     };
     let bitrate = match &b.bitrate {
         None => 500_000,
-        Some(t) => crate::sbus::iface::parse_bitrate(t)
+        Some(t) => drive_transport::can::parse_bitrate(t)
             .map_err(|e| format!("{at}: {e}"))?
             .bits_per_second(),
     };
@@ -720,20 +732,14 @@ fn check_line(at: &str, b: BusFile) -> std::result::Result<Bus, String> {
         let iface = b.iface.ok_or_else(|| {
             format!("{at}: give iface = \"can0\" or \"slcan:PATH\" (or simulate = true)")
         })?;
-        // `drivectl sbus --iface` parses it; its messages name the option, these the key.
-        let parsed = crate::sbus::iface::Iface::parse(&iface).map_err(|e| {
-            let text = e.to_string();
-            let why = text
-                .strip_prefix(&format!("--iface {}: ", iface.trim()))
-                .unwrap_or(&text);
-            if iface.trim().is_empty() {
+        let parsed = Iface::parse(&iface).map_err(|e| match e {
+            IfaceError::Empty => {
                 format!("{at}: iface = \"\": give \"can0\" or \"slcan:PATH\" (or simulate = true)")
-            } else {
-                format!("{at}: iface = {iface:?}: {why}")
             }
+            e => format!("{at}: iface = {iface:?}: {e}"),
         })?;
         match parsed {
-            crate::sbus::iface::Iface::Slcan { bitrate: given, .. } if iface.contains('@') => {
+            Iface::Slcan { bitrate: given, .. } if iface.contains('@') => {
                 if b.bitrate.is_some() && given.bits_per_second() != bitrate {
                     return Err(format!(
                         "{at}: iface = {iface:?} and bitrate = {:?} differ: give the bit rate once",
@@ -746,16 +752,16 @@ fn check_line(at: &str, b: BusFile) -> std::result::Result<Bus, String> {
                 }
             }
             // slcan without a rate: the config's (500k by default) is the adapter's.
-            crate::sbus::iface::Iface::Slcan { .. } => Endpoint::Can {
+            Iface::Slcan { .. } => Endpoint::Can {
                 iface: format!("{iface}@{bitrate}"),
                 bitrate,
             },
-            crate::sbus::iface::Iface::Virtual => {
+            Iface::Virtual => {
                 return Err(format!(
                     "{at}: iface = \"virtual\": write simulate = true for simulated drives"
                 ));
             }
-            crate::sbus::iface::Iface::SocketCan(_) => Endpoint::Can { iface, bitrate },
+            Iface::SocketCan(_) => Endpoint::Can { iface, bitrate },
         }
     } else {
         if b.iface.is_some() {
@@ -895,7 +901,7 @@ fn check_drive(
         )));
     }
     let device = match (d.variant.as_deref(), family) {
-        (None, _) => crate::tool::meaning::Device::default(),
+        (None, _) => drive_client::meaning::Device::default(),
         (Some(v), Family::Bonfiglioli) => {
             let variant = match v.to_ascii_lowercase().as_str() {
                 "act" => drive_profile::bonfiglioli::Variant::Act,
@@ -906,7 +912,7 @@ fn check_drive(
                     )));
                 }
             };
-            crate::tool::meaning::Device::bonfiglioli(variant, "given")
+            drive_client::meaning::Device::bonfiglioli(variant, "given")
         }
         (Some(_), _) => {
             return Err(fail(format!(
@@ -1383,7 +1389,7 @@ writable = true
         let p = Plant::parse(&acu, "p").unwrap();
         assert_eq!(
             p.buses[0].drives[0].device,
-            crate::tool::meaning::Device::bonfiglioli(
+            drive_client::meaning::Device::bonfiglioli(
                 drive_profile::bonfiglioli::Variant::Acu,
                 "given"
             )
@@ -1735,8 +1741,8 @@ writable = true
     /// The selectors the table has are taken, and address what they say.
     #[test]
     fn issue18_the_selectors_the_table_has_are_taken() {
-        use crate::tool::client::nord_sub;
         use bonfiglioli_modbus::slave::Width;
+        use drive_client::target::nord_sub;
         let point = |protocol: &str, lines: &str| {
             Plant::parse(&one_point(protocol, lines), "plant.toml")
                 .unwrap_or_else(|e| panic!("{protocol} {lines:?}: {e}"))

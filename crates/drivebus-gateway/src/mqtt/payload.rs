@@ -5,8 +5,8 @@ use std::time::{SystemTime, UNIX_EPOCH};
 use serde_json::{Map, Number, Value, json};
 
 use super::super::model::{BusFigures, DriveStatus, SetOutcome, SetValue};
-use crate::tool::client::Target;
-use crate::tool::meaning::Device;
+use drive_client::meaning::Device;
+use drive_client::target::Target;
 
 /// The largest `set` payload taken (bytes).
 pub const MAX_SET_PAYLOAD: usize = 4096;
@@ -51,7 +51,7 @@ fn value_fields(t: &Target, raw: i64, device: &Device, m: &mut Map<String, Value
             // fault's name), as `drivectl read` shows it.
             if let Some(n) = p.value_name(raw) {
                 m.insert("text".into(), json!(n.en));
-            } else if let Some(meaning) = crate::tool::meaning::meaning_in(t, raw, device) {
+            } else if let Some(meaning) = drive_client::meaning::meaning_in(t, raw, device) {
                 m.insert("text".into(), json!(meaning.text));
             }
         }
@@ -294,7 +294,7 @@ mod tests {
 
     #[test]
     fn issue18_bonfiglioli_411_carries_its_meaning_for_the_configured_variant() {
-        use crate::tool::meaning::Device;
+        use drive_client::meaning::Device;
         use drive_profile::bonfiglioli::Variant;
         let t = Target::resolve(Family::Bonfiglioli, "411", 0..=1599).unwrap();
         let text = |d: &Device| -> String {

@@ -1,0 +1,68 @@
+//! `drivectl gateway`: the command line of the gateway crate (`drivebus_gateway`): every drive
+//! of a plant on an MQTT broker. The options are read here; the config, the buses, MQTT and
+//! the metrics are the crate's, its errors said with the exit codes of every command (2 for a
+//! config to change, 1 for a failure).
+
+use clap::Args;
+use drivebus_gateway::{Error, Plant};
+
+use crate::error::{CliError, Result};
+
+/// `drivectl gateway`.
+#[derive(Debug, Args)]
+#[command(
+    after_help = "Examples:\n  drivectl gateway --example-config > plant.toml\n  drivectl gateway --config plant.toml --simulate\n  drivectl gateway --config plant.toml --broker mqtts://gw1@broker.plant.local:8883\n  drivectl gateway --config plant.toml --check"
+)]
+pub struct GatewayArgs {
+    /// The plant's config file (TOML; `-`: standard input).
+    #[arg(long, required_unless_present = "example_config")]
+    pub config: Option<String>,
+    /// The broker, overriding the config's: mqtt://host:port, mqtts://host:port or mqtts://user@host:port.
+    #[arg(long)]
+    pub broker: Option<String>,
+    /// Run every bus against simulated drives (each family's simulator on the wire model).
+    #[arg(long)]
+    pub simulate: bool,
+    /// Print a commented example config (runs as it is with --simulate) and exit.
+    #[arg(long, conflicts_with_all = ["config", "broker", "simulate", "check"])]
+    pub example_config: bool,
+    /// Check the config, print each bus's wire demand, and exit.
+    #[arg(long)]
+    pub check: bool,
+    /// Log format: text or json (logs go to standard error).
+    #[arg(long, default_value = "text", value_parser = ["text", "json"])]
+    pub log_format: String,
+    /// Log level: error, warn, info, debug or trace.
+    #[arg(long, default_value = "info", value_parser = ["error", "warn", "info", "debug", "trace"])]
+    pub log_level: String,
+}
+
+/// A gateway error as the command line's: a config to change exits 2, a failure 1.
+fn cli_error(e: Error) -> CliError {
+    match e {
+        Error::Config(m) => CliError::usage(m),
+        other => CliError::failed(other.to_string()),
+    }
+}
+
+/// Run `drivectl gateway`.
+pub fn run(args: &GatewayArgs) -> Result<()> {
+    if args.example_config {
+        return crate::tool::output::emit(format_args!("{}", drivebus_gateway::example_config()));
+    }
+    let path = args.config.as_deref().unwrap_or("-");
+    let mut plant = Plant::load(path).map_err(cli_error)?;
+    if let Some(b) = &args.broker {
+        drivebus_gateway::set_broker(&mut plant, b).map_err(cli_error)?;
+    }
+    if args.simulate {
+        drivebus_gateway::simulate_all(&mut plant);
+    }
+    if args.check {
+        let (text, verdict) = drivebus_gateway::families::check_report(&plant);
+        crate::tool::output::emit(format_args!("{text}"))?;
+        return verdict.map_err(cli_error);
+    }
+    drivebus_gateway::init_logs(&args.log_format, &args.log_level);
+    drivebus_gateway::run(plant).map_err(cli_error)
+}
