@@ -130,14 +130,10 @@ fn open_serial(
     })
 }
 
-/// Open the CAN interface named `name` (SocketCAN or an slcan adapter; `bitrate` is the
-/// config's, which an slcan name already carries).
-async fn open_can(
-    name: &str,
-    bitrate: drive_core::can::Bitrate,
-) -> std::result::Result<CanBox, String> {
+/// Open the CAN interface named `name`: SocketCAN, or an slcan adapter (its name carries the
+/// config's bit rate, see `config`).
+async fn open_can(name: &str) -> std::result::Result<CanBox, String> {
     use drive_transport::can::Iface;
-    let _ = bitrate;
     match Iface::parse(name).map_err(|e| format!("iface = {name:?}: {e}"))? {
         #[cfg(target_os = "linux")]
         Iface::SocketCan(n) => drive_transport::can::SocketCanPort::open(&n)
@@ -167,10 +163,9 @@ async fn open_can(
 /// The bus's CAN interface, opened on first use and reopened after a failure.
 fn can_io(bus: &Bus, iface: &str) -> CanBox {
     let name = iface.to_owned();
-    let bitrate = wire::bitrate_of(bus);
     let opener: io::Opener<CanBox> = Box::new(move || {
         let name = name.clone();
-        Box::pin(async move { open_can(&name, bitrate).await })
+        Box::pin(async move { open_can(&name).await })
     });
     Box::new(Reopen::new(&bus.name, iface, CAN_HINT, opener))
 }

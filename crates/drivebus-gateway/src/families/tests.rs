@@ -913,3 +913,23 @@ async fn issue18_a_bonfiglioli_watchdog_below_the_polling_gap_is_warned() {
             .is_empty()
     );
 }
+
+/// A port that refuses a setting names the config key, never a command-line option (the
+/// gateway's open used drivectl's, whose message said `option --parity even|odd|none`).
+#[tokio::test]
+async fn a_refused_line_setting_names_the_config_key() {
+    let pty = drive_transport::pty::PtyPair::open().unwrap();
+    let path = pty.slave_path().to_str().unwrap().to_owned();
+    // Pseudo-terminals refuse parity.
+    let line = drive_core::LineSettings::new(9600).with_parity(drive_core::Parity::Even);
+    let e = super::open_serial(&path, line).map(drop).unwrap_err();
+    assert!(e.contains("the bus's parity in the config"), "{e}");
+    assert!(!e.contains("--"), "{e}");
+    // A missing adapter: the transport's words, no option either.
+    let e = super::open_can("slcan:/nonexistent/tty@500k")
+        .await
+        .map(drop)
+        .unwrap_err();
+    assert!(!e.contains("--"), "{e}");
+    assert!(e.contains("/nonexistent/tty"), "{e}");
+}
