@@ -95,7 +95,7 @@ pub const NOT_RESTORED: &[u16] = &[
 /// The target of parameter `number` (in the table or raw) in data set `dataset`.
 pub fn target(number: u16, dataset: u8) -> Result<Target, ClientError> {
     let mut t = Target::resolve(Family::Bonfiglioli, &number.to_string(), RAW_INDICES)
-        .map_err(|e| ClientError::Link(e.to_string()))?;
+        .map_err(|e| ClientError::Request(e.to_string()))?;
     t.sub = u16::from(dataset);
     Ok(t)
 }
@@ -590,7 +590,7 @@ impl<IO: CharIo> ParamClient for BonfiglioliClient<'_, IO> {
                     Err(e) => return Err(client_error(Width::Word, e, self.front)),
                 }
             }
-            None => return Err(ClientError::Link(unknown_width(target, self.front))),
+            None => return Err(ClientError::Request(unknown_width(target, self.front))),
         };
         self.read_width(target, width)
             .await
@@ -612,13 +612,13 @@ impl<IO: CharIo> ParamClient for BonfiglioliClient<'_, IO> {
                 (Some(word), Some(long)) => format!("; add {word} or {long}"),
                 _ => String::new(),
             };
-            ClientError::Link(format!(
+            ClientError::Request(format!(
                 "the width of {} is not known{give}",
                 target.label()
             ))
         })?;
         let data = data_of(width, raw).ok_or_else(|| {
-            ClientError::Link(format!(
+            ClientError::Request(format!(
                 "value {raw} does not fit {} bits; nothing was sent",
                 if width == Width::Word { 16 } else { 32 }
             ))

@@ -18,6 +18,12 @@ pub enum ClientError {
     /// to check.
     #[error("{0}")]
     Link(String),
+    /// The request was not made, nothing was sent: the client cannot build it (a parameter
+    /// the client needs the table for and the table does not have, a width not known, a value
+    /// past the width, an order the protocol cannot carry). The caller's to change; the
+    /// drive and the line are as they were.
+    #[error("{0}")]
+    Request(String),
 }
 
 /// A negative answer of the drive, sorted by what a tool does about it (each protocol maps its

@@ -44,7 +44,7 @@ pub mod param {
 /// parameter set 1 where it has them; a number outside the table is an error.
 pub fn table_target(number: u16) -> Result<Target, ClientError> {
     table_entry(number)
-        .ok_or_else(|| ClientError::Link(format!("P{number} is not in the NORD table")))
+        .ok_or_else(|| ClientError::Request(format!("P{number} is not in the NORD table")))
 }
 
 fn table_entry(number: u16) -> Option<Target> {
@@ -190,7 +190,7 @@ fn read_order(t: &Target, raw_array: bool) -> Result<Order, ClientError> {
     } else {
         Order::read(t.index, ind)
     }
-    .map_err(|e| ClientError::Link(e.to_string()))
+    .map_err(|e| ClientError::Request(e.to_string()))
 }
 
 /// The order writing `raw` to `t` as a word: AK 2/7 to EEPROM (as P560 says) or AK 14/12 to
@@ -213,7 +213,7 @@ fn write_order(
         storage,
         raw,
     )
-    .map_err(|e| ClientError::Link(format!("{e}; nothing was sent")))
+    .map_err(|e| ClientError::Request(format!("{e}; nothing was sent")))
 }
 
 /// What a PWE2 error number means for a client: 0 (no such parameter) and 3 (no such element

@@ -54,7 +54,7 @@ use super::model::{BusIx, DriveIx};
 pub const OPS: [&str; 3] = ["read", "write", "process_data"];
 
 /// The `outcome` label of a transaction.
-pub const OUTCOMES: [&str; 4] = ["ok", "timeout", "device_error", "link_error"];
+pub const OUTCOMES: [&str; 5] = ["ok", "timeout", "device_error", "link_error", "not_sent"];
 
 /// The `state` label of `drivebus_drive_up`.
 pub const STATES: [&str; 3] = ["online", "timeout", "fault"];
@@ -131,7 +131,7 @@ fn new_histogram() -> Histogram {
 #[derive(Debug)]
 struct OpHandles {
     /// By [`OUTCOMES`].
-    outcomes: [Counter; 4],
+    outcomes: [Counter; OUTCOMES.len()],
     latency: Histogram,
 }
 
@@ -349,7 +349,7 @@ impl Metrics {
     }
 
     /// One transaction on `bus` with `drive`: `op` is `read`, `write`, `process_data`;
-    /// `outcome` is `ok`, `timeout`, `device_error` or `link_error`; `latency` from the
+    /// `outcome` is `ok`, `timeout`, `device_error`, `link_error` or `not_sent`; `latency` from the
     /// request to the answer or the give-up.
     pub fn transaction(
         &self,

@@ -471,6 +471,7 @@ impl Out<'_> {
         let label = match &result {
             Ok(_) => "ok",
             Err(ClientError::Device(_)) => "device_error",
+            Err(ClientError::Request(_)) => "not_sent",
             Err(_) => "timeout",
         };
         self.metrics.transaction(
@@ -481,7 +482,8 @@ impl Out<'_> {
             now.saturating_duration_since(started),
         );
         let outcome = match &result {
-            Ok(_) | Err(ClientError::Device(_)) => Outcome::Answered,
+            // A request the client could not build was not sent: the drive is not offline.
+            Ok(_) | Err(ClientError::Device(_) | ClientError::Request(_)) => Outcome::Answered,
             Err(_) => Outcome::NoAnswer,
         };
         let change = sched.done(job, now, outcome);
@@ -520,7 +522,7 @@ impl Out<'_> {
                 let status = fault.map_or(DriveStatus::Online, DriveStatus::Fault);
                 self.set_status(drive, status).await
             }
-            Err(ClientError::Device(e)) => {
+            Err(e @ (ClientError::Device(_) | ClientError::Request(_))) => {
                 if let Job::Poll { point, .. } = job
                     && self.refused.insert((drive, point))
                 {
@@ -528,7 +530,8 @@ impl Out<'_> {
                         bus = %self.bus.name,
                         drive = %self.drive_name(drive),
                         point = %self.bus.drives.get(drive).and_then(|d| d.points.get(point)).map_or("?", |p| p.name.as_str()),
-                        "the drive refuses the poll: {e} (logged once)"
+                        "{} the poll: {e} (logged once)",
+                        if matches!(e, ClientError::Device(_)) { "the drive refuses" } else { "nothing was sent for" }
                     );
                 }
                 self.answered(drive).await

@@ -748,7 +748,7 @@ async fn issue18_a_modbus_points_width_is_used_for_its_reads_and_writes() {
     let mut other = sim.access.client(2);
     assert!(matches!(
         other.read(&point.target).await,
-        Err(ClientError::Link(_))
+        Err(ClientError::Request(_))
     ));
 }
 
