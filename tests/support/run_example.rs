@@ -10,6 +10,11 @@ use std::process::Command;
 /// the test binaries (`target/<profile>/examples/`); one that is not there (`cargo test --test
 /// examples` alone, on a fresh target directory) is built first.
 pub fn run_example(name: &str) -> String {
+    run_example_with(name, &[])
+}
+
+/// [`run_example`] with command-line arguments.
+pub fn run_example_with(name: &str, args: &[&str]) -> String {
     let exe = std::env::current_exe().expect("the test binary's path");
     // target/<profile>/deps/examples-<hash> → target/<profile>/examples/<name>
     let profile = exe
@@ -35,7 +40,10 @@ pub fn run_example(name: &str) -> String {
         let status = build.status().expect("cargo runs");
         assert!(status.success(), "cargo build --example {name} failed");
     }
-    let out = Command::new(&bin).output().expect("the example runs");
+    let out = Command::new(&bin)
+        .args(args)
+        .output()
+        .expect("the example runs");
     assert!(
         out.status.success(),
         "{name} failed ({}): {}",

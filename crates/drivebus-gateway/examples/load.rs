@@ -40,10 +40,21 @@ fn run(spec: &str, seconds: u64, period: &str) -> Result<(), String> {
     let (b, d) = spec.split_once(['x', 'X']).ok_or_else(bad)?;
     let buses: usize = b.trim().parse().map_err(|_| bad())?;
     let drives: usize = d.trim().parse().map_err(|_| bad())?;
-    if !(1..=256).contains(&buses) || !(1..=31).contains(&drives) || !(1..=3600).contains(&seconds)
-    {
+    // The buses report their figures every FIGURES_EVERY (5 s); the last report before the
+    // end is the one counted, so a run needs more than one period.
+    let every = drivebus_gateway::task::FIGURES_EVERY.as_secs();
+    if !(1..=256).contains(&buses) || !(1..=31).contains(&drives) {
         return Err(bad());
     }
+    if !(every + 1..=3600).contains(&seconds) {
+        return Err(format!(
+            "SECONDS {seconds}: give {}–3600 (the buses report every {every} s)",
+            every + 1
+        ));
+    }
+    // The time of the last report the run sees: the last multiple of the period before its end
+    // (the one at the end itself races with it).
+    let at = (seconds - 1) / every * every;
     let plant = load::plant(buses, drives, period).map_err(|e| e.to_string())?;
     let rt = tokio::runtime::Builder::new_current_thread()
         .enable_all()
@@ -77,9 +88,9 @@ fn run(spec: &str, seconds: u64, period: &str) -> Result<(), String> {
         1.0 / wire.as_secs_f64()
     );
     println!(
-        "transactions: {} ({:.1}/s per bus)",
+        "transactions: {} in the first {at} s ({:.1}/s per bus)",
         report.transactions,
-        report.transactions as f64 / buses as f64 / seconds.saturating_sub(5).max(1) as f64
+        report.transactions as f64 / buses as f64 / at as f64
     );
     println!(
         "utilisation of the wire bound per bus: min {:.4}, median {:.4}, max {:.4}",
