@@ -1,524 +1,96 @@
-//! What the five decoders (`drivectl decode movilink|sbus|uss|ctt2|modbus-rtu|modbus-ascii`)
-//! share: one JSON shape for a telegram and its fields ([`docs/decode-json.md`]), the
-//! parameter a telegram names in the keys of `read --json`, and text from the input shown
-//! without its control characters.
-//!
-//! Every object a decoder prints has every common key (`COMMON_KEYS` in the tests, listed in
-//! `docs/decode-json.md`; `null` where the telegram
-//! has nothing for it); a protocol adds only its own keys beside them (MOVILINK `pdu_type`,
-//! CTT2 `code`, Modbus `function`, …).
+//! `drivectl decode …`: the decoders are `drive_decode`'s; this module reads the input (hex
+//! arguments, a file or standard input), prints what a decoder says, text or `--json` (one
+//! object per entry, [`docs/decode-json.md`]), and says the library's errors in the command
+//! line's words.
 //!
 //! [`docs/decode-json.md`]: ../../../docs/decode-json.md
 
-use drive_profile::Family;
-use serde_json::{Map, Value, json};
+use drive_decode::input::{self, Capture, InputError};
+use drive_decode::{Decoded, Entry};
 
 use crate::error::{CliError, Result};
-use crate::tool::client::Target;
-use crate::tool::output::value_json;
 
-/// The keys every decode object has, in the order `docs/decode-json.md` explains them.
-#[cfg(test)]
-pub const COMMON_KEYS: [&str; 26] = [
-    "type",
-    "protocol",
-    "offset",
-    "line",
-    "length",
-    "bytes",
-    "valid",
-    "error",
-    "notes",
-    "direction",
-    "kind",
-    "address",
-    "index",
-    "number",
-    "label",
-    "name_de",
-    "name_en",
-    "selector",
-    "raw",
-    "value",
-    "unit",
-    "meaning",
-    "decoded",
-    "refusal",
-    "process_data",
-    "fields",
-];
-
-/// The target a telegram names: bus index `index` (SEW index, NORD PNU, Bonfiglioli
-/// parameter number) with sub-index `sub` (NORD IND word, Bonfiglioli data set), the table's
-/// entry where it has one.
-pub fn target(family: Family, index: u16, sub: u16) -> Target {
-    let param = drive_profile::family::lookup(family, &index.to_string())
-        .filter(|p| p.bus_index() == index);
-    Target {
-        family,
-        index,
-        sub,
-        param,
-    }
-}
-
-/// The parameter keys of `read --json` (`tool::output::value_json`) for `t`; without a value
-/// (`raw` = `None`: a read request, a refusal) `raw`, `value`, `meaning` and `decoded` are
-/// `null`.
-pub fn param_json(t: &Target, raw: Option<i64>) -> Value {
-    let mut v = value_json(t, raw.unwrap_or(0));
-    if raw.is_none()
-        && let Value::Object(m) = &mut v
-    {
-        for k in ["raw", "value", "meaning", "decoded"] {
-            m.insert(k.into(), Value::Null);
-        }
-    }
-    v
-}
-
-/// The parameter keys with every value `null`: the telegram names no parameter.
-fn no_param() -> Map<String, Value> {
-    let mut m = Map::new();
-    for k in [
-        "index", "number", "label", "name_de", "name_en", "selector", "raw", "value", "unit",
-        "meaning", "decoded",
-    ] {
-        m.insert(k.into(), Value::Null);
-    }
-    m
-}
-
-/// One field of a telegram: where it is, its bytes, its name, the number it carries and what
-/// that means.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct Field {
-    /// Offset of the field's first byte (Modbus ASCII: character) in the capture; SBus: in
-    /// the frame's data.
-    pub offset: usize,
-    /// The bytes as hex (`70 66`); Modbus ASCII: the characters' codes.
-    pub bytes: String,
-    /// The characters of a Modbus ASCII field (`01`), escaped; `None` elsewhere.
-    pub chars: Option<String>,
-    /// The field's name in the protocol's words (`PKE`, `ADR`, `management`, `CRC`).
-    pub name: String,
-    /// The number the field carries as the protocol reads it (big-endian words, Modbus's CRC
-    /// low byte first); `None` for a field of more than 8 bytes or text.
-    pub value: Option<u64>,
-    /// What it means.
-    pub text: String,
-}
-
-impl Field {
-    /// A field of `bytes` at `offset`, its value the bytes read big-endian.
-    pub fn new(offset: usize, bytes: &[u8], name: &str, text: String) -> Self {
-        Self {
-            offset,
-            bytes: hex(bytes),
-            chars: None,
-            name: name.to_owned(),
-            value: big_endian(bytes),
-            text,
-        }
-    }
-
-    /// The field as JSON: `{offset, bytes, name, value, text}` (and `chars` for Modbus
-    /// ASCII).
-    pub fn to_json(&self) -> Value {
-        let mut m = Map::new();
-        m.insert("offset".into(), self.offset.into());
-        m.insert("bytes".into(), self.bytes.clone().into());
-        if let Some(c) = &self.chars {
-            m.insert("chars".into(), c.clone().into());
-        }
-        m.insert("name".into(), self.name.clone().into());
-        m.insert("value".into(), json!(self.value));
-        m.insert("text".into(), self.text.clone().into());
-        Value::Object(m)
-    }
-}
-
-/// `bytes` as one big-endian number; `None` for none or more than 8.
-pub fn big_endian(bytes: &[u8]) -> Option<u64> {
-    if bytes.is_empty() || bytes.len() > 8 {
-        return None;
-    }
-    Some(bytes.iter().fold(0u64, |a, b| (a << 8) | u64::from(*b)))
-}
-
-/// Bytes as spaced hex: `02 0E 01`.
-pub fn hex(bytes: &[u8]) -> String {
-    bytes
-        .iter()
-        .map(|b| format!("{b:02X}"))
-        .collect::<Vec<_>>()
-        .join(" ")
-}
-
-/// Text from the input as it may be shown on a terminal: control characters (C0, DEL, C1)
-/// escaped as `\r`, `\n`, `\t` or `\xNN`/`\u{NNNN}`, a backslash doubled; everything else as
-/// it is.
-pub fn escape(text: &str) -> String {
-    let mut out = String::with_capacity(text.len());
-    for c in text.chars() {
-        match c {
-            '\\' => out.push_str("\\\\"),
-            '\r' => out.push_str("\\r"),
-            '\n' => out.push_str("\\n"),
-            '\t' => out.push_str("\\t"),
-            c if c.is_control() => {
-                let n = u32::from(c);
-                if n < 0x100 {
-                    out.push_str(&format!("\\x{n:02X}"));
-                } else {
-                    out.push_str(&format!("\\u{{{n:04X}}}"));
-                }
-            }
-            c => out.push(c),
-        }
-    }
-    out
-}
-
-/// Bytes from the input shown as characters ([`escape`]d; bytes that are no UTF-8 as `\xNN`).
-pub fn escape_bytes(bytes: &[u8]) -> String {
-    let mut out = String::new();
-    for chunk in bytes.utf8_chunks() {
-        out.push_str(&escape(chunk.valid()));
-        for b in chunk.invalid() {
-            out.push_str(&format!("\\x{b:02X}"));
-        }
-    }
-    out
-}
-
-/// One decoded unit of a capture in the common shape, built by a decoder and printed with
-/// [`Telegram::to_json`].
-#[derive(Debug, Clone)]
-pub struct Telegram {
-    /// `telegram` (a telegram, frame or message) or `skipped` (bytes that start none, or an
-    /// input line that is no record).
-    pub type_: &'static str,
-    /// `movilink`, `sbus`, `uss`, `ctt2`, `modbus-rtu`, `modbus-ascii`.
-    pub protocol: &'static str,
-    /// Offset of the first byte (Modbus ASCII: character) in the capture; `None` for SBus.
-    pub offset: Option<usize>,
-    /// The input line it starts on, where the capture came from lines.
-    pub line: Option<usize>,
-    /// Bytes (Modbus ASCII: characters) it takes.
-    pub length: usize,
-    /// Its bytes (Modbus ASCII: the characters' codes; SBus: the data bytes).
-    pub bytes: Vec<u8>,
-    /// The first problem, if any (`valid` is its absence).
-    pub error: Option<String>,
-    /// Remarks that are no error (an erratum recognised).
-    pub notes: Vec<String>,
-    /// `request` (master → drive), `response` (drive → master), `request or response`
-    /// (Modbus echoes), or `None` where it is not known.
-    pub direction: Option<&'static str>,
-    /// What the protocol calls it (`parameter request`, `NORD write request`, `read 16-bit
-    /// parameter`, `PARAM+0PD acyclic`).
-    pub kind: Option<String>,
-    /// The drive's (or group's) address on the bus.
-    pub address: Option<i64>,
-    /// The parameter it names, and the raw value it carries for it (a write, a read answer).
-    pub param: Option<(Target, Option<i64>)>,
-    /// The drive's negative answer in words (SEW return code, USS AK 7 error, CTT2 error code,
-    /// Modbus exception).
-    pub refusal: Option<String>,
-    /// Process data words (control/status word first).
-    pub process_data: Vec<u16>,
-    /// The fields in order.
-    pub fields: Vec<Field>,
-    /// The protocol's own keys (`pdu_type`, `code`, `function`, …).
-    pub extra: Map<String, Value>,
-}
-
-impl Telegram {
-    /// An empty telegram of `protocol`.
-    pub fn new(protocol: &'static str) -> Self {
-        Self {
-            type_: "telegram",
-            protocol,
-            offset: None,
-            line: None,
-            length: 0,
-            bytes: Vec::new(),
-            error: None,
-            notes: Vec::new(),
-            direction: None,
-            kind: None,
-            address: None,
-            param: None,
-            refusal: None,
-            process_data: Vec::new(),
-            fields: Vec::new(),
-            extra: Map::new(),
-        }
-    }
-
-    /// Bytes that start no telegram, skipped with `why`.
-    pub fn skipped(
-        protocol: &'static str,
-        offset: Option<usize>,
-        bytes: &[u8],
-        why: String,
-    ) -> Self {
-        Self {
-            type_: "skipped",
-            offset,
-            length: bytes.len(),
-            bytes: bytes.to_vec(),
-            error: Some(why),
-            ..Self::new(protocol)
-        }
-    }
-
-    /// A protocol key.
-    pub fn extra(mut self, key: &str, value: Value) -> Self {
-        self.extra.insert(key.into(), value);
-        self
-    }
-
-    /// The object: every common key (`docs/decode-json.md`), then the protocol's own.
-    pub fn to_json(&self) -> Value {
-        let mut m = Map::new();
-        m.insert("type".into(), self.type_.into());
-        m.insert("protocol".into(), self.protocol.into());
-        m.insert("offset".into(), json!(self.offset));
-        m.insert("line".into(), json!(self.line));
-        m.insert("length".into(), self.length.into());
-        m.insert("bytes".into(), hex(&self.bytes).into());
-        m.insert("valid".into(), self.error.is_none().into());
-        m.insert("error".into(), json!(self.error));
-        m.insert("notes".into(), json!(self.notes));
-        m.insert("direction".into(), json!(self.direction));
-        m.insert("kind".into(), json!(self.kind));
-        m.insert("address".into(), json!(self.address));
-        let param = match &self.param {
-            Some((t, raw)) => match param_json(t, *raw) {
-                Value::Object(p) => p,
-                _ => no_param(),
-            },
-            None => no_param(),
-        };
-        m.extend(param);
-        m.insert("refusal".into(), json!(self.refusal));
-        m.insert("process_data".into(), json!(self.process_data));
-        m.insert(
-            "fields".into(),
-            Value::Array(self.fields.iter().map(Field::to_json).collect()),
-        );
-        for (k, v) in &self.extra {
-            m.entry(k.clone()).or_insert_with(|| v.clone());
-        }
-        Value::Object(m)
-    }
-}
-
-// The input every decoder reads: hex bytes from arguments, a file or standard input.
-
-/// A capture: the bytes, and for input read from a file or stdin the line each byte came from.
-#[derive(Debug, Clone, Default, PartialEq, Eq)]
-pub struct Capture {
-    /// The bytes in input order.
-    pub bytes: Vec<u8>,
-    /// 1-based input line of each byte; empty for bytes given as arguments.
-    pub lines: Vec<usize>,
-}
-
-impl Capture {
-    /// The input line of the byte at `offset`, if the capture came from lines.
-    pub fn line_of(&self, offset: usize) -> Option<usize> {
-        self.lines.get(offset).copied()
-    }
-
-    /// Offsets (after 0) where a new input line starts: a telegram does not cross one unless
-    /// its check character proves it was wrapped.
-    pub fn line_starts(&self) -> Vec<usize> {
-        self.lines
-            .windows(2)
-            .enumerate()
-            .filter(|(_, w)| w.first() != w.get(1))
-            .map(|(i, _)| i + 1)
-            .collect()
-    }
-}
-
-/// Characters between bytes or groups of bytes: white space, commas and colons.
-fn is_separator(c: char) -> bool {
-    c.is_whitespace() || c == ',' || c == ':'
-}
-
-/// The tokens of `text` with the 1-based column (in characters) where each starts.
-fn tokens(text: &str) -> Vec<(usize, &str)> {
-    let mut out = Vec::new();
-    let mut start: Option<(usize, usize)> = None;
-    for (col, (i, c)) in text.char_indices().enumerate() {
-        match (is_separator(c), start) {
-            (true, Some((s, s_col))) => {
-                out.push((s_col + 1, text.get(s..i).unwrap_or("")));
-                start = None;
-            }
-            (false, None) => start = Some((i, col)),
-            _ => {}
-        }
-    }
-    if let Some((s, s_col)) = start {
-        out.push((s_col + 1, text.get(s..).unwrap_or("")));
-    }
-    out
-}
-
-/// The bytes of one token: hex digits in pairs, optionally after one `0x`/`0X` prefix
-/// (`02`, `0x02`, `020186`, `0x020186`). `place` says where the token is, for the message.
-fn token_bytes(token: &str, place: &str, out: &mut Vec<u8>) -> Result<()> {
-    // What the input holds is shown without its control characters.
-    let shown = escape(token);
-    let place = escape(place);
-    let digits = token
-        .strip_prefix("0x")
-        .or_else(|| token.strip_prefix("0X"))
-        .unwrap_or(token);
-    if let Some(bad) = digits.chars().find(|c| !c.is_ascii_hexdigit()) {
-        return Err(CliError::usage(format!(
-            "{place}: `{shown}` is not hex (`{}` is not a hex digit); give bytes like \
-             `02 01 86`, `020186` or `0x02,0x01,0x86`",
-            escape(&bad.to_string())
-        )));
-    }
-    if digits.is_empty() {
-        return Err(CliError::usage(format!(
-            "{place}: `{shown}` has no hex digits after the prefix"
-        )));
-    }
-    if digits.len() % 2 == 1 {
-        return Err(CliError::usage(format!(
-            "{place}: `{shown}` has an odd number of hex digits ({}); a byte is two digits \
-             (`02`, not `2`), so a digit is missing or left over",
-            digits.len()
-        )));
-    }
-    for pair in digits.as_bytes().chunks(2) {
-        let byte = std::str::from_utf8(pair)
-            .ok()
-            .and_then(|s| u8::from_str_radix(s, 16).ok())
-            .ok_or_else(|| CliError::usage(format!("{place}: `{shown}` is not hex")))?;
-        out.push(byte);
-    }
-    Ok(())
-}
-
-/// Parse hex arguments: `02 01 85`, `020185`, `0x02,0x01` and mixtures. Every token must be
-/// whole bytes: an odd number of digits or a non-hex character (a leading `-` too) is an error
-/// naming the argument and the token.
-pub fn parse_hex(args: &[String]) -> Result<Vec<u8>> {
-    let mut bytes = Vec::new();
-    for (n, a) in args.iter().enumerate() {
-        for (col, token) in tokens(a) {
-            let place = if args.len() == 1 {
-                format!("column {col}")
-            } else {
-                format!("argument {}, column {col}", n + 1)
-            };
-            token_bytes(token, &place, &mut bytes)?;
-        }
-    }
-    if bytes.is_empty() {
-        return Err(CliError::usage(
-            "no bytes given; give a telegram like `02 01 86 …`",
-        ));
-    }
-    Ok(bytes)
-}
-
-/// Parse a capture read from a file or stdin (`source` names it in messages): hex bytes as
-/// for [`parse_hex`], one telegram per line or a stream over several lines. A UTF-8 byte order
-/// mark, CR LF line ends, blank lines and `#` comments (to the end of the line) are allowed.
-pub fn parse_text(text: &str, source: &str) -> Result<Capture> {
-    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
-    let mut capture = Capture::default();
-    for (n, line) in text.lines().enumerate() {
-        let content = line.split_once('#').map_or(line, |(before, _)| before);
-        let before = capture.bytes.len();
-        for (col, token) in tokens(content) {
-            let place = format!("{source} line {}, column {col}", n + 1);
-            token_bytes(token, &place, &mut capture.bytes)?;
-        }
-        let added = capture.bytes.len() - before;
-        capture.lines.extend(std::iter::repeat_n(n + 1, added));
-    }
-    if capture.bytes.is_empty() {
-        return Err(CliError::usage(format!(
-            "{source} holds no bytes; give hex like `02 01 86 …`, one telegram per line"
-        )));
-    }
-    Ok(capture)
-}
+pub use drive_decode::shape::{escape, param_json};
 
 /// The largest capture read (64 MiB of hex text: about 1.7 million telegrams).
-const MAX_CAPTURE: u64 = 64 << 20;
+pub const MAX_CAPTURE: u64 = 64 << 20;
 
-/// Read a capture from `path`, or from standard input for `-` (a device node, or more than
-/// [`MAX_CAPTURE`], is refused).
-pub fn read_capture(path: &str) -> Result<Capture> {
-    let raw = crate::tool::infile::read_limited(std::path::Path::new(path), true, MAX_CAPTURE)?;
-    let source = if path == "-" {
-        "standard input".to_owned()
-    } else {
-        escape(path)
-    };
-    let text = String::from_utf8(raw).map_err(|e| {
-        CliError::usage(format!(
-            "{source} is not text (byte {} is not UTF-8); give hex like `02 01 86 …`, \
-             one telegram per line",
-            e.utf8_error().valid_up_to()
-        ))
-    })?;
-    parse_text(&text, &source)
+/// The hint after an input error: what the input must look like.
+fn hint(e: &InputError) -> &'static str {
+    match e {
+        InputError::NotHex { .. } => "; give bytes like `02 01 86`, `020186` or `0x02,0x01,0x86`",
+        InputError::OddDigits { .. } => {
+            "; a byte is two digits (`02`, not `2`), so a digit is missing or left over"
+        }
+        InputError::NoBytes => "; give a telegram like `02 01 86 …`",
+        InputError::Empty { .. } | InputError::NotText { .. } => {
+            "; give hex like `02 01 86 …`, one telegram per line"
+        }
+        _ => "",
+    }
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn control_characters_from_the_input_are_escaped() {
-        assert_eq!(escape("\u{1}\u{3}!t\u{0}\u{1}f"), "\\x01\\x03!t\\x00\\x01f");
-        assert_eq!(
-            escape(":01\r\n\u{1b}[2J\u{9b}ü\\"),
-            ":01\\r\\n\\x1B[2J\\x9Bü\\\\"
-        );
-        assert_eq!(escape_bytes(&[0x3A, 0xFF, 0x0D]), ":\\xFF\\r");
+impl From<InputError> for CliError {
+    fn from(e: InputError) -> Self {
+        CliError::usage(format!("{e}{}", hint(&e)))
     }
+}
 
-    #[test]
-    fn every_object_has_every_common_key_once() {
-        let t = Telegram::new("uss").to_json();
-        let keys: Vec<&str> = t.as_object().unwrap().keys().map(String::as_str).collect();
-        let mut want = COMMON_KEYS.to_vec();
-        want.sort_unstable();
-        let mut got = keys.clone();
-        got.sort_unstable();
-        assert_eq!(got, want);
-        let s = Telegram::skipped("movilink", Some(3), &[0x55], "no start".into()).to_json();
-        assert_eq!(
-            (&s["type"], &s["valid"], &s["bytes"]),
-            (&json!("skipped"), &json!(false), &json!("55"))
-        );
-        assert_eq!(s.as_object().unwrap().len(), COMMON_KEYS.len());
-    }
+/// Read the raw input from `path`, or from standard input for `-` (a device node, or more than
+/// `limit`, is refused).
+pub fn read_input(path: &str, limit: u64) -> Result<Vec<u8>> {
+    crate::tool::infile::read_limited(std::path::Path::new(path), true, limit)
+}
 
-    #[test]
-    fn a_parameter_without_a_value_has_its_names_and_no_value() {
-        let t = crate::movilink::resolve("P130").unwrap();
-        let v = param_json(&t, None);
-        assert_eq!(
-            (&v["index"], &v["raw"], &v["value"]),
-            (&json!(8470), &Value::Null, &Value::Null)
-        );
-        assert_eq!(v["name_en"], json!(t.names().unwrap().1));
-        let v = param_json(&t, Some(1500));
-        assert_eq!(v["raw"], 1500);
+/// The name of `path` in messages: `standard input` for `-`.
+fn input_name(path: &str) -> &str {
+    if path == "-" { "standard input" } else { path }
+}
+
+/// A capture from `path` (`-`: standard input), at most [`MAX_CAPTURE`].
+pub fn read_capture(path: &str) -> Result<Capture> {
+    let raw = read_input(path, MAX_CAPTURE)?;
+    Ok(input::parse_capture(raw, input_name(path))?)
+}
+
+/// The capture of a decode command: from `file`, from standard input for a lone `-`
+/// argument, else the hex arguments.
+pub fn capture(hex_args: &[String], file: Option<&str>) -> Result<Capture> {
+    match (file, hex_args) {
+        (Some(path), _) => read_capture(path),
+        (None, [only]) if only == "-" => read_capture("-"),
+        (None, args) => Ok(Capture::from_bytes(input::parse_hex(args)?)),
     }
+}
+
+/// Print one entry: its text, or its JSON object.
+pub fn print_entry(entry: &Entry, json: bool) -> Result<()> {
+    if json {
+        outln!("{}", entry.telegram.to_json())
+    } else {
+        out!("{}", entry.text)
+    }
+}
+
+/// Print every entry at once.
+pub fn print(decoded: &Decoded, json: bool) -> Result<()> {
+    let out = if json {
+        decoded.json_lines()
+    } else {
+        decoded.text()
+    };
+    out!("{out}")
+}
+
+/// The error of a decoded capture with invalid `noun`s (`frame`, `message`), skipped runs
+/// counted among them (`3 of 5 frame(s) are invalid (see above)`), or `Ok`.
+pub fn check_all(decoded: &Decoded, noun: &str) -> Result<()> {
+    let invalid = decoded.invalid() + decoded.skipped();
+    if invalid > 0 {
+        return Err(CliError::failed(format!(
+            "{invalid} of {} {noun}(s) are invalid (see above)",
+            decoded.entries.len()
+        )));
+    }
+    Ok(())
 }

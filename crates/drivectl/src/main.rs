@@ -322,11 +322,7 @@ fn main() -> ExitCode {
             start,
             json,
         }) => nord::decode::run(
-            Some(nord::decode::UssLayout {
-                pkw,
-                pzd,
-                drive_first: start == "drive",
-            }),
+            Some(nord::decode::uss_layout(pkw, pzd, start == "drive")),
             &hex,
             file.as_deref(),
             json,

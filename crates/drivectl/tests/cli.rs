@@ -1521,35 +1521,9 @@ fn issue18_ctt2_info_and_line() {
     );
 }
 
-/// The keys every `decode --json` object has, whatever the protocol (docs/decode-json.md).
-const DECODE_KEYS: [&str; 26] = [
-    "type",
-    "protocol",
-    "offset",
-    "line",
-    "length",
-    "bytes",
-    "valid",
-    "error",
-    "notes",
-    "direction",
-    "kind",
-    "address",
-    "index",
-    "number",
-    "label",
-    "name_de",
-    "name_en",
-    "selector",
-    "raw",
-    "value",
-    "unit",
-    "meaning",
-    "decoded",
-    "refusal",
-    "process_data",
-    "fields",
-];
+/// The keys every `decode --json` object has, whatever the protocol (docs/decode-json.md,
+/// which the library's tests check against the list).
+use drive_decode::COMMON_KEYS as DECODE_KEYS;
 
 /// Issue 18: the decoders had their own JSON words for the same things (`field`/`name`,
 /// `meaning`, `text`/`bytes`, `parameter`, `set`, `data_set`, `words`); every object of every

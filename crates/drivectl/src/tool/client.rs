@@ -3,7 +3,7 @@
 //! command line's words, with the options that are the way out (`--raw`, `--force`, `--round`).
 
 pub use drive_client::client::{ClientError, DeviceErrorKind, ParamClient};
-pub use drive_client::target::{Target, TargetError, ValueError, ValueText, nord_sub_parts};
+pub use drive_client::target::{Target, TargetError, ValueError, ValueText};
 // Every IND word of a NORD parameter: what a backup holds of it (the NORD tests check it).
 #[cfg(test)]
 pub use drive_client::target::nord_subs;
