@@ -314,9 +314,14 @@ impl Telegram {
     }
 }
 
-/// What names a target in the keys of `read --json`: `index`, `number`, `label`, `name_de`,
-/// `name_en`, `selector` and `unit` (`null` outside the table).
-fn target_json(t: &Target) -> Map<String, Value> {
+/// What names a target in every JSON object that shows one of its values (`read --json` and
+/// every decoder): `index` (the bus index: SEW index, NORD PNU, Bonfiglioli parameter number),
+/// `number` (the table's number, `P130`, `P102`, `372`), `label` (the number with its selector,
+/// as the family's manual writes it: `P102 set 2`, `P543 [-02]`, `372 data set 2`), `name_de`,
+/// `name_en` (a NORD array element's own names where the table has them), `selector`
+/// ([`Target::selector_json`]: `null`, or `{"set": …}`, `{"array": …}`, `{"dataset": …}`) and
+/// `unit`; outside the table `number`, the names and `unit` are `null`.
+pub fn target_json(t: &Target) -> Map<String, Value> {
     let names = t.names();
     let mut m = Map::new();
     m.insert("index".into(), t.index.into());
@@ -336,15 +341,22 @@ fn target_json(t: &Target) -> Map<String, Value> {
     m
 }
 
-/// A value of `t` in the keys of `read --json`: [`target_json`]'s, then `raw`, `value`,
-/// `meaning` and `decoded` (of a drive nothing is known of); outside the table `value` is the
-/// raw value and `meaning` and `decoded` are `null`.
-fn value_json(t: &Target, raw: i64) -> Value {
+/// [`value_json_in`] of a drive nothing is known of (a decoded capture, a backup file).
+pub fn value_json(t: &Target, raw: i64) -> Value {
+    value_json_in(t, raw, &Device::default())
+}
+
+/// One value of a parameter as a JSON object, the same keys for every family: those of
+/// [`target_json`], then `raw`, `value`, `meaning` (a value name or a decoded word, else
+/// `null`) and `decoded` (the decoded status/fault word, else `null`); outside the table
+/// `meaning` and `decoded` are `null` and `value` is the raw value. The meaning takes what is
+/// known of the drive, `device` ([`meaning_in`]).
+pub fn value_json_in(t: &Target, raw: i64, device: &Device) -> Value {
     let mut m = target_json(t);
     m.insert("raw".into(), raw.into());
     match t.param {
         Some(p) => {
-            let meaning = meaning_in(t, raw, &Device::default());
+            let meaning = meaning_in(t, raw, device);
             m.insert("value".into(), json!(p.to_physical(raw)));
             m.insert(
                 "meaning".into(),
@@ -352,6 +364,7 @@ fn value_json(t: &Target, raw: i64) -> Value {
             );
             m.insert("decoded".into(), json!(meaning.and_then(|m| m.decoded)));
         }
+        // The same keys outside the table, null where only the table knows.
         None => {
             m.insert("value".into(), raw.into());
             m.insert("meaning".into(), Value::Null);
