@@ -118,3 +118,65 @@ impl Decoded {
         out
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every decoder takes any bytes, with or without lines, without a panic, and accounts
+    /// for every byte: its entries' lengths add up to the capture's (Modbus ASCII leaves out
+    /// line ends between frames).
+    #[test]
+    fn every_decoder_covers_any_capture() {
+        let mut seed: u32 = 0x9E37_79B9;
+        for round in 0..1500 {
+            let len = round % 48;
+            let bytes: Vec<u8> = (0..len)
+                .map(|_| {
+                    seed = seed.wrapping_mul(1_103_515_245).wrapping_add(12_345);
+                    // Start characters and codes of every family now and then.
+                    match (seed >> 16) % 8 {
+                        0 => 0x02,
+                        1 => 0x1D,
+                        2 => b':',
+                        3 => 0x13,
+                        _ => (seed >> 8) as u8,
+                    }
+                })
+                .collect();
+            let lines = if round % 2 == 0 {
+                Vec::new()
+            } else {
+                (0..len).map(|i| 1 + i / 9).collect()
+            };
+            let capture = Capture { bytes, lines };
+            let layout = nord::UssLayout {
+                pkw: [0, 3, 4][round % 3],
+                pzd: (round % 5 == 0).then_some(2),
+                drive_first: round % 4 == 0,
+                names: nord::SettingNames::default(),
+            };
+            for (name, decoded) in [
+                ("movilink", movilink::decode(&capture)),
+                ("ctt2", nord::decode_ctt2(&capture)),
+                ("uss", nord::decode_uss(&capture, layout)),
+                ("modbus-rtu", bonfiglioli::decode_rtu(&capture)),
+                ("modbus-ascii", bonfiglioli::decode_ascii(&capture)),
+            ] {
+                let covered: usize = decoded.entries.iter().map(|e| e.telegram.length).sum();
+                let ends = capture
+                    .bytes
+                    .iter()
+                    .filter(|b| matches!(b, b'\r' | b'\n'))
+                    .count();
+                let all = if name == "modbus-ascii" {
+                    (len - ends..=len).contains(&covered)
+                } else {
+                    covered == len
+                };
+                assert!(all, "{name}: {covered} of {:02X?}", capture.bytes);
+                assert!(decoded.text().lines().count() >= decoded.entries.len());
+            }
+        }
+    }
+}
