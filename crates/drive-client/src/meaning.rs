@@ -17,7 +17,9 @@ use drive_profile::Family;
 use drive_profile::bonfiglioli::Variant;
 use drive_profile::family::AnyParam;
 use drive_profile::sew::{StatusWord1, index};
-use serde_json::{Value, json};
+use serde_json::{Map, Value, json};
+
+use crate::target::Target;
 
 /// The meaning of one raw value.
 #[derive(Debug, Clone, PartialEq)]
@@ -360,6 +362,66 @@ fn movidrive(p: AnyParam, raw: i64) -> Option<Meaning> {
         text,
         decoded: Some(decoded),
     })
+}
+
+/// What names a target in every JSON object that shows one of its values (`read --json` and
+/// every decoder): `index` (the bus index: SEW index, NORD PNU, Bonfiglioli parameter number),
+/// `number` (the table's number, `P130`, `P102`, `372`), `label` (the number with its selector,
+/// as the family's manual writes it: `P102 set 2`, `P543 [-02]`, `372 data set 2`), `name_de`,
+/// `name_en` (a NORD array element's own names where the table has them), `selector`
+/// ([`Target::selector_json`]: `null`, or `{"set": …}`, `{"array": …}`, `{"dataset": …}`) and
+/// `unit`; outside the table `number`, the names and `unit` are `null`.
+pub fn target_json(t: &Target) -> Map<String, Value> {
+    let names = t.names();
+    let mut m = Map::new();
+    m.insert("index".into(), t.index.into());
+    m.insert(
+        "number".into(),
+        t.param
+            .map_or(Value::Null, |p| p.label().to_string().into()),
+    );
+    m.insert("label".into(), t.label().into());
+    m.insert("name_de".into(), names.map_or(Value::Null, |n| n.0.into()));
+    m.insert("name_en".into(), names.map_or(Value::Null, |n| n.1.into()));
+    m.insert("selector".into(), t.selector_json());
+    m.insert(
+        "unit".into(),
+        t.param.map_or(Value::Null, |p| p.unit().into()),
+    );
+    m
+}
+
+/// [`value_json_in`] of a drive nothing is known of (a decoded capture, a backup file).
+pub fn value_json(t: &Target, raw: i64) -> Value {
+    value_json_in(t, raw, &Device::default())
+}
+
+/// One value of a parameter as a JSON object, the same keys for every family: those of
+/// [`target_json`], then `raw`, `value`, `meaning` (a value name or a decoded word, else
+/// `null`) and `decoded` (the decoded status/fault word, else `null`); outside the table
+/// `meaning` and `decoded` are `null` and `value` is the raw value. The meaning takes what is
+/// known of the drive, `device` ([`meaning_in`]).
+pub fn value_json_in(t: &Target, raw: i64, device: &Device) -> Value {
+    let mut m = target_json(t);
+    m.insert("raw".into(), raw.into());
+    match t.param {
+        Some(p) => {
+            let meaning = meaning_in(t, raw, device);
+            m.insert("value".into(), json!(p.to_physical(raw)));
+            m.insert(
+                "meaning".into(),
+                json!(meaning.as_ref().map(|m| m.text.clone())),
+            );
+            m.insert("decoded".into(), json!(meaning.and_then(|m| m.decoded)));
+        }
+        // The same keys outside the table, null where only the table knows.
+        None => {
+            m.insert("value".into(), raw.into());
+            m.insert("meaning".into(), Value::Null);
+            m.insert("decoded".into(), Value::Null);
+        }
+    }
+    Value::Object(m)
 }
 
 #[cfg(test)]

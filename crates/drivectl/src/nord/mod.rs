@@ -11,7 +11,7 @@
 //! over process data).
 //!
 //! [`Target::sub`] of a NORD parameter is the IND word itself (section 4.6.1.2, see
-//! [`nord_sub`]): a parameter with parameter sets carries the set in bits 8–9 and an array
+//! [`nord_sub`](drive_client::target::nord_sub)): a parameter with parameter sets carries the set in bits 8–9 and an array
 //! element in bits 10–15; a parameter without sets carries its element in bits 8–15.
 
 pub mod ctt2;

@@ -95,7 +95,7 @@ pub fn final_error(e: &CliError) {
 pub use drive_client::text::{physical_text, trim_float};
 
 // The keys that name a target and its value, the same in `read --json` and `decode --json`.
-pub use drive_decode::shape::{target_json, value_json, value_json_in};
+pub use drive_client::meaning::{target_json, value_json, value_json_in};
 
 /// Every family's `info --json` object: what names the target ([`target_json`]), then the
 /// family's own description `fields` (an object: `range`, `default`, `access`, `current`, …).
