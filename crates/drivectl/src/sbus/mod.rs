@@ -19,18 +19,17 @@ use std::time::Duration;
 use drive_core::can::Bitrate;
 
 use clap::{Args, Subcommand};
-use drive_profile::Family;
 use sbus_can::driver::{ParamServices, SbusDriver};
 use sbus_can::ids::{Address, Direction, SlaveIds};
 use sbus_can::master::{Handshake, MasterConfig};
 use serde_json::json;
 
 use crate::error::{CliError, Result};
-use crate::movilink::resolve;
+use crate::sew::{Sew, SewBus, SewDrive};
 use crate::tool::backup;
-use crate::tool::client::ValueText;
+use crate::tool::cmd;
 use crate::tool::outfile::OutputFile;
-use crate::tool::{watch, write};
+use crate::tool::write;
 use drive_transport::can::candump::Capture;
 
 use self::iface::Iface;
@@ -105,6 +104,23 @@ pub struct SbusArgs {
     command: SbusCommand,
 }
 
+/// `--yes` and `--group` of `drivectl sbus write`.
+#[derive(Debug, Clone, Copy, Args)]
+pub struct GroupWrite {
+    /// Confirm a write of the drive's SBus settings (P813–P817).
+    #[arg(long)]
+    yes: bool,
+    /// Write to every drive of this SBus group (P814), 0–63, instead of --addr.
+    #[arg(long, value_parser = clap::value_parser!(u8).range(0..=63))]
+    group: Option<u8>,
+}
+
+impl cmd::Confirm for GroupWrite {
+    fn yes(&self) -> bool {
+        self.yes
+    }
+}
+
 #[derive(Debug, Subcommand)]
 enum SbusCommand {
     /// Read parameters: value with unit and scaling, and the raw value; one line (or JSON
@@ -116,24 +132,14 @@ enum SbusCommand {
         after_help = "Examples:\n  drivectl sbus --iface can0 --addr 1 read P000\n  \
         drivectl sbus --iface can0 --addr 1 --handshake sync read P000 P130 8318 --json"
     )]
-    Read {
-        /// Indices (8318, 0x207E) or menu numbers (P000).
-        #[arg(required = true, num_args = 1..)]
-        params: Vec<String>,
-    },
+    Read(cmd::ReadArgs<Sew>),
     /// Poll parameters at a steady rhythm, every row with its time (RFC 3339, UTC); Ctrl-C ends
     /// it (exit 0).
     #[command(
         after_help = "Examples:\n  drivectl sbus --iface can0 --addr 1 watch P000 P004\n  \
         drivectl sbus --iface can0 --addr 1 watch P000 --interval 200 --count 50 --csv > speed.csv"
     )]
-    Watch {
-        /// Indices or menu numbers.
-        #[arg(required = true, num_args = 1..)]
-        params: Vec<String>,
-        #[command(flatten)]
-        watch: watch::WatchArgs,
-    },
+    Watch(cmd::WatchArgs<Sew>),
     /// Write a parameter (checked against the table first); --group writes to every drive of
     /// an SBus group (write services only, never answered).
     #[command(
@@ -143,40 +149,12 @@ enum SbusCommand {
         EEPROM: the non-volatile write service stores every write in the drive's EEPROM, which\n\
         wears out; a write repeated soon after is refused unless --volatile (RAM only) or --force."
     )]
-    Write {
-        /// Index or menu number.
-        param: String,
-        /// Value in the parameter's unit (or raw with --raw).
-        #[arg(allow_hyphen_values = true)]
-        value: String,
-        /// VALUE is the raw bus value.
-        #[arg(long)]
-        raw: bool,
-        /// Write to RAM only (the service for frequent writes; lost at power-off).
-        #[arg(long)]
-        volatile: bool,
-        /// Skip the table's access/range/value-list/EEPROM-wear checks (a value that does not
-        /// fit the parameter's 32 bits is never sent).
-        #[arg(long)]
-        force: bool,
-        /// Write the nearest value the parameter can hold, saying so.
-        #[arg(long)]
-        round: bool,
-        /// Confirm a write of the drive's SBus settings (P813–P817).
-        #[arg(long)]
-        yes: bool,
-        /// Write to every drive of this SBus group (P814), 0–63, instead of --addr.
-        #[arg(long, value_parser = clap::value_parser!(u8).range(0..=63))]
-        group: Option<u8>,
-    },
+    Write(cmd::WriteArgs<Sew, GroupWrite>),
     /// Minimum, maximum, default, scale and attributes of a parameter.
     #[command(
         after_help = "Examples:\n  drivectl sbus --iface can0 --addr 1 info P130\n  drivectl sbus --iface can0 --addr 1 info 8470 --json"
     )]
-    Info {
-        /// Index or menu number.
-        param: String,
-    },
+    Info(cmd::InfoArgs<Sew>),
     /// Show the interface, its bit rate and the timing the master uses: the frame times of a
     /// parameter request and answer, the least response timeout an answer can meet, the
     /// response timeout and retries, the handshake mode and the SYNC identifier (the interface
@@ -407,36 +385,61 @@ fn master_config(args: &SbusArgs) -> MasterConfig {
 /// What can be checked without the bus is checked before the interface is opened.
 fn precheck(command: &SbusCommand) -> Result<()> {
     match command {
-        SbusCommand::Read { params } | SbusCommand::Watch { params, .. } => {
-            params.iter().try_for_each(|p| resolve(p).map(|_| ()))
-        }
-        SbusCommand::Info { param } => resolve(param).map(|_| ()),
-        SbusCommand::Write {
-            param,
-            value,
-            raw,
-            force,
-            round,
-            ..
-        } => {
-            let how = ValueText {
-                raw: *raw,
-                force: *force,
-                round: *round,
-            };
-            Ok(resolve(param)?.value_from_text(value, &how).map(|_| ())?)
-        }
         SbusCommand::Scan { from, to } if from > to => Err(CliError::usage(format!(
             "scan --from {from} --to {to}: the range must satisfy 0 ≤ --from ≤ --to ≤ 63"
         ))),
         SbusCommand::Pd(p) => p.check().map(drop),
-        SbusCommand::Restore(r) => backup::check_file(&r.file, Family::Movidrive, NOT_RESTORED),
-        _ => Ok(()),
+        c => common_of!(c, SbusCommand).map_or(Ok(()), |c| cmd::precheck(c, NOT_RESTORED)),
     }
 }
 
 fn address(a: u8) -> Result<Address> {
     Address::new(a).ok_or_else(|| CliError::usage(format!("--addr {a}: SBus addresses are 0…63")))
+}
+
+/// The bus with the drive of `--addr` on it.
+struct Bus<'a, C> {
+    m: &'a mut SbusDriver<C>,
+    args: &'a SbusArgs,
+    iface: &'a Iface,
+}
+
+impl<C: drive_core::rt::CanIo> SewBus for Bus<'_, C> {
+    type Link<'a>
+        = SbusLink<'a, C>
+    where
+        Self: 'a;
+    type Confirm = GroupWrite;
+
+    fn link(&mut self) -> Result<SbusLink<'_, C>> {
+        Ok(SbusLink {
+            master: self.m,
+            address: address(self.args.addr)?,
+            handshake: handshake(self.args),
+            iface: self.iface.name(),
+        })
+    }
+
+    async fn unanswered(
+        &mut self,
+        args: &cmd::WriteArgs<Sew, GroupWrite>,
+        request: &write::WriteRequest,
+        json: bool,
+    ) -> Result<bool> {
+        let Some(g) = args.confirm.group else {
+            return Ok(false);
+        };
+        group_write(
+            self.m,
+            address(g)?,
+            self.iface,
+            request,
+            args.confirm.yes,
+            json,
+        )
+        .await?;
+        Ok(true)
+    }
 }
 
 async fn execute<C: drive_core::rt::CanIo>(
@@ -446,52 +449,15 @@ async fn execute<C: drive_core::rt::CanIo>(
 ) -> Result<()> {
     let json = args.json;
     let addr = address(args.addr)?;
-    let link = |m| SbusLink {
-        master: m,
-        address: addr,
-        handshake: handshake(args),
-        iface: iface.name(),
-    };
+    if let Some(c) = common_of!(&args.command, SbusCommand) {
+        return cmd::execute(&mut SewDrive(Bus { m, args, iface }), c, json).await;
+    }
     match &args.command {
-        SbusCommand::Read { params } => crate::sew::read(link(m), params, json).await,
-        SbusCommand::Watch {
-            params,
-            watch: watch_args,
-        } => crate::sew::watch(link(m), params, watch_args, json).await,
-        SbusCommand::Write {
-            param,
-            value,
-            raw,
-            volatile,
-            force,
-            round,
-            yes,
-            group,
-        } => {
-            let request = crate::sew::write_request(crate::sew::WriteText {
-                param,
-                value,
-                raw: *raw,
-                volatile: *volatile,
-                force: *force,
-                round: *round,
-            })?;
-            match group {
-                Some(g) => group_write(m, address(*g)?, iface, &request, *yes, json).await,
-                None => crate::sew::write(link(m), &request, *yes, json).await,
-            }
-        }
-        SbusCommand::Info { param } => {
-            let mut l = link(m);
-            crate::sew::info(&mut l, resolve(param)?, json).await
-        }
         SbusCommand::Scan { from, to } => scan(m, *from, *to, json).await,
         SbusCommand::Pd(p) => pd::pd(m, addr, p, json, &again(args)).await,
         SbusCommand::Sync(s) => pd::sync(m, s, args.sync_id, json).await,
         SbusCommand::Line => line(args, iface, json),
-        SbusCommand::Backup(b) => crate::sew::backup(link(m), b, json).await,
-        SbusCommand::Restore(r) => crate::sew::restore(link(m), r, json).await,
-        SbusCommand::Ids { .. } | SbusCommand::Plan { .. } => Ok(()),
+        _ => Ok(()),
     }
 }
 
