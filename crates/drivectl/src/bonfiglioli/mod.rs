@@ -226,14 +226,10 @@ enum BonfiglioliCommand {
     )]
     Line,
     /// Save every readable parameter of the table in every data set it has to a JSON file.
-    #[command(
-        after_help = "Examples:\n  drivectl bonfiglioli --port /dev/ttyUSB0 --addr 1 backup --out drive1.json\n  drivectl bonfiglioli --port /dev/ttyUSB0 --addr 1 backup --out drive1.json --overwrite"
-    )]
+    #[command(after_help = backup_examples!("drivectl bonfiglioli --port /dev/ttyUSB0 --addr 1"))]
     Backup(backup::BackupArgs),
     /// Write a backup file back (data sets 1–4, never 0) and verify every value.
-    #[command(
-        after_help = "Examples:\n  drivectl bonfiglioli --port /dev/ttyUSB0 --addr 1 restore drive1.json --dry-run\n  drivectl bonfiglioli --port /dev/ttyUSB0 --addr 1 restore drive1.json"
-    )]
+    #[command(after_help = restore_examples!("drivectl bonfiglioli --port /dev/ttyUSB0 --addr 1"))]
     Restore(backup::RestoreArgs),
 }
 

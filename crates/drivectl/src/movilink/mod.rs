@@ -158,16 +158,12 @@ enum MovilinkCommand {
     )]
     Line,
     /// Save all readable parameters to a JSON file.
-    #[command(
-        after_help = "Examples:\n  drivectl movilink --port /dev/ttyUSB0 --addr 1 backup --out drive1.json\n  drivectl movilink --port /dev/ttyUSB0 --addr 1 backup --out drive1.json --overwrite"
-    )]
+    #[command(after_help = backup_examples!("drivectl movilink --port /dev/ttyUSB0 --addr 1"))]
     Backup(backup::BackupArgs),
     /// Write a backup file back to the drive and verify every value. Everything is checked
     /// before the first write; Ctrl-C stops after the write in progress and lists what was
     /// written; running it again finishes it.
-    #[command(
-        after_help = "Examples:\n  drivectl movilink --port /dev/ttyUSB0 --addr 1 restore drive1.json --dry-run    what would change\n  drivectl movilink --port /dev/ttyUSB0 --addr 1 restore drive1.json"
-    )]
+    #[command(after_help = restore_examples!("drivectl movilink --port /dev/ttyUSB0 --addr 1"))]
     Restore(backup::RestoreArgs),
 }
 

@@ -12,7 +12,7 @@ use crate::error::{CliError, Result};
 use crate::sew::PdStop;
 use crate::tool::again::Again;
 use crate::tool::client::parse_int;
-use crate::tool::motor::{Motion, MotorGuard, Stopped};
+use crate::tool::motor::{Motion, MotorGuard, Stopped, paced};
 use crate::tool::output::trim_float;
 
 /// Arguments of `drivectl movilink pd`.
@@ -155,24 +155,12 @@ pub async fn pd<IO: CharIo>(
                 print_pd(addr, pdu, &words, response.process_data(), json)?;
             }
         } else {
-            let mut done = 0u32;
-            while s.count == 0 || done < s.count {
-                if done > 0 {
-                    // An interrupt ends the pause at once.
-                    tokio::select! {
-                        () = tokio::time::sleep(period) => {}
-                        () = stop.wait() => {}
-                    }
-                }
-                if stop.requested() {
-                    break;
-                }
-                done = done.saturating_add(1);
+            paced(motion, s.count, period, async || {
                 let request = Telegram::request(addr, pdu).with_process_data(&words);
-                motion.armed();
                 let response = m.exchange(request).await.map_err(driver_error)?;
-                print_pd(addr, pdu, &words, response.process_data(), json)?;
-            }
+                print_pd(addr, pdu, &words, response.process_data(), json)
+            })
+            .await?;
         }
         Ok(())
     };

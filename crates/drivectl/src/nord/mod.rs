@@ -200,15 +200,11 @@ pub enum NordCommand {
         wait: u64,
     },
     /// Save every readable parameter in every array element and parameter set to a JSON file.
-    #[command(
-        after_help = "Examples:\n  drivectl uss --port /dev/ttyUSB0 --addr 1 backup --out drive1.json\n  drivectl uss --port /dev/ttyUSB0 --addr 1 backup --out drive1.json --overwrite"
-    )]
+    #[command(after_help = backup_examples!("drivectl uss --port /dev/ttyUSB0 --addr 1"))]
     Backup(backup::BackupArgs),
     /// Write a backup file back (every array element and parameter set; P560 last) and verify
     /// every value.
-    #[command(
-        after_help = "Examples:\n  drivectl uss --port /dev/ttyUSB0 --addr 1 restore drive1.json --dry-run\n  drivectl uss --port /dev/ttyUSB0 --addr 1 restore drive1.json"
-    )]
+    #[command(after_help = restore_examples!("drivectl uss --port /dev/ttyUSB0 --addr 1"))]
     Restore(backup::RestoreArgs),
 }
 

@@ -193,15 +193,11 @@ enum SbusCommand {
     )]
     Sync(pd::SyncArgs),
     /// Save all readable parameters to a JSON file.
-    #[command(
-        after_help = "Examples:\n  drivectl sbus --iface can0 --addr 1 backup --out drive1.json\n  drivectl sbus --iface can0 --addr 1 backup --out drive1.json --overwrite"
-    )]
+    #[command(after_help = backup_examples!("drivectl sbus --iface can0 --addr 1"))]
     Backup(backup::BackupArgs),
     /// Write a backup file back to the drive and verify every value (P813, P816 and P817 are
     /// never written: they would cut the bus).
-    #[command(
-        after_help = "Examples:\n  drivectl sbus --iface can0 --addr 1 restore drive1.json --dry-run    what would change\n  drivectl sbus --iface can0 --addr 1 restore drive1.json"
-    )]
+    #[command(after_help = restore_examples!("drivectl sbus --iface can0 --addr 1"))]
     Restore(backup::RestoreArgs),
     /// The CAN identifiers a drive uses as an SBus slave, from its SBus address (P813), group
     /// address (P814) and sync identifier (P817), with who sends each.

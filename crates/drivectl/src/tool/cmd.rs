@@ -185,6 +185,33 @@ macro_rules! common_of {
     };
 }
 
+/// The examples below a family's `backup --help`, for a drive reached with `$reach`
+/// (`drivectl movilink --port /dev/ttyUSB0 --addr 1`).
+macro_rules! backup_examples {
+    ($reach:literal) => {
+        concat!(
+            "Examples:\n  ",
+            $reach,
+            " backup --out drive1.json\n  ",
+            $reach,
+            " backup --out drive1.json --overwrite"
+        )
+    };
+}
+
+/// The examples below a family's `restore --help` (as [`backup_examples`]).
+macro_rules! restore_examples {
+    ($reach:literal) => {
+        concat!(
+            "Examples:\n  ",
+            $reach,
+            " restore drive1.json --dry-run    what would change\n  ",
+            $reach,
+            " restore drive1.json"
+        )
+    };
+}
+
 /// What a command can check without the drive is checked before the link is opened: names,
 /// selectors, a write's value, a restore's file (`not_restored`: the indices it never writes).
 pub fn precheck<S: Selector, Y: Confirm>(
