@@ -71,9 +71,9 @@ impl Confirm for NoConfirm {
     }
 }
 
-// The argument structs carry no doc comment: each family's subcommand describes itself.
+// Each family's subcommand describes itself (its doc comment wins over these).
 
-#[allow(missing_docs)]
+/// The arguments of `read`: parameter names and the family's selector.
 #[derive(Debug, Clone, Args)]
 pub struct ReadArgs<S: Selector> {
     #[arg(required = true, num_args = 1.., help = S::PARAMS)]
@@ -82,7 +82,7 @@ pub struct ReadArgs<S: Selector> {
     pub sel: S,
 }
 
-#[allow(missing_docs)]
+/// The arguments of `watch`: as `read`, and the poll options.
 #[derive(Debug, Clone, Args)]
 #[group(id = "WatchCommand")]
 pub struct WatchArgs<S: Selector> {
@@ -94,7 +94,7 @@ pub struct WatchArgs<S: Selector> {
     pub watch: watch::WatchArgs,
 }
 
-#[allow(missing_docs)]
+/// The arguments of `write`: the parameter, its value and how it is written.
 #[derive(Debug, Clone, Args)]
 pub struct WriteArgs<S: Selector, Y: Confirm> {
     #[arg(help = S::PARAM)]
@@ -136,7 +136,7 @@ impl<S: Selector, Y: Confirm> WriteArgs<S, Y> {
     }
 }
 
-#[allow(missing_docs)]
+/// The arguments of `info`: one parameter with the family's selector.
 #[derive(Debug, Clone, Args)]
 pub struct InfoArgs<S: Selector> {
     #[arg(help = S::INFO_PARAM)]
@@ -158,7 +158,6 @@ pub struct WriteValue {
 
 /// One of the common commands of a family's subcommand.
 #[derive(Debug, Clone, Copy)]
-#[allow(missing_docs)]
 pub enum Common<'a, S: Selector, Y: Confirm> {
     Read(&'a ReadArgs<S>),
     Watch(&'a WatchArgs<S>),
