@@ -15,7 +15,7 @@ use serde_json::{Map, Value, json};
 pub use drive_client::sew::{SewClient, SewLink};
 
 use crate::error::Result;
-use crate::tool::client::{ParamClient, Target, ValueText};
+use crate::tool::client::{Target, ValueText};
 use crate::tool::cmd::{self, Confirm, Drive, InfoArgs, WriteArgs, WriteValue, Writer};
 use crate::tool::front::Cli;
 use crate::tool::output::physical_text;
@@ -224,19 +224,10 @@ where
     L: SewLink,
     F: AsyncFnOnce(&mut L, ParamChannel) -> Result<()>,
 {
-    use crate::tool::write;
-    let mut c = client(link);
-    write::check_link_setting(&c, request, yes)?;
-    let drive_key = c.drive_key().await?;
-    if let Some(warning) = write::check(&mut c, request).await? {
-        errln!("drivectl: warning: {warning}");
-    }
     let t = request.target;
     let channel = write_service(t.index, request.raw, request.persistence);
-    send(&mut c.link, channel).await?;
-    if let Err(e) = write::record(&drive_key, request) {
-        errln!("drivectl: warning: {e}");
-    }
+    let put = async |c: &mut SewClient<L>| send(&mut c.link, channel).await;
+    crate::tool::write::unanswered(&mut client(link), request, yes, put).await?;
     if json {
         let mut m = Map::new();
         m.insert("index".into(), t.index.into());

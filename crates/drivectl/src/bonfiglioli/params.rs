@@ -126,23 +126,19 @@ pub async fn write_broadcast<IO: CharIo>(
     yes: bool,
     json: bool,
 ) -> Result<()> {
-    let mut c = client(m, Address::BROADCAST, port, width);
-    write::check_link_setting(&c, request, yes)?;
-    let drive = c.drive_key().await?;
-    if let Some(warning) = write::check(&mut c, request).await? {
-        errln!("drivectl: warning: {warning}");
-    }
-    c.write(&request.target, request.raw, request.persistence)
-        .await
-        .map_err(|e| request.target.error(e))?;
     // Keep the line quiet for the broadcast's hold and the frame gap before this process lets
     // go of the port: the next request (perhaps from the next drivectl run, a few ms later)
     // must not follow sooner, or the drives take both frames for one and drop it.
     let hold = bonfiglioli_modbus::master::BROADCAST_HOLD + m.config().line.char_times(7, 2);
-    tokio::time::sleep(hold).await;
-    if let Err(e) = write::record(&drive, request) {
-        errln!("drivectl: warning: {e}");
-    }
+    let send = async |c: &mut BonfiglioliClient<'_, IO>| {
+        c.write(&request.target, request.raw, request.persistence)
+            .await
+            .map_err(|e| request.target.error(e))?;
+        tokio::time::sleep(hold).await;
+        Ok(())
+    };
+    let mut c = client(m, Address::BROADCAST, port, width);
+    write::unanswered(&mut c, request, yes, send).await?;
     let t = request.target;
     if json {
         outln!(
