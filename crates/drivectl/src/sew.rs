@@ -1,26 +1,134 @@
 //! What `drivectl movilink` and `drivectl sbus` share: a MOVIDRIVE's parameter channel is the
 //! same on RS-485 and on CAN, so the client is drive-client's one [`SewClient`] on a
-//! [`SewLink`] (MOVILINK's or SBus's), and the commands on it are written once here: read,
-//! watch, write (answered, or to a group or broadcast), info, backup, restore, and the
+//! [`SewLink`] (MOVILINK's or SBus's), and the common commands run on it the same way
+//! ([`SewDrive`]): the names ([`Sew`]), info, a write to a group or broadcast, and the
 //! process-data preflight with its warnings on standard error.
 
 use drive_client::sew::{
-    Description, bus_timeout, describe, pd_warnings, raw_of, with_command, write_service,
+    Description, RAW_INDICES, bus_timeout, describe, pd_warnings, raw_of, with_command,
+    write_service,
 };
 use drive_profile::sew::{self, ParamChannel};
-use drive_profile::{Access, Persistence};
+use drive_profile::{Access, Family};
 use serde_json::{Map, Value, json};
 
 pub use drive_client::sew::{SewClient, SewLink};
 
 use crate::error::Result;
-use crate::tool::client::{ParamClient, Target};
+use crate::tool::client::{Target, ValueText};
+use crate::tool::cmd::{self, Confirm, Drive, InfoArgs, WriteArgs, WriteValue, Writer};
 use crate::tool::front::Cli;
 use crate::tool::output::physical_text;
+use crate::tool::write::WriteRequest;
 
 /// The client of the drive behind `link`, its messages in the command line's words.
 pub fn client<L: SewLink>(link: L) -> SewClient<L> {
     SewClient::new(link).with_front_end(&Cli)
+}
+
+/// Resolve a MOVIDRIVE parameter: `P813`, `813`, `8600`, `0x2198`; indices outside the table
+/// are allowed (raw access).
+pub fn resolve(key: &str) -> Result<Target> {
+    Ok(Target::resolve(Family::Movidrive, key, RAW_INDICES)?)
+}
+
+/// A MOVIDRIVE parameter is its index or menu number alone.
+#[derive(Debug, Clone, Copy, Default, clap::Args)]
+pub struct Sew {}
+
+impl cmd::Selector for Sew {
+    const FAMILY: Family = Family::Movidrive;
+    const PARAMS: &'static str = "Indices (8318, 0x207E) or menu numbers (P000)";
+    const PARAM: &'static str = "Index or menu number";
+    const INFO_PARAM: &'static str = "Index or menu number";
+    const VOLATILE: &'static str =
+        "Write to RAM only (the service for frequent writes; lost at power-off)";
+    const FORCE: &'static str = "Skip the access/range/value-list/EEPROM-wear checks of the \
+        table and convert a physical value outside the table's range (a value that does not \
+        fit the parameter's 32 bits is never sent)";
+
+    fn targets(params: &[String], _: Self) -> Result<Vec<Target>> {
+        params.iter().map(|p| resolve(p)).collect()
+    }
+
+    fn check_info(param: &str, _: Self) -> Result<()> {
+        resolve(param).map(drop)
+    }
+
+    fn write_value(param: &str, value: &str, _: Self, how: &ValueText) -> Result<WriteValue> {
+        let target = resolve(param)?;
+        let parsed = target.value_from_text(value, how)?;
+        Ok(WriteValue {
+            target,
+            raw: parsed.raw,
+            rounded_from: parsed.rounded_from,
+        })
+    }
+}
+
+/// A SEW bus with a drive on it (MOVILINK's line, SBus's CAN): the way to the drive, and the
+/// writes no drive answers.
+pub trait SewBus {
+    /// The way to one drive.
+    type Link<'a>: SewLink
+    where
+        Self: 'a;
+    /// How a write is confirmed (and, on SBus, sent to a group).
+    type Confirm: Confirm;
+
+    /// The way to the drive of `--addr`.
+    fn link(&mut self) -> Result<Self::Link<'_>>;
+
+    /// Send the write of `request` where no drive answers, when `args` ask for it (a group, a
+    /// broadcast); `true` when it was sent.
+    async fn unanswered(
+        &mut self,
+        args: &WriteArgs<Sew, Self::Confirm>,
+        request: &WriteRequest,
+        json: bool,
+    ) -> Result<bool>;
+}
+
+/// The common commands on a SEW bus.
+#[derive(Debug)]
+pub struct SewDrive<B>(pub B);
+
+impl<B: SewBus> Drive for SewDrive<B> {
+    type Selector = Sew;
+    type Confirm = B::Confirm;
+    type Client<'a>
+        = SewClient<B::Link<'a>>
+    where
+        Self: 'a;
+
+    async fn reader(&mut self, _: Sew, _: &[Target]) -> Result<Self::Client<'_>> {
+        Ok(client(self.0.link()?))
+    }
+
+    fn keeper(&mut self) -> Result<Self::Client<'_>> {
+        Ok(client(self.0.link()?))
+    }
+
+    async fn writer(
+        &mut self,
+        args: &WriteArgs<Sew, B::Confirm>,
+        request: &mut WriteRequest,
+        json: bool,
+    ) -> Result<Writer<Self::Client<'_>>> {
+        if self.0.unanswered(args, request, json).await? {
+            return Ok(Writer::Sent);
+        }
+        Ok(Writer::To {
+            client: client(self.0.link()?),
+            yes: args.confirm.yes(),
+            note: None,
+        })
+    }
+
+    async fn info(&mut self, args: &InfoArgs<Sew>, json: bool) -> Result<()> {
+        let mut link = self.0.link()?;
+        info(&mut link, resolve(&args.param)?, json).await
+    }
 }
 
 /// `info`: minimum, maximum, default, scale and attributes of `t`.
@@ -89,95 +197,6 @@ pub async fn info<L: SewLink>(link: &mut L, t: Target, json: bool) -> Result<()>
     Ok(())
 }
 
-/// `read`: every name resolved first (a mistyped one is an error before anything is sent),
-/// then one line (or JSON object) per parameter.
-pub async fn read<L: SewLink>(link: L, params: &[String], json: bool) -> Result<()> {
-    let targets = resolve_all(params)?;
-    crate::tool::read::read_all(&mut client(link), &targets, json).await
-}
-
-/// `watch`: the parameters polled at a steady rhythm until `--count` or Ctrl-C.
-pub async fn watch<L: SewLink>(
-    link: L,
-    params: &[String],
-    args: &crate::tool::watch::WatchArgs,
-    json: bool,
-) -> Result<()> {
-    use crate::tool::watch;
-    let targets = resolve_all(params)?;
-    let options = args.options(json)?;
-    watch::watch(
-        &mut client(link),
-        &targets,
-        options,
-        &mut |s| out!("{s}"),
-        watch::ctrl_c(),
-    )
-    .await
-    .map(drop)
-}
-
-fn resolve_all(params: &[String]) -> Result<Vec<Target>> {
-    params.iter().map(|p| crate::movilink::resolve(p)).collect()
-}
-
-/// What `write` was given on the command line.
-#[derive(Debug, Clone, Copy)]
-pub struct WriteText<'a> {
-    /// Index or menu number.
-    pub param: &'a str,
-    /// The value as typed.
-    pub value: &'a str,
-    /// `--raw`.
-    pub raw: bool,
-    /// `--volatile`.
-    pub volatile: bool,
-    /// `--force`.
-    pub force: bool,
-    /// `--round`.
-    pub round: bool,
-}
-
-/// The checked write request of `write`'s options; a rounded value is said.
-pub fn write_request(w: WriteText<'_>) -> Result<crate::tool::write::WriteRequest> {
-    let t = crate::movilink::resolve(w.param)?;
-    let how = crate::tool::client::ValueText {
-        raw: w.raw,
-        force: w.force,
-        round: w.round,
-    };
-    let parsed = t.value_from_text(w.value, &how)?;
-    if let (Some(x), Some(p)) = (parsed.rounded_from, t.param) {
-        errln!(
-            "drivectl: note: {} cannot hold {x} exactly; writing the nearest value it takes, {}",
-            p.label(),
-            physical_text(p, parsed.raw)
-        );
-    }
-    Ok(crate::tool::write::WriteRequest {
-        target: t,
-        raw: parsed.raw,
-        persistence: if w.volatile {
-            Persistence::Volatile
-        } else {
-            Persistence::NonVolatile
-        },
-        force: w.force,
-    })
-}
-
-/// `write` to one drive: the one write path (checks, wear log, read-back at the followed
-/// address), then the value as read back.
-pub async fn write<L: SewLink>(
-    link: L,
-    request: &crate::tool::write::WriteRequest,
-    yes: bool,
-    json: bool,
-) -> Result<()> {
-    let done = crate::tool::write::write_checked(&mut client(link), request, yes).await?;
-    crate::tool::write::print_written(&request.target, &done, json)
-}
-
 /// Where an unanswered write goes, for the output: the text (`group 2`, `broadcast`) and the
 /// JSON key and number (`"group": 2`, `"address": 255`).
 #[derive(Debug, Clone)]
@@ -195,7 +214,7 @@ pub struct Unanswered {
 /// nothing to read back. The drives of a group share the wear-log entry of the group.
 pub async fn write_unanswered<L, F>(
     link: L,
-    request: &crate::tool::write::WriteRequest,
+    request: &WriteRequest,
     yes: bool,
     json: bool,
     to: Unanswered,
@@ -205,19 +224,10 @@ where
     L: SewLink,
     F: AsyncFnOnce(&mut L, ParamChannel) -> Result<()>,
 {
-    use crate::tool::write;
-    let mut c = client(link);
-    write::check_link_setting(&c, request, yes)?;
-    let drive_key = c.drive_key().await?;
-    if let Some(warning) = write::check(&mut c, request).await? {
-        errln!("drivectl: warning: {warning}");
-    }
     let t = request.target;
     let channel = write_service(t.index, request.raw, request.persistence);
-    send(&mut c.link, channel).await?;
-    if let Err(e) = write::record(&drive_key, request) {
-        errln!("drivectl: warning: {e}");
-    }
+    let put = async |c: &mut SewClient<L>| send(&mut c.link, channel).await;
+    crate::tool::write::unanswered(&mut client(link), request, yes, put).await?;
     if json {
         let mut m = Map::new();
         m.insert("index".into(), t.index.into());
@@ -240,28 +250,6 @@ where
         )?;
     }
     Ok(())
-}
-
-/// `backup`: every readable parameter to a JSON file.
-pub async fn backup<L: SewLink>(
-    link: L,
-    args: &crate::tool::backup::BackupArgs,
-    json: bool,
-) -> Result<()> {
-    let stop = crate::tool::interrupt::Interrupt::install("the backup file was not written");
-    crate::tool::backup::backup(&mut client(link), &args.out, args.overwrite, json, &stop).await
-}
-
-/// `restore`: a backup file written back and verified.
-pub async fn restore<L: SewLink>(
-    link: L,
-    args: &crate::tool::backup::RestoreArgs,
-    json: bool,
-) -> Result<()> {
-    let stop = crate::tool::interrupt::Interrupt::install(
-        "the drive may be half restored; run the same restore again to finish it",
-    );
-    crate::tool::backup::restore(&mut client(link), &args.file, args.options(), json, &stop).await
 }
 
 /// The stop a SEW `pd` session ends with (`movilink pd`, `sbus pd`): the output words with the

@@ -1,17 +1,17 @@
 //! `drivectl movilink …`: talk to a MOVIDRIVE over MOVILINK (RS-485 / RS-232).
 //!
 //! A thin mapping: drive-client's [`MovilinkLink`] is the `movilink` driver as a `SewLink`, the
-//! way to a MOVIDRIVE that SBus has too; read, watch, write, info, backup, restore and the
-//! process-data preflight are `crate::sew`'s, shared with `drivectl sbus`. What only MOVILINK has lives here:
-//! the address rules (254 point-to-point, groups 101–199, broadcast 255), the address scan,
-//! PDU types for process data, `line`.
+//! way to a MOVIDRIVE that SBus has too; read, watch, write, info, backup and restore are the
+//! tool layer's common commands ([`crate::tool::cmd`]) on the SEW client ([`crate::sew`]).
+//! What only MOVILINK has lives here: the address rules (254 point-to-point, groups 101–199,
+//! broadcast 255), the address scan, `line`, and process data ([`pd`]).
 
 pub mod decode;
+pub mod pd;
 pub mod sim;
 
 use clap::{Args, Subcommand};
-use drive_profile::Family;
-use drive_profile::sew::{self, ControlWord1, StatusWord1, index};
+use drive_profile::sew::{self, index};
 use movilink::driver::{
     CharIo, DriverConfig, DriverError, MovilinkDriver as MasterDriver, ParamServices,
 };
@@ -19,20 +19,19 @@ use movilink::{Address, ParamChannel, PduType, Telegram};
 use serde_json::json;
 use std::time::Duration;
 
-use drive_client::sew::RAW_INDICES;
 #[cfg(test)]
 pub use drive_client::sew::movilink::LINK_SETTINGS;
 use drive_client::sew::movilink::MovilinkLink;
 pub use drive_client::sew::movilink::NOT_RESTORED;
 
 use crate::error::{CliError, Result};
-use crate::sew::PdStop;
+use crate::sew::{Sew, SewBus, SewDrive};
 use crate::tool::again::Again;
-use crate::tool::client::{Target, ValueText, parse_int};
+use crate::tool::backup;
+use crate::tool::cmd;
 use crate::tool::line::{LineArgs, MasterArgs, runtime};
-use crate::tool::motor::{Motion, MotorGuard, Stopped};
 use crate::tool::output::trim_float;
-use crate::tool::{backup, stale, watch, write};
+use crate::tool::{stale, write};
 
 /// Where the EEPROM-wear log lives, for `--help`.
 const WEAR_LOG_HELP: &str = "\
@@ -86,6 +85,21 @@ pub struct MovilinkArgs {
     command: MovilinkCommand,
 }
 
+/// `--yes` of `drivectl movilink write`.
+#[derive(Debug, Clone, Copy, Args)]
+pub struct Yes {
+    /// Confirm a write of the drive's own link settings (P810 address, P811 group address,
+    /// P812 RS-485 timeout): it changes how the drive is reached.
+    #[arg(long)]
+    yes: bool,
+}
+
+impl cmd::Confirm for Yes {
+    fn yes(&self) -> bool {
+        self.yes
+    }
+}
+
 #[derive(Debug, Subcommand)]
 enum MovilinkCommand {
     /// Read parameters: value with unit and scaling (status and fault words decoded), and the
@@ -97,11 +111,7 @@ enum MovilinkCommand {
         after_help = "Examples:\n  drivectl movilink --port /dev/ttyUSB0 --addr 1 read P000\n  \
         drivectl movilink --port /dev/ttyUSB0 --addr 1 read P000 P010 P130 8318"
     )]
-    Read {
-        /// Indices (8318, 0x207E) or menu numbers (P000).
-        #[arg(required = true, num_args = 1..)]
-        params: Vec<String>,
-    },
+    Read(cmd::ReadArgs<Sew>),
     /// Poll parameters at a steady rhythm, every row with its time (RFC 3339, UTC): a table
     /// redrawn in place on a terminal, one line per poll when piped, CSV or JSON (one object
     /// per poll, "type": "sample"). Ctrl-C ends it (exit 0).
@@ -113,50 +123,15 @@ enum MovilinkCommand {
         after_help = "Examples:\n  drivectl movilink --port /dev/ttyUSB0 --addr 1 watch P000 P004 P010\n  \
         drivectl movilink --port /dev/ttyUSB0 --addr 1 watch P000 --interval 200 --count 50 --csv > speed.csv"
     )]
-    Watch {
-        /// Indices (8318, 0x207E) or menu numbers (P000).
-        #[arg(required = true, num_args = 1..)]
-        params: Vec<String>,
-        #[command(flatten)]
-        watch: watch::WatchArgs,
-    },
+    Watch(cmd::WatchArgs<Sew>),
     /// Write a parameter (checked against the table first).
     #[command(after_help = WRITE_HELP)]
-    Write {
-        /// Index or menu number.
-        param: String,
-        /// Value in the parameter's unit (or raw with --raw).
-        #[arg(allow_hyphen_values = true)]
-        value: String,
-        /// VALUE is the raw bus value.
-        #[arg(long)]
-        raw: bool,
-        /// Write to RAM only (the service for frequent writes; lost at power-off).
-        #[arg(long)]
-        volatile: bool,
-        /// Skip the access/range/value-list/EEPROM-wear checks of the table and convert a
-        /// physical value outside the table's range (a value that does not fit the parameter's
-        /// 32 bits is never sent).
-        #[arg(long)]
-        force: bool,
-        /// Accept a physical value the parameter cannot hold exactly (1.25 s where it takes
-        /// 0.1 s steps) and write the nearest one it can, saying so; without it such a value is
-        /// refused with the nearest one named.
-        #[arg(long)]
-        round: bool,
-        /// Confirm a write of the drive's own link settings (P810 address, P811 group address,
-        /// P812 RS-485 timeout): it changes how the drive is reached.
-        #[arg(long)]
-        yes: bool,
-    },
+    Write(cmd::WriteArgs<Sew, Yes>),
     /// Minimum, maximum, default, scale and attributes of a parameter.
     #[command(
         after_help = "Examples:\n  drivectl movilink --port /dev/ttyUSB0 --addr 1 info P130\n  drivectl movilink --port /dev/ttyUSB0 --addr 1 info 8470 --json"
     )]
-    Info {
-        /// Index or menu number.
-        param: String,
-    },
+    Info(cmd::InfoArgs<Sew>),
     /// Find responding drives with their device type (P070, index 8301: named where a manual
     /// codes it, else `device_type_name` null), rated current (P071) and firmware (P076).
     #[command(
@@ -174,37 +149,7 @@ enum MovilinkCommand {
     #[command(
         after_help = "Examples:\n  drivectl movilink --port /dev/ttyUSB0 --addr 1 pd --out 0x0006,5000,0 --count 50     enable, 1000 1/min for 5 s, then stop\n  drivectl movilink --port /dev/ttyUSB0 --addr 1 pd --type 0x05 --out 0x0006,5000,0 --count 0 --interval 50    cyclic until Ctrl-C, then stop\n  drivectl movilink --port /dev/ttyUSB0 --addr 1 pd --out 0x0006,5000,0 --keep-running   leave it running (P812 should be set)"
     )]
-    Pd {
-        /// PDU type, e.g. 0x85 (3PD acyclic) or 0x05 (3PD cyclic).
-        #[arg(long = "type", default_value = "0x85")]
-        pdu_type: String,
-        /// Output words, e.g. 0x0006,5000,0.
-        #[arg(
-            long,
-            value_delimiter = ',',
-            required = true,
-            allow_hyphen_values = true
-        )]
-        out: Vec<String>,
-        /// Number of exchanges; 0 runs until Ctrl-C.
-        #[arg(long, default_value_t = 1)]
-        count: u32,
-        /// Milliseconds between exchanges, 1–60000. By default 100, and for a cyclic PDU type
-        /// half the drive's RS-485 timeout P812 when that is shorter; an interval at or above
-        /// P812 is refused (the drive would trip between two exchanges).
-        #[arg(long, value_parser = clap::value_parser!(u64).range(1..=60_000))]
-        interval: Option<u64>,
-        /// Leave the drive as the last exchange left it. Without it, `pd` ends (after --count
-        /// exchanges, on Ctrl-C, SIGTERM, SIGHUP or SIGQUIT, on an error or a closed output
-        /// pipe) by sending the control word slot (P870–P872) the --stop command.
-        #[arg(long)]
-        keep_running: bool,
-        /// How `pd` stops the drive at its end: `ramp` (control word 0x0002: stop on the
-        /// active integrator ramp) or `inhibit` (0x0001: controller inhibit, the output stage
-        /// off and the motor coasts).
-        #[arg(long, default_value = "ramp", value_parser = ["ramp", "inhibit"])]
-        stop: String,
-    },
+    Pd(pd::PdArgs),
     /// Show the line settings and the timing the master uses on this port: character time,
     /// start pause, gap limit, response timeout and retries (the port is opened, so a setting
     /// it refuses is named).
@@ -213,16 +158,12 @@ enum MovilinkCommand {
     )]
     Line,
     /// Save all readable parameters to a JSON file.
-    #[command(
-        after_help = "Examples:\n  drivectl movilink --port /dev/ttyUSB0 --addr 1 backup --out drive1.json\n  drivectl movilink --port /dev/ttyUSB0 --addr 1 backup --out drive1.json --overwrite"
-    )]
+    #[command(after_help = backup_examples!("drivectl movilink --port /dev/ttyUSB0 --addr 1"))]
     Backup(backup::BackupArgs),
     /// Write a backup file back to the drive and verify every value. Everything is checked
     /// before the first write; Ctrl-C stops after the write in progress and lists what was
     /// written; running it again finishes it.
-    #[command(
-        after_help = "Examples:\n  drivectl movilink --port /dev/ttyUSB0 --addr 1 restore drive1.json --dry-run    what would change\n  drivectl movilink --port /dev/ttyUSB0 --addr 1 restore drive1.json"
-    )]
+    #[command(after_help = restore_examples!("drivectl movilink --port /dev/ttyUSB0 --addr 1"))]
     Restore(backup::RestoreArgs),
 }
 
@@ -235,11 +176,7 @@ pub fn link<'a, IO>(
     MovilinkLink::new(driver, address, port)
 }
 
-/// Resolve a MOVIDRIVE parameter: `P813`, `813`, `8600`, `0x2198`; indices outside the table
-/// are allowed (raw access).
-pub fn resolve(key: &str) -> Result<Target> {
-    Ok(Target::resolve(Family::Movidrive, key, RAW_INDICES)?)
-}
+pub use crate::sew::resolve;
 
 fn address(a: u8) -> Result<Address> {
     Address::new(a)
@@ -320,96 +257,60 @@ pub fn run(args: &MovilinkArgs) -> Result<()> {
 /// What can be checked without the drive is checked before the port is opened: parameter names
 /// and a write's value (a mistyped name is reported as such, not as a busy or missing port).
 fn precheck(command: &MovilinkCommand) -> Result<()> {
-    match command {
-        MovilinkCommand::Read { params } | MovilinkCommand::Watch { params, .. } => {
-            params.iter().try_for_each(|p| resolve(p).map(|_| ()))
+    match common_of!(command, MovilinkCommand) {
+        Some(c) => cmd::precheck(c, NOT_RESTORED),
+        None => Ok(()),
+    }
+}
+
+/// The MOVILINK line with the drive of `--addr` on it.
+struct Bus<'a, IO> {
+    m: &'a mut MasterDriver<IO>,
+    args: &'a MovilinkArgs,
+}
+
+impl<IO: CharIo> SewBus for Bus<'_, IO> {
+    type Link<'a>
+        = MovilinkLink<'a, IO>
+    where
+        Self: 'a;
+    type Confirm = Yes;
+
+    fn link(&mut self) -> Result<MovilinkLink<'_, IO>> {
+        Ok(link(self.m, address(self.args.addr)?, &self.args.port))
+    }
+
+    async fn unanswered(
+        &mut self,
+        args: &cmd::WriteArgs<Sew, Yes>,
+        request: &write::WriteRequest,
+        json: bool,
+    ) -> Result<bool> {
+        let addr = any_address(self.args.addr)?;
+        if addr.expects_response() {
+            return Ok(false);
         }
-        MovilinkCommand::Info { param } => resolve(param).map(|_| ()),
-        MovilinkCommand::Write {
-            param,
-            value,
-            raw,
-            force,
-            round,
-            ..
-        } => {
-            let how = ValueText {
-                raw: *raw,
-                force: *force,
-                round: *round,
-            };
-            Ok(resolve(param)?.value_from_text(value, &how).map(|_| ())?)
-        }
-        MovilinkCommand::Restore(r) => backup::check_file(&r.file, Family::Movidrive, NOT_RESTORED),
-        _ => Ok(()),
+        write_unanswered(
+            self.m,
+            addr,
+            &self.args.port,
+            request,
+            args.confirm.yes,
+            json,
+        )
+        .await?;
+        Ok(true)
     }
 }
 
 async fn execute<IO: CharIo>(m: &mut MasterDriver<IO>, args: &MovilinkArgs) -> Result<()> {
     let json = args.json;
+    if let Some(c) = common_of!(&args.command, MovilinkCommand) {
+        return cmd::execute(&mut SewDrive(Bus { m, args }), c, json).await;
+    }
     match &args.command {
-        MovilinkCommand::Read { params } => {
-            crate::sew::read(link(m, address(args.addr)?, &args.port), params, json).await
-        }
-        MovilinkCommand::Watch {
-            params,
-            watch: watch_args,
-        } => {
-            let l = link(m, address(args.addr)?, &args.port);
-            crate::sew::watch(l, params, watch_args, json).await
-        }
-        MovilinkCommand::Write {
-            param,
-            value,
-            raw,
-            volatile,
-            force,
-            round,
-            yes,
-        } => {
-            let request = crate::sew::write_request(crate::sew::WriteText {
-                param,
-                value,
-                raw: *raw,
-                volatile: *volatile,
-                force: *force,
-                round: *round,
-            })?;
-            let addr = any_address(args.addr)?;
-            if !addr.expects_response() {
-                return write_unanswered(m, addr, &args.port, &request, *yes, json).await;
-            }
-            crate::sew::write(link(m, addr, &args.port), &request, *yes, json).await
-        }
-        MovilinkCommand::Info { param } => {
-            let mut l = link(m, address(args.addr)?, &args.port);
-            crate::sew::info(&mut l, resolve(param)?, json).await
-        }
         MovilinkCommand::Scan { from, to } => scan(m, *from, *to, args.master.timeout, json).await,
-        MovilinkCommand::Pd {
-            pdu_type,
-            out,
-            count,
-            interval,
-            keep_running,
-            stop,
-        } => {
-            let end = match (*keep_running, stop.as_str()) {
-                (true, _) => None,
-                (false, "inhibit") => Some(ControlWord1::INHIBIT),
-                (false, _) => Some(ControlWord1::STOP),
-            };
-            let session = PdSession {
-                addr: address(args.addr)?,
-                out,
-                count: *count,
-                interval: *interval,
-                end,
-                json,
-                again: again(args),
-            };
-            pd(m, pdu_type, &session).await
-        }
+        MovilinkCommand::Pd(p) => pd::pd(m, address(args.addr)?, p, json, again(args)).await,
         MovilinkCommand::Line => {
             let c = m.config();
             let t = c.line_timing();
@@ -438,12 +339,7 @@ async fn execute<IO: CharIo>(m: &mut MasterDriver<IO>, args: &MovilinkArgs) -> R
             }
             Ok(())
         }
-        MovilinkCommand::Backup(b) => {
-            crate::sew::backup(link(m, address(args.addr)?, &args.port), b, json).await
-        }
-        MovilinkCommand::Restore(r) => {
-            crate::sew::restore(link(m, address(args.addr)?, &args.port), r, json).await
-        }
+        _ => Ok(()),
     }
 }
 
@@ -559,156 +455,6 @@ pub fn firmware_text(v: u32) -> String {
     match (s.get(0..3), s.get(3..6), s.get(6..7), s.get(7..9)) {
         (Some(a), Some(b), Some(c), Some(d)) if s.len() == 9 => format!("{a} {b} {c}.{d}"),
         _ => s,
-    }
-}
-
-/// What `pd` was asked to do.
-struct PdSession<'a> {
-    addr: Address,
-    out: &'a [String],
-    count: u32,
-    interval: Option<u64>,
-    /// The command sent at the end (`None`: `--keep-running`).
-    end: Option<ControlWord1>,
-    json: bool,
-    /// The command line that reaches the drive again.
-    again: Again,
-}
-
-async fn pd<IO: CharIo>(m: &mut MasterDriver<IO>, pdu_type: &str, s: &PdSession<'_>) -> Result<()> {
-    let (addr, json) = (s.addr, s.json);
-    let pdu = parse_int(pdu_type)
-        .and_then(|v| u8::try_from(v).ok())
-        .and_then(PduType::new)
-        .ok_or_else(|| {
-            CliError::usage(format!(
-                "`{pdu_type}` is not a MOVILINK PDU type (0x00–0x06, 0x80–0x86)"
-            ))
-        })?;
-    if pdu.pd_words() == 0 {
-        return Err(CliError::usage(
-            "this PDU type carries no process data; use 0x81–0x85 or 0x01–0x05",
-        ));
-    }
-    let mut words = Vec::new();
-    for w in s.out {
-        let v = parse_int(w)
-            .filter(|v| (-32768..=65535).contains(v))
-            .ok_or_else(|| CliError::usage(format!("`{w}` is not a 16-bit word")))?;
-        words.push(v as u16);
-    }
-    if words.len() != pdu.pd_words() {
-        return Err(CliError::usage(format!(
-            "PDU type 0x{:02X} carries {} process data words, --out gave {}",
-            pdu.raw(),
-            pdu.pd_words(),
-            words.len()
-        )));
-    }
-    let pre = crate::sew::pd_preflight(
-        &mut link(m, addr, ""),
-        words.len(),
-        s.end.is_some(),
-        (index::RS485_TIMEOUT, "RS-485 timeout P812"),
-    )
-    .await;
-    let slots = pre.slots;
-    // P812 watches cyclic request telegrams only (manual ch. 4: "zyklisch … Timeout-Zeit").
-    let period = crate::sew::pd_interval(
-        s.interval,
-        pre.timeout.filter(|_| pdu.is_cyclic()),
-        100,
-        1,
-        "RS-485 timeout P812",
-        "an RS-485 timeout fault",
-    )?;
-    // The stop telegram: the control word slots get the stop command (their high byte kept),
-    // every other word stays as it was.
-    // No control word among the outputs: nothing can stop the drive over process data
-    // (warned above); the session ends as the last exchange left it.
-    let stop = s.end.and_then(|cmd| PdStop::new(&words, &slots, cmd));
-    let hint = PdStop::hint(&words, &slots, s.end.unwrap_or(ControlWord1::STOP));
-    let guard = MotorGuard::install(
-        PdStop::at_end(stop.as_ref(), s.end.is_none()),
-        s.again.then(&hint),
-    );
-    // Cyclic types run as a cyclic session (one telegram every --interval, which keeps the
-    // drive's RS-485 timeout P812 fed); acyclic ones are single exchanges --interval apart. An
-    // interrupt ends the loop after the exchange in progress.
-    let work = async |m: &mut MasterDriver<IO>, motion: &Motion<'_>| -> Result<()> {
-        let stop = motion.interrupt();
-        if pdu.is_cyclic() {
-            let mut session = m.cyclic(addr, pdu, period).map_err(driver_error)?;
-            session.set_output(&words);
-            let mut done = 0u32;
-            while s.count == 0 || done < s.count {
-                if stop.requested() {
-                    break;
-                }
-                done = done.saturating_add(1);
-                motion.armed();
-                let response = session.cycle().await.map_err(driver_error)?;
-                print_pd(addr, pdu, &words, response.process_data(), json)?;
-            }
-        } else {
-            let mut done = 0u32;
-            while s.count == 0 || done < s.count {
-                if done > 0 {
-                    // An interrupt ends the pause at once.
-                    tokio::select! {
-                        () = tokio::time::sleep(period) => {}
-                        () = stop.wait() => {}
-                    }
-                }
-                if stop.requested() {
-                    break;
-                }
-                done = done.saturating_add(1);
-                let request = Telegram::request(addr, pdu).with_process_data(&words);
-                motion.armed();
-                let response = m.exchange(request).await.map_err(driver_error)?;
-                print_pd(addr, pdu, &words, response.process_data(), json)?;
-            }
-        }
-        Ok(())
-    };
-    let send_stop = async |m: &mut MasterDriver<IO>| -> Result<Stopped> {
-        let Some(stop) = &stop else {
-            return Err(CliError::failed("no control word to stop the drive with"));
-        };
-        let request = Telegram::request(addr, pdu).with_process_data(&stop.words);
-        let response = m.exchange(request).await.map_err(driver_error)?;
-        Ok(Stopped {
-            sent: stop.sent(),
-            reports: response
-                .process_data()
-                .first()
-                .map(|s| StatusWord1::from_bits(*s).to_string())
-                .unwrap_or_default(),
-        })
-    };
-    guard.run(m, work, send_stop).await
-}
-
-fn print_pd(addr: Address, pdu: PduType, out: &[u16], pi: &[u16], json: bool) -> Result<()> {
-    let status = pi.first().map(|s| StatusWord1::from_bits(*s).to_string());
-    if json {
-        outln!(
-            "{}",
-            json!({"type": "pd", "time": crate::tool::watch::timestamp(std::time::SystemTime::now()),
-                   "address": addr.get(), "pdu_type": format!("0x{:02X}", pdu.raw()),
-                   "pdu_name": decode::pdu_name(pdu), "out": out, "in": pi, "status": status})
-        )
-    } else {
-        let words_text: Vec<String> = pi.iter().map(|w| format!("0x{w:04X}")).collect();
-        let speed = pi.get(1).map_or_else(String::new, |w| {
-            format!(", speed {} 1/min", trim_float(sew::speed_from_word(*w), 1))
-        });
-        outln!(
-            "PI {}: {}{speed}",
-            words_text.join(" "),
-            status.unwrap_or_default()
-        )
     }
 }
 

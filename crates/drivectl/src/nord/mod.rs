@@ -19,26 +19,31 @@ pub mod decode;
 pub mod sim;
 pub mod uss;
 
+mod control;
+mod info;
+mod status;
+
 use std::time::Duration;
 
 use clap::{Args, Subcommand};
 use ctt2_uss::client::{self, NordClient, ParameterChannel, ProcessChannel};
-use ctt2_uss::uss::pzd::PzdIn;
-use drive_profile::nord::{self, ControlWord, NordStateMachine, State, StatusWord, command};
+use drive_profile::nord::{self, State};
 use drive_profile::{Family, Persistence};
-use serde_json::{Map, Value, json};
+use serde_json::{Map, Value};
 
 pub use drive_client::nord::param;
 use drive_client::nord::{NordParamClient, table_target};
 
 use crate::error::{CliError, Result};
 use crate::tool::client::OnTarget as _;
-use crate::tool::client::{ClientError, ParamClient, Target, ValueText, parse_decimal};
+use crate::tool::client::{ParamClient, Target, ValueText};
+use crate::tool::cmd::{self, WriteValue};
 use crate::tool::front::Cli;
-use crate::tool::interrupt::Interrupt;
-use crate::tool::motor::{AtEnd, Motion, MotorGuard, Stopped};
-use crate::tool::output::{physical_text, trim_float};
-use crate::tool::{backup, watch, write};
+use crate::tool::output::trim_float;
+use crate::tool::{backup, write};
+
+use control::{ControlSession, Setpoint, control, setpoint_word};
+use status::status;
 
 /// Examples below `drivectl uss|ctt2 write --help`; the `ctt2` help gets its own prefix
 /// ([`ctt2::with_help`]).
@@ -70,6 +75,44 @@ pub struct Sub {
     pub set: Option<u8>,
 }
 
+impl cmd::Selector for Sub {
+    const FAMILY: Family = Family::Nord;
+    const PARAMS: &'static str =
+        "Parameter numbers (P102 or 102; numbers outside the table are read raw)";
+    const PARAM: &'static str = "Parameter number";
+    const INFO_PARAM: &'static str =
+        "Parameter number (P102 or 102; a number outside the table shows only the drive's value)";
+    const VOLATILE: &'static str = "Write to RAM only (AK 11–14: the way for values that change \
+        often; lost at power-off). `--no-eeprom` is the same";
+    const VOLATILE_ALIAS: Option<&'static str> = Some("no-eeprom");
+    const FORCE: &'static str = "Skip the access/range/value-list/EEPROM-wear checks of the \
+        table (a value that does not fit the parameter's 16 bits is never sent)";
+
+    fn targets(params: &[String], sub: Self) -> Result<Vec<Target>> {
+        resolve_all(params, sub)
+    }
+
+    fn check_info(param: &str, sub: Self) -> Result<()> {
+        info::info_targets(param, sub).map(drop)
+    }
+
+    fn write_value(param: &str, value: &str, sub: Self, how: &ValueText) -> Result<WriteValue> {
+        write_value(param, value, sub, how)
+    }
+
+    /// The table's checks that do not depend on the drive (access, range, value list; the
+    /// EEPROM-wear rule needs P560, read later): a write they refuse reads and sends nothing.
+    fn precheck_write(v: &WriteValue, force: bool) -> Result<()> {
+        let request = write::WriteRequest {
+            target: v.target,
+            raw: v.raw,
+            persistence: Persistence::Volatile,
+            force,
+        };
+        write::check_drive("", &request).map(drop)
+    }
+}
+
 /// The commands `drivectl uss` and `drivectl ctt2` share.
 #[derive(Debug, Subcommand)]
 pub enum NordCommand {
@@ -86,13 +129,7 @@ pub enum NordCommand {
         drivectl uss --port /dev/ttyUSB0 --addr 1 read P700              all three elements\n  \
         drivectl uss --port /dev/ttyUSB0 --addr 1 read P105 P560 P744"
     )]
-    Read {
-        /// Parameter numbers (P102 or 102; numbers outside the table are read raw).
-        #[arg(required = true, num_args = 1..)]
-        params: Vec<String>,
-        #[command(flatten)]
-        sub: Sub,
-    },
+    Read(cmd::ReadArgs<Sub>),
     /// What the table knows about a parameter — range, default, unit, resolution, parameter
     /// sets, array elements, access — and the drive's current value in every set and element
     /// (or the one --set/--array names); for an array, the drive's own count of elements (AK
@@ -106,52 +143,16 @@ pub enum NordCommand {
         drivectl uss --port /dev/ttyUSB0 --addr 1 info P102 --set 3 --json\n  \
         drivectl uss --port /dev/ttyUSB0 --addr 1 info P700              every element, with AK 9's count"
     )]
-    Info {
-        /// Parameter number (P102 or 102; a number outside the table shows only the drive's
-        /// value).
-        param: String,
-        #[command(flatten)]
-        sub: Sub,
-    },
+    Info(cmd::InfoArgs<Sub>),
     /// Write a parameter (checked against the table first), then read it back.
     #[command(after_help = WRITE_HELP)]
-    Write {
-        /// Parameter number.
-        param: String,
-        /// Value in the parameter's unit (or raw with --raw).
-        #[arg(allow_hyphen_values = true)]
-        value: String,
-        #[command(flatten)]
-        sub: Sub,
-        /// Write to RAM only (AK 11–14: the way for values that change often; lost at
-        /// power-off). `--no-eeprom` is the same.
-        #[arg(long, visible_alias = "no-eeprom")]
-        volatile: bool,
-        /// VALUE is the raw bus value.
-        #[arg(long)]
-        raw: bool,
-        /// Skip the access/range/value-list/EEPROM-wear checks of the table (a value that does
-        /// not fit the parameter's 16 bits is never sent).
-        #[arg(long)]
-        force: bool,
-        /// Accept a physical value the parameter cannot hold exactly and write the nearest one.
-        #[arg(long)]
-        round: bool,
-    },
+    Write(cmd::WriteArgs<Sub, cmd::NoConfirm>),
     /// Poll parameters at a steady rhythm (as `drivectl movilink watch`). Ctrl-C ends it.
     #[command(
         after_help = "Examples:\n  drivectl uss --port /dev/ttyUSB0 --addr 1 watch P700 P740 P741\n  \
         drivectl uss --port /dev/ttyUSB0 --addr 1 watch P102 --set 2 --interval 500 --count 20 --csv"
     )]
-    Watch {
-        /// Parameter numbers.
-        #[arg(required = true, num_args = 1..)]
-        params: Vec<String>,
-        #[command(flatten)]
-        sub: Sub,
-        #[command(flatten)]
-        watch: watch::WatchArgs,
-    },
+    Watch(cmd::WatchArgs<Sub>),
     /// The status word decoded (state A–H with its English and German name, every bit), the
     /// actual values IW1–IW3 in % and as P543 says (frequency in Hz of P105), and P700 present
     /// fault, warning and reason for switch-on disabled.
@@ -199,15 +200,11 @@ pub enum NordCommand {
         wait: u64,
     },
     /// Save every readable parameter in every array element and parameter set to a JSON file.
-    #[command(
-        after_help = "Examples:\n  drivectl uss --port /dev/ttyUSB0 --addr 1 backup --out drive1.json\n  drivectl uss --port /dev/ttyUSB0 --addr 1 backup --out drive1.json --overwrite"
-    )]
+    #[command(after_help = backup_examples!("drivectl uss --port /dev/ttyUSB0 --addr 1"))]
     Backup(backup::BackupArgs),
     /// Write a backup file back (every array element and parameter set; P560 last) and verify
     /// every value.
-    #[command(
-        after_help = "Examples:\n  drivectl uss --port /dev/ttyUSB0 --addr 1 restore drive1.json --dry-run\n  drivectl uss --port /dev/ttyUSB0 --addr 1 restore drive1.json"
-    )]
+    #[command(after_help = restore_examples!("drivectl uss --port /dev/ttyUSB0 --addr 1"))]
     Restore(backup::RestoreArgs),
 }
 
@@ -264,17 +261,6 @@ fn target_of(number: u16, array: Option<u8>, set: Option<u8>) -> Result<Target> 
         .ok_or_else(|| CliError::failed(format!("P{number} is not in the NORD table")))
 }
 
-/// The value a write sends, checked without the drive.
-#[derive(Debug, Clone, Copy)]
-pub struct WriteValue {
-    /// The parameter with its element and set.
-    pub target: Target,
-    /// The raw value.
-    pub raw: i64,
-    /// What the user typed, when it was rounded (`--round`).
-    pub rounded_from: Option<f64>,
-}
-
 /// Resolve and parse a write: names, element, set, strict value, the 16-bit width (a NORD
 /// parameter is a word, BU 0255 ch. 6; outside the table too).
 pub fn write_value(param: &str, value: &str, sub: Sub, how: &ValueText) -> Result<WriteValue> {
@@ -300,116 +286,15 @@ pub fn write_value(param: &str, value: &str, sub: Sub, how: &ValueText) -> Resul
     })
 }
 
-/// A setpoint as the SW1 word carries it.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Setpoint {
-    /// The word (4000h = 100 %).
-    pub word: u16,
-    /// What the user typed, when the word is its nearest (`--round`).
-    pub rounded_from: Option<f64>,
-}
-
-/// A setpoint in percent as the SW1 word, strictly parsed: BU 0255 4.5.4 sends it as an
-/// integer −32768…32767 (8000h…7FFFh) with 4000h = 100 %, so it holds −200 % … 199.9939 %
-/// in steps of 100/16384 = 0.006103515625 %. The word holds a value when its nearest step,
-/// written with as many decimals as were typed, reads as typed (`10` → 0666h = 9.9976 %,
-/// `33.3` → 1550h = 33.3008 %); a value with more precision than the word has (`100.0001`) is
-/// refused naming the nearest step, unless `round`. A value past the word's ends is refused,
-/// not even `round` cuts it to fit.
-pub fn setpoint_word(text: &str, round: bool) -> Result<Setpoint> {
-    let p = parse_decimal(text).ok_or_else(|| {
-        CliError::usage(format!(
-            "`{}` is not a setpoint in percent (e.g. 50, -25 or 12,5)",
-            crate::decode::escape(text)
-        ))
-    })?;
-    let text = text.trim();
-    let percent_of = |w: i16| nord::percent_from_word(w as u16);
-    // Four decimals name every step apart (0.0061 % each), and are taken back as typed.
-    let shown = |w: i16| format!("{} % (0x{:04X})", trim_float(percent_of(w), 4), w as u16);
-    // The nearest step, then whether the word has it.
-    let steps =
-        drive_profile::scaling::round(p * f64::from(drive_profile::scaling::PERCENT_100) / 100.0);
-    let end = if !steps.is_finite() || steps > f64::from(i16::MAX) {
-        Some(i16::MAX)
-    } else if steps < f64::from(i16::MIN) {
-        Some(i16::MIN)
-    } else {
-        None
-    };
-    if let Some(end) = end {
-        return Err(CliError::usage(format!(
-            "setpoint {text} % is past what SW1 holds: {} … {} (BU 0255 4.5.4: −32768…32767, \
-             4000h = 100 %); the nearest setpoint it holds is {}; nothing was sent",
-            shown(i16::MIN),
-            shown(i16::MAX),
-            shown(end)
-        )));
-    }
-    let word = steps as i16;
-    let held = percent_of(word);
-    let decimals = text.split_once(['.', ',']).map_or(0, |(_, f)| f.len());
-    let at_typed = |x: f64| format!("{x:.decimals$}").parse::<f64>().unwrap_or(f64::NAN);
-    if (held - p).abs() <= 1e-9 * p.abs().max(1.0) || at_typed(held) == at_typed(p) {
-        return Ok(Setpoint {
-            word: word as u16,
-            rounded_from: None,
-        });
-    }
-    if !round {
-        return Err(CliError::usage(format!(
-            "SW1 cannot hold {text} % (steps of 100/16384 = 0.006103515625 %, 4000h = 100 %): \
-             the nearest setpoint it holds is {}; give that, or add --round to have it rounded; \
-             nothing was sent",
-            shown(word)
-        )));
-    }
-    Ok(Setpoint {
-        word: word as u16,
-        rounded_from: Some(p),
-    })
-}
-
 /// Everything a command can check without the drive, before the port is opened.
 pub fn precheck(cmd: &NordCommand) -> Result<()> {
     match cmd {
-        NordCommand::Read { params, sub } | NordCommand::Watch { params, sub, .. } => {
-            resolve_all(params, *sub).map(drop)
-        }
-        NordCommand::Info { param, sub } => info_targets(param, *sub).map(drop),
-        NordCommand::Write {
-            param,
-            value,
-            sub,
-            raw,
-            force,
-            round,
-            ..
-        } => {
-            let how = ValueText {
-                raw: *raw,
-                force: *force,
-                round: *round,
-            };
-            let v = write_value(param, value, *sub, &how)?;
-            // The table's checks that do not depend on the drive (access, range, value list;
-            // the EEPROM-wear rule needs P560, read later): a write they refuse reads and
-            // sends nothing.
-            let request = write::WriteRequest {
-                target: v.target,
-                raw: v.raw,
-                persistence: Persistence::Volatile,
-                force: *force,
-            };
-            write::check_drive("", &request).map(drop)
-        }
         NordCommand::Control {
             setpoint: Some(s),
             round,
             ..
-        } => setpoint_word(s, *round).map(drop),
-        NordCommand::Restore(r) => backup::check_file(&r.file, Family::Nord, &[]),
-        _ => Ok(()),
+        } => control::setpoint_word(s, *round).map(drop),
+        c => common_of!(c, NordCommand).map_or(Ok(()), |c| cmd::precheck(c, &[])),
     }
 }
 
@@ -432,81 +317,76 @@ pub struct Session {
     pub actuals: u8,
 }
 
+/// The drive behind a NORD client, for the common commands.
+struct Drive<'a, C> {
+    c: &'a mut NordClient<C>,
+    s: &'a Session,
+}
+
+impl<C: ParameterChannel> cmd::Drive for Drive<'_, C> {
+    type Selector = Sub;
+    type Confirm = cmd::NoConfirm;
+    type Client<'b>
+        = NordParamClient<'b, C>
+    where
+        Self: 'b;
+
+    async fn reader(&mut self, sub: Sub, _: &[Target]) -> Result<Self::Client<'_>> {
+        Ok(param_client(self.c, self.s).raw_array(sub.array.is_some()))
+    }
+
+    fn keeper(&mut self) -> Result<Self::Client<'_>> {
+        Ok(param_client(self.c, self.s))
+    }
+
+    async fn before_restore<'c>(pc: &mut Self::Client<'c>)
+    where
+        Self: 'c,
+    {
+        warn_ram_only(pc).await;
+    }
+
+    async fn writer(
+        &mut self,
+        args: &cmd::WriteArgs<Sub, cmd::NoConfirm>,
+        request: &mut write::WriteRequest,
+        _: bool,
+    ) -> Result<cmd::Writer<Self::Client<'_>>> {
+        let mut pc = param_client(self.c, self.s).raw_array(args.sel.array.is_some());
+        let mut note = None;
+        if !args.volatile {
+            let (persistence, ram_only) = eeprom_or_ram(&mut pc, &request.target).await?;
+            request.persistence = persistence;
+            note = ram_only.then(|| {
+                format!(
+                    "P560 save to EEPROM is 0 (RAM only) on this drive: {} is kept in RAM and \
+                     lost at power-off (write P560 = 1 to keep changes)",
+                    request.target.label()
+                )
+            });
+        }
+        Ok(cmd::Writer::To {
+            client: pc,
+            yes: false,
+            note,
+        })
+    }
+
+    async fn info(&mut self, args: &cmd::InfoArgs<Sub>, _: bool) -> Result<()> {
+        let targets = info::info_targets(&args.param, args.sel)?;
+        info::info(self.c, self.s, &targets, args.sel).await
+    }
+}
+
 /// Run one of the shared commands on the drive behind `c`.
 pub async fn execute<C>(c: &mut NordClient<C>, s: &Session, cmd: &NordCommand) -> Result<()>
 where
     C: ParameterChannel + ProcessChannel,
 {
-    let json = s.json;
+    if let Some(common) = common_of!(cmd, NordCommand) {
+        return cmd::execute(&mut Drive { c, s }, common, s.json).await;
+    }
     match cmd {
-        NordCommand::Read { params, sub } => {
-            let targets = resolve_all(params, *sub)?;
-            let mut pc = param_client(c, s).raw_array(sub.array.is_some());
-            crate::tool::read::read_all(&mut pc, &targets, json).await
-        }
-        NordCommand::Watch {
-            params,
-            sub,
-            watch: watch_args,
-        } => {
-            let targets = resolve_all(params, *sub)?;
-            let options = watch_args.options(json)?;
-            let mut pc = param_client(c, s).raw_array(sub.array.is_some());
-            watch::watch(
-                &mut pc,
-                &targets,
-                options,
-                &mut |text| out!("{text}"),
-                watch::ctrl_c(),
-            )
-            .await
-            .map(drop)
-        }
-        NordCommand::Write {
-            param,
-            value,
-            sub,
-            volatile,
-            raw,
-            force,
-            round,
-        } => {
-            let how = ValueText {
-                raw: *raw,
-                force: *force,
-                round: *round,
-            };
-            let v = write_value(param, value, *sub, &how)?;
-            if let (Some(x), Some(p)) = (v.rounded_from, v.target.param) {
-                errln!(
-                    "drivectl: note: {} cannot hold {x} exactly; writing the nearest value it takes, {}",
-                    p.label(),
-                    physical_text(p, v.raw)
-                );
-            }
-            let mut pc = param_client(c, s).raw_array(sub.array.is_some());
-            let (persistence, ram_only) = if *volatile {
-                (Persistence::Volatile, false)
-            } else {
-                eeprom_or_ram(&mut pc, &v.target).await?
-            };
-            let request = write::WriteRequest {
-                target: v.target,
-                raw: v.raw,
-                persistence,
-                force: *force,
-            };
-            let done = write::write_checked(&mut pc, &request, false).await?;
-            if ram_only {
-                errln!(
-                    "drivectl: note: P560 save to EEPROM is 0 (RAM only) on this drive: {} is \
-                     kept in RAM and lost at power-off (write P560 = 1 to keep changes)",
-                    v.target.label()
-                );
-            }
-            write::print_written(&v.target, &done, json)
-        }
-        NordCommand::Info { param, sub } => info(c, s, &info_targets(param, *sub)?, *sub).await,
         NordCommand::Status => status(c, s).await,
         NordCommand::Control {
             action,
@@ -538,22 +418,7 @@ where
             };
             control(c, s, &session).await
         }
-        NordCommand::Backup(b) => {
-            let mut pc = param_client(c, s);
-            let stop = Interrupt::install("the backup file was not written");
-            backup::backup(&mut pc, &b.out, b.overwrite, json, &stop).await
-        }
-        NordCommand::Restore(r) => {
-            let mut pc = param_client(c, s);
-            if !r.dry_run {
-                warn_ram_only(&mut pc).await;
-            }
-            let stop = Interrupt::install(
-                "the drive may be half restored; run the same restore again to finish it",
-            );
-            let opts = r.options();
-            backup::restore(&mut pc, &r.file, opts, json, &stop).await
-        }
+        _ => Ok(()),
     }
 }
 
@@ -598,670 +463,6 @@ pub fn state_text(state: State) -> String {
         Some(i) => format!("{} {} ({})", i.letter, i.name_en, i.name_de),
         None => format!("? {} (no state of the manual)", state.name_en()),
     }
-}
-
-/// The set bits of a status word by their English names.
-fn status_bits(sw: StatusWord) -> Vec<&'static str> {
-    sw.set_bits().map(|b| b.name_en).collect()
-}
-
-/// What one actual value means, from its P543 function (the simulator's subset of the public
-/// NORD documentation's list; 4000h = 100 % of P105 for frequencies, of P112 for current).
-fn actual_json(word: u16, function: Option<i64>, p105_hz: Option<f64>, p112: Option<f64>) -> Value {
-    let percent = nord::percent_from_word(word);
-    let name = function.and_then(|f| {
-        nord::by_index(param::BUS_ACTUAL_VALUE)
-            .and_then(|p| p.values.iter().find(|v| v.value == f))
-            .map(|v| v.en)
-    });
-    let (value, unit) = match function {
-        Some(1 | 8) => (p105_hz.map(|r| nord::word_to_physical(word, r)), Some("Hz")),
-        // The current's 100 % is P112 (itself in % of the rated current).
-        Some(3) => (
-            p112.map(|r| nord::word_to_physical(word, r)),
-            Some("% of rated current"),
-        ),
-        _ => (None, None),
-    };
-    json!({"word": word, "hex": format!("0x{word:04X}"), "percent": percent,
-           "function": function, "function_name": name, "value": value, "unit": unit})
-}
-
-fn actual_text(v: &Value) -> String {
-    let mut s = format!(
-        "{} = {} %",
-        v["hex"].as_str().unwrap_or(""),
-        trim_float(v["percent"].as_f64().unwrap_or(0.0), 2)
-    );
-    if let (Some(x), Some(unit)) = (v["value"].as_f64(), v["unit"].as_str()) {
-        s.push_str(&format!(" = {} {unit}", trim_float(x, 2)));
-    }
-    match (v["function"].as_i64(), v["function_name"].as_str()) {
-        (Some(f), Some(n)) => s.push_str(&format!(" (P543 function {f}: {n})")),
-        (Some(f), None) => s.push_str(&format!(" (P543 function {f})")),
-        _ => {}
-    }
-    s
-}
-
-/// The targets `info` reads: what `--array`/`--set` name, else every array element in every
-/// parameter set.
-pub fn info_targets(key: &str, sub: Sub) -> Result<Vec<Target>> {
-    let first = resolve(key, sub, true)?;
-    let sets = first
-        .first()
-        .filter(|t| t.param.is_some())
-        .and_then(|t| nord::by_index(t.index))
-        .is_some_and(|p| p.parameter_set);
-    if !sets || sub.set.is_some() {
-        return Ok(first);
-    }
-    let mut all = Vec::new();
-    for set in 1..=4 {
-        all.extend(resolve(
-            key,
-            Sub {
-                set: Some(set),
-                ..sub
-            },
-            true,
-        )?);
-    }
-    Ok(all)
-}
-
-/// `info`: see [`NordCommand::Info`]. A refusal of one set or element is shown for it; a link
-/// failure stops.
-async fn info<C: ParameterChannel>(
-    c: &mut NordClient<C>,
-    s: &Session,
-    targets: &[Target],
-    sub: Sub,
-) -> Result<()> {
-    let Some(first) = targets.first().copied() else {
-        return Err(CliError::failed("no parameter to show"));
-    };
-    let p = first.param.and_then(|_| nord::by_index(first.index));
-    let mut pc = param_client(c, s).raw_array(sub.array.is_some());
-    let mut current = Vec::new();
-    for t in targets {
-        match pc.read(t).await {
-            Ok(raw) => current.push((*t, Ok(raw))),
-            Err(ClientError::Device(d)) => current.push((*t, Err(d.message))),
-            Err(e) => return Err(t.error(e)),
-        }
-    }
-    // AK 9: the drive's own number of elements, for an array (or a raw PNU read as one).
-    let count = if p.map_or(sub.array.is_some(), |p| p.array_len.is_some()) {
-        match pc.element_count(first.index).await {
-            Ok(n) => Some(Ok(n)),
-            Err(ClientError::Device(d)) => Some(Err(d.message)),
-            Err(e) => return Err(first.error(e)),
-        }
-    } else {
-        None
-    };
-    let physical = |raw: i64| first.param.map_or(raw as f64, |q| q.to_physical(raw));
-    let text_of = |raw: i64| {
-        first
-            .param
-            .map_or_else(|| raw.to_string(), |q| physical_text(q, raw))
-    };
-    if s.json {
-        let values: Vec<Value> = current
-            .iter()
-            .map(|(t, r)| {
-                let mut v = crate::decode::param_json(t, r.as_ref().ok().copied());
-                if let (Value::Object(m), Err(e)) = (&mut v, r) {
-                    m.insert("error".into(), e.clone().into());
-                }
-                v
-            })
-            .collect();
-        outln!(
-            "{}",
-            json!({
-                // The keys of `movilink info --json` and `params --json` where they mean the
-                // same: raw values plain, physical ones as `*_value` in the table's unit.
-                "index": first.index,
-                "number": p.map(|q| q.label().to_string()),
-                // One target: its label and selector; several (every set or element): the
-                // parameter, each one's in `current`.
-                "label": if targets.len() == 1 { first.label() } else {
-                    p.map_or_else(|| first.label(), |q| q.label().to_string())
-                },
-                "selector": if targets.len() == 1 { first.selector_json() } else { Value::Null },
-                "name_de": p.map(|q| q.name_de), "name_en": p.map(|q| q.name_en),
-                "unit": p.map(|q| q.unit),
-                "range": p.and_then(|q| q.raw_range).map(|(lo, hi)| json!({
-                    "min": lo, "max": hi, "min_value": physical(lo), "max_value": physical(hi),
-                })),
-                "default": p.and_then(|q| q.default_raw),
-                "default_value": p.and_then(|q| q.default_raw).map(physical),
-                "resolution": p.and_then(|q| q.resolution).map(|r| json!({
-                    "step": r.step, "decimals": r.decimals, "text": r.text,
-                })),
-                "access": p.map(|q| q.access.to_string()),
-                "parameter_set": p.map(|q| q.parameter_set),
-                "array_len": p.and_then(|q| q.array_len),
-                "array_len_drive": count.as_ref().and_then(|c| c.as_ref().ok().copied()),
-                "limits_from": p.map(|_| "table"),
-                // The drive's values (every set/element asked for), as `read --json` shows
-                // them; `values` is the value list in `params --json`.
-                "current": values,
-                "values": p.map(|q| q.values.iter().map(|v| json!({
-                    "value": v.value, "de": v.de, "en": v.en,
-                })).collect::<Vec<_>>()),
-            })
-        )?;
-        return info_outcome(&current);
-    }
-    match p {
-        Some(q) => outln!(
-            "{} {} ({}), PNU {} (0x{:03X})",
-            q.label(),
-            q.name_en,
-            q.name_de,
-            first.index,
-            first.index
-        )?,
-        None => outln!(
-            "PNU {} (0x{:03X}): not in the NORD table; only the drive's value is known",
-            first.index,
-            first.index
-        )?,
-    }
-    if let Some(q) = p {
-        let range = q.raw_range.map_or_else(
-            || "not in the table (a 16-bit word)".to_owned(),
-            |(lo, hi)| format!("{} … {} (raw {lo} … {hi})", text_of(lo), text_of(hi)),
-        );
-        outln!("  range       {range}")?;
-        outln!(
-            "  default     {}",
-            q.default_raw.map_or_else(
-                || "not in the table".to_owned(),
-                |d| format!("{} (raw {d})", text_of(d))
-            )
-        )?;
-        outln!(
-            "  resolution  {}",
-            q.resolution.map_or_else(
-                || "1 (an integer)".to_owned(),
-                |r| format!("{} {}", r.text, q.unit).trim_end().to_owned()
-            )
-        )?;
-        outln!(
-            "  access      {}",
-            if q.access.is_writable() {
-                "read-write"
-            } else {
-                "read-only"
-            }
-        )?;
-        outln!(
-            "  sets        {}",
-            if q.parameter_set {
-                "one value per parameter set 1–4 (IND bits 8–9; --set)"
-            } else {
-                "none (one value for every parameter set)"
-            }
-        )?;
-        let drive = match &count {
-            Some(Ok(n)) => format!("; the drive counts {n} (AK 9)"),
-            Some(Err(e)) => format!("; the drive's count (AK 9): {e}"),
-            None => String::new(),
-        };
-        outln!(
-            "  elements    {}{drive}",
-            q.array_len.map_or_else(
-                || "none (no array)".to_owned(),
-                |n| format!("{n}: [-01] … [-{n:02}] (--array 1…{n})")
-            )
-        )?;
-        outln!(
-            "  (range and default from the NORD table: USS and CTT2 have no order that reads \
-             them from the drive)"
-        )?;
-    } else if let Some(c) = &count {
-        outln!(
-            "  elements    {}",
-            match c {
-                Ok(n) => format!("the drive counts {n} (AK 9)"),
-                Err(e) => format!("the drive's count (AK 9): {e}"),
-            }
-        )?;
-    }
-    for (t, r) in &current {
-        match r {
-            Ok(raw) => outln!(
-                "  {:<11} {} (raw {raw})",
-                t.label(),
-                crate::tool::output::value_text(t, *raw)
-            )?,
-            Err(e) => outln!("  {:<11} refused: {e}", t.label())?,
-        }
-    }
-    info_outcome(&current)
-}
-
-/// The end of `info`: as `read` of several, a value the drive refused fails the command (the
-/// drive's answers are shown above).
-fn info_outcome(current: &[(Target, std::result::Result<i64, String>)]) -> Result<()> {
-    let refused: Vec<String> = current
-        .iter()
-        .filter(|(_, r)| r.is_err())
-        .map(|(t, _)| t.label())
-        .collect();
-    if refused.is_empty() {
-        return Ok(());
-    }
-    Err(CliError::failed(format!(
-        "{} of {} values could not be read: {} (the drive's answers are above)",
-        refused.len(),
-        current.len(),
-        refused.join(", ")
-    )))
-}
-
-/// `status`: see [`NordCommand::Status`].
-async fn status<C>(c: &mut NordClient<C>, s: &Session) -> Result<()>
-where
-    C: ParameterChannel + ProcessChannel,
-{
-    // Bit 10 clear: the drive does not evaluate this control word (section 4.5.1 footnote 2),
-    // it only answers its status word and actual values.
-    let answer = c
-        .process(ControlWord(0), &[], s.actuals)
-        .await
-        .map_err(link_error)?;
-    let sw = answer.status();
-    let state = sw.state();
-    let set = sw.parameter_set();
-    let mut pc = param_client(c, s);
-    let p105 = target_of(param::MAXIMUM_FREQUENCY, None, Some(set))?;
-    let p112 = target_of(param::CURRENT_LIMIT, None, Some(set))?;
-    let hz = read_physical(&mut pc, &p105).await?;
-    let current = read_physical(&mut pc, &p112).await?;
-    let mut actuals = Vec::new();
-    for (i, word) in answer.actuals().iter().enumerate() {
-        let t = target_of(param::BUS_ACTUAL_VALUE, Some(i as u8 + 1), None)?;
-        let function = read_optional(&mut pc, &t).await?;
-        actuals.push(actual_json(*word, function, hz, current));
-    }
-    let mut p700 = Vec::new();
-    for e in 1..=3 {
-        let t = target_of(param::PRESENT_FAULT, Some(e), None)?;
-        let v = read_optional(&mut pc, &t).await?;
-        let text = v
-            .and_then(|raw| crate::tool::meaning::meaning_of(&t, raw))
-            .map(|m| m.text);
-        p700.push((v, text));
-    }
-    let info = nord::state_info(state);
-    if s.json {
-        let p = |i: usize| p700.get(i).and_then(|(v, _)| *v);
-        return outln!(
-            "{}",
-            json!({
-                "status_word": sw.0, "hex": format!("0x{:04X}", sw.0),
-                "state": info.map(|i| i.letter.to_string()),
-                "state_en": state.name_en(), "state_de": state.name_de(),
-                "bits": status_bits(sw), "parameter_set": set,
-                "p105_hz": hz, "actuals": actuals,
-                "fault": p(0), "warning": p(1), "switch_on_disabled_reason": p(2),
-            })
-        );
-    }
-    outln!("status word 0x{:04X}: {}", sw.0, state_text(state))?;
-    outln!("  bits: {}", status_bits(sw).join(", "))?;
-    outln!(
-        "  parameter set {set}; P105 maximum frequency {} (the 100 % of frequencies)",
-        hz.map_or_else(
-            || "unreadable".to_owned(),
-            |h| format!("{} Hz", trim_float(h, 1))
-        )
-    )?;
-    for (i, a) in actuals.iter().enumerate() {
-        outln!("  actual value {} (IW{}): {}", i + 1, i + 1, actual_text(a))?;
-    }
-    let names = [
-        "present fault",
-        "present warning",
-        "reason for switch-on disabled",
-    ];
-    for (i, (v, text)) in p700.iter().enumerate() {
-        outln!(
-            "  P700 [-{:02}] {}: {}",
-            i + 1,
-            names.get(i).copied().unwrap_or(""),
-            match (v, text) {
-                (Some(_), Some(t)) => t.clone(),
-                (Some(v), None) => v.to_string(),
-                (None, _) => "unreadable".to_owned(),
-            }
-        )?;
-    }
-    Ok(())
-}
-
-/// A parameter's physical value, `None` when the drive refuses it (a link failure is an
-/// error).
-async fn read_physical<C: ParameterChannel>(
-    pc: &mut NordParamClient<'_, C>,
-    t: &Target,
-) -> Result<Option<f64>> {
-    Ok(read_optional(pc, t)
-        .await?
-        .and_then(|raw| t.param.map(|p| p.to_physical(raw))))
-}
-
-/// A raw value, `None` when the drive refuses it (a link failure is an error).
-async fn read_optional<C: ParameterChannel>(
-    pc: &mut NordParamClient<'_, C>,
-    t: &Target,
-) -> Result<Option<i64>> {
-    match pc.read(t).await {
-        Ok(v) => Ok(Some(v)),
-        Err(ClientError::Device(d)) => {
-            errln!("drivectl: warning: {}: {d}", t.label());
-            Ok(None)
-        }
-        Err(e) => Err(t.error(e)),
-    }
-}
-
-/// What `control` was asked to do.
-#[derive(Debug, Clone, Copy)]
-struct ControlSession<'a> {
-    action: &'a str,
-    /// SW1, `None` = 0 %.
-    setpoint: Option<u16>,
-    /// Parameter set 1–4.
-    set: u8,
-    /// How long to wait for the state.
-    wait: Duration,
-}
-
-/// How long the stop of an interrupted `control enable` waits for the drive to leave
-/// "operation enabled" (its braking ramp).
-const STOP_WAIT: Duration = Duration::from_secs(5);
-
-/// Time between two process data exchanges while `control` waits for a state.
-const CONTROL_PERIOD: Duration = Duration::from_millis(50);
-
-/// `control`: see [`NordCommand::Control`].
-async fn control<C>(c: &mut NordClient<C>, s: &Session, a: &ControlSession<'_>) -> Result<()>
-where
-    C: ParameterChannel + ProcessChannel,
-{
-    let (target, fixed) = match a.action {
-        "enable" => (State::OperationEnabled, None),
-        "stop" => (State::ReadyToSwitchOn, None),
-        "quick-stop" => (State::SwitchOnDisabled, Some(command::QUICK_STOP.0)),
-        "disable" => (State::SwitchOnDisabled, Some(command::DISABLE_VOLTAGE.0)),
-        "reset" => (State::SwitchOnDisabled, None),
-        other => return Err(CliError::usage(format!("unknown control action `{other}`"))),
-    };
-    let sw1 = if a.action == "enable" {
-        a.setpoint.unwrap_or(0)
-    } else {
-        0
-    };
-    // SW1 and IW1, where the process data carry them.
-    let sw1_slot: &[u16] = if s.actuals > 0 { &[sw1] } else { &[] };
-    let iw = s.actuals.min(1);
-    // P509 0 (control terminals or keypad): the drive does not take the bus control word.
-    {
-        let mut pc = param_client(c, s);
-        let t = target_of(param::CONTROL_WORD_SOURCE, None, None)?;
-        if let Some(0) = read_optional(&mut pc, &t).await? {
-            errln!(
-                "drivectl: warning: P509 control word source is 0 (control terminals or \
-                 keypad): the drive may not act on the bus control word"
-            );
-        }
-    }
-    let with_set = |w: u16| ControlWord(w).with_parameter_set(a.set).map_or(w, |c| c.0);
-    let enabling = a.action == "enable";
-    let stop_command = format!("{} control stop", s.again);
-    // `enable` runs under the motor guard: an interrupt, a closed pipe or a failure while the
-    // drive is being enabled sends shutdown (047Eh: braking ramp, then ready to switch on).
-    let guard = enabling.then(|| MotorGuard::install(AtEnd::Run, stop_command.clone()));
-    let interrupt = match &guard {
-        Some(g) => g.interrupt().clone(),
-        None => Interrupt::install("the drive keeps the last control word it was sent"),
-    };
-    let armed = std::cell::Cell::new(false);
-    let in_fault = |st: State| matches!(st, State::Fault | State::FaultReactionActive);
-    let work = async |c: &mut NordClient<C>, motion: &Motion<'_>| -> Result<(PzdIn, u16)> {
-        let stop = motion.interrupt();
-        // First only look (bit 10 clear: the drive ignores this word).
-        let mut answer = c
-            .process(ControlWord(0), &[], iw)
-            .await
-            .map_err(link_error)?;
-        let start = answer.status().state();
-        if a.action == "reset" && !in_fault(start) {
-            errln!(
-                "drivectl: note: the drive shows no fault ({})",
-                state_text(start)
-            );
-            // Nothing to reset: a word sent now could only change what the drive does.
-            return Ok((answer, 0));
-        }
-        if matches!(a.action, "enable" | "stop") && in_fault(start) {
-            return Err(CliError::failed(format!(
-                "the drive shows a fault ({}): read P700 (`{} status`) and reset it with `{} \
-                 control reset` first",
-                state_text(start),
-                s.again,
-                s.again
-            )));
-        }
-        // The word the drive holds from before this command is not known: every word planned
-        // here has bit 7 = 0, so the fault reset that follows one of them is a rising edge.
-        let mut last: u16 = 0;
-        let mut sent = false;
-        let deadline = tokio::time::Instant::now() + a.wait;
-        loop {
-            let state = answer.status().state();
-            let reached = if a.action == "reset" {
-                !in_fault(state)
-            } else {
-                state == target
-            };
-            if (reached && sent) || stop.requested() {
-                return Ok((answer, last));
-            }
-            if sent && tokio::time::Instant::now() >= deadline {
-                return Ok((answer, last));
-            }
-            let word = match fixed {
-                Some(w) => w,
-                None => NordStateMachine::next_control(last, state, target)
-                    .unwrap_or_else(|| hold_word(target)),
-            };
-            let word = with_set(word);
-            // Sent, whether or not the answer comes back: a lost answer to 047Fh may leave the
-            // motor running.
-            last = word;
-            sent = true;
-            motion.armed();
-            answer = c
-                .process(ControlWord(word), sw1_slot, iw)
-                .await
-                .map_err(link_error)?;
-            tokio::select! {
-                () = tokio::time::sleep(CONTROL_PERIOD) => {}
-                () = stop.wait() => {}
-            }
-        }
-    };
-    let (answer, last) = match &guard {
-        Some(g) => {
-            let shutdown = with_set(command::SHUTDOWN.0);
-            let zero: &[u16] = if s.actuals > 0 { &[0] } else { &[] };
-            let stop = async |c: &mut NordClient<C>| -> Result<Stopped> {
-                // The drive brakes on its ramp and only then leaves "operation enabled": send
-                // shutdown until it has (a few seconds at most; a second signal ends it).
-                let deadline = tokio::time::Instant::now() + STOP_WAIT;
-                let mut answer = c
-                    .process(ControlWord(shutdown), zero, iw)
-                    .await
-                    .map_err(link_error)?;
-                while answer.status().state() == State::OperationEnabled
-                    && tokio::time::Instant::now() < deadline
-                {
-                    tokio::time::sleep(CONTROL_PERIOD).await;
-                    answer = c
-                        .process(ControlWord(shutdown), zero, iw)
-                        .await
-                        .map_err(link_error)?;
-                }
-                let state = answer.status().state();
-                Ok(Stopped {
-                    sent: format!(
-                        "shutdown 0x{shutdown:04X} (braking ramp, then ready to switch on)"
-                    ),
-                    reports: if state == State::OperationEnabled {
-                        format!(
-                            "{} after {} s, still braking on its ramp",
-                            state_text(state),
-                            STOP_WAIT.as_secs()
-                        )
-                    } else {
-                        state_text(state)
-                    },
-                })
-            };
-            g.run(c, work, stop).await?
-        }
-        None => {
-            let motion = Motion::new(interrupt.inner(), &armed);
-            let (answer, last) = work(c, &motion).await?;
-            if let Some(sig) = interrupt.signal() {
-                // A stop, quick stop or disable keeps acting in the drive: say what it was
-                // sent and where it is.
-                return Err(CliError::with_code(
-                    format!(
-                        "interrupted by {}; the drive was sent {} and shows {}",
-                        sig.name(),
-                        control_word_text(last),
-                        state_text(answer.status().state())
-                    ),
-                    sig.exit_code(),
-                ));
-            }
-            (answer, last)
-        }
-    };
-    let sw = answer.status();
-    let state = sw.state();
-    let reached = if a.action == "reset" {
-        !in_fault(state)
-    } else {
-        state == target
-    };
-    if reached && enabling {
-        // Said before the output: a closed output pipe must not swallow the note that the
-        // motor runs.
-        let percent = trim_float(nord::percent_from_word(sw1), 4);
-        if s.simulated {
-            // The simulated drive ends with this command: there is nothing left to stop.
-            errln!(
-                "drivectl: note: the simulated motor was enabled and followed SW1 = 0x{sw1:04X} \
-                 ({percent} % of P105) until the simulation ended with the command"
-            );
-        } else if let Some(g) = &guard {
-            g.left_running(&format!(
-                "the motor is enabled and follows SW1 = 0x{sw1:04X} ({percent} % of P105)"
-            ));
-        }
-    }
-    let printed = print_control(s, a, answer, last, sw1, reached);
-    if !reached {
-        let running = state == State::OperationEnabled;
-        return Err(CliError::failed(format!(
-            "the drive did not reach {} within {} s (it shows {}{}); check P509 control word \
-             source, P700 [-03] reason for switch-on disabled (`{} status`){}",
-            state_text(target),
-            a.wait.as_secs(),
-            state_text(state),
-            if running { ", still running" } else { "" },
-            s.again,
-            if running {
-                " and --wait for a long braking ramp"
-            } else {
-                ""
-            }
-        )));
-    }
-    printed
-}
-
-/// A control word as the manual names the command it carries (parameter set bits aside).
-fn control_word_text(word: u16) -> String {
-    let plain = word & !ControlWord::PARAMETER_SET_MASK;
-    let name = [
-        (command::SHUTDOWN, "shutdown"),
-        (command::SWITCH_ON, "switch on"),
-        (command::ENABLE_OPERATION, "enable operation"),
-        (command::DISABLE_VOLTAGE, "disable voltage"),
-        (command::QUICK_STOP, "quick stop"),
-        (command::FAULT_RESET, "fault reset"),
-    ]
-    .into_iter()
-    .find(|(c, _)| c.0 == plain)
-    .map(|(_, n)| n);
-    match (word, name) {
-        (0, _) => "nothing (only the status was read)".to_owned(),
-        (_, Some(n)) => format!("{n} 0x{word:04X}"),
-        (_, None) => format!("control word 0x{word:04X}"),
-    }
-}
-
-/// The word that keeps a drive in `target` once it is there.
-fn hold_word(target: State) -> u16 {
-    match target {
-        State::OperationEnabled => command::ENABLE_OPERATION.0,
-        State::ReadyToSwitchOn => command::SHUTDOWN.0,
-        _ => command::DISABLE_VOLTAGE.0,
-    }
-}
-
-/// The outcome of `control`: the status word with its state and IW1.
-fn print_control(
-    s: &Session,
-    a: &ControlSession<'_>,
-    answer: PzdIn,
-    last: u16,
-    sw1: u16,
-    reached: bool,
-) -> Result<()> {
-    let sw = answer.status();
-    let state = sw.state();
-    let iw1 = answer.actuals().first().copied();
-    if s.json {
-        return outln!(
-            "{}",
-            json!({"action": a.action, "status_word": sw.0, "hex": format!("0x{:04X}", sw.0),
-                   "state": nord::state_info(state).map(|i| i.letter.to_string()),
-                   "state_en": state.name_en(), "state_de": state.name_de(),
-                   "reached": reached, "control_word": (last != 0).then_some(last),
-                   "setpoint": sw1, "setpoint_percent": nord::percent_from_word(sw1),
-                   "iw1": iw1, "iw1_percent": iw1.map(nord::percent_from_word)})
-        );
-    }
-    outln!(
-        "status word 0x{:04X}: {}{}",
-        sw.0,
-        state_text(state),
-        iw1.map_or_else(String::new, |w| format!(
-            "; IW1 0x{w:04X} = {} %",
-            trim_float(nord::percent_from_word(w), 2)
-        ))
-    )
 }
 
 #[cfg(test)]

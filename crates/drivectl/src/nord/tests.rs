@@ -12,8 +12,9 @@ use drive_profile::Persistence;
 use drive_profile::nord::{self, ControlWord, State, StatusWord};
 
 use super::*;
-use crate::tool::client::DeviceErrorKind;
+use crate::tool::client::{ClientError, DeviceErrorKind};
 use drive_client::nord::raw_of;
+use serde_json::json;
 
 /// The fake transport's only error: the line is dead.
 #[derive(Debug)]

@@ -13,28 +13,29 @@ pub mod link;
 pub mod pd;
 pub mod plan;
 pub mod sim;
+mod timing;
 
 use std::time::Duration;
 
 use drive_core::can::Bitrate;
 
 use clap::{Args, Subcommand};
-use drive_profile::Family;
 use sbus_can::driver::{ParamServices, SbusDriver};
 use sbus_can::ids::{Address, Direction, SlaveIds};
 use sbus_can::master::{Handshake, MasterConfig};
 use serde_json::json;
 
 use crate::error::{CliError, Result};
-use crate::movilink::resolve;
+use crate::sew::{Sew, SewBus, SewDrive};
 use crate::tool::backup;
-use crate::tool::client::ValueText;
+use crate::tool::cmd;
 use crate::tool::outfile::OutputFile;
-use crate::tool::{watch, write};
+use crate::tool::write;
 use drive_transport::can::candump::Capture;
 
 use self::iface::{Iface, IfaceName};
 use self::link::{driver_error, open, virtual_addresses};
+pub use self::timing::*;
 use drive_client::sew::sbus::{NOT_RESTORED, SbusLink};
 
 /// The longest response timeout (ms).
@@ -105,6 +106,23 @@ pub struct SbusArgs {
     command: SbusCommand,
 }
 
+/// `--yes` and `--group` of `drivectl sbus write`.
+#[derive(Debug, Clone, Copy, Args)]
+pub struct GroupWrite {
+    /// Confirm a write of the drive's SBus settings (P813–P817).
+    #[arg(long)]
+    yes: bool,
+    /// Write to every drive of this SBus group (P814), 0–63, instead of --addr.
+    #[arg(long, value_parser = clap::value_parser!(u8).range(0..=63))]
+    group: Option<u8>,
+}
+
+impl cmd::Confirm for GroupWrite {
+    fn yes(&self) -> bool {
+        self.yes
+    }
+}
+
 #[derive(Debug, Subcommand)]
 enum SbusCommand {
     /// Read parameters: value with unit and scaling, and the raw value; one line (or JSON
@@ -116,24 +134,14 @@ enum SbusCommand {
         after_help = "Examples:\n  drivectl sbus --iface can0 --addr 1 read P000\n  \
         drivectl sbus --iface can0 --addr 1 --handshake sync read P000 P130 8318 --json"
     )]
-    Read {
-        /// Indices (8318, 0x207E) or menu numbers (P000).
-        #[arg(required = true, num_args = 1..)]
-        params: Vec<String>,
-    },
+    Read(cmd::ReadArgs<Sew>),
     /// Poll parameters at a steady rhythm, every row with its time (RFC 3339, UTC); Ctrl-C ends
     /// it (exit 0).
     #[command(
         after_help = "Examples:\n  drivectl sbus --iface can0 --addr 1 watch P000 P004\n  \
         drivectl sbus --iface can0 --addr 1 watch P000 --interval 200 --count 50 --csv > speed.csv"
     )]
-    Watch {
-        /// Indices or menu numbers.
-        #[arg(required = true, num_args = 1..)]
-        params: Vec<String>,
-        #[command(flatten)]
-        watch: watch::WatchArgs,
-    },
+    Watch(cmd::WatchArgs<Sew>),
     /// Write a parameter (checked against the table first); --group writes to every drive of
     /// an SBus group (write services only, never answered).
     #[command(
@@ -143,40 +151,12 @@ enum SbusCommand {
         EEPROM: the non-volatile write service stores every write in the drive's EEPROM, which\n\
         wears out; a write repeated soon after is refused unless --volatile (RAM only) or --force."
     )]
-    Write {
-        /// Index or menu number.
-        param: String,
-        /// Value in the parameter's unit (or raw with --raw).
-        #[arg(allow_hyphen_values = true)]
-        value: String,
-        /// VALUE is the raw bus value.
-        #[arg(long)]
-        raw: bool,
-        /// Write to RAM only (the service for frequent writes; lost at power-off).
-        #[arg(long)]
-        volatile: bool,
-        /// Skip the table's access/range/value-list/EEPROM-wear checks (a value that does not
-        /// fit the parameter's 32 bits is never sent).
-        #[arg(long)]
-        force: bool,
-        /// Write the nearest value the parameter can hold, saying so.
-        #[arg(long)]
-        round: bool,
-        /// Confirm a write of the drive's SBus settings (P813–P817).
-        #[arg(long)]
-        yes: bool,
-        /// Write to every drive of this SBus group (P814), 0–63, instead of --addr.
-        #[arg(long, value_parser = clap::value_parser!(u8).range(0..=63))]
-        group: Option<u8>,
-    },
+    Write(cmd::WriteArgs<Sew, GroupWrite>),
     /// Minimum, maximum, default, scale and attributes of a parameter.
     #[command(
         after_help = "Examples:\n  drivectl sbus --iface can0 --addr 1 info P130\n  drivectl sbus --iface can0 --addr 1 info 8470 --json"
     )]
-    Info {
-        /// Index or menu number.
-        param: String,
-    },
+    Info(cmd::InfoArgs<Sew>),
     /// Show the interface, its bit rate and the timing the master uses: the frame times of a
     /// parameter request and answer, the least response timeout an answer can meet, the
     /// response timeout and retries, the handshake mode and the SYNC identifier (the interface
@@ -213,15 +193,11 @@ enum SbusCommand {
     )]
     Sync(pd::SyncArgs),
     /// Save all readable parameters to a JSON file.
-    #[command(
-        after_help = "Examples:\n  drivectl sbus --iface can0 --addr 1 backup --out drive1.json\n  drivectl sbus --iface can0 --addr 1 backup --out drive1.json --overwrite"
-    )]
+    #[command(after_help = backup_examples!("drivectl sbus --iface can0 --addr 1"))]
     Backup(backup::BackupArgs),
     /// Write a backup file back to the drive and verify every value (P813, P816 and P817 are
     /// never written: they would cut the bus).
-    #[command(
-        after_help = "Examples:\n  drivectl sbus --iface can0 --addr 1 restore drive1.json --dry-run    what would change\n  drivectl sbus --iface can0 --addr 1 restore drive1.json"
-    )]
+    #[command(after_help = restore_examples!("drivectl sbus --iface can0 --addr 1"))]
     Restore(backup::RestoreArgs),
     /// The CAN identifiers a drive uses as an SBus slave, from its SBus address (P813), group
     /// address (P814) and sync identifier (P817), with who sends each.
@@ -355,88 +331,64 @@ fn save_capture<C: drive_core::rt::CanIo>(
     Ok(())
 }
 
-fn handshake(args: &SbusArgs) -> Handshake {
-    if args.handshake == "sync" {
-        Handshake::Sync
-    } else {
-        Handshake::Async
-    }
-}
-
-pub use sbus_can::master::least_response_timeout as least_timeout;
-
-/// Refuse a response timeout no answer could meet (as `drivectl movilink` and `uss` refuse
-/// one shorter than the drive's start pause). A SocketCAN interface's bit rate is the
-/// interface's: the slowest SBus rate (125 kbit/s) is the bound then.
-fn check_timeout(config: &MasterConfig, rate: Bitrate, iface: &Iface) -> Result<()> {
-    let rate = match iface {
-        Iface::SocketCan(_) => Bitrate::K125,
-        _ => rate,
-    };
-    let least = least_timeout(rate, config.handshake);
-    crate::tool::line::check_timeout(
-        config.response_timeout,
-        least,
-        &format!(
-            "a parameter answer takes at {} ({:.2} ms: request and response frames and the \
-             drive's 1 ms answer window{})",
-            match iface {
-                Iface::SocketCan(name) => format!("the slowest SBus rate, 125 kbit/s, on {name}"),
-                _ => format!("{} kbit/s", rate.bits_per_second() / 1000),
-            },
-            least.as_secs_f64() * 1e3,
-            if config.handshake == Handshake::Sync {
-                ", and the SYNC that releases it"
-            } else {
-                ""
-            }
-        ),
-    )
-}
-
-fn master_config(args: &SbusArgs) -> MasterConfig {
-    MasterConfig {
-        response_timeout: Duration::from_millis(args.timeout),
-        retries: args.retries,
-        sync_id: args.sync_id,
-        handshake: handshake(args),
-        ..MasterConfig::default()
-    }
-}
-
 /// What can be checked without the bus is checked before the interface is opened.
 fn precheck(command: &SbusCommand) -> Result<()> {
     match command {
-        SbusCommand::Read { params } | SbusCommand::Watch { params, .. } => {
-            params.iter().try_for_each(|p| resolve(p).map(|_| ()))
-        }
-        SbusCommand::Info { param } => resolve(param).map(|_| ()),
-        SbusCommand::Write {
-            param,
-            value,
-            raw,
-            force,
-            round,
-            ..
-        } => {
-            let how = ValueText {
-                raw: *raw,
-                force: *force,
-                round: *round,
-            };
-            Ok(resolve(param)?.value_from_text(value, &how).map(|_| ())?)
-        }
         SbusCommand::Scan { from, to } if from > to => Err(CliError::usage(format!(
             "scan --from {from} --to {to}: the range must satisfy 0 ≤ --from ≤ --to ≤ 63"
         ))),
         SbusCommand::Pd(p) => p.check().map(drop),
-        SbusCommand::Restore(r) => backup::check_file(&r.file, Family::Movidrive, NOT_RESTORED),
-        _ => Ok(()),
+        c => common_of!(c, SbusCommand).map_or(Ok(()), |c| cmd::precheck(c, NOT_RESTORED)),
     }
 }
 
 fn address(a: u8) -> Result<Address> {
     Address::new(a).ok_or_else(|| CliError::usage(format!("--addr {a}: SBus addresses are 0…63")))
+}
+
+/// The bus with the drive of `--addr` on it.
+struct Bus<'a, C> {
+    m: &'a mut SbusDriver<C>,
+    args: &'a SbusArgs,
+    iface: &'a Iface,
+}
+
+impl<C: drive_core::rt::CanIo> SewBus for Bus<'_, C> {
+    type Link<'a>
+        = SbusLink<'a, C>
+    where
+        Self: 'a;
+    type Confirm = GroupWrite;
+
+    fn link(&mut self) -> Result<SbusLink<'_, C>> {
+        Ok(SbusLink {
+            master: self.m,
+            address: address(self.args.addr)?,
+            handshake: handshake(self.args),
+            iface: self.iface.name(),
+        })
+    }
+
+    async fn unanswered(
+        &mut self,
+        args: &cmd::WriteArgs<Sew, GroupWrite>,
+        request: &write::WriteRequest,
+        json: bool,
+    ) -> Result<bool> {
+        let Some(g) = args.confirm.group else {
+            return Ok(false);
+        };
+        group_write(
+            self.m,
+            address(g)?,
+            self.iface,
+            request,
+            args.confirm.yes,
+            json,
+        )
+        .await?;
+        Ok(true)
+    }
 }
 
 async fn execute<C: drive_core::rt::CanIo>(
@@ -446,103 +398,16 @@ async fn execute<C: drive_core::rt::CanIo>(
 ) -> Result<()> {
     let json = args.json;
     let addr = address(args.addr)?;
-    let link = |m| SbusLink {
-        master: m,
-        address: addr,
-        handshake: handshake(args),
-        iface: iface.name(),
-    };
+    if let Some(c) = common_of!(&args.command, SbusCommand) {
+        return cmd::execute(&mut SewDrive(Bus { m, args, iface }), c, json).await;
+    }
     match &args.command {
-        SbusCommand::Read { params } => crate::sew::read(link(m), params, json).await,
-        SbusCommand::Watch {
-            params,
-            watch: watch_args,
-        } => crate::sew::watch(link(m), params, watch_args, json).await,
-        SbusCommand::Write {
-            param,
-            value,
-            raw,
-            volatile,
-            force,
-            round,
-            yes,
-            group,
-        } => {
-            let request = crate::sew::write_request(crate::sew::WriteText {
-                param,
-                value,
-                raw: *raw,
-                volatile: *volatile,
-                force: *force,
-                round: *round,
-            })?;
-            match group {
-                Some(g) => group_write(m, address(*g)?, iface, &request, *yes, json).await,
-                None => crate::sew::write(link(m), &request, *yes, json).await,
-            }
-        }
-        SbusCommand::Info { param } => {
-            let mut l = link(m);
-            crate::sew::info(&mut l, resolve(param)?, json).await
-        }
         SbusCommand::Scan { from, to } => scan(m, *from, *to, json).await,
         SbusCommand::Pd(p) => pd::pd(m, addr, p, json, &again(args)).await,
         SbusCommand::Sync(s) => pd::sync(m, s, args.sync_id, json).await,
         SbusCommand::Line => line(args, iface, json),
-        SbusCommand::Backup(b) => crate::sew::backup(link(m), b, json).await,
-        SbusCommand::Restore(r) => crate::sew::restore(link(m), r, json).await,
-        SbusCommand::Ids { .. } | SbusCommand::Plan { .. } => Ok(()),
+        _ => Ok(()),
     }
-}
-
-/// `line`: the interface and the timing the master uses on it.
-fn line(args: &SbusArgs, iface: &Iface, json: bool) -> Result<()> {
-    let given = iface::parse_bitrate(&args.bitrate)?;
-    let (rate, known) = match iface {
-        Iface::SocketCan(_) => (Bitrate::K125, false),
-        _ => (iface.bitrate().unwrap_or(given), true),
-    };
-    let config = master_config(args);
-    let us = |d: Duration| d.as_nanos() as f64 / 1000.0;
-    let frame = sbus_can::busload::frame_time(8, rate);
-    let least = least_timeout(rate, config.handshake);
-    if json {
-        return outln!(
-            "{}",
-            json!({
-                "iface": args.iface, "bitrate": known.then_some(rate.bits_per_second()),
-                "frame_8_bytes_us": known.then_some(us(frame)),
-                "least_timeout_us": us(least),
-                "response_timeout_ms": config.response_timeout.as_millis() as u64, "address": args.addr,
-                "retries": config.retries, "handshake": args.handshake,
-                "sync_id": args.sync_id,
-            })
-        );
-    }
-    if known {
-        outln!(
-            "{} at {} kbit/s: an 8-byte frame takes at most {:.1} µs; a parameter answer at \
-             least {:.2} ms",
-            iface.name(),
-            rate.bits_per_second() / 1000,
-            us(frame),
-            least.as_secs_f64() * 1e3
-        )?;
-    } else {
-        outln!(
-            "{} at the bit rate `ip link` set (at 125 kbit/s, the slowest SBus rate, a \
-             parameter answer takes at least {:.2} ms)",
-            iface.name(),
-            least.as_secs_f64() * 1e3
-        )?;
-    }
-    outln!(
-        "response timeout {} ms, {} retries, {} handshake, SYNC identifier {}",
-        config.response_timeout.as_millis(),
-        config.retries,
-        args.handshake,
-        args.sync_id
-    )
 }
 
 /// A write to an SBus group: every drive with that P814 executes it, none answers (ch. 5.1),
@@ -656,40 +521,4 @@ fn ids(addr: u8, group: u8, sync_id: u16, json: bool) -> Result<()> {
         }
     }
     Ok(())
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn config(ms: u64, handshake: Handshake) -> MasterConfig {
-        MasterConfig {
-            response_timeout: Duration::from_millis(ms),
-            handshake,
-            ..MasterConfig::default()
-        }
-    }
-
-    #[test]
-    fn issue18_a_timeout_no_answer_can_meet_is_refused_as_movilink_refuses_it() {
-        // 500 kbit/s: 2 × 270 µs frames + the 1 ms answer window = 1.54 ms.
-        assert_eq!(
-            least_timeout(Bitrate::K500, Handshake::Async),
-            Duration::from_micros(1540)
-        );
-        let slcan = Iface::parse("slcan:/dev/x@500k").unwrap();
-        let e = check_timeout(&config(1, Handshake::Async), Bitrate::K500, &slcan).unwrap_err();
-        assert_eq!(e.exit_code(), 2);
-        assert!(e.to_string().contains("use --timeout 2 or more"), "{e}");
-        check_timeout(&config(2, Handshake::Async), Bitrate::K500, &slcan).unwrap();
-        // Sync mode waits for the SYNC too; 125 kbit/s frames are four times longer.
-        assert!(check_timeout(&config(2, Handshake::Sync), Bitrate::K500, &slcan).is_err());
-        let slow = Iface::parse("slcan:/dev/x@125k").unwrap();
-        assert!(check_timeout(&config(3, Handshake::Async), Bitrate::K125, &slow).is_err());
-        check_timeout(&config(4, Handshake::Async), Bitrate::K125, &slow).unwrap();
-        // SocketCAN: the interface's rate is not known here; the slowest SBus rate bounds it.
-        let can0 = Iface::parse("can0").unwrap();
-        assert!(check_timeout(&config(3, Handshake::Async), Bitrate::M1, &can0).is_err());
-        check_timeout(&config(50, Handshake::Sync), Bitrate::M1, &can0).unwrap();
-    }
 }

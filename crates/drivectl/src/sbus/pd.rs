@@ -17,7 +17,7 @@ use crate::sew::PdStop;
 use crate::tool::again::Again;
 use crate::tool::client::parse_int;
 use crate::tool::interrupt::Interrupt;
-use crate::tool::motor::{Motion, MotorGuard, Stopped};
+use crate::tool::motor::{Motion, MotorGuard, Stopped, paced};
 use crate::tool::output::trim_float;
 
 /// Arguments of `drivectl sbus pd`.
@@ -181,23 +181,10 @@ pub async fn pd<C: CanIo>(
         again.then(&hint),
     );
     let work = async |m: &mut SbusDriver<C>, motion: &Motion<'_>| -> Result<()> {
-        let stop = motion.interrupt();
-        let mut done = 0u32;
-        while args.count == 0 || done < args.count {
-            if done > 0 {
-                tokio::select! {
-                    () = tokio::time::sleep(period) => {}
-                    () = stop.wait() => {}
-                }
-            }
-            if stop.requested() {
-                break;
-            }
-            done = done.saturating_add(1);
-            motion.armed();
-            exchange(m, addr, group, args.sync, words, json).await?;
-        }
-        Ok(())
+        paced(motion, args.count, period, async || {
+            exchange(m, addr, group, args.sync, words, json).await
+        })
+        .await
     };
     let send_stop = async |m: &mut SbusDriver<C>| -> Result<Stopped> {
         let Some(stop) = &stop else {

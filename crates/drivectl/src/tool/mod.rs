@@ -24,6 +24,8 @@ pub mod output;
 pub mod again;
 pub mod backup;
 pub mod client;
+#[macro_use]
+pub mod cmd;
 #[cfg(test)]
 pub mod fake;
 pub mod front;

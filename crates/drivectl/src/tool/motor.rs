@@ -174,6 +174,33 @@ impl MotorGuard {
     }
 }
 
+/// `count` exchanges (0: until interrupted) `period` apart, each armed first (it may move the
+/// motor): an interrupt ends a pause at once, and the run before the next exchange.
+pub async fn paced(
+    motion: &Motion<'_>,
+    count: u32,
+    period: std::time::Duration,
+    mut exchange: impl AsyncFnMut() -> Result<()>,
+) -> Result<()> {
+    let stop = motion.interrupt();
+    let mut done = 0u32;
+    while count == 0 || done < count {
+        if done > 0 {
+            tokio::select! {
+                () = tokio::time::sleep(period) => {}
+                () = stop.wait() => {}
+            }
+        }
+        if stop.requested() {
+            break;
+        }
+        done = done.saturating_add(1);
+        motion.armed();
+        exchange().await?;
+    }
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -102,6 +102,28 @@ pub async fn write_checked<C: ParamClient>(
     .await?)
 }
 
+/// A write no drive answers (a group, a broadcast): the same checks as an answered write (the
+/// link settings with `yes`, the table, the EEPROM-wear rule; the guard's warning shown), then
+/// `send` puts it on the bus, and the wear log records it under `client`'s drive key. Nothing
+/// is read back.
+pub async fn unanswered<C: ParamClient>(
+    client: &mut C,
+    req: &WriteRequest,
+    yes: bool,
+    send: impl AsyncFnOnce(&mut C) -> Result<()>,
+) -> Result<()> {
+    check_link_setting(client, req, yes)?;
+    let drive_key = client.drive_key().await?;
+    if let Some(warning) = check(client, req).await? {
+        errln!("drivectl: warning: {warning}");
+    }
+    send(client).await?;
+    if let Err(e) = record(&drive_key, req) {
+        errln!("drivectl: warning: {e}");
+    }
+    Ok(())
+}
+
 /// Enter a sent write into the EEPROM-wear log of drive `drive_key` (non-volatile writes of
 /// table parameters only); a failure is for the caller to report.
 pub fn record(drive_key: &str, req: &WriteRequest) -> std::result::Result<(), WearLogError> {

@@ -1,0 +1,364 @@
+//! Backup and restore on the command line, for every family: `drive_client`'s
+//! [backup](drive_client::backup) and [restore](drive_client::restore) engines with the file
+//! read and written here, what they did printed as text or JSON, the progress bar, and their
+//! refusals said with the options that are the way out (`--overwrite`, `--force`, `--yes`,
+//! `--any-device`).
+//!
+//! The backup file's path is checked before the first read ([`OutputFile`]: regular files only,
+//! a symlink is followed, an existing file is replaced only with `--overwrite`) and the file is
+//! written to a temporary name and renamed, so an interrupted backup never leaves a truncated
+//! file behind; its bytes are the library's ([`drive_client::backup::Backup::text`]).
+//!
+//! Restore reads the file (never a device node, at most [`MAX_LEN`]) and checks the whole of it
+//! before it writes anything ([`BackupFile::parse`]). Every identification field the file and
+//! the drive both know must match except the address: `--any-device` overrides; another
+//! firmware is a warning. Every value that differs passes the one write path's checks (access,
+//! range, value list, EEPROM wear; `--force` skips all but the width); every refusal is listed
+//! at once. A setting of the link the restore talks over is written only with `--yes`.
+//! `--dry-run` stops there and shows the changes as old → new. Otherwise the changed values are
+//! written non-volatilely and logged in the EEPROM-wear log, shown as old → new, and every
+//! entry compared is read back; a mismatch shows the expected and the read value.
+//!
+//! Everything shown names its value by [`Target::title`]; the JSON objects (`change`,
+//! `mismatch`, the `skipped` list of the `restore` summary) carry the keys of [`target_json`].
+//! A restore lists every entry it does not write and why ([`Skip`]: `reason` in JSON); values
+//! the drive already holds are counted. A restore that stops halfway (a signal: exit 128 + its
+//! number; the drive gone) lists what was written and what was not: running it again finishes
+//! it.
+
+mod restore;
+#[cfg(test)]
+mod tests;
+
+use std::path::Path;
+
+use drive_client::backup::{self as engine, BackupFile, FileError, MAX_LEN, Skip};
+use drive_client::progress::FieldDiff;
+use drive_client::restore::{self as restoring, Change, Halt, RestoreError};
+use drive_client::{Cause, Notice};
+use drive_profile::Family;
+use drive_profile::guard::GuardError;
+use serde_json::{Value, json};
+
+pub use drive_client::backup::{FORMAT, VERSION};
+
+use super::client::{ParamClient, Target};
+// The tests' scripted drive answers with these.
+#[cfg(test)]
+use super::client::{ClientError, DeviceErrorKind};
+use super::interrupt::{Interrupt, Stop};
+use super::outfile::OutputFile;
+use super::output::{physical_text, target_json};
+use super::progress::Bar;
+pub use super::progress::progress;
+use super::write::{self, FileWearLog, WriteError};
+use crate::error::{CliError, Result};
+use crate::tool::client::OnTarget as _;
+pub use restore::restore;
+
+/// ` by SIGTERM` (the signal that interrupted the work), or nothing.
+fn by(cause: &Cause) -> String {
+    Stop::of(cause.code).map_or_else(String::new, |s| format!(" by {}", s.name()))
+}
+
+/// The error of work ended by a signal: its exit code is the shell's for that signal (128 + its
+/// number; 1 when no signal is known).
+fn interrupted(cause: &Cause, message: String) -> CliError {
+    match Stop::of(cause.code) {
+        Some(s) => CliError::with_code(message, s.exit_code()),
+        None => CliError::failed(message),
+    }
+}
+
+/// Read every parameter and write the backup file `out` (checked before the first read; an
+/// existing file only with `overwrite`).
+pub async fn backup<C: ParamClient>(
+    client: &mut C,
+    out: &Path,
+    overwrite: bool,
+    json: bool,
+    stop: &Interrupt,
+) -> Result<()> {
+    let file = OutputFile::prepare(out, overwrite)?;
+    let not_written = |what: String| format!("{what}; {} was not written", out.display());
+    let done = engine::backup(client, &mut Bar::new(|_| {}), stop.inner())
+        .await
+        .map_err(|e| match e {
+            engine::BackupError::Identify(e) => e.into(),
+            engine::BackupError::Interrupted {
+                cause,
+                saved,
+                total,
+            } => interrupted(
+                &cause,
+                not_written(format!(
+                    "the backup was interrupted{} after {saved} of {total} parameters",
+                    by(&cause)
+                )),
+            ),
+            engine::BackupError::Read { target, error } => {
+                CliError::failed(not_written(target.error(error).to_string()))
+            }
+            other => CliError::failed(not_written(other.to_string())),
+        })?;
+    let text = done
+        .text()
+        .map_err(|e| CliError::failed(format!("cannot encode the backup: {e}")))?;
+    file.commit(&text)?;
+    let (saved, skipped) = (done.saved.len(), done.absent);
+    if json {
+        let unreadable: Vec<Value> = done
+            .unreadable
+            .iter()
+            .map(|(t, why)| {
+                let mut o = target_json(t);
+                o.insert("error".into(), why.message.as_str().into());
+                Value::Object(o)
+            })
+            .collect();
+        outln!(
+            "{}",
+            json!({"type": "backup", "file": out.display().to_string(), "parameters": saved,
+                   "skipped": skipped, "unreadable": unreadable})
+        )?;
+    } else {
+        outln!(
+            "saved {saved} parameters to {} ({skipped} not present on this drive)",
+            out.display()
+        )?;
+    }
+    if !done.unreadable.is_empty() {
+        let list: Vec<String> = done
+            .unreadable
+            .iter()
+            .map(|(t, why)| format!("{} ({why})", t.label()))
+            .collect();
+        return Err(CliError::failed(format!(
+            "the backup is incomplete: the drive refused to read {} parameter(s): {}",
+            list.len(),
+            list.join(", ")
+        )));
+    }
+    Ok(())
+}
+
+/// The reason of a skip as JSON's `reason`.
+fn code(s: &Skip) -> &'static str {
+    match s {
+        Skip::LinkSetting => "link_setting",
+        Skip::Command => "command",
+        Skip::RamOnly => "ram_only",
+        Skip::ReadOnly => "read_only",
+        Skip::Absent(_) => "absent",
+        Skip::Unreadable(_) => "unreadable",
+        Skip::Unconfirmed(_) => "needs_yes",
+        Skip::Refused(_) => "refused",
+        _ => "other",
+    }
+}
+
+/// The reason for a person (the heading of its group in the text).
+fn reason(s: &Skip) -> &'static str {
+    match s {
+        Skip::LinkSetting => {
+            "not restored by rule: settings of the link the restore talks over, whose change \
+             would cut the connection"
+        }
+        Skip::Command => "not restored by rule: commands and locks, which act on the drive",
+        Skip::RamOnly => "not restored by rule: RAM-only values (bus control words and setpoints)",
+        Skip::ReadOnly => "read-only",
+        Skip::Absent(_) => "absent on this drive",
+        Skip::Unreadable(_) => "the drive refused to read them, so they were not compared",
+        Skip::Unconfirmed(_) => {
+            "settings of the link the restore talks over; add --yes to write them"
+        }
+        Skip::Refused(_) => "refused by the drive",
+        _ => "not restored",
+    }
+}
+
+/// The drive's answer or what a write would do, where there is one.
+fn detail(s: &Skip) -> Option<&str> {
+    match s {
+        Skip::Absent(d) | Skip::Unreadable(d) | Skip::Refused(d) => Some(&d.message),
+        Skip::Unconfirmed(change) => Some(change),
+        _ => None,
+    }
+}
+
+/// The order of the groups in the text.
+fn rank(s: &Skip) -> u8 {
+    match s {
+        Skip::LinkSetting => 0,
+        Skip::Command => 1,
+        Skip::RamOnly => 2,
+        Skip::ReadOnly => 3,
+        Skip::Absent(_) => 4,
+        Skip::Unconfirmed(_) => 5,
+        Skip::Unreadable(_) => 6,
+        Skip::Refused(_) => 7,
+        _ => 8,
+    }
+}
+
+/// The skipped entries as text: one line per reason, `skipped (reason): P813, P816` (a drive's
+/// answer or a link change in brackets after its entry); read-only entries as a count (a backup
+/// holds every readable value; `--json` lists them).
+fn skipped_lines(skipped: &[(Target, Skip)]) -> Vec<String> {
+    let mut sorted: Vec<&(Target, Skip)> = skipped.iter().collect();
+    sorted.sort_by_key(|(_, s)| rank(s));
+    let mut lines = Vec::new();
+    for group in sorted.chunk_by(|a, b| rank(&a.1) == rank(&b.1)) {
+        let Some((_, first)) = group.first() else {
+            continue;
+        };
+        let list = if *first == Skip::ReadOnly {
+            format!("{} parameter(s) (--json lists them)", group.len())
+        } else {
+            group
+                .iter()
+                .map(|(t, s)| match detail(s) {
+                    Some(d) => format!("{} ({d})", t.label()),
+                    None => t.label(),
+                })
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
+        lines.push(format!("skipped ({}): {list}", reason(first)));
+    }
+    lines
+}
+
+/// ` (listed above)` after the count of skipped entries, when there are any.
+fn listed(skipped: &[(Target, Skip)]) -> &'static str {
+    if skipped.is_empty() {
+        ""
+    } else {
+        " (listed above)"
+    }
+}
+
+/// The skipped entries as JSON: the target's keys ([`target_json`]) with `reason` (a code:
+/// `link_setting`, `command`, `ram_only`, `read_only`, `absent`, `unreadable`, `needs_yes`,
+/// `refused`), `message` (the reason for a person, with the drive's answer) and, where an
+/// option writes it, `hint`.
+fn skipped_json(skipped: &[(Target, Skip)]) -> Value {
+    Value::Array(
+        skipped
+            .iter()
+            .map(|(t, s)| {
+                let mut o = target_json(t);
+                o.insert("reason".into(), code(s).into());
+                let message = match detail(s) {
+                    Some(d) => format!("{}: {d}", reason(s)),
+                    None => reason(s).to_owned(),
+                };
+                o.insert("message".into(), message.into());
+                if matches!(s, Skip::Unconfirmed(_)) {
+                    o.insert("hint".into(), "--yes".into());
+                }
+                Value::Object(o)
+            })
+            .collect(),
+    )
+}
+
+/// A backup file's problem, said with its path: a usage error.
+fn file_error(file: &Path, e: &FileError) -> CliError {
+    let f = file.display();
+    CliError::usage(match e {
+        FileError::NotUtf8 { at } => {
+            format!("{f} is not a drivectl backup (not UTF-8 text at byte {at})")
+        }
+        FileError::Json(e) => format!("{f} is not a drivectl backup (invalid JSON: {e})"),
+        FileError::Format => format!("{f} is not a {FORMAT} version {VERSION} file"),
+        FileError::OtherFamily { saved, family } => {
+            format!("{f} is a backup of a {saved} drive, not of a {family} drive")
+        }
+        FileError::NoFamily { family } => {
+            format!("{f} names no drive family (`family`); it is not a {family} backup")
+        }
+        FileError::NoList => format!("{f} has no `parameters` list; it is not a drivectl backup"),
+        FileError::Empty => format!("{f} holds no parameters; there is nothing to restore"),
+        FileError::Entry { entry, problem } => format!("{f}: entry {entry}: {problem}"),
+        other => format!("{f}: {other}"),
+    })
+}
+
+/// Read and check a backup file (see [`BackupFile::parse`]); every problem is reported with
+/// its entry.
+fn load(
+    file: &Path,
+    family: Family,
+    not_restored: &[u16],
+    link_settings: &[u16],
+) -> Result<BackupFile> {
+    let bytes = super::infile::read_limited(file, false, MAX_LEN)?;
+    BackupFile::parse(&bytes, family, not_restored, link_settings).map_err(|e| file_error(file, &e))
+}
+
+/// Check a restore file without a drive (before a port is opened): it must be a backup of
+/// `family` that holds parameters, each named once and fitting its width.
+pub fn check_file(file: &Path, family: Family, not_restored: &[u16]) -> Result<()> {
+    load(file, family, not_restored, &[]).map(|_| ())
+}
+
+/// The arguments of every family's `backup` command.
+#[derive(Debug, Clone, clap::Args)]
+pub struct BackupArgs {
+    /// Output file: a new regular file (a symlink is followed to one); checked before the
+    /// first read. A file replaced with --overwrite keeps its mode and, where possible, its
+    /// owner.
+    #[arg(long)]
+    pub out: std::path::PathBuf,
+    /// Replace the output file if it exists.
+    #[arg(long)]
+    pub overwrite: bool,
+}
+
+/// The arguments of every family's `restore` command.
+#[derive(Debug, Clone, clap::Args)]
+pub struct RestoreArgs {
+    /// Backup file written by `backup`.
+    pub file: std::path::PathBuf,
+    /// Write even values the table check refuses (values that do not fit are refused).
+    #[arg(long)]
+    pub force: bool,
+    /// Show what would change (old → new) and what would be skipped, and write nothing.
+    #[arg(long)]
+    pub dry_run: bool,
+    /// Restore onto a drive whose identification differs from the file's (device type,
+    /// variant, configuration: every field both know, except the address; another firmware is
+    /// only a warning).
+    #[arg(long)]
+    pub any_device: bool,
+    /// Also write the drive's settings of the link the restore talks over (timeouts, group
+    /// address) where the file's differ; without it they are skipped and listed.
+    #[arg(long)]
+    pub yes: bool,
+}
+
+impl RestoreArgs {
+    /// How `restore` runs.
+    pub fn options(&self) -> RestoreOptions {
+        RestoreOptions {
+            force: self.force,
+            dry_run: self.dry_run,
+            any_device: self.any_device,
+            yes: self.yes,
+        }
+    }
+}
+
+/// How `restore` was asked to run.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct RestoreOptions {
+    /// Write values the table check refuses (never a value that does not fit).
+    pub force: bool,
+    /// Show the changes, write nothing.
+    pub dry_run: bool,
+    /// Restore onto a drive whose identification differs from the file's.
+    pub any_device: bool,
+    /// Write the settings of the link the restore talks over too.
+    pub yes: bool,
+}

@@ -1,0 +1,386 @@
+//! `restore`: a backup file planned against the drive, written and verified by drive-client's
+//! engine, what it did and what it refused said on the command line.
+
+use super::*;
+
+/// The guard's message with what `restore` offers as a way out.
+fn restore_hint(e: &GuardError) -> String {
+    let hint = match e {
+        GuardError::TooFrequent { .. } => "restore again in a second, or use --force",
+        GuardError::DoesNotFit { .. } => return write::hint_of(e).unwrap_or_default(),
+        _ => "fix the file, or use --force to let the drive decide",
+    };
+    format!("; {hint}")
+}
+
+/// A refusal of the write path for a change, as `restore` says it.
+fn refusal_text(e: &WriteError) -> String {
+    match e {
+        WriteError::Guard { error, message } => message.clone() + &restore_hint(error),
+        e => CliError::from(e.clone()).to_string(),
+    }
+}
+
+/// A value as text: physical with unit where the table knows the parameter.
+fn value_text(t: &Target, raw: i64) -> String {
+    t.param.map_or_else(
+        || format!("raw {raw}"),
+        |p| format!("{} (raw {raw})", physical_text(p, raw)),
+    )
+}
+
+/// A change as text: `372 data set 2 Rated speed: 1400 1/min (raw 1400) → 1390 1/min (raw
+/// 1390)`.
+fn change_text(t: &Target, old: i64, new: i64) -> String {
+    format!(
+        "{}: {} → {}",
+        t.title(),
+        value_text(t, old),
+        value_text(t, new)
+    )
+}
+
+/// A change as JSON: the target's keys ([`target_json`]) with `from_raw`, `from`, `to_raw`,
+/// `to` (raw and physical values).
+fn change_json(t: &Target, old: i64, new: i64) -> Value {
+    let mut o = target_json(t);
+    o.insert("type".into(), "change".into());
+    o.insert("from_raw".into(), old.into());
+    o.insert("from".into(), physical_json(t, old));
+    o.insert("to_raw".into(), new.into());
+    o.insert("to".into(), physical_json(t, new));
+    Value::Object(o)
+}
+
+/// Print every change, old → new, by its label.
+fn print_changes(changes: &[Change], json: bool) -> Result<()> {
+    for c in changes {
+        if json {
+            outln!("{}", change_json(&c.target, c.from, c.to))?;
+        } else {
+            outln!("{}", change_text(&c.target, c.from, c.to))?;
+        }
+    }
+    Ok(())
+}
+
+/// The physical value of `raw` as JSON (raw outside the table).
+fn physical_json(t: &Target, raw: i64) -> Value {
+    t.param
+        .map_or(Value::from(raw), |p| json!(p.to_physical(raw)))
+}
+
+/// An identity value for a person: a string as it is, anything else as JSON.
+fn identity_text(v: &Value) -> String {
+    v.as_str().map_or_else(|| v.to_string(), str::to_owned)
+}
+
+/// `<file> was saved from a drive of device type 7, variant act; this drive is device type 8,
+/// variant acu`.
+fn other_device(file: &Path, differ: &[FieldDiff]) -> String {
+    let side = |pick: fn(&FieldDiff) -> &Value| {
+        differ
+            .iter()
+            .map(|d| format!("{} {}", d.key.replace('_', " "), identity_text(pick(d))))
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    format!(
+        "{} was saved from a drive of {}; this drive is {}",
+        file.display(),
+        side(|d| &d.saved),
+        side(|d| &d.drive)
+    )
+}
+
+/// What a restore of `file` says while it runs, on standard error.
+fn say(file: &Path, notice: &Notice) {
+    match notice {
+        Notice::OtherDevice(differ) => {
+            errln!("drivectl: warning: {}", other_device(file, differ));
+        }
+        Notice::OtherFirmware(f) => errln!(
+            "drivectl: warning: {} was saved from firmware {}; this drive runs firmware {}: \
+             parameters may differ between firmware versions",
+            file.display(),
+            identity_text(&f.saved),
+            identity_text(&f.drive)
+        ),
+        Notice::Warning(w) => errln!("drivectl: warning: {w}"),
+        Notice::NotRecorded(e) => errln!("drivectl: warning: {e}"),
+        Notice::LinkFollowed { target, note } => {
+            errln!("drivectl: note: {}: {note}", target.label());
+        }
+        other => errln!("drivectl: note: {other:?}"),
+    }
+}
+
+/// The entries of `skipped` refused or unreadable by the drive: `P130 (its answer)`.
+fn answered(skipped: &[(Target, Skip)], unreadable: bool) -> Vec<String> {
+    skipped
+        .iter()
+        .filter_map(|(t, s)| match s {
+            Skip::Refused(why) if !unreadable => Some(format!("{} ({why})", t.label())),
+            Skip::Unreadable(why) if unreadable => Some(format!("{} ({why})", t.label())),
+            _ => None,
+        })
+        .collect()
+}
+
+/// A restore's error before anything was written, or while verifying (`written`: the labels of
+/// what was written).
+fn restore_error(file: &Path, e: RestoreError, written: &[String]) -> CliError {
+    match e {
+        RestoreError::File(e) => file_error(file, &e),
+        RestoreError::Identify(e) | RestoreError::Key(e) => e.into(),
+        RestoreError::OtherDevice(differ) => CliError::usage(format!(
+            "{}: nothing was written; add --any-device to restore it anyway",
+            other_device(file, &differ)
+        )),
+        RestoreError::Interrupted {
+            phase: drive_client::Phase::Verifying,
+            cause,
+        } => interrupted(
+            &cause,
+            format!(
+                "the restore was interrupted{} while verifying: {} change(s) were written ({}), \
+                 not all were read back; run the restore again to check",
+                by(&cause),
+                written.len(),
+                written.join(", ")
+            ),
+        ),
+        RestoreError::Interrupted { cause, .. } => interrupted(
+            &cause,
+            format!(
+                "the restore was interrupted{} while reading the drive; nothing was written",
+                by(&cause)
+            ),
+        ),
+        RestoreError::Read { target, error } => {
+            CliError::failed(format!("{}; nothing was written", target.error(error)))
+        }
+        RestoreError::Verify { target, error } => CliError::failed(format!(
+            "{} change(s) were written, but verifying failed: {}; run the restore again to check",
+            written.len(),
+            target.error(error)
+        )),
+        other => CliError::failed(other.to_string()),
+    }
+}
+
+/// Write a backup back and verify it (see the [module docs](self)).
+pub async fn restore<C: ParamClient>(
+    client: &mut C,
+    file: &Path,
+    opts: RestoreOptions,
+    json: bool,
+    stop: &Interrupt,
+) -> Result<()> {
+    let loaded = load(
+        file,
+        client.family(),
+        client.not_restored(),
+        client.link_settings(),
+    )?;
+    let log = FileWearLog::from_env();
+    let rules = restoring::Options {
+        force: opts.force,
+        any_device: opts.any_device,
+        confirm_link_settings: opts.yes,
+    };
+    let mut bar = Bar::new(|n: &Notice| say(file, n));
+    let stop = stop.inner();
+    let plan = restoring::plan(client, &loaded, &rules, &log, &mut bar, stop)
+        .await
+        .map_err(|e| restore_error(file, e, &[]))?;
+    let refusals: Vec<String> = plan.refusals.iter().map(refusal_text).collect();
+    let (changes, unchanged) = (plan.changes.len(), plan.unchanged());
+    if opts.dry_run {
+        print_changes(&plan.changes, json)?;
+        for r in &refusals {
+            errln!("drivectl: would be refused: {r}");
+        }
+        if json {
+            outln!(
+                "{}",
+                json!({"type": "restore", "dry_run": true, "file": file.display().to_string(),
+                       "entries": plan.entries, "changes": changes,
+                       "unchanged": unchanged, "refused": refusals,
+                       "skipped": skipped_json(&plan.skipped)})
+            )?;
+        } else {
+            for l in skipped_lines(&plan.skipped) {
+                outln!("{l}")?;
+            }
+            outln!(
+                "dry run: {changes} of {} parameter(s) in {} differ from the drive and would be \
+                 written, {unchanged} already hold the saved value, {} skipped{}; nothing was \
+                 written",
+                plan.in_file,
+                file.display(),
+                plan.skipped.len(),
+                listed(&plan.skipped)
+            )?;
+        }
+        if !refusals.is_empty() {
+            return Err(CliError::usage(format!(
+                "{} of the changes would be refused",
+                refusals.len()
+            )));
+        }
+        return Ok(());
+    }
+    if let Some(first) = refusals.first() {
+        return Err(CliError::usage(format!(
+            "{}: {} change(s) refused, nothing was written: {first}{}",
+            file.display(),
+            refusals.len(),
+            if refusals.len() > 1 {
+                format!(
+                    " (and {} more; `restore --dry-run` lists them)",
+                    refusals.len() - 1
+                )
+            } else {
+                String::new()
+            }
+        )));
+    }
+    let applied = match restoring::apply(client, &plan, &log, &mut bar, stop).await {
+        Ok(applied) => applied,
+        Err(RestoreError::Halted(h)) => {
+            let written = &h.applied.written;
+            print_changes(written, json)?;
+            let written_labels: Vec<String> = written.iter().map(|c| c.target.label()).collect();
+            let skipped = plan.skipped_after(&h.applied.refused);
+            let missing: Vec<String> = h.not_written.iter().map(|c| c.target.label()).collect();
+            let uncertain = h.uncertain().map(Target::label);
+            if json {
+                outln!(
+                    "{}",
+                    json!({"type": "restore", "file": file.display().to_string(),
+                           "complete": false, "entries": plan.entries,
+                           "written": written_labels, "refused": answered(&skipped, false),
+                           "not_written": missing, "uncertain": uncertain,
+                           "skipped": skipped_json(&skipped)})
+                )?;
+            }
+            let why = match &h.why {
+                Halt::Interrupted(cause) => format!("interrupted{}", by(cause)),
+                Halt::Link { target, error } => target.error(error.clone()).to_string(),
+                other => format!("{other:?}"),
+            };
+            let message = format!(
+                "restore stopped ({why}): the drive is half restored: {} of {changes} change(s) \
+                 written ({}), {} not written ({}){}; run the same restore again to finish it \
+                 (values the drive already holds are not written again)",
+                written.len(),
+                if written.is_empty() {
+                    "none".to_owned()
+                } else {
+                    written_labels.join(", ")
+                },
+                missing.len(),
+                missing.join(", "),
+                uncertain.map_or_else(String::new, |u| format!(
+                    "; {u} was being written when the link failed and may or may not have arrived"
+                )),
+            );
+            return Err(match &h.why {
+                Halt::Interrupted(cause) => interrupted(cause, message),
+                _ => CliError::failed(message),
+            });
+        }
+        Err(e) => return Err(restore_error(file, e, &[])),
+    };
+    print_changes(&applied.written, json)?;
+    let written: Vec<String> = applied.written.iter().map(|c| c.target.label()).collect();
+    let mismatches = restoring::verify(client, &plan, &mut bar, stop)
+        .await
+        .map_err(|e| restore_error(file, e, &written))?;
+    for m in &mismatches {
+        let t = &m.target;
+        if json {
+            let mut o = target_json(t);
+            o.insert("type".into(), "mismatch".into());
+            o.insert("expected_raw".into(), m.expected.into());
+            o.insert("expected".into(), physical_json(t, m.expected));
+            o.insert("raw".into(), m.back.into());
+            o.insert("value".into(), physical_json(t, m.back));
+            outln!("{}", Value::Object(o))?;
+        } else {
+            outln!(
+                "{}: expected {}, the drive holds {}",
+                t.title(),
+                value_text(t, m.expected),
+                value_text(t, m.back)
+            )?;
+        }
+    }
+    let skipped = plan.skipped_after(&applied.refused);
+    let refused = answered(&skipped, false);
+    let unreadable = answered(&skipped, true);
+    let compared = plan.compared.len();
+    if json {
+        outln!(
+            "{}",
+            json!({"type": "restore", "file": file.display().to_string(), "complete": true,
+                   "entries": plan.entries, "written": written.len(), "unchanged": unchanged,
+                   "refused": refused, "mismatches": mismatches.len(),
+                   "skipped": skipped_json(&skipped)})
+        )?;
+    } else {
+        for l in skipped_lines(&skipped) {
+            outln!("{l}")?;
+        }
+        if written.is_empty() && refused.is_empty() && unreadable.is_empty() {
+            outln!(
+                "{}: all {compared} parameter(s) compared already held the saved values; nothing \
+                 was written ({} skipped{})",
+                file.display(),
+                skipped.len(),
+                if skipped.is_empty() {
+                    ""
+                } else {
+                    ", listed above"
+                }
+            )?;
+        } else {
+            outln!(
+                "{}: {} parameter(s) written, {unchanged} already held the saved value, {} \
+                 skipped{}; {} verified",
+                file.display(),
+                written.len(),
+                skipped.len(),
+                listed(&skipped),
+                compared - mismatches.len()
+            )?;
+        }
+    }
+    let mut failures = Vec::new();
+    if !mismatches.is_empty() || !refused.is_empty() {
+        failures.push(format!(
+            "verify failed: {} value(s) differ after restore, {} write(s) refused by the drive{}; \
+             check controller inhibit and the parameter lock",
+            mismatches.len(),
+            refused.len(),
+            if refused.is_empty() {
+                String::new()
+            } else {
+                format!(" ({})", refused.join(", "))
+            }
+        ));
+    }
+    if !unreadable.is_empty() {
+        failures.push(format!(
+            "the restore is incomplete: the drive refused to read {} parameter(s), which were \
+             not compared or written: {}",
+            unreadable.len(),
+            unreadable.join(", ")
+        ));
+    }
+    if !failures.is_empty() {
+        return Err(CliError::failed(failures.join("; ")));
+    }
+    Ok(())
+}
