@@ -44,14 +44,15 @@
 
 use std::io;
 
-use drive_core::rt::{self, Bus, CharIo, Clock, LineTime, Station};
-use drive_core::{Endpoint, Instant, LineSettings, RxChar};
+use drive_core::rt::{self, Bus, CharIo, Clock, LineTime, Simulated};
+use drive_core::{Endpoint, Instant, LineSettings};
+use drive_sim::Ticker;
 /// Which drive is simulated (ACT or ACU): drive-sim's, re-exported for [`SimulatedDrive::new`].
 pub use drive_sim::bonfiglioli::Variant;
 use drive_sim::bonfiglioli::{self as model, SimulatedBonfiglioli};
 
 use crate::frame::{Address, ExceptionCode, StartAddress};
-use crate::framing::{MAX_FRAME, Mode};
+use crate::framing::Mode;
 use crate::slave::{Backend, Slave, SlaveConfig, SlaveEvent, Width};
 
 /// The Modbus address parameter (ch. 5.2.2, 5.3.2).
@@ -71,20 +72,7 @@ pub const TICK: core::time::Duration = core::time::Duration::from_millis(10);
 #[derive(Debug)]
 struct DriveBackend {
     drive: SimulatedBonfiglioli,
-    /// When the model was last advanced.
-    last_tick: Instant,
-}
-
-impl DriveBackend {
-    /// Whether the model has timed work: it is enabled or stopping, the motor turns, or the
-    /// watchdog (413) is armed.
-    fn busy(&self) -> bool {
-        use drive_profile::bonfiglioli::State;
-        let d = &self.drive;
-        matches!(d.state(), State::OperationEnabled | State::QuickStopActive)
-            || d.actual_frequency() != 0.0
-            || d.store().read(413, 0).is_ok_and(|v| v > 0)
-    }
+    ticker: Ticker,
 }
 
 fn width(w: Width) -> model::Width {
@@ -123,14 +111,11 @@ impl Backend for DriveBackend {
     }
 
     fn poll_timeout(&self) -> Option<Instant> {
-        self.busy().then(|| self.last_tick + TICK)
+        self.ticker.poll_timeout(&self.drive)
     }
 
     fn handle_timeout(&mut self, now: Instant) {
-        if now >= self.last_tick + TICK {
-            self.drive.tick(now);
-            self.last_tick = now;
-        }
+        self.ticker.handle_timeout(&mut self.drive, now);
     }
 }
 
@@ -179,7 +164,7 @@ impl SimulatedDrive {
                 config,
                 DriveBackend {
                     drive,
-                    last_tick: Instant::ZERO,
+                    ticker: Ticker::new(TICK),
                 },
             ),
             line: LineTime::new(),
@@ -253,34 +238,34 @@ impl SimulatedDrive {
     }
 }
 
-impl Endpoint for SimulatedDrive {
-    fn handle_char(&mut self, c: RxChar) {
-        // VCB bus or P-Bus (395 = 0, 1): no Modbus frame is understood (ch. 5.1).
-        if !self.silent {
-            self.slave.handle_char(c);
-        }
+impl Simulated for SimulatedDrive {
+    fn slave(&self) -> &impl Endpoint {
+        &self.slave
+    }
+
+    fn slave_mut(&mut self) -> &mut impl Endpoint {
+        &mut self.slave
+    }
+
+    fn follow_events(&mut self) {
         self.drain_events();
     }
 
-    fn handle_timeout(&mut self, now: Instant) {
-        self.slave.handle_timeout(now);
-        self.drain_events();
+    /// VCB bus or P-Bus (395 = 0, 1): no Modbus frame is understood (ch. 5.1).
+    fn hears(&self) -> bool {
+        !self.silent
     }
 
-    fn poll_transmit(&mut self, now: Instant, buf: &mut [u8]) -> Option<usize> {
-        self.slave.poll_transmit(now, buf)
+    fn station_address(&self) -> u8 {
+        self.address().get()
     }
 
-    fn poll_timeout(&self) -> Option<Instant> {
-        self.slave.poll_timeout()
+    fn station_char_time(&self) -> core::time::Duration {
+        self.slave.config().line.char_time()
     }
 
-    fn poll_quiet_timeout(&self) -> Option<Instant> {
-        Endpoint::poll_quiet_timeout(&self.slave)
-    }
-
-    fn max_frame_len(&self) -> usize {
-        MAX_FRAME
+    fn station_line_time(&mut self) -> &mut LineTime {
+        &mut self.line
     }
 }
 
@@ -297,18 +282,4 @@ pub fn bus(addresses: &[u8], variant: Variant, mode: Mode, line: LineSettings) -
             .map(|&a| SimulatedDrive::new(a, variant, mode, line)),
         line,
     )
-}
-
-impl Station for SimulatedDrive {
-    fn address(&self) -> u8 {
-        SimulatedDrive::address(self).get()
-    }
-
-    fn char_time(&self) -> core::time::Duration {
-        self.slave.config().line.char_time()
-    }
-
-    fn line_time(&mut self) -> &mut LineTime {
-        &mut self.line
-    }
 }

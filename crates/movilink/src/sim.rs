@@ -42,12 +42,12 @@
 
 use std::io;
 
-use drive_core::rt::{self, Bus, CharIo, Clock, LineTime, Station};
-use drive_core::{Endpoint, Instant, LineSettings, RxChar};
+use drive_core::rt::{self, Bus, CharIo, Clock, LineTime, Simulated};
+use drive_core::{Endpoint, Instant, LineSettings};
 use drive_sim::movidrive::{BusSource, Movidrive};
 
 use crate::error::ReturnCode;
-use crate::frame::{Address, MAX_TELEGRAM_LEN, ParamChannel};
+use crate::frame::{Address, ParamChannel};
 use crate::slave::{Backend, RequestContext, Slave, SlaveConfig, SlaveEvent};
 use crate::timing::{LINE, LineTiming};
 
@@ -161,31 +161,29 @@ impl SimulatedMovidrive {
     }
 }
 
-impl Endpoint for SimulatedMovidrive {
-    fn handle_char(&mut self, c: RxChar) {
-        self.slave.handle_char(c);
+impl Simulated for SimulatedMovidrive {
+    fn slave(&self) -> &impl Endpoint {
+        &self.slave
+    }
+
+    fn slave_mut(&mut self) -> &mut impl Endpoint {
+        &mut self.slave
+    }
+
+    fn follow_events(&mut self) {
         self.drain_events();
     }
 
-    fn handle_timeout(&mut self, now: Instant) {
-        self.slave.handle_timeout(now);
-        self.drain_events();
+    fn station_address(&self) -> u8 {
+        self.movidrive().address()
     }
 
-    fn poll_transmit(&mut self, now: Instant, buf: &mut [u8]) -> Option<usize> {
-        self.slave.poll_transmit(now, buf)
+    fn station_char_time(&self) -> core::time::Duration {
+        self.slave.config().timing.char_time
     }
 
-    fn poll_timeout(&self) -> Option<Instant> {
-        self.slave.poll_timeout()
-    }
-
-    fn poll_quiet_timeout(&self) -> Option<Instant> {
-        Endpoint::poll_quiet_timeout(&self.slave)
-    }
-
-    fn max_frame_len(&self) -> usize {
-        MAX_TELEGRAM_LEN
+    fn station_line_time(&mut self) -> &mut LineTime {
+        &mut self.line
     }
 }
 
@@ -212,18 +210,4 @@ pub fn bus(addresses: &[u8], line: LineSettings) -> SimulatedBus {
             .map(|&a| SimulatedMovidrive::with_line(a, line)),
         line,
     )
-}
-
-impl Station for SimulatedMovidrive {
-    fn address(&self) -> u8 {
-        self.movidrive().address()
-    }
-
-    fn char_time(&self) -> core::time::Duration {
-        self.slave.config().timing.char_time
-    }
-
-    fn line_time(&mut self) -> &mut LineTime {
-        &mut self.line
-    }
 }

@@ -60,13 +60,13 @@
 use std::io;
 use std::time::Duration;
 
-use drive_core::rt::{self, Bus, CharIo, Clock, LineTime, Station};
-use drive_core::{Endpoint, Instant, LineSettings, RxChar};
-use drive_profile::nord::State;
+use drive_core::rt::{self, Bus, CharIo, Clock, LineTime, Simulated};
+use drive_core::{Endpoint, Instant, LineSettings};
+use drive_sim::Ticker;
 use drive_sim::nord::SimulatedNord;
 
 use super::slave::{Backend, Slave, SlaveConfig, SlaveEvent};
-use super::telegram::{Layout, MAX_TELEGRAM, UssAddress};
+use super::telegram::{Layout, UssAddress};
 use crate::uss::pkw::{DriveError, Order, Pkw, Reply};
 
 /// How often the model is advanced while something in it runs on time (a ramp, a fault
@@ -81,17 +81,7 @@ const INVALID_ORDER: u16 = 201;
 struct NordBackend {
     drive: SimulatedNord,
     processing: Duration,
-    last_tick: Instant,
-}
-
-impl NordBackend {
-    /// Whether the model has timed work: running, stopping or reacting to a fault.
-    fn busy(&self) -> bool {
-        matches!(
-            self.drive.state(),
-            State::OperationEnabled | State::QuickStopActive | State::FaultReactionActive
-        ) || self.drive.actual_frequency() != 0.0
-    }
+    ticker: Ticker,
 }
 
 impl Backend for NordBackend {
@@ -112,7 +102,7 @@ impl Backend for NordBackend {
             Some((&control, setpoints)) => self.drive.process(control, setpoints, now),
             None => self.drive.tick(now),
         }
-        self.last_tick = now;
+        self.ticker.advanced(now);
         let actuals = self.drive.actual_values();
         let words = core::iter::once(self.drive.status_word())
             .chain(actuals)
@@ -123,14 +113,11 @@ impl Backend for NordBackend {
     }
 
     fn poll_timeout(&self) -> Option<Instant> {
-        self.busy().then(|| self.last_tick + TICK)
+        self.ticker.poll_timeout(&self.drive)
     }
 
     fn handle_timeout(&mut self, now: Instant) {
-        if now >= self.last_tick + TICK {
-            self.drive.tick(now);
-            self.last_tick = now;
-        }
+        self.ticker.handle_timeout(&mut self.drive, now);
     }
 }
 
@@ -169,7 +156,7 @@ impl SimulatedDrive {
         let backend = NordBackend {
             drive: SimulatedNord::new(),
             processing: Duration::ZERO,
-            last_tick: Instant::ZERO,
+            ticker: Ticker::new(TICK),
         };
         SimulatedDrive {
             slave: Slave::new(config, backend),
@@ -248,31 +235,29 @@ impl SimulatedDrive {
     }
 }
 
-impl Endpoint for SimulatedDrive {
-    fn handle_char(&mut self, c: RxChar) {
-        self.slave.handle_char(c);
+impl Simulated for SimulatedDrive {
+    fn slave(&self) -> &impl Endpoint {
+        &self.slave
+    }
+
+    fn slave_mut(&mut self) -> &mut impl Endpoint {
+        &mut self.slave
+    }
+
+    fn follow_events(&mut self) {
         self.drain_events();
     }
 
-    fn handle_timeout(&mut self, now: Instant) {
-        self.slave.handle_timeout(now);
-        self.drain_events();
+    fn station_address(&self) -> u8 {
+        self.address().get()
     }
 
-    fn poll_transmit(&mut self, now: Instant, buf: &mut [u8]) -> Option<usize> {
-        self.slave.poll_transmit(now, buf)
+    fn station_char_time(&self) -> Duration {
+        self.slave.config().line.char_time()
     }
 
-    fn poll_timeout(&self) -> Option<Instant> {
-        self.slave.poll_timeout()
-    }
-
-    fn poll_quiet_timeout(&self) -> Option<Instant> {
-        Endpoint::poll_quiet_timeout(&self.slave)
-    }
-
-    fn max_frame_len(&self) -> usize {
-        MAX_TELEGRAM
+    fn station_line_time(&mut self) -> &mut LineTime {
+        &mut self.line
     }
 }
 
@@ -288,18 +273,4 @@ pub fn bus(addresses: &[UssAddress], layout: Layout, line: LineSettings) -> Simu
             .map(|&a| SimulatedDrive::new(a, layout, line)),
         line,
     )
-}
-
-impl Station for SimulatedDrive {
-    fn address(&self) -> u8 {
-        SimulatedDrive::address(self).get()
-    }
-
-    fn char_time(&self) -> core::time::Duration {
-        self.slave.config().line.char_time()
-    }
-
-    fn line_time(&mut self) -> &mut LineTime {
-        &mut self.line
-    }
 }

@@ -12,7 +12,9 @@
 //! * [`Driver`]: the one runtime driver, a sans-IO master on a [`Link`] (a [`Port`] or a
 //!   [`CanPort`]), one transaction at a time; every protocol's async driver is one;
 //! * [`serve`]: the serve loop of simulated devices ([`Endpoint`]s) on one line, and [`Bus`]:
-//!   several simulated devices ([`Station`]s, endpoints with an address) served on one line.
+//!   several simulated devices ([`Station`]s, endpoints with an address) served on one line;
+//! * [`Simulated`]: the shell of every protocol's simulated device (a slave and a front-end
+//!   following its events), which makes it an [`Endpoint`] and a [`Station`].
 //!
 //! Serial ports are opened by `drive-transport`; this layer needs nothing but tokio, so a
 //! protocol crate's `tokio` feature does not pull in serial-port or libc dependencies.
@@ -28,6 +30,7 @@ mod driver;
 mod io;
 mod port;
 mod serve;
+mod simulated;
 
 pub use bus::{Bus, LineTime, Station, serve_alone};
 pub use can::{CanIo, ReceivedFrame, recv_frame, send_frame, send_frame_at};
@@ -40,3 +43,4 @@ pub use io::{
 };
 pub use port::{Port, Step};
 pub use serve::serve;
+pub use simulated::Simulated;
