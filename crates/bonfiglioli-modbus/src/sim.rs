@@ -44,8 +44,8 @@
 
 use std::io;
 
-use drive_core::rt::{self, Bus, CharIo, Clock, LineTime, Simulated};
-use drive_core::{Endpoint, Instant, LineSettings};
+use drive_core::rt::{self, Bus, CharIo, Clock, Shell, Simulated};
+use drive_core::{Instant, LineSettings, SlaveEndpoint};
 use drive_sim::Ticker;
 /// Which drive is simulated (ACT or ACU): drive-sim's, re-exported for [`SimulatedDrive::new`].
 pub use drive_sim::bonfiglioli::Variant;
@@ -122,9 +122,7 @@ impl Backend for DriveBackend {
 /// A simulated drive on a Modbus line; see the [module docs](self).
 #[derive(Debug)]
 pub struct SimulatedDrive {
-    slave: Slave<DriveBackend>,
-    /// The clock and time of the serve loop, kept across serves.
-    line: LineTime,
+    shell: Shell<Slave<DriveBackend>>,
     /// Protocol type 395 is neither RTU nor ASCII: the drive speaks no Modbus.
     silent: bool,
 }
@@ -160,112 +158,45 @@ impl SimulatedDrive {
             line,
         );
         Self {
-            slave: Slave::new(
+            shell: Shell::new(Slave::new(
                 config,
                 DriveBackend {
                     drive,
                     ticker: Ticker::new(TICK),
                 },
-            ),
-            line: LineTime::new(),
+            )),
             silent: false,
         }
     }
 
     /// The drive model.
     pub fn drive(&self) -> &SimulatedBonfiglioli {
-        &self.slave.backend().drive
+        &self.shell.slave.backend().drive
     }
 
     /// The drive model, for changing (inputs, faults).
     pub fn drive_mut(&mut self) -> &mut SimulatedBonfiglioli {
-        &mut self.slave.backend_mut().drive
+        &mut self.shell.slave.backend_mut().drive
     }
 
     /// The diagnostic counters of function code 8.
     pub fn counters(&self) -> &crate::slave::Counters {
-        self.slave.counters()
+        self.shell.slave.counters()
     }
 
     /// The address the drive answers.
     pub fn address(&self) -> Address {
-        self.slave.config().address
+        self.shell.slave.config().address
     }
 
     /// [`Clock::Real`] (tokio's clock, the default) or [`Clock::Virtual`] (waits for nothing).
     pub fn set_clock(&mut self, clock: Clock) {
-        self.line.set_clock(clock);
+        self.shell.set_clock(clock);
     }
 
     /// Serve requests on `io` until it closes (`Ok`) or fails.
     pub async fn serve<IO: CharIo>(&mut self, io: IO) -> io::Result<()> {
         rt::serve_alone(self, io).await
-    }
-
-    /// Follow the Modbus address (parameter 1376) and the protocol type (395) once a request
-    /// wrote them.
-    fn drain_events(&mut self) {
-        while let Some(event) = self.slave.poll_event() {
-            if let SlaveEvent::Received { .. } = event {
-                // From the store, not through a read: a read's refusal would land in the
-                // drive's error register.
-                let store = self.slave.backend().drive.store();
-                let protocol = store.read(PROTOCOL_PARAM, 0).ok();
-                let wanted = store
-                    .read(ADDRESS_PARAM, 0)
-                    .or_else(|_| store.read(ADDRESS_PARAM, 1))
-                    .ok()
-                    .and_then(|a| u8::try_from(a).ok())
-                    .and_then(Address::new)
-                    .filter(|a| !a.is_broadcast());
-                if let Some(a) = wanted
-                    && a != self.slave.config().address
-                {
-                    self.slave.set_address(a);
-                }
-                match protocol.and_then(|p| u16::try_from(p).ok()) {
-                    Some(drive_profile::bonfiglioli::link::PROTOCOL_RTU) => {
-                        self.slave.set_mode(Mode::Rtu);
-                    }
-                    Some(drive_profile::bonfiglioli::link::PROTOCOL_ASCII) => {
-                        self.slave.set_mode(Mode::Ascii);
-                    }
-                    Some(_) => self.silent = true,
-                    None => {}
-                }
-            }
-        }
-    }
-}
-
-impl Simulated for SimulatedDrive {
-    fn slave(&self) -> &impl Endpoint {
-        &self.slave
-    }
-
-    fn slave_mut(&mut self) -> &mut impl Endpoint {
-        &mut self.slave
-    }
-
-    fn follow_events(&mut self) {
-        self.drain_events();
-    }
-
-    /// VCB bus or P-Bus (395 = 0, 1): no Modbus frame is understood (ch. 5.1).
-    fn hears(&self) -> bool {
-        !self.silent
-    }
-
-    fn station_address(&self) -> u8 {
-        self.address().get()
-    }
-
-    fn station_char_time(&self) -> core::time::Duration {
-        self.slave.config().line.char_time()
-    }
-
-    fn station_line_time(&mut self) -> &mut LineTime {
-        &mut self.line
     }
 }
 
@@ -282,4 +213,54 @@ pub fn bus(addresses: &[u8], variant: Variant, mode: Mode, line: LineSettings) -
             .map(|&a| SimulatedDrive::new(a, variant, mode, line)),
         line,
     )
+}
+
+impl Simulated for SimulatedDrive {
+    /// Follow the Modbus address (parameter 1376) and the protocol type (395) once a request
+    /// wrote them.
+    fn follow_events(&mut self) {
+        while let Some(event) = self.shell.slave.poll_event() {
+            if let SlaveEvent::Received { .. } = event {
+                // From the store, not through a read: a read's refusal would land in the
+                // drive's error register.
+                let store = self.shell.slave.backend().drive.store();
+                let protocol = store.read(PROTOCOL_PARAM, 0).ok();
+                let wanted = store
+                    .read(ADDRESS_PARAM, 0)
+                    .or_else(|_| store.read(ADDRESS_PARAM, 1))
+                    .ok()
+                    .and_then(|a| u8::try_from(a).ok())
+                    .and_then(Address::new)
+                    .filter(|a| !a.is_broadcast());
+                if let Some(a) = wanted
+                    && a != self.shell.slave.config().address
+                {
+                    self.shell.slave.set_address(a);
+                }
+                match protocol.and_then(|p| u16::try_from(p).ok()) {
+                    Some(drive_profile::bonfiglioli::link::PROTOCOL_RTU) => {
+                        self.shell.slave.set_mode(Mode::Rtu);
+                    }
+                    Some(drive_profile::bonfiglioli::link::PROTOCOL_ASCII) => {
+                        self.shell.slave.set_mode(Mode::Ascii);
+                    }
+                    Some(_) => self.silent = true,
+                    None => {}
+                }
+            }
+        }
+    }
+
+    /// VCB bus or P-Bus (395 = 0, 1): no Modbus frame is understood (ch. 5.1).
+    fn hears(&self) -> bool {
+        !self.silent
+    }
+
+    fn shell(&self) -> &Shell<impl SlaveEndpoint> {
+        &self.shell
+    }
+
+    fn shell_mut(&mut self) -> &mut Shell<impl SlaveEndpoint> {
+        &mut self.shell
+    }
 }

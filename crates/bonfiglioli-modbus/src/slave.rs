@@ -22,7 +22,7 @@ use core::time::Duration;
 
 use drive_core::framing::{LineError, Receiver, RxEvent};
 use drive_core::time::earliest;
-use drive_core::{CharError, Endpoint, Instant, LineSettings, Queue, RxChar};
+use drive_core::{CharError, Endpoint, Instant, LineSettings, Queue, RxChar, SlaveEndpoint};
 
 use crate::frame::{Address, DiagSubFunction, ExceptionCode, Request, Response, StartAddress};
 use crate::framing::{FrameError, MAX_FRAME, ModbusFraming, Mode, Received, Side, encode_response};
@@ -433,6 +433,16 @@ impl<B: Backend> Endpoint for Slave<B> {
 
     fn max_frame_len(&self) -> usize {
         MAX_FRAME
+    }
+}
+
+impl<B: Backend> SlaveEndpoint for Slave<B> {
+    fn address(&self) -> u8 {
+        self.config.address.get()
+    }
+
+    fn char_time(&self) -> Duration {
+        self.config.line.char_time()
     }
 }
 

@@ -50,3 +50,13 @@ pub trait Endpoint {
         0
     }
 }
+
+/// A slave on a line: an [`Endpoint`] that answers one address, which a simulated device
+/// sharing the line with others is found by.
+pub trait SlaveEndpoint: Endpoint {
+    /// The address it answers now.
+    fn address(&self) -> u8;
+
+    /// The character time of its line.
+    fn char_time(&self) -> core::time::Duration;
+}

@@ -42,8 +42,8 @@
 
 use std::io;
 
-use drive_core::rt::{self, Bus, CharIo, Clock, LineTime, Simulated};
-use drive_core::{Endpoint, Instant, LineSettings};
+use drive_core::rt::{self, Bus, CharIo, Clock, Shell, Simulated};
+use drive_core::{Instant, LineSettings, SlaveEndpoint};
 use drive_sim::movidrive::{BusSource, Movidrive};
 
 use crate::error::ReturnCode;
@@ -91,9 +91,7 @@ impl Backend for DriveBackend {
 /// [module docs](self).
 #[derive(Debug)]
 pub struct SimulatedMovidrive {
-    slave: Slave<DriveBackend>,
-    /// The clock and time of the serve loop, kept across [`SimulatedMovidrive::serve`] calls.
-    line: LineTime,
+    shell: Shell<Slave<DriveBackend>>,
 }
 
 impl SimulatedMovidrive {
@@ -113,31 +111,30 @@ impl SimulatedMovidrive {
             ..config_of(&drive, SlaveConfig::new(Address::NO_GROUP))
         };
         Self {
-            slave: Slave::new(config, DriveBackend { drive }),
-            line: LineTime::new(),
+            shell: Shell::new(Slave::new(config, DriveBackend { drive })),
         }
     }
 
     /// The drive model.
     pub fn movidrive(&self) -> &Movidrive {
-        &self.slave.backend().drive
+        &self.shell.slave.backend().drive
     }
 
     /// The drive model, for changing (communication parameters written here take effect with
     /// the next request).
     pub fn movidrive_mut(&mut self) -> &mut Movidrive {
-        &mut self.slave.backend_mut().drive
+        &mut self.shell.slave.backend_mut().drive
     }
 
     /// The protocol configuration in use (address, group, line timing).
     pub fn slave_config(&self) -> SlaveConfig {
-        *self.slave.config()
+        *self.shell.slave.config()
     }
 
     /// [`Clock::Real`] (tokio's clock, the default) or [`Clock::Virtual`] (waits for nothing).
     pub fn set_clock(&mut self, clock: Clock) {
         // The slave keeps its line history: its time goes on from where it is.
-        self.line.set_clock(clock);
+        self.shell.set_clock(clock);
     }
 
     /// Serve requests on `io` until it closes (`Ok`) or fails. Answers only correct
@@ -145,45 +142,6 @@ impl SimulatedMovidrive {
     /// without an answer) and follows P810/P811/P812/P833 as they are written.
     pub async fn serve<IO: CharIo>(&mut self, io: IO) -> io::Result<()> {
         rt::serve_alone(self, io).await
-    }
-
-    /// Handle the slave's events: follow P810/P811 when they were written.
-    fn drain_events(&mut self) {
-        while let Some(event) = self.slave.poll_event() {
-            if let SlaveEvent::Received { .. } = event {
-                let current = *self.slave.config();
-                let wanted = config_of(&self.slave.backend().drive, current);
-                if wanted != current {
-                    self.slave.set_config(wanted);
-                }
-            }
-        }
-    }
-}
-
-impl Simulated for SimulatedMovidrive {
-    fn slave(&self) -> &impl Endpoint {
-        &self.slave
-    }
-
-    fn slave_mut(&mut self) -> &mut impl Endpoint {
-        &mut self.slave
-    }
-
-    fn follow_events(&mut self) {
-        self.drain_events();
-    }
-
-    fn station_address(&self) -> u8 {
-        self.movidrive().address()
-    }
-
-    fn station_char_time(&self) -> core::time::Duration {
-        self.slave.config().timing.char_time
-    }
-
-    fn station_line_time(&mut self) -> &mut LineTime {
-        &mut self.line
     }
 }
 
@@ -210,4 +168,33 @@ pub fn bus(addresses: &[u8], line: LineSettings) -> SimulatedBus {
             .map(|&a| SimulatedMovidrive::with_line(a, line)),
         line,
     )
+}
+
+impl Simulated for SimulatedMovidrive {
+    /// Follow P810/P811 when they were written.
+    fn follow_events(&mut self) {
+        while let Some(event) = self.shell.slave.poll_event() {
+            if let SlaveEvent::Received { .. } = event {
+                let current = *self.shell.slave.config();
+                let wanted = config_of(&self.shell.slave.backend().drive, current);
+                if wanted != current {
+                    self.shell.slave.set_config(wanted);
+                }
+            }
+        }
+    }
+
+    /// P810, also when it was written on the model directly (the slave follows it with the
+    /// next request).
+    fn station_address(&self) -> u8 {
+        self.movidrive().address()
+    }
+
+    fn shell(&self) -> &Shell<impl SlaveEndpoint> {
+        &self.shell
+    }
+
+    fn shell_mut(&mut self) -> &mut Shell<impl SlaveEndpoint> {
+        &mut self.shell
+    }
 }

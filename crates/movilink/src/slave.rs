@@ -29,7 +29,7 @@
 //!   the response.
 
 use drive_core::time::earliest;
-use drive_core::{Endpoint, Queue};
+use drive_core::{Endpoint, Queue, SlaveEndpoint};
 use drive_profile::sew::SlaveHandshake;
 
 use crate::codec;
@@ -375,5 +375,15 @@ impl<B: Backend> Endpoint for Slave<B> {
 
     fn max_frame_len(&self) -> usize {
         MAX_TELEGRAM_LEN
+    }
+}
+
+impl<B: Backend> SlaveEndpoint for Slave<B> {
+    fn address(&self) -> u8 {
+        self.config.address.get()
+    }
+
+    fn char_time(&self) -> core::time::Duration {
+        self.config.timing.char_time
     }
 }

@@ -60,8 +60,8 @@
 use std::io;
 use std::time::Duration;
 
-use drive_core::rt::{self, Bus, CharIo, Clock, LineTime, Simulated};
-use drive_core::{Endpoint, Instant, LineSettings};
+use drive_core::rt::{self, Bus, CharIo, Clock, Shell, Simulated};
+use drive_core::{Instant, LineSettings, SlaveEndpoint};
 use drive_sim::Ticker;
 use drive_sim::nord::SimulatedNord;
 
@@ -139,10 +139,8 @@ pub struct SimStats {
 /// A simulated NORD drive on a USS line; see the [module docs](self).
 #[derive(Debug)]
 pub struct SimulatedDrive {
-    slave: Slave<NordBackend>,
+    shell: Shell<Slave<NordBackend>>,
     stats: SimStats,
-    /// The clock and time of the serve loop, kept across serves.
-    line: LineTime,
 }
 
 impl SimulatedDrive {
@@ -159,31 +157,30 @@ impl SimulatedDrive {
             ticker: Ticker::new(TICK),
         };
         SimulatedDrive {
-            slave: Slave::new(config, backend),
+            shell: Shell::new(Slave::new(config, backend)),
             stats: SimStats::default(),
-            line: LineTime::new(),
         }
     }
 
     /// The drive model.
     pub fn drive(&self) -> &SimulatedNord {
-        &self.slave.backend().drive
+        &self.shell.slave.backend().drive
     }
 
     /// The drive model, for changing (faults, BusIO bits).
     pub fn drive_mut(&mut self) -> &mut SimulatedNord {
-        &mut self.slave.backend_mut().drive
+        &mut self.shell.slave.backend_mut().drive
     }
 
     /// How long the drive works on each new PKW order (answering the previous order's answer
     /// meanwhile).
     pub fn set_processing_time(&mut self, time: Duration) {
-        self.slave.backend_mut().processing = time;
+        self.shell.slave.backend_mut().processing = time;
     }
 
     /// The address.
     pub fn address(&self) -> UssAddress {
-        self.slave.config().address
+        self.shell.slave.config().address
     }
 
     /// What it saw.
@@ -193,71 +190,27 @@ impl SimulatedDrive {
 
     /// The PKW answer the drive sends now (the last order's that is done).
     pub fn current_answer(&self) -> Pkw {
-        self.slave.current_answer()
+        self.shell.slave.current_answer()
     }
 
     /// Whether the drive is still working on a PKW order.
     pub fn is_processing(&self) -> bool {
-        self.slave.is_processing()
+        self.shell.slave.is_processing()
     }
 
     /// The slave's configuration.
     pub fn config(&self) -> &SlaveConfig {
-        self.slave.config()
+        self.shell.slave.config()
     }
 
     /// [`Clock::Real`] (tokio's clock, the default) or [`Clock::Virtual`] (waits for nothing).
     pub fn set_clock(&mut self, clock: Clock) {
-        self.line.set_clock(clock);
+        self.shell.set_clock(clock);
     }
 
     /// Serve telegrams on `io` until it closes (`Ok`) or fails.
     pub async fn serve<IO: CharIo>(&mut self, io: IO) -> io::Result<()> {
         rt::serve_alone(self, io).await
-    }
-
-    fn drain_events(&mut self) {
-        while let Some(event) = self.slave.poll_event() {
-            match event {
-                SlaveEvent::Executed { answer, .. } => {
-                    if answer.is_some() {
-                        self.stats.telegrams += 1;
-                    } else {
-                        self.stats.broadcasts += 1;
-                    }
-                }
-                SlaveEvent::Mirrored(_) => self.stats.mirrored += 1,
-                SlaveEvent::OrderDone(_) => self.stats.orders += 1,
-                SlaveEvent::Rejected(_) => self.stats.rejected += 1,
-                _ => {}
-            }
-        }
-    }
-}
-
-impl Simulated for SimulatedDrive {
-    fn slave(&self) -> &impl Endpoint {
-        &self.slave
-    }
-
-    fn slave_mut(&mut self) -> &mut impl Endpoint {
-        &mut self.slave
-    }
-
-    fn follow_events(&mut self) {
-        self.drain_events();
-    }
-
-    fn station_address(&self) -> u8 {
-        self.address().get()
-    }
-
-    fn station_char_time(&self) -> Duration {
-        self.slave.config().line.char_time()
-    }
-
-    fn station_line_time(&mut self) -> &mut LineTime {
-        &mut self.line
     }
 }
 
@@ -273,4 +226,33 @@ pub fn bus(addresses: &[UssAddress], layout: Layout, line: LineSettings) -> Simu
             .map(|&a| SimulatedDrive::new(a, layout, line)),
         line,
     )
+}
+
+impl Simulated for SimulatedDrive {
+    /// Count what the slave did.
+    fn follow_events(&mut self) {
+        while let Some(event) = self.shell.slave.poll_event() {
+            match event {
+                SlaveEvent::Executed { answer, .. } => {
+                    if answer.is_some() {
+                        self.stats.telegrams += 1;
+                    } else {
+                        self.stats.broadcasts += 1;
+                    }
+                }
+                SlaveEvent::Mirrored(_) => self.stats.mirrored += 1,
+                SlaveEvent::OrderDone(_) => self.stats.orders += 1,
+                SlaveEvent::Rejected(_) => self.stats.rejected += 1,
+                _ => {}
+            }
+        }
+    }
+
+    fn shell(&self) -> &Shell<impl SlaveEndpoint> {
+        &self.shell
+    }
+
+    fn shell_mut(&mut self) -> &mut Shell<impl SlaveEndpoint> {
+        &mut self.shell
+    }
 }

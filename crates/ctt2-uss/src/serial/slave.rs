@@ -25,7 +25,7 @@
 use core::time::Duration;
 
 use drive_core::time::earliest;
-use drive_core::{Endpoint, Instant, LineSettings, Queue, RxChar, RxEvent};
+use drive_core::{Endpoint, Instant, LineSettings, Queue, RxChar, RxEvent, SlaveEndpoint};
 
 use super::framing::{RunClock, Side, UssFraming, UssReceiver, UssTiming, receive};
 use super::telegram::{Adr, FrameError, Layout, MAX_PZD, MAX_TELEGRAM, Telegram, UssAddress};
@@ -339,5 +339,15 @@ impl<B: Backend> Endpoint for Slave<B> {
 
     fn max_frame_len(&self) -> usize {
         MAX_TELEGRAM
+    }
+}
+
+impl<B: Backend> SlaveEndpoint for Slave<B> {
+    fn address(&self) -> u8 {
+        self.config.address.get()
+    }
+
+    fn char_time(&self) -> Duration {
+        self.config.line.char_time()
     }
 }

@@ -13,8 +13,9 @@
 //!   [`CanPort`]), one transaction at a time; every protocol's async driver is one;
 //! * [`serve`]: the serve loop of simulated devices ([`Endpoint`]s) on one line, and [`Bus`]:
 //!   several simulated devices ([`Station`]s, endpoints with an address) served on one line;
-//! * [`Simulated`]: the shell of every protocol's simulated device (a slave and a front-end
-//!   following its events), which makes it an [`Endpoint`] and a [`Station`].
+//! * [`Simulated`]: every protocol's simulated device, a [`Shell`] (its slave and line time)
+//!   and a front-end following the slave's events, which makes it an [`Endpoint`] and a
+//!   [`Station`].
 //!
 //! Serial ports are opened by `drive-transport`; this layer needs nothing but tokio, so a
 //! protocol crate's `tokio` feature does not pull in serial-port or libc dependencies.
@@ -43,4 +44,4 @@ pub use io::{
 };
 pub use port::{Port, Step};
 pub use serve::serve;
-pub use simulated::Simulated;
+pub use simulated::{Shell, Simulated};

@@ -1,27 +1,47 @@
-//! The one shell of a simulated device: a protocol's sans-IO slave with a thin front-end that
-//! follows the slave's events, and the line time it keeps for being served alone. What every
-//! protocol's `Simulated…` device is; implementing [`Simulated`] makes it an [`Endpoint`] and
-//! a [`Station`].
+//! The one shell of a simulated device: a protocol's sans-IO slave ([`SlaveEndpoint`]) with a
+//! thin front-end that follows the slave's events, and the line time it keeps for being served
+//! alone. What every protocol's `Simulated…` device is; implementing [`Simulated`] makes it an
+//! [`Endpoint`] and a [`Station`].
 
 use core::time::Duration;
 
 use super::bus::{LineTime, Station};
+use super::clock::Clock;
 use crate::char::RxChar;
-use crate::endpoint::Endpoint;
+use crate::endpoint::{Endpoint, SlaveEndpoint};
 use crate::time::Instant;
 
-/// A simulated device built on a protocol's slave state machine.
-///
-/// The device is an [`Endpoint`] that hands characters and time to its slave (while it
-/// [`hears`](Simulated::hears) the line) and lets the front-end follow the slave's events
-/// after each; and a [`Station`] with the address, character time and line time given here.
-pub trait Simulated {
+/// What every simulated device holds: its protocol's slave and the line time it is served
+/// alone with ([`serve_alone`](super::serve_alone)), kept across serves.
+#[derive(Debug, Clone)]
+pub struct Shell<S> {
     /// The protocol's slave state machine.
-    fn slave(&self) -> &impl Endpoint;
+    pub slave: S,
+    line: LineTime,
+}
 
-    /// The slave, for changing.
-    fn slave_mut(&mut self) -> &mut impl Endpoint;
+impl<S> Shell<S> {
+    /// `slave`, not served yet, on [`Clock::Real`].
+    pub const fn new(slave: S) -> Self {
+        Self {
+            slave,
+            line: LineTime::new(),
+        }
+    }
 
+    /// Serve on `clock` from now on; the slave keeps its line history, its time goes on from
+    /// where it is.
+    pub fn set_clock(&mut self, clock: Clock) {
+        self.line.set_clock(clock);
+    }
+}
+
+/// A simulated device built on a protocol's slave state machine, held in its [`Shell`].
+///
+/// The device is an [`Endpoint`] that hands characters (while it
+/// [`hears`](Simulated::hears) the line) and time to its slave and lets the front-end follow
+/// the slave's events after each; and a [`Station`] at the slave's address and character time.
+pub trait Simulated {
     /// Drain the slave's events (follow a written address or mode, count telegrams); called
     /// after every character and every advance of time.
     fn follow_events(&mut self);
@@ -32,43 +52,45 @@ pub trait Simulated {
         true
     }
 
-    /// The address the device answers now.
-    fn station_address(&self) -> u8;
+    /// The address the device answers now, as a [`Station`]: by default its slave's.
+    fn station_address(&self) -> u8 {
+        self.shell().slave.address()
+    }
 
-    /// The character time of the device's line.
-    fn station_char_time(&self) -> Duration;
+    /// The shell.
+    fn shell(&self) -> &Shell<impl SlaveEndpoint>;
 
-    /// The device's line time for serving it alone.
-    fn station_line_time(&mut self) -> &mut LineTime;
+    /// The shell, for changing.
+    fn shell_mut(&mut self) -> &mut Shell<impl SlaveEndpoint>;
 }
 
 impl<T: Simulated> Endpoint for T {
     fn handle_char(&mut self, c: RxChar) {
         if self.hears() {
-            self.slave_mut().handle_char(c);
+            self.shell_mut().slave.handle_char(c);
         }
         self.follow_events();
     }
 
     fn handle_timeout(&mut self, now: Instant) {
-        self.slave_mut().handle_timeout(now);
+        self.shell_mut().slave.handle_timeout(now);
         self.follow_events();
     }
 
     fn poll_transmit(&mut self, now: Instant, buf: &mut [u8]) -> Option<usize> {
-        self.slave_mut().poll_transmit(now, buf)
+        self.shell_mut().slave.poll_transmit(now, buf)
     }
 
     fn poll_timeout(&self) -> Option<Instant> {
-        self.slave().poll_timeout()
+        self.shell().slave.poll_timeout()
     }
 
     fn poll_quiet_timeout(&self) -> Option<Instant> {
-        self.slave().poll_quiet_timeout()
+        self.shell().slave.poll_quiet_timeout()
     }
 
     fn max_frame_len(&self) -> usize {
-        self.slave().max_frame_len()
+        self.shell().slave.max_frame_len()
     }
 }
 
@@ -78,11 +100,11 @@ impl<T: Simulated> Station for T {
     }
 
     fn char_time(&self) -> Duration {
-        self.station_char_time()
+        self.shell().slave.char_time()
     }
 
     fn line_time(&mut self) -> &mut LineTime {
-        self.station_line_time()
+        &mut self.shell_mut().line
     }
 }
 
@@ -128,37 +150,46 @@ mod tests {
         }
     }
 
+    impl SlaveEndpoint for Echo {
+        fn address(&self) -> u8 {
+            9
+        }
+        fn char_time(&self) -> Duration {
+            Duration::from_micros(520)
+        }
+    }
+
     /// A device that stops hearing after a 0 byte and counts the follow-ups.
-    #[derive(Debug, Default)]
+    #[derive(Debug)]
     struct Device {
-        slave: Echo,
+        shell: Shell<Echo>,
         deaf: bool,
         followed: u32,
-        line: LineTime,
+    }
+
+    impl Default for Device {
+        fn default() -> Self {
+            Self {
+                shell: Shell::new(Echo::default()),
+                deaf: false,
+                followed: 0,
+            }
+        }
     }
 
     impl Simulated for Device {
-        fn slave(&self) -> &impl Endpoint {
-            &self.slave
-        }
-        fn slave_mut(&mut self) -> &mut impl Endpoint {
-            &mut self.slave
-        }
         fn follow_events(&mut self) {
             self.followed += 1;
-            self.deaf |= self.slave.last.is_some_and(|(b, _)| b == 0);
+            self.deaf |= self.shell.slave.last.is_some_and(|(b, _)| b == 0);
         }
         fn hears(&self) -> bool {
             !self.deaf
         }
-        fn station_address(&self) -> u8 {
-            9
+        fn shell(&self) -> &Shell<impl SlaveEndpoint> {
+            &self.shell
         }
-        fn station_char_time(&self) -> Duration {
-            Duration::from_micros(520)
-        }
-        fn station_line_time(&mut self) -> &mut LineTime {
-            &mut self.line
+        fn shell_mut(&mut self) -> &mut Shell<impl SlaveEndpoint> {
+            &mut self.shell
         }
     }
 
@@ -186,7 +217,7 @@ mod tests {
         assert_eq!(buf[0], 5);
         d.handle_char(char_at(0, 3));
         d.handle_char(char_at(6, 4));
-        assert_eq!((d.slave.heard, d.followed, d.deaf), (2, 3, true));
+        assert_eq!((d.shell.slave.heard, d.followed, d.deaf), (2, 3, true));
         d.handle_timeout(Instant::ZERO + Duration::from_millis(10));
         assert_eq!(d.followed, 4);
         assert_eq!(
