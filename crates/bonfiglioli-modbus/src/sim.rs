@@ -45,7 +45,7 @@
 use std::io;
 
 use drive_core::rt::{self, Bus, CharIo, Clock, Shell, Simulated};
-use drive_core::{Instant, LineSettings, SlaveEndpoint};
+use drive_core::{Instant, LineSettings, SlaveEndpoint, Timers};
 use drive_sim::Ticker;
 /// Which drive is simulated (ACT or ACU): drive-sim's, re-exported for [`SimulatedDrive::new`].
 pub use drive_sim::bonfiglioli::Variant;
@@ -109,7 +109,9 @@ impl Backend for DriveBackend {
         self.drive.tick(now);
         self.drive.valid_exchange(now);
     }
+}
 
+impl Timers for DriveBackend {
     fn poll_timeout(&self) -> Option<Instant> {
         self.ticker.poll_timeout(&self.drive)
     }

@@ -43,7 +43,7 @@
 use std::io;
 
 use drive_core::rt::{self, Bus, CharIo, Clock, Shell, Simulated};
-use drive_core::{Instant, LineSettings, SlaveEndpoint};
+use drive_core::{Instant, LineSettings, SlaveEndpoint, Timers};
 use drive_sim::movidrive::{BusSource, Movidrive};
 
 use crate::error::ReturnCode;
@@ -77,7 +77,9 @@ impl Backend for DriveBackend {
         self.drive.process_output(output, ctx.end);
         self.drive.process_input(input);
     }
+}
 
+impl Timers for DriveBackend {
     fn poll_timeout(&self) -> Option<Instant> {
         self.drive.rs485_deadline()
     }

@@ -61,7 +61,7 @@ use std::io;
 use std::time::Duration;
 
 use drive_core::rt::{self, Bus, CharIo, Clock, Shell, Simulated};
-use drive_core::{Instant, LineSettings, SlaveEndpoint};
+use drive_core::{Instant, LineSettings, SlaveEndpoint, Timers};
 use drive_sim::Ticker;
 use drive_sim::nord::SimulatedNord;
 
@@ -111,7 +111,9 @@ impl Backend for NordBackend {
             *slot = w;
         }
     }
+}
 
+impl Timers for NordBackend {
     fn poll_timeout(&self) -> Option<Instant> {
         self.ticker.poll_timeout(&self.drive)
     }
