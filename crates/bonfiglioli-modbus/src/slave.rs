@@ -381,6 +381,16 @@ fn exception_for(_: u8, e: PduError) -> Option<Response> {
     })
 }
 
+impl<B: Backend> SlaveEndpoint for Slave<B> {
+    fn address(&self) -> u8 {
+        self.config.address.get()
+    }
+
+    fn char_time(&self) -> Duration {
+        self.config.line.char_time()
+    }
+}
+
 impl<B: Backend> Endpoint for Slave<B> {
     fn handle_char(&mut self, c: RxChar) {
         self.now = self.now.later(c.time);
@@ -426,16 +436,6 @@ impl<B: Backend> Endpoint for Slave<B> {
 
     fn max_frame_len(&self) -> usize {
         MAX_FRAME
-    }
-}
-
-impl<B: Backend> SlaveEndpoint for Slave<B> {
-    fn address(&self) -> u8 {
-        self.config.address.get()
-    }
-
-    fn char_time(&self) -> Duration {
-        self.config.line.char_time()
     }
 }
 

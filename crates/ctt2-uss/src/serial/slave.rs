@@ -283,6 +283,16 @@ impl<B: Backend> Slave<B> {
     }
 }
 
+impl<B: Backend> SlaveEndpoint for Slave<B> {
+    fn address(&self) -> u8 {
+        self.config.address.get()
+    }
+
+    fn char_time(&self) -> Duration {
+        self.config.line.char_time()
+    }
+}
+
 impl<B: Backend> Endpoint for Slave<B> {
     #[inline]
     fn handle_char(&mut self, c: RxChar) {
@@ -330,15 +340,5 @@ impl<B: Backend> Endpoint for Slave<B> {
 
     fn max_frame_len(&self) -> usize {
         MAX_TELEGRAM
-    }
-}
-
-impl<B: Backend> SlaveEndpoint for Slave<B> {
-    fn address(&self) -> u8 {
-        self.config.address.get()
-    }
-
-    fn char_time(&self) -> Duration {
-        self.config.line.char_time()
     }
 }

@@ -178,18 +178,18 @@ mod tests {
     }
 
     impl Simulated for Device {
-        fn follow_events(&mut self) {
-            self.followed += 1;
-            self.deaf |= self.shell.slave.last.is_some_and(|(b, _)| b == 0);
-        }
-        fn hears(&self) -> bool {
-            !self.deaf
-        }
         fn shell(&self) -> &Shell<impl SlaveEndpoint> {
             &self.shell
         }
         fn shell_mut(&mut self) -> &mut Shell<impl SlaveEndpoint> {
             &mut self.shell
+        }
+        fn hears(&self) -> bool {
+            !self.deaf
+        }
+        fn follow_events(&mut self) {
+            self.followed += 1;
+            self.deaf |= self.shell.slave.last.is_some_and(|(b, _)| b == 0);
         }
     }
 
