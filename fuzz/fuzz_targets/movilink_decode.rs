@@ -27,6 +27,8 @@ impl Backend for Echo {
     }
 }
 
+impl drive_core::Timers for Echo {}
+
 fuzz_target!(|data: &[u8]| {
     // 1. The decoder: never panics; whatever it accepts re-encodes to the same bytes.
     if let Ok((t, n)) = decode(data) {

@@ -41,6 +41,8 @@ impl Backend for Echo {
     }
 }
 
+impl drive_core::Timers for Echo {}
+
 fuzz_target!(|data: &[u8]| {
     let Some((&pick, rest)) = data.split_first() else {
         return;

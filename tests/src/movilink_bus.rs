@@ -101,6 +101,8 @@ impl Backend for TestBackend {
     }
 }
 
+impl drive_core::Timers for TestBackend {}
+
 /// Which side put a telegram on the wire.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Side {

@@ -44,14 +44,15 @@
 
 use std::io;
 
-use drive_core::rt::{self, Bus, CharIo, Clock, LineTime, Station};
-use drive_core::{Endpoint, Instant, LineSettings, RxChar};
+use drive_core::rt::{self, Bus, CharIo, Clock, Shell, Simulated};
+use drive_core::{Instant, LineSettings, SlaveEndpoint, Timers};
+use drive_sim::Ticker;
 /// Which drive is simulated (ACT or ACU): drive-sim's, re-exported for [`SimulatedDrive::new`].
 pub use drive_sim::bonfiglioli::Variant;
 use drive_sim::bonfiglioli::{self as model, SimulatedBonfiglioli};
 
 use crate::frame::{Address, ExceptionCode, StartAddress};
-use crate::framing::{MAX_FRAME, Mode};
+use crate::framing::Mode;
 use crate::slave::{Backend, Slave, SlaveConfig, SlaveEvent, Width};
 
 /// The Modbus address parameter (ch. 5.2.2, 5.3.2).
@@ -71,20 +72,7 @@ pub const TICK: core::time::Duration = core::time::Duration::from_millis(10);
 #[derive(Debug)]
 struct DriveBackend {
     drive: SimulatedBonfiglioli,
-    /// When the model was last advanced.
-    last_tick: Instant,
-}
-
-impl DriveBackend {
-    /// Whether the model has timed work: it is enabled or stopping, the motor turns, or the
-    /// watchdog (413) is armed.
-    fn busy(&self) -> bool {
-        use drive_profile::bonfiglioli::State;
-        let d = &self.drive;
-        matches!(d.state(), State::OperationEnabled | State::QuickStopActive)
-            || d.actual_frequency() != 0.0
-            || d.store().read(413, 0).is_ok_and(|v| v > 0)
-    }
+    ticker: Ticker,
 }
 
 fn width(w: Width) -> model::Width {
@@ -121,25 +109,22 @@ impl Backend for DriveBackend {
         self.drive.tick(now);
         self.drive.valid_exchange(now);
     }
+}
 
+impl Timers for DriveBackend {
     fn poll_timeout(&self) -> Option<Instant> {
-        self.busy().then(|| self.last_tick + TICK)
+        self.ticker.poll_timeout(&self.drive)
     }
 
     fn handle_timeout(&mut self, now: Instant) {
-        if now >= self.last_tick + TICK {
-            self.drive.tick(now);
-            self.last_tick = now;
-        }
+        self.ticker.handle_timeout(&mut self.drive, now);
     }
 }
 
 /// A simulated drive on a Modbus line; see the [module docs](self).
 #[derive(Debug)]
 pub struct SimulatedDrive {
-    slave: Slave<DriveBackend>,
-    /// The clock and time of the serve loop, kept across serves.
-    line: LineTime,
+    shell: Shell<Slave<DriveBackend>>,
     /// Protocol type 395 is neither RTU nor ASCII: the drive speaks no Modbus.
     silent: bool,
 }
@@ -175,112 +160,45 @@ impl SimulatedDrive {
             line,
         );
         Self {
-            slave: Slave::new(
+            shell: Shell::new(Slave::new(
                 config,
                 DriveBackend {
                     drive,
-                    last_tick: Instant::ZERO,
+                    ticker: Ticker::new(TICK),
                 },
-            ),
-            line: LineTime::new(),
+            )),
             silent: false,
         }
     }
 
     /// The drive model.
     pub fn drive(&self) -> &SimulatedBonfiglioli {
-        &self.slave.backend().drive
+        &self.shell.slave.backend().drive
     }
 
     /// The drive model, for changing (inputs, faults).
     pub fn drive_mut(&mut self) -> &mut SimulatedBonfiglioli {
-        &mut self.slave.backend_mut().drive
+        &mut self.shell.slave.backend_mut().drive
     }
 
     /// The diagnostic counters of function code 8.
     pub fn counters(&self) -> &crate::slave::Counters {
-        self.slave.counters()
+        self.shell.slave.counters()
     }
 
     /// The address the drive answers.
     pub fn address(&self) -> Address {
-        self.slave.config().address
+        self.shell.slave.config().address
     }
 
     /// [`Clock::Real`] (tokio's clock, the default) or [`Clock::Virtual`] (waits for nothing).
     pub fn set_clock(&mut self, clock: Clock) {
-        self.line.set_clock(clock);
+        self.shell.set_clock(clock);
     }
 
     /// Serve requests on `io` until it closes (`Ok`) or fails.
     pub async fn serve<IO: CharIo>(&mut self, io: IO) -> io::Result<()> {
         rt::serve_alone(self, io).await
-    }
-
-    /// Follow the Modbus address (parameter 1376) and the protocol type (395) once a request
-    /// wrote them.
-    fn drain_events(&mut self) {
-        while let Some(event) = self.slave.poll_event() {
-            if let SlaveEvent::Received { .. } = event {
-                // From the store, not through a read: a read's refusal would land in the
-                // drive's error register.
-                let store = self.slave.backend().drive.store();
-                let protocol = store.read(PROTOCOL_PARAM, 0).ok();
-                let wanted = store
-                    .read(ADDRESS_PARAM, 0)
-                    .or_else(|_| store.read(ADDRESS_PARAM, 1))
-                    .ok()
-                    .and_then(|a| u8::try_from(a).ok())
-                    .and_then(Address::new)
-                    .filter(|a| !a.is_broadcast());
-                if let Some(a) = wanted
-                    && a != self.slave.config().address
-                {
-                    self.slave.set_address(a);
-                }
-                match protocol.and_then(|p| u16::try_from(p).ok()) {
-                    Some(drive_profile::bonfiglioli::link::PROTOCOL_RTU) => {
-                        self.slave.set_mode(Mode::Rtu);
-                    }
-                    Some(drive_profile::bonfiglioli::link::PROTOCOL_ASCII) => {
-                        self.slave.set_mode(Mode::Ascii);
-                    }
-                    Some(_) => self.silent = true,
-                    None => {}
-                }
-            }
-        }
-    }
-}
-
-impl Endpoint for SimulatedDrive {
-    fn handle_char(&mut self, c: RxChar) {
-        // VCB bus or P-Bus (395 = 0, 1): no Modbus frame is understood (ch. 5.1).
-        if !self.silent {
-            self.slave.handle_char(c);
-        }
-        self.drain_events();
-    }
-
-    fn handle_timeout(&mut self, now: Instant) {
-        self.slave.handle_timeout(now);
-        self.drain_events();
-    }
-
-    fn poll_transmit(&mut self, now: Instant, buf: &mut [u8]) -> Option<usize> {
-        self.slave.poll_transmit(now, buf)
-    }
-
-    fn poll_timeout(&self) -> Option<Instant> {
-        self.slave.poll_timeout()
-    }
-
-    fn poll_quiet_timeout(&self) -> Option<Instant> {
-        Endpoint::poll_quiet_timeout(&self.slave)
-    }
-
-    fn max_frame_len(&self) -> usize {
-        MAX_FRAME
     }
 }
 
@@ -299,16 +217,52 @@ pub fn bus(addresses: &[u8], variant: Variant, mode: Mode, line: LineSettings) -
     )
 }
 
-impl Station for SimulatedDrive {
-    fn address(&self) -> u8 {
-        SimulatedDrive::address(self).get()
+impl Simulated for SimulatedDrive {
+    /// Follow the Modbus address (parameter 1376) and the protocol type (395) once a request
+    /// wrote them.
+    fn follow_events(&mut self) {
+        while let Some(event) = self.shell.slave.poll_event() {
+            if let SlaveEvent::Received { .. } = event {
+                // From the store, not through a read: a read's refusal would land in the
+                // drive's error register.
+                let store = self.shell.slave.backend().drive.store();
+                let protocol = store.read(PROTOCOL_PARAM, 0).ok();
+                let wanted = store
+                    .read(ADDRESS_PARAM, 0)
+                    .or_else(|_| store.read(ADDRESS_PARAM, 1))
+                    .ok()
+                    .and_then(|a| u8::try_from(a).ok())
+                    .and_then(Address::new)
+                    .filter(|a| !a.is_broadcast());
+                if let Some(a) = wanted
+                    && a != self.shell.slave.config().address
+                {
+                    self.shell.slave.set_address(a);
+                }
+                match protocol.and_then(|p| u16::try_from(p).ok()) {
+                    Some(drive_profile::bonfiglioli::link::PROTOCOL_RTU) => {
+                        self.shell.slave.set_mode(Mode::Rtu);
+                    }
+                    Some(drive_profile::bonfiglioli::link::PROTOCOL_ASCII) => {
+                        self.shell.slave.set_mode(Mode::Ascii);
+                    }
+                    Some(_) => self.silent = true,
+                    None => {}
+                }
+            }
+        }
     }
 
-    fn char_time(&self) -> core::time::Duration {
-        self.slave.config().line.char_time()
+    /// VCB bus or P-Bus (395 = 0, 1): no Modbus frame is understood (ch. 5.1).
+    fn hears(&self) -> bool {
+        !self.silent
     }
 
-    fn line_time(&mut self) -> &mut LineTime {
-        &mut self.line
+    fn shell(&self) -> &Shell<impl SlaveEndpoint> {
+        &self.shell
+    }
+
+    fn shell_mut(&mut self) -> &mut Shell<impl SlaveEndpoint> {
+        &mut self.shell
     }
 }

@@ -22,7 +22,9 @@ use core::time::Duration;
 
 use drive_core::framing::{LineError, Receiver, RxEvent};
 use drive_core::time::earliest;
-use drive_core::{CharError, Endpoint, Instant, LineSettings, Queue, RxChar};
+use drive_core::{
+    CharError, Endpoint, Instant, LineSettings, Queue, RxChar, SlaveEndpoint, Timers,
+};
 
 use crate::frame::{Address, DiagSubFunction, ExceptionCode, Request, Response, StartAddress};
 use crate::framing::{FrameError, MAX_FRAME, ModbusFraming, Mode, Received, Side, encode_response};
@@ -53,8 +55,9 @@ impl Width {
     }
 }
 
-/// The drive behind the protocol; the simulated drive implements it.
-pub trait Backend {
+/// The drive behind the protocol; the simulated drive implements it. Its own deadlines (ramp,
+/// watchdog) are its [`Timers`].
+pub trait Backend: Timers {
     /// Read the parameter of `start` with `width`; the value (16-bit values in the low half)
     /// or the exception to answer (the backend sets its VABus error register for exception 4).
     fn read(
@@ -75,16 +78,6 @@ pub trait Backend {
 
     /// A valid request for this drive (own address or broadcast) was received at `now`.
     fn valid_exchange(&mut self, now: Instant) {
-        let _ = now;
-    }
-
-    /// The backend's next own deadline (ramp, watchdog), if any.
-    fn poll_timeout(&self) -> Option<Instant> {
-        None
-    }
-
-    /// Time advanced to `now`.
-    fn handle_timeout(&mut self, now: Instant) {
         let _ = now;
     }
 }
@@ -386,6 +379,16 @@ fn exception_for(_: u8, e: PduError) -> Option<Response> {
         function: function & 0x7F,
         code: e.exception(),
     })
+}
+
+impl<B: Backend> SlaveEndpoint for Slave<B> {
+    fn address(&self) -> u8 {
+        self.config.address.get()
+    }
+
+    fn char_time(&self) -> Duration {
+        self.config.line.char_time()
+    }
 }
 
 impl<B: Backend> Endpoint for Slave<B> {

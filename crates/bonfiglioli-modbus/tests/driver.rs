@@ -101,6 +101,8 @@ impl Backend for Table {
     }
 }
 
+impl drive_core::Timers for Table {}
+
 const LINE_19200: u32 = 19200;
 
 fn line() -> LineSettings {

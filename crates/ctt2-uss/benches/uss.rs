@@ -65,6 +65,8 @@ impl Backend for Model {
     }
 }
 
+impl drive_core::Timers for Model {}
+
 fn model_bus() -> bus::Bus<Model> {
     let line = LineSettings::new(19200);
     let a = UssAddress::new(7).unwrap();

@@ -423,6 +423,8 @@ fn a_three_word_slave_refuses_a_double_word_it_cannot_send() {
         }
         fn process(&mut self, _: &[u16], _: &mut [u16], _: Instant) {}
     }
+
+    impl drive_core::Timers for Wide {}
     let l3 = Layout::new(3, 0).unwrap();
     let line = line();
     let mut master = UssMaster::new(MasterConfig::new(line));

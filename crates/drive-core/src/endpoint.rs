@@ -50,3 +50,29 @@ pub trait Endpoint {
         0
     }
 }
+
+/// A slave on a line: an [`Endpoint`] that answers one address, which a simulated device
+/// sharing the line with others is found by.
+pub trait SlaveEndpoint: Endpoint {
+    /// The address it answers now.
+    fn address(&self) -> u8;
+
+    /// The character time of its line.
+    fn char_time(&self) -> core::time::Duration;
+}
+
+/// The own deadlines of what a slave state machine drives (a drive model's ramp, its link
+/// watchdog): part of the slave's [`Endpoint::poll_timeout`], reaching it through
+/// [`Timers::handle_timeout`]. By default there are none.
+pub trait Timers {
+    /// The next own deadline, if any.
+    fn poll_timeout(&self) -> Option<Instant> {
+        None
+    }
+
+    /// Time advanced to `now` (at least to the deadline of [`Timers::poll_timeout`], or
+    /// further).
+    fn handle_timeout(&mut self, now: Instant) {
+        let _ = now;
+    }
+}

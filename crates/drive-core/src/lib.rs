@@ -57,7 +57,7 @@ pub mod rt;
 pub mod time;
 
 pub use char::{CharError, RxChar};
-pub use endpoint::Endpoint;
+pub use endpoint::{Endpoint, SlaveEndpoint, Timers};
 pub use exchange::{Exchange, ExchangeConfig, ExchangeEvent, Verdict};
 pub use framing::{FrameTiming, Framing, LineError, Progress, Receiver, RxEvent, Start};
 pub use gate::TxGate;

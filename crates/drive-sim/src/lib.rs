@@ -11,6 +11,7 @@
 //! * [`FaultInjector`]: delayed and dropped answers, driven by the seeded
 //!   [`drive_core::SplitMix64`].
 //! * [`SimDrive`]: all of the above, advanced with [`SimDrive::tick`].
+//! * [`Ticker`]: a [`Timed`] model woken every period while it is busy, between requests.
 //! * Family models on top: [`movidrive::Movidrive`] (SEW MOVIDRIVE) and
 //!   [`bonfiglioli::SimulatedBonfiglioli`] (Bonfiglioli ACT / ACU, parameters by number, data
 //!   set and width, refusals as Modbus exception + VABus error register) and
@@ -97,6 +98,7 @@ pub mod nord;
 pub mod ramp;
 pub mod state;
 pub mod store;
+pub mod ticker;
 
 pub use drive::{SimDrive, SpeedMapping, TickHook};
 pub use drive_core::Instant;
@@ -105,3 +107,4 @@ pub use inject::{FaultInjector, Response};
 pub use ramp::{Ramp, RampConfig, RampMode};
 pub use state::{Command, DriveState, DriveStateMachine, FaultReaction};
 pub use store::{Meta, OperatingCondition, ParamStore, Persistence, StoreOptions};
+pub use ticker::{Ticker, Timed};

@@ -42,12 +42,12 @@
 
 use std::io;
 
-use drive_core::rt::{self, Bus, CharIo, Clock, LineTime, Station};
-use drive_core::{Endpoint, Instant, LineSettings, RxChar};
+use drive_core::rt::{self, Bus, CharIo, Clock, Shell, Simulated};
+use drive_core::{Instant, LineSettings, SlaveEndpoint, Timers};
 use drive_sim::movidrive::{BusSource, Movidrive};
 
 use crate::error::ReturnCode;
-use crate::frame::{Address, MAX_TELEGRAM_LEN, ParamChannel};
+use crate::frame::{Address, ParamChannel};
 use crate::slave::{Backend, RequestContext, Slave, SlaveConfig, SlaveEvent};
 use crate::timing::{LINE, LineTiming};
 
@@ -77,7 +77,9 @@ impl Backend for DriveBackend {
         self.drive.process_output(output, ctx.end);
         self.drive.process_input(input);
     }
+}
 
+impl Timers for DriveBackend {
     fn poll_timeout(&self) -> Option<Instant> {
         self.drive.rs485_deadline()
     }
@@ -91,9 +93,7 @@ impl Backend for DriveBackend {
 /// [module docs](self).
 #[derive(Debug)]
 pub struct SimulatedMovidrive {
-    slave: Slave<DriveBackend>,
-    /// The clock and time of the serve loop, kept across [`SimulatedMovidrive::serve`] calls.
-    line: LineTime,
+    shell: Shell<Slave<DriveBackend>>,
 }
 
 impl SimulatedMovidrive {
@@ -113,31 +113,30 @@ impl SimulatedMovidrive {
             ..config_of(&drive, SlaveConfig::new(Address::NO_GROUP))
         };
         Self {
-            slave: Slave::new(config, DriveBackend { drive }),
-            line: LineTime::new(),
+            shell: Shell::new(Slave::new(config, DriveBackend { drive })),
         }
     }
 
     /// The drive model.
     pub fn movidrive(&self) -> &Movidrive {
-        &self.slave.backend().drive
+        &self.shell.slave.backend().drive
     }
 
     /// The drive model, for changing (communication parameters written here take effect with
     /// the next request).
     pub fn movidrive_mut(&mut self) -> &mut Movidrive {
-        &mut self.slave.backend_mut().drive
+        &mut self.shell.slave.backend_mut().drive
     }
 
     /// The protocol configuration in use (address, group, line timing).
     pub fn slave_config(&self) -> SlaveConfig {
-        *self.slave.config()
+        *self.shell.slave.config()
     }
 
     /// [`Clock::Real`] (tokio's clock, the default) or [`Clock::Virtual`] (waits for nothing).
     pub fn set_clock(&mut self, clock: Clock) {
         // The slave keeps its line history: its time goes on from where it is.
-        self.line.set_clock(clock);
+        self.shell.set_clock(clock);
     }
 
     /// Serve requests on `io` until it closes (`Ok`) or fails. Answers only correct
@@ -145,47 +144,6 @@ impl SimulatedMovidrive {
     /// without an answer) and follows P810/P811/P812/P833 as they are written.
     pub async fn serve<IO: CharIo>(&mut self, io: IO) -> io::Result<()> {
         rt::serve_alone(self, io).await
-    }
-
-    /// Handle the slave's events: follow P810/P811 when they were written.
-    fn drain_events(&mut self) {
-        while let Some(event) = self.slave.poll_event() {
-            if let SlaveEvent::Received { .. } = event {
-                let current = *self.slave.config();
-                let wanted = config_of(&self.slave.backend().drive, current);
-                if wanted != current {
-                    self.slave.set_config(wanted);
-                }
-            }
-        }
-    }
-}
-
-impl Endpoint for SimulatedMovidrive {
-    fn handle_char(&mut self, c: RxChar) {
-        self.slave.handle_char(c);
-        self.drain_events();
-    }
-
-    fn handle_timeout(&mut self, now: Instant) {
-        self.slave.handle_timeout(now);
-        self.drain_events();
-    }
-
-    fn poll_transmit(&mut self, now: Instant, buf: &mut [u8]) -> Option<usize> {
-        self.slave.poll_transmit(now, buf)
-    }
-
-    fn poll_timeout(&self) -> Option<Instant> {
-        self.slave.poll_timeout()
-    }
-
-    fn poll_quiet_timeout(&self) -> Option<Instant> {
-        Endpoint::poll_quiet_timeout(&self.slave)
-    }
-
-    fn max_frame_len(&self) -> usize {
-        MAX_TELEGRAM_LEN
     }
 }
 
@@ -214,16 +172,31 @@ pub fn bus(addresses: &[u8], line: LineSettings) -> SimulatedBus {
     )
 }
 
-impl Station for SimulatedMovidrive {
-    fn address(&self) -> u8 {
+impl Simulated for SimulatedMovidrive {
+    /// Follow P810/P811 when they were written.
+    fn follow_events(&mut self) {
+        while let Some(event) = self.shell.slave.poll_event() {
+            if let SlaveEvent::Received { .. } = event {
+                let current = *self.shell.slave.config();
+                let wanted = config_of(&self.shell.slave.backend().drive, current);
+                if wanted != current {
+                    self.shell.slave.set_config(wanted);
+                }
+            }
+        }
+    }
+
+    /// P810, also when it was written on the model directly (the slave follows it with the
+    /// next request).
+    fn station_address(&self) -> u8 {
         self.movidrive().address()
     }
 
-    fn char_time(&self) -> core::time::Duration {
-        self.slave.config().timing.char_time
+    fn shell(&self) -> &Shell<impl SlaveEndpoint> {
+        &self.shell
     }
 
-    fn line_time(&mut self) -> &mut LineTime {
-        &mut self.line
+    fn shell_mut(&mut self) -> &mut Shell<impl SlaveEndpoint> {
+        &mut self.shell
     }
 }

@@ -24,12 +24,12 @@
 //! * The backend learns every accepted request with its [`RequestContext`] (its end, whether
 //!   it is cyclic, its address) before its parameter service and process data, so a drive
 //!   model can monitor the link itself (P812: the time between cyclic requests). Its own
-//!   deadlines ([`Backend::poll_timeout`]) are part of [`Slave::poll_timeout`] and reach it
-//!   through [`Backend::handle_timeout`]; the slave has no timer of its own beyond framing and
+//!   deadlines ([`Timers::poll_timeout`]) are part of [`Slave::poll_timeout`] and reach it
+//!   through [`Timers::handle_timeout`]; the slave has no timer of its own beyond framing and
 //!   the response.
 
 use drive_core::time::earliest;
-use drive_core::{Endpoint, Queue};
+use drive_core::{Endpoint, Queue, SlaveEndpoint, Timers};
 use drive_profile::sew::SlaveHandshake;
 
 use crate::codec;
@@ -52,8 +52,9 @@ pub struct RequestContext {
     pub answered: bool,
 }
 
-/// The drive behind the protocol; the simulated drive implements it.
-pub trait Backend {
+/// The drive behind the protocol; the simulated drive implements it. Its own deadlines (e.g.
+/// the drive's RS-485 timeout) are its [`Timers`].
+pub trait Backend: Timers {
     /// An accepted request: called once per request, before its parameter service and its
     /// process data (a cyclic request without process data, PARAM + 0PD, comes only here).
     fn on_request(&mut self, ctx: &RequestContext) {
@@ -68,17 +69,6 @@ pub trait Backend {
     /// (PO), `input` receives the drive's process input words (PI) for the response (same
     /// length; ignored for group and broadcast requests).
     fn process_data(&mut self, ctx: &RequestContext, output: &[u16], input: &mut [u16]);
-
-    /// The backend's next own deadline (e.g. the drive's RS-485 timeout), if any.
-    fn poll_timeout(&self) -> Option<Instant> {
-        None
-    }
-
-    /// Time advanced to `now` (at least to the deadline of [`Backend::poll_timeout`], or
-    /// further).
-    fn handle_timeout(&mut self, now: Instant) {
-        let _ = now;
-    }
 }
 
 /// Configuration of a [`Slave`].
@@ -375,5 +365,15 @@ impl<B: Backend> Endpoint for Slave<B> {
 
     fn max_frame_len(&self) -> usize {
         MAX_TELEGRAM_LEN
+    }
+}
+
+impl<B: Backend> SlaveEndpoint for Slave<B> {
+    fn address(&self) -> u8 {
+        self.config.address.get()
+    }
+
+    fn char_time(&self) -> core::time::Duration {
+        self.config.timing.char_time
     }
 }

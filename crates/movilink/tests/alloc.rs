@@ -23,6 +23,8 @@ impl movilink::Backend for Drive {
     }
 }
 
+impl drive_core::Timers for Drive {}
+
 #[test]
 fn nothing_allocates() {
     let a = Address::new(1).unwrap();

@@ -56,6 +56,8 @@ impl Backend for Trivial {
     }
 }
 
+impl drive_core::Timers for Trivial {}
+
 /// A master and a drive on one simulated line, character time `char_ns`.
 #[derive(Debug)]
 pub struct Bus<B: Backend> {

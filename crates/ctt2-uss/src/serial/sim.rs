@@ -60,13 +60,13 @@
 use std::io;
 use std::time::Duration;
 
-use drive_core::rt::{self, Bus, CharIo, Clock, LineTime, Station};
-use drive_core::{Endpoint, Instant, LineSettings, RxChar};
-use drive_profile::nord::State;
+use drive_core::rt::{self, Bus, CharIo, Clock, Shell, Simulated};
+use drive_core::{Instant, LineSettings, SlaveEndpoint, Timers};
+use drive_sim::Ticker;
 use drive_sim::nord::SimulatedNord;
 
 use super::slave::{Backend, Slave, SlaveConfig, SlaveEvent};
-use super::telegram::{Layout, MAX_TELEGRAM, UssAddress};
+use super::telegram::{Layout, UssAddress};
 use crate::uss::pkw::{DriveError, Order, Pkw, Reply};
 
 /// How often the model is advanced while something in it runs on time (a ramp, a fault
@@ -81,17 +81,7 @@ const INVALID_ORDER: u16 = 201;
 struct NordBackend {
     drive: SimulatedNord,
     processing: Duration,
-    last_tick: Instant,
-}
-
-impl NordBackend {
-    /// Whether the model has timed work: running, stopping or reacting to a fault.
-    fn busy(&self) -> bool {
-        matches!(
-            self.drive.state(),
-            State::OperationEnabled | State::QuickStopActive | State::FaultReactionActive
-        ) || self.drive.actual_frequency() != 0.0
-    }
+    ticker: Ticker,
 }
 
 impl Backend for NordBackend {
@@ -112,7 +102,7 @@ impl Backend for NordBackend {
             Some((&control, setpoints)) => self.drive.process(control, setpoints, now),
             None => self.drive.tick(now),
         }
-        self.last_tick = now;
+        self.ticker.advanced(now);
         let actuals = self.drive.actual_values();
         let words = core::iter::once(self.drive.status_word())
             .chain(actuals)
@@ -121,16 +111,15 @@ impl Backend for NordBackend {
             *slot = w;
         }
     }
+}
 
+impl Timers for NordBackend {
     fn poll_timeout(&self) -> Option<Instant> {
-        self.busy().then(|| self.last_tick + TICK)
+        self.ticker.poll_timeout(&self.drive)
     }
 
     fn handle_timeout(&mut self, now: Instant) {
-        if now >= self.last_tick + TICK {
-            self.drive.tick(now);
-            self.last_tick = now;
-        }
+        self.ticker.handle_timeout(&mut self.drive, now);
     }
 }
 
@@ -152,10 +141,8 @@ pub struct SimStats {
 /// A simulated NORD drive on a USS line; see the [module docs](self).
 #[derive(Debug)]
 pub struct SimulatedDrive {
-    slave: Slave<NordBackend>,
+    shell: Shell<Slave<NordBackend>>,
     stats: SimStats,
-    /// The clock and time of the serve loop, kept across serves.
-    line: LineTime,
 }
 
 impl SimulatedDrive {
@@ -169,34 +156,33 @@ impl SimulatedDrive {
         let backend = NordBackend {
             drive: SimulatedNord::new(),
             processing: Duration::ZERO,
-            last_tick: Instant::ZERO,
+            ticker: Ticker::new(TICK),
         };
         SimulatedDrive {
-            slave: Slave::new(config, backend),
+            shell: Shell::new(Slave::new(config, backend)),
             stats: SimStats::default(),
-            line: LineTime::new(),
         }
     }
 
     /// The drive model.
     pub fn drive(&self) -> &SimulatedNord {
-        &self.slave.backend().drive
+        &self.shell.slave.backend().drive
     }
 
     /// The drive model, for changing (faults, BusIO bits).
     pub fn drive_mut(&mut self) -> &mut SimulatedNord {
-        &mut self.slave.backend_mut().drive
+        &mut self.shell.slave.backend_mut().drive
     }
 
     /// How long the drive works on each new PKW order (answering the previous order's answer
     /// meanwhile).
     pub fn set_processing_time(&mut self, time: Duration) {
-        self.slave.backend_mut().processing = time;
+        self.shell.slave.backend_mut().processing = time;
     }
 
     /// The address.
     pub fn address(&self) -> UssAddress {
-        self.slave.config().address
+        self.shell.slave.config().address
     }
 
     /// What it saw.
@@ -206,73 +192,27 @@ impl SimulatedDrive {
 
     /// The PKW answer the drive sends now (the last order's that is done).
     pub fn current_answer(&self) -> Pkw {
-        self.slave.current_answer()
+        self.shell.slave.current_answer()
     }
 
     /// Whether the drive is still working on a PKW order.
     pub fn is_processing(&self) -> bool {
-        self.slave.is_processing()
+        self.shell.slave.is_processing()
     }
 
     /// The slave's configuration.
     pub fn config(&self) -> &SlaveConfig {
-        self.slave.config()
+        self.shell.slave.config()
     }
 
     /// [`Clock::Real`] (tokio's clock, the default) or [`Clock::Virtual`] (waits for nothing).
     pub fn set_clock(&mut self, clock: Clock) {
-        self.line.set_clock(clock);
+        self.shell.set_clock(clock);
     }
 
     /// Serve telegrams on `io` until it closes (`Ok`) or fails.
     pub async fn serve<IO: CharIo>(&mut self, io: IO) -> io::Result<()> {
         rt::serve_alone(self, io).await
-    }
-
-    fn drain_events(&mut self) {
-        while let Some(event) = self.slave.poll_event() {
-            match event {
-                SlaveEvent::Executed { answer, .. } => {
-                    if answer.is_some() {
-                        self.stats.telegrams += 1;
-                    } else {
-                        self.stats.broadcasts += 1;
-                    }
-                }
-                SlaveEvent::Mirrored(_) => self.stats.mirrored += 1,
-                SlaveEvent::OrderDone(_) => self.stats.orders += 1,
-                SlaveEvent::Rejected(_) => self.stats.rejected += 1,
-                _ => {}
-            }
-        }
-    }
-}
-
-impl Endpoint for SimulatedDrive {
-    fn handle_char(&mut self, c: RxChar) {
-        self.slave.handle_char(c);
-        self.drain_events();
-    }
-
-    fn handle_timeout(&mut self, now: Instant) {
-        self.slave.handle_timeout(now);
-        self.drain_events();
-    }
-
-    fn poll_transmit(&mut self, now: Instant, buf: &mut [u8]) -> Option<usize> {
-        self.slave.poll_transmit(now, buf)
-    }
-
-    fn poll_timeout(&self) -> Option<Instant> {
-        self.slave.poll_timeout()
-    }
-
-    fn poll_quiet_timeout(&self) -> Option<Instant> {
-        Endpoint::poll_quiet_timeout(&self.slave)
-    }
-
-    fn max_frame_len(&self) -> usize {
-        MAX_TELEGRAM
     }
 }
 
@@ -290,16 +230,31 @@ pub fn bus(addresses: &[UssAddress], layout: Layout, line: LineSettings) -> Simu
     )
 }
 
-impl Station for SimulatedDrive {
-    fn address(&self) -> u8 {
-        SimulatedDrive::address(self).get()
+impl Simulated for SimulatedDrive {
+    /// Count what the slave did.
+    fn follow_events(&mut self) {
+        while let Some(event) = self.shell.slave.poll_event() {
+            match event {
+                SlaveEvent::Executed { answer, .. } => {
+                    if answer.is_some() {
+                        self.stats.telegrams += 1;
+                    } else {
+                        self.stats.broadcasts += 1;
+                    }
+                }
+                SlaveEvent::Mirrored(_) => self.stats.mirrored += 1,
+                SlaveEvent::OrderDone(_) => self.stats.orders += 1,
+                SlaveEvent::Rejected(_) => self.stats.rejected += 1,
+                _ => {}
+            }
+        }
     }
 
-    fn char_time(&self) -> core::time::Duration {
-        self.slave.config().line.char_time()
+    fn shell(&self) -> &Shell<impl SlaveEndpoint> {
+        &self.shell
     }
 
-    fn line_time(&mut self) -> &mut LineTime {
-        &mut self.line
+    fn shell_mut(&mut self) -> &mut Shell<impl SlaveEndpoint> {
+        &mut self.shell
     }
 }

@@ -25,14 +25,15 @@
 use core::time::Duration;
 
 use drive_core::time::earliest;
-use drive_core::{Endpoint, Instant, LineSettings, Queue, RxChar, RxEvent};
+use drive_core::{Endpoint, Instant, LineSettings, Queue, RxChar, RxEvent, SlaveEndpoint, Timers};
 
 use super::framing::{RunClock, Side, UssFraming, UssReceiver, UssTiming, receive};
 use super::telegram::{Adr, FrameError, Layout, MAX_PZD, MAX_TELEGRAM, Telegram, UssAddress};
 use crate::uss::pkw::{DriveError, Pkw, Reply};
 
-/// The drive behind the protocol; the simulated drive implements it.
-pub trait Backend {
+/// The drive behind the protocol; the simulated drive implements it. Its own deadlines (a
+/// ramp) are its [`Timers`].
+pub trait Backend: Timers {
     /// Execute a new PKW order at `now` and return the answer channel.
     fn execute(&mut self, order: &Pkw, now: Instant) -> Pkw;
 
@@ -46,16 +47,6 @@ pub trait Backend {
     /// Process data: the request's PZD words in, the answer's PZD words (as many) out. Called
     /// for every executed telegram; for a broadcast `answer` is not sent.
     fn process(&mut self, request: &[u16], answer: &mut [u16], now: Instant);
-
-    /// The backend's next own deadline (a ramp), if any.
-    fn poll_timeout(&self) -> Option<Instant> {
-        None
-    }
-
-    /// Time advanced to `now`.
-    fn handle_timeout(&mut self, now: Instant) {
-        let _ = now;
-    }
 }
 
 /// Configuration of a [`Slave`].
@@ -289,6 +280,16 @@ impl<B: Backend> Slave<B> {
             // From the request's last character, not from the silence that confirmed it.
             not_before: (self.last_rx + self.response_delay()).later(self.now),
         });
+    }
+}
+
+impl<B: Backend> SlaveEndpoint for Slave<B> {
+    fn address(&self) -> u8 {
+        self.config.address.get()
+    }
+
+    fn char_time(&self) -> Duration {
+        self.config.line.char_time()
     }
 }
 

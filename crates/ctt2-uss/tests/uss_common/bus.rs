@@ -99,6 +99,8 @@ impl Backend for Store {
     }
 }
 
+impl drive_core::Timers for Store {}
+
 /// What happens to a slave's telegram on its way to the master: the function may change the
 /// bytes and returns their new length, or `None` to drop the telegram.
 pub type Tamper = fn(&mut [u8; MAX_TELEGRAM], usize) -> Option<usize>;

@@ -12,7 +12,10 @@
 //! * [`Driver`]: the one runtime driver, a sans-IO master on a [`Link`] (a [`Port`] or a
 //!   [`CanPort`]), one transaction at a time; every protocol's async driver is one;
 //! * [`serve`]: the serve loop of simulated devices ([`Endpoint`]s) on one line, and [`Bus`]:
-//!   several simulated devices ([`Station`]s, endpoints with an address) served on one line.
+//!   several simulated devices ([`Station`]s, endpoints with an address) served on one line;
+//! * [`Simulated`]: every protocol's simulated device, a [`Shell`] (its slave and line time)
+//!   and a front-end following the slave's events, which makes it an [`Endpoint`] and a
+//!   [`Station`].
 //!
 //! Serial ports are opened by `drive-transport`; this layer needs nothing but tokio, so a
 //! protocol crate's `tokio` feature does not pull in serial-port or libc dependencies.
@@ -28,6 +31,7 @@ mod driver;
 mod io;
 mod port;
 mod serve;
+mod simulated;
 
 pub use bus::{Bus, LineTime, Station, serve_alone};
 pub use can::{CanIo, ReceivedFrame, recv_frame, send_frame, send_frame_at};
@@ -40,3 +44,4 @@ pub use io::{
 };
 pub use port::{Port, Step};
 pub use serve::serve;
+pub use simulated::{Shell, Simulated};

@@ -565,3 +565,16 @@ impl SimulatedBonfiglioli {
         }
     }
 }
+
+impl crate::ticker::Timed for SimulatedBonfiglioli {
+    /// Enabled or stopping, the motor still turns, or the watchdog (413) is armed.
+    fn busy(&self) -> bool {
+        matches!(self.state, State::OperationEnabled | State::QuickStopActive)
+            || self.actual_frequency() != 0.0
+            || self.store().read(413, 0).is_ok_and(|v| v > 0)
+    }
+
+    fn tick(&mut self, now: Instant) {
+        SimulatedBonfiglioli::tick(self, now);
+    }
+}

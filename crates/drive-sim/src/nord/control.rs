@@ -515,3 +515,17 @@ impl SimulatedNord {
         }
     }
 }
+
+impl crate::ticker::Timed for SimulatedNord {
+    /// Running, stopping or reacting to a fault, or the motor still turns.
+    fn busy(&self) -> bool {
+        matches!(
+            self.state,
+            State::OperationEnabled | State::QuickStopActive | State::FaultReactionActive
+        ) || self.actual_frequency() != 0.0
+    }
+
+    fn tick(&mut self, now: Instant) {
+        SimulatedNord::tick(self, now);
+    }
+}

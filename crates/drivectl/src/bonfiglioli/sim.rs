@@ -4,6 +4,8 @@
 //! 395 (protocol type), 1375 (parity) and 1376 (address) say what they serve; a baud rate the
 //! drive does not have (10 offers 2400–115200) is refused.
 
+use std::ops::RangeInclusive;
+
 use bonfiglioli_modbus::framing::Mode;
 use bonfiglioli_modbus::sim;
 use clap::Args;
@@ -11,7 +13,7 @@ use drive_sim::bonfiglioli::Variant;
 
 use crate::error::Result;
 use crate::tool::line::LineArgs;
-use crate::tool::simrun;
+use crate::tool::simrun::{SerialSim, SimFamily};
 
 /// Examples below `drivectl sim bonfiglioli --help`.
 const AFTER_HELP: &str = "\
@@ -20,21 +22,25 @@ Examples:
   drivectl sim bonfiglioli --pty --parity none --mode ascii --variant acu --addr 1 --addr 2
   drivectl sim bonfiglioli --port /dev/ttyUSB1 --baud 19200    a real port (8E1; ASCII 7E1)";
 
+/// Bonfiglioli's words in `drivectl sim bonfiglioli`.
+#[derive(Debug)]
+pub struct BonfiglioliSim;
+
+impl SimFamily for BonfiglioliSim {
+    const ADDRESSES: RangeInclusive<u8> = 1..=247;
+    const DEFAULT_ADDRESS: &'static str = "1";
+    const ADDRESS_HELP: &'static str = "Drive address(es) 1…247 (parameter 1376); repeat for several drives on one bus, each address once";
+    const ADDRESS_PARAM: &'static str = "parameter 1376; 0 is broadcast";
+    const DEFAULT_PARITY_NOTE: &'static str = " (the default)";
+    const MASTER: &'static str = "drivectl bonfiglioli";
+}
+
 /// Arguments of `drivectl sim bonfiglioli`.
 #[derive(Debug, Args)]
 #[command(after_help = AFTER_HELP)]
 pub struct SimArgs {
-    /// Serve on this serial port.
-    #[arg(long, conflicts_with = "pty", required_unless_present = "pty")]
-    port: Option<String>,
-    /// Serve on a new pseudo-terminal and print its path; needs `--parity none` (a pty carries
-    /// no parity), on the master too.
-    #[arg(long)]
-    pty: bool,
-    /// Drive address(es) 1…247 (parameter 1376); repeat for several drives on one bus, each
-    /// address once.
-    #[arg(long = "addr", default_value = "1")]
-    addrs: Vec<u8>,
+    #[command(flatten)]
+    sim: SerialSim<BonfiglioliSim>,
     /// Transmission mode: rtu or ascii (parameter 395).
     #[arg(long, default_value = "rtu", value_parser = ["rtu", "ascii"])]
     mode: String,
@@ -52,7 +58,7 @@ pub struct SimArgs {
 /// Check the arguments before anything is opened: addresses 1…247, each once; a baud rate the
 /// drive has (parameter 10, ch. 5.2.1); on a pty no parity.
 fn check(args: &SimArgs) -> Result<()> {
-    simrun::check_addresses(&args.addrs, 1..=247, "parameter 1376; 0 is broadcast")?;
+    args.sim.check_addresses()?;
     if drive_profile::bonfiglioli::link::baud_code(args.line.baud).is_none() {
         let rates: Vec<String> = drive_profile::bonfiglioli::link::BAUD_RATES
             .iter()
@@ -65,12 +71,7 @@ fn check(args: &SimArgs) -> Result<()> {
             rates.join(", ")
         )));
     }
-    simrun::check_pty_parity(
-        args.pty,
-        args.line.parity,
-        " (the default)",
-        "drivectl bonfiglioli",
-    )
+    args.sim.check_pty_parity(args.line.parity)
 }
 
 /// Run the simulated bus until interrupted.
@@ -83,24 +84,17 @@ pub fn run(args: &SimArgs) -> Result<()> {
         Variant::Act
     };
     let line = super::line_of(mode, &args.line, args.data_bits);
-    let list = args
-        .addrs
-        .iter()
-        .map(u8::to_string)
-        .collect::<Vec<_>>()
-        .join(", ");
     let what = format!(
-        "simulated {} at address {list}, Modbus {} at {} baud, parity {}",
+        "simulated {} at address {}, Modbus {} at {} baud, parity {}",
         args.variant.to_uppercase(),
+        args.sim.address_list(),
         args.mode.to_uppercase(),
         line.baud,
         line.parity
     );
-    let mut bus = sim::bus(&args.addrs, variant, mode, line);
-    crate::tool::line::runtime()?.block_on(simrun::serve(
-        &mut bus,
-        args.port.as_deref(),
+    args.sim.run(
+        &mut sim::bus(&args.sim.addrs, variant, mode, line),
         line,
         &what,
-    ))
+    )
 }

@@ -492,6 +492,8 @@ mod tests {
         fn process_data(&mut self, _: &RequestContext, _: &[u16], _: &mut [u16]) {}
     }
 
+    impl drive_core::Timers for Flaky {}
+
     /// Read P130 from a flaky drive; the result and how many services the drive saw.
     fn read_from_flaky(failures: u32) -> (std::result::Result<i64, ClientError>, u32) {
         let rt = tokio::runtime::Builder::new_current_thread()

@@ -2,6 +2,7 @@
 //! on a serial port, or on a new pseudo-terminal whose path is printed (first line of standard
 //! output) for other tools.
 
+use std::ops::RangeInclusive;
 use std::time::Duration;
 
 use clap::Args;
@@ -10,7 +11,7 @@ use ctt2_uss::serial::{Layout, UssAddress};
 
 use crate::error::{CliError, Result};
 use crate::tool::line::LineArgs;
-use crate::tool::simrun;
+use crate::tool::simrun::{SerialSim, SimFamily};
 
 /// Examples below `drivectl sim uss --help`.
 const AFTER_HELP: &str = "\
@@ -20,20 +21,26 @@ Examples:
   drivectl sim uss --pty --parity none --pkw-time 30       orders take 30 ms (the master repeats)
   drivectl sim uss --port /dev/ttyUSB1 --baud 38400        a real port (8E1)";
 
+/// USS's words in `drivectl sim uss`.
+#[derive(Debug)]
+pub struct UssSim;
+
+impl SimFamily for UssSim {
+    const ADDRESSES: RangeInclusive<u8> = 0..=31;
+    const DEFAULT_ADDRESS: &'static str = "0";
+    const ADDRESS_HELP: &'static str =
+        "USS address(es) 0…31; repeat for several drives on one line, each address once";
+    const ADDRESS_PARAM: &'static str = "USS address";
+    const DEFAULT_PARITY_NOTE: &'static str = " (the default)";
+    const MASTER: &'static str = "drivectl uss";
+}
+
 /// Arguments of `drivectl sim uss`.
 #[derive(Debug, Args)]
 #[command(after_help = AFTER_HELP)]
 pub struct SimArgs {
-    /// Serve on this serial port.
-    #[arg(long, conflicts_with = "pty", required_unless_present = "pty")]
-    port: Option<String>,
-    /// Serve on a new pseudo-terminal and print its path; needs `--parity none` (a pty carries
-    /// no parity), on the master too.
-    #[arg(long)]
-    pty: bool,
-    /// USS address(es) 0…31; repeat for several drives on one line, each address once.
-    #[arg(long = "addr", default_value = "0")]
-    addrs: Vec<u8>,
+    #[command(flatten)]
+    sim: SerialSim<UssSim>,
     #[command(flatten)]
     line: LineArgs,
     /// PKW words of every telegram: 3 or 4 (the master's --pkw must match).
@@ -48,20 +55,14 @@ pub struct SimArgs {
     pkw_time: u64,
 }
 
-/// Check the arguments before anything is opened: addresses 0…31, each once; on a pty no
-/// parity.
-fn check(args: &SimArgs) -> Result<()> {
-    simrun::check_addresses(&args.addrs, 0..=31, "USS address")?;
-    simrun::check_pty_parity(args.pty, args.line.parity, " (the default)", "drivectl uss")
-}
-
 /// Run the simulated line until interrupted.
 pub fn run(args: &SimArgs) -> Result<()> {
-    check(args)?;
+    args.sim.check(args.line.parity)?;
     let layout = Layout::new(args.pkw, args.pzd)
         .map_err(|e| CliError::usage(format!("--pkw/--pzd: {e}")))?;
     let line = args.line.line();
     let addrs: Vec<UssAddress> = args
+        .sim
         .addrs
         .iter()
         .filter_map(|a| UssAddress::new(*a))
@@ -70,20 +71,13 @@ pub fn run(args: &SimArgs) -> Result<()> {
     for d in bus.stations_mut() {
         d.set_processing_time(Duration::from_millis(args.pkw_time));
     }
-    let list = args
-        .addrs
-        .iter()
-        .map(u8::to_string)
-        .collect::<Vec<_>>()
-        .join(", ");
     let what = format!(
-        "simulated NORD drive(s) at USS address {list}, {} baud, parity {}, {} PKW + {} PZD words",
-        line.baud, line.parity, args.pkw, args.pzd
+        "simulated NORD drive(s) at USS address {}, {} baud, parity {}, {} PKW + {} PZD words",
+        args.sim.address_list(),
+        line.baud,
+        line.parity,
+        args.pkw,
+        args.pzd
     );
-    crate::tool::line::runtime()?.block_on(simrun::serve(
-        &mut bus,
-        args.port.as_deref(),
-        line,
-        &what,
-    ))
+    args.sim.run(&mut bus, line, &what)
 }

@@ -75,12 +75,7 @@ pub fn run(args: &SimArgs) -> Result<()> {
             drive_core::Instant::ZERO,
         );
     }
-    let list = args
-        .addrs
-        .iter()
-        .map(u8::to_string)
-        .collect::<Vec<_>>()
-        .join(", ");
+    let list = simrun::address_list(&args.addrs);
     let what = format!("simulated MOVIDRIVE at SBus address {list}");
     crate::tool::line::runtime()?.block_on(async move {
         match iface {

@@ -1,17 +1,83 @@
-//! What every `drivectl sim <protocol>` shares: checking the addresses and the pty's parity
-//! before anything is opened, and serving a simulated bus on a serial port or on a new
-//! pseudo-terminal whose path is printed as the first line of standard output.
+//! What every `drivectl sim <protocol>` shares: the options of a serial simulator
+//! ([`SerialSim`]: where to serve, the drives' addresses, in each protocol's words from its
+//! [`SimFamily`]), checking the addresses and the pty's parity before anything is opened, and
+//! serving a simulated bus on a serial port or on a new pseudo-terminal whose path is printed
+//! as the first line of standard output.
 
 use std::io;
+use std::marker::PhantomData;
 use std::ops::RangeInclusive;
 use std::time::Duration;
 
+use clap::Args;
 use drive_core::rt::{Bus, CharIo, Station, Stream};
 use drive_core::{LineSettings, Parity};
 use drive_transport::pty::PtyPair;
 
 use super::line::open_settings;
 use crate::error::{CliError, Result};
+
+/// How a protocol's serial simulator names its drives' addresses and its master.
+pub trait SimFamily {
+    /// The addresses a drive can have.
+    const ADDRESSES: RangeInclusive<u8>;
+    /// The address of the one drive simulated when none is given.
+    const DEFAULT_ADDRESS: &'static str;
+    /// The help of `--addr`.
+    const ADDRESS_HELP: &'static str;
+    /// What the address is (`P810`, `parameter 1376`), for a refused one.
+    const ADDRESS_PARAM: &'static str;
+    /// Said after the refused parity on a pty when it is the default (` (the default)`).
+    const DEFAULT_PARITY_NOTE: &'static str;
+    /// The master's command (`drivectl movilink`).
+    const MASTER: &'static str;
+}
+
+/// The options every serial `drivectl sim …` starts with: a serial port or a new pty, and the
+/// drives' addresses.
+#[derive(Debug, Args)]
+pub struct SerialSim<F: SimFamily> {
+    /// Serve on this serial port.
+    #[arg(long, conflicts_with = "pty", required_unless_present = "pty")]
+    pub port: Option<String>,
+    /// Serve on a new pseudo-terminal and print its path; needs `--parity none` (a pty carries
+    /// no parity), on the master too.
+    #[arg(long)]
+    pub pty: bool,
+    #[arg(long = "addr", default_value = F::DEFAULT_ADDRESS, help = F::ADDRESS_HELP)]
+    pub addrs: Vec<u8>,
+    #[arg(skip)]
+    family: PhantomData<F>,
+}
+
+impl<F: SimFamily> SerialSim<F> {
+    /// Check before anything is opened: every address valid and given once; on a pty no
+    /// parity (`parity` is the line's).
+    pub fn check(&self, parity: Parity) -> Result<()> {
+        self.check_addresses()?;
+        self.check_pty_parity(parity)
+    }
+
+    /// Every address valid and given once.
+    pub fn check_addresses(&self) -> Result<()> {
+        check_addresses(&self.addrs, F::ADDRESSES, F::ADDRESS_PARAM)
+    }
+
+    /// On a pty no parity.
+    pub fn check_pty_parity(&self, parity: Parity) -> Result<()> {
+        check_pty_parity(self.pty, parity, F::DEFAULT_PARITY_NOTE, F::MASTER)
+    }
+
+    /// The addresses, for the message on standard error: `1, 7`.
+    pub fn address_list(&self) -> String {
+        address_list(&self.addrs)
+    }
+
+    /// Serve `bus` on the port or a new pty with `settings` until interrupted (see [`serve`]).
+    pub fn run<B: SimBus>(&self, bus: &mut B, settings: LineSettings, what: &str) -> Result<()> {
+        super::line::runtime()?.block_on(serve(bus, self.port.as_deref(), settings, what))
+    }
+}
 
 /// A simulated bus a protocol crate provides (`movilink::sim::SimulatedBus`,
 /// `bonfiglioli_modbus::sim::SimulatedBus`, …: the runtime layer's [`Bus`] of its simulated
@@ -45,6 +111,15 @@ pub fn check_addresses(addrs: &[u8], valid: RangeInclusive<u8>, param: &str) -> 
         }
     }
     Ok(())
+}
+
+/// `addrs` for a message: `1, 7`.
+pub fn address_list(addrs: &[u8]) -> String {
+    addrs
+        .iter()
+        .map(u8::to_string)
+        .collect::<Vec<_>>()
+        .join(", ")
 }
 
 /// On a pty no parity: a pseudo-terminal carries none, and the master refuses parity on one
@@ -112,6 +187,54 @@ pub async fn serve<B: SimBus>(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use clap::Parser;
+
+    #[derive(Debug)]
+    struct Toy;
+
+    impl SimFamily for Toy {
+        const ADDRESSES: RangeInclusive<u8> = 1..=9;
+        const DEFAULT_ADDRESS: &'static str = "4";
+        const ADDRESS_HELP: &'static str = "Toy address(es) 1…9";
+        const ADDRESS_PARAM: &'static str = "T1";
+        const DEFAULT_PARITY_NOTE: &'static str = " (the toy's default)";
+        const MASTER: &'static str = "drivectl toy";
+    }
+
+    #[derive(Debug, Parser)]
+    struct Cli {
+        #[command(flatten)]
+        sim: SerialSim<Toy>,
+    }
+
+    #[test]
+    fn serial_sim_options_take_the_familys_words() {
+        let cli = Cli::try_parse_from(["toy", "--pty"]).unwrap();
+        assert_eq!((cli.sim.pty, cli.sim.addrs.as_slice()), (true, &[4][..]));
+        assert_eq!(cli.sim.port, None);
+        let cli =
+            Cli::try_parse_from(["toy", "--port", "/dev/x", "--addr", "2", "--addr", "7"]).unwrap();
+        assert_eq!(cli.sim.address_list(), "2, 7");
+        cli.sim.check(Parity::Even).unwrap();
+        assert!(
+            Cli::try_parse_from(["toy"]).is_err(),
+            "--port or --pty is required"
+        );
+        assert!(Cli::try_parse_from(["toy", "--pty", "--port", "/dev/x"]).is_err());
+        let cli = Cli::try_parse_from(["toy", "--pty", "--addr", "10"]).unwrap();
+        let e = cli.sim.check(Parity::None).unwrap_err().to_string();
+        assert_eq!(e, "--addr 10: a drive address is 1…9 (T1)");
+        let cli = Cli::try_parse_from(["toy", "--pty"]).unwrap();
+        let e = cli.sim.check(Parity::Even).unwrap_err().to_string();
+        assert!(
+            e.contains("parity even (the toy's default)") && e.contains("drivectl toy --port"),
+            "{e}"
+        );
+        let help = <Cli as clap::CommandFactory>::command()
+            .render_help()
+            .to_string();
+        assert!(help.contains("Toy address(es) 1…9 [default: 4]"), "{help}");
+    }
 
     #[test]
     fn addresses_and_pty_parity_are_checked_with_the_protocols_words() {

@@ -114,7 +114,9 @@ impl Backend for TestDrive {
             *dst = src;
         }
     }
+}
 
+impl drive_core::Timers for TestDrive {
     fn poll_timeout(&self) -> Option<Instant> {
         self.deadline
     }
