@@ -105,7 +105,7 @@ pub const STOP_WAIT: Duration = Duration::from_secs(5);
 /// Time between two process data exchanges while `control` waits for a state.
 pub const CONTROL_PERIOD: Duration = Duration::from_millis(50);
 
-/// `control`: see [`NordCommand::Control`].
+/// `control`: see [`NordCommand::Control`](super::NordCommand::Control).
 pub async fn control<C>(c: &mut NordClient<C>, s: &Session, a: &ControlSession<'_>) -> Result<()>
 where
     C: ParameterChannel + ProcessChannel,

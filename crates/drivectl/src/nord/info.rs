@@ -37,7 +37,7 @@ pub fn info_targets(key: &str, sub: Sub) -> Result<Vec<Target>> {
     Ok(all)
 }
 
-/// `info`: see [`NordCommand::Info`]. A refusal of one set or element is shown for it; a link
+/// `info`: see [`NordCommand::Info`](super::NordCommand::Info). A refusal of one set or element is shown for it; a link
 /// failure stops.
 pub async fn info<C: ParameterChannel>(
     c: &mut NordClient<C>,

@@ -61,7 +61,7 @@ pub fn actual_text(v: &Value) -> String {
     s
 }
 
-/// `status`: see [`NordCommand::Status`].
+/// `status`: see [`NordCommand::Status`](super::NordCommand::Status).
 pub async fn status<C>(c: &mut NordClient<C>, s: &Session) -> Result<()>
 where
     C: ParameterChannel + ProcessChannel,
