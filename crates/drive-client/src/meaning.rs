@@ -424,9 +424,28 @@ pub fn value_json_in(t: &Target, raw: i64, device: &Device) -> Value {
     Value::Object(m)
 }
 
+/// A NORD state with the manual's letter and both names: `E operation enabled (Betrieb
+/// freigegeben)` (BU 0250 ch. 5.1.5); a state outside the manual's table says so.
+pub fn nord_state_text(state: drive_profile::nord::State) -> String {
+    match drive_profile::nord::state_info(state) {
+        Some(i) => format!("{} {} ({})", i.letter, i.name_en, i.name_de),
+        None => format!("? {} (no state of the manual)", state.name_en()),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn nord_states_carry_the_manuals_letter_and_both_names() {
+        use drive_profile::nord::{State, state_info};
+        let i = state_info(State::OperationEnabled).unwrap();
+        let text = nord_state_text(State::OperationEnabled);
+        assert_eq!(text, format!("{} {} ({})", i.letter, i.name_en, i.name_de));
+        assert!(text.starts_with("E "), "{text}");
+        assert!(text.contains("Betrieb freigegeben"), "{text}");
+    }
     use drive_profile::family::lookup;
 
     fn of(key: &str, raw: i64) -> Option<Meaning> {

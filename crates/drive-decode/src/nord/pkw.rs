@@ -2,18 +2,12 @@
 
 use drive_client::target::{Target, nord_sub_parts};
 use drive_client::text::{physical_text, trim_float};
-use drive_profile::nord::{self, ControlWord, State, StatusWord};
+use drive_profile::nord::{self, ControlWord, StatusWord};
 
 use super::{Message, be16, param_name};
 
-/// A state with the manual's letter and both names: `E operation enabled (Betrieb
-/// freigegeben)`.
-pub fn state_text(state: State) -> String {
-    match nord::state_info(state) {
-        Some(i) => format!("{} {} ({})", i.letter, i.name_en, i.name_de),
-        None => format!("? {} (no state of the manual)", state.name_en()),
-    }
-}
+// A NORD state's text is the client layer's (drivectl's `control` and `status` say it too).
+pub use drive_client::meaning::nord_state_text as state_text;
 
 /// Explain a parameter channel of 3 or 4 words at `at`: an order (`order`) or an answer.
 pub(super) fn explain_pkw(m: &mut Message, bytes: &[u8], at: usize, words: u8, order: bool) {

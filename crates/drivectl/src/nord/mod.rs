@@ -27,7 +27,7 @@ use std::time::Duration;
 
 use clap::{Args, Subcommand};
 use ctt2_uss::client::{self, NordClient, ParameterChannel, ProcessChannel};
-use drive_profile::nord::{self, State};
+use drive_profile::nord;
 use drive_profile::{Family, Persistence};
 use serde_json::{Map, Value};
 
@@ -456,14 +456,7 @@ async fn warn_ram_only<C: ParameterChannel>(pc: &mut NordParamClient<'_, C>) {
     }
 }
 
-/// A state with the manual's letter and both names: `E operation enabled (Betrieb
-/// freigegeben)`.
-pub fn state_text(state: State) -> String {
-    match nord::state_info(state) {
-        Some(i) => format!("{} {} ({})", i.letter, i.name_en, i.name_de),
-        None => format!("? {} (no state of the manual)", state.name_en()),
-    }
-}
+pub use drive_client::meaning::nord_state_text as state_text;
 
 #[cfg(test)]
 mod tests;
