@@ -1,0 +1,428 @@
+
+use std::cell::RefCell;
+use std::rc::Rc;
+use std::sync::Arc;
+
+use serde_json::json;
+use tokio::sync::oneshot;
+use tokio::time::sleep;
+
+use super::fake::{FakeBus, State, plant};
+use super::*;
+use crate::config::Plant;
+use crate::model::BusFigures;
+
+const WIRE: Duration = Duration::from_millis(5);
+/// P130's bus index.
+const P130: u16 = 8470;
+
+struct Harness {
+    sets: mpsc::Sender<SetRequest>,
+    /// The gateway's stop.
+    stop: tokio::sync::watch::Sender<bool>,
+    /// The bus task.
+    task: tokio::task::JoinHandle<()>,
+    state: Rc<RefCell<State>>,
+    /// Every update with the (virtual) time it arrived.
+    seen: Rc<RefCell<Vec<(Instant, Update)>>>,
+    t0: Instant,
+}
+
+fn start(plant: &Plant) -> Harness {
+    let bus = plant.buses[0].clone();
+    let (fake, state) = FakeBus::new(&bus, WIRE);
+    let (utx, mut urx) = mpsc::channel(4096);
+    let (stx, srx) = mpsc::channel(64);
+    let (stop, shutdown) = tokio::sync::watch::channel(false);
+    let ctx = BusContext {
+        ix: 0,
+        bus,
+        updates: utx,
+        sets: srx,
+        metrics: Arc::new(Metrics::new(plant)),
+        shutdown,
+    };
+    let task = tokio::task::spawn_local(run_bus(ctx, fake));
+    let seen = Rc::new(RefCell::new(Vec::new()));
+    let log = seen.clone();
+    tokio::task::spawn_local(async move {
+        while let Some(u) = urx.recv().await {
+            log.borrow_mut().push((Instant::now(), u));
+        }
+    });
+    Harness {
+        sets: stx,
+        stop,
+        task,
+        state,
+        seen,
+        t0: Instant::now(),
+    }
+}
+
+impl Harness {
+    async fn set_at(
+        &self,
+        drive: DriveIx,
+        point: usize,
+        value: SetValue,
+        received: Instant,
+        max_age: Duration,
+    ) -> SetOutcome {
+        let (reply, rx) = oneshot::channel();
+        let req = SetRequest {
+            drive,
+            point,
+            value,
+            received,
+            max_age,
+            reply,
+        };
+        self.sets.send(req).await.unwrap();
+        rx.await.unwrap()
+    }
+
+    async fn set(&self, drive: DriveIx, point: usize, value: SetValue) -> SetOutcome {
+        self.set_at(drive, point, value, Instant::now(), Duration::from_secs(10))
+            .await
+    }
+
+    /// Status updates of `drive`: when (since start) and which.
+    fn statuses(&self, drive: DriveIx) -> Vec<(Duration, DriveStatus)> {
+        self.seen
+            .borrow()
+            .iter()
+            .filter_map(|(t, u)| match u {
+                Update::Status {
+                    drive: d, status, ..
+                } if *d == drive => Some((*t - self.t0, status.clone())),
+                _ => None,
+            })
+            .collect()
+    }
+
+    /// When values of `drive`'s `point` arrived.
+    fn values(&self, drive: DriveIx, point: usize) -> Vec<(Instant, i64)> {
+        self.seen
+            .borrow()
+            .iter()
+            .filter_map(|(t, u)| match u {
+                Update::Value {
+                    drive: d,
+                    point: p,
+                    raw,
+                    ..
+                } if *d == drive && *p == point => Some((*t, *raw)),
+                _ => None,
+            })
+            .collect()
+    }
+}
+
+/// The reason of a refusal (one `/metrics` counts under its own name).
+fn refused(outcome: &SetOutcome) -> &'static str {
+    match outcome {
+        SetOutcome::Refused { reason, .. } => {
+            let known = &crate::metrics::SET_OUTCOMES;
+            assert!(
+                known[..known.len() - 1].contains(reason),
+                "{reason} is not in metrics::SET_OUTCOMES"
+            );
+            reason
+        }
+        other => panic!("not refused: {other:?}"),
+    }
+}
+
+/// Three drives, each with P130 polled every 100 ms (writable) and P130 as "fixed"
+/// (polled, not writable).
+fn three() -> Plant {
+    plant(
+        3,
+        &[("ramp", Some("100ms"), true), ("fixed", Some("1s"), false)],
+        None,
+        "status_period = \"1s\"\n",
+    )
+}
+
+/// At the gateway's stop the task finishes, sending each process-data drive that answers
+/// its stop (and none to a drive that is offline), then returns.
+#[tokio::test(start_paused = true)]
+async fn at_the_stop_every_answering_process_data_drive_gets_its_stop() {
+    tokio::task::LocalSet::new()
+        .run_until(async {
+            let plant = plant(
+                3,
+                &[("ramp", Some("100ms"), true)],
+                Some("20ms"),
+                "status_period = \"1s\"\n",
+            );
+            let h = start(&plant);
+            h.state.borrow_mut().dead.insert(3);
+            sleep(Duration::from_secs(3)).await;
+            assert!(h.state.borrow().stopped.is_empty());
+            h.stop.send(true).unwrap();
+            let done = tokio::time::timeout(Duration::from_secs(5), h.task).await;
+            assert!(
+                matches!(done, Ok(Ok(()))),
+                "the task returns after the stop"
+            );
+            let stopped = h.state.borrow().stopped.clone();
+            assert_eq!(stopped, vec![(1, vec![6, 1000]), (2, vec![6, 1000])]);
+        })
+        .await;
+}
+
+#[tokio::test(start_paused = true)]
+async fn a_dead_drive_goes_timeout_within_period_and_timeout_and_online_when_it_returns() {
+    tokio::task::LocalSet::new()
+        .run_until(async {
+            let plant = three();
+            let bus = &plant.buses[0];
+            let h = start(&plant);
+            sleep(Duration::from_secs(2)).await;
+            // All online from their first answer, once.
+            for d in 0..3 {
+                assert_eq!(h.statuses(d).len(), 1, "{:?}", h.statuses(d));
+                assert_eq!(h.statuses(d)[0].1, DriveStatus::Online);
+            }
+            let killed = Instant::now() - h.t0;
+            h.state.borrow_mut().dead.insert(2);
+            sleep(Duration::from_secs(20)).await;
+            let back = Instant::now() - h.t0;
+            h.state.borrow_mut().dead.remove(&2);
+            sleep(Duration::from_secs(12)).await;
+            let st = h.statuses(1);
+            let bound = Duration::from_millis(100) + bus.timeout * (u32::from(bus.retries) + 1);
+            match &st[..] {
+                [
+                    (_, DriveStatus::Online),
+                    (t1, DriveStatus::Timeout),
+                    (t2, DriveStatus::Online),
+                ] => {
+                    assert!(
+                        *t1 - killed <= bound + WIRE,
+                        "timeout after {:?}",
+                        *t1 - killed
+                    );
+                    // The probe after at most the longest back-off brings it back.
+                    assert!(
+                        *t2 > back && *t2 - back <= Duration::from_secs(10) + bound,
+                        "{st:?}"
+                    );
+                }
+                _ => panic!("{st:?}"),
+            }
+            // The others kept their period: each 100 ms poll on time (within the one
+            // timeout or probe that held the bus), never marked offline.
+            for d in [0, 2] {
+                assert_eq!(h.statuses(d).len(), 1);
+                let v = h.values(d, 0);
+                let n = v.len();
+                let mean = (v[n - 1].0 - v[0].0) / (n as u32 - 1);
+                assert!(
+                    mean.abs_diff(Duration::from_millis(100)) <= WIRE,
+                    "{mean:?}"
+                );
+                for w in v.windows(2) {
+                    assert!(w[1].0 - w[0].0 <= Duration::from_millis(100) + bound + WIRE);
+                }
+            }
+            // One timeout of the dead drive, then probes only: 1 + 1 + 2 + 4 + 8 + 10 s.
+            let log = h.state.borrow().log.clone();
+            let dead_tx = log
+                .iter()
+                .filter(|(t, a, _)| *a == 2 && *t - h.t0 >= killed && *t - h.t0 < back)
+                .count();
+            assert!((5..=7).contains(&dead_tx), "{dead_tx}");
+            // Figures every 5 s, with the link's retries (one per dead attempt).
+            let figures: Vec<BusFigures> = h
+                .seen
+                .borrow()
+                .iter()
+                .filter_map(|(_, u)| match u {
+                    Update::Figures { figures, .. } => Some(figures.clone()),
+                    _ => None,
+                })
+                .collect();
+            assert_eq!(figures.len(), 6, "{figures:?}");
+            let last = figures.last().unwrap();
+            assert_eq!(last.retries, last.timeouts);
+            assert!(last.timeouts as usize == dead_tx, "{last:?}");
+        })
+        .await;
+}
+
+#[tokio::test(start_paused = true)]
+async fn a_status_is_reported_only_when_it_changes() {
+    tokio::task::LocalSet::new()
+        .run_until(async {
+            let plant = three();
+            let h = start(&plant);
+            sleep(Duration::from_secs(3)).await;
+            h.state
+                .borrow_mut()
+                .faults
+                .insert(1, "F07 DC link overvoltage".into());
+            sleep(Duration::from_secs(3)).await;
+            h.state.borrow_mut().faults.clear();
+            sleep(Duration::from_secs(3)).await;
+            let st: Vec<DriveStatus> = h.statuses(0).into_iter().map(|s| s.1).collect();
+            assert_eq!(
+                st,
+                [
+                    DriveStatus::Online,
+                    DriveStatus::Fault("F07 DC link overvoltage".into()),
+                    DriveStatus::Online
+                ]
+            );
+            assert_eq!(h.statuses(1).len(), 1);
+        })
+        .await;
+}
+
+#[tokio::test(start_paused = true)]
+async fn writes_are_guarded_converted_written_and_read_back() {
+    tokio::task::LocalSet::new()
+        .run_until(async {
+            let plant = three();
+            let h = start(&plant);
+            sleep(Duration::from_millis(500)).await;
+            // A value in the unit (1.5 s), then a raw one: written, read back, published.
+            let o = h.set(0, 0, SetValue::Value(json!(1.5))).await;
+            assert_eq!(
+                o,
+                SetOutcome::Written {
+                    raw: 1500,
+                    differs: None
+                }
+            );
+            let o = h.set(0, 0, SetValue::Value(json!("2,5"))).await;
+            assert_eq!(
+                o,
+                SetOutcome::Written {
+                    raw: 2500,
+                    differs: None
+                }
+            );
+            let o = h.set(1, 0, SetValue::Raw(2000)).await;
+            assert_eq!(
+                o,
+                SetOutcome::Written {
+                    raw: 2000,
+                    differs: None
+                }
+            );
+            assert!(h.values(1, 0).iter().any(|v| v.1 == 2000));
+            assert_eq!(
+                h.state.borrow().written,
+                [
+                    (1, P130, 1500, Persistence::Volatile),
+                    (1, P130, 2500, Persistence::Volatile),
+                    (2, P130, 2000, Persistence::Volatile)
+                ]
+            );
+            // Nothing a set carries is written when it is wrong, and none panics.
+            let bad: Vec<(SetValue, &str)> = vec![
+                (SetValue::Value(json!(3000)), "range"),
+                (SetValue::Value(json!(-1)), "range"),
+                (SetValue::Value(json!(1e300)), "range"),
+                (SetValue::Value(json!(u64::MAX)), "range"),
+                (SetValue::Value(json!(1.25)), "resolution"),
+                (SetValue::Raw(1 << 40), "width"),
+                (SetValue::Raw(i64::MIN), "width"),
+                (SetValue::Raw(99_999_999), "range"),
+                (SetValue::Value(json!(null)), "bad_request"),
+                (SetValue::Value(json!(true)), "bad_request"),
+                (SetValue::Value(json!([1])), "bad_request"),
+                (SetValue::Value(json!({"a": 1})), "bad_request"),
+                (SetValue::Value(json!("fast")), "bad_request"),
+                (SetValue::Value(json!("NaN")), "bad_request"),
+                (SetValue::Value(json!("1e3")), "bad_request"),
+                (SetValue::Value(json!("9".repeat(100_000))), "bad_request"),
+            ];
+            for (value, reason) in bad {
+                let o = h.set(0, 0, value.clone()).await;
+                assert_eq!(refused(&o), reason, "{value:?}: {o:?}");
+            }
+            // Not writable; no such drive or point.
+            assert_eq!(
+                refused(&h.set(0, 1, SetValue::Raw(1500)).await),
+                "not_writable"
+            );
+            assert_eq!(
+                refused(&h.set(7, 0, SetValue::Raw(1500)).await),
+                "bad_request"
+            );
+            assert_eq!(
+                refused(&h.set(0, 9, SetValue::Raw(1500)).await),
+                "bad_request"
+            );
+            // Too old on arrival.
+            let old = Instant::now() - Duration::from_secs(20);
+            let o = h
+                .set_at(0, 0, SetValue::Raw(1500), old, Duration::from_secs(10))
+                .await;
+            assert_eq!(refused(&o), "expired");
+            assert_eq!(h.state.borrow().written.len(), 3);
+            // The drive refuses it.
+            h.state.borrow_mut().refuse_writes.insert(P130);
+            match h.set(2, 0, SetValue::Raw(1500)).await {
+                SetOutcome::DeviceRefused { message } => {
+                    assert!(message.contains("controller inhibit"), "{message}")
+                }
+                other => panic!("{other:?}"),
+            }
+            assert_eq!(h.state.borrow().written.len(), 3);
+        })
+        .await;
+}
+
+#[tokio::test(start_paused = true)]
+async fn writes_for_an_offline_drive_or_waiting_too_long_are_refused_and_never_sent() {
+    tokio::task::LocalSet::new()
+        .run_until(async {
+            let plant = three();
+            let h = start(&plant);
+            sleep(Duration::from_millis(500)).await;
+            h.state.borrow_mut().dead.insert(3);
+            sleep(Duration::from_secs(1)).await;
+            assert_eq!(h.statuses(2).last().unwrap().1, DriveStatus::Timeout);
+            assert_eq!(refused(&h.set(2, 0, SetValue::Raw(1500)).await), "offline");
+            // A set that arrives while the bus waits for a dead drive's answer is taken at
+            // once: refused without waiting for the transaction; a queued one whose
+            // max_age passes while the bus is held is refused as expired.
+            h.state.borrow_mut().dead.insert(1);
+            let killed = Instant::now();
+            loop {
+                sleep(Duration::from_millis(1)).await;
+                let busy = h
+                    .state
+                    .borrow()
+                    .log
+                    .last()
+                    .is_some_and(|(t, a, _)| *a == 1 && *t > killed);
+                if busy {
+                    break;
+                }
+            }
+            let asked = Instant::now();
+            assert_eq!(
+                refused(&h.set(0, 1, SetValue::Raw(1500)).await),
+                "not_writable"
+            );
+            assert!(asked.elapsed() < WIRE, "{:?}", asked.elapsed());
+            let o = h
+                .set_at(
+                    1,
+                    0,
+                    SetValue::Raw(1500),
+                    Instant::now(),
+                    Duration::from_millis(50),
+                )
+                .await;
+            assert_eq!(refused(&o), "expired");
+            assert!(h.state.borrow().written.is_empty());
+        })
+        .await;
+}
