@@ -4,6 +4,25 @@
 //! MQTT task ([`mqtt`]: values, statuses, guarded writes), the Prometheus endpoint
 //! ([`metrics`]). All run on one thread (a `LocalSet`): the work is waiting on wires, and a
 //! bus's client futures need not be `Send`. See `docs/deploying.md`.
+//!
+//! A program checks a plant's config and runs it, as `drivectl gateway` does:
+//!
+//! ```
+//! // The commented example config, every bus on simulated drives.
+//! let mut plant = drivebus_gateway::Plant::parse(drivebus_gateway::EXAMPLE_CONFIG, "plant.toml")?;
+//! drivebus_gateway::simulate_all(&mut plant);
+//! // What `--check` prints: one line per bus, and whether every bus's polls fit its wire.
+//! let (text, verdict) = drivebus_gateway::families::check_report(&plant);
+//! assert_eq!(text.lines().count(), plant.buses.len());
+//! verdict?;
+//! // A mistake is one line that names the file, the line and the key.
+//! let bad = drivebus_gateway::EXAMPLE_CONFIG.replacen("period = \"1s\"", "period = \"soon\"", 1);
+//! let e = drivebus_gateway::Plant::parse(&bad, "plant.toml").unwrap_err();
+//! assert!(matches!(e, drivebus_gateway::Error::Config(_)));
+//! assert!(e.to_string().starts_with("plant.toml:"), "{e}");
+//! // `drivebus_gateway::run(plant)` would serve it until a stop signal.
+//! # Ok::<(), drivebus_gateway::Error>(())
+//! ```
 
 // The bus tasks run on one thread (a `LocalSet`): the futures of [`bus::BusAccess`] need not be
 // `Send`, and callers of the trait's `async fn`s are the gateway's own tasks.
