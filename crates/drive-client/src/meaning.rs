@@ -433,9 +433,79 @@ pub fn nord_state_text(state: drive_profile::nord::State) -> String {
     }
 }
 
+/// A column value as JSON: numbers stay numbers (non-finite floats become null), lists and
+/// records become arrays and objects.
+fn column_json(c: drive_profile::Column<'_>) -> Value {
+    match c {
+        drive_profile::Column::Null => Value::Null,
+        drive_profile::Column::Bool(b) => Value::Bool(b),
+        drive_profile::Column::Int(n) => Value::from(n),
+        drive_profile::Column::Float(x) => {
+            serde_json::Number::from_f64(x).map_or(Value::Null, Value::Number)
+        }
+        drive_profile::Column::Text(s) => Value::from(s),
+        drive_profile::Column::Formatted(d) => Value::from(d.to_string()),
+        drive_profile::Column::List(items) => {
+            let mut list = Vec::new();
+            items(&mut |c| list.push(column_json(c)));
+            Value::Array(list)
+        }
+        drive_profile::Column::Record(fields) => {
+            let mut map = Map::new();
+            fields(&mut |k, c| {
+                map.insert(k.to_owned(), column_json(c));
+            });
+            Value::Object(map)
+        }
+    }
+}
+
+/// The JSON object describing a parameter of a table (`drivectl params --json`, a front end's
+/// table view): every key of [`drive_profile::COLUMN_KEYS`], whatever the family,
+/// null where the family has no such column (`docs/params-json.md`).
+pub fn param_json(p: &dyn drive_profile::ParamMeta) -> Value {
+    let mut map: Map<String, Value> = drive_profile::COLUMN_KEYS
+        .iter()
+        .map(|k| ((*k).to_owned(), Value::Null))
+        .collect();
+    p.columns(&mut |k, c| {
+        debug_assert!(
+            drive_profile::COLUMN_KEYS.contains(&k),
+            "column key {k} not in COLUMN_KEYS"
+        );
+        if let Some(slot) = map.get_mut(k) {
+            *slot = column_json(c);
+        }
+    });
+    Value::Object(map)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_parameter_row_has_every_column_key_in_every_family() {
+        for (family, key) in [
+            (Family::Movidrive, "P130"),
+            (Family::Nord, "P102"),
+            (Family::Bonfiglioli, "372"),
+        ] {
+            let p = drive_profile::family::lookup(family, key).unwrap();
+            let Value::Object(row) = param_json(p) else {
+                panic!("{key}: not an object");
+            };
+            let keys: Vec<&str> = row.keys().map(String::as_str).collect();
+            let mut want: Vec<&str> = drive_profile::COLUMN_KEYS.to_vec();
+            want.sort_unstable();
+            assert_eq!(keys, want, "{key}");
+            // A column the family has is filled from the table, not left null.
+            assert!(
+                row.values().any(|v| v == &Value::from(p.bus_index())),
+                "{key}: {row:?}"
+            );
+        }
+    }
 
     #[test]
     fn nord_states_carry_the_manuals_letter_and_both_names() {

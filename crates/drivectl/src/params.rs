@@ -3,8 +3,8 @@
 use crate::error::{CliError, Result};
 use crate::tool::output::{physical_text, trim_float};
 use clap::{Args, Subcommand};
-use drive_profile::{Access, COLUMN_KEYS, Column, Family, ParamMeta};
-use serde_json::{Map, Number, Value};
+use drive_profile::{Access, Family, ParamMeta};
+use serde_json::Value;
 use std::fmt::Write as _;
 
 /// Examples and the access codes, below `drivectl params --help`.
@@ -94,49 +94,8 @@ fn scaling_text(p: &dyn ParamMeta) -> String {
     s
 }
 
-/// A column value as JSON: numbers stay numbers (non-finite floats become null), lists and
-/// records become arrays and objects.
-fn column_json(c: Column<'_>) -> Value {
-    match c {
-        Column::Null => Value::Null,
-        Column::Bool(b) => Value::Bool(b),
-        Column::Int(n) => Value::from(n),
-        Column::Float(x) => Number::from_f64(x).map_or(Value::Null, Value::Number),
-        Column::Text(s) => Value::from(s),
-        Column::Formatted(d) => Value::from(d.to_string()),
-        Column::List(items) => {
-            let mut list = Vec::new();
-            items(&mut |c| list.push(column_json(c)));
-            Value::Array(list)
-        }
-        Column::Record(fields) => {
-            let mut map = Map::new();
-            fields(&mut |k, c| {
-                map.insert(k.to_owned(), column_json(c));
-            });
-            Value::Object(map)
-        }
-    }
-}
-
-/// The JSON object describing a parameter: every key of [`COLUMN_KEYS`], whatever the family,
-/// null where the family has no such column (`docs/params-json.md`).
-pub fn to_json(p: &dyn ParamMeta) -> Value {
-    let mut map: Map<String, Value> = COLUMN_KEYS
-        .iter()
-        .map(|k| ((*k).to_owned(), Value::Null))
-        .collect();
-    p.columns(&mut |k, c| {
-        debug_assert!(
-            COLUMN_KEYS.contains(&k),
-            "column key {k} not in COLUMN_KEYS"
-        );
-        if let Some(slot) = map.get_mut(k) {
-            *slot = column_json(c);
-        }
-    });
-    Value::Object(map)
-}
+/// The JSON object describing a parameter (`docs/params-json.md`): the client layer's.
+pub use drive_client::meaning::param_json as to_json;
 
 /// Run `drivectl params`.
 pub fn run(args: &ParamsArgs) -> Result<()> {

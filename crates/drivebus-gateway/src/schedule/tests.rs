@@ -1,4 +1,3 @@
-
 use super::super::task::fake::plant;
 use super::*;
 
