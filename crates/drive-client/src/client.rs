@@ -135,6 +135,31 @@ pub trait ParamClient {
     /// Fields that identify the drive in a backup (device type, firmware, …).
     async fn identify(&mut self) -> std::result::Result<Map<String, Value>, ClientError>;
 
+    /// The drive's present fault as its manual names it, `None` without one; one read of the
+    /// family's fault parameter: a MOVIDRIVE's P012 (status word 1: bit 5 and the fault number
+    /// in the high byte, `F47 TIMEOUT SBUS`), NORD's P700 [-01] (present fault), Bonfiglioli's
+    /// 260 (current fault); a number the table does not name is said as a number.
+    async fn present_fault(&mut self) -> std::result::Result<Option<String>, ClientError> {
+        let family = self.family();
+        let t = match family {
+            Family::Nord => crate::nord::resolve("P700", Some(1), None, false)
+                .ok()
+                .and_then(|v| v.into_iter().next()),
+            Family::Bonfiglioli => drive_profile::family::lookup(family, "260").map(Target::of),
+            _ => drive_profile::family::lookup(family, "P012").map(Target::of),
+        }
+        .ok_or_else(|| {
+            ClientError::Request(format!("the {family} table has no fault parameter"))
+        })?;
+        let raw = self.read(&t).await?;
+        Ok(match family {
+            Family::Nord | Family::Bonfiglioli => crate::meaning::fault_text(&t, raw),
+            _ => crate::meaning::sew_fault_text(drive_profile::sew::StatusWord1::from_bits(
+                (raw & 0xFFFF) as u16,
+            )),
+        })
+    }
+
     /// What is known of the drive beyond the table, for the meaning of its values (a
     /// Bonfiglioli drive's variant decodes its status word): nothing by default.
     fn device(&self) -> crate::meaning::Device {
@@ -146,5 +171,63 @@ pub trait ParamClient {
     /// answer; a front end reports them.
     fn stale_bytes(&self) -> u64 {
         0
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A drive of `family` whose every read answers `raw`.
+    struct Answers {
+        family: Family,
+        raw: i64,
+    }
+
+    impl ParamClient for Answers {
+        fn family(&self) -> Family {
+            self.family
+        }
+        async fn drive_key(&mut self) -> Result<String, ClientError> {
+            Ok("test".into())
+        }
+        async fn read(&mut self, _: &Target) -> Result<i64, ClientError> {
+            Ok(self.raw)
+        }
+        async fn write(&mut self, _: &Target, _: i64, _: Persistence) -> Result<(), ClientError> {
+            Ok(())
+        }
+        async fn identify(&mut self) -> Result<Map<String, Value>, ClientError> {
+            Ok(Map::new())
+        }
+    }
+
+    fn fault(family: Family, raw: i64) -> Option<String> {
+        let rt = tokio::runtime::Builder::new_current_thread()
+            .build()
+            .unwrap();
+        rt.block_on(Answers { family, raw }.present_fault())
+            .unwrap()
+    }
+
+    /// The present fault of each family, from the raw value of its fault parameter: the
+    /// manual's name where the table has it (the gateway's status topic says it).
+    #[test]
+    fn the_present_fault_is_read_and_named_in_every_family() {
+        // MOVIDRIVE P012: status word 1 with bit 5 (fault/warning) set, the fault number in the
+        // high byte: F43 RS-485 timeout, F47 SBus timeout (named by the manual).
+        assert_eq!(fault(Family::Movidrive, 0x2B20).as_deref(), Some("F43"));
+        assert_eq!(
+            fault(Family::Movidrive, 0x2F20).as_deref(),
+            Some("F47 TIMEOUT SBUS")
+        );
+        // Bit 5 clear: no fault, whatever the high byte (the unit status).
+        assert_eq!(fault(Family::Movidrive, 0x0407), None);
+        // NORD P700 [-01] and Bonfiglioli 260: zero is no fault, anything else is named.
+        assert_eq!(fault(Family::Nord, 0), None);
+        assert!(fault(Family::Nord, 3).is_some_and(|t| t.contains('3')));
+        assert_eq!(fault(Family::Bonfiglioli, 0), None);
+        let t = fault(Family::Bonfiglioli, 0x0102).unwrap();
+        assert!(t.starts_with("F0102") && t.contains("overloaded"), "{t}");
     }
 }

@@ -480,6 +480,21 @@ pub fn param_json(p: &dyn drive_profile::ParamMeta) -> Value {
     Value::Object(map)
 }
 
+/// The fault a MOVIDRIVE's status word 1 shows: `F47 TIMEOUT SBUS` where the manuals name the
+/// fault, else its number alone (`F43`); `None` while bit 5 is clear.
+pub fn sew_fault_text(sw: StatusWord1) -> Option<String> {
+    sw.fault_number().map(|n| {
+        drive_profile::sew::device::fault_name(n)
+            .map_or_else(|| format!("F{n:02}"), |name| format!("F{n:02} {name}"))
+    })
+}
+
+/// The text of a fault parameter's value (NORD P700, Bonfiglioli 260): `None` for 0 (no
+/// fault), else the table's name for it or the number.
+pub fn fault_text(t: &Target, raw: i64) -> Option<String> {
+    (raw != 0).then(|| meaning_of(t, raw).map_or_else(|| format!("fault {raw}"), |m| m.text))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -154,25 +154,6 @@ fn table_target(family: Family, key: &str) -> Result<Target, ClientError> {
         .ok_or_else(|| ClientError::Link(format!("{key} is not in the {family} table")))
 }
 
-/// A MOVIDRIVE's fault (MOVILINK and SBus): P012 fault status, the high byte of status word 1
-/// while bit 5 is set; decoded with the tool layer's meanings.
-async fn sew_fault<C: ParamClient>(c: &mut C) -> Result<Option<String>, ClientError> {
-    let t = table_target(Family::Movidrive, "P012")?;
-    let raw = c.read(&t).await?;
-    Ok(sew_fault_text(StatusWord1::from_bits(
-        (raw & 0xFFFF) as u16,
-    )))
-}
-
-/// The fault status word 1 shows: "F47 TIMEOUT SBUS" where the manuals name the fault, else
-/// its number alone; `None` without a fault.
-fn sew_fault_text(sw: StatusWord1) -> Option<String> {
-    sw.fault_number().map(|n| {
-        drive_profile::sew::device::fault_name(n)
-            .map_or_else(|| format!("F{n:02}"), |name| format!("F{n:02} {name}"))
-    })
-}
-
 /// A MOVIDRIVE's bus timeout `timeout_index` (P812, P815; raw milliseconds; `None` when off or
 /// not read) and which of the first `words` process input words is status word 1 (its actual
 /// value description P873–P875 is 6).
@@ -199,13 +180,6 @@ async fn sew_timeout_and_status<L: SewLink>(
         }
     }
     (timeout, slot)
-}
-
-/// The fault of any family from the raw value of its fault parameter `t`: zero is no fault.
-fn fault_text(t: &Target, raw: i64) -> Option<String> {
-    (raw != 0).then(|| {
-        drive_client::meaning::meaning_of(t, raw).map_or_else(|| format!("fault {raw}"), |m| m.text)
-    })
 }
 
 /// The rejected-frame counter of a serial driver (which counts them without their reasons:
@@ -721,7 +695,9 @@ impl BusAccess for Access {
     fn fault_in_inputs(&self, address: u8, inputs: &[u16]) -> Option<Option<String>> {
         let (_, slot) = self.status_slots.iter().find(|(a, _)| *a == address)?;
         let word = *inputs.get(*slot)?;
-        Some(sew_fault_text(StatusWord1::from_bits(word)))
+        Some(drive_client::meaning::sew_fault_text(
+            StatusWord1::from_bits(word),
+        ))
     }
 
     async fn stop_process_data(
@@ -773,24 +749,7 @@ impl BusAccess for Access {
     }
 
     async fn fault(&mut self, address: u8) -> Result<Option<String>, ClientError> {
-        match &self.proto {
-            Proto::Movilink(_) | Proto::Sbus(_) => sew_fault(&mut self.client(address)).await,
-            Proto::Uss(_) => {
-                // P700 [-01]: the present fault (0: none).
-                let t = drive_client::nord::resolve("P700", Some(1), None, false)
-                    .ok()
-                    .and_then(|v| v.into_iter().next())
-                    .ok_or_else(|| ClientError::Link("P700 is not in the NORD table".to_owned()))?;
-                let raw = self.client(address).read(&t).await?;
-                Ok(fault_text(&t, raw))
-            }
-            Proto::Modbus(_) => {
-                // 260: the current fault (0: none).
-                let t = table_target(Family::Bonfiglioli, "260")?;
-                let raw = self.client(address).read(&t).await?;
-                Ok(fault_text(&t, raw))
-            }
-        }
+        self.client(address).present_fault().await
     }
 
     fn wire_time(&self, op: Op) -> Duration {
@@ -804,40 +763,5 @@ impl BusAccess for Access {
             Proto::Uss(b) => b.tally(),
             Proto::Modbus(b) => b.tally(),
         }
-    }
-}
-
-#[cfg(test)]
-mod fault_tests {
-    use super::*;
-    type FakeClient = drive_client::testing::FakeClient<drive_client::Interrupt>;
-
-    /// The status topic's fault text of each family, from the raw value of its fault
-    /// parameter: what `fault()` publishes after its one read.
-    #[tokio::test]
-    async fn each_family_decodes_its_fault_parameter() {
-        // MOVIDRIVE P012: status word 1 with bit 5 (fault/warning) set, the fault number in the
-        // high byte: F43 RS-485 timeout.
-        let mut c = FakeClient::new(|_| Ok(0x2B20));
-        let text = sew_fault(&mut c).await.unwrap().unwrap();
-        assert_eq!(text, "F43");
-        let mut c = FakeClient::new(|_| Ok(0x2F20));
-        assert_eq!(
-            sew_fault(&mut c).await.unwrap().unwrap(),
-            "F47 TIMEOUT SBUS"
-        );
-        // Bit 5 clear: no fault, whatever the high byte (the unit status).
-        let mut c = FakeClient::new(|_| Ok(0x0407));
-        assert_eq!(sew_fault(&mut c).await.unwrap(), None);
-        // NORD P700 [-01] and Bonfiglioli 260: zero is no fault, anything else is named.
-        let nord = drive_client::nord::resolve("P700", Some(1), None, false)
-            .unwrap()
-            .remove(0);
-        assert_eq!(fault_text(&nord, 0), None);
-        assert!(fault_text(&nord, 3).is_some_and(|t| t.contains('3')));
-        let bonf = table_target(Family::Bonfiglioli, "260").unwrap();
-        assert_eq!(fault_text(&bonf, 0), None);
-        let t = fault_text(&bonf, 0x0102).unwrap();
-        assert!(t.starts_with("F0102") && t.contains("overloaded"), "{t}");
     }
 }
