@@ -204,7 +204,7 @@ async fn campaign(faults: FaultConfig, n: u64) -> Tally {
         let mut last = Instant::ZERO;
         let mut events = Vec::new();
         loop {
-            let sleep = tokio::time::sleep(quiet);
+            let sleep = drive_core::rt::time::sleep(quiet);
             tokio::pin!(sleep);
             match read_or_sleep(&mut rx, &mut buf, Some(sleep.as_mut()))
                 .await

@@ -182,7 +182,7 @@ impl SimulatedSbusDrive {
     /// Serve the bus on `io` until it closes (`Ok`) or fails; the drive's time goes on across
     /// serves.
     pub async fn serve<IO: CanIo>(&mut self, io: IO) -> io::Result<()> {
-        let epoch = *self.epoch.get_or_insert_with(TokioInstant::now);
+        let epoch = *self.epoch.get_or_insert_with(drive_core::rt::time::now);
         serve_can(core::slice::from_mut(self), epoch, io).await
     }
 
@@ -397,7 +397,7 @@ fn refused(e: MovlnkError, data: MlData) -> MovlnkDone {
 /// Tokio's time since `epoch` as drive time (zero without an epoch).
 fn time_since(epoch: Option<TokioInstant>) -> Instant {
     epoch.map_or(Instant::ZERO, |e| {
-        Instant::from_duration(TokioInstant::now().saturating_duration_since(e))
+        Instant::from_duration(drive_core::rt::time::now().saturating_duration_since(e))
     })
 }
 
@@ -566,7 +566,7 @@ impl SimulatedSbusBus {
     /// Serve the bus on `io` until it closes (`Ok`) or fails; the time goes on across serves.
     /// MOVLNK commands of the bus's [`MovlnkHandle`]s are taken meanwhile.
     pub async fn serve<IO: CanIo>(&mut self, mut io: IO) -> io::Result<()> {
-        let epoch = *self.epoch.get_or_insert_with(TokioInstant::now);
+        let epoch = *self.epoch.get_or_insert_with(drive_core::rt::time::now);
         loop {
             let mut taken = None;
             let wrapped = WithMailbox {

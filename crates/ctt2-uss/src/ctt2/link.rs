@@ -254,7 +254,7 @@ impl SimulatedLink {
 
     async fn wait(&mut self, d: Duration) {
         let target = self.now().saturating_add(d);
-        tokio::time::sleep_until(self.time.to_tokio(target)).await;
+        drive_core::rt::time::sleep_until(self.time.to_tokio(target)).await;
         self.clock = target;
     }
 

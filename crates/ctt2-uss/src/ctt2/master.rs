@@ -235,7 +235,7 @@ impl<L: Ctt2Link> Ctt2Driver<L> {
                         });
                     }
                     self.counters.retries += 1;
-                    tokio::time::sleep(self.config.retry_pause).await;
+                    drive_core::rt::time::sleep(self.config.retry_pause).await;
                 }
             }
         }

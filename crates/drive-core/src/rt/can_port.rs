@@ -212,7 +212,7 @@ const WAITING_FRAMES: usize = 64;
 
 async fn sleep_until(t: Option<TokioInstant>) {
     match t {
-        Some(t) => tokio::time::sleep_until(t).await,
+        Some(t) => super::time::sleep_until(t).await,
         None => std::future::pending().await,
     }
 }

@@ -9,7 +9,8 @@ use std::future::poll_fn;
 use std::io;
 use std::vec::Vec;
 
-use tokio::time::{Instant as TokioInstant, Sleep};
+use super::time::Sleep;
+use tokio::time::Instant as TokioInstant;
 
 use super::TIMER_RESOLUTION;
 use super::can::{CanIo, ReceivedFrame, send_frame_at};
@@ -39,14 +40,14 @@ pub async fn serve_can<E: CanEndpoint, IO: CanIo>(
     mut io: IO,
 ) -> io::Result<()> {
     let at = |t: TokioInstant| Instant::from_duration(t.saturating_duration_since(epoch));
-    let mut sleep: Pin<Box<Sleep>> = Box::pin(tokio::time::sleep_until(epoch));
+    let mut sleep: Pin<Box<Sleep>> = Box::pin(super::time::sleep_until(epoch));
     let mut armed_at = epoch;
     let mut outgoing: Vec<CanFrame> = Vec::new();
     // The time of the event being handled: a received frame's last bit, a deadline met, never
     // more than the timer resolution behind tokio's clock.
-    let mut woke = at(TokioInstant::now());
+    let mut woke = at(super::time::now());
     let recent = |t: Instant, woke: Instant| {
-        let now = TokioInstant::now();
+        let now = super::time::now();
         let floor = at(now.checked_sub(TIMER_RESOLUTION).unwrap_or(now));
         t.later(woke).later(floor).min(at(now))
     };
@@ -64,7 +65,7 @@ pub async fn serve_can<E: CanEndpoint, IO: CanIo>(
                 }
                 for f in &outgoing {
                     send_frame_at(&mut io, f, epoch + now.as_duration()).await?;
-                    let t = at(TokioInstant::now());
+                    let t = at(super::time::now());
                     for (j, other) in endpoints.iter_mut().enumerate() {
                         if j != i {
                             other.handle_frame(f, t);

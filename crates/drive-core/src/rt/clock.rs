@@ -46,7 +46,7 @@ impl Timebase {
     pub fn new(clock: Clock, char_time: Duration) -> Self {
         Self {
             clock,
-            epoch: TokioInstant::now(),
+            epoch: super::time::now(),
             virt: Instant::ZERO,
             char_time,
         }
@@ -70,7 +70,7 @@ impl Timebase {
     /// Now, as the endpoint sees it.
     pub fn now(&self) -> Instant {
         match self.clock {
-            Clock::Real => self.to_instant(TokioInstant::now()),
+            Clock::Real => self.to_instant(super::time::now()),
             Clock::Virtual => self.virt,
         }
     }
@@ -105,7 +105,7 @@ impl Timebase {
             return None;
         }
         let at = self.to_tokio(t);
-        let now = TokioInstant::now();
+        let now = super::time::now();
         (at <= now && now.saturating_duration_since(at) <= TIMER_RESOLUTION).then_some(at)
     }
 
@@ -136,7 +136,7 @@ impl Timebase {
     pub fn switched_to(self, clock: Clock) -> Self {
         let now = self.now();
         let epoch = match clock {
-            Clock::Real => TokioInstant::now()
+            Clock::Real => super::time::now()
                 .checked_sub(now.as_duration())
                 .unwrap_or(self.epoch),
             Clock::Virtual => self.epoch,

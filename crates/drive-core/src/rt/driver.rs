@@ -313,7 +313,7 @@ impl<L: Link<M>, M: Control> Driver<L, M> {
                     (transmitted, answered) = (true, false);
                     last_reject = None;
                     request_start =
-                        Some(self.link.last_tx_start().unwrap_or_else(TokioInstant::now));
+                        Some(self.link.last_tx_start().unwrap_or_else(super::time::now));
                 }
                 Ok(Step::Waited) => {}
                 Err(e) => {

@@ -185,7 +185,7 @@ impl<T: AsyncRead + AsyncWrite + Unpin + Send> CharIo for Stream<T> {
             Poll::Pending => return Poll::Pending,
         }
         let filled = rb.filled();
-        let at = TokioInstant::now();
+        let at = super::time::now();
         for (dst, &byte) in buf.iter_mut().zip(filled) {
             *dst = ReceivedChar::new(byte, at);
         }
@@ -256,7 +256,7 @@ pub enum Woken {
 pub async fn read_or_sleep<IO: CharIo + ?Sized>(
     io: &mut IO,
     buf: &mut [ReceivedChar],
-    mut sleep: Option<Pin<&mut tokio::time::Sleep>>,
+    mut sleep: Option<Pin<&mut super::time::Sleep>>,
 ) -> io::Result<Woken> {
     poll_fn(|cx| {
         if let Poll::Ready(r) = io.poll_read_chars(cx, buf) {

@@ -3,6 +3,9 @@
 //!
 //! * [`CharIo`]: characters with arrival times and UART flags, for any tokio byte stream
 //!   ([`Stream`]); `drive-transport` implements it for its in-memory wire model;
+//! * [`time`]: the clock and timers every part of this layer uses: tokio's, or a
+//!   [`VirtualClock`](time::VirtualClock)'s that jumps to the next deadline when every task is
+//!   idle;
 //! * [`Clock`] and [`Timebase`]: tokio's (real or paused) clock, or a virtual clock for
 //!   benchmarks of software overhead;
 //! * [`Port`]: a master's side of a line: transmit what a sans-IO [`Endpoint`] hands out, wait
@@ -32,6 +35,7 @@ mod io;
 mod port;
 mod serve;
 mod simulated;
+pub mod time;
 
 pub use bus::{Bus, LineTime, Station, serve_alone};
 pub use can::{CanIo, ReceivedFrame, recv_frame, send_frame, send_frame_at};

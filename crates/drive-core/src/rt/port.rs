@@ -5,7 +5,8 @@ use std::pin::Pin;
 use std::task::{Context, Poll, Waker};
 use std::time::Duration;
 
-use tokio::time::{Instant as TokioInstant, Sleep};
+use super::time::Sleep;
+use tokio::time::Instant as TokioInstant;
 
 use super::clock::{Clock, Timebase};
 use super::io::{
@@ -54,7 +55,7 @@ pub struct Port<IO> {
     rx: Box<[ReceivedChar]>,
     /// The wait timer, made on first use (so that `new` works outside a runtime), and the
     /// instant it is set to.
-    sleep: Option<(Pin<Box<Sleep>>, TokioInstant)>,
+    sleep: Option<(Sleep, TokioInstant)>,
     /// Virtual clock: tokio time and endpoint time of the last event (a transmission or a
     /// received character), from which real timers are measured.
     anchor: Option<(TokioInstant, Instant)>,
@@ -187,12 +188,12 @@ impl<IO: CharIo> Port<IO> {
                 write_all_at(&mut self.io, frame, start).await?;
             }
             None => {
-                self.last_tx = Some(TokioInstant::now());
+                self.last_tx = Some(super::time::now());
                 write_all(&mut self.io, frame).await?;
             }
         }
         self.time.sent(n);
-        self.anchor = Some((TokioInstant::now(), self.time.now()));
+        self.anchor = Some((super::time::now(), self.time.now()));
         self.after_write(endpoint, now, n)?;
         Ok(Some(n))
     }
@@ -308,7 +309,7 @@ impl<IO: CharIo> Port<IO> {
                 deadline.map(|d| {
                     let (real, virt) = self
                         .anchor
-                        .unwrap_or_else(|| (TokioInstant::now(), self.time.now()));
+                        .unwrap_or_else(|| (super::time::now(), self.time.now()));
                     real + d.saturating_duration_since(virt)
                 })
             }
@@ -317,12 +318,12 @@ impl<IO: CharIo> Port<IO> {
             Some(at) => {
                 let (s, armed) = self
                     .sleep
-                    .get_or_insert_with(|| (Box::pin(tokio::time::sleep_until(at)), at));
+                    .get_or_insert_with(|| (super::time::sleep_until(at), at));
                 if *armed != at {
-                    s.as_mut().reset(at);
+                    Pin::new(&mut *s).reset(at);
                     *armed = at;
                 }
-                Some(s.as_mut())
+                Some(Pin::new(s))
             }
             None => None,
         };
@@ -401,7 +402,7 @@ impl<IO: CharIo> Port<IO> {
     pub async fn settle(&mut self) {
         let io = &mut self.io;
         let flush = std::future::poll_fn(|cx| io.poll_flush(cx));
-        let _ = tokio::time::timeout(Duration::from_secs(1), flush).await;
+        let _ = super::time::timeout(Duration::from_secs(1), flush).await;
     }
 }
 

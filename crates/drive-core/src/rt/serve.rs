@@ -35,7 +35,7 @@ pub async fn serve<S: Endpoint, IO: CharIo>(
         .unwrap_or(0);
     let mut buf = vec![0u8; max];
     let mut rx = vec![ReceivedChar::new(0, time.epoch()); CHUNK];
-    let mut sleep = Box::pin(tokio::time::sleep_until(time.epoch()));
+    let mut sleep = Box::pin(super::time::sleep_until(time.epoch()));
     let mut armed_at = time.epoch();
     let mut last_jump = None;
     // Real clock: the time the last timer wake-up was handled at (the deadline, not tokio's

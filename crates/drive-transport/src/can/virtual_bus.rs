@@ -8,7 +8,8 @@
 //!
 //! # Time model (timing on, the default)
 //!
-//! Time is tokio's clock, so tests run on the paused clock. A frame handed to
+//! Time is `drive_core::rt::time`'s clock (tokio's, so tests run on the paused clock, or a
+//! `VirtualClock`'s). A frame handed to
 //! [`CanIo::poll_send`] is *pending* from that instant. The bus is a single wire:
 //!
 //! - when it is idle, the pending frames compete; the lowest arbitration key wins: the
@@ -72,7 +73,6 @@
 //! attached and no [`VirtualBus`] handle is left that could attach one (and it has read
 //! everything it had received). A node that sends then gets [`io::ErrorKind::BrokenPipe`].
 
-use crate::link::poll_sleep;
 use std::collections::VecDeque;
 use std::io;
 use std::pin::Pin;
@@ -82,8 +82,8 @@ use std::time::Duration;
 
 use drive_core::SplitMix64;
 use drive_core::can::{Bitrate, CanFrame, Frame, Id};
+use drive_core::rt::time::{self as rt_time, Instant, Sleep};
 use drive_core::rt::{CanIo, ReceivedFrame, TIMER_RESOLUTION};
-use tokio::time::{Instant, Sleep};
 
 /// Bits a destroyed frame adds to its own length: error flag (6), error delimiter (8) and
 /// intermission (3), minus the end of frame and intermission (10) it did not get to send.
@@ -515,8 +515,8 @@ impl Drop for VirtualBus {
 pub struct VirtualNode {
     state: Arc<Mutex<BusState>>,
     index: usize,
-    rx_sleep: Option<Pin<Box<Sleep>>>,
-    tx_sleep: Option<Pin<Box<Sleep>>>,
+    rx_sleep: Option<Sleep>,
+    tx_sleep: Option<Sleep>,
 }
 
 impl VirtualNode {
@@ -640,7 +640,7 @@ impl VirtualNode {
                 return Poll::Ready(Err(destroyed_error()));
             }
         }
-        let now = Instant::now();
+        let now = rt_time::now();
         state.deliver(index, *frame, now, drop);
         if let Some(Some(node)) = state.nodes.get_mut(index) {
             node.stats.sent += 1;
@@ -671,7 +671,7 @@ impl CanIo for VirtualNode {
     fn poll_recv(&mut self, cx: &mut Context<'_>) -> Poll<io::Result<ReceivedFrame>> {
         loop {
             let mut state = lock(&self.state);
-            let now = Instant::now();
+            let now = rt_time::now();
             if state.config.timing {
                 state.settle(now);
             }
@@ -742,7 +742,7 @@ impl VirtualNode {
             if !state.config.timing {
                 return Self::poll_send_untimed(&mut state, index, frame);
             }
-            let now = Instant::now();
+            let now = rt_time::now();
             let has_tx = state
                 .nodes
                 .get(index)
@@ -796,4 +796,19 @@ impl Drop for VirtualNode {
         }
         state.wake_all();
     }
+}
+
+/// Polls a reusable timer set to `deadline` (on the runtime layer's clock: tokio's or a
+/// virtual clock's).
+fn poll_sleep(sleep: &mut Option<Sleep>, deadline: Instant, cx: &mut Context<'_>) -> Poll<()> {
+    let timer = match sleep {
+        Some(timer) => {
+            if timer.deadline() != deadline {
+                Pin::new(&mut *timer).reset(deadline);
+            }
+            timer
+        }
+        None => sleep.insert(rt_time::sleep_until(deadline)),
+    };
+    Pin::new(timer).poll(cx)
 }

@@ -46,16 +46,14 @@ pub fn run(_args: &DemoArgs) -> Result<()> {
     let rt = crate::tool::line::runtime()?;
     rt.block_on(movilink_session())?;
     // The CAN frame times run on a virtual clock too: exact and deterministic.
-    crate::tool::line::runtime()?.block_on(async {
-        tokio::time::pause();
-        sbus_session().await
-    })?;
+    drive_core::rt::time::VirtualClock::with_phase(drive_core::rt::time::PAUSE_PHASE)
+        .run(sbus_session())
+        .map_err(|e| CliError::failed(format!("cannot start the async runtime: {e}")))??;
     rt.block_on(bonfiglioli_session())?;
     // The AS-i transfer times run on a virtual clock: counted exactly, not waited.
-    crate::tool::line::runtime()?.block_on(async {
-        tokio::time::pause();
-        nord_session().await
-    })?;
+    drive_core::rt::time::VirtualClock::with_phase(drive_core::rt::time::PAUSE_PHASE)
+        .run(nord_session())
+        .map_err(|e| CliError::failed(format!("cannot start the async runtime: {e}")))??;
     Ok(())
 }
 

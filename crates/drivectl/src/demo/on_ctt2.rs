@@ -4,7 +4,7 @@
 use super::*;
 
 /// A NORD session over CTT2: a simulated AS-i master and network (2 slaves: the NORDAC LINK's
-/// double slave at 1A/1B) with the transfer-time model of BU 0255 ch. 4.4, on tokio's paused
+/// double slave at 1A/1B) with the transfer-time model of BU 0255 ch. 4.4, on a virtual
 /// clock: the ID and diagnosis objects, a parameter written and read back, the drive enabled
 /// at 50 % through the state machine (the manual's 5.1.1/5.1.2) and stopped.
 pub(super) async fn nord_session() -> Result<()> {
@@ -25,8 +25,13 @@ pub(super) async fn nord_session() -> Result<()> {
          AS-i slaves: {} ms per byte (virtual clock)",
         trim_float(byte.as_secs_f64() * 1e3, 3)
     )?;
-    let started = tokio::time::Instant::now();
-    let ms = || trim_float(started.elapsed().as_secs_f64() * 1e3, 0);
+    let started = drive_core::rt::time::now();
+    let ms = || {
+        trim_float(
+            drive_core::rt::time::elapsed(started).as_secs_f64() * 1e3,
+            0,
+        )
+    };
     let mut master = Ctt2Driver::new(link, DriverConfig::default());
     let id = master.read_id_object().await.map_err(|e| failed(&e))?;
     outln!(
@@ -114,7 +119,7 @@ pub(super) async fn nord_session() -> Result<()> {
         if answer.status().0 == 0x0B37 && iw1(&answer) == 0x2000 {
             break;
         }
-        tokio::time::sleep(std::time::Duration::from_millis(200)).await;
+        drive_core::rt::time::sleep(std::time::Duration::from_millis(200)).await;
         answer = client
             .process(ControlWord(last), &sw1, 1)
             .await
@@ -145,7 +150,7 @@ pub(super) async fn nord_session() -> Result<()> {
         if answer.status().state() != State::OperationEnabled {
             break;
         }
-        tokio::time::sleep(std::time::Duration::from_millis(200)).await;
+        drive_core::rt::time::sleep(std::time::Duration::from_millis(200)).await;
     }
     outln!(
         "    ZSW 0x{:04X} {} (t = {} ms)",
@@ -162,7 +167,7 @@ pub(super) async fn nord_session() -> Result<()> {
          on the AS-i clock",
         counters.requests,
         client.repeated_requests(),
-        started.elapsed().as_secs_f64()
+        drive_core::rt::time::elapsed(started).as_secs_f64()
     )?;
     outln!()?;
     Ok(())

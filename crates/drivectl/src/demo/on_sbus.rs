@@ -1,4 +1,4 @@
-//! The demo's SBus session: simulated MOVIDRIVEs on a virtual CAN bus, on tokio's paused clock.
+//! The demo's SBus session: simulated MOVIDRIVEs on a virtual CAN bus, on a virtual clock.
 
 #[allow(unused_imports)]
 use super::*;
@@ -18,13 +18,14 @@ pub(super) async fn sniffed(
 }
 
 /// An SBus session on a virtual CAN bus at 500 kbit/s against two simulated MOVIDRIVEs (SBus
-/// addresses 1 and 2), on tokio's paused clock: the identifiers, a scan, reads in both
+/// addresses 1 and 2), on a virtual clock (`drive_core::rt::time::VirtualClock`): the identifiers, a scan, reads in both
 /// handshake modes (the sync-mode answer after the SYNC, measured from the frame times),
 /// synchronous and asynchronous process data with the speeds ramping, a volatile write, a group
 /// write, the stop, and a MOVLNK command executed by drive 1 towards drive 2.
 pub(super) async fn sbus_session() -> Result<()> {
     use crate::sbus::link::driver_error;
     use drive_core::can::Bitrate;
+    use drive_core::rt::time::Instant;
     use drive_profile::sew::{ControlWord1, ParamChannel, StatusWord1, index, speed_from_word};
     use drive_transport::can::virtual_bus::VirtualBus;
     use sbus_can::driver::{ParamServices, SbusDriver};
@@ -34,7 +35,6 @@ pub(super) async fn sbus_session() -> Result<()> {
     use sbus_can::sim::SimulatedSbusBus;
     use sbus_can::{Address, ProcessData};
     use std::time::Duration;
-    use tokio::time::Instant;
 
     let bad = |what: String| CliError::failed(format!("demo: {what}"));
     let addr = |a: u8| Address::new(a).ok_or_else(|| bad(format!("address {a}")));
@@ -51,7 +51,7 @@ pub(super) async fn sbus_session() -> Result<()> {
         .ok_or_else(|| bad("no simulated drive 1".into()))?;
     let sim = tokio::spawn(async move { drives.serve(drives_node).await });
     let mut m = SbusDriver::new(vbus.node(), MasterConfig::default());
-    let started = Instant::now();
+    let started = drive_core::rt::time::now();
     let ms = |t: Instant| t.saturating_duration_since(started).as_secs_f64() * 1e3;
     let (d1, d2) = (addr(1)?, addr(2)?);
 
@@ -91,7 +91,7 @@ pub(super) async fn sbus_session() -> Result<()> {
     outln!(
         "  scan 0…63 (P070 to every address at once): {} (t = {:.1} ms)",
         found.join(", "),
-        ms(Instant::now())
+        ms(drive_core::rt::time::now())
     )?;
 
     sniffed(&mut sniffer).await?;
@@ -231,7 +231,7 @@ pub(super) async fn sbus_session() -> Result<()> {
             let done = (speed_from_word(p1.0[1]) - targets.0).abs() < 0.5
                 && (speed_from_word(p2.0[1]) - targets.1).abs() < 0.5;
             if done || i % 4 == 0 {
-                show(Instant::now(), p1, p2)?;
+                show(drive_core::rt::time::now(), p1, p2)?;
             }
             if done {
                 break;
@@ -275,7 +275,7 @@ pub(super) async fn sbus_session() -> Result<()> {
         vbus.frames(),
         stats.retries,
         stats.timeouts,
-        started.elapsed().as_secs_f64()
+        drive_core::rt::time::elapsed(started).as_secs_f64()
     )?;
     drop(m);
     sim.abort();

@@ -178,7 +178,7 @@ where
         // here has bit 7 = 0, so the fault reset that follows one of them is a rising edge.
         let mut last: u16 = 0;
         let mut sent = false;
-        let deadline = tokio::time::Instant::now() + a.wait;
+        let deadline = drive_core::rt::time::now() + a.wait;
         loop {
             let state = answer.status().state();
             let reached = if a.action == "reset" {
@@ -189,7 +189,7 @@ where
             if (reached && sent) || stop.requested() {
                 return Ok((answer, last));
             }
-            if sent && tokio::time::Instant::now() >= deadline {
+            if sent && drive_core::rt::time::now() >= deadline {
                 return Ok((answer, last));
             }
             let word = match fixed {
@@ -208,7 +208,7 @@ where
                 .await
                 .map_err(link_error)?;
             tokio::select! {
-                () = tokio::time::sleep(CONTROL_PERIOD) => {}
+                () = drive_core::rt::time::sleep(CONTROL_PERIOD) => {}
                 () = stop.wait() => {}
             }
         }
@@ -220,15 +220,15 @@ where
             let stop = async |c: &mut NordClient<C>| -> Result<Stopped> {
                 // The drive brakes on its ramp and only then leaves "operation enabled": send
                 // shutdown until it has (a few seconds at most; a second signal ends it).
-                let deadline = tokio::time::Instant::now() + STOP_WAIT;
+                let deadline = drive_core::rt::time::now() + STOP_WAIT;
                 let mut answer = c
                     .process(ControlWord(shutdown), zero, iw)
                     .await
                     .map_err(link_error)?;
                 while answer.status().state() == State::OperationEnabled
-                    && tokio::time::Instant::now() < deadline
+                    && drive_core::rt::time::now() < deadline
                 {
-                    tokio::time::sleep(CONTROL_PERIOD).await;
+                    drive_core::rt::time::sleep(CONTROL_PERIOD).await;
                     answer = c
                         .process(ControlWord(shutdown), zero, iw)
                         .await

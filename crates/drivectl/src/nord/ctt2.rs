@@ -205,12 +205,9 @@ pub fn run(args: &Ctt2Args) -> Result<()> {
     if let Ctt2Command::Nord(cmd) = &args.command {
         precheck(cmd)?;
     }
-    let link = network(address, args.slaves)?;
-    let rt = runtime()?;
-    rt.block_on(async {
-        if args.fast {
-            tokio::time::pause();
-        }
+    let session = async {
+        // On the session's clock: its figures do not depend on the real time before it.
+        let link = network(address, args.slaves)?;
         let byte_time = link.byte_time();
         let config = DriverConfig {
             pkw_channel: if args.pkw_index == 4 {
@@ -221,10 +218,13 @@ pub fn run(args: &Ctt2Args) -> Result<()> {
             ..DriverConfig::default()
         };
         let mut master = Ctt2Driver::new(link, config);
-        let started = tokio::time::Instant::now();
+        let started = drive_core::rt::time::now();
         let r = match &args.command {
             Ctt2Command::Nord(cmd) => {
-                let identity = if matches!(cmd, NordCommand::Backup { .. } | NordCommand::Restore { .. }) {
+                let identity = if matches!(
+                    cmd,
+                    NordCommand::Backup { .. } | NordCommand::Restore { .. }
+                ) {
                     let id = master
                         .read_id_object()
                         .await
@@ -278,12 +278,25 @@ pub fn run(args: &Ctt2Args) -> Result<()> {
                 counters.retries,
                 args.slaves,
                 trim_float(byte_time.as_secs_f64() * 1e3, 3),
-                trim_float(started.elapsed().as_secs_f64() * 1e3, 1),
+                trim_float(
+                    drive_core::rt::time::now()
+                        .saturating_duration_since(started)
+                        .as_secs_f64()
+                        * 1e3,
+                    1
+                ),
                 if args.fast { " (virtual time)" } else { "" }
             );
         }
         r
-    })
+    };
+    if args.fast {
+        drive_core::rt::time::VirtualClock::with_phase(drive_core::rt::time::PAUSE_PHASE)
+            .run(session)
+            .map_err(|e| CliError::failed(format!("cannot start the async runtime: {e}")))?
+    } else {
+        runtime()?.block_on(session)
+    }
 }
 
 /// `line`: what the link uses (nothing is sent).

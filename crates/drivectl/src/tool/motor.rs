@@ -187,7 +187,7 @@ pub async fn paced(
     while count == 0 || done < count {
         if done > 0 {
             tokio::select! {
-                () = tokio::time::sleep(period) => {}
+                () = drive_core::rt::time::sleep(period) => {}
                 () = stop.wait() => {}
             }
         }

@@ -26,7 +26,7 @@
 use std::future::Future;
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
-use tokio::time::MissedTickBehavior;
+use drive_core::rt::time::MissedTickBehavior;
 
 mod render;
 #[cfg(test)]
@@ -249,7 +249,7 @@ async fn poll_loop<C: ParamClient>(
     out: &mut dyn FnMut(&str) -> Result<()>,
     tally: &mut Tally,
 ) -> Result<()> {
-    let mut ticker = tokio::time::interval(options.interval);
+    let mut ticker = drive_core::rt::time::interval(options.interval);
     ticker.set_missed_tick_behavior(MissedTickBehavior::Skip);
     if options.format == Format::Csv {
         out(&csv_header(targets))?;
