@@ -10,6 +10,26 @@
 //!   simulated drives).
 
 use drive_core::can::Bitrate;
+use drive_core::rt::CanIo;
+
+use crate::TransportError;
+
+/// A CAN port opened by [`Iface::open`].
+pub struct OpenedPort {
+    /// The port.
+    pub io: Box<dyn CanIo>,
+    /// How many bytes the adapter's serial port held when it was opened (discarded: left by an
+    /// earlier program); 0 for SocketCAN.
+    pub flushed_at_open: u32,
+}
+
+impl core::fmt::Debug for OpenedPort {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.debug_struct("OpenedPort")
+            .field("flushed_at_open", &self.flushed_at_open)
+            .finish_non_exhaustive()
+    }
+}
 
 /// A bit rate that is none of the CAN rates.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
@@ -124,6 +144,32 @@ impl Iface {
             Iface::Slcan { .. } => "slcan0".to_owned(),
             Iface::Virtual => "virtual0".to_owned(),
         }
+    }
+
+    /// Open a SocketCAN interface, or an slcan adapter at the bit rate its name gives. `None`
+    /// for the virtual bus: there is no port to open, the front end makes the bus and attaches
+    /// its nodes (simulated drives) itself.
+    pub async fn open(&self) -> Option<Result<OpenedPort, TransportError>> {
+        Some(match self {
+            #[cfg(target_os = "linux")]
+            Iface::SocketCan(name) => super::SocketCanPort::open(name).map(|p| OpenedPort {
+                io: Box::new(p),
+                flushed_at_open: 0,
+            }),
+            #[cfg(not(target_os = "linux"))]
+            Iface::SocketCan(_) => Err(TransportError::Io(std::io::Error::other(
+                "SocketCAN interfaces exist on Linux only",
+            ))),
+            Iface::Slcan { path, bitrate } => {
+                super::SlcanPort::open(path, *bitrate)
+                    .await
+                    .map(|p| OpenedPort {
+                        flushed_at_open: p.flushed_at_open(),
+                        io: Box::new(p),
+                    })
+            }
+            Iface::Virtual => return None,
+        })
     }
 
     /// The bit rate the interface is opened at, where its name says it (slcan); the virtual

@@ -43,7 +43,7 @@ pub mod slcan;
 pub mod socketcan;
 pub mod virtual_bus;
 
-pub use iface::{BitrateError, Iface, IfaceError, parse_bitrate};
+pub use iface::{BitrateError, Iface, IfaceError, OpenedPort, parse_bitrate};
 pub use slcan::{SlcanAdapter, SlcanPort};
 #[cfg(target_os = "linux")]
 pub use socketcan::SocketCanPort;

@@ -133,31 +133,20 @@ fn open_serial(
 /// Open the CAN interface named `name`: SocketCAN, or an slcan adapter (its name carries the
 /// config's bit rate, see `config`).
 async fn open_can(name: &str) -> std::result::Result<CanBox, String> {
-    use drive_transport::can::Iface;
-    match Iface::parse(name).map_err(|e| format!("iface = {name:?}: {e}"))? {
-        #[cfg(target_os = "linux")]
-        Iface::SocketCan(n) => drive_transport::can::SocketCanPort::open(&n)
-            .map(|p| Box::new(p) as CanBox)
-            .map_err(|e| e.to_string()),
-        #[cfg(not(target_os = "linux"))]
-        Iface::SocketCan(n) => Err(format!("{n}: SocketCAN is Linux's")),
-        Iface::Slcan { path, bitrate } => {
-            let port = drive_transport::can::SlcanPort::open(&path, bitrate)
-                .await
-                .map_err(|e| e.to_string())?;
-            if port.flushed_at_open() > 0 {
-                tracing::info!(
-                    iface = name,
-                    bytes = port.flushed_at_open(),
-                    "discarded what the adapter's port held at opening (left by an earlier program)"
-                );
-            }
-            Ok(Box::new(port))
-        }
-        Iface::Virtual => {
-            Err("iface = \"virtual\": write simulate = true for simulated drives".to_owned())
-        }
+    let iface =
+        drive_transport::can::Iface::parse(name).map_err(|e| format!("iface = {name:?}: {e}"))?;
+    let Some(opened) = iface.open().await else {
+        return Err("iface = \"virtual\": write simulate = true for simulated drives".to_owned());
+    };
+    let port = opened.map_err(|e| e.to_string())?;
+    if port.flushed_at_open > 0 {
+        tracing::info!(
+            iface = name,
+            bytes = port.flushed_at_open,
+            "discarded what the adapter's port held at opening (left by an earlier program)"
+        );
     }
+    Ok(port.io)
 }
 
 /// The bus's CAN interface, opened on first use and reopened after a failure.

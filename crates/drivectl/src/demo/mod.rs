@@ -46,14 +46,10 @@ pub fn run(_args: &DemoArgs) -> Result<()> {
     let rt = crate::tool::line::runtime()?;
     rt.block_on(movilink_session())?;
     // The CAN frame times run on a virtual clock too: exact and deterministic.
-    drive_core::rt::time::VirtualClock::with_phase(drive_core::rt::time::PAUSE_PHASE)
-        .run(sbus_session())
-        .map_err(|e| CliError::failed(format!("cannot start the async runtime: {e}")))??;
+    crate::tool::line::run_virtual(sbus_session())??;
     rt.block_on(bonfiglioli_session())?;
     // The AS-i transfer times run on a virtual clock: counted exactly, not waited.
-    drive_core::rt::time::VirtualClock::with_phase(drive_core::rt::time::PAUSE_PHASE)
-        .run(nord_session())
-        .map_err(|e| CliError::failed(format!("cannot start the async runtime: {e}")))??;
+    crate::tool::line::run_virtual(nord_session())??;
     Ok(())
 }
 

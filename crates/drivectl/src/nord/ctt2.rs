@@ -291,9 +291,7 @@ pub fn run(args: &Ctt2Args) -> Result<()> {
         r
     };
     if args.fast {
-        drive_core::rt::time::VirtualClock::with_phase(drive_core::rt::time::PAUSE_PHASE)
-            .run(session)
-            .map_err(|e| CliError::failed(format!("cannot start the async runtime: {e}")))?
+        crate::tool::line::run_virtual(session)?
     } else {
         runtime()?.block_on(session)
     }

@@ -35,20 +35,17 @@ pub async fn open(
     bitrate: Bitrate,
     sim_addresses: &[u8],
 ) -> Result<(BoxedIo, Option<tokio::task::JoinHandle<()>>)> {
-    match iface {
-        Iface::SocketCan(name) => {
-            let port = drive_transport::can::socketcan::SocketCanPort::open(name)
-                .map_err(|e| CliError::failed(e.to_string()))?;
-            Ok((Box::new(port), None))
+    match iface.open().await {
+        Some(opened) => {
+            let port = opened.map_err(|e| match iface {
+                // A setting or path the adapter's port refuses is the user's to change.
+                Iface::Slcan { .. } => crate::tool::line::open_cli_error(&e),
+                _ => CliError::failed(e.to_string()),
+            })?;
+            crate::tool::stale::note_flushed(port.flushed_at_open);
+            Ok((port.io, None))
         }
-        Iface::Slcan { path, bitrate } => {
-            let port = drive_transport::can::slcan::SlcanPort::open(path, *bitrate)
-                .await
-                .map_err(|e| crate::tool::line::open_cli_error(&e))?;
-            crate::tool::stale::note_flushed(port.flushed_at_open());
-            Ok((Box::new(port), None))
-        }
-        Iface::Virtual => {
+        None => {
             let bus = drive_transport::can::virtual_bus::VirtualBus::new(bitrate);
             let node = bus.node();
             let master = bus.node();

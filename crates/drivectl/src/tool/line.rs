@@ -111,6 +111,14 @@ pub fn runtime() -> Result<tokio::runtime::Runtime> {
         .map_err(|e| CliError::failed(format!("cannot start the async runtime: {e}")))
 }
 
+/// Run `session` on a virtual clock (`drive_core::rt::time::VirtualClock`): a simulated
+/// session's wire time counted, not waited, the same on every run.
+pub fn run_virtual<F: std::future::Future>(session: F) -> Result<F::Output> {
+    drive_core::rt::time::VirtualClock::with_phase(drive_core::rt::time::PAUSE_PHASE)
+        .run(session)
+        .map_err(|e| CliError::failed(format!("cannot start the async runtime: {e}")))
+}
+
 /// The one check of every family that a port was given (`--port`, empty by default so that
 /// `--help` and the offline commands work without one).
 pub fn require_port(port: &str) -> Result<()> {
