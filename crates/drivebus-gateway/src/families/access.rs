@@ -151,7 +151,7 @@ impl ParamClient for AnyClient<'_> {
 fn table_target(family: Family, key: &str) -> Result<Target, ClientError> {
     drive_profile::family::lookup(family, key)
         .map(Target::of)
-        .ok_or_else(|| ClientError::Link(format!("{key} is not in the {family} table")))
+        .ok_or_else(|| ClientError::Request(format!("{key} is not in the {family} table")))
 }
 
 /// A MOVIDRIVE's bus timeout `timeout_index` (P812, P815; raw milliseconds; `None` when off or
