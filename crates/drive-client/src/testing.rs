@@ -46,8 +46,6 @@ pub struct FakeClient<I = Interrupt> {
     pub link_settings: &'static [u16],
     /// What `not_restored` answers.
     pub not_restored: &'static [u16],
-    /// Whose table the drive's parameters come from (MOVIDRIVE unless set).
-    pub family: Family,
 }
 
 impl<I: Trip> FakeClient<I> {
@@ -61,7 +59,6 @@ impl<I: Trip> FakeClient<I> {
             identity: Map::new(),
             link_settings: &[],
             not_restored: &[],
-            family: Family::Movidrive,
         }
     }
 }
@@ -77,7 +74,7 @@ pub fn refusal(kind: DeviceErrorKind, message: &str) -> ClientError {
 
 impl<I: Trip> ParamClient for FakeClient<I> {
     fn family(&self) -> Family {
-        self.family
+        Family::Movidrive
     }
     async fn drive_key(&mut self) -> Result<String, ClientError> {
         Ok("fake 1".into())
