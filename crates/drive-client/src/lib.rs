@@ -35,6 +35,7 @@ pub mod bonfiglioli;
 pub mod client;
 pub mod front;
 pub mod infile;
+pub mod info;
 pub mod interrupt;
 pub mod meaning;
 pub mod motor;

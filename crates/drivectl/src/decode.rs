@@ -10,7 +10,7 @@ use drive_decode::{Decoded, Entry};
 
 use crate::error::{CliError, Result};
 
-pub use drive_decode::shape::{escape, param_json};
+pub use drive_decode::shape::escape;
 
 /// The largest capture read (64 MiB of hex text: about 1.7 million telegrams).
 pub const MAX_CAPTURE: u64 = 64 << 20;

@@ -4,9 +4,9 @@
 //! ([`SewDrive`]): the names ([`Sew`]), info, a write to a group or broadcast, and the
 //! process-data preflight with its warnings on standard error.
 
+use drive_client::info::FromDrive;
 use drive_client::sew::{
-    Description, RAW_INDICES, bus_timeout, describe, pd_warnings, raw_of, with_command,
-    write_service,
+    RAW_INDICES, bus_timeout, pd_warnings, raw_of, with_command, write_service,
 };
 use drive_profile::sew::{self, ParamChannel};
 use drive_profile::{Access, Family};
@@ -133,68 +133,43 @@ impl<B: SewBus> Drive for SewDrive<B> {
 
 /// `info`: minimum, maximum, default, scale and attributes of `t`.
 pub async fn info<L: SewLink>(link: &mut L, t: Target, json: bool) -> Result<()> {
-    let Description {
-        minimum: min,
-        maximum: max,
-        default,
-        scale,
-        attribute: attr,
-        current,
-    } = describe(link, t.index).await?;
-    let access = Access::from_bits_truncate(attr.attributes as u8);
-    // The drive's value too, as `read` shows it (the key `current` of every family's `info`).
-    let current = raw_of(&t, current);
+    let info = drive_client::info::sew(link, t).await?;
+    if json {
+        return outln!("{}", info.json());
+    }
+    let FromDrive::Sew(d) = &info.drive else {
+        return Ok(());
+    };
     let show = |data: u32| {
         let v = raw_of(&t, data);
         t.param
             .map_or_else(|| v.to_string(), |p| physical_text(p, v))
     };
-    let size_name = sew::size_name(scale.size_index).unwrap_or("unknown quantity");
-    let physical = |raw: i64| t.param.map_or(raw as f64, |p| p.to_physical(raw));
-    if json {
-        outln!(
-            "{}",
-            crate::tool::output::info_json(
-                &t,
-                json!({
-                    // The keys of `params … --json` where they mean the same: raw values plain,
-                    // physical ones as `*_value` in the table's unit.
-                    "range": {
-                        "min": raw_of(&t, min), "max": raw_of(&t, max),
-                        "min_value": physical(raw_of(&t, min)), "max_value": physical(raw_of(&t, max)),
-                    },
-                    "default": raw_of(&t, default), "default_value": physical(raw_of(&t, default)),
-                    "size_index": scale.size_index, "conversion_index": scale.conversion_index,
-                    "quantity": size_name,
-                    "next_index": attr.next_index, "attributes": attr.attributes, "access": access.to_string(),
-                    "current": [crate::tool::output::value_json(&t, current)],
-                })
-            )
-        )?;
-    } else {
-        let name = t
-            .param
-            .map_or_else(String::new, |p| format!("{} {} ", p.label(), p.name_en()));
-        outln!("{name}(index {})", t.index)?;
-        outln!(
-            "  value      {}",
-            crate::tool::output::value_text(&t, current)
-        )?;
-        outln!("  minimum    {}", show(min))?;
-        outln!("  maximum    {}", show(max))?;
-        outln!("  default    {}", show(default))?;
-        outln!(
-            "  scale      size index {} ({size_name}), conversion index {}",
-            scale.size_index,
-            scale.conversion_index
-        )?;
-        outln!(
-            "  attributes 0x{:04X} ({access}), next index {}",
-            attr.attributes,
-            attr.next_index
-        )?;
-    }
-    Ok(())
+    let (scale, attr) = (d.scale, d.attribute);
+    let name = t
+        .param
+        .map_or_else(String::new, |p| format!("{} {} ", p.label(), p.name_en()));
+    outln!("{name}(index {})", t.index)?;
+    let current = raw_of(&t, d.current);
+    outln!(
+        "  value      {}",
+        crate::tool::output::value_text(&t, current)
+    )?;
+    outln!("  minimum    {}", show(d.minimum))?;
+    outln!("  maximum    {}", show(d.maximum))?;
+    outln!("  default    {}", show(d.default))?;
+    outln!(
+        "  scale      size index {} ({}), conversion index {}",
+        scale.size_index,
+        sew::size_name(scale.size_index).unwrap_or("unknown quantity"),
+        scale.conversion_index
+    )?;
+    outln!(
+        "  attributes 0x{:04X} ({}), next index {}",
+        attr.attributes,
+        Access::from_bits_truncate(attr.attributes as u8),
+        attr.next_index
+    )
 }
 
 /// Where an unanswered write goes, for the output: the text (`group 2`, `broadcast`) and the

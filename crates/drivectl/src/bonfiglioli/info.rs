@@ -1,6 +1,7 @@
 //! `info`: what the table knows of a parameter and the drive's value in each data set it has.
 
 use super::*;
+use drive_client::info::{FromDrive, Reading, width_text};
 
 /// `info`: what the table knows of one parameter (range, default, unit, decimals, data type
 /// and width, data sets, access, RAM-only) and the drive's value in each data set it has (1–4
@@ -32,26 +33,13 @@ pub async fn info<IO: CharIo>(
         c = c.probing();
     }
     find_variant_for(&mut c, &[t]).await?;
-    let device = c.device();
-    let mut current = Vec::new();
+    let info = drive_client::info::bonfiglioli(&mut c, t, &subs)
+        .await
+        .map_err(|f| f.target.error(f.error))?;
     // Refusals other than the write-only parameter's "not readable" (484/524 on the ACU, as
     // the table says): the command fails at the end, after showing what it has.
-    let write_only = table.is_some_and(|p| !p.is_readable());
-    let mut refused = Vec::new();
-    for sub in &subs {
-        let at = Target { sub: *sub, ..t };
-        match c.read(&at).await {
-            Ok(raw) => current.push((at, Ok(raw))),
-            Err(ClientError::Device(d)) => {
-                if !(write_only && d.kind == DeviceErrorKind::Absent) {
-                    refused.push(at.label());
-                }
-                current.push((at, Err(d.message)));
-            }
-            Err(e) => return Err(at.error(e)),
-        }
-    }
     let outcome = || {
+        let refused: Vec<String> = info.refused().iter().map(|t| t.label()).collect();
         if refused.is_empty() {
             Ok(())
         } else {
@@ -61,64 +49,22 @@ pub async fn info<IO: CharIo>(
             )))
         }
     };
-    let width = c.width_of(&t);
-    let width_text = width.map(|w| match w {
-        Width::Word => "16 bit (FC 3/6)",
-        Width::Long => "32 bit (FC 100/101)",
-    });
-    let physical = |raw: i64| t.param.map_or(raw as f64, |p| p.to_physical(raw));
     if json {
-        let row = t.param.map(|p| crate::params::to_json(p));
-        let col = |k: &str| {
-            row.as_ref()
-                .and_then(|r| r.get(k).cloned())
-                .unwrap_or(Value::Null)
-        };
-        let range = t.param.and_then(|p| p.raw_range()).map(|(lo, hi)| {
-            json!({"min": lo, "max": hi, "min_value": physical(lo), "max_value": physical(hi)})
-        });
-        let default = t.param.and_then(|p| p.default_raw());
-        let values: Vec<Value> = current
-            .iter()
-            .map(|(at, r)| match r {
-                Ok(raw) => crate::tool::output::value_json_in(at, *raw, &device),
-                Err(e) => json!({"label": at.label(), "selector": at.selector_json(), "error": e}),
-            })
-            .collect();
-        outln!(
-            "{}",
-            crate::tool::output::info_json(
-                &t,
-                json!({
-                    "range": range,
-                    "default": default,
-                    "default_value": default.map(physical),
-                    "access": t.param.map(|p| p.access().to_string()),
-                    "decimals": col("decimals"),
-                    "data_type": col("data_type"),
-                    "type_source": col("type_source"),
-                    "bits": table.and_then(|p| p.data_type.bits()),
-                    "width": width_text,
-                    "data_sets": col("data_set"),
-                    "ram_only": col("ram_only"),
-                    "not_in_operation": col("not_in_operation"),
-                    "bus_only": col("bus_only"),
-                    "bus_access": col("bus_access"),
-                    "values": col("values"),
-                    "chapters": col("chapters"),
-                    "current": values,
-                })
-            )
-        )?;
+        outln!("{}", info.json())?;
         return outcome();
     }
+    let FromDrive::Bonfiglioli { width, device } = &info.drive else {
+        return outcome();
+    };
+    let width_text = width.map(width_text);
+    let current = &info.current;
     let Some(p) = table else {
         outln!(
             "{} is not in the table (raw access){}",
             t.label(),
             width_text.map_or_else(String::new, |w| format!(", read as {w}"))
         )?;
-        print_current(&current, &device)?;
+        print_current(current, device)?;
         return outcome();
     };
     outln!(
@@ -209,16 +155,20 @@ pub async fn info<IO: CharIo>(
             outln!("    {:>6} = {} ({})", v.value, v.en, v.de)?;
         }
     }
-    print_current(&current, &device)?;
+    print_current(current, device)?;
     outcome()
 }
 
 /// The drive's values of `info`, one line per data set.
-pub fn print_current(
-    current: &[(Target, std::result::Result<i64, String>)],
-    device: &Device,
-) -> Result<()> {
-    for (i, (at, r)) in current.iter().enumerate() {
+pub fn print_current(current: &[Reading], device: &Device) -> Result<()> {
+    for (
+        i,
+        Reading {
+            target: at,
+            value: r,
+        },
+    ) in current.iter().enumerate()
+    {
         let head = if i == 0 {
             "  drive     "
         } else {
@@ -234,7 +184,7 @@ pub fn print_current(
                 "{head} {place}: {} (raw {raw})",
                 crate::tool::output::value_text_in(at, *raw, device)
             )?,
-            Err(e) => outln!("{head} {place}: refused: {e}")?,
+            Err(e) => outln!("{head} {place}: refused: {}", e.message)?,
         }
     }
     Ok(())

@@ -47,7 +47,7 @@ pub use drive_client::bonfiglioli::{LINK_SETTINGS, NOT_RESTORED, RAW_INDICES, pa
 use crate::error::{CliError, Result};
 use crate::tool::again::Again;
 use crate::tool::client::OnTarget as _;
-use crate::tool::client::{ClientError, DeviceErrorKind, ParamClient, Target, ValueText};
+use crate::tool::client::{ClientError, ParamClient, Target, ValueText};
 use crate::tool::cmd::{self, WriteValue};
 use crate::tool::front::Cli;
 use crate::tool::interrupt::Interrupt;

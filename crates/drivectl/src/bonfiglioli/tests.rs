@@ -1,4 +1,5 @@
 use super::*;
+use crate::tool::client::DeviceErrorKind;
 use bonfiglioli_modbus::frame::ExceptionCode;
 
 #[test]

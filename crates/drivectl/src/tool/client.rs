@@ -2,7 +2,9 @@
 //! ([`ParamClient`], [`Target`], the strict number parsing); this module says its errors in the
 //! command line's words, with the options that are the way out (`--raw`, `--force`, `--round`).
 
-pub use drive_client::client::{ClientError, DeviceErrorKind, ParamClient};
+#[cfg(test)]
+pub use drive_client::client::DeviceErrorKind;
+pub use drive_client::client::{ClientError, ParamClient};
 pub use drive_client::target::{Target, TargetError, ValueError, ValueText};
 // Every IND word of a NORD parameter: what a backup holds of it (the NORD tests check it).
 #[cfg(test)]

@@ -3,7 +3,7 @@
 use std::io::Write as _;
 use std::sync::atomic::{AtomicBool, Ordering};
 
-use serde_json::{Value, json};
+use serde_json::json;
 
 use super::client::Target;
 use super::meaning::{Device, Meaning, meaning_in};
@@ -95,17 +95,9 @@ pub fn final_error(e: &CliError) {
 pub use drive_client::text::{physical_text, trim_float};
 
 // The keys that name a target and its value, the same in `read --json` and `decode --json`.
-pub use drive_client::meaning::{target_json, value_json, value_json_in};
-
-/// Every family's `info --json` object: what names the target ([`target_json`]), then the
-/// family's own description `fields` (an object: `range`, `default`, `access`, `current`, …).
-pub fn info_json(t: &Target, fields: Value) -> Value {
-    let mut m = target_json(t);
-    if let Value::Object(f) = fields {
-        m.extend(f);
-    }
-    Value::Object(m)
-}
+#[cfg(test)]
+pub use drive_client::meaning::value_json;
+pub use drive_client::meaning::{target_json, value_json_in};
 
 /// One value as text without the parameter's name: the physical value with its unit and value
 /// name (`1.50 s`, `9 (control word 1)`) or its meaning (`0 (no fault)`), a decoded word in hex
