@@ -42,6 +42,7 @@ pub mod motor;
 pub mod nord;
 pub mod progress;
 pub mod restore;
+pub mod scan;
 pub mod sew;
 pub mod target;
 #[cfg(any(test, feature = "testing"))]

@@ -51,63 +51,26 @@ pub fn scan_timeout(line: &drive_core::LineSettings) -> Duration {
     bonfiglioli_modbus::slave::ANSWER_DELAY + line.char_time() * 2 + SCAN_MARGIN
 }
 
+/// `scan`: one diagnostics request per address; a drive that answers is shown with its
+/// variant, configuration and status word.
 pub async fn scan<IO: CharIo>(
     m: &mut MasterDriver<IO>,
     from: u8,
     to: u8,
     json: bool,
 ) -> Result<()> {
-    if from == 0 || from > to || to > 247 {
-        return Err(CliError::usage(
-            "scan range must satisfy 1 ≤ --from ≤ --to ≤ 247",
-        ));
-    }
     let timeout = scan_timeout(&m.config().line);
-    let bar = backup::progress(usize::from(to - from) + 1, "scanning");
-    let mut found = 0;
-    for a in from..=to {
-        bar.set_message(format!(
+    let message = |a: u8, found: usize| {
+        format!(
             "address {a} ({found} found, {} ms each)",
             timeout.as_millis()
-        ));
-        let addr = address(a)?;
-        let answered = m.probe(addr, timeout).await.map_err(driver_error)?;
-        bar.inc(1);
-        if !answered {
-            continue;
-        }
-        found += 1;
-        let mut c = client(m, addr, "", None).probing();
-        let configuration = c
-            .read(&resolve(&param::CONFIGURATION.to_string(), 0)?)
-            .await
-            .ok();
-        let status = c.read(&resolve("411", 0)?).await.ok();
-        // A drive that answers but refuses what tells the variant shows none.
-        let variant = c.find_variant().await.ok().and_then(|f| f.variant);
-        bar.suspend(|| -> Result<()> {
-            if json {
-                outln!(
-                    "{}",
-                    json!({"address": a, "variant": variant.map(|k| k.variant.key()),
-                           "variant_from": variant.map(|k| k.from),
-                           "configuration": configuration, "status_word": status,
-                           "device_type": null, "firmware": null})
-                )
-            } else {
-                outln!(
-                    "address {a:>3}: {}, configuration {}, status word {} (the manual defines \
-                     no device type or firmware parameter)",
-                    variant.map_or("ACT or ACU (not told apart)", |k| k.variant.name()),
-                    configuration.map_or_else(|| "unreadable".to_owned(), |v| v.to_string()),
-                    status.map_or_else(|| "unreadable".to_owned(), |v| format!("0x{v:04X}"))
-                )
-            }
-        })?;
-    }
-    bar.finish_and_clear();
-    if !json {
-        outln!("{found} drive(s) answered between {from} and {to}")?;
-    }
-    Ok(())
+        )
+    };
+    let shown = crate::tool::scan::Shown {
+        range: 1..=247,
+        message: Some(&message),
+        json,
+    };
+    let mut bus = drive_client::scan::BonfiglioliScan { driver: m, timeout };
+    crate::tool::scan::scan(&mut bus, from, to, shown, driver_error).await
 }

@@ -11,10 +11,7 @@ pub mod pd;
 pub mod sim;
 
 use clap::{Args, Subcommand};
-use drive_profile::sew::{self, index};
-use movilink::driver::{
-    CharIo, DriverConfig, DriverError, MovilinkDriver as MasterDriver, ParamServices,
-};
+use movilink::driver::{CharIo, DriverConfig, DriverError, MovilinkDriver as MasterDriver};
 use movilink::{Address, ParamChannel, PduType, Telegram};
 use serde_json::json;
 use std::time::Duration;
@@ -30,8 +27,8 @@ use crate::tool::again::Again;
 use crate::tool::backup;
 use crate::tool::cmd;
 use crate::tool::line::{LineArgs, MasterArgs, runtime};
-use crate::tool::output::trim_float;
 use crate::tool::{stale, write};
+pub use drive_client::scan::firmware_text;
 
 /// Where the EEPROM-wear log lives, for `--help`.
 const WEAR_LOG_HELP: &str = "\
@@ -377,6 +374,7 @@ async fn write_unanswered<IO: CharIo>(
     crate::sew::write_unanswered(link(m, addr, port), request, yes, json, to, send).await
 }
 
+/// `scan`: one read of P070 per address, then P076 and P071 of a drive that answers.
 async fn scan<IO: CharIo>(
     m: &mut MasterDriver<IO>,
     from: u8,
@@ -384,78 +382,16 @@ async fn scan<IO: CharIo>(
     timeout_ms: u64,
     json: bool,
 ) -> Result<()> {
-    if from > to || to > 99 {
-        return Err(CliError::usage(
-            "scan range must satisfy 0 ≤ --from ≤ --to ≤ 99",
-        ));
-    }
-    let bar = backup::progress(usize::from(to - from) + 1, "scanning");
-    let mut found = 0;
-    for a in from..=to {
-        bar.set_message(format!("address {a}"));
-        let addr = address(a)?;
-        let probe = m
-            .probe(addr, Duration::from_millis(timeout_ms))
-            .await
-            .map_err(driver_error)?;
-        bar.inc(1);
-        let Some(device_type) = probe else { continue };
-        let firmware = m.read(addr, index::FIRMWARE).await.map_err(driver_error)?;
-        let current = rated_current(m, addr).await;
-        found += 1;
-        bar.suspend(|| -> Result<()> {
-            if json {
-                outln!(
-                    "{}",
-                    json!({"address": a, "device_type": device_type,
-                           "device_type_name": sew::device::designation(device_type),
-                           "rated_current_a": current, "firmware": firmware})
-                )?;
-            } else {
-                outln!(
-                    "address {a:>2}: device type {}, rated current {}, firmware {}",
-                    device_type_text(device_type),
-                    current.map_or_else(
-                        || "unreadable".to_owned(),
-                        |c| format!("{} A", trim_float(c, 3))
-                    ),
-                    firmware_text(firmware)
-                )?;
-            }
-            Ok(())
-        })?;
-    }
-    bar.finish_and_clear();
-    if !json {
-        outln!("{found} drive(s) answered between {from} and {to}")?;
-    }
-    Ok(())
-}
-
-/// P070 as text: the type designation where a manual codes the value, else the number and
-/// that it is not named (never a designation guessed from the digits).
-fn device_type_text(device_type: u32) -> String {
-    sew::device::designation(device_type).map_or_else(
-        || format!("{device_type} (no designation: the manual does not code P070)"),
-        |name| format!("{name} ({device_type})"),
-    )
-}
-
-/// P071 unit rated current in A, or `None` when the drive does not answer it (a unit without
-/// P071 still shows up in the scan).
-async fn rated_current<IO: CharIo>(m: &mut MasterDriver<IO>, addr: Address) -> Option<f64> {
-    let raw = m.read(addr, index::RATED_CURRENT).await.ok()?;
-    let p = sew::by_index(index::RATED_CURRENT)?;
-    Some(drive_profile::ParamMeta::to_physical(p, i64::from(raw)))
-}
-
-/// SEW firmware numbers read like 822609711 = part 822 609, version 7.11.
-pub fn firmware_text(v: u32) -> String {
-    let s = v.to_string();
-    match (s.get(0..3), s.get(3..6), s.get(6..7), s.get(7..9)) {
-        (Some(a), Some(b), Some(c), Some(d)) if s.len() == 9 => format!("{a} {b} {c}.{d}"),
-        _ => s,
-    }
+    let shown = crate::tool::scan::Shown {
+        range: 0..=99,
+        message: Some(&|a, _| format!("address {a}")),
+        json,
+    };
+    let mut bus = drive_client::scan::MovilinkScan {
+        driver: m,
+        timeout: Duration::from_millis(timeout_ms),
+    };
+    crate::tool::scan::scan(&mut bus, from, to, shown, driver_error).await
 }
 
 #[cfg(test)]

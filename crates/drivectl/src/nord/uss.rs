@@ -17,16 +17,15 @@ use ctt2_uss::client::{ClientConfig, NordClient};
 use ctt2_uss::serial::driver::{DriverConfig, UssDriver};
 use ctt2_uss::serial::framing::UssTiming;
 use ctt2_uss::serial::{Layout, UssAddress};
+use drive_client::scan::{Found, Scan, ScanError};
 use drive_core::rt::CharIo;
-use drive_profile::nord::ControlWord;
 use serde_json::{Map, Value, json};
 
-use super::{NordCommand, Session, execute, precheck, state_text, target_of};
+use super::{NordCommand, Session, execute, precheck};
 use crate::error::{CliError, Result};
-use crate::tool::client::{ParamClient, canonical_port};
+use crate::tool::client::canonical_port;
 use crate::tool::line::{LineArgs, MAX_TIMEOUT_MS, runtime};
 use crate::tool::stale;
-use drive_client::nord::NordParamClient;
 
 /// Below `drivectl uss --help`.
 const USS_HELP: &str = "\
@@ -207,77 +206,48 @@ fn check_pzd(cmd: &NordCommand, pzd: u8) -> Result<()> {
 /// `scan`: one telegram per address (no retries); for each drive that answers, its state and
 /// P744 configuration level.
 async fn scan<IO: CharIo>(master: UssDriver<IO>, args: &UssArgs, from: u8, to: u8) -> Result<()> {
-    let bar = crate::tool::backup::progress(usize::from(to - from) + 1, "scanning");
-    let mut io = master.into_inner();
-    let mut found = 0;
-    let mut stale_bytes = 0;
-    for a in from..=to {
-        bar.set_message(format!("address {a}"));
+    let shown = crate::tool::scan::Shown {
+        range: 0..=31,
+        message: Some(&|a, _| format!("address {a}")),
+        json: args.json,
+    };
+    let mut bus = UssScan {
+        io: Some(master.into_inner()),
+        args,
+        stale: 0,
+    };
+    crate::tool::scan::scan(&mut bus, from, to, shown, |e| e).await
+}
+
+/// The USS line of a scan: a driver per address, without retries, on the one port.
+struct UssScan<'a, IO> {
+    io: Option<IO>,
+    args: &'a UssArgs,
+    stale: u64,
+}
+
+impl<IO: CharIo> Scan for UssScan<'_, IO> {
+    type Error = ScanError<CliError>;
+
+    async fn probe(&mut self, a: u8) -> std::result::Result<Option<Found>, Self::Error> {
         let config = DriverConfig {
             retries: 0,
-            ..driver_config(args, address(a)?)?
+            ..driver_config(self.args, address(a).map_err(ScanError::Link)?)
+                .map_err(ScanError::Link)?
+        };
+        let Some(io) = self.io.take() else {
+            return Err(ScanError::Link(CliError::failed("the port is gone")));
         };
         let mut client = NordClient::new(UssDriver::new(io, config), ClientConfig::default());
-        // A process telegram without bit 10: the drive answers, and ignores it.
-        let actuals = args.pzd.saturating_sub(1).min(3);
-        let answer = if args.pzd > 0 {
-            client.process(ControlWord(0), &[], actuals).await.ok()
-        } else {
-            None
-        };
-        let mut level = None;
-        let mut answered = answer.is_some();
-        // Nothing answered the process telegram: nobody is there (without PZD the parameter
-        // read is the probe).
-        if answered || args.pzd == 0 {
-            let mut pc = NordParamClient::new(&mut client, "", Map::new());
-            let t744 = target_of(super::param::CONFIGURATION_LEVEL, None, None)?;
-            match pc.read(&t744).await {
-                Ok(v) => {
-                    level = Some(v);
-                    answered = true;
-                }
-                Err(crate::tool::client::ClientError::Device(_)) => answered = true,
-                Err(_) => {}
-            }
-        }
-        stale_bytes += client.channel().stats().stale;
-        io = client.into_inner().into_inner();
-        bar.inc(1);
-        if !answered {
-            continue;
-        }
-        found += 1;
-        let status = answer.map(|a| a.status());
-        bar.suspend(|| -> Result<()> {
-            if args.json {
-                outln!(
-                    "{}",
-                    json!({"address": a,
-                           "status_word": status.map(|s| s.0),
-                           "state": status.and_then(|s| drive_profile::nord::state_info(s.state()))
-                               .map(|i| i.letter.to_string()),
-                           "state_en": status.map(|s| s.state().name_en()),
-                           "configuration_level": level})
-                )
-            } else {
-                outln!(
-                    "address {a:>2}: {}, P744 configuration level {}",
-                    status.map_or_else(
-                        || "status word unknown (no PZD)".to_owned(),
-                        |s| format!("status word 0x{:04X} = {}", s.0, state_text(s.state()))
-                    ),
-                    level.map_or_else(|| "unreadable".to_owned(), |v| v.to_string())
-                )
-            }
-        })?;
+        let found = drive_client::scan::nord(&mut client, self.args.pzd).await;
+        self.stale += client.channel().stats().stale;
+        self.io = Some(client.into_inner().into_inner());
+        Ok(found)
     }
-    bar.finish_and_clear();
-    stale::note_stale(stale_bytes);
-    if !args.json {
-        outln!("{found} drive(s) answered between {from} and {to}")?;
+
+    fn stale_bytes(&self) -> u64 {
+        self.stale
     }
-    Ok(())
 }
 
 /// `line`: the settings and times in use.

@@ -20,7 +20,7 @@ use std::time::Duration;
 use drive_core::can::Bitrate;
 
 use clap::{Args, Subcommand};
-use sbus_can::driver::{ParamServices, SbusDriver};
+use sbus_can::driver::SbusDriver;
 use sbus_can::ids::{Address, Direction, SlaveIds};
 use sbus_can::master::{Handshake, MasterConfig};
 use serde_json::json;
@@ -441,57 +441,21 @@ async fn group_write<C: drive_core::rt::CanIo>(
     crate::sew::write_unanswered(l, request, yes, json, to, send).await
 }
 
+/// `scan`: every address of the range asked for P070 at once, then the firmware of each that
+/// answers.
 async fn scan<C: drive_core::rt::CanIo>(
     m: &mut SbusDriver<C>,
     from: u8,
     to: u8,
     json: bool,
 ) -> Result<()> {
-    let hits = m
-        .scan(address(from)?, address(to)?)
-        .await
-        .map_err(driver_error)?;
-    let mut found = 0;
-    for hit in hits {
-        let a = hit.address;
-        let firmware = m.read(a, drive_profile::sew::index::FIRMWARE).await.ok();
-        found += 1;
-        match hit.unit_type {
-            Ok(device_type) => {
-                if json {
-                    outln!(
-                        "{}",
-                        json!({"address": a.get(), "device_type": device_type,
-                               "device_type_name": drive_profile::sew::device::designation(device_type),
-                               "firmware": firmware})
-                    )?;
-                } else {
-                    outln!(
-                        "address {:>2}: device type {device_type}, firmware {}",
-                        a.get(),
-                        firmware.map_or_else(
-                            || "unreadable".to_owned(),
-                            crate::movilink::firmware_text
-                        )
-                    )?;
-                }
-            }
-            Err(code) => {
-                if json {
-                    outln!(
-                        "{}",
-                        json!({"address": a.get(), "device_type": null, "refused": code.to_string()})
-                    )?;
-                } else {
-                    outln!("address {:>2}: answers, refuses P070 ({code})", a.get())?;
-                }
-            }
-        }
-    }
-    if !json {
-        outln!("{found} drive(s) answered between {from} and {to}")?;
-    }
-    Ok(())
+    let shown = crate::tool::scan::Shown {
+        range: 0..=63,
+        message: None,
+        json,
+    };
+    let mut bus = drive_client::scan::SbusScan::new(m, from, to);
+    crate::tool::scan::scan(&mut bus, from, to, shown, driver_error).await
 }
 
 fn ids(addr: u8, group: u8, sync_id: u16, json: bool) -> Result<()> {

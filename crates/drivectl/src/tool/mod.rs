@@ -37,6 +37,7 @@ pub mod motor;
 pub mod outfile;
 pub mod progress;
 pub mod read;
+pub mod scan;
 pub mod simrun;
 pub mod stale;
 pub mod watch;
