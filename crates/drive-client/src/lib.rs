@@ -44,6 +44,7 @@ pub mod progress;
 pub mod restore;
 pub mod scan;
 pub mod sew;
+pub mod status;
 pub mod target;
 #[cfg(any(test, feature = "testing"))]
 pub mod testing;

@@ -39,7 +39,7 @@ use drive_profile::bonfiglioli::{
 };
 use drive_profile::state::StateMachine;
 use drive_profile::{Family, ParamMeta, Persistence};
-use serde_json::{Map, Value, json};
+use serde_json::{Map, json};
 
 use drive_client::bonfiglioli::{BonfiglioliClient, VariantFound, data_of, raw_of, table_width};
 pub use drive_client::bonfiglioli::{LINK_SETTINGS, NOT_RESTORED, RAW_INDICES, param};
