@@ -4,12 +4,10 @@
 //! ([`SewDrive`]): the names ([`Sew`]), info, a write to a group or broadcast, and the
 //! process-data preflight with its warnings on standard error.
 
-use drive_client::info::FromDrive;
-use drive_client::sew::{
-    RAW_INDICES, bus_timeout, pd_warnings, raw_of, with_command, write_service,
-};
-use drive_profile::sew::{self, ParamChannel};
-use drive_profile::{Access, Family};
+use drive_client::info::Info;
+use drive_client::sew::{RAW_INDICES, bus_timeout, pd_warnings, with_command, write_service};
+use drive_profile::Family;
+use drive_profile::sew::ParamChannel;
 use serde_json::{Map, Value, json};
 
 pub use drive_client::sew::{SewClient, SewLink};
@@ -18,7 +16,6 @@ use crate::error::Result;
 use crate::tool::client::{Target, ValueText};
 use crate::tool::cmd::{self, Confirm, Drive, InfoArgs, WriteArgs, WriteValue, Writer};
 use crate::tool::front::Cli;
-use crate::tool::output::physical_text;
 use crate::tool::write::WriteRequest;
 
 /// The client of the drive behind `link`, its messages in the command line's words.
@@ -125,51 +122,10 @@ impl<B: SewBus> Drive for SewDrive<B> {
         })
     }
 
-    async fn info(&mut self, args: &InfoArgs<Sew>, json: bool) -> Result<()> {
+    async fn info(&mut self, args: &InfoArgs<Sew>) -> Result<Info> {
         let mut link = self.0.link()?;
-        info(&mut link, resolve(&args.param)?, json).await
+        Ok(drive_client::info::sew(&mut link, resolve(&args.param)?).await?)
     }
-}
-
-/// `info`: minimum, maximum, default, scale and attributes of `t`.
-pub async fn info<L: SewLink>(link: &mut L, t: Target, json: bool) -> Result<()> {
-    let info = drive_client::info::sew(link, t).await?;
-    if json {
-        return outln!("{}", info.json());
-    }
-    let FromDrive::Sew(d) = &info.drive else {
-        return Ok(());
-    };
-    let show = |data: u32| {
-        let v = raw_of(&t, data);
-        t.param
-            .map_or_else(|| v.to_string(), |p| physical_text(p, v))
-    };
-    let (scale, attr) = (d.scale, d.attribute);
-    let name = t
-        .param
-        .map_or_else(String::new, |p| format!("{} {} ", p.label(), p.name_en()));
-    outln!("{name}(index {})", t.index)?;
-    let current = raw_of(&t, d.current);
-    outln!(
-        "  value      {}",
-        crate::tool::output::value_text(&t, current)
-    )?;
-    outln!("  minimum    {}", show(d.minimum))?;
-    outln!("  maximum    {}", show(d.maximum))?;
-    outln!("  default    {}", show(d.default))?;
-    outln!(
-        "  scale      size index {} ({}), conversion index {}",
-        scale.size_index,
-        sew::size_name(scale.size_index).unwrap_or("unknown quantity"),
-        scale.conversion_index
-    )?;
-    outln!(
-        "  attributes 0x{:04X} ({}), next index {}",
-        attr.attributes,
-        Access::from_bits_truncate(attr.attributes as u8),
-        attr.next_index
-    )
 }
 
 /// Where an unanswered write goes, for the output: the text (`group 2`, `broadcast`) and the

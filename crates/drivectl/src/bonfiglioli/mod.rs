@@ -38,7 +38,7 @@ use drive_profile::bonfiglioli::{
     self, ActStateMachine, AcuPositioningStateMachine, AcuStateMachine, State, Variant,
 };
 use drive_profile::state::StateMachine;
-use drive_profile::{Family, ParamMeta, Persistence};
+use drive_profile::{Family, Persistence};
 use serde_json::{Map, json};
 
 use drive_client::bonfiglioli::{BonfiglioliClient, VariantFound, data_of, raw_of, table_width};
@@ -52,9 +52,8 @@ use crate::tool::cmd::{self, WriteValue};
 use crate::tool::front::Cli;
 use crate::tool::interrupt::Interrupt;
 use crate::tool::line::{LineArgs, runtime};
-use crate::tool::meaning::{Device, KnownVariant};
+use crate::tool::meaning::KnownVariant;
 use crate::tool::motor::{AtEnd, Motion, MotorGuard, Stopped};
-use crate::tool::output::physical_text;
 use crate::tool::{backup, stale, write};
 
 const BONFIGLIOLI_HELP: &str = "\

@@ -256,8 +256,8 @@ impl<IO: CharIo> cmd::Drive for Drive<'_, IO> {
         })
     }
 
-    async fn info(&mut self, a: &cmd::InfoArgs<Access>, json: bool) -> Result<()> {
-        info(self.m, self.args, &a.param, a.sel, json).await
+    async fn info(&mut self, a: &cmd::InfoArgs<Access>) -> Result<drive_client::info::Info> {
+        info(self.m, self.args, &a.param, a.sel).await
     }
 }
 

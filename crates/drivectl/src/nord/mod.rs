@@ -372,7 +372,7 @@ impl<C: ParameterChannel> cmd::Drive for Drive<'_, C> {
         })
     }
 
-    async fn info(&mut self, args: &cmd::InfoArgs<Sub>, _: bool) -> Result<()> {
+    async fn info(&mut self, args: &cmd::InfoArgs<Sub>) -> Result<drive_client::info::Info> {
         let targets = info::info_targets(&args.param, args.sel)?;
         info::info(self.c, self.s, &targets, args.sel).await
     }

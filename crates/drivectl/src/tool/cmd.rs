@@ -11,6 +11,7 @@
 use std::fmt::Debug;
 
 use clap::Args;
+use drive_client::info::Info;
 use drive_profile::{Family, Persistence};
 
 use super::backup::{self, BackupArgs, RestoreArgs};
@@ -287,8 +288,8 @@ pub trait Drive {
         json: bool,
     ) -> Result<Writer<Self::Client<'_>>>;
 
-    /// `info`, the family's own.
-    async fn info(&mut self, args: &InfoArgs<Self::Selector>, json: bool) -> Result<()>;
+    /// What `info` shows: the family reads it its own way.
+    async fn info(&mut self, args: &InfoArgs<Self::Selector>) -> Result<Info>;
 }
 
 /// Run a common command on the drive behind `drive`.
@@ -318,7 +319,7 @@ pub async fn execute<D: Drive>(
             .map(drop)
         }
         Common::Write(a) => write(drive, a, json).await,
-        Common::Info(a) => drive.info(a, json).await,
+        Common::Info(a) => super::info::print(&drive.info(a).await?, json),
         Common::Backup(a) => {
             let mut c = drive.keeper()?;
             let stop = Interrupt::install("the backup file was not written");

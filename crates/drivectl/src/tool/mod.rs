@@ -30,6 +30,7 @@ pub mod cmd;
 pub mod fake;
 pub mod front;
 pub mod infile;
+pub mod info;
 pub mod interrupt;
 pub mod line;
 pub use drive_client::meaning;
