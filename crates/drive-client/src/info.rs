@@ -337,3 +337,105 @@ impl Info {
         Value::Object(m)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::client::DeviceCode;
+    use drive_profile::Family;
+    use drive_profile::sew::{AttributeInfo, ScaleInfo};
+
+    fn refusal(kind: DeviceErrorKind) -> DeviceError {
+        DeviceError {
+            kind,
+            code: DeviceCode::None,
+            message: "not readable".into(),
+        }
+    }
+
+    #[test]
+    fn a_write_only_parameter_that_is_not_readable_is_no_refusal_of_the_command() {
+        let t = crate::bonfiglioli::target(484, 0).unwrap();
+        assert!(!bonfiglioli::by_index(484).unwrap().is_readable());
+        let info = |kind| Info {
+            target: t,
+            drive: FromDrive::Bonfiglioli {
+                width: Some(Width::Word),
+                device: Device::default(),
+            },
+            current: vec![Reading {
+                target: t,
+                value: Err(refusal(kind)),
+            }],
+        };
+        assert!(info(DeviceErrorKind::Absent).refused().is_empty());
+        // Any other refusal fails it, and the JSON keeps the drive's answer.
+        let refused = info(DeviceErrorKind::Refused);
+        assert_eq!(refused.refused().len(), 1);
+        let v = refused.json();
+        assert_eq!(v["current"][0]["error"], "not readable");
+        assert_eq!(v["width"], "16 bit (FC 3/6)");
+        assert_eq!(v["index"], 484);
+    }
+
+    #[test]
+    fn nord_info_of_every_set_names_the_parameter_and_each_value_its_set() {
+        let sets: Vec<Target> = (1..=2)
+            .map(|s| crate::nord::resolve("P102", None, Some(s), false).unwrap()[0])
+            .collect();
+        let info = Info {
+            target: sets[0],
+            drive: FromDrive::Nord { count: None },
+            current: vec![
+                Reading {
+                    target: sets[0],
+                    value: Ok(200),
+                },
+                Reading {
+                    target: sets[1],
+                    value: Err(refusal(DeviceErrorKind::Refused)),
+                },
+            ],
+        };
+        let v = info.json();
+        assert_eq!(v["label"], "P102");
+        assert!(v["selector"].is_null() && v["array_len_drive"].is_null());
+        assert_eq!(v["range"]["max_value"], 320.0);
+        assert_eq!(v["current"][0]["raw"], 200);
+        assert_eq!(v["current"][1]["selector"]["set"], 2);
+        assert!(v["current"][1]["raw"].is_null());
+        assert_eq!(v["current"][1]["error"], "not readable");
+        let refused: Vec<String> = info.refused().iter().map(|t| t.label()).collect();
+        assert_eq!(refused, ["P102 set 2"]);
+    }
+
+    #[test]
+    fn sew_info_shows_what_the_drive_said_scaled_by_the_table() {
+        let t = Target::resolve(Family::Movidrive, "P130", 0..=0xFFFF).unwrap();
+        let info = Info {
+            target: t,
+            drive: FromDrive::Sew(Description {
+                minimum: 0,
+                maximum: 2_000_000,
+                default: 2000,
+                scale: ScaleInfo {
+                    size_index: 4,
+                    conversion_index: -3,
+                },
+                attribute: AttributeInfo {
+                    next_index: 8471,
+                    attributes: 0x18,
+                },
+                current: 1500,
+            }),
+            current: Vec::new(),
+        };
+        let v = info.json();
+        assert_eq!(v["range"]["max_value"], 2000.0);
+        assert_eq!(v["default_value"], 2.0);
+        assert_eq!(v["quantity"], "time");
+        assert_eq!(v["access"], "N/RW");
+        assert_eq!(v["current"][0]["raw"], 1500);
+        assert!(info.refused().is_empty());
+    }
+}

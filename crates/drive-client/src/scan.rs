@@ -253,13 +253,79 @@ where
     })
 }
 
+/// A USS line: each address gets one telegram without retries ([`nord`]), in the line
+/// settings and layout of the driver it starts from.
+#[derive(Debug)]
+pub struct UssScan<IO> {
+    io: Option<IO>,
+    config: ctt2_uss::serial::driver::DriverConfig,
+    stale: u64,
+}
+
+impl<IO: drive_core::rt::CharIo> UssScan<IO> {
+    /// The scan of `driver`'s line.
+    pub fn new(driver: ctt2_uss::serial::driver::UssDriver<IO>) -> Self {
+        Self {
+            config: *driver.config(),
+            io: Some(driver.into_inner()),
+            stale: 0,
+        }
+    }
+}
+
+/// The port of a [`UssScan`] was lost with a failed probe.
+#[derive(Debug, Clone, Copy, thiserror::Error)]
+#[error("the port was lost in an earlier probe")]
+pub struct PortLost;
+
+impl<IO: drive_core::rt::CharIo> Scan for UssScan<IO> {
+    type Error = ScanError<PortLost>;
+
+    async fn probe(&mut self, a: u8) -> Result<Option<Found>, Self::Error> {
+        use ctt2_uss::serial::driver::{DriverConfig, UssDriver};
+        let address = ctt2_uss::serial::UssAddress::new(a).ok_or(ScanError::Address(a))?;
+        let config = DriverConfig {
+            address,
+            retries: 0,
+            ..self.config
+        };
+        let io = self.io.take().ok_or(ScanError::Link(PortLost))?;
+        let mut client = ctt2_uss::client::NordClient::new(
+            UssDriver::new(io, config),
+            ctt2_uss::client::ClientConfig::default(),
+        );
+        let found = nord(&mut client, self.config.layout.pzd_words()).await;
+        self.stale += client.channel().stats().stale;
+        self.io = Some(client.into_inner().into_inner());
+        Ok(found)
+    }
+
+    fn stale_bytes(&self) -> u64 {
+        self.stale
+    }
+}
+
+/// A margin for the answer of a Bonfiglioli drive that is there: USB serial adapters hand
+/// received characters over late (FTDI: every 16 ms by default) and the operating system
+/// schedules.
+pub const BONFIGLIOLI_MARGIN: Duration = Duration::from_millis(20);
+
+/// How long a Bonfiglioli scan waits at each address: the response timeout counts from the
+/// request's end to the first character of the answer, which a drive sends 10 ms after a
+/// request at the earliest (ch. 6.8); with two character times for that first character and
+/// [`BONFIGLIOLI_MARGIN`]. The 500 ms of ch. 6.8 are for a drive under load, not for finding
+/// one.
+pub fn bonfiglioli_timeout(line: &drive_core::LineSettings) -> Duration {
+    bonfiglioli_modbus::slave::ANSWER_DELAY + line.char_time() * 2 + BONFIGLIOLI_MARGIN
+}
+
 /// A Bonfiglioli bus: each address gets one diagnostics request within `timeout`; a drive
 /// that answers is asked for 30 configuration, 411 status word and its variant.
 #[derive(Debug)]
 pub struct BonfiglioliScan<'a, IO> {
     /// The bus's master.
     pub driver: &'a mut bonfiglioli_modbus::driver::ModbusDriver<IO>,
-    /// How long to wait for the answer at each address.
+    /// How long to wait for the answer at each address ([`bonfiglioli_timeout`]).
     pub timeout: Duration,
 }
 
@@ -293,5 +359,74 @@ impl<IO: bonfiglioli_modbus::driver::CharIo> Scan for BonfiglioliScan<'_, IO> {
             configuration,
             status_word,
         }))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use bonfiglioli_modbus::framing::Mode;
+
+    #[test]
+    fn issue18_scan_waits_the_answer_delay_and_a_margin_not_500_ms() {
+        let line = |baud, mode: Mode| mode.line_settings(baud, drive_core::Parity::None);
+        // 9600 8N2: 11 bits, 1.146 ms a character: 10 ms + 2.29 ms + 20 ms.
+        let t = bonfiglioli_timeout(&line(9600, Mode::Rtu));
+        assert_eq!(t.as_micros(), 10_000 + 2_291 + 20_000);
+        // 19200: 10 ms + 1.15 ms + 20 ms; 115200: hardly more than the answer delay.
+        assert_eq!(
+            bonfiglioli_timeout(&line(19200, Mode::Rtu)).as_micros(),
+            31_145
+        );
+        assert!(bonfiglioli_timeout(&line(115_200, Mode::Rtu)) < Duration::from_millis(31));
+        // The timeout it replaced: answer delay, 60 characters and 20 ms (99 ms at 9600).
+        let old = bonfiglioli_modbus::slave::ANSWER_DELAY
+            + line(9600, Mode::Rtu).char_time() * 60
+            + Duration::from_millis(20);
+        assert!(t * 3 < old, "{t:?} vs {old:?}");
+        // Never below what a drive needs before its first character.
+        for baud in [2400, 9600, 19200, 57600, 115_200] {
+            let l = line(baud, Mode::Ascii);
+            assert!(
+                bonfiglioli_timeout(&l) > bonfiglioli_modbus::slave::ANSWER_DELAY + l.char_time()
+            );
+        }
+    }
+
+    #[test]
+    fn sew_firmware_numbers_read_as_part_and_version() {
+        assert_eq!(firmware_text(822_609_711), "822 609 7.11");
+        // Not nine digits: the number as it is.
+        assert_eq!(firmware_text(1234), "1234");
+    }
+
+    #[test]
+    fn each_familys_drive_found_keeps_its_keys() {
+        let sbus = Found::Sbus {
+            device_type: Err(ReturnCode::new(8, 0, 0x0010)),
+            firmware: None,
+        };
+        let v = sbus.json(3);
+        assert_eq!(v["address"], 3);
+        assert!(v["device_type"].is_null());
+        assert!(v["refused"].is_string());
+        let nord = Found::Nord {
+            status: Some(StatusWord(0x0B70)),
+            configuration_level: None,
+        };
+        let v = nord.json(1);
+        assert_eq!(
+            (v["status_word"].as_u64(), v["state"].as_str()),
+            (Some(0x0B70), Some("B"))
+        );
+        assert!(v["configuration_level"].is_null());
+        let bonfiglioli = Found::Bonfiglioli {
+            variant: None,
+            configuration: Some(110),
+            status_word: None,
+        };
+        let v = bonfiglioli.json(247);
+        assert_eq!(v["configuration"], 110);
+        assert!(v.get("firmware").is_some_and(Value::is_null));
     }
 }

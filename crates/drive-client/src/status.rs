@@ -349,3 +349,73 @@ impl BonfiglioliStatus {
 pub fn bits_text(word: u16, variant: Variant) -> String {
     variant.set_bits(word).collect::<Vec<_>>().join(" | ")
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::client::DeviceErrorKind;
+    use crate::testing::{FakeClient, refusal};
+
+    #[test]
+    fn nord_actual_values_are_scaled_by_their_p543_function_and_p105() {
+        let mut c: FakeClient = FakeClient::new(|index| match index {
+            105 => Ok(500),
+            112 => Err(refusal(DeviceErrorKind::Refused, "no P112")),
+            543 => Ok(1),
+            _ => Ok(0),
+        });
+        let rt = tokio::runtime::Builder::new_current_thread()
+            .build()
+            .unwrap();
+        let st = rt
+            .block_on(nord(&mut c, StatusWord(0x0B70), &[0x2000, 0x4000]))
+            .unwrap();
+        assert_eq!(st.max_frequency_hz(), Some(50.0));
+        let v = st.actual_values();
+        assert_eq!(v.len(), 2);
+        assert_eq!(
+            (v[0].percent, v[0].value, v[0].unit),
+            (50.0, Some(25.0), Some("Hz"))
+        );
+        assert_eq!(v[1].value, Some(50.0));
+        assert_eq!(v[0].function_name, Some("actual frequency"));
+        // The refused P112 is said, and the rest still read.
+        let refused: Vec<String> = st.refusals().map(|r| r.target.label()).collect();
+        assert_eq!(refused, ["P112 set 1"]);
+        assert_eq!(st.present_texts()[0], Some((0, Some("no fault".into()))));
+        let j = st.json();
+        assert_eq!(j["state"], "B");
+        assert_eq!(j["fault"], 0);
+        assert_eq!(j["actuals"][1]["hex"], "0x4000");
+    }
+
+    #[test]
+    fn a_bonfiglioli_status_word_is_decoded_for_the_variant_it_shows() {
+        let st = BonfiglioliStatus {
+            address: 1,
+            variant: None,
+            status_word: 0x0023,
+            fault: 0,
+            warnings: 0,
+        };
+        // Bit 4 clear tells neither variant: decoded for what both share.
+        assert_eq!(st.shown_variant(), None);
+        assert!(!st.contradicted());
+        let j = st.json();
+        assert!(j["variant"].is_null());
+        assert_eq!(j["fault_text"], "no fault");
+        assert!(st.bits_text().contains("switched on"), "{}", st.bits_text());
+        // An ACT given, bit 4 set: the drive contradicts it (an ACT never sets bit 4).
+        let given = BonfiglioliStatus {
+            variant: Some(KnownVariant {
+                variant: Variant::Act,
+                from: "given",
+            }),
+            status_word: 0x0033,
+            ..st
+        };
+        assert_eq!(given.shown_variant(), Some(Variant::Act));
+        assert!(given.contradicted());
+        assert_eq!(given.json()["variant"], "act");
+    }
+}

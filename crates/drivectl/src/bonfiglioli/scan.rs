@@ -39,18 +39,6 @@ pub async fn diag<IO: CharIo>(
     Ok(())
 }
 
-/// A margin for the answer of a drive that is there: USB serial adapters hand received
-/// characters over late (FTDI: every 16 ms by default) and the operating system schedules.
-pub const SCAN_MARGIN: Duration = Duration::from_millis(20);
-
-/// How long `scan` waits for an answer at each address: the response timeout counts from the
-/// request's end to the first character of the answer, which a drive sends 10 ms after a
-/// request at the earliest (ch. 6.8); with two character times for that first character and
-/// [`SCAN_MARGIN`]. The 500 ms of ch. 6.8 are for a drive under load, not for finding one.
-pub fn scan_timeout(line: &drive_core::LineSettings) -> Duration {
-    bonfiglioli_modbus::slave::ANSWER_DELAY + line.char_time() * 2 + SCAN_MARGIN
-}
-
 /// `scan`: one diagnostics request per address; a drive that answers is shown with its
 /// variant, configuration and status word.
 pub async fn scan<IO: CharIo>(
@@ -59,7 +47,7 @@ pub async fn scan<IO: CharIo>(
     to: u8,
     json: bool,
 ) -> Result<()> {
-    let timeout = scan_timeout(&m.config().line);
+    let timeout = drive_client::scan::bonfiglioli_timeout(&m.config().line);
     let message = |a: u8, found: usize| {
         format!(
             "address {a} ({found} found, {} ms each)",

@@ -83,27 +83,6 @@ fn issue18_412_is_never_restored() {
 }
 
 #[test]
-fn issue18_scan_waits_the_answer_delay_and_a_margin_not_500_ms() {
-    let line = |baud, mode: Mode| mode.line_settings(baud, drive_core::Parity::None);
-    // 9600 8N2: 11 bits, 1.146 ms a character: 10 ms + 2.29 ms + 20 ms.
-    let t = scan_timeout(&line(9600, Mode::Rtu));
-    assert_eq!(t.as_micros(), 10_000 + 2_291 + 20_000);
-    // 19200: 10 ms + 1.15 ms + 20 ms; 115200: hardly more than the answer delay.
-    assert_eq!(scan_timeout(&line(19200, Mode::Rtu)).as_micros(), 31_145);
-    assert!(scan_timeout(&line(115_200, Mode::Rtu)) < Duration::from_millis(31));
-    // The timeout it replaced: answer delay, 60 characters and 20 ms (99 ms at 9600).
-    let old = bonfiglioli_modbus::slave::ANSWER_DELAY
-        + line(9600, Mode::Rtu).char_time() * 60
-        + Duration::from_millis(20);
-    assert!(t * 3 < old, "{t:?} vs {old:?}");
-    // Never below what a drive needs before its first character.
-    for baud in [2400, 9600, 19200, 57600, 115_200] {
-        let l = line(baud, Mode::Ascii);
-        assert!(scan_timeout(&l) > bonfiglioli_modbus::slave::ANSWER_DELAY + l.char_time());
-    }
-}
-
-#[test]
 fn issue18_a_data_set_the_parameter_has_not_is_refused() {
     let refused = |key: &str, ds: u8| {
         check_data_set(&resolve(key, ds).unwrap())

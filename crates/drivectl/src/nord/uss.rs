@@ -17,7 +17,6 @@ use ctt2_uss::client::{ClientConfig, NordClient};
 use ctt2_uss::serial::driver::{DriverConfig, UssDriver};
 use ctt2_uss::serial::framing::UssTiming;
 use ctt2_uss::serial::{Layout, UssAddress};
-use drive_client::scan::{Found, Scan, ScanError};
 use drive_core::rt::CharIo;
 use serde_json::{Map, Value, json};
 
@@ -186,7 +185,7 @@ pub fn run(args: &UssArgs) -> Result<()> {
                 stale::note_stale(client.channel().stats().stale);
                 r
             }
-            UssCommand::Scan { from, to } => scan(master, args, *from, *to).await,
+            UssCommand::Scan { from, to } => scan(master, args.json, *from, *to).await,
             UssCommand::Line => line(&master, args),
         }
     })
@@ -205,49 +204,17 @@ fn check_pzd(cmd: &NordCommand, pzd: u8) -> Result<()> {
 
 /// `scan`: one telegram per address (no retries); for each drive that answers, its state and
 /// P744 configuration level.
-async fn scan<IO: CharIo>(master: UssDriver<IO>, args: &UssArgs, from: u8, to: u8) -> Result<()> {
+async fn scan<IO: CharIo>(master: UssDriver<IO>, json: bool, from: u8, to: u8) -> Result<()> {
     let shown = crate::tool::scan::Shown {
         range: 0..=31,
         message: Some(&|a, _| format!("address {a}")),
-        json: args.json,
+        json,
     };
-    let mut bus = UssScan {
-        io: Some(master.into_inner()),
-        args,
-        stale: 0,
-    };
-    crate::tool::scan::scan(&mut bus, from, to, shown, |e| e).await
-}
-
-/// The USS line of a scan: a driver per address, without retries, on the one port.
-struct UssScan<'a, IO> {
-    io: Option<IO>,
-    args: &'a UssArgs,
-    stale: u64,
-}
-
-impl<IO: CharIo> Scan for UssScan<'_, IO> {
-    type Error = ScanError<CliError>;
-
-    async fn probe(&mut self, a: u8) -> std::result::Result<Option<Found>, Self::Error> {
-        let config = DriverConfig {
-            retries: 0,
-            ..driver_config(self.args, address(a).map_err(ScanError::Link)?)
-                .map_err(ScanError::Link)?
-        };
-        let Some(io) = self.io.take() else {
-            return Err(ScanError::Link(CliError::failed("the port is gone")));
-        };
-        let mut client = NordClient::new(UssDriver::new(io, config), ClientConfig::default());
-        let found = drive_client::scan::nord(&mut client, self.args.pzd).await;
-        self.stale += client.channel().stats().stale;
-        self.io = Some(client.into_inner().into_inner());
-        Ok(found)
-    }
-
-    fn stale_bytes(&self) -> u64 {
-        self.stale
-    }
+    let mut bus = drive_client::scan::UssScan::new(master);
+    crate::tool::scan::scan(&mut bus, from, to, shown, |e| {
+        CliError::failed(e.to_string())
+    })
+    .await
 }
 
 /// `line`: the settings and times in use.
