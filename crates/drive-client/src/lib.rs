@@ -22,6 +22,10 @@
 //!   the backup of a drive; [`restore`]: plan, apply and verify a restore, with typed skips,
 //!   refusals and a half-finished restore that says what was and was not written; both tell a
 //!   front end how far they are through [`Progress`];
+//! * [`info`]: one parameter described (the table's entry, what the drive says of it, its value
+//!   per set, element or data set with the typed refusal) and its `info --json` object;
+//!   [`status`]: a drive's status and fault memory as typed readings; [`scan`]: one address
+//!   probed, what answers there as a typed [`scan::Found`];
 //! * [`motor`]: the rule of everything that enables or drives a motor — stopped on every early
 //!   end ([`Interrupt`]), left running only on purpose — for every front end to say its way.
 //!
