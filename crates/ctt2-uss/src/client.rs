@@ -23,6 +23,7 @@
 use core::fmt;
 use core::future::Future;
 
+use drive_core::LinkFault;
 use drive_profile::nord::{ControlWord, NordStateMachine, State, StatusWord, Width};
 use drive_profile::state::StateMachine;
 
@@ -48,6 +49,13 @@ pub trait ParameterChannel {
     /// transport has no such bytes.
     fn stale_bytes(&self) -> u64 {
         0
+    }
+
+    /// What kind of link failure `error` is; `None` when it is none (a request the transport
+    /// cannot carry, nothing sent). A transport that does not say is taken as a failed port.
+    fn link_fault(error: &Self::Error) -> Option<LinkFault> {
+        let _ = error;
+        Some(LinkFault::Port)
     }
 }
 

@@ -49,7 +49,9 @@ pub mod text;
 pub mod wear;
 pub mod write;
 
-pub use client::{ClientError, DeviceCode, DeviceError, DeviceErrorKind, ParamClient};
+pub use client::{
+    ClientError, DeviceCode, DeviceError, DeviceErrorKind, LinkError, LinkFault, ParamClient,
+};
 pub use front::{FrontEnd, Note, Plain, Setting};
 pub use interrupt::{Cause, Interrupt};
 pub use meaning::{Device, KnownVariant, Meaning};
