@@ -13,6 +13,7 @@ use sbus_can::telegram::ProcessData;
 
 use super::{ControlError, paced};
 use crate::front::FrontEnd;
+use crate::interrupt::Interrupt;
 use crate::motor::{AtEnd, Motion, Stopped};
 use crate::sew::{SewLink, bus_timeout, pd_warnings, with_command};
 
@@ -265,6 +266,31 @@ pub struct SbusTo {
     pub sync: bool,
 }
 
+/// [`preflight`] over SBus for `to`. A group has no answers to read the control word slots
+/// or P815 from: the factory setting (PO1 = control word 1) is assumed, without a timeout.
+pub async fn sbus_preflight<C: CanIo>(
+    m: &mut SbusDriver<C>,
+    to: SbusTo,
+    stopping: bool,
+    front: &dyn FrontEnd,
+) -> Preflight {
+    if to.group.is_some() {
+        return Preflight {
+            slots: vec![0],
+            timeout: None,
+            warnings: Vec::new(),
+        };
+    }
+    let mut link = crate::sew::sbus::SbusLink {
+        master: m,
+        address: to.address,
+        handshake: sbus_can::master::Handshake::Async,
+        iface: String::new(),
+    };
+    let timeout = (drive_profile::sew::index::SBUS_TIMEOUT, "SBus timeout P815");
+    preflight(&mut link, 3, stopping, timeout, front).await
+}
+
 /// One SBus exchange of `words`: the drive's process input words, `None` from a group.
 pub async fn sbus_exchange<C: CanIo>(
     m: &mut SbusDriver<C>,
@@ -316,6 +342,31 @@ pub async fn sbus_stop<C: CanIo>(
             |p| status_of(&p),
         ),
     })
+}
+
+/// The SYNC producer: a SYNC telegram every `period`, `count` times (0: until `interrupt`); how
+/// many were sent. A tick missed is skipped, not caught up.
+pub async fn sync_producer<C: CanIo>(
+    m: &mut SbusDriver<C>,
+    period: Duration,
+    count: u32,
+    interrupt: &Interrupt,
+) -> Result<u32, ControlError> {
+    let mut ticker = drive_core::rt::time::interval(period);
+    ticker.set_missed_tick_behavior(drive_core::rt::time::MissedTickBehavior::Skip);
+    let mut sent = 0u32;
+    while count == 0 || sent < count {
+        tokio::select! {
+            _ = ticker.tick() => {}
+            () = interrupt.wait() => {}
+        }
+        if interrupt.requested() {
+            break;
+        }
+        m.sync().await.map_err(sbus_error)?;
+        sent = sent.saturating_add(1);
+    }
+    Ok(sent)
 }
 
 #[cfg(test)]

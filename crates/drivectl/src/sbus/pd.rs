@@ -5,18 +5,18 @@ use std::time::Duration;
 
 use clap::Args;
 use drive_client::control::sew::{
-    IntervalError, PdStop, SbusTo, sbus_pd, sbus_stop, sync_interval,
+    IntervalError, PdStop, SbusTo, sbus_pd, sbus_preflight, sbus_stop, sync_interval, sync_producer,
 };
 use drive_core::rt::CanIo;
-use drive_profile::sew::{self, ControlWord1, StatusWord1, index};
+use drive_profile::sew::{self, ControlWord1, StatusWord1};
 use sbus_can::driver::SbusDriver;
 use sbus_can::ids::Address;
 use serde_json::json;
 
 use crate::error::{CliError, Result};
-use crate::sbus::link::driver_error;
 use crate::tool::again::Again;
 use crate::tool::client::parse_int;
+use crate::tool::front::Cli;
 use crate::tool::interrupt::Interrupt;
 use crate::tool::motor::{Motion, MotorGuard, Stopped};
 use crate::tool::output::trim_float;
@@ -115,35 +115,22 @@ pub async fn pd<C: CanIo>(
         .group
         .map(|g| Address::new(g).ok_or_else(|| CliError::usage(format!("--group {g}: 0…63"))))
         .transpose()?;
-    // A group has no answers to read the control word slots or P815 from: the factory setting
-    // (PO1 = control word 1) is assumed, and said.
-    let (slots, timeout) = match group {
-        Some(_) => {
-            if end.is_some() {
-                errln!(
-                    "drivectl: note: a group does not answer; the stop at the end goes to PO1, \
-                     the factory setting's control word (P870)"
-                );
-            }
-            (vec![0], None)
-        }
-        None => {
-            let mut l = drive_client::sew::sbus::SbusLink {
-                master: m,
-                address: addr,
-                handshake: sbus_can::master::Handshake::Async,
-                iface: String::new(),
-            };
-            let pre = crate::sew::pd_preflight(
-                &mut l,
-                3,
-                end.is_some(),
-                (index::SBUS_TIMEOUT, "SBus timeout P815"),
-            )
-            .await;
-            (pre.slots, pre.timeout)
-        }
+    let to = SbusTo {
+        address: addr,
+        group,
+        sync: args.sync,
     };
+    if group.is_some() && end.is_some() {
+        errln!(
+            "drivectl: note: a group does not answer; the stop at the end goes to PO1, the \
+             factory setting's control word (P870)"
+        );
+    }
+    let pre = sbus_preflight(m, to, end.is_some(), &Cli).await;
+    for w in &pre.warnings {
+        errln!("drivectl: warning: {w}");
+    }
+    let (slots, timeout) = (pre.slots, pre.timeout);
     let (default, grain) = if args.sync { (5, 5) } else { (100, 1) };
     let mut period = crate::sew::pd_interval(
         args.interval,
@@ -175,11 +162,6 @@ pub async fn pd<C: CanIo>(
         PdStop::at_end(stop.as_ref(), end.is_none().then_some("--keep-running")),
         again.then(&hint),
     );
-    let to = SbusTo {
-        address: addr,
-        group,
-        sync: args.sync,
-    };
     let work = async |m: &mut SbusDriver<C>, motion: &Motion<'_>| -> Result<()> {
         sbus_pd(m, to, words, args.count, period, motion, |pi| {
             print_pd(to, words, pi, json)
@@ -241,22 +223,9 @@ pub async fn sync<C: CanIo>(
     json: bool,
 ) -> Result<()> {
     let stop = Interrupt::install("the SYNC telegrams stopped");
-    let period = Duration::from_millis(args.period);
-    let mut ticker = tokio::time::interval(period);
-    ticker.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
     let started = tokio::time::Instant::now();
-    let mut sent = 0u32;
-    while args.count == 0 || sent < args.count {
-        tokio::select! {
-            _ = ticker.tick() => {}
-            () = stop.wait() => {}
-        }
-        if stop.requested() {
-            break;
-        }
-        m.sync().await.map_err(driver_error)?;
-        sent = sent.saturating_add(1);
-    }
+    let period = Duration::from_millis(args.period);
+    let sent = sync_producer(m, period, args.count, stop.inner()).await?;
     let elapsed = started.elapsed();
     if json {
         outln!(
