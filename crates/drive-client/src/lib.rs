@@ -33,6 +33,7 @@
 pub mod backup;
 pub mod bonfiglioli;
 pub mod client;
+pub mod control;
 pub mod front;
 pub mod infile;
 pub mod interrupt;

@@ -34,14 +34,13 @@ use bonfiglioli_modbus::frame::{Address, DataSet, DiagSubFunction};
 use bonfiglioli_modbus::framing::Mode;
 use bonfiglioli_modbus::slave::Width;
 use clap::{Args, Subcommand};
-use drive_profile::bonfiglioli::{
-    self, ActStateMachine, AcuPositioningStateMachine, AcuStateMachine, State, Variant,
-};
-use drive_profile::state::StateMachine;
+use drive_profile::bonfiglioli::{self, Variant};
 use drive_profile::{Family, ParamMeta, Persistence};
 use serde_json::{Map, Value, json};
 
-use drive_client::bonfiglioli::{BonfiglioliClient, VariantFound, data_of, raw_of, table_width};
+#[cfg(test)]
+use drive_client::bonfiglioli::raw_of;
+use drive_client::bonfiglioli::{BonfiglioliClient, VariantFound, data_of, table_width};
 pub use drive_client::bonfiglioli::{LINK_SETTINGS, NOT_RESTORED, RAW_INDICES, param};
 
 use crate::error::{CliError, Result};
