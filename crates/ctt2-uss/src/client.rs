@@ -71,6 +71,12 @@ pub trait ProcessChannel {
         out: PzdOut,
         actuals: u8,
     ) -> impl Future<Output = Result<PzdIn, Self::Error>>;
+
+    /// What kind of link failure `error` is, as [`ParameterChannel::link_fault`].
+    fn link_fault(error: &Self::Error) -> Option<LinkFault> {
+        let _ = error;
+        Some(LinkFault::Port)
+    }
 }
 
 /// Settings of a [`NordClient`].

@@ -368,6 +368,10 @@ impl<L: Ctt2Link> ParameterChannel for Ctt2Driver<L> {
 impl<L: Ctt2Link> ProcessChannel for Ctt2Driver<L> {
     type Error = DriverError<L::Error>;
 
+    fn link_fault(error: &Self::Error) -> Option<LinkFault> {
+        <Self as ParameterChannel>::link_fault(error)
+    }
+
     async fn exchange_process(&mut self, out: PzdOut, actuals: u8) -> Result<PzdIn, Self::Error> {
         self.write_read_pzd(&out, actuals).await
     }

@@ -387,6 +387,10 @@ impl<IO: CharIo> ParameterChannel for UssDriver<IO> {
 impl<IO: CharIo> ProcessChannel for UssDriver<IO> {
     type Error = DriverError;
 
+    fn link_fault(error: &DriverError) -> Option<LinkFault> {
+        <Self as ParameterChannel>::link_fault(error)
+    }
+
     async fn exchange_process(&mut self, out: PzdOut, actuals: u8) -> Result<PzdIn, DriverError> {
         let needed = 1 + usize::from(actuals);
         let layout = self.config.layout.pzd_words();

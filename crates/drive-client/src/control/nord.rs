@@ -159,8 +159,8 @@ impl Control {
     }
 }
 
-fn link<E: std::fmt::Display>(e: ctt2_uss::client::ClientError<E>) -> ControlError {
-    ControlError::Client(ClientError::Link(e.to_string()))
+fn link<C: ProcessChannel>(e: ctt2_uss::client::ClientError<C::Error>) -> ControlError {
+    ControlError::Client(crate::nord::client_error(e, C::link_fault, &crate::Plain))
 }
 
 /// The word that keeps a drive in `target` once it is there.
@@ -215,7 +215,10 @@ where
         _ => None,
     };
     let iw = a.actuals.min(1);
-    let mut answer = c.process(ControlWord(0), &[], iw).await.map_err(link)?;
+    let mut answer = c
+        .process(ControlWord(0), &[], iw)
+        .await
+        .map_err(link::<C>)?;
     let start = answer.status().state();
     if a.action == Action::Reset && !in_fault(start) {
         on(Event::NoFault(start))?;
@@ -252,7 +255,10 @@ where
         last = word;
         sent = true;
         motion.armed();
-        answer = c.process(ControlWord(word), &sw1, iw).await.map_err(link)?;
+        answer = c
+            .process(ControlWord(word), &sw1, iw)
+            .await
+            .map_err(link::<C>)?;
         pause(motion, CONTROL_PERIOD).await;
     }
 }
@@ -270,7 +276,7 @@ where
     let mut answer = c
         .process(ControlWord(shutdown), &zero, iw)
         .await
-        .map_err(link)?;
+        .map_err(link::<C>)?;
     while answer.status().state() == State::OperationEnabled
         && drive_core::rt::time::now() < deadline
     {
@@ -278,7 +284,7 @@ where
         answer = c
             .process(ControlWord(shutdown), &zero, iw)
             .await
-            .map_err(link)?;
+            .map_err(link::<C>)?;
     }
     let state = answer.status().state();
     Ok(Stopped {
