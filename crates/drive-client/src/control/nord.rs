@@ -8,7 +8,6 @@ use ctt2_uss::uss::pzd::PzdIn;
 use drive_profile::nord::{self, ControlWord, NordStateMachine, State, command};
 
 use super::{Action, CONTROL_PERIOD, ControlError, STOP_WAIT, pause};
-use crate::client::ClientError;
 use crate::meaning::nord_state_text as state_text;
 use crate::motor::{Motion, Stopped};
 
