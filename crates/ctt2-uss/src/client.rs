@@ -23,6 +23,7 @@
 use core::fmt;
 use core::future::Future;
 
+use drive_core::LinkFault;
 use drive_profile::nord::{ControlWord, NordStateMachine, State, StatusWord, Width};
 use drive_profile::state::StateMachine;
 
@@ -49,6 +50,13 @@ pub trait ParameterChannel {
     fn stale_bytes(&self) -> u64 {
         0
     }
+
+    /// What kind of link failure `error` is; `None` when it is none (a request the transport
+    /// cannot carry, nothing sent). A transport that does not say is taken as a failed port.
+    fn link_fault(error: &Self::Error) -> Option<LinkFault> {
+        let _ = error;
+        Some(LinkFault::Port)
+    }
 }
 
 /// A transport's process-data channel.
@@ -63,6 +71,12 @@ pub trait ProcessChannel {
         out: PzdOut,
         actuals: u8,
     ) -> impl Future<Output = Result<PzdIn, Self::Error>>;
+
+    /// What kind of link failure `error` is, as [`ParameterChannel::link_fault`].
+    fn link_fault(error: &Self::Error) -> Option<LinkFault> {
+        let _ = error;
+        Some(LinkFault::Port)
+    }
 }
 
 /// Settings of a [`NordClient`].

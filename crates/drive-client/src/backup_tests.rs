@@ -115,7 +115,12 @@ fn a_backup_ends_on_an_interrupt_or_a_failing_link() {
         "{e:?}"
     );
     assert_eq!(seen.0.last().map(String::as_str), Some("abandon"));
-    let dead = |_| Err(ClientError::Link("no answer from drive 1".into()));
+    let dead = |_| {
+        Err(ClientError::link(
+            crate::LinkFault::NoAnswer,
+            "no answer from drive 1",
+        ))
+    };
     let e = block_on(backup(
         &mut FakeClient::<Interrupt>::new(dead),
         &mut (),

@@ -399,7 +399,10 @@ fn wrong_width(e: &DriverError) -> bool {
 /// parameter); the way out of a refusal is named in `front`'s words.
 pub fn client_error(width: Width, e: DriverError, front: &dyn FrontEnd) -> ClientError {
     let DriverError::Device { exception, vabus } = &e else {
-        return ClientError::Link(e.to_string());
+        return match e {
+            DriverError::Link(l) => ClientError::link(l.fault(), l.to_string()),
+            other => ClientError::Request(other.to_string()),
+        };
     };
     let (exception, vabus) = (*exception, *vabus);
     let kind = match vabus {

@@ -2,6 +2,7 @@
 //! write a parameter by its table entry, the link's own settings, what identifies the drive),
 //! and [`ClientError`], a drive's refusal kept apart from a failing link.
 
+pub use drive_core::LinkFault;
 use drive_profile::{Family, Persistence};
 use serde_json::{Map, Value};
 
@@ -17,13 +18,41 @@ pub enum ClientError {
     /// The line failed: no answer, garbled answers, the port is gone; the message says what
     /// to check.
     #[error("{0}")]
-    Link(String),
+    Link(LinkError),
     /// The request was not made, nothing was sent: the client cannot build it (a parameter
     /// the client needs the table for and the table does not have, a width not known, a value
     /// past the width, an order the protocol cannot carry). The caller's to change; the
     /// drive and the line are as they were.
     #[error("{0}")]
     Request(String),
+}
+
+/// A failing link: what kind of failure, and for a person what to check.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{message}")]
+pub struct LinkError {
+    /// What kind of failure, for a caller that acts on it (a gateway counts a drive that does
+    /// not answer as timed out).
+    pub fault: LinkFault,
+    /// What failed and what to check, for a person.
+    pub message: String,
+}
+
+impl LinkError {
+    /// A link failure of this kind, said by `message`.
+    pub fn new(fault: LinkFault, message: impl Into<String>) -> Self {
+        LinkError {
+            fault,
+            message: message.into(),
+        }
+    }
+}
+
+impl ClientError {
+    /// A link failure of this kind, said by `message`.
+    pub fn link(fault: LinkFault, message: impl Into<String>) -> Self {
+        ClientError::Link(LinkError::new(fault, message))
+    }
 }
 
 /// A negative answer of the drive, sorted by what a tool does about it (each protocol maps its

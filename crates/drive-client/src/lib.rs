@@ -37,6 +37,7 @@
 pub mod backup;
 pub mod bonfiglioli;
 pub mod client;
+pub mod control;
 pub mod front;
 pub mod infile;
 pub mod info;
@@ -56,7 +57,9 @@ pub mod text;
 pub mod wear;
 pub mod write;
 
-pub use client::{ClientError, DeviceCode, DeviceError, DeviceErrorKind, ParamClient};
+pub use client::{
+    ClientError, DeviceCode, DeviceError, DeviceErrorKind, LinkError, LinkFault, ParamClient,
+};
 pub use front::{FrontEnd, Note, Plain, Setting};
 pub use interrupt::{Cause, Interrupt};
 pub use meaning::{Device, KnownVariant, Meaning};

@@ -13,10 +13,10 @@
 //! (8391–8395) are coded the same way. The manual gives no fault-code table: a fault is shown
 //! by its number.
 
-use drive_profile::Family;
 use drive_profile::bonfiglioli::Variant;
 use drive_profile::family::AnyParam;
 use drive_profile::sew::{StatusWord1, index};
+use drive_profile::{Access, Family};
 use serde_json::{Map, Value, json};
 
 use crate::target::Target;
@@ -495,6 +495,47 @@ pub fn fault_text(t: &Target, raw: i64) -> Option<String> {
     (raw != 0).then(|| meaning_of(t, raw).map_or_else(|| format!("fault {raw}"), |m| m.text))
 }
 
+/// Each access code set in `access`, in the order `Access` prints them, with what it means for
+/// `family` (the legend of SEW's table, and what the other families' columns map onto).
+pub fn access_codes(family: Family, access: Access) -> Vec<(&'static str, &'static str)> {
+    let non_volatile = match family {
+        Family::Bonfiglioli => {
+            "non-volatile: a written value goes to EEPROM automatically (writes to the RAM \
+             data sets 5-9 spare the EEPROM)"
+        }
+        _ => "non-volatile: at restart the value is copied from EEPROM into RAM",
+    };
+    [
+        (Access::NON_VOLATILE, "N", non_volatile),
+        (
+            Access::STORE_LOCKED,
+            "S",
+            "may be stored even while the parameter lock (P803) is on",
+        ),
+        (
+            Access::NEEDS_INHIBIT,
+            "R",
+            "writing needs controller inhibit (the drive must not be enabled)",
+        ),
+        (Access::READ_ONLY, "RO", "read-only"),
+        (Access::READ_WRITE, "RW", "read/write"),
+        (
+            Access::NOT_IN_OPERATION,
+            "NOP",
+            "not writable while the drive is in operation",
+        ),
+        (
+            Access::DATA_SET,
+            "DS",
+            "exists once per data set 1-4; data set 0 addresses all four",
+        ),
+    ]
+    .into_iter()
+    .filter(|(flag, _, _)| access.contains(*flag))
+    .map(|(_, code, meaning)| (code, meaning))
+    .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -708,5 +749,30 @@ mod bonfiglioli_tests {
             meaning(p("270"), 0x0002).unwrap().decoded.unwrap()["consistent"],
             false
         );
+    }
+}
+
+#[cfg(test)]
+mod access_tests {
+    use super::*;
+
+    #[test]
+    fn every_access_code_is_explained() {
+        // Each flag `Access` can print, for every family, has a meaning under the same code.
+        for bit in 0..8 {
+            let flag = Access::from_bits_truncate(1 << bit);
+            if flag == Access::NONE {
+                continue;
+            }
+            for family in Family::ALL {
+                let codes = access_codes(family, flag);
+                assert_eq!(codes.len(), 1, "{flag:?}");
+                assert_eq!(codes[0].0, flag.to_string(), "{flag:?}");
+                assert!(!codes[0].1.is_empty());
+            }
+        }
+        let codes = access_codes(Family::Movidrive, Access::parse("N/R/RW").unwrap());
+        let names: Vec<_> = codes.iter().map(|c| c.0).collect();
+        assert_eq!(names, ["N", "R", "RW"]);
     }
 }

@@ -14,7 +14,9 @@ use drive_profile::nord::{self as profile, Width};
 use drive_profile::{Family, Persistence};
 use serde_json::{Map, Value};
 
-use crate::client::{ClientError, DeviceCode, DeviceError, DeviceErrorKind, ParamClient};
+use crate::client::{
+    ClientError, DeviceCode, DeviceError, DeviceErrorKind, LinkFault, ParamClient,
+};
 use crate::front::{FrontEnd, Plain, Setting};
 use crate::target::{Target, TargetError, nord_sub};
 
@@ -229,6 +231,7 @@ pub fn device_error_kind(error: u16) -> DeviceErrorKind {
 /// out when the drive says a parameter is no array is named in `front`'s words.
 pub fn client_error<E: std::fmt::Display>(
     e: client::ClientError<E>,
+    fault: impl Fn(&E) -> Option<LinkFault>,
     front: &dyn FrontEnd,
 ) -> ClientError {
     match e {
@@ -255,7 +258,13 @@ pub fn client_error<E: std::fmt::Display>(
                 ),
             })
         }
-        other => ClientError::Link(other.to_string()),
+        client::ClientError::Transport(t) => match fault(&t) {
+            Some(f) => ClientError::link(f, t.to_string()),
+            None => ClientError::Request(format!("{t}; nothing was sent")),
+        },
+        // An answer that passed the checks but cannot be decoded.
+        e @ client::ClientError::Pkw(_) => ClientError::link(LinkFault::Garbled, e.to_string()),
+        other => ClientError::link(LinkFault::Unexpected, other.to_string()),
     }
 }
 
@@ -310,7 +319,7 @@ impl<C: ParameterChannel> NordParamClient<'_, C> {
         self.client
             .count(pnu)
             .await
-            .map_err(|e| client_error(e, self.front))
+            .map_err(|e| client_error(e, C::link_fault, self.front))
     }
 }
 
@@ -331,11 +340,11 @@ impl<C: ParameterChannel> ParamClient for NordParamClient<'_, C> {
         let order = read_order(target, self.raw_array)?;
         match self.client.order(order).await {
             Ok(Reply::Value { value, width, .. }) => Ok(raw_of(target, value, width)),
-            Ok(reply) => Err(ClientError::Link(format!(
-                "unexpected answer {reply:?} to AK {}",
-                order.ak()
-            ))),
-            Err(e) => Err(client_error(e, self.front)),
+            Ok(reply) => Err(ClientError::link(
+                LinkFault::Unexpected,
+                format!("unexpected answer {reply:?} to AK {}", order.ak()),
+            )),
+            Err(e) => Err(client_error(e, C::link_fault, self.front)),
         }
     }
 
@@ -348,11 +357,11 @@ impl<C: ParameterChannel> ParamClient for NordParamClient<'_, C> {
         let order = write_order(target, raw, persistence, self.raw_array)?;
         match self.client.order(order).await {
             Ok(Reply::Value { .. }) => Ok(()),
-            Ok(reply) => Err(ClientError::Link(format!(
-                "unexpected answer {reply:?} to AK {}",
-                order.ak()
-            ))),
-            Err(e) => Err(client_error(e, self.front)),
+            Ok(reply) => Err(ClientError::link(
+                LinkFault::Unexpected,
+                format!("unexpected answer {reply:?} to AK {}", order.ak()),
+            )),
+            Err(e) => Err(client_error(e, C::link_fault, self.front)),
         }
     }
 
@@ -402,15 +411,38 @@ mod tests {
             order: Order::read_array(543, Ind(0)).unwrap(),
             error: DriveError(4),
         };
-        let plain = client_error(e(), &Plain).to_string();
+        let plain = client_error(e(), |_| None, &Plain).to_string();
         assert!(
             plain.ends_with("(the drive says it is no array)"),
             "{plain}"
         );
-        let worded = client_error(e(), &Words).to_string();
+        let worded = client_error(e(), |_| None, &Words).to_string();
         assert!(
             worded.ends_with("(the drive says it is no array: leave out --array)"),
             "{worded}"
         );
+    }
+
+    #[test]
+    fn a_transport_failure_is_a_link_failure_of_its_kind_or_a_request_not_sent() {
+        #[derive(Debug)]
+        struct Gone;
+        impl std::fmt::Display for Gone {
+            fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+                f.write_str("no answer from USS address 3")
+            }
+        }
+        let e = || client::ClientError::Transport(Gone);
+        match client_error(e(), |_| Some(LinkFault::NoAnswer), &Plain) {
+            ClientError::Link(l) => {
+                assert_eq!(l.fault, LinkFault::NoAnswer);
+                assert_eq!(l.message, "no answer from USS address 3");
+            }
+            other => panic!("{other:?}"),
+        }
+        assert!(matches!(
+            client_error(e(), |_| None, &Plain),
+            ClientError::Request(m) if m.ends_with("nothing was sent")
+        ));
     }
 }

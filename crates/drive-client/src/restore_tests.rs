@@ -185,7 +185,7 @@ fn issue7_a_restore_cut_short_by_the_link_says_what_was_and_was_not_written() {
     assert_eq!(labels(&h.not_written), ["P131", "P132"]);
     assert_eq!(h.uncertain().map(Target::label).as_deref(), Some("P131"));
     assert!(
-        matches!(&h.why, Halt::Link { error: ClientError::Link(m), .. } if m == "no answer from drive 1")
+        matches!(&h.why, Halt::Link { error: ClientError::Link(m), .. } if m.message == "no answer from drive 1" && m.fault == crate::LinkFault::NoAnswer)
     );
     assert_eq!(seen.0.last().map(String::as_str), Some("abandon"));
 }

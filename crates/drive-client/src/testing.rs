@@ -98,7 +98,10 @@ impl<I: Trip> ParamClient for FakeClient<I> {
             .link_dies_after
             .is_some_and(|n| self.written.len() >= n)
         {
-            return Err(ClientError::Link("no answer from drive 1".into()));
+            return Err(ClientError::link(
+                crate::LinkFault::NoAnswer,
+                "no answer from drive 1",
+            ));
         }
         self.written.push((t.index, raw, persistence));
         if let Some((n, stop)) = &self.interrupt_after

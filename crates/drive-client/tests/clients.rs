@@ -15,7 +15,7 @@ use bonfiglioli_modbus::framing::Mode;
 use drive_client::bonfiglioli::BonfiglioliClient;
 use drive_client::sew::movilink::MovilinkLink;
 use drive_client::sew::{SewClient, describe};
-use drive_client::{ClientError, DeviceCode, DeviceErrorKind, ParamClient, Target};
+use drive_client::{ClientError, DeviceCode, DeviceErrorKind, LinkFault, ParamClient, Target};
 use drive_core::{LineSettings, Parity};
 use drive_profile::{Family, Persistence};
 use drive_transport::link::{self, LinkConfig};
@@ -68,12 +68,15 @@ async fn a_movidrive_over_movilink_reads_writes_identifies_and_refuses_typed() {
         // Point-to-point: the drive names itself by its own address (P810).
         let mut p2p = SewClient::new(MovilinkLink::new(&mut driver, address(254), "/dev/ttyS7"));
         assert_eq!(p2p.drive_key().await.unwrap(), "/dev/ttyS7 1");
-        // Nobody at address 2: a link failure, not a refusal.
+        // Nobody at address 2: a link failure of the kind "no answer", not a refusal.
         let mut absent = SewClient::new(MovilinkLink::new(&mut driver, address(2), "/dev/ttyS7"));
-        assert!(matches!(
-            absent.read(&p130).await,
-            Err(ClientError::Link(_))
-        ));
+        match absent.read(&p130).await {
+            Err(ClientError::Link(e)) => {
+                assert_eq!(e.fault, LinkFault::NoAnswer, "{e}");
+                assert!(e.message.contains("check address"), "{e}");
+            }
+            other => panic!("address 2 answered: {other:?}"),
+        }
     };
     let (served, ()) = tokio::join!(sim.serve(wire), client);
     served.unwrap();
@@ -124,6 +127,13 @@ async fn an_active_cube_over_modbus_rtu_in_its_data_sets_and_by_its_variant() {
                 "{e}"
             ),
             other => panic!("376 = 0 was not refused: {other:?}"),
+        }
+        // Nobody at address 2: no answer, with what to check.
+        let b = Address::new(2).unwrap();
+        let mut absent = BonfiglioliClient::new(&mut driver, b, "/dev/ttyS8", None);
+        match absent.read(&in_set(1)).await {
+            Err(ClientError::Link(e)) => assert_eq!(e.fault, LinkFault::NoAnswer, "{e}"),
+            other => panic!("address 2 answered: {other:?}"),
         }
     };
     let (served, ()) = tokio::join!(sim.serve(wire), client);

@@ -62,6 +62,7 @@ pub use exchange::{Exchange, ExchangeConfig, ExchangeEvent, Verdict};
 pub use framing::{FrameTiming, Framing, LineError, Progress, Receiver, RxEvent, Start};
 pub use gate::TxGate;
 pub use line::{LineSettings, Parity, StopBits};
+pub use master::LinkFault;
 pub use queue::Queue;
 pub use rng::SplitMix64;
 pub use time::Instant;

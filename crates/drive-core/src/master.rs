@@ -49,6 +49,24 @@ use crate::framing::Framing;
 use crate::queue::Queue;
 use crate::time::Instant;
 
+/// What kind of link failure ended a request, the same for every protocol and medium: what a
+/// caller does about it differs (check the drive and the wiring, the line settings, the other
+/// programs on the line, the port).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum LinkFault {
+    /// Nothing answered in any attempt: the drive is off, at another address or another line
+    /// setting, or the wiring is broken.
+    NoAnswer,
+    /// Answers came but kept failing the protocol's checks (checksum, length, parity, gaps):
+    /// line settings, termination, or a second master.
+    Garbled,
+    /// An answer passed the checks but does not answer the request (another kind, a service
+    /// not executed): the drive's settings or another master.
+    Unexpected,
+    /// The port or interface failed or is gone.
+    Port,
+}
+
 /// How many events a master keeps until they are polled (the oldest is dropped beyond).
 pub const EVENTS: usize = 8;
 

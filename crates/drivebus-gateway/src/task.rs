@@ -425,12 +425,12 @@ fn value_refusal(target: &Target, text: &str, e: &ValueError) -> (&'static str, 
 /// Run one read job.
 async fn run_job<B: BusAccess>(access: &mut B, bus: &Bus, job: Job) -> Result<Read, ClientError> {
     let Some(drive) = bus.drives.get(job.drive()) else {
-        return Err(ClientError::Link(format!("no drive {}", job.drive())));
+        return Err(ClientError::Request(format!("no drive {}", job.drive())));
     };
     match job {
         Job::Poll { point, .. } => {
             let Some(p) = drive.points.get(point) else {
-                return Err(ClientError::Link(format!("no point {point}")));
+                return Err(ClientError::Request(format!("no point {point}")));
             };
             access
                 .client(drive.address)

@@ -3,6 +3,7 @@
 use crate::error::{CliError, Result};
 use crate::tool::output::{physical_text, trim_float};
 use clap::{Args, Subcommand};
+use drive_client::meaning::access_codes;
 use drive_profile::{Access, Family, ParamMeta};
 use serde_json::Value;
 use std::fmt::Write as _;
@@ -230,47 +231,6 @@ fn show(family: Family, key: &str, json: bool) -> Result<()> {
     Ok(())
 }
 
-/// Each access code set in `access`, in the order `Access` prints them, with what it means for
-/// `family` (the legend of SEW's table, and what the other families' columns map onto).
-fn access_codes(family: Family, access: Access) -> Vec<(&'static str, &'static str)> {
-    let non_volatile = match family {
-        Family::Bonfiglioli => {
-            "non-volatile: a written value goes to EEPROM automatically (writes to the RAM \
-             data sets 5-9 spare the EEPROM)"
-        }
-        _ => "non-volatile: at restart the value is copied from EEPROM into RAM",
-    };
-    [
-        (Access::NON_VOLATILE, "N", non_volatile),
-        (
-            Access::STORE_LOCKED,
-            "S",
-            "may be stored even while the parameter lock (P803) is on",
-        ),
-        (
-            Access::NEEDS_INHIBIT,
-            "R",
-            "writing needs controller inhibit (the drive must not be enabled)",
-        ),
-        (Access::READ_ONLY, "RO", "read-only"),
-        (Access::READ_WRITE, "RW", "read/write"),
-        (
-            Access::NOT_IN_OPERATION,
-            "NOP",
-            "not writable while the drive is in operation",
-        ),
-        (
-            Access::DATA_SET,
-            "DS",
-            "exists once per data set 1-4; data set 0 addresses all four",
-        ),
-    ]
-    .into_iter()
-    .filter(|(flag, _, _)| access.contains(*flag))
-    .map(|(_, code, meaning)| (code, meaning))
-    .collect()
-}
-
 fn clip(s: &str, n: usize) -> String {
     if s.chars().count() <= n {
         s.to_owned()
@@ -278,30 +238,5 @@ fn clip(s: &str, n: usize) -> String {
         let mut t: String = s.chars().take(n.saturating_sub(1)).collect();
         t.push('…');
         t
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn every_access_code_is_explained() {
-        // Each flag `Access` can print, for every family, has a meaning under the same code.
-        for bit in 0..8 {
-            let flag = Access::from_bits_truncate(1 << bit);
-            if flag == Access::NONE {
-                continue;
-            }
-            for family in Family::ALL {
-                let codes = access_codes(family, flag);
-                assert_eq!(codes.len(), 1, "{flag:?}");
-                assert_eq!(codes[0].0, flag.to_string(), "{flag:?}");
-                assert!(!codes[0].1.is_empty());
-            }
-        }
-        let codes = access_codes(Family::Movidrive, Access::parse("N/R/RW").unwrap());
-        let names: Vec<_> = codes.iter().map(|c| c.0).collect();
-        assert_eq!(names, ["N", "R", "RW"]);
     }
 }

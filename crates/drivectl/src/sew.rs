@@ -5,7 +5,7 @@
 //! process-data preflight with its warnings on standard error.
 
 use drive_client::info::Info;
-use drive_client::sew::{RAW_INDICES, bus_timeout, pd_warnings, with_command, write_service};
+use drive_client::sew::{RAW_INDICES, write_service};
 use drive_profile::Family;
 use drive_profile::sew::ParamChannel;
 use serde_json::{Map, Value, json};
@@ -183,99 +183,32 @@ where
     Ok(())
 }
 
-/// The stop a SEW `pd` session ends with (`movilink pd`, `sbus pd`): the output words with the
-/// stop command in the low byte of every control word slot, the other words as they were.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct PdStop {
-    /// The words sent to stop.
-    pub words: Vec<u16>,
-    /// The command in the control word slots.
-    pub cmd: drive_profile::sew::ControlWord1,
-    /// The first control word slot (for the message).
-    slot: usize,
+/// The `pd` arguments that stop the drive, for the hint (`pd --out 0x0002,5000,0`).
+pub fn pd_hint(words: &[u16], slots: &[usize], cmd: drive_profile::sew::ControlWord1) -> String {
+    let w: Vec<String> = drive_client::control::sew::PdStop::words_for(words, slots, cmd)
+        .iter()
+        .map(|w| format!("0x{w:04X}"))
+        .collect();
+    format!("pd --out {}", w.join(","))
 }
 
-impl PdStop {
-    /// The stop of a session sending `words` with control words in `slots`; `None` when no
-    /// output word is a control word (nothing can stop the drive over process data).
-    pub fn new(
-        words: &[u16],
-        slots: &[usize],
-        cmd: drive_profile::sew::ControlWord1,
-    ) -> Option<Self> {
-        let slot = *slots.first()?;
-        Some(Self {
-            words: with_command(words, slots, cmd),
-            cmd,
-            slot,
-        })
-    }
-
-    /// What was sent, for the guard's message: `stop (control word 0x0002)`.
-    pub fn sent(&self) -> String {
-        format!(
-            "{} (control word 0x{:04X})",
-            self.cmd.command().name(),
-            self.words.get(self.slot).copied().unwrap_or(0)
-        )
-    }
-
-    /// How the session ends ([`crate::tool::motor::AtEnd`]): stopped with `stop`, else left as
-    /// the last exchange set it, with the reason.
-    pub fn at_end(stop: Option<&PdStop>, keep_running: bool) -> crate::tool::motor::AtEnd {
-        use crate::tool::motor::AtEnd;
-        match (keep_running, stop) {
-            (true, _) => AtEnd::KeepRunning("--keep-running"),
-            (false, None) => AtEnd::KeepRunning("no process output word is a control word"),
-            (false, Some(_)) => AtEnd::Stop,
-        }
-    }
-
-    /// The `pd` arguments that stop the drive, for the hint (`pd --out 0x0002,5000,0`): the
-    /// stop command `cmd` in the control word slots, PO1 (the factory setting's control word)
-    /// where none is known.
-    pub fn hint(words: &[u16], slots: &[usize], cmd: drive_profile::sew::ControlWord1) -> String {
-        let slots = if slots.is_empty() { &[0][..] } else { slots };
-        let w: Vec<String> = with_command(words, slots, cmd)
-            .iter()
-            .map(|w| format!("0x{w:04X}"))
-            .collect();
-        format!("pd --out {}", w.join(","))
-    }
-}
-
-/// What [`pd_preflight`] found out before process data.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct Preflight {
-    /// The process output words the drive takes as control words.
-    pub slots: Vec<usize>,
-    /// The drive's bus timeout (P812 RS-485 / P815 SBus), `None` when it is off (0, or P815's
-    /// 650 s) or could not be read.
-    pub timeout: Option<std::time::Duration>,
-}
-
-/// drive-client's [`pd_warnings`] with the warnings on standard error (`drivectl movilink pd`,
-/// `sbus pd`), and the bus timeout the exchanges must keep fed.
+/// drive-client's process-data preflight with its warnings on standard error (`drivectl
+/// movilink pd`, `sbus pd`).
 pub async fn pd_preflight<L: SewLink>(
     link: &mut L,
     words: usize,
     stopping: bool,
     timeout: (u16, &str),
-) -> Preflight {
-    let (slots, warnings) = pd_warnings(link, words, stopping, timeout, &Cli).await;
-    for w in warnings {
+) -> drive_client::control::sew::Preflight {
+    let pre = drive_client::control::sew::preflight(link, words, stopping, timeout, &Cli).await;
+    for w in &pre.warnings {
         errln!("drivectl: warning: {w}");
     }
-    Preflight {
-        slots,
-        timeout: bus_timeout(link, timeout.0).await,
-    }
+    pre
 }
 
-/// The interval between process data exchanges: the one asked for, or by default one that
-/// keeps the drive's bus timeout fed (half of it, whole `grain`s, at most `default`). An
-/// interval at or above the timeout is refused: the drive would trip (`fault`, e.g. F47 SBus
-/// timeout) between two exchanges.
+/// drive-client's interval between process data exchanges, its refusal in the command line's
+/// words: `timeout_name` names the drive's timeout, `fault` what it trips with.
 pub fn pd_interval(
     asked: Option<u64>,
     timeout: Option<std::time::Duration>,
@@ -284,51 +217,19 @@ pub fn pd_interval(
     timeout_name: &str,
     fault: &str,
 ) -> Result<std::time::Duration> {
-    let timeout_ms = timeout.map(|t| u64::try_from(t.as_millis()).unwrap_or(u64::MAX));
-    let ms = match (asked, timeout_ms) {
-        (Some(ms), Some(t)) if ms >= t => {
-            let fits = (t / 2 / grain * grain).max(grain.min(t.saturating_sub(1)).max(1));
-            return Err(crate::error::CliError::usage(format!(
+    use drive_client::control::sew::IntervalError;
+    drive_client::control::sew::interval(asked, timeout, default, grain).map_err(|e| {
+        crate::error::CliError::usage(match e {
+            IntervalError::NotShorter {
+                asked_ms: ms,
+                timeout_ms: t,
+                fits_ms: fits,
+            } => format!(
                 "--interval {ms} ms is not shorter than the drive's {timeout_name} of {t} ms: the \
                  drive would trip with {fault} between two exchanges; use --interval {fits} or \
                  less (or raise the timeout)"
-            )));
-        }
-        (Some(ms), _) => ms,
-        (None, Some(t)) => (t / 2 / grain * grain).clamp(grain, default.max(grain)),
-        (None, None) => default,
-    };
-    Ok(std::time::Duration::from_millis(ms))
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::tool::motor::AtEnd;
-    use drive_profile::sew::ControlWord1;
-
-    #[test]
-    fn the_pd_stop_goes_into_the_control_word_slots_only() {
-        // PO1 control word 1 (enable), PO2 speed, PO3 another control word with its high byte.
-        let words = [0x0006, 5000, 0x1206];
-        let stop = PdStop::new(&words, &[0, 2], ControlWord1::STOP).unwrap();
-        assert_eq!(stop.words, [0x0002, 5000, 0x1202]);
-        assert_eq!(stop.sent(), "stop (control word 0x0002)");
-        assert_eq!(PdStop::at_end(Some(&stop), false), AtEnd::Stop);
-        // No control word: nothing stops it; --keep-running wins anyway.
-        assert_eq!(PdStop::new(&words, &[], ControlWord1::STOP), None);
-        assert!(matches!(
-            PdStop::at_end(None, false),
-            AtEnd::KeepRunning(r) if r.contains("control word")
-        ));
-        assert_eq!(
-            PdStop::at_end(Some(&stop), true),
-            AtEnd::KeepRunning("--keep-running")
-        );
-        // The hint: the factory setting's PO1 where no slot is known.
-        assert_eq!(
-            PdStop::hint(&words, &[], ControlWord1::INHIBIT),
-            "pd --out 0x0001,0x1388,0x1206"
-        );
-    }
+            ),
+            e => e.to_string(),
+        })
+    })
 }

@@ -28,6 +28,7 @@
 //! # Ok(()) }
 //! ```
 
+use drive_core::LinkFault;
 use std::io;
 use std::time::Duration;
 
@@ -89,6 +90,16 @@ pub enum LinkError {
     /// The CAN interface is gone (end of stream).
     #[error("the CAN interface was closed")]
     Closed,
+}
+
+impl LinkError {
+    /// What kind of link failure this is.
+    pub fn fault(&self) -> LinkFault {
+        match self {
+            LinkError::Timeout { .. } => LinkFault::NoAnswer,
+            LinkError::Io(_) | LinkError::Closed => LinkFault::Port,
+        }
+    }
 }
 
 impl From<MasterError> for DriverError {

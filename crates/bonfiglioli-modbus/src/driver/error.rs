@@ -2,6 +2,7 @@
 
 use crate::frame::ExceptionCode;
 use crate::master::{RejectReason, SendError};
+use drive_core::LinkFault;
 
 /// Why a driver call failed: the drive refused ([`DriverError::Device`]), the line failed
 /// ([`DriverError::Link`]) or the request cannot be made ([`DriverError::Request`]).
@@ -60,6 +61,18 @@ pub enum LinkError {
     /// The port failed or was closed.
     #[error("port i/o failed: {0}; check that the port still exists and no other program uses it")]
     Io(#[from] std::io::Error),
+}
+
+impl LinkError {
+    /// What kind of link failure this is.
+    pub fn fault(&self) -> LinkFault {
+        match self {
+            LinkError::Timeout { .. } => LinkFault::NoAnswer,
+            LinkError::Corrupt { .. } => LinkFault::Garbled,
+            LinkError::Unexpected { .. } => LinkFault::Unexpected,
+            LinkError::Io(_) => LinkFault::Port,
+        }
+    }
 }
 
 /// Why a request cannot be made.

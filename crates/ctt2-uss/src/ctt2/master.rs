@@ -22,6 +22,7 @@
 
 use core::future::Future;
 use core::time::Duration;
+use drive_core::LinkFault;
 
 use drive_profile::nord::Ctt2MessageType;
 
@@ -120,6 +121,17 @@ pub enum LinkError<E: std::error::Error + 'static> {
     /// The answer's data are not the object or channel asked for.
     #[error("answer data: {0}")]
     Object(#[source] ObjectError),
+}
+
+impl<E: std::error::Error + 'static> LinkError<E> {
+    /// What kind of link failure this is.
+    pub fn fault(&self) -> LinkFault {
+        match self {
+            LinkError::Transport(_) => LinkFault::Port,
+            LinkError::Decode(_) | LinkError::Object(_) => LinkFault::Garbled,
+            LinkError::UnexpectedAnswer { .. } => LinkFault::Unexpected,
+        }
+    }
 }
 
 /// Why a request cannot be made.
@@ -333,6 +345,15 @@ fn pzd_len(actuals: u8) -> u8 {
 impl<L: Ctt2Link> ParameterChannel for Ctt2Driver<L> {
     type Error = DriverError<L::Error>;
 
+    fn link_fault(error: &Self::Error) -> Option<LinkFault> {
+        match error {
+            DriverError::Link(l) => Some(l.fault()),
+            // The double slave refused the CTT2 request: the AS-i side, not the drive's PKW.
+            DriverError::Device { .. } => Some(LinkFault::Unexpected),
+            DriverError::Request(_) => None,
+        }
+    }
+
     async fn submit(&mut self, order: Pkw) -> Result<Pkw, Self::Error> {
         self.write_pkw(&order).await?;
         self.read_pkw().await
@@ -346,6 +367,10 @@ impl<L: Ctt2Link> ParameterChannel for Ctt2Driver<L> {
 
 impl<L: Ctt2Link> ProcessChannel for Ctt2Driver<L> {
     type Error = DriverError<L::Error>;
+
+    fn link_fault(error: &Self::Error) -> Option<LinkFault> {
+        <Self as ParameterChannel>::link_fault(error)
+    }
 
     async fn exchange_process(&mut self, out: PzdOut, actuals: u8) -> Result<PzdIn, Self::Error> {
         self.write_read_pzd(&out, actuals).await

@@ -21,6 +21,7 @@
 //! its value word. Reading a word above 32767 through the 3-word PKW therefore gives a negative
 //! number: its meaning depends on the parameter (the table says whether it is signed).
 
+use drive_core::LinkFault;
 use std::time::Duration;
 
 use drive_core::LineSettings;
@@ -134,6 +135,17 @@ pub enum LinkError {
     /// The port failed or was closed.
     #[error("port i/o failed: {0}; check that the port still exists and no other program uses it")]
     Io(#[from] std::io::Error),
+}
+
+impl LinkError {
+    /// What kind of link failure this is.
+    pub fn fault(&self) -> LinkFault {
+        match self {
+            LinkError::Timeout { .. } => LinkFault::NoAnswer,
+            LinkError::Corrupt { .. } => LinkFault::Garbled,
+            LinkError::Io(_) => LinkFault::Port,
+        }
+    }
 }
 
 /// Why a telegram cannot be made or sent.
@@ -347,6 +359,13 @@ impl<IO: CharIo> UssDriver<IO> {
 impl<IO: CharIo> ParameterChannel for UssDriver<IO> {
     type Error = DriverError;
 
+    fn link_fault(error: &DriverError) -> Option<LinkFault> {
+        match error {
+            DriverError::Link(l) => Some(l.fault()),
+            DriverError::Request(_) => None,
+        }
+    }
+
     async fn submit(&mut self, order: Pkw) -> Result<Pkw, DriverError> {
         if self.config.layout.pkw_words() == 0 {
             return Err(RequestError::NoParameterChannel.into());
@@ -367,6 +386,10 @@ impl<IO: CharIo> ParameterChannel for UssDriver<IO> {
 
 impl<IO: CharIo> ProcessChannel for UssDriver<IO> {
     type Error = DriverError;
+
+    fn link_fault(error: &DriverError) -> Option<LinkFault> {
+        <Self as ParameterChannel>::link_fault(error)
+    }
 
     async fn exchange_process(&mut self, out: PzdOut, actuals: u8) -> Result<PzdIn, DriverError> {
         let needed = 1 + usize::from(actuals);

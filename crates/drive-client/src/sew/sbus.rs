@@ -57,7 +57,8 @@ pub struct SbusLink<'a, C> {
 pub fn client_error(e: DriverError) -> ClientError {
     match e {
         DriverError::Device { code, .. } => device_error(code, e.to_string()),
-        other => ClientError::Link(other.to_string()),
+        DriverError::Link(l) => ClientError::link(l.fault(), l.to_string()),
+        other => ClientError::Request(other.to_string()),
     }
 }
 

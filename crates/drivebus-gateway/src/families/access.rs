@@ -10,7 +10,7 @@ use std::collections::BTreeMap;
 use std::time::Duration;
 
 use bonfiglioli_modbus::framing::Mode;
-use ctt2_uss::client::{ClientConfig, NordClient};
+use ctt2_uss::client::{ClientConfig, NordClient, ParameterChannel};
 use ctt2_uss::serial::driver::{DriverConfig as UssConfig, UssDriver};
 use ctt2_uss::serial::{Layout, UssAddress, UssTiming};
 use drive_core::LineSettings;
@@ -91,8 +91,8 @@ macro_rules! each {
 impl AnyClient<'_> {
     fn invalid(&self) -> ClientError {
         match self {
-            AnyClient::Invalid { message, .. } => ClientError::Link(message.clone()),
-            _ => ClientError::Link("no such drive".to_owned()),
+            AnyClient::Invalid { message, .. } => ClientError::Request(message.clone()),
+            _ => ClientError::Request("no such drive".to_owned()),
         }
     }
 }
@@ -247,9 +247,9 @@ impl<IO: CharIo> MovilinkBus<IO> {
     }
 
     async fn pd(&mut self, address: u8, out: &[u16]) -> Result<Vec<u16>, ClientError> {
-        let a = Self::address(address).map_err(ClientError::Link)?;
+        let a = Self::address(address).map_err(ClientError::Request)?;
         let pdu = Self::pd_type(out.len()).ok_or_else(|| {
-            ClientError::Link(format!(
+            ClientError::Request(format!(
                 "MOVILINK carries 1–3 process data words, not {}",
                 out.len()
             ))
@@ -324,9 +324,9 @@ impl<C: drive_core::rt::CanIo> SbusBus<C> {
     }
 
     async fn pd(&mut self, address: u8, out: &[u16]) -> Result<Vec<u16>, ClientError> {
-        let a = Self::address(address).map_err(ClientError::Link)?;
+        let a = Self::address(address).map_err(ClientError::Request)?;
         if out.is_empty() || out.len() > 3 {
-            return Err(ClientError::Link(format!(
+            return Err(ClientError::Request(format!(
                 "SBus carries 1–3 process data words, not {}",
                 out.len()
             )));
@@ -445,20 +445,26 @@ impl UssBus {
     async fn pd(&mut self, address: u8, out: &[u16]) -> Result<Vec<u16>, ClientError> {
         let layout = usize::from(self.layout.pzd_words());
         let (control, setpoints) = out.split_first().ok_or_else(|| {
-            ClientError::Link("USS process data need at least the control word".to_owned())
+            ClientError::Request("USS process data need at least the control word".to_owned())
         })?;
         if out.len() > layout {
-            return Err(ClientError::Link(format!(
+            return Err(ClientError::Request(format!(
                 "{} process data words do not fit the bus's {layout} PZD words",
                 out.len()
             )));
         }
         let actuals = u8::try_from(setpoints.len()).unwrap_or(0);
-        let client = self.drive(address).map_err(ClientError::Link)?;
+        let client = self.drive(address).map_err(ClientError::Request)?;
         let answer = client
             .process(ControlWord(*control), setpoints, actuals)
             .await
-            .map_err(|e| ClientError::Link(e.to_string()))?;
+            .map_err(|e| {
+                drive_client::nord::client_error(
+                    e,
+                    <UssDriver<SharedLine> as ParameterChannel>::link_fault,
+                    &Plain,
+                )
+            })?;
         let mut words = vec![answer.status().0];
         words.extend_from_slice(answer.actuals());
         Ok(words)
@@ -612,7 +618,7 @@ impl BusAccess for Access {
             Proto::Movilink(b) => b.pd(address, out).await,
             Proto::Sbus(b) => b.pd(address, out).await,
             Proto::Uss(b) => b.pd(address, out).await,
-            Proto::Modbus(_) => Err(ClientError::Link(
+            Proto::Modbus(_) => Err(ClientError::Request(
                 "Modbus has no process data: poll parameters instead".to_owned(),
             )),
         }
@@ -631,14 +637,14 @@ impl BusAccess for Access {
         // 1 (P873–P875 = 6, the factory setting of PI1).
         let (mut warnings, timeout, slots) = match &mut self.proto {
             Proto::Movilink(b) => {
-                let mut c = b.client_of(address).map_err(ClientError::Link)?;
+                let mut c = b.client_of(address).map_err(ClientError::Request)?;
                 let timeout = (sew_index::RS485_TIMEOUT, "RS-485 timeout P812");
                 let (_, w) = pd_warnings(&mut c.link, out.len(), true, timeout, &Plain).await;
                 let (t, s) = sew_timeout_and_status(&mut c.link, timeout.0, out.len()).await;
                 (w, t.map(|t| (t, timeout.1, "F43 RS-485 timeout")), s)
             }
             Proto::Sbus(b) => {
-                let mut c = b.client_of(address).map_err(ClientError::Link)?;
+                let mut c = b.client_of(address).map_err(ClientError::Request)?;
                 let timeout = (sew_index::SBUS_TIMEOUT, "SBus timeout P815");
                 let (_, w) = pd_warnings(&mut c.link, out.len(), true, timeout, &Plain).await;
                 let (t, s) = sew_timeout_and_status(&mut c.link, timeout.0, out.len()).await;
@@ -674,7 +680,10 @@ impl BusAccess for Access {
         };
         // The manual gives 413 no data type: read by trying FC 3, then FC 100 (a read only).
         let t = table_target(Family::Bonfiglioli, "413")?;
-        let mut c = b.client_of(address).map_err(ClientError::Link)?.probing();
+        let mut c = b
+            .client_of(address)
+            .map_err(ClientError::Request)?
+            .probing();
         let seconds = c.read(&t).await?;
         let Ok(watchdog) = u64::try_from(seconds) else {
             return Ok(Vec::new());
@@ -712,11 +721,11 @@ impl BusAccess for Access {
                 // does not answer them is not sent anything.
                 let found = match &mut self.proto {
                     Proto::Movilink(b) => {
-                        let mut c = b.client_of(address).map_err(ClientError::Link)?;
+                        let mut c = b.client_of(address).map_err(ClientError::Request)?;
                         control_word_slots(&mut c.link, out.len()).await
                     }
                     Proto::Sbus(b) => {
-                        let mut c = b.client_of(address).map_err(ClientError::Link)?;
+                        let mut c = b.client_of(address).map_err(ClientError::Request)?;
                         control_word_slots(&mut c.link, out.len()).await
                     }
                     _ => Vec::new(),

@@ -193,9 +193,10 @@ async fn process_data_are_exchanged_on_movilink_sbus_and_uss() {
     }
     let bus = bus_of(&plant, Protocol::ModbusRtu);
     let mut sim = simulated_bus(&bus);
+    // Modbus has no process data: a request not made, not a failed link.
     assert!(matches!(
         sim.access.process_data(1, &[0]).await,
-        Err(ClientError::Link(_))
+        Err(ClientError::Request(_))
     ));
 }
 
@@ -213,8 +214,9 @@ async fn an_address_the_protocol_cannot_reach_fails_without_a_transaction() {
         let mut sim = simulated_bus(&bus);
         let t = bus.drives[0].points[0].target;
         let r = sim.access.client(bad).read(&t).await;
+        // Nothing sent: a request the client cannot make, not a failed link.
         assert!(
-            matches!(r, Err(ClientError::Link(_))),
+            matches!(r, Err(ClientError::Request(_))),
             "{}: {r:?}",
             p.name()
         );
@@ -424,7 +426,8 @@ async fn a_port_that_cannot_be_opened_fails_every_call_and_is_tried_again_with_a
         let Err(ClientError::Link(m)) = r else {
             panic!("{r:?}")
         };
-        assert!(m.contains("/nonexistent/ttyUSB9"), "{m}");
+        assert!(m.message.contains("/nonexistent/ttyUSB9"), "{m}");
+        assert_eq!(m.fault, drive_client::LinkFault::Port, "{m}");
     }
     // Failing calls take no time: a missing port does not stall the bus.
     assert!(start.elapsed() < Duration::from_millis(10));

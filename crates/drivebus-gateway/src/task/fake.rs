@@ -67,7 +67,10 @@ impl FakeBus {
         if dead {
             tokio::time::sleep(self.timeout * (u32::from(self.retries) + 1)).await;
             self.state.borrow_mut().retries += u64::from(self.retries);
-            return Err(ClientError::Link(format!("no answer from drive {address}")));
+            return Err(ClientError::link(
+                drive_client::LinkFault::NoAnswer,
+                format!("no answer from drive {address}"),
+            ));
         }
         tokio::time::sleep(self.wire_time(op)).await;
         Ok(())

@@ -30,24 +30,23 @@ use self::status::*;
 use std::time::Duration;
 
 use bonfiglioli_modbus::driver::{CharIo, DriverConfig, DriverError, ModbusDriver as MasterDriver};
-use bonfiglioli_modbus::frame::{Address, DataSet, DiagSubFunction};
+use bonfiglioli_modbus::frame::{Address, DiagSubFunction};
 use bonfiglioli_modbus::framing::Mode;
 use bonfiglioli_modbus::slave::Width;
 use clap::{Args, Subcommand};
-use drive_profile::bonfiglioli::{
-    self, ActStateMachine, AcuPositioningStateMachine, AcuStateMachine, State, Variant,
-};
-use drive_profile::state::StateMachine;
+use drive_profile::bonfiglioli::{self, Variant};
 use drive_profile::{Family, Persistence};
 use serde_json::{Map, json};
 
-use drive_client::bonfiglioli::{BonfiglioliClient, VariantFound, data_of, raw_of, table_width};
+#[cfg(test)]
+use drive_client::bonfiglioli::raw_of;
+use drive_client::bonfiglioli::{BonfiglioliClient, VariantFound, data_of, table_width};
 pub use drive_client::bonfiglioli::{LINK_SETTINGS, NOT_RESTORED, RAW_INDICES, param};
 
 use crate::error::{CliError, Result};
 use crate::tool::again::Again;
 use crate::tool::client::OnTarget as _;
-use crate::tool::client::{ClientError, ParamClient, Target, ValueText};
+use crate::tool::client::{ParamClient, Target, ValueText};
 use crate::tool::cmd::{self, WriteValue};
 use crate::tool::front::Cli;
 use crate::tool::interrupt::Interrupt;
@@ -230,12 +229,6 @@ enum BonfiglioliCommand {
     /// Write a backup file back (data sets 1–4, never 0) and verify every value.
     #[command(after_help = restore_examples!("drivectl bonfiglioli --port /dev/ttyUSB0 --addr 1"))]
     Restore(backup::RestoreArgs),
-}
-
-/// A driver error of an access with `width` as a client error, the way out of a refusal in the
-/// command line's words (`try --long`).
-pub fn client_error(width: Width, e: DriverError) -> ClientError {
-    drive_client::bonfiglioli::client_error(width, e, &Cli)
 }
 
 /// What writing `raw` to a link setting does, in the command line's words (the note of a

@@ -5,13 +5,6 @@ use super::*;
 
 pub use drive_client::status::bits_text;
 
-/// One 16-bit word of the drive (data set 0).
-pub async fn read_word<IO: CharIo>(m: &mut MasterDriver<IO>, addr: Address, p: u16) -> Result<u16> {
-    drive_client::status::bonfiglioli_word(m, addr, p, &Cli)
-        .await
-        .map_err(|f| f.target.error(f.error))
-}
-
 /// `status`: 411, 260 and 270 with their meanings ([`crate::tool::meaning`]), 411 for the
 /// drive's variant (`None`: neither given nor shown by the drive; decoded for what both share).
 pub async fn status<IO: CharIo>(

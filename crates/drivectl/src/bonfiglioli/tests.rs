@@ -1,5 +1,10 @@
 use super::*;
-use crate::tool::client::DeviceErrorKind;
+use crate::tool::client::{ClientError, DeviceErrorKind};
+
+/// A driver error of an access with `width` as the command line's client error.
+fn client_error(width: Width, e: DriverError) -> ClientError {
+    drive_client::bonfiglioli::client_error(width, e, &Cli)
+}
 use bonfiglioli_modbus::frame::ExceptionCode;
 
 #[test]

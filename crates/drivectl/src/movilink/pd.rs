@@ -2,17 +2,17 @@
 //! the drive stopped at the end unless `--keep-running`.
 
 use clap::Args;
+use drive_client::control::sew::{Pd, PdStop, movilink_pd, movilink_stop};
 use drive_profile::sew::{self, ControlWord1, StatusWord1, index};
 use movilink::driver::{CharIo, MovilinkDriver as MasterDriver};
-use movilink::{Address, PduType, Telegram};
+use movilink::{Address, PduType};
 use serde_json::json;
 
-use super::{decode, driver_error, link};
+use super::{decode, link};
 use crate::error::{CliError, Result};
-use crate::sew::PdStop;
 use crate::tool::again::Again;
 use crate::tool::client::parse_int;
-use crate::tool::motor::{Motion, MotorGuard, Stopped, paced};
+use crate::tool::motor::{Motion, MotorGuard, Stopped};
 use crate::tool::output::trim_float;
 
 /// Arguments of `drivectl movilink pd`.
@@ -49,17 +49,6 @@ pub struct PdArgs {
     pub stop: String,
 }
 
-/// What `pd` was asked to do.
-struct PdSession<'a> {
-    out: &'a [String],
-    count: u32,
-    interval: Option<u64>,
-    /// The command sent at the end (`None`: `--keep-running`).
-    end: Option<ControlWord1>,
-    /// The command line that reaches the drive again.
-    again: Again,
-}
-
 /// `pd` with the drive at `addr`; `again` reaches it again (for the hint of how to stop it).
 pub async fn pd<IO: CharIo>(
     m: &mut MasterDriver<IO>,
@@ -72,13 +61,6 @@ pub async fn pd<IO: CharIo>(
         (true, _) => None,
         (false, "inhibit") => Some(ControlWord1::INHIBIT),
         (false, _) => Some(ControlWord1::STOP),
-    };
-    let s = &PdSession {
-        out: &args.out,
-        count: args.count,
-        interval: args.interval,
-        end,
-        again,
     };
     let pdu_type = args.pdu_type.as_str();
     let pdu = parse_int(pdu_type)
@@ -95,7 +77,7 @@ pub async fn pd<IO: CharIo>(
         ));
     }
     let mut words = Vec::new();
-    for w in s.out {
+    for w in &args.out {
         let v = parse_int(w)
             .filter(|v| (-32768..=65535).contains(v))
             .ok_or_else(|| CliError::usage(format!("`{w}` is not a 16-bit word")))?;
@@ -112,72 +94,41 @@ pub async fn pd<IO: CharIo>(
     let pre = crate::sew::pd_preflight(
         &mut link(m, addr, ""),
         words.len(),
-        s.end.is_some(),
+        end.is_some(),
         (index::RS485_TIMEOUT, "RS-485 timeout P812"),
     )
     .await;
     let slots = pre.slots;
     // P812 watches cyclic request telegrams only (manual ch. 4: "zyklisch … Timeout-Zeit").
     let period = crate::sew::pd_interval(
-        s.interval,
+        args.interval,
         pre.timeout.filter(|_| pdu.is_cyclic()),
         100,
         1,
         "RS-485 timeout P812",
         "an RS-485 timeout fault",
     )?;
-    // The stop telegram: the control word slots get the stop command (their high byte kept),
-    // every other word stays as it was.
     // No control word among the outputs: nothing can stop the drive over process data
     // (warned above); the session ends as the last exchange left it.
-    let stop = s.end.and_then(|cmd| PdStop::new(&words, &slots, cmd));
-    let hint = PdStop::hint(&words, &slots, s.end.unwrap_or(ControlWord1::STOP));
+    let stop = end.and_then(|cmd| PdStop::new(&words, &slots, cmd));
+    let hint = crate::sew::pd_hint(&words, &slots, end.unwrap_or(ControlWord1::STOP));
     let guard = MotorGuard::install(
-        PdStop::at_end(stop.as_ref(), s.end.is_none()),
-        s.again.then(&hint),
+        PdStop::at_end(stop.as_ref(), end.is_none().then_some("--keep-running")),
+        again.then(&hint),
     );
-    // Cyclic types run as a cyclic session (one telegram every --interval, which keeps the
-    // drive's RS-485 timeout P812 fed); acyclic ones are single exchanges --interval apart. An
-    // interrupt ends the loop after the exchange in progress.
+    let pd = Pd {
+        words,
+        count: args.count,
+        period,
+    };
     let work = async |m: &mut MasterDriver<IO>, motion: &Motion<'_>| -> Result<()> {
-        let stop = motion.interrupt();
-        if pdu.is_cyclic() {
-            let mut session = m.cyclic(addr, pdu, period).map_err(driver_error)?;
-            session.set_output(&words);
-            let mut done = 0u32;
-            while s.count == 0 || done < s.count {
-                if stop.requested() {
-                    break;
-                }
-                done = done.saturating_add(1);
-                motion.armed();
-                let response = session.cycle().await.map_err(driver_error)?;
-                print_pd(addr, pdu, &words, response.process_data(), json)?;
-            }
-        } else {
-            paced(motion, s.count, period, async || {
-                let request = Telegram::request(addr, pdu).with_process_data(&words);
-                let response = m.exchange(request).await.map_err(driver_error)?;
-                print_pd(addr, pdu, &words, response.process_data(), json)
-            })
-            .await?;
-        }
-        Ok(())
+        movilink_pd(m, addr, pdu, &pd, motion, |pi| {
+            print_pd(addr, pdu, &pd.words, pi, json)
+        })
+        .await
     };
     let send_stop = async |m: &mut MasterDriver<IO>| -> Result<Stopped> {
-        let Some(stop) = &stop else {
-            return Err(CliError::failed("no control word to stop the drive with"));
-        };
-        let request = Telegram::request(addr, pdu).with_process_data(&stop.words);
-        let response = m.exchange(request).await.map_err(driver_error)?;
-        Ok(Stopped {
-            sent: stop.sent(),
-            reports: response
-                .process_data()
-                .first()
-                .map(|s| StatusWord1::from_bits(*s).to_string())
-                .unwrap_or_default(),
-        })
+        Ok(movilink_stop(m, addr, pdu, stop.as_ref()).await?)
     };
     guard.run(m, work, send_stop).await
 }

@@ -461,26 +461,6 @@ fn control_session(action: &str, setpoint: Option<u16>) -> ControlSession<'_> {
 }
 
 #[tokio::test]
-async fn enable_at_50_percent_walks_the_state_machine_as_in_5_1() {
-    let mut c = client(Fake::default());
-    control(&mut c, &session(), &control_session("enable", Some(0x2000)))
-        .await
-        .unwrap();
-    let f = c.channel();
-    assert_eq!(f.state, Some(State::OperationEnabled));
-    let words: Vec<u16> = f.controls.iter().map(|(w, _)| *w).collect();
-    // 5.1.1 shutdown 047Eh, switch on 0477h, 5.1.2 enable operation 047Fh; SW1 = 2000h.
-    assert_eq!(words, [0x047E, 0x0477, 0x047F]);
-    assert!(f.controls.iter().all(|(_, s)| s == &[0x2000]));
-    // Stop: shutdown until ready to switch on.
-    control(&mut c, &session(), &control_session("stop", None))
-        .await
-        .unwrap();
-    assert_eq!(c.channel().state, Some(State::ReadyToSwitchOn));
-    assert_eq!(c.channel().controls.last(), Some(&(0x047E, vec![0])));
-}
-
-#[tokio::test]
 async fn a_fault_is_reset_with_a_rising_edge_and_enable_refuses_a_faulted_drive() {
     let mut c = client(Fake {
         state: Some(State::Fault),

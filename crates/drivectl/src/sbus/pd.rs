@@ -4,20 +4,21 @@
 use std::time::Duration;
 
 use clap::Args;
+use drive_client::control::sew::{
+    IntervalError, PdStop, SbusTo, sbus_pd, sbus_preflight, sbus_stop, sync_interval, sync_producer,
+};
 use drive_core::rt::CanIo;
-use drive_profile::sew::{self, ControlWord1, StatusWord1, index};
+use drive_profile::sew::{self, ControlWord1, StatusWord1};
 use sbus_can::driver::SbusDriver;
 use sbus_can::ids::Address;
-use sbus_can::telegram::ProcessData;
 use serde_json::json;
 
 use crate::error::{CliError, Result};
-use crate::sbus::link::driver_error;
-use crate::sew::PdStop;
 use crate::tool::again::Again;
 use crate::tool::client::parse_int;
+use crate::tool::front::Cli;
 use crate::tool::interrupt::Interrupt;
-use crate::tool::motor::{Motion, MotorGuard, Stopped, paced};
+use crate::tool::motor::{Motion, MotorGuard, Stopped};
 use crate::tool::output::trim_float;
 
 /// Arguments of `drivectl sbus pd`.
@@ -114,35 +115,22 @@ pub async fn pd<C: CanIo>(
         .group
         .map(|g| Address::new(g).ok_or_else(|| CliError::usage(format!("--group {g}: 0…63"))))
         .transpose()?;
-    // A group has no answers to read the control word slots or P815 from: the factory setting
-    // (PO1 = control word 1) is assumed, and said.
-    let (slots, timeout) = match group {
-        Some(_) => {
-            if end.is_some() {
-                errln!(
-                    "drivectl: note: a group does not answer; the stop at the end goes to PO1, \
-                     the factory setting's control word (P870)"
-                );
-            }
-            (vec![0], None)
-        }
-        None => {
-            let mut l = drive_client::sew::sbus::SbusLink {
-                master: m,
-                address: addr,
-                handshake: sbus_can::master::Handshake::Async,
-                iface: String::new(),
-            };
-            let pre = crate::sew::pd_preflight(
-                &mut l,
-                3,
-                end.is_some(),
-                (index::SBUS_TIMEOUT, "SBus timeout P815"),
-            )
-            .await;
-            (pre.slots, pre.timeout)
-        }
+    let to = SbusTo {
+        address: addr,
+        group,
+        sync: args.sync,
     };
+    if group.is_some() && end.is_some() {
+        errln!(
+            "drivectl: note: a group does not answer; the stop at the end goes to PO1, the \
+             factory setting's control word (P870)"
+        );
+    }
+    let pre = sbus_preflight(m, to, end.is_some(), &Cli).await;
+    for w in &pre.warnings {
+        errln!("drivectl: warning: {w}");
+    }
+    let (slots, timeout) = (pre.slots, pre.timeout);
     let (default, grain) = if args.sync { (5, 5) } else { (100, 1) };
     let mut period = crate::sew::pd_interval(
         args.interval,
@@ -153,104 +141,49 @@ pub async fn pd<C: CanIo>(
         "F47 SBus timeout",
     )?;
     if args.sync {
-        // Whole 5 ms cycles.
-        period = Duration::from_millis(
-            u64::try_from(period.as_millis())
-                .unwrap_or(u64::MAX)
-                .div_ceil(5)
-                .max(1)
-                * 5,
-        );
-        if let Some(t) = timeout.filter(|t| period >= *t) {
-            return Err(CliError::usage(format!(
-                "--interval rounds up to {} ms of whole 5 ms SYNC cycles, not shorter than the \
-                 drive's SBus timeout P815 of {} ms: the drive would trip with F47; use a shorter \
-                 --interval or raise P815",
-                period.as_millis(),
-                t.as_millis()
-            )));
-        }
+        period = sync_interval(period, timeout).map_err(|e| match e {
+            IntervalError::SyncNotShorter {
+                rounded_ms,
+                timeout_ms,
+            } => CliError::usage(format!(
+                "--interval rounds up to {rounded_ms} ms of whole 5 ms SYNC cycles, not shorter \
+                 than the drive's SBus timeout P815 of {timeout_ms} ms: the drive would trip with \
+                 F47; use a shorter --interval or raise P815"
+            )),
+            e => CliError::usage(e.to_string()),
+        })?;
     }
     let stop = end.and_then(|cmd| PdStop::new(&words, &slots, cmd));
-    let mut hint = PdStop::hint(&words, &slots, end.unwrap_or(ControlWord1::STOP));
+    let mut hint = crate::sew::pd_hint(&words, &slots, end.unwrap_or(ControlWord1::STOP));
     if let Some(g) = group {
         hint.push_str(&format!(" --group {}", g.get()));
     }
     let guard = MotorGuard::install(
-        PdStop::at_end(stop.as_ref(), end.is_none()),
+        PdStop::at_end(stop.as_ref(), end.is_none().then_some("--keep-running")),
         again.then(&hint),
     );
     let work = async |m: &mut SbusDriver<C>, motion: &Motion<'_>| -> Result<()> {
-        paced(motion, args.count, period, async || {
-            exchange(m, addr, group, args.sync, words, json).await
+        sbus_pd(m, to, words, args.count, period, motion, |pi| {
+            print_pd(to, words, pi, json)
         })
         .await
     };
     let send_stop = async |m: &mut SbusDriver<C>| -> Result<Stopped> {
-        let Some(stop) = &stop else {
-            return Err(CliError::failed("no control word to stop the drive with"));
-        };
-        let mut w = [0u16; 3];
-        for (x, y) in w.iter_mut().zip(&stop.words) {
-            *x = *y;
-        }
-        let pi = exchange_quiet(m, addr, group, args.sync, w).await?;
-        Ok(Stopped {
-            sent: stop.sent(),
-            reports: pi.map_or_else(
-                || "no answer by design (group)".to_owned(),
-                |p| StatusWord1::from_bits(p.0[0]).to_string(),
-            ),
-        })
+        Ok(sbus_stop(m, to, stop.as_ref()).await?)
     };
     guard.run(m, work, send_stop).await
 }
 
-async fn exchange_quiet<C: CanIo>(
-    m: &mut SbusDriver<C>,
-    addr: Address,
-    group: Option<Address>,
-    sync: bool,
-    words: [u16; 3],
-) -> Result<Option<ProcessData>> {
-    let po = ProcessData(words);
-    match group {
-        Some(g) => m
-            .group_process_data(g, po)
-            .await
-            .map(|()| None)
-            .map_err(driver_error),
-        None if sync => m
-            .process_data_sync(addr, po)
-            .await
-            .map(Some)
-            .map_err(driver_error),
-        None => m
-            .process_data(addr, po)
-            .await
-            .map(Some)
-            .map_err(driver_error),
-    }
-}
-
-async fn exchange<C: CanIo>(
-    m: &mut SbusDriver<C>,
-    addr: Address,
-    group: Option<Address>,
-    sync: bool,
-    words: [u16; 3],
-    json: bool,
-) -> Result<()> {
-    let pi = exchange_quiet(m, addr, group, sync, words).await?;
+fn print_pd(to: SbusTo, words: [u16; 3], pi: Option<[u16; 3]>, json: bool) -> Result<()> {
     let time = crate::tool::watch::timestamp(std::time::SystemTime::now());
-    match (pi, group) {
-        (Some(ProcessData(pi)), _) => {
+    match (pi, to.group) {
+        (Some(pi), _) => {
             let status = StatusWord1::from_bits(pi[0]).to_string();
             if json {
                 outln!(
                     "{}",
-                    json!({"type": "pd", "time": time, "address": addr.get(),
-                           "sync": sync, "out": words, "in": pi, "status": status})
+                    json!({"type": "pd", "time": time, "address": to.address.get(),
+                           "sync": to.sync, "out": words, "in": pi, "status": status})
                 )
             } else {
                 outln!(
@@ -290,22 +223,9 @@ pub async fn sync<C: CanIo>(
     json: bool,
 ) -> Result<()> {
     let stop = Interrupt::install("the SYNC telegrams stopped");
-    let period = Duration::from_millis(args.period);
-    let mut ticker = tokio::time::interval(period);
-    ticker.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
     let started = tokio::time::Instant::now();
-    let mut sent = 0u32;
-    while args.count == 0 || sent < args.count {
-        tokio::select! {
-            _ = ticker.tick() => {}
-            () = stop.wait() => {}
-        }
-        if stop.requested() {
-            break;
-        }
-        m.sync().await.map_err(driver_error)?;
-        sent = sent.saturating_add(1);
-    }
+    let period = Duration::from_millis(args.period);
+    let sent = sync_producer(m, period, args.count, stop.inner()).await?;
     let elapsed = started.elapsed();
     if json {
         outln!(

@@ -153,12 +153,8 @@ impl Interrupt {
         });
     }
 
-    /// Wait until a signal came (at once if one did).
-    pub async fn wait(&self) {
-        self.inner.wait().await;
-    }
-
-    /// Whether a signal came.
+    /// Whether a signal came (tests; work checks [`Interrupt::inner`]).
+    #[cfg(test)]
     pub fn requested(&self) -> bool {
         self.inner.requested()
     }

@@ -18,6 +18,7 @@
 //! enable`) exits 128 + the signal's number (130 for Ctrl-C) after sending the stop; a closed
 //! output pipe exits 141 as for any other command.
 
+use drive_client::control::ControlError;
 pub use drive_client::motor::{AtEnd, Motion, Stopped};
 use drive_client::motor::{Ending, drive};
 
@@ -64,11 +65,6 @@ impl MotorGuard {
             at_end,
             stop_command: stop_command.to_owned(),
         }
-    }
-
-    /// The interrupt (for pauses outside [`MotorGuard::run`]).
-    pub fn interrupt(&self) -> &Interrupt {
-        &self.interrupt
     }
 
     /// Run `work` on `m`, then stop the drive with `stop` when the rule says so (see the
@@ -174,31 +170,42 @@ impl MotorGuard {
     }
 }
 
-/// `count` exchanges (0: until interrupted) `period` apart, each armed first (it may move the
-/// motor): an interrupt ends a pause at once, and the run before the next exchange.
-pub async fn paced(
-    motion: &Motion<'_>,
-    count: u32,
-    period: std::time::Duration,
-    mut exchange: impl AsyncFnMut() -> Result<()>,
-) -> Result<()> {
-    let stop = motion.interrupt();
-    let mut done = 0u32;
-    while count == 0 || done < count {
-        if done > 0 {
-            tokio::select! {
-                () = drive_core::rt::time::sleep(period) => {}
-                () = stop.wait() => {}
-            }
-        }
-        if stop.requested() {
-            break;
-        }
-        done = done.saturating_add(1);
-        motion.armed();
-        exchange().await?;
+impl From<ControlError> for CliError {
+    fn from(e: ControlError) -> Self {
+        CliError::failed(e.to_string())
     }
-    Ok(())
+}
+
+/// A control job's failure before the command line says it: the job's own (said by the
+/// family, which may add its way out), or the command line's (its output went away).
+#[derive(Debug)]
+pub enum JobError {
+    /// The job failed.
+    Job(ControlError),
+    /// The command line failed.
+    Cli(CliError),
+}
+
+impl From<ControlError> for JobError {
+    fn from(e: ControlError) -> Self {
+        JobError::Job(e)
+    }
+}
+
+impl From<CliError> for JobError {
+    fn from(e: CliError) -> Self {
+        JobError::Cli(e)
+    }
+}
+
+impl JobError {
+    /// The error as the command line says it, the job's in `say`'s words.
+    pub fn said(self, say: impl FnOnce(ControlError) -> CliError) -> CliError {
+        match self {
+            JobError::Job(e) => say(e),
+            JobError::Cli(e) => e,
+        }
+    }
 }
 
 #[cfg(test)]

@@ -65,7 +65,10 @@ mod tests {
     fn drive(index: u16) -> std::result::Result<i64, ClientError> {
         match index {
             8470 => Err(refusal(DeviceErrorKind::Refused, "parameter lock")),
-            9999 => Err(ClientError::Link("no answer".into())),
+            9999 => Err(ClientError::link(
+                drive_client::LinkFault::NoAnswer,
+                "no answer",
+            )),
             _ => Ok(0),
         }
     }

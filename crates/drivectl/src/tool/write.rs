@@ -194,8 +194,12 @@ mod tests {
     #[test]
     fn a_failed_read_back_says_the_value_was_written() {
         // A drive that takes every write and then stops answering.
-        let mut client =
-            FakeClient::new(|_| Err(ClientError::Link("no answer from drive 1".into())));
+        let mut client = FakeClient::new(|_| {
+            Err(ClientError::link(
+                drive_client::LinkFault::NoAnswer,
+                "no answer from drive 1",
+            ))
+        });
         let target = crate::movilink::resolve("P130").unwrap();
         let req = WriteRequest {
             target,

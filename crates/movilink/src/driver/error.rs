@@ -1,6 +1,7 @@
 //! What a driver call can fail with: the drive's answer, or the line.
 
 use crate::error::{RejectReason, ReturnCode};
+use drive_core::LinkFault;
 
 /// Why a driver call failed: the drive refused ([`DriverError::Device`]), the line failed
 /// ([`DriverError::Link`]) or the request cannot be made ([`DriverError::Request`]).
@@ -62,6 +63,18 @@ pub enum LinkError {
     /// The port failed or was closed.
     #[error("port i/o failed: {0}; check that the port still exists and no other program uses it")]
     Io(#[from] std::io::Error),
+}
+
+impl LinkError {
+    /// What kind of link failure this is.
+    pub fn fault(&self) -> LinkFault {
+        match self {
+            LinkError::Timeout { .. } | LinkError::NoResponse => LinkFault::NoAnswer,
+            LinkError::Corrupt { .. } => LinkFault::Garbled,
+            LinkError::NotExecuted { .. } | LinkError::NoParamChannel => LinkFault::Unexpected,
+            LinkError::Io(_) => LinkFault::Port,
+        }
+    }
 }
 
 /// Why a request cannot be made.

@@ -61,7 +61,10 @@ fn drive(index: u16) -> std::result::Result<i64, ClientError> {
         }
         8470 => Err(refusal(DeviceErrorKind::Refused, "parameter lock")),
         9999 => Ok(-5),
-        _ => Err(ClientError::Link("no answer from drive 1".into())),
+        _ => Err(ClientError::link(
+            drive_client::LinkFault::NoAnswer,
+            "no answer from drive 1",
+        )),
     }
 }
 
