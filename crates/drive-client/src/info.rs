@@ -5,7 +5,7 @@
 
 use bonfiglioli_modbus::slave::Width;
 use drive_profile::{Access, bonfiglioli, nord};
-use serde_json::{Map, Value, json};
+use serde_json::{Value, json};
 
 use crate::client::{ClientError, DeviceError, DeviceErrorKind, ParamClient};
 use crate::meaning::{Device, param_json, target_json, value_json, value_json_in};
@@ -278,63 +278,33 @@ impl Info {
                 v
             })
             .collect();
-        let mut m = Map::new();
-        let mut put = |k: &str, v: Value| {
-            m.insert(k.into(), v);
-        };
-        put("index", first.index.into());
-        put("number", json!(p.map(|q| q.label().to_string())));
-        put(
-            "label",
-            if one {
-                first.label()
-            } else {
+        json!({
+            "index": first.index,
+            "number": p.map(|q| q.label().to_string()),
+            // One target: its label and selector; several (every set or element): the
+            // parameter, each one's in `current`.
+            "label": if one { first.label() } else {
                 p.map_or_else(|| first.label(), |q| q.label().to_string())
-            }
-            .into(),
-        );
-        put(
-            "selector",
-            if one {
-                first.selector_json()
-            } else {
-                Value::Null
             },
-        );
-        put("name_de", json!(p.map(|q| q.name_de)));
-        put("name_en", json!(p.map(|q| q.name_en)));
-        put("unit", json!(p.map(|q| q.unit)));
-        put("range", self.range_json(p.and_then(|q| q.raw_range)));
-        put("default", json!(p.and_then(|q| q.default_raw)));
-        put(
-            "default_value",
-            json!(p.and_then(|q| q.default_raw).map(|d| self.physical(d))),
-        );
-        put(
-            "resolution",
-            json!(p.and_then(|q| q.resolution).map(|r| json!({
+            "selector": if one { first.selector_json() } else { Value::Null },
+            "name_de": p.map(|q| q.name_de), "name_en": p.map(|q| q.name_en),
+            "unit": p.map(|q| q.unit),
+            "range": self.range_json(p.and_then(|q| q.raw_range)),
+            "default": p.and_then(|q| q.default_raw),
+            "default_value": p.and_then(|q| q.default_raw).map(|d| self.physical(d)),
+            "resolution": p.and_then(|q| q.resolution).map(|r| json!({
                 "step": r.step, "decimals": r.decimals, "text": r.text,
-            }))),
-        );
-        put("access", json!(p.map(|q| q.access.to_string())));
-        put("parameter_set", json!(p.map(|q| q.parameter_set)));
-        put("array_len", json!(p.and_then(|q| q.array_len)));
-        put(
-            "array_len_drive",
-            json!(count.and_then(|c| c.as_ref().ok().copied())),
-        );
-        put("limits_from", json!(p.map(|_| "table")));
-        put("current", values.into());
-        put(
-            "values",
-            json!(p.map(|q| {
-                q.values
-                    .iter()
-                    .map(|v| json!({"value": v.value, "de": v.de, "en": v.en}))
-                    .collect::<Vec<_>>()
             })),
-        );
-        Value::Object(m)
+            "access": p.map(|q| q.access.to_string()),
+            "parameter_set": p.map(|q| q.parameter_set),
+            "array_len": p.and_then(|q| q.array_len),
+            "array_len_drive": count.and_then(|c| c.as_ref().ok().copied()),
+            "limits_from": p.map(|_| "table"),
+            "current": values,
+            "values": p.map(|q| q.values.iter().map(|v| json!({
+                "value": v.value, "de": v.de, "en": v.en,
+            })).collect::<Vec<_>>()),
+        })
     }
 }
 
