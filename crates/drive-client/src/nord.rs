@@ -381,6 +381,10 @@ impl<C: ParameterChannel> ParamClient for NordParamClient<'_, C> {
 }
 
 #[cfg(test)]
+#[path = "nord_tests.rs"]
+mod client_tests;
+
+#[cfg(test)]
 mod tests {
     use super::*;
     use ctt2_uss::uss::DriveError;

@@ -6,9 +6,6 @@
 pub use drive_client::client::DeviceErrorKind;
 pub use drive_client::client::{ClientError, ParamClient};
 pub use drive_client::target::{Target, TargetError, ValueError, ValueText};
-// Every IND word of a NORD parameter: what a backup holds of it (the NORD tests check it).
-#[cfg(test)]
-pub use drive_client::target::nord_subs;
 pub use drive_client::text::{canonical_port, parse_int};
 
 use crate::error::CliError;

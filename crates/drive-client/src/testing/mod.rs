@@ -3,6 +3,8 @@
 //! and which remembers what was written, can lose its link or raise an interrupt after a number
 //! of writes.
 
+pub mod nord;
+
 use drive_profile::{Family, Persistence};
 use serde_json::{Map, Value};
 
