@@ -23,12 +23,17 @@
 //!   refusals and a half-finished restore that says what was and was not written; both tell a
 //!   front end how far they are through [`Progress`];
 //! * [`motor`]: the rule of everything that enables or drives a motor — stopped on every early
-//!   end ([`Interrupt`]), left running only on purpose — for every front end to say its way.
+//!   end ([`Interrupt`]), left running only on purpose — for every front end to say its way;
+//!   `signals` (feature `signals`): [`Interrupt::install`] over SIGINT, SIGTERM, SIGHUP, SIGQUIT;
+//! * [`watch`]: a [`watch::Sampler`] polling parameters at a steady rhythm, typed samples;
+//! * [`outfile`]: output files written safely (regular files only, atomic, never replaced
+//!   unasked); [`infile`]: input files read whole, never past a limit.
 //!
 //! Errors are typed and carry no front end's words: the command line and the gateway each say
 //! them their own way.
 
 #![warn(missing_docs)]
+#![cfg_attr(docsrs, feature(doc_cfg))]
 
 pub mod backup;
 pub mod bonfiglioli;
@@ -39,13 +44,18 @@ pub mod interrupt;
 pub mod meaning;
 pub mod motor;
 pub mod nord;
+pub mod outfile;
 pub mod progress;
 pub mod restore;
 pub mod sew;
+#[cfg(feature = "signals")]
+#[cfg_attr(docsrs, doc(cfg(feature = "signals")))]
+pub mod signals;
 pub mod target;
 #[cfg(any(test, feature = "testing"))]
 pub mod testing;
 pub mod text;
+pub mod watch;
 pub mod wear;
 pub mod write;
 

@@ -24,11 +24,13 @@
 //! [`Interrupt`] is checked before every exchange: the exchange in flight is finished.
 
 use drive_profile::Persistence;
-use serde_json::{Map, Value};
+use serde_json::{Map, Value, json};
 
-use crate::backup::{BackupFile, Entry, FileError, Skip};
+use crate::backup::{BackupFile, Entry, FileError, Skip, skipped_json};
 use crate::client::{ClientError, DeviceError, DeviceErrorKind, ParamClient};
+use crate::front::FrontEnd;
 use crate::interrupt::{Cause, Interrupt};
+use crate::meaning::target_json;
 use crate::progress::{FieldDiff, Notice, Phase, Progress};
 use crate::target::Target;
 use crate::wear::WearLog;
@@ -471,6 +473,98 @@ pub async fn verify<C: ParamClient>(
     }
     progress.finish();
     Ok(mismatches)
+}
+
+/// The physical value of `raw` as JSON (raw outside the table).
+fn physical_json(t: &Target, raw: i64) -> Value {
+    t.param
+        .map_or(Value::from(raw), |p| json!(p.to_physical(raw)))
+}
+
+impl Change {
+    /// The change as JSON: the target's keys ([`target_json`]) with `"type": "change"`,
+    /// `from_raw`, `from`, `to_raw`, `to` (raw and physical values).
+    pub fn to_json(&self) -> Value {
+        let t = &self.target;
+        let mut o = target_json(t);
+        o.insert("type".into(), "change".into());
+        o.insert("from_raw".into(), self.from.into());
+        o.insert("from".into(), physical_json(t, self.from));
+        o.insert("to_raw".into(), self.to.into());
+        o.insert("to".into(), physical_json(t, self.to));
+        Value::Object(o)
+    }
+}
+
+impl Mismatch {
+    /// The mismatch as JSON: the target's keys with `"type": "mismatch"`, `expected_raw`,
+    /// `expected`, `raw`, `value` (what the drive holds).
+    pub fn to_json(&self) -> Value {
+        let t = &self.target;
+        let mut o = target_json(t);
+        o.insert("type".into(), "mismatch".into());
+        o.insert("expected_raw".into(), self.expected.into());
+        o.insert("expected".into(), physical_json(t, self.expected));
+        o.insert("raw".into(), self.back.into());
+        o.insert("value".into(), physical_json(t, self.back));
+        Value::Object(o)
+    }
+}
+
+/// The entries of `skipped` the drive answered for, `P130 (its answer)`: those whose write it
+/// refused, or (`unreadable`) those it refused to read.
+pub fn answered(skipped: &[(Target, Skip)], unreadable: bool) -> Vec<String> {
+    skipped
+        .iter()
+        .filter_map(|(t, s)| match s {
+            Skip::Refused(why) if !unreadable => Some(format!("{} ({why})", t.label())),
+            Skip::Unreadable(why) if unreadable => Some(format!("{} ({why})", t.label())),
+            _ => None,
+        })
+        .collect()
+}
+
+impl Plan {
+    /// A dry run's summary of restoring `file`: `{"type": "restore", "dry_run": true, "file",
+    /// "entries", "changes", "unchanged", "refused" (the front end's text of each of
+    /// [`Plan::refusals`]), "skipped"}` ([`skipped_json`]).
+    pub fn dry_run_json(&self, file: &str, refused: &[String], front: &dyn FrontEnd) -> Value {
+        json!({"type": "restore", "dry_run": true, "file": file, "entries": self.entries,
+               "changes": self.changes.len(), "unchanged": self.unchanged(),
+               "refused": refused, "skipped": skipped_json(&self.skipped, front)})
+    }
+
+    /// A finished restore's summary: `{"type": "restore", "file", "complete": true,
+    /// "entries", "written" (how many), "unchanged", "refused" ([`answered`]), "mismatches"
+    /// (how many), "skipped"}`.
+    pub fn report_json(
+        &self,
+        applied: &Applied,
+        mismatches: &[Mismatch],
+        file: &str,
+        front: &dyn FrontEnd,
+    ) -> Value {
+        let skipped = self.skipped_after(&applied.refused);
+        json!({"type": "restore", "file": file, "complete": true, "entries": self.entries,
+               "written": applied.written.len(), "unchanged": self.unchanged(),
+               "refused": answered(&skipped, false), "mismatches": mismatches.len(),
+               "skipped": skipped_json(&skipped, front)})
+    }
+}
+
+impl Halted {
+    /// A half-finished restore's summary: `{"type": "restore", "file", "complete": false,
+    /// "entries", "written", "not_written" (labels), "uncertain" (the label of the write in
+    /// doubt, or null), "refused", "skipped"}`.
+    pub fn report_json(&self, plan: &Plan, file: &str, front: &dyn FrontEnd) -> Value {
+        let labels = |c: &[Change]| -> Vec<String> { c.iter().map(|c| c.target.label()).collect() };
+        let skipped = plan.skipped_after(&self.applied.refused);
+        json!({"type": "restore", "file": file, "complete": false, "entries": plan.entries,
+               "written": labels(&self.applied.written), "refused": answered(&skipped, false),
+               "not_written": labels(&self.not_written),
+               "uncertain": self.uncertain().map(Target::label),
+               "skipped": skipped_json(&skipped, front)})
+    }
 }
 
 #[cfg(test)]

@@ -409,3 +409,81 @@ fn every_refusal_is_found_before_the_first_write() {
     let all = plan.skipped_after(&refused);
     assert!(matches!(all.as_slice(), [(_, Skip::Refused(d))] if d.message.contains("inhibit")));
 }
+
+/// A front end that names the confirmation of link settings, as the command line does.
+#[derive(Debug)]
+struct Yes;
+
+impl crate::front::FrontEnd for Yes {
+    fn name(&self, setting: crate::front::Setting) -> Option<String> {
+        (setting == crate::front::Setting::ConfirmLinkSettings).then(|| "--yes".to_owned())
+    }
+}
+
+#[test]
+fn every_front_end_reports_the_same_objects_in_its_own_words() {
+    // P131 (8471) is an unconfirmed setting of the link; the drive ignores writes.
+    let mut c = drive(7);
+    c.link_settings = &[8471];
+    let (plan, applied, mismatches) = restore(
+        &mut c,
+        &file(json!({})),
+        FORCED,
+        &Interrupt::new(),
+        &mut Seen::default(),
+    )
+    .unwrap();
+    let change = plan.changes[0].to_json();
+    assert_eq!(
+        (
+            &change["type"],
+            &change["label"],
+            &change["from_raw"],
+            &change["to"]
+        ),
+        (&json!("change"), &json!("P130"), &json!(8470), &json!(1.0))
+    );
+    let m = mismatches[0].to_json();
+    assert_eq!(
+        (&m["type"], &m["expected_raw"], &m["raw"], &m["value"]),
+        (&json!("mismatch"), &json!(1000), &json!(8470), &json!(8.47))
+    );
+    let done = plan.report_json(&applied, &mismatches, "b.json", &crate::front::Plain);
+    assert_eq!(
+        (
+            &done["type"],
+            &done["complete"],
+            &done["written"],
+            &done["mismatches"]
+        ),
+        (&json!("restore"), &json!(true), &json!(2), &json!(2))
+    );
+    assert_eq!(
+        (&done["entries"], &done["unchanged"]),
+        (&json!(4), &json!(1))
+    );
+    // The skipped link setting: its reason as a code, and the way to write it only where the
+    // front end names one.
+    let plain = &done["skipped"][0];
+    assert_eq!(
+        (&plain["label"], &plain["reason"]),
+        (&json!("P131"), &json!("needs_yes"))
+    );
+    assert!(plain.get("hint").is_none());
+    assert!(!plain["message"].as_str().unwrap().contains("--yes"));
+    let dry = plan.dry_run_json("b.json", &["refused".to_owned()], &Yes);
+    assert_eq!(
+        (&dry["dry_run"], &dry["changes"]),
+        (&json!(true), &json!(2))
+    );
+    assert_eq!(dry["refused"], json!(["refused"]));
+    let cli = &dry["skipped"][0];
+    assert_eq!(cli["hint"], "--yes");
+    assert!(
+        cli["message"]
+            .as_str()
+            .unwrap()
+            .starts_with("settings of the link the restore talks over; add --yes to write them: "),
+        "{cli}"
+    );
+}

@@ -2,6 +2,7 @@
 //! engine, what it did and what it refused said on the command line.
 
 use super::*;
+use serde_json::Value;
 
 /// The guard's message with what `restore` offers as a way out.
 fn restore_hint(e: &GuardError) -> String {
@@ -40,34 +41,16 @@ fn change_text(t: &Target, old: i64, new: i64) -> String {
     )
 }
 
-/// A change as JSON: the target's keys ([`target_json`]) with `from_raw`, `from`, `to_raw`,
-/// `to` (raw and physical values).
-fn change_json(t: &Target, old: i64, new: i64) -> Value {
-    let mut o = target_json(t);
-    o.insert("type".into(), "change".into());
-    o.insert("from_raw".into(), old.into());
-    o.insert("from".into(), physical_json(t, old));
-    o.insert("to_raw".into(), new.into());
-    o.insert("to".into(), physical_json(t, new));
-    Value::Object(o)
-}
-
 /// Print every change, old → new, by its label.
 fn print_changes(changes: &[Change], json: bool) -> Result<()> {
     for c in changes {
         if json {
-            outln!("{}", change_json(&c.target, c.from, c.to))?;
+            outln!("{}", c.to_json())?;
         } else {
             outln!("{}", change_text(&c.target, c.from, c.to))?;
         }
     }
     Ok(())
-}
-
-/// The physical value of `raw` as JSON (raw outside the table).
-fn physical_json(t: &Target, raw: i64) -> Value {
-    t.param
-        .map_or(Value::from(raw), |p| json!(p.to_physical(raw)))
 }
 
 /// An identity value for a person: a string as it is, anything else as JSON.
@@ -113,18 +96,6 @@ fn say(file: &Path, notice: &Notice) {
         }
         other => errln!("drivectl: note: {other:?}"),
     }
-}
-
-/// The entries of `skipped` refused or unreadable by the drive: `P130 (its answer)`.
-fn answered(skipped: &[(Target, Skip)], unreadable: bool) -> Vec<String> {
-    skipped
-        .iter()
-        .filter_map(|(t, s)| match s {
-            Skip::Refused(why) if !unreadable => Some(format!("{} ({why})", t.label())),
-            Skip::Unreadable(why) if unreadable => Some(format!("{} ({why})", t.label())),
-            _ => None,
-        })
-        .collect()
 }
 
 /// A restore's error before anything was written, or while verifying (`written`: the labels of
@@ -189,6 +160,7 @@ pub async fn restore<C: ParamClient>(
         any_device: opts.any_device,
         confirm_link_settings: opts.yes,
     };
+    let shown = file.display().to_string();
     let mut bar = Bar::new(|n: &Notice| say(file, n));
     let stop = stop.inner();
     let plan = restoring::plan(client, &loaded, &rules, &log, &mut bar, stop)
@@ -202,13 +174,7 @@ pub async fn restore<C: ParamClient>(
             errln!("drivectl: would be refused: {r}");
         }
         if json {
-            outln!(
-                "{}",
-                json!({"type": "restore", "dry_run": true, "file": file.display().to_string(),
-                       "entries": plan.entries, "changes": changes,
-                       "unchanged": unchanged, "refused": refusals,
-                       "skipped": skipped_json(&plan.skipped)})
-            )?;
+            outln!("{}", plan.dry_run_json(&shown, &refusals, &Cli))?;
         } else {
             for l in skipped_lines(&plan.skipped) {
                 outln!("{l}")?;
@@ -252,18 +218,10 @@ pub async fn restore<C: ParamClient>(
             let written = &h.applied.written;
             print_changes(written, json)?;
             let written_labels: Vec<String> = written.iter().map(|c| c.target.label()).collect();
-            let skipped = plan.skipped_after(&h.applied.refused);
             let missing: Vec<String> = h.not_written.iter().map(|c| c.target.label()).collect();
             let uncertain = h.uncertain().map(Target::label);
             if json {
-                outln!(
-                    "{}",
-                    json!({"type": "restore", "file": file.display().to_string(),
-                           "complete": false, "entries": plan.entries,
-                           "written": written_labels, "refused": answered(&skipped, false),
-                           "not_written": missing, "uncertain": uncertain,
-                           "skipped": skipped_json(&skipped)})
-                )?;
+                outln!("{}", h.report_json(&plan, &shown, &Cli))?;
             }
             let why = match &h.why {
                 Halt::Interrupted(cause) => format!("interrupted{}", by(cause)),
@@ -301,13 +259,7 @@ pub async fn restore<C: ParamClient>(
     for m in &mismatches {
         let t = &m.target;
         if json {
-            let mut o = target_json(t);
-            o.insert("type".into(), "mismatch".into());
-            o.insert("expected_raw".into(), m.expected.into());
-            o.insert("expected".into(), physical_json(t, m.expected));
-            o.insert("raw".into(), m.back.into());
-            o.insert("value".into(), physical_json(t, m.back));
-            outln!("{}", Value::Object(o))?;
+            outln!("{}", m.to_json())?;
         } else {
             outln!(
                 "{}: expected {}, the drive holds {}",
@@ -318,17 +270,11 @@ pub async fn restore<C: ParamClient>(
         }
     }
     let skipped = plan.skipped_after(&applied.refused);
-    let refused = answered(&skipped, false);
-    let unreadable = answered(&skipped, true);
+    let refused = restoring::answered(&skipped, false);
+    let unreadable = restoring::answered(&skipped, true);
     let compared = plan.compared.len();
     if json {
-        outln!(
-            "{}",
-            json!({"type": "restore", "file": file.display().to_string(), "complete": true,
-                   "entries": plan.entries, "written": written.len(), "unchanged": unchanged,
-                   "refused": refused, "mismatches": mismatches.len(),
-                   "skipped": skipped_json(&skipped)})
-        )?;
+        outln!("{}", plan.report_json(&applied, &mismatches, &shown, &Cli))?;
     } else {
         for l in skipped_lines(&skipped) {
             outln!("{l}")?;

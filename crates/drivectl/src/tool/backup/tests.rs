@@ -1,6 +1,7 @@
 use super::*;
 use crate::tool::fake::{FakeClient, refusal};
 use drive_profile::sew::index;
+use serde_json::{Value, json};
 
 /// Every read answers the index as value, except: P000 "speed" (8318) is absent, P001
 /// "user display" (8501) refuses reading.
