@@ -614,6 +614,23 @@ pub fn skipped_json(skipped: &[(Target, Skip)], front: &dyn FrontEnd) -> Value {
 }
 
 impl Backup {
+    /// The gap in an incomplete backup, for a person: `the backup is incomplete: the drive
+    /// refused to read 1 parameter(s): P001 (its answer)`; `None` when it is complete.
+    pub fn gaps_text(&self) -> Option<String> {
+        let list: Vec<String> = self
+            .unreadable
+            .iter()
+            .map(|(t, why)| format!("{} ({why})", t.label()))
+            .collect();
+        (!list.is_empty()).then(|| {
+            format!(
+                "the backup is incomplete: the drive refused to read {} parameter(s): {}",
+                list.len(),
+                list.join(", ")
+            )
+        })
+    }
+
     /// The backup's summary as JSON, written to `file`: `{"type": "backup", "file",
     /// "parameters" (how many saved), "skipped" (how many absent), "unreadable": [the target's
     /// keys with the drive's `error`]}`.

@@ -365,4 +365,10 @@ fn the_backup_summary_counts_what_was_saved_and_names_each_gap() {
     assert_eq!(v["skipped"], 1);
     assert_eq!(v["unreadable"][0]["label"], "P001");
     assert_eq!(v["unreadable"][0]["error"], "access denied");
+    assert_eq!(
+        done.gaps_text().as_deref(),
+        Some(
+            "the backup is incomplete: the drive refused to read 1 parameter(s): P001 (access denied)"
+        )
+    );
 }

@@ -24,7 +24,7 @@
 //!   front end how far they are through [`Progress`];
 //! * [`motor`]: the rule of everything that enables or drives a motor — stopped on every early
 //!   end ([`Interrupt`]), left running only on purpose — for every front end to say its way;
-//!   `signals` (feature `signals`): [`Interrupt::install`] over SIGINT, SIGTERM, SIGHUP, SIGQUIT;
+//!   `signals` (feature `signals`): `Interrupt::install` over SIGINT, SIGTERM, SIGHUP, SIGQUIT;
 //! * [`watch`]: a [`watch::Sampler`] polling parameters at a steady rhythm, typed samples;
 //! * [`outfile`]: output files written safely (regular files only, atomic, never replaced
 //!   unasked); [`infile`]: input files read whole, never past a limit.

@@ -152,7 +152,7 @@ fn forget(tmp: &Path) {
 }
 
 /// Remove the temporary files of every output file not committed yet: for an exit that skips
-/// their drops (a second signal, [`crate::signals`]).
+/// their drops (a second signal, `signals`).
 pub fn remove_temporary_files() {
     if let Ok(mut list) = TEMPORARY.lock() {
         for p in list.drain(..) {

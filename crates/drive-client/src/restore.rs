@@ -72,6 +72,28 @@ pub fn identity_differences(
         .collect()
 }
 
+/// An identification value for a person: a string as it is, anything else as JSON.
+pub fn identity_text(v: &Value) -> String {
+    v.as_str().map_or_else(|| v.to_string(), str::to_owned)
+}
+
+/// How the file's drive differs from this one, for a person: `was saved from a drive of device
+/// type 7, variant act; this drive is device type 8, variant acu`.
+pub fn other_device_text(differ: &[FieldDiff]) -> String {
+    let side = |pick: fn(&FieldDiff) -> &Value| {
+        differ
+            .iter()
+            .map(|d| format!("{} {}", d.key.replace('_', " "), identity_text(pick(d))))
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    format!(
+        "was saved from a drive of {}; this drive is {}",
+        side(|d| &d.saved),
+        side(|d| &d.drive)
+    )
+}
+
 /// The firmware of the file (`saved`) and of the drive, when both are known and differ.
 pub fn firmware_difference(
     saved: &Map<String, Value>,
@@ -534,6 +556,37 @@ impl Plan {
                "refused": refused, "skipped": skipped_json(&self.skipped, front)})
     }
 
+    /// What a finished restore did not achieve, one sentence each for a person (empty when it
+    /// did everything): values that differ after the restore or writes the drive refused, and
+    /// entries the drive refused to read.
+    pub fn shortfalls(&self, applied: &Applied, mismatches: &[Mismatch]) -> Vec<String> {
+        let skipped = self.skipped_after(&applied.refused);
+        let (refused, unreadable) = (answered(&skipped, false), answered(&skipped, true));
+        let mut failures = Vec::new();
+        if !mismatches.is_empty() || !refused.is_empty() {
+            failures.push(format!(
+                "verify failed: {} value(s) differ after restore, {} write(s) refused by the \
+                 drive{}; check controller inhibit and the parameter lock",
+                mismatches.len(),
+                refused.len(),
+                if refused.is_empty() {
+                    String::new()
+                } else {
+                    format!(" ({})", refused.join(", "))
+                }
+            ));
+        }
+        if !unreadable.is_empty() {
+            failures.push(format!(
+                "the restore is incomplete: the drive refused to read {} parameter(s), which were \
+                 not compared or written: {}",
+                unreadable.len(),
+                unreadable.join(", ")
+            ));
+        }
+        failures
+    }
+
     /// A finished restore's summary: `{"type": "restore", "file", "complete": true,
     /// "entries", "written" (how many), "unchanged", "refused" ([`answered`]), "mismatches"
     /// (how many), "skipped"}`.
@@ -553,6 +606,31 @@ impl Plan {
 }
 
 impl Halted {
+    /// What the drive holds now, for a person: `the drive is half restored: 1 of 3 change(s)
+    /// written (P130), 2 not written (P131, P132)`, the write in doubt, and how to finish it.
+    pub fn state_text(&self) -> String {
+        let labels = |c: &[Change]| -> Vec<String> { c.iter().map(|c| c.target.label()).collect() };
+        let (written, missing) = (labels(&self.applied.written), labels(&self.not_written));
+        let changes = written.len() + self.applied.refused.len() + missing.len();
+        format!(
+            "the drive is half restored: {} of {changes} change(s) written ({}), {} not written \
+             ({}){}; run the same restore again to finish it (values the drive already holds are \
+             not written again)",
+            written.len(),
+            if written.is_empty() {
+                "none".to_owned()
+            } else {
+                written.join(", ")
+            },
+            missing.len(),
+            missing.join(", "),
+            self.uncertain().map_or_else(String::new, |u| format!(
+                "; {} was being written when the link failed and may or may not have arrived",
+                u.label()
+            )),
+        )
+    }
+
     /// A half-finished restore's summary: `{"type": "restore", "file", "complete": false,
     /// "entries", "written", "not_written" (labels), "uncertain" (the label of the write in
     /// doubt, or null), "refused", "skipped"}`.

@@ -487,3 +487,44 @@ fn every_front_end_reports_the_same_objects_in_its_own_words() {
         "{cli}"
     );
 }
+
+#[test]
+fn a_half_restore_and_a_restore_that_fell_short_say_what_the_drive_holds() {
+    let mut c = drive(7);
+    c.link_dies_after = Some(1);
+    let e = restore(
+        &mut c,
+        &file(json!({})),
+        FORCED,
+        &Interrupt::new(),
+        &mut Seen::default(),
+    )
+    .unwrap_err();
+    let RestoreError::Halted(h) = e else {
+        panic!("{e:?}")
+    };
+    assert_eq!(
+        h.state_text(),
+        "the drive is half restored: 1 of 3 change(s) written (P130), 2 not written (P131, \
+         P132); P131 was being written when the link failed and may or may not have arrived; \
+         run the same restore again to finish it (values the drive already holds are not \
+         written again)"
+    );
+    // This drive ignores writes: all three differ when read back.
+    let mut c = drive(7);
+    let (plan, applied, mismatches) = restore(
+        &mut c,
+        &file(json!({})),
+        FORCED,
+        &Interrupt::new(),
+        &mut Seen::default(),
+    )
+    .unwrap();
+    assert_eq!(
+        plan.shortfalls(&applied, &mismatches),
+        [
+            "verify failed: 3 value(s) differ after restore, 0 write(s) refused by the drive; check \
+          controller inhibit and the parameter lock"
+        ]
+    );
+}

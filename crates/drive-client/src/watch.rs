@@ -17,9 +17,10 @@
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
 use drive_core::rt::time::{self, Instant, Interval, MissedTickBehavior};
+use serde_json::{Value, json};
 
 use crate::client::{ClientError, DeviceError, ParamClient};
-use crate::meaning::Device;
+use crate::meaning::{Device, target_json, value_json_in};
 use crate::target::Target;
 
 /// The shortest interval between polls, in milliseconds: a MOVILINK parameter read at 9600
@@ -45,6 +46,29 @@ pub struct Sample {
     pub stale_bytes: u64,
 }
 
+impl Sample {
+    /// The sample as JSON: `{"type": "sample", "time": …` ([`timestamp`]) `, "values": [per
+    /// target its read's object ([`value_json_in`]), or the target's keys (`index`, `number`,
+    /// `label`, names, `selector`, `unit`) with the drive's `error`]}`; `targets` are the
+    /// sampler's.
+    ///
+    pub fn to_json(&self, targets: &[Target]) -> Value {
+        let values: Vec<Value> = targets
+            .iter()
+            .zip(&self.values)
+            .map(|(t, cell)| match cell {
+                Ok(raw) => value_json_in(t, *raw, &self.device),
+                Err(d) => {
+                    let mut o = target_json(t);
+                    o.insert("error".into(), d.message.as_str().into());
+                    Value::Object(o)
+                }
+            })
+            .collect();
+        json!({"type": "sample", "time": timestamp(self.time), "values": values})
+    }
+}
+
 /// Why a watch ended early.
 #[derive(Debug, Clone, thiserror::Error)]
 #[non_exhaustive]
@@ -59,6 +83,49 @@ pub enum WatchError {
         /// The complete polls before it.
         polls: u64,
     },
+}
+
+/// Parameters no poll of a watch could read: `no parameter could be read in 3 poll(s): P130
+/// (its answer)`, or `1 of 2 parameter(s) could not be read in any of the 3 poll(s): …`.
+#[derive(Debug, Clone, thiserror::Error)]
+#[error("{}", unread_text(self))]
+pub struct Unread {
+    /// The complete polls.
+    pub polls: u64,
+    /// How many parameters were polled.
+    pub total: usize,
+    /// Each parameter never read, with the drive's last refusal.
+    pub unread: Vec<(Target, DeviceError)>,
+}
+
+impl Unread {
+    /// Whether no parameter at all was read.
+    pub fn none_read(&self) -> bool {
+        self.unread.len() == self.total
+    }
+}
+
+fn unread_text(u: &Unread) -> String {
+    let list: Vec<String> = u
+        .unread
+        .iter()
+        .map(|(t, why)| format!("{} ({why})", t.label()))
+        .collect();
+    if u.none_read() {
+        format!(
+            "no parameter could be read in {} poll(s): {}",
+            u.polls,
+            list.join(", ")
+        )
+    } else {
+        format!(
+            "{} of {} parameter(s) could not be read in any of the {} poll(s): {}",
+            list.len(),
+            u.total,
+            u.polls,
+            list.join(", ")
+        )
+    }
 }
 
 /// Polls `targets` through a client at a steady rhythm (see the [module docs](self)).
@@ -142,6 +209,20 @@ impl<'a, C: ParamClient> Sampler<'a, C> {
     /// The targets polled.
     pub fn targets(&self) -> &'a [Target] {
         self.targets
+    }
+
+    /// The watch's verdict so far: a failure ([`Unread`]) when a parameter could not be read in
+    /// any of the complete polls; a success before the first one (nothing to judge).
+    pub fn verdict(&self) -> Result<(), Unread> {
+        let unread = self.unread();
+        if unread.is_empty() {
+            return Ok(());
+        }
+        Err(Unread {
+            polls: self.done,
+            total: self.targets.len(),
+            unread,
+        })
     }
 
     /// Every target no poll read, with the drive's last refusal; empty before the first

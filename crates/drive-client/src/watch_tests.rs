@@ -94,6 +94,20 @@ async fn polls_keep_their_rhythm_and_carry_values_and_refusals() {
             Err("parameter lock")
         );
         assert_eq!(sample.values[2], Ok(-5));
+        // As JSON: the time, each read's object, a refusal with the keys of its target.
+        let v = sample.to_json(&targets);
+        assert_eq!(v["type"], "sample");
+        assert_eq!(v["time"], timestamp(sample.time));
+        assert_eq!(v["values"][0]["number"], "P000");
+        assert_eq!(v["values"][0]["value"], 1500.0);
+        let refused = &v["values"][1];
+        assert_eq!(
+            (&refused["label"], &refused["error"]),
+            (&"P130".into(), &"parameter lock".into())
+        );
+        assert_eq!(refused["name_en"], "Ramp t11 up CW [s]");
+        assert!(refused["selector"].is_null());
+        assert_eq!(v["values"][2]["raw"], -5);
     }
     // P130 was refused in every poll: named with the drive's answer.
     assert_eq!(s.polls(), 3);
@@ -103,6 +117,12 @@ async fn polls_keep_their_rhythm_and_carry_values_and_refusals() {
         .map(|(t, d)| (t.label(), d.message))
         .collect();
     assert_eq!(unread, [("P130".to_owned(), "parameter lock".to_owned())]);
+    let verdict = s.verdict().unwrap_err();
+    assert!(!verdict.none_read());
+    assert_eq!(
+        verdict.to_string(),
+        "1 of 3 parameter(s) could not be read in any of the 3 poll(s): P130 (parameter lock)"
+    );
 }
 
 #[tokio::test(start_paused = true)]
@@ -140,5 +160,5 @@ async fn a_link_failure_ends_the_watch_and_nothing_is_judged_before_a_poll() {
     assert_eq!((target.label(), polls), ("P001".to_owned(), 0));
     assert_eq!(error, ClientError::Link("no answer from drive 1".into()));
     // P130 was refused, but no poll was complete.
-    assert!(s.unread().is_empty());
+    assert!(s.unread().is_empty() && s.verdict().is_ok());
 }

@@ -49,16 +49,6 @@ impl Interrupt {
         self.inner.raise(Stop::Int.cause());
     }
 
-    /// Wait until a signal came (at once if one did).
-    pub async fn wait(&self) {
-        self.inner.wait().await;
-    }
-
-    /// Whether a signal came.
-    pub fn requested(&self) -> bool {
-        self.inner.requested()
-    }
-
     /// The first signal that came, if any.
     pub fn signal(&self) -> Option<Stop> {
         self.inner.cause().and_then(|c| Stop::of(c.code))
@@ -66,6 +56,14 @@ impl Interrupt {
 
     /// The library's flag the signals raise (for work written in `drive_client`).
     pub fn inner(&self) -> &drive_client::Interrupt {
+        &self.inner
+    }
+}
+
+/// The library flag's `wait`, `requested` and `cause`.
+impl std::ops::Deref for Interrupt {
+    type Target = drive_client::Interrupt;
+    fn deref(&self) -> &drive_client::Interrupt {
         &self.inner
     }
 }

@@ -4,76 +4,54 @@
 //! words. A path that cannot be used is a usage error (exit 2), like every other refusal of a
 //! path; a failure to write is exit 1.
 
-use std::fs::File;
-use std::path::Path;
+use drive_client::outfile::OutputError;
 
-use drive_client::outfile::{self, OutputError};
+use crate::error::CliError;
 
-use crate::error::{CliError, Result};
+pub use drive_client::outfile::OutputFile;
 
-/// A file being written: a temporary file next to its final path.
-#[derive(Debug)]
-pub struct OutputFile(outfile::OutputFile);
-
-/// `e` in the command line's words.
-fn said(e: OutputError) -> CliError {
-    match e {
-        OutputError::NotAFile { .. } => {
-            CliError::usage(format!("{e}; output goes only to regular files"))
+/// An output file's refusal in the command line's words.
+impl From<OutputError> for CliError {
+    fn from(e: OutputError) -> Self {
+        match e {
+            OutputError::NotAFile { .. } => {
+                CliError::usage(format!("{e}; output goes only to regular files"))
+            }
+            OutputError::Exists { .. } => CliError::usage(format!(
+                "{e}; add --overwrite to replace it, or choose another name"
+            )),
+            OutputError::DanglingLink { .. } => {
+                CliError::usage(format!("{e}; give the file's own path"))
+            }
+            OutputError::Check { .. } | OutputError::NoFileName { .. } => {
+                CliError::usage(e.to_string())
+            }
+            OutputError::Directory { .. } => {
+                CliError::usage(format!("{e}; nothing was read from the drive"))
+            }
+            OutputError::Create { .. } => {
+                CliError::failed(format!("{e}; nothing was read from the drive"))
+            }
+            OutputError::Changed { path } => CliError::failed(format!(
+                "cannot write {}: the path changed while the backup was made; nothing was replaced",
+                path.display()
+            )),
+            other => CliError::failed(other.to_string()),
         }
-        OutputError::Exists { .. } => CliError::usage(format!(
-            "{e}; add --overwrite to replace it, or choose another name"
-        )),
-        OutputError::DanglingLink { .. } => {
-            CliError::usage(format!("{e}; give the file's own path"))
-        }
-        OutputError::Check { .. } | OutputError::NoFileName { .. } => {
-            CliError::usage(e.to_string())
-        }
-        OutputError::Directory { .. } => {
-            CliError::usage(format!("{e}; nothing was read from the drive"))
-        }
-        OutputError::Create { .. } => {
-            CliError::failed(format!("{e}; nothing was read from the drive"))
-        }
-        OutputError::Changed { path } => CliError::failed(format!(
-            "cannot write {}: the path changed while the backup was made; nothing was replaced",
-            path.display()
-        )),
-        other => CliError::failed(other.to_string()),
-    }
-}
-
-impl OutputFile {
-    /// Check `path` and create the temporary file ([`outfile::OutputFile::prepare`]).
-    pub fn prepare(path: &Path, overwrite: bool) -> Result<Self> {
-        outfile::OutputFile::prepare(path, overwrite)
-            .map(Self)
-            .map_err(said)
-    }
-
-    /// A handle on the temporary file, for output written as the work goes (a capture log);
-    /// [`OutputFile::commit`] with no more text then moves it into place.
-    pub fn writer(&self) -> Result<File> {
-        self.0.writer().map_err(said)
-    }
-
-    /// Write `text` and move the file into place.
-    pub fn commit(self, text: &str) -> Result<()> {
-        self.0.commit(text).map_err(said)
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::path::Path;
 
     #[test]
     fn issue7_issue18_refusals_say_the_way_out_with_their_exit_codes() {
         let dir = std::env::temp_dir().join(format!("drivectl-outfile-{}", std::process::id()));
         let _ = std::fs::remove_dir_all(&dir);
         std::fs::create_dir_all(&dir).unwrap();
-        let err = |p: &Path, o| OutputFile::prepare(p, o).unwrap_err();
+        let err = |p: &Path, o| CliError::from(OutputFile::prepare(p, o).unwrap_err());
         let e = err(Path::new("/dev/full"), true);
         assert_eq!(e.exit_code(), 2);
         assert_eq!(

@@ -96,9 +96,7 @@ pub async fn backup<C: ParamClient>(
                     by(&cause)
                 )),
             ),
-            engine::BackupError::Read { target, error } => {
-                CliError::failed(not_written(target.error(error).to_string()))
-            }
+            // `Read`: the parameter and the failure.
             other => CliError::failed(not_written(other.to_string())),
         })?;
     let text = done
@@ -114,17 +112,8 @@ pub async fn backup<C: ParamClient>(
             out.display()
         )?;
     }
-    if !done.unreadable.is_empty() {
-        let list: Vec<String> = done
-            .unreadable
-            .iter()
-            .map(|(t, why)| format!("{} ({why})", t.label()))
-            .collect();
-        return Err(CliError::failed(format!(
-            "the backup is incomplete: the drive refused to read {} parameter(s): {}",
-            list.len(),
-            list.join(", ")
-        )));
+    if let Some(gaps) = done.gaps_text() {
+        return Err(CliError::failed(gaps));
     }
     Ok(())
 }
@@ -244,11 +233,14 @@ pub struct RestoreArgs {
 impl RestoreArgs {
     /// How `restore` runs.
     pub fn options(&self) -> RestoreOptions {
-        RestoreOptions {
+        let rules = restoring::Options {
             force: self.force,
-            dry_run: self.dry_run,
             any_device: self.any_device,
-            yes: self.yes,
+            confirm_link_settings: self.yes,
+        };
+        RestoreOptions {
+            rules,
+            dry_run: self.dry_run,
         }
     }
 }
@@ -256,12 +248,8 @@ impl RestoreArgs {
 /// How `restore` was asked to run.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct RestoreOptions {
-    /// Write values the table check refuses (never a value that does not fit).
-    pub force: bool,
+    /// The engine's rules (`--force`, `--any-device`, `--yes`).
+    pub rules: restoring::Options,
     /// Show the changes, write nothing.
     pub dry_run: bool,
-    /// Restore onto a drive whose identification differs from the file's.
-    pub any_device: bool,
-    /// Write the settings of the link the restore talks over too.
-    pub yes: bool,
 }

@@ -2,7 +2,6 @@
 //! engine, what it did and what it refused said on the command line.
 
 use super::*;
-use serde_json::Value;
 
 /// The guard's message with what `restore` offers as a way out.
 fn restore_hint(e: &GuardError) -> String {
@@ -53,26 +52,13 @@ fn print_changes(changes: &[Change], json: bool) -> Result<()> {
     Ok(())
 }
 
-/// An identity value for a person: a string as it is, anything else as JSON.
-fn identity_text(v: &Value) -> String {
-    v.as_str().map_or_else(|| v.to_string(), str::to_owned)
-}
-
 /// `<file> was saved from a drive of device type 7, variant act; this drive is device type 8,
 /// variant acu`.
 fn other_device(file: &Path, differ: &[FieldDiff]) -> String {
-    let side = |pick: fn(&FieldDiff) -> &Value| {
-        differ
-            .iter()
-            .map(|d| format!("{} {}", d.key.replace('_', " "), identity_text(pick(d))))
-            .collect::<Vec<_>>()
-            .join(", ")
-    };
     format!(
-        "{} was saved from a drive of {}; this drive is {}",
+        "{} {}",
         file.display(),
-        side(|d| &d.saved),
-        side(|d| &d.drive)
+        restoring::other_device_text(differ)
     )
 }
 
@@ -86,8 +72,8 @@ fn say(file: &Path, notice: &Notice) {
             "drivectl: warning: {} was saved from firmware {}; this drive runs firmware {}: \
              parameters may differ between firmware versions",
             file.display(),
-            identity_text(&f.saved),
-            identity_text(&f.drive)
+            restoring::identity_text(&f.saved),
+            restoring::identity_text(&f.drive)
         ),
         Notice::Warning(w) => errln!("drivectl: warning: {w}"),
         Notice::NotRecorded(e) => errln!("drivectl: warning: {e}"),
@@ -128,14 +114,12 @@ fn restore_error(file: &Path, e: RestoreError, written: &[String]) -> CliError {
                 by(&cause)
             ),
         ),
-        RestoreError::Read { target, error } => {
-            CliError::failed(format!("{}; nothing was written", target.error(error)))
-        }
         RestoreError::Verify { target, error } => CliError::failed(format!(
             "{} change(s) were written, but verifying failed: {}; run the restore again to check",
             written.len(),
             target.error(error)
         )),
+        // `Read`: the parameter, the failure, `nothing was written`.
         other => CliError::failed(other.to_string()),
     }
 }
@@ -155,15 +139,10 @@ pub async fn restore<C: ParamClient>(
         client.link_settings(),
     )?;
     let log = FileWearLog::from_env();
-    let rules = restoring::Options {
-        force: opts.force,
-        any_device: opts.any_device,
-        confirm_link_settings: opts.yes,
-    };
     let shown = file.display().to_string();
     let mut bar = Bar::new(|n: &Notice| say(file, n));
     let stop = stop.inner();
-    let plan = restoring::plan(client, &loaded, &rules, &log, &mut bar, stop)
+    let plan = restoring::plan(client, &loaded, &opts.rules, &log, &mut bar, stop)
         .await
         .map_err(|e| restore_error(file, e, &[]))?;
     let refusals: Vec<String> = plan.refusals.iter().map(refusal_text).collect();
@@ -217,9 +196,6 @@ pub async fn restore<C: ParamClient>(
         Err(RestoreError::Halted(h)) => {
             let written = &h.applied.written;
             print_changes(written, json)?;
-            let written_labels: Vec<String> = written.iter().map(|c| c.target.label()).collect();
-            let missing: Vec<String> = h.not_written.iter().map(|c| c.target.label()).collect();
-            let uncertain = h.uncertain().map(Target::label);
             if json {
                 outln!("{}", h.report_json(&plan, &shown, &Cli))?;
             }
@@ -228,22 +204,7 @@ pub async fn restore<C: ParamClient>(
                 Halt::Link { target, error } => target.error(error.clone()).to_string(),
                 other => format!("{other:?}"),
             };
-            let message = format!(
-                "restore stopped ({why}): the drive is half restored: {} of {changes} change(s) \
-                 written ({}), {} not written ({}){}; run the same restore again to finish it \
-                 (values the drive already holds are not written again)",
-                written.len(),
-                if written.is_empty() {
-                    "none".to_owned()
-                } else {
-                    written_labels.join(", ")
-                },
-                missing.len(),
-                missing.join(", "),
-                uncertain.map_or_else(String::new, |u| format!(
-                    "; {u} was being written when the link failed and may or may not have arrived"
-                )),
-            );
+            let message = format!("restore stopped ({why}): {}", h.state_text());
             return Err(match &h.why {
                 Halt::Interrupted(cause) => interrupted(cause, message),
                 _ => CliError::failed(message),
@@ -303,28 +264,7 @@ pub async fn restore<C: ParamClient>(
             )?;
         }
     }
-    let mut failures = Vec::new();
-    if !mismatches.is_empty() || !refused.is_empty() {
-        failures.push(format!(
-            "verify failed: {} value(s) differ after restore, {} write(s) refused by the drive{}; \
-             check controller inhibit and the parameter lock",
-            mismatches.len(),
-            refused.len(),
-            if refused.is_empty() {
-                String::new()
-            } else {
-                format!(" ({})", refused.join(", "))
-            }
-        ));
-    }
-    if !unreadable.is_empty() {
-        failures.push(format!(
-            "the restore is incomplete: the drive refused to read {} parameter(s), which were \
-             not compared or written: {}",
-            unreadable.len(),
-            unreadable.join(", ")
-        ));
-    }
+    let failures = plan.shortfalls(&applied, &mismatches);
     if !failures.is_empty() {
         return Err(CliError::failed(failures.join("; ")));
     }

@@ -32,7 +32,7 @@ mod tests;
 
 #[cfg(test)]
 use render::csv_field;
-use render::{csv_header, csv_row, line, sample_json, table};
+use render::{csv_header, csv_row, line, table};
 
 pub use drive_client::watch::{MAX_INTERVAL_MS, MIN_INTERVAL_MS, timestamp};
 
@@ -111,15 +111,10 @@ pub struct Options {
 }
 
 /// Completes on Ctrl-C (SIGINT), SIGTERM, SIGHUP or SIGQUIT: the `stop` of a watch on the
-/// command line ([`drive_client::signals::first`]: the handlers are in place when this
-/// returns, so a signal a moment later ends the watch through its normal path: exit 0, the
-/// output complete up to its last row, a CSV file not cut in a row).
-pub fn ctrl_c() -> impl Future<Output = ()> {
-    let first = drive_client::signals::first();
-    async move {
-        first.await;
-    }
-}
+/// command line. The handlers are in place when it returns, so a signal a moment later ends the
+/// watch through its normal path (exit 0, the output complete up to its last row, a CSV file
+/// not cut in a row).
+pub use drive_client::signals::first as ctrl_c;
 
 /// Poll `targets` through `client` as `options` say, writing through `out`, until `count`
 /// polls are done, `stop` completes (Ctrl-C: a clean end) or the link fails (an error).
@@ -130,42 +125,23 @@ pub async fn watch<C: ParamClient>(
     targets: &[Target],
     options: Options,
     out: &mut dyn FnMut(&str) -> Result<()>,
-    stop: impl Future<Output = ()>,
+    stop: impl Future,
 ) -> Result<u64> {
     let mut sampler = Sampler::new(client, targets, options.interval, options.count);
     let polls = poll_loop(&mut sampler, options.format, options.interval, out);
     tokio::select! {
         r = polls => r?,
-        () = stop => {}
+        _ = stop => {}
     }
-    verdict(&sampler)?;
+    // The end: an error naming every parameter that no poll could read.
+    sampler.verdict().map_err(|u| {
+        CliError::failed(if u.none_read() {
+            u.to_string()
+        } else {
+            format!("{u}; the values of the others are above")
+        })
+    })?;
     Ok(sampler.polls())
-}
-
-/// The watch's end: an error naming every parameter that no poll could read.
-fn verdict<C: ParamClient>(sampler: &Sampler<'_, C>) -> Result<()> {
-    let unread = sampler.unread();
-    if unread.is_empty() {
-        return Ok(());
-    }
-    let (polls, all) = (sampler.polls(), sampler.targets().len());
-    let failed: Vec<String> = unread
-        .iter()
-        .map(|(t, why)| format!("{} ({why})", t.label()))
-        .collect();
-    Err(CliError::failed(if failed.len() == all {
-        format!(
-            "no parameter could be read in {polls} poll(s): {}",
-            failed.join(", ")
-        )
-    } else {
-        format!(
-            "{} of {all} parameter(s) could not be read in any of the {polls} poll(s): {}; the \
-             values of the others are above",
-            failed.len(),
-            failed.join(", ")
-        )
-    }))
 }
 
 async fn poll_loop<C: ParamClient>(
@@ -202,7 +178,7 @@ async fn poll_loop<C: ParamClient>(
             }
             Format::Lines => line(&time, targets, cells, device),
             Format::Csv => csv_row(&time, targets, cells),
-            Format::Json => format!("{}\n", sample_json(&time, targets, cells, device)),
+            Format::Json => format!("{}\n", s.to_json(targets)),
         };
         out(&text)?;
     }

@@ -1,15 +1,16 @@
 //! The shapes of a watch's output: a table redrawn in place, a line per poll, CSV rows with
-//! their header, JSON samples.
+//! their header (a JSON sample is drive-client's [`Sample::to_json`]).
+//!
+//! [`Sample::to_json`]: drive_client::watch::Sample::to_json
 
 use std::fmt::Write as _;
 use std::time::Duration;
 
 use drive_client::DeviceError;
-use serde_json::{Value, json};
 
 use super::super::client::Target;
 use super::super::meaning::Device;
-use super::super::output::{target_json, value_json_in, value_text_in};
+use super::super::output::value_text_in;
 
 /// One value of a sample: its raw value or the drive's refusal.
 type Cell = std::result::Result<i64, DeviceError>;
@@ -102,22 +103,4 @@ pub fn csv_row(time: &str, targets: &[Target], cells: &[Cell]) -> String {
     }
     row.push('\n');
     row
-}
-
-/// `{"type": "sample", "time": …, "values": [the read's object, or the target's keys
-/// (`index`, `number`, `label`, names, `selector`, `unit`) with the drive's `error`]}`.
-pub fn sample_json(time: &str, targets: &[Target], cells: &[Cell], device: &Device) -> Value {
-    let values: Vec<Value> = targets
-        .iter()
-        .zip(cells)
-        .map(|(t, cell)| match cell {
-            Ok(raw) => value_json_in(t, *raw, device),
-            Err(m) => {
-                let mut o = target_json(t);
-                o.insert("error".into(), m.message.as_str().into());
-                Value::Object(o)
-            }
-        })
-        .collect();
-    json!({"type": "sample", "time": time, "values": values})
 }
