@@ -24,7 +24,9 @@ use drive_profile::{Access, Family};
 use serde_json::{Map, Value, json};
 
 use crate::client::{ClientError, DeviceError, DeviceErrorKind, ParamClient};
+use crate::front::{FrontEnd, Setting};
 use crate::interrupt::{Cause, Interrupt};
+use crate::meaning::target_json;
 use crate::progress::{Phase, Progress};
 use crate::target::{Target, ValueError, nord_subs};
 
@@ -512,6 +514,138 @@ impl BackupFile {
     /// Whether the file holds no entries (never, for a parsed file).
     pub fn is_empty(&self) -> bool {
         self.len() == 0
+    }
+}
+
+impl Skip {
+    /// The reason as a code, JSON's `reason`: `link_setting`, `command`, `ram_only`,
+    /// `read_only`, `absent`, `unreadable`, `needs_yes` (not confirmed), `refused`.
+    pub fn code(&self) -> &'static str {
+        match self {
+            Skip::LinkSetting => "link_setting",
+            Skip::Command => "command",
+            Skip::RamOnly => "ram_only",
+            Skip::ReadOnly => "read_only",
+            Skip::Absent(_) => "absent",
+            Skip::Unreadable(_) => "unreadable",
+            Skip::Unconfirmed(_) => "needs_yes",
+            Skip::Refused(_) => "refused",
+        }
+    }
+
+    /// The reason for a person, as the heading of the entries skipped for it; a setting of the
+    /// link that was not confirmed names the front end's way to confirm it
+    /// ([`Setting::ConfirmLinkSettings`]).
+    pub fn reason(&self, front: &dyn FrontEnd) -> String {
+        match self {
+            Skip::LinkSetting => "not restored by rule: settings of the link the restore talks \
+                                  over, whose change would cut the connection"
+                .into(),
+            Skip::Command => {
+                "not restored by rule: commands and locks, which act on the drive".into()
+            }
+            Skip::RamOnly => {
+                "not restored by rule: RAM-only values (bus control words and setpoints)".into()
+            }
+            Skip::ReadOnly => "read-only".into(),
+            Skip::Absent(_) => "absent on this drive".into(),
+            Skip::Unreadable(_) => {
+                "the drive refused to read them, so they were not compared".into()
+            }
+            Skip::Unconfirmed(_) => match front.name(Setting::ConfirmLinkSettings) {
+                Some(yes) => {
+                    format!("settings of the link the restore talks over; add {yes} to write them")
+                }
+                None => "settings of the link the restore talks over, not confirmed".into(),
+            },
+            Skip::Refused(_) => "refused by the drive".into(),
+        }
+    }
+
+    /// The drive's answer, or what a write would do to the link, where there is one.
+    pub fn detail(&self) -> Option<&str> {
+        match self {
+            Skip::Absent(d) | Skip::Unreadable(d) | Skip::Refused(d) => Some(&d.message),
+            Skip::Unconfirmed(change) => Some(change),
+            _ => None,
+        }
+    }
+
+    /// The place of this reason when skipped entries are listed by reason: the rules first,
+    /// then read-only, absent, not confirmed, unreadable, refused.
+    pub fn order(&self) -> u8 {
+        match self {
+            Skip::LinkSetting => 0,
+            Skip::Command => 1,
+            Skip::RamOnly => 2,
+            Skip::ReadOnly => 3,
+            Skip::Absent(_) => 4,
+            Skip::Unconfirmed(_) => 5,
+            Skip::Unreadable(_) => 6,
+            Skip::Refused(_) => 7,
+        }
+    }
+}
+
+/// The skipped entries as JSON, one object each: the target's keys ([`target_json`]) with
+/// `reason` ([`Skip::code`]), `message` (the reason for a person with the drive's answer) and,
+/// where the front end names the way to write it, `hint`.
+pub fn skipped_json(skipped: &[(Target, Skip)], front: &dyn FrontEnd) -> Value {
+    Value::Array(
+        skipped
+            .iter()
+            .map(|(t, s)| {
+                let mut o = target_json(t);
+                o.insert("reason".into(), s.code().into());
+                let message = match s.detail() {
+                    Some(d) => format!("{}: {d}", s.reason(front)),
+                    None => s.reason(front),
+                };
+                o.insert("message".into(), message.into());
+                if let (Skip::Unconfirmed(_), Some(yes)) =
+                    (s, front.name(Setting::ConfirmLinkSettings))
+                {
+                    o.insert("hint".into(), yes.into());
+                }
+                Value::Object(o)
+            })
+            .collect(),
+    )
+}
+
+impl Backup {
+    /// The gap in an incomplete backup, for a person: `the backup is incomplete: the drive
+    /// refused to read 1 parameter(s): P001 (its answer)`; `None` when it is complete.
+    pub fn gaps_text(&self) -> Option<String> {
+        let list: Vec<String> = self
+            .unreadable
+            .iter()
+            .map(|(t, why)| format!("{} ({why})", t.label()))
+            .collect();
+        (!list.is_empty()).then(|| {
+            format!(
+                "the backup is incomplete: the drive refused to read {} parameter(s): {}",
+                list.len(),
+                list.join(", ")
+            )
+        })
+    }
+
+    /// The backup's summary as JSON, written to `file`: `{"type": "backup", "file",
+    /// "parameters" (how many saved), "skipped" (how many absent), "unreadable": [the target's
+    /// keys with the drive's `error`]}`.
+    pub fn summary_json(&self, file: &str) -> Value {
+        let unreadable: Vec<Value> = self
+            .unreadable
+            .iter()
+            .map(|(t, why)| {
+                let mut o = target_json(t);
+                o.insert("error".into(), why.message.as_str().into());
+                Value::Object(o)
+            })
+            .collect();
+        json!({"type": "backup", "file": file, "parameters": self.saved.len(),
+               "skipped": self.absent, "unreadable": unreadable})
     }
 }
 

@@ -356,3 +356,24 @@ fn the_file_text_is_the_drivebus_backup_v1_layout_byte_for_byte() {
     assert_eq!(entries, [(8470, 2000)]);
     assert_eq!(file.skipped.len(), 1);
 }
+
+#[test]
+fn the_backup_summary_counts_what_was_saved_and_names_each_gap() {
+    let mut c: FakeClient = FakeClient::new(answers);
+    let done = block_on(backup(&mut c, &mut (), &Interrupt::new())).unwrap();
+    let v = done.summary_json("b.json");
+    assert_eq!(
+        (&v["type"], &v["file"]),
+        (&json!("backup"), &json!("b.json"))
+    );
+    assert_eq!(v["parameters"], done.saved.len());
+    assert_eq!(v["skipped"], 1);
+    assert_eq!(v["unreadable"][0]["label"], "P001");
+    assert_eq!(v["unreadable"][0]["error"], "access denied");
+    assert_eq!(
+        done.gaps_text().as_deref(),
+        Some(
+            "the backup is incomplete: the drive refused to read 1 parameter(s): P001 (access denied)"
+        )
+    );
+}

@@ -41,6 +41,8 @@ pub enum Setting {
     ArrayElement,
     /// Leaving a motor running when a process-data session ends.
     KeepRunning,
+    /// Writing the settings of the link a restore talks over, which it skips unless confirmed.
+    ConfirmLinkSettings,
 }
 
 /// Something a client found while doing something else, for the front end to say.

@@ -27,12 +27,17 @@
 //!   [`status`]: a drive's status and fault memory as typed readings; [`scan`]: one address
 //!   probed, what answers there as a typed [`scan::Found`];
 //! * [`motor`]: the rule of everything that enables or drives a motor — stopped on every early
-//!   end ([`Interrupt`]), left running only on purpose — for every front end to say its way.
+//!   end ([`Interrupt`]), left running only on purpose — for every front end to say its way;
+//!   `signals` (feature `signals`): `Interrupt::install` over SIGINT, SIGTERM, SIGHUP, SIGQUIT;
+//! * [`watch`]: a [`watch::Sampler`] polling parameters at a steady rhythm, typed samples;
+//! * [`outfile`]: output files written safely (regular files only, atomic, never replaced
+//!   unasked); [`infile`]: input files read whole, never past a limit.
 //!
 //! Errors are typed and carry no front end's words: the command line and the gateway each say
 //! them their own way.
 
 #![warn(missing_docs)]
+#![cfg_attr(docsrs, feature(doc_cfg))]
 
 pub mod backup;
 pub mod bonfiglioli;
@@ -45,15 +50,20 @@ pub mod interrupt;
 pub mod meaning;
 pub mod motor;
 pub mod nord;
+pub mod outfile;
 pub mod progress;
 pub mod restore;
 pub mod scan;
 pub mod sew;
+#[cfg(feature = "signals")]
+#[cfg_attr(docsrs, doc(cfg(feature = "signals")))]
+pub mod signals;
 pub mod status;
 pub mod target;
 #[cfg(any(test, feature = "testing"))]
 pub mod testing;
 pub mod text;
+pub mod watch;
 pub mod wear;
 pub mod write;
 

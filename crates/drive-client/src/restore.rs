@@ -24,11 +24,13 @@
 //! [`Interrupt`] is checked before every exchange: the exchange in flight is finished.
 
 use drive_profile::Persistence;
-use serde_json::{Map, Value};
+use serde_json::{Map, Value, json};
 
-use crate::backup::{BackupFile, Entry, FileError, Skip};
+use crate::backup::{BackupFile, Entry, FileError, Skip, skipped_json};
 use crate::client::{ClientError, DeviceError, DeviceErrorKind, ParamClient};
+use crate::front::FrontEnd;
 use crate::interrupt::{Cause, Interrupt};
+use crate::meaning::target_json;
 use crate::progress::{FieldDiff, Notice, Phase, Progress};
 use crate::target::Target;
 use crate::wear::WearLog;
@@ -68,6 +70,28 @@ pub fn identity_differences(
             })
         })
         .collect()
+}
+
+/// An identification value for a person: a string as it is, anything else as JSON.
+pub fn identity_text(v: &Value) -> String {
+    v.as_str().map_or_else(|| v.to_string(), str::to_owned)
+}
+
+/// How the file's drive differs from this one, for a person: `was saved from a drive of device
+/// type 7, variant act; this drive is device type 8, variant acu`.
+pub fn other_device_text(differ: &[FieldDiff]) -> String {
+    let side = |pick: fn(&FieldDiff) -> &Value| {
+        differ
+            .iter()
+            .map(|d| format!("{} {}", d.key.replace('_', " "), identity_text(pick(d))))
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    format!(
+        "was saved from a drive of {}; this drive is {}",
+        side(|d| &d.saved),
+        side(|d| &d.drive)
+    )
 }
 
 /// The firmware of the file (`saved`) and of the drive, when both are known and differ.
@@ -471,6 +495,154 @@ pub async fn verify<C: ParamClient>(
     }
     progress.finish();
     Ok(mismatches)
+}
+
+/// The physical value of `raw` as JSON (raw outside the table).
+fn physical_json(t: &Target, raw: i64) -> Value {
+    t.param
+        .map_or(Value::from(raw), |p| json!(p.to_physical(raw)))
+}
+
+impl Change {
+    /// The change as JSON: the target's keys ([`target_json`]) with `"type": "change"`,
+    /// `from_raw`, `from`, `to_raw`, `to` (raw and physical values).
+    pub fn to_json(&self) -> Value {
+        let t = &self.target;
+        let mut o = target_json(t);
+        o.insert("type".into(), "change".into());
+        o.insert("from_raw".into(), self.from.into());
+        o.insert("from".into(), physical_json(t, self.from));
+        o.insert("to_raw".into(), self.to.into());
+        o.insert("to".into(), physical_json(t, self.to));
+        Value::Object(o)
+    }
+}
+
+impl Mismatch {
+    /// The mismatch as JSON: the target's keys with `"type": "mismatch"`, `expected_raw`,
+    /// `expected`, `raw`, `value` (what the drive holds).
+    pub fn to_json(&self) -> Value {
+        let t = &self.target;
+        let mut o = target_json(t);
+        o.insert("type".into(), "mismatch".into());
+        o.insert("expected_raw".into(), self.expected.into());
+        o.insert("expected".into(), physical_json(t, self.expected));
+        o.insert("raw".into(), self.back.into());
+        o.insert("value".into(), physical_json(t, self.back));
+        Value::Object(o)
+    }
+}
+
+/// The entries of `skipped` the drive answered for, `P130 (its answer)`: those whose write it
+/// refused, or (`unreadable`) those it refused to read.
+pub fn answered(skipped: &[(Target, Skip)], unreadable: bool) -> Vec<String> {
+    skipped
+        .iter()
+        .filter_map(|(t, s)| match s {
+            Skip::Refused(why) if !unreadable => Some(format!("{} ({why})", t.label())),
+            Skip::Unreadable(why) if unreadable => Some(format!("{} ({why})", t.label())),
+            _ => None,
+        })
+        .collect()
+}
+
+impl Plan {
+    /// A dry run's summary of restoring `file`: `{"type": "restore", "dry_run": true, "file",
+    /// "entries", "changes", "unchanged", "refused" (the front end's text of each of
+    /// [`Plan::refusals`]), "skipped"}` ([`skipped_json`]).
+    pub fn dry_run_json(&self, file: &str, refused: &[String], front: &dyn FrontEnd) -> Value {
+        json!({"type": "restore", "dry_run": true, "file": file, "entries": self.entries,
+               "changes": self.changes.len(), "unchanged": self.unchanged(),
+               "refused": refused, "skipped": skipped_json(&self.skipped, front)})
+    }
+
+    /// What a finished restore did not achieve, one sentence each for a person (empty when it
+    /// did everything): values that differ after the restore or writes the drive refused, and
+    /// entries the drive refused to read.
+    pub fn shortfalls(&self, applied: &Applied, mismatches: &[Mismatch]) -> Vec<String> {
+        let skipped = self.skipped_after(&applied.refused);
+        let (refused, unreadable) = (answered(&skipped, false), answered(&skipped, true));
+        let mut failures = Vec::new();
+        if !mismatches.is_empty() || !refused.is_empty() {
+            failures.push(format!(
+                "verify failed: {} value(s) differ after restore, {} write(s) refused by the \
+                 drive{}; check controller inhibit and the parameter lock",
+                mismatches.len(),
+                refused.len(),
+                if refused.is_empty() {
+                    String::new()
+                } else {
+                    format!(" ({})", refused.join(", "))
+                }
+            ));
+        }
+        if !unreadable.is_empty() {
+            failures.push(format!(
+                "the restore is incomplete: the drive refused to read {} parameter(s), which were \
+                 not compared or written: {}",
+                unreadable.len(),
+                unreadable.join(", ")
+            ));
+        }
+        failures
+    }
+
+    /// A finished restore's summary: `{"type": "restore", "file", "complete": true,
+    /// "entries", "written" (how many), "unchanged", "refused" ([`answered`]), "mismatches"
+    /// (how many), "skipped"}`.
+    pub fn report_json(
+        &self,
+        applied: &Applied,
+        mismatches: &[Mismatch],
+        file: &str,
+        front: &dyn FrontEnd,
+    ) -> Value {
+        let skipped = self.skipped_after(&applied.refused);
+        json!({"type": "restore", "file": file, "complete": true, "entries": self.entries,
+               "written": applied.written.len(), "unchanged": self.unchanged(),
+               "refused": answered(&skipped, false), "mismatches": mismatches.len(),
+               "skipped": skipped_json(&skipped, front)})
+    }
+}
+
+impl Halted {
+    /// What the drive holds now, for a person: `the drive is half restored: 1 of 3 change(s)
+    /// written (P130), 2 not written (P131, P132)`, the write in doubt, and how to finish it.
+    pub fn state_text(&self) -> String {
+        let labels = |c: &[Change]| -> Vec<String> { c.iter().map(|c| c.target.label()).collect() };
+        let (written, missing) = (labels(&self.applied.written), labels(&self.not_written));
+        let changes = written.len() + self.applied.refused.len() + missing.len();
+        format!(
+            "the drive is half restored: {} of {changes} change(s) written ({}), {} not written \
+             ({}){}; run the same restore again to finish it (values the drive already holds are \
+             not written again)",
+            written.len(),
+            if written.is_empty() {
+                "none".to_owned()
+            } else {
+                written.join(", ")
+            },
+            missing.len(),
+            missing.join(", "),
+            self.uncertain().map_or_else(String::new, |u| format!(
+                "; {} was being written when the link failed and may or may not have arrived",
+                u.label()
+            )),
+        )
+    }
+
+    /// A half-finished restore's summary: `{"type": "restore", "file", "complete": false,
+    /// "entries", "written", "not_written" (labels), "uncertain" (the label of the write in
+    /// doubt, or null), "refused", "skipped"}`.
+    pub fn report_json(&self, plan: &Plan, file: &str, front: &dyn FrontEnd) -> Value {
+        let labels = |c: &[Change]| -> Vec<String> { c.iter().map(|c| c.target.label()).collect() };
+        let skipped = plan.skipped_after(&self.applied.refused);
+        json!({"type": "restore", "file": file, "complete": false, "entries": plan.entries,
+               "written": labels(&self.applied.written), "refused": answered(&skipped, false),
+               "not_written": labels(&self.not_written),
+               "uncertain": self.uncertain().map(Target::label),
+               "skipped": skipped_json(&skipped, front)})
+    }
 }
 
 #[cfg(test)]

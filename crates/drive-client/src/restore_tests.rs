@@ -409,3 +409,122 @@ fn every_refusal_is_found_before_the_first_write() {
     let all = plan.skipped_after(&refused);
     assert!(matches!(all.as_slice(), [(_, Skip::Refused(d))] if d.message.contains("inhibit")));
 }
+
+/// A front end that names the confirmation of link settings, as the command line does.
+#[derive(Debug)]
+struct Yes;
+
+impl crate::front::FrontEnd for Yes {
+    fn name(&self, setting: crate::front::Setting) -> Option<String> {
+        (setting == crate::front::Setting::ConfirmLinkSettings).then(|| "--yes".to_owned())
+    }
+}
+
+#[test]
+fn every_front_end_reports_the_same_objects_in_its_own_words() {
+    // P131 (8471) is an unconfirmed setting of the link; the drive ignores writes.
+    let mut c = drive(7);
+    c.link_settings = &[8471];
+    let (plan, applied, mismatches) = restore(
+        &mut c,
+        &file(json!({})),
+        FORCED,
+        &Interrupt::new(),
+        &mut Seen::default(),
+    )
+    .unwrap();
+    let change = plan.changes[0].to_json();
+    assert_eq!(
+        (
+            &change["type"],
+            &change["label"],
+            &change["from_raw"],
+            &change["to"]
+        ),
+        (&json!("change"), &json!("P130"), &json!(8470), &json!(1.0))
+    );
+    let m = mismatches[0].to_json();
+    assert_eq!(
+        (&m["type"], &m["expected_raw"], &m["raw"], &m["value"]),
+        (&json!("mismatch"), &json!(1000), &json!(8470), &json!(8.47))
+    );
+    let done = plan.report_json(&applied, &mismatches, "b.json", &crate::front::Plain);
+    assert_eq!(
+        (
+            &done["type"],
+            &done["complete"],
+            &done["written"],
+            &done["mismatches"]
+        ),
+        (&json!("restore"), &json!(true), &json!(2), &json!(2))
+    );
+    assert_eq!(
+        (&done["entries"], &done["unchanged"]),
+        (&json!(4), &json!(1))
+    );
+    // The skipped link setting: its reason as a code, and the way to write it only where the
+    // front end names one.
+    let plain = &done["skipped"][0];
+    assert_eq!(
+        (&plain["label"], &plain["reason"]),
+        (&json!("P131"), &json!("needs_yes"))
+    );
+    assert!(plain.get("hint").is_none());
+    assert!(!plain["message"].as_str().unwrap().contains("--yes"));
+    let dry = plan.dry_run_json("b.json", &["refused".to_owned()], &Yes);
+    assert_eq!(
+        (&dry["dry_run"], &dry["changes"]),
+        (&json!(true), &json!(2))
+    );
+    assert_eq!(dry["refused"], json!(["refused"]));
+    let cli = &dry["skipped"][0];
+    assert_eq!(cli["hint"], "--yes");
+    assert!(
+        cli["message"]
+            .as_str()
+            .unwrap()
+            .starts_with("settings of the link the restore talks over; add --yes to write them: "),
+        "{cli}"
+    );
+}
+
+#[test]
+fn a_half_restore_and_a_restore_that_fell_short_say_what_the_drive_holds() {
+    let mut c = drive(7);
+    c.link_dies_after = Some(1);
+    let e = restore(
+        &mut c,
+        &file(json!({})),
+        FORCED,
+        &Interrupt::new(),
+        &mut Seen::default(),
+    )
+    .unwrap_err();
+    let RestoreError::Halted(h) = e else {
+        panic!("{e:?}")
+    };
+    assert_eq!(
+        h.state_text(),
+        "the drive is half restored: 1 of 3 change(s) written (P130), 2 not written (P131, \
+         P132); P131 was being written when the link failed and may or may not have arrived; \
+         run the same restore again to finish it (values the drive already holds are not \
+         written again)"
+    );
+    // This drive ignores writes: all three differ when read back.
+    let mut c = drive(7);
+    let (plan, applied, mismatches) = restore(
+        &mut c,
+        &file(json!({})),
+        FORCED,
+        &Interrupt::new(),
+        &mut Seen::default(),
+    )
+    .unwrap();
+    assert_eq!(
+        plan.shortfalls(&applied, &mismatches),
+        [
+            "verify failed: 3 value(s) differ after restore, 0 write(s) refused by the drive; check \
+          controller inhibit and the parameter lock"
+        ]
+    );
+}

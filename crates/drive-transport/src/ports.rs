@@ -56,6 +56,21 @@ pub struct UsbInfo {
     pub product: Option<String>,
 }
 
+impl UsbInfo {
+    /// The vendor and product ID as `vid:pid`, four lowercase hex digits each: `0403:6001`.
+    pub fn id(&self) -> String {
+        format!("{:04x}:{:04x}", self.vid, self.pid)
+    }
+
+    /// The manufacturer and product strings the adapter gives, in that order.
+    pub fn names(&self) -> Vec<&str> {
+        [self.manufacturer.as_deref(), self.product.as_deref()]
+            .into_iter()
+            .flatten()
+            .collect()
+    }
+}
+
 /// One serial port.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct PortInfo {
@@ -143,6 +158,21 @@ mod tests {
             assert_eq!(p.path, "/dev/ttyS0");
         }
         assert_eq!(PortKind::Usb.to_string(), "usb");
+    }
+
+    #[test]
+    fn usb_ids_are_four_hex_digits_and_names_skip_what_is_unknown() {
+        let mut u = UsbInfo {
+            vid: 0x403,
+            pid: 0x6001,
+            serial_number: None,
+            manufacturer: None,
+            product: Some("FT232R USB UART".into()),
+        };
+        assert_eq!(u.id(), "0403:6001");
+        assert_eq!(u.names(), ["FT232R USB UART"]);
+        u.manufacturer = Some("FTDI".into());
+        assert_eq!(u.names(), ["FTDI", "FT232R USB UART"]);
     }
 
     #[test]

@@ -1,8 +1,9 @@
-//! `drivectl ports [--json]`: the serial ports of this machine.
+//! `drivectl ports [--json]`: the serial ports of this machine, as `drive_transport::ports`
+//! lists them, rendered as a table or JSON.
 
 use crate::error::{CliError, Result};
 use clap::Args;
-use drive_transport::ports::{PortInfo, list_ports};
+use drive_transport::ports::{PortInfo, UsbInfo, list_ports};
 use serde_json::{Value, json};
 use std::fmt::Write as _;
 
@@ -79,16 +80,9 @@ fn render(ports: &[PortInfo], json: bool) -> String {
     );
     for p in ports {
         let usb = p.usb.as_ref();
-        let id = usb.map_or_else(
-            || "-".to_owned(),
-            |u| format!("{:04x}:{:04x}", u.vid, u.pid),
-        );
+        let id = usb.map_or_else(|| "-".to_owned(), UsbInfo::id);
         let serial = usb.and_then(|u| u.serial_number.as_deref()).unwrap_or("-");
-        let names: Vec<&str> = usb
-            .into_iter()
-            .flat_map(|u| [u.manufacturer.as_deref(), u.product.as_deref()])
-            .flatten()
-            .collect();
+        let names = usb.map(UsbInfo::names).unwrap_or_default();
         let names = if names.is_empty() {
             "-".to_owned()
         } else {
@@ -110,7 +104,7 @@ fn render(ports: &[PortInfo], json: bool) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use drive_transport::ports::{PortKind, UsbInfo};
+    use drive_transport::ports::PortKind;
 
     fn sample() -> Vec<PortInfo> {
         vec![

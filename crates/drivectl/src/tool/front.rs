@@ -23,6 +23,7 @@ impl FrontEnd for Cli {
             Setting::DataSet => "--dataset".to_owned(),
             Setting::ArrayElement => "--array".to_owned(),
             Setting::KeepRunning => "--keep-running".to_owned(),
+            Setting::ConfirmLinkSettings => "--yes".to_owned(),
             _ => return None,
         })
     }

@@ -97,7 +97,7 @@ pub use drive_client::text::{physical_text, trim_float};
 // The keys that name a target and its value, the same in `read --json` and `decode --json`.
 #[cfg(test)]
 pub use drive_client::meaning::value_json;
-pub use drive_client::meaning::{target_json, value_json_in};
+pub use drive_client::meaning::value_json_in;
 
 /// One value as text without the parameter's name: the physical value with its unit and value
 /// name (`1.50 s`, `9 (control word 1)`) or its meaning (`0 (no fault)`), a decoded word in hex

@@ -20,7 +20,7 @@
 //! entry compared is read back; a mismatch shows the expected and the read value.
 //!
 //! Everything shown names its value by [`Target::title`]; the JSON objects (`change`,
-//! `mismatch`, the `skipped` list of the `restore` summary) carry the keys of [`target_json`].
+//! `mismatch`, the `skipped` list of the `restore` summary) carry the keys of [`drive_client::meaning::target_json`]; drive-client builds them.
 //! A restore lists every entry it does not write and why ([`Skip`]: `reason` in JSON); values
 //! the drive already holds are counted. A restore that stops halfway (a signal: exit 128 + its
 //! number; the drive gone) lists what was written and what was not: running it again finishes
@@ -38,7 +38,6 @@ use drive_client::restore::{self as restoring, Change, Halt, RestoreError};
 use drive_client::{Cause, Notice};
 use drive_profile::Family;
 use drive_profile::guard::GuardError;
-use serde_json::{Value, json};
 
 pub use drive_client::backup::{FORMAT, VERSION};
 
@@ -46,9 +45,10 @@ use super::client::{ParamClient, Target};
 // The tests' scripted drive answers with these.
 #[cfg(test)]
 use super::client::{ClientError, DeviceErrorKind};
+use super::front::Cli;
 use super::interrupt::{Interrupt, Stop};
 use super::outfile::OutputFile;
-use super::output::{physical_text, target_json};
+use super::output::physical_text;
 use super::progress::Bar;
 pub use super::progress::progress;
 use super::write::{self, FileWearLog, WriteError};
@@ -96,9 +96,7 @@ pub async fn backup<C: ParamClient>(
                     by(&cause)
                 )),
             ),
-            engine::BackupError::Read { target, error } => {
-                CliError::failed(not_written(target.error(error).to_string()))
-            }
+            // `Read`: the parameter and the failure.
             other => CliError::failed(not_written(other.to_string())),
         })?;
     let text = done
@@ -107,98 +105,17 @@ pub async fn backup<C: ParamClient>(
     file.commit(&text)?;
     let (saved, skipped) = (done.saved.len(), done.absent);
     if json {
-        let unreadable: Vec<Value> = done
-            .unreadable
-            .iter()
-            .map(|(t, why)| {
-                let mut o = target_json(t);
-                o.insert("error".into(), why.message.as_str().into());
-                Value::Object(o)
-            })
-            .collect();
-        outln!(
-            "{}",
-            json!({"type": "backup", "file": out.display().to_string(), "parameters": saved,
-                   "skipped": skipped, "unreadable": unreadable})
-        )?;
+        outln!("{}", done.summary_json(&out.display().to_string()))?;
     } else {
         outln!(
             "saved {saved} parameters to {} ({skipped} not present on this drive)",
             out.display()
         )?;
     }
-    if !done.unreadable.is_empty() {
-        let list: Vec<String> = done
-            .unreadable
-            .iter()
-            .map(|(t, why)| format!("{} ({why})", t.label()))
-            .collect();
-        return Err(CliError::failed(format!(
-            "the backup is incomplete: the drive refused to read {} parameter(s): {}",
-            list.len(),
-            list.join(", ")
-        )));
+    if let Some(gaps) = done.gaps_text() {
+        return Err(CliError::failed(gaps));
     }
     Ok(())
-}
-
-/// The reason of a skip as JSON's `reason`.
-fn code(s: &Skip) -> &'static str {
-    match s {
-        Skip::LinkSetting => "link_setting",
-        Skip::Command => "command",
-        Skip::RamOnly => "ram_only",
-        Skip::ReadOnly => "read_only",
-        Skip::Absent(_) => "absent",
-        Skip::Unreadable(_) => "unreadable",
-        Skip::Unconfirmed(_) => "needs_yes",
-        Skip::Refused(_) => "refused",
-        _ => "other",
-    }
-}
-
-/// The reason for a person (the heading of its group in the text).
-fn reason(s: &Skip) -> &'static str {
-    match s {
-        Skip::LinkSetting => {
-            "not restored by rule: settings of the link the restore talks over, whose change \
-             would cut the connection"
-        }
-        Skip::Command => "not restored by rule: commands and locks, which act on the drive",
-        Skip::RamOnly => "not restored by rule: RAM-only values (bus control words and setpoints)",
-        Skip::ReadOnly => "read-only",
-        Skip::Absent(_) => "absent on this drive",
-        Skip::Unreadable(_) => "the drive refused to read them, so they were not compared",
-        Skip::Unconfirmed(_) => {
-            "settings of the link the restore talks over; add --yes to write them"
-        }
-        Skip::Refused(_) => "refused by the drive",
-        _ => "not restored",
-    }
-}
-
-/// The drive's answer or what a write would do, where there is one.
-fn detail(s: &Skip) -> Option<&str> {
-    match s {
-        Skip::Absent(d) | Skip::Unreadable(d) | Skip::Refused(d) => Some(&d.message),
-        Skip::Unconfirmed(change) => Some(change),
-        _ => None,
-    }
-}
-
-/// The order of the groups in the text.
-fn rank(s: &Skip) -> u8 {
-    match s {
-        Skip::LinkSetting => 0,
-        Skip::Command => 1,
-        Skip::RamOnly => 2,
-        Skip::ReadOnly => 3,
-        Skip::Absent(_) => 4,
-        Skip::Unconfirmed(_) => 5,
-        Skip::Unreadable(_) => 6,
-        Skip::Refused(_) => 7,
-        _ => 8,
-    }
 }
 
 /// The skipped entries as text: one line per reason, `skipped (reason): P813, P816` (a drive's
@@ -206,9 +123,9 @@ fn rank(s: &Skip) -> u8 {
 /// holds every readable value; `--json` lists them).
 fn skipped_lines(skipped: &[(Target, Skip)]) -> Vec<String> {
     let mut sorted: Vec<&(Target, Skip)> = skipped.iter().collect();
-    sorted.sort_by_key(|(_, s)| rank(s));
+    sorted.sort_by_key(|(_, s)| s.order());
     let mut lines = Vec::new();
-    for group in sorted.chunk_by(|a, b| rank(&a.1) == rank(&b.1)) {
+    for group in sorted.chunk_by(|a, b| a.1.order() == b.1.order()) {
         let Some((_, first)) = group.first() else {
             continue;
         };
@@ -217,14 +134,14 @@ fn skipped_lines(skipped: &[(Target, Skip)]) -> Vec<String> {
         } else {
             group
                 .iter()
-                .map(|(t, s)| match detail(s) {
+                .map(|(t, s)| match s.detail() {
                     Some(d) => format!("{} ({d})", t.label()),
                     None => t.label(),
                 })
                 .collect::<Vec<_>>()
                 .join(", ")
         };
-        lines.push(format!("skipped ({}): {list}", reason(first)));
+        lines.push(format!("skipped ({}): {list}", first.reason(&Cli)));
     }
     lines
 }
@@ -236,31 +153,6 @@ fn listed(skipped: &[(Target, Skip)]) -> &'static str {
     } else {
         " (listed above)"
     }
-}
-
-/// The skipped entries as JSON: the target's keys ([`target_json`]) with `reason` (a code:
-/// `link_setting`, `command`, `ram_only`, `read_only`, `absent`, `unreadable`, `needs_yes`,
-/// `refused`), `message` (the reason for a person, with the drive's answer) and, where an
-/// option writes it, `hint`.
-fn skipped_json(skipped: &[(Target, Skip)]) -> Value {
-    Value::Array(
-        skipped
-            .iter()
-            .map(|(t, s)| {
-                let mut o = target_json(t);
-                o.insert("reason".into(), code(s).into());
-                let message = match detail(s) {
-                    Some(d) => format!("{}: {d}", reason(s)),
-                    None => reason(s).to_owned(),
-                };
-                o.insert("message".into(), message.into());
-                if matches!(s, Skip::Unconfirmed(_)) {
-                    o.insert("hint".into(), "--yes".into());
-                }
-                Value::Object(o)
-            })
-            .collect(),
-    )
 }
 
 /// A backup file's problem, said with its path: a usage error.
@@ -341,11 +233,14 @@ pub struct RestoreArgs {
 impl RestoreArgs {
     /// How `restore` runs.
     pub fn options(&self) -> RestoreOptions {
-        RestoreOptions {
+        let rules = restoring::Options {
             force: self.force,
-            dry_run: self.dry_run,
             any_device: self.any_device,
-            yes: self.yes,
+            confirm_link_settings: self.yes,
+        };
+        RestoreOptions {
+            rules,
+            dry_run: self.dry_run,
         }
     }
 }
@@ -353,12 +248,8 @@ impl RestoreArgs {
 /// How `restore` was asked to run.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct RestoreOptions {
-    /// Write values the table check refuses (never a value that does not fit).
-    pub force: bool,
+    /// The engine's rules (`--force`, `--any-device`, `--yes`).
+    pub rules: restoring::Options,
     /// Show the changes, write nothing.
     pub dry_run: bool,
-    /// Restore onto a drive whose identification differs from the file's.
-    pub any_device: bool,
-    /// Write the settings of the link the restore talks over too.
-    pub yes: bool,
 }

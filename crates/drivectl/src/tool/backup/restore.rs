@@ -40,23 +40,11 @@ fn change_text(t: &Target, old: i64, new: i64) -> String {
     )
 }
 
-/// A change as JSON: the target's keys ([`target_json`]) with `from_raw`, `from`, `to_raw`,
-/// `to` (raw and physical values).
-fn change_json(t: &Target, old: i64, new: i64) -> Value {
-    let mut o = target_json(t);
-    o.insert("type".into(), "change".into());
-    o.insert("from_raw".into(), old.into());
-    o.insert("from".into(), physical_json(t, old));
-    o.insert("to_raw".into(), new.into());
-    o.insert("to".into(), physical_json(t, new));
-    Value::Object(o)
-}
-
 /// Print every change, old → new, by its label.
 fn print_changes(changes: &[Change], json: bool) -> Result<()> {
     for c in changes {
         if json {
-            outln!("{}", change_json(&c.target, c.from, c.to))?;
+            outln!("{}", c.to_json())?;
         } else {
             outln!("{}", change_text(&c.target, c.from, c.to))?;
         }
@@ -64,32 +52,13 @@ fn print_changes(changes: &[Change], json: bool) -> Result<()> {
     Ok(())
 }
 
-/// The physical value of `raw` as JSON (raw outside the table).
-fn physical_json(t: &Target, raw: i64) -> Value {
-    t.param
-        .map_or(Value::from(raw), |p| json!(p.to_physical(raw)))
-}
-
-/// An identity value for a person: a string as it is, anything else as JSON.
-fn identity_text(v: &Value) -> String {
-    v.as_str().map_or_else(|| v.to_string(), str::to_owned)
-}
-
 /// `<file> was saved from a drive of device type 7, variant act; this drive is device type 8,
 /// variant acu`.
 fn other_device(file: &Path, differ: &[FieldDiff]) -> String {
-    let side = |pick: fn(&FieldDiff) -> &Value| {
-        differ
-            .iter()
-            .map(|d| format!("{} {}", d.key.replace('_', " "), identity_text(pick(d))))
-            .collect::<Vec<_>>()
-            .join(", ")
-    };
     format!(
-        "{} was saved from a drive of {}; this drive is {}",
+        "{} {}",
         file.display(),
-        side(|d| &d.saved),
-        side(|d| &d.drive)
+        restoring::other_device_text(differ)
     )
 }
 
@@ -103,8 +72,8 @@ fn say(file: &Path, notice: &Notice) {
             "drivectl: warning: {} was saved from firmware {}; this drive runs firmware {}: \
              parameters may differ between firmware versions",
             file.display(),
-            identity_text(&f.saved),
-            identity_text(&f.drive)
+            restoring::identity_text(&f.saved),
+            restoring::identity_text(&f.drive)
         ),
         Notice::Warning(w) => errln!("drivectl: warning: {w}"),
         Notice::NotRecorded(e) => errln!("drivectl: warning: {e}"),
@@ -113,18 +82,6 @@ fn say(file: &Path, notice: &Notice) {
         }
         other => errln!("drivectl: note: {other:?}"),
     }
-}
-
-/// The entries of `skipped` refused or unreadable by the drive: `P130 (its answer)`.
-fn answered(skipped: &[(Target, Skip)], unreadable: bool) -> Vec<String> {
-    skipped
-        .iter()
-        .filter_map(|(t, s)| match s {
-            Skip::Refused(why) if !unreadable => Some(format!("{} ({why})", t.label())),
-            Skip::Unreadable(why) if unreadable => Some(format!("{} ({why})", t.label())),
-            _ => None,
-        })
-        .collect()
 }
 
 /// A restore's error before anything was written, or while verifying (`written`: the labels of
@@ -157,14 +114,12 @@ fn restore_error(file: &Path, e: RestoreError, written: &[String]) -> CliError {
                 by(&cause)
             ),
         ),
-        RestoreError::Read { target, error } => {
-            CliError::failed(format!("{}; nothing was written", target.error(error)))
-        }
         RestoreError::Verify { target, error } => CliError::failed(format!(
             "{} change(s) were written, but verifying failed: {}; run the restore again to check",
             written.len(),
             target.error(error)
         )),
+        // `Read`: the parameter, the failure, `nothing was written`.
         other => CliError::failed(other.to_string()),
     }
 }
@@ -184,14 +139,10 @@ pub async fn restore<C: ParamClient>(
         client.link_settings(),
     )?;
     let log = FileWearLog::from_env();
-    let rules = restoring::Options {
-        force: opts.force,
-        any_device: opts.any_device,
-        confirm_link_settings: opts.yes,
-    };
+    let shown = file.display().to_string();
     let mut bar = Bar::new(|n: &Notice| say(file, n));
     let stop = stop.inner();
-    let plan = restoring::plan(client, &loaded, &rules, &log, &mut bar, stop)
+    let plan = restoring::plan(client, &loaded, &opts.rules, &log, &mut bar, stop)
         .await
         .map_err(|e| restore_error(file, e, &[]))?;
     let refusals: Vec<String> = plan.refusals.iter().map(refusal_text).collect();
@@ -202,13 +153,7 @@ pub async fn restore<C: ParamClient>(
             errln!("drivectl: would be refused: {r}");
         }
         if json {
-            outln!(
-                "{}",
-                json!({"type": "restore", "dry_run": true, "file": file.display().to_string(),
-                       "entries": plan.entries, "changes": changes,
-                       "unchanged": unchanged, "refused": refusals,
-                       "skipped": skipped_json(&plan.skipped)})
-            )?;
+            outln!("{}", plan.dry_run_json(&shown, &refusals, &Cli))?;
         } else {
             for l in skipped_lines(&plan.skipped) {
                 outln!("{l}")?;
@@ -251,41 +196,15 @@ pub async fn restore<C: ParamClient>(
         Err(RestoreError::Halted(h)) => {
             let written = &h.applied.written;
             print_changes(written, json)?;
-            let written_labels: Vec<String> = written.iter().map(|c| c.target.label()).collect();
-            let skipped = plan.skipped_after(&h.applied.refused);
-            let missing: Vec<String> = h.not_written.iter().map(|c| c.target.label()).collect();
-            let uncertain = h.uncertain().map(Target::label);
             if json {
-                outln!(
-                    "{}",
-                    json!({"type": "restore", "file": file.display().to_string(),
-                           "complete": false, "entries": plan.entries,
-                           "written": written_labels, "refused": answered(&skipped, false),
-                           "not_written": missing, "uncertain": uncertain,
-                           "skipped": skipped_json(&skipped)})
-                )?;
+                outln!("{}", h.report_json(&plan, &shown, &Cli))?;
             }
             let why = match &h.why {
                 Halt::Interrupted(cause) => format!("interrupted{}", by(cause)),
                 Halt::Link { target, error } => target.error(error.clone()).to_string(),
                 other => format!("{other:?}"),
             };
-            let message = format!(
-                "restore stopped ({why}): the drive is half restored: {} of {changes} change(s) \
-                 written ({}), {} not written ({}){}; run the same restore again to finish it \
-                 (values the drive already holds are not written again)",
-                written.len(),
-                if written.is_empty() {
-                    "none".to_owned()
-                } else {
-                    written_labels.join(", ")
-                },
-                missing.len(),
-                missing.join(", "),
-                uncertain.map_or_else(String::new, |u| format!(
-                    "; {u} was being written when the link failed and may or may not have arrived"
-                )),
-            );
+            let message = format!("restore stopped ({why}): {}", h.state_text());
             return Err(match &h.why {
                 Halt::Interrupted(cause) => interrupted(cause, message),
                 _ => CliError::failed(message),
@@ -301,13 +220,7 @@ pub async fn restore<C: ParamClient>(
     for m in &mismatches {
         let t = &m.target;
         if json {
-            let mut o = target_json(t);
-            o.insert("type".into(), "mismatch".into());
-            o.insert("expected_raw".into(), m.expected.into());
-            o.insert("expected".into(), physical_json(t, m.expected));
-            o.insert("raw".into(), m.back.into());
-            o.insert("value".into(), physical_json(t, m.back));
-            outln!("{}", Value::Object(o))?;
+            outln!("{}", m.to_json())?;
         } else {
             outln!(
                 "{}: expected {}, the drive holds {}",
@@ -318,17 +231,11 @@ pub async fn restore<C: ParamClient>(
         }
     }
     let skipped = plan.skipped_after(&applied.refused);
-    let refused = answered(&skipped, false);
-    let unreadable = answered(&skipped, true);
+    let refused = restoring::answered(&skipped, false);
+    let unreadable = restoring::answered(&skipped, true);
     let compared = plan.compared.len();
     if json {
-        outln!(
-            "{}",
-            json!({"type": "restore", "file": file.display().to_string(), "complete": true,
-                   "entries": plan.entries, "written": written.len(), "unchanged": unchanged,
-                   "refused": refused, "mismatches": mismatches.len(),
-                   "skipped": skipped_json(&skipped)})
-        )?;
+        outln!("{}", plan.report_json(&applied, &mismatches, &shown, &Cli))?;
     } else {
         for l in skipped_lines(&skipped) {
             outln!("{l}")?;
@@ -357,28 +264,7 @@ pub async fn restore<C: ParamClient>(
             )?;
         }
     }
-    let mut failures = Vec::new();
-    if !mismatches.is_empty() || !refused.is_empty() {
-        failures.push(format!(
-            "verify failed: {} value(s) differ after restore, {} write(s) refused by the drive{}; \
-             check controller inhibit and the parameter lock",
-            mismatches.len(),
-            refused.len(),
-            if refused.is_empty() {
-                String::new()
-            } else {
-                format!(" ({})", refused.join(", "))
-            }
-        ));
-    }
-    if !unreadable.is_empty() {
-        failures.push(format!(
-            "the restore is incomplete: the drive refused to read {} parameter(s), which were \
-             not compared or written: {}",
-            unreadable.len(),
-            unreadable.join(", ")
-        ));
-    }
+    let failures = plan.shortfalls(&applied, &mismatches);
     if !failures.is_empty() {
         return Err(CliError::failed(failures.join("; ")));
     }

@@ -1,20 +1,25 @@
 //! The shapes of a watch's output: a table redrawn in place, a line per poll, CSV rows with
-//! their header, JSON samples.
+//! their header (a JSON sample is drive-client's [`Sample::to_json`]).
+//!
+//! [`Sample::to_json`]: drive_client::watch::Sample::to_json
 
 use std::fmt::Write as _;
 use std::time::Duration;
 
-use serde_json::{Value, json};
+use drive_client::DeviceError;
 
 use super::super::client::Target;
 use super::super::meaning::Device;
-use super::super::output::{target_json, value_json_in, value_text_in};
+use super::super::output::value_text_in;
+
+/// One value of a sample: its raw value or the drive's refusal.
+type Cell = std::result::Result<i64, DeviceError>;
 
 /// The value of one cell as text.
-pub fn cell_text(t: &Target, cell: &std::result::Result<i64, String>, device: &Device) -> String {
+pub fn cell_text(t: &Target, cell: &Cell, device: &Device) -> String {
     match cell {
         Ok(raw) => value_text_in(t, *raw, device),
-        Err(m) => format!("refused: {m}"),
+        Err(d) => format!("refused: {}", d.message),
     }
 }
 
@@ -22,7 +27,7 @@ pub fn table(
     time: &str,
     interval: Duration,
     targets: &[Target],
-    cells: &[std::result::Result<i64, String>],
+    cells: &[Cell],
     device: &Device,
 ) -> String {
     let mut s = format!("{time}  every {} ms, Ctrl-C ends\n", interval.as_millis());
@@ -34,12 +39,7 @@ pub fn table(
     s
 }
 
-pub fn line(
-    time: &str,
-    targets: &[Target],
-    cells: &[std::result::Result<i64, String>],
-    device: &Device,
-) -> String {
+pub fn line(time: &str, targets: &[Target], cells: &[Cell], device: &Device) -> String {
     let parts: Vec<String> = targets
         .iter()
         .zip(cells)
@@ -85,11 +85,7 @@ pub fn csv_header(targets: &[Target]) -> String {
 
 /// A CSV row: the physical value in the header's unit (raw outside the table); an empty field
 /// for a refused read.
-pub fn csv_row(
-    time: &str,
-    targets: &[Target],
-    cells: &[std::result::Result<i64, String>],
-) -> String {
+pub fn csv_row(time: &str, targets: &[Target], cells: &[Cell]) -> String {
     let mut row = time.to_owned();
     for (t, cell) in targets.iter().zip(cells) {
         row.push(',');
@@ -107,27 +103,4 @@ pub fn csv_row(
     }
     row.push('\n');
     row
-}
-
-/// `{"type": "sample", "time": …, "values": [the read's object, or the target's keys
-/// (`index`, `number`, `label`, names, `selector`, `unit`) with the drive's `error`]}`.
-pub fn sample_json(
-    time: &str,
-    targets: &[Target],
-    cells: &[std::result::Result<i64, String>],
-    device: &Device,
-) -> Value {
-    let values: Vec<Value> = targets
-        .iter()
-        .zip(cells)
-        .map(|(t, cell)| match cell {
-            Ok(raw) => value_json_in(t, *raw, device),
-            Err(m) => {
-                let mut o = target_json(t);
-                o.insert("error".into(), m.as_str().into());
-                Value::Object(o)
-            }
-        })
-        .collect();
-    json!({"type": "sample", "time": time, "values": values})
 }
