@@ -12,6 +12,18 @@ use crate::error::{CliError, Result};
 
 pub use drive_decode::shape::escape;
 
+/// Where a decode command's bytes come from: the arguments, a file, or standard input.
+#[derive(Debug, clap::Args)]
+pub struct CaptureArgs {
+    /// The bytes; `-` reads a capture from standard input (as --file).
+    #[arg(required_unless_present = "file", conflicts_with = "file", num_args = 1..)]
+    pub hex: Vec<String>,
+    /// Read the capture from a file: one telegram per line or a byte stream over several
+    /// lines; blank lines, `#` comments, CR LF line ends and a UTF-8 BOM are allowed.
+    #[arg(long, value_name = "PATH")]
+    pub file: Option<String>,
+}
+
 /// The largest capture read (64 MiB of hex text: about 1.7 million telegrams).
 pub const MAX_CAPTURE: u64 = 64 << 20;
 

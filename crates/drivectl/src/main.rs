@@ -102,13 +102,8 @@ enum DecodeCommand {
     ///   drivectl decode movilink - < capture.txt
     #[command(verbatim_doc_comment)]
     Movilink {
-        /// The bytes; `-` reads a capture from standard input (as --file).
-        #[arg(required_unless_present = "file", conflicts_with = "file", num_args = 1..)]
-        hex: Vec<String>,
-        /// Read the capture from a file: one telegram per line or a byte stream over several
-        /// lines; blank lines, `#` comments, CR LF line ends and a UTF-8 BOM are allowed.
-        #[arg(long, value_name = "PATH")]
-        file: Option<String>,
+        #[command(flatten)]
+        input: decode::CaptureArgs,
         /// One JSON object per telegram (`"type": "telegram"`) or skipped run of bytes
         /// (`"type": "skipped"`), the shape every decoder shares
         /// (docs/decode-json.md).
@@ -128,12 +123,8 @@ enum DecodeCommand {
                       drivectl decode ctt2 --file capture.txt"
     )]
     Ctt2 {
-        /// The bytes; `-` reads a capture from standard input (as --file).
-        #[arg(required_unless_present = "file", conflicts_with = "file", num_args = 1..)]
-        hex: Vec<String>,
-        /// Read the capture from a file (lines, `#` comments, CR LF and a BOM are allowed).
-        #[arg(long, value_name = "PATH")]
-        file: Option<String>,
+        #[command(flatten)]
+        input: decode::CaptureArgs,
         /// One JSON object per message or skipped run of bytes, the shape every decoder shares
         /// (docs/decode-json.md).
         #[arg(long)]
@@ -152,12 +143,8 @@ enum DecodeCommand {
                       drivectl decode uss --pkw 3 --pzd 2 --file capture.txt"
     )]
     Uss {
-        /// The bytes; `-` reads a capture from standard input (as --file).
-        #[arg(required_unless_present = "file", conflicts_with = "file", num_args = 1..)]
-        hex: Vec<String>,
-        /// Read the capture from a file (lines, `#` comments, CR LF and a BOM are allowed).
-        #[arg(long, value_name = "PATH")]
-        file: Option<String>,
+        #[command(flatten)]
+        input: decode::CaptureArgs,
         /// PKW words of the telegrams: 0, 3 or 4.
         #[arg(long, default_value_t = 4, value_parser = clap::value_parser!(u8).range(0..=4))]
         pkw: u8,
@@ -225,12 +212,8 @@ enum DecodeCommand {
                       drivectl decode modbus-rtu - < capture.txt"
     )]
     ModbusRtu {
-        /// The bytes; `-` reads a capture from standard input (as --file).
-        #[arg(required_unless_present = "file", conflicts_with = "file", num_args = 1..)]
-        hex: Vec<String>,
-        /// Read the capture from a file (lines, `#` comments, CR LF and a BOM are allowed).
-        #[arg(long, value_name = "PATH")]
-        file: Option<String>,
+        #[command(flatten)]
+        input: decode::CaptureArgs,
         /// One JSON object per frame or skipped run of bytes, the shape every decoder shares
         /// (docs/decode-json.md).
         #[arg(long)]
@@ -305,26 +288,25 @@ fn main() -> ExitCode {
         Command::Ctt2(args) => nord::ctt2::run(&args),
         Command::Sim(SimCommand::Uss(args)) => nord::sim::run(&args),
         Command::Sim(SimCommand::Sbus(args)) => sbus::sim::run(&args),
-        Command::Decode(DecodeCommand::ModbusRtu { hex, file, json }) => {
-            bonfiglioli::decode::run(false, &hex, file.as_deref(), json)
+        Command::Decode(DecodeCommand::ModbusRtu { input, json }) => {
+            bonfiglioli::decode::run(false, &input.hex, input.file.as_deref(), json)
         }
         Command::Decode(DecodeCommand::ModbusAscii { text, file, json }) => {
             bonfiglioli::decode::run(true, &text, file.as_deref(), json)
         }
-        Command::Decode(DecodeCommand::Ctt2 { hex, file, json }) => {
-            nord::decode::run(None, &hex, file.as_deref(), json)
+        Command::Decode(DecodeCommand::Ctt2 { input, json }) => {
+            nord::decode::run(None, &input.hex, input.file.as_deref(), json)
         }
         Command::Decode(DecodeCommand::Uss {
-            hex,
-            file,
+            input,
             pkw,
             pzd,
             start,
             json,
         }) => nord::decode::run(
             Some(nord::decode::uss_layout(pkw, pzd, start == "drive")),
-            &hex,
-            file.as_deref(),
+            &input.hex,
+            input.file.as_deref(),
             json,
         ),
         Command::Decode(DecodeCommand::Sbus {
@@ -341,8 +323,8 @@ fn main() -> ExitCode {
             json,
             log: None,
         }) => sbus::decode::run_frame(id.as_deref(), extended, &hex, sync_id, json),
-        Command::Decode(DecodeCommand::Movilink { hex, file, json }) => {
-            movilink::decode::run(&hex, file.as_deref(), json)
+        Command::Decode(DecodeCommand::Movilink { input, json }) => {
+            movilink::decode::run(&input.hex, input.file.as_deref(), json)
         }
         Command::Demo(args) => demo::run(&args),
         Command::Ports(args) => ports::run(&args),
