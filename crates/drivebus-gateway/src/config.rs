@@ -28,6 +28,16 @@ pub struct File {
     /// `[[bus]]`.
     #[serde(default, rename = "bus")]
     pub buses: Vec<Spanned<BusFile>>,
+    /// `[ui]`: the browser page.
+    pub ui: Option<Spanned<UiFile>>,
+}
+
+/// `[ui]`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct UiFile {
+    /// Where the page is served, `host:port`.
+    pub listen: String,
 }
 
 /// `[gateway]`.
@@ -269,6 +279,42 @@ pub struct Plant {
     pub gateway: Gateway,
     /// Its buses.
     pub buses: Vec<Bus>,
+    /// The browser page, when `[ui]` asks for it.
+    pub ui: Option<Ui>,
+}
+
+/// Checked `[ui]`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Ui {
+    /// Where the page is served (a loopback address).
+    pub listen: std::net::SocketAddr,
+}
+
+impl Gateway {
+    /// Whether the gateway publishes on a broker (`broker = "off"`: the page only).
+    pub fn uses_broker(&self) -> bool {
+        self.broker != BROKER_OFF
+    }
+}
+
+/// `broker = "off"`: no MQTT, the values only on the page.
+pub const BROKER_OFF: &str = "off";
+
+/// Check `[ui] listen`: a loopback `host:port`. A page that can move motors is served to other
+/// hosts only with TLS and users, which this gateway does not have yet.
+pub fn check_ui(listen: &str) -> std::result::Result<Ui, String> {
+    let text = listen.trim();
+    let addr: std::net::SocketAddr = text.parse().map_err(|_| {
+        format!("[ui] listen = {text:?}: give host:port such as \"127.0.0.1:8080\"")
+    })?;
+    if !addr.ip().is_loopback() {
+        return Err(format!(
+            "[ui] listen = {text:?}: the page is served on a loopback address only (127.0.0.1 \
+             or [::1]); serving it to other hosts needs TLS and users, which this version does \
+             not have"
+        ));
+    }
+    Ok(Ui { listen: addr })
 }
 
 /// Checked `[gateway]`.
@@ -560,7 +606,22 @@ fn check(file: File) -> std::result::Result<Plant, Fault> {
             ));
         }
     }
-    Ok(Plant { gateway, buses })
+    let ui = match file.ui {
+        Some(u) => {
+            let at = u.span().start;
+            Some(check_ui(&u.into_inner().listen).map_err(|m| Fault::new(at, m))?)
+        }
+        None => None,
+    };
+    if !gateway.uses_broker() && ui.is_none() {
+        return Err(Fault::new(
+            gateway_at,
+            "[gateway] broker = \"off\" needs a [ui] with listen = \"127.0.0.1:PORT\": \
+             without a broker only the page shows the drives"
+                .to_owned(),
+        ));
+    }
+    Ok(Plant { gateway, buses, ui })
 }
 
 fn check_gateway(g: GatewayFile) -> std::result::Result<Gateway, String> {
@@ -576,7 +637,11 @@ fn check_gateway(g: GatewayFile) -> std::result::Result<Gateway, String> {
             "[gateway] prefix = {prefix:?}: topic levels without '+', '#' or spaces"
         ));
     }
-    let broker = check_broker(&g.broker).map_err(|e| format!("[gateway] broker: {e}"))?;
+    let broker = if g.broker.trim() == BROKER_OFF {
+        BROKER_OFF.to_owned()
+    } else {
+        check_broker(&g.broker).map_err(|e| format!("[gateway] broker: {e}"))?
+    };
     let client_cert = match (g.client_cert, g.client_key) {
         (Some(c), Some(k)) => Some((c, k)),
         (None, None) => None,

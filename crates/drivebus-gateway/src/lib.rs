@@ -38,6 +38,7 @@ pub mod model;
 pub mod mqtt;
 pub mod schedule;
 pub mod task;
+pub mod ui;
 
 pub mod error;
 
@@ -89,7 +90,16 @@ pub async fn serve(plant: Plant) -> Result<()> {
     let metrics = Arc::new(metrics::Metrics::new(&plant));
     // Prepared before anything else starts, so that a bad certificate or password file is
     // an error before a bus is opened.
-    let mqtt = mqtt::Mqtt::prepare(&plant)?;
+    let mqtt = if plant.gateway.uses_broker() {
+        Some(mqtt::Mqtt::prepare(&plant)?)
+    } else {
+        None
+    };
+    // The page's port is taken before a bus opens: a port in use is an error at the start.
+    let page = match plant.ui {
+        Some(u) => Some(ui::bind(u.listen).await?),
+        None => None,
+    };
     let (update_tx, update_rx) = mpsc::channel(4096);
     let (stop_tx, stop_rx) = tokio::sync::watch::channel(false);
     let mut set_txs = Vec::new();
@@ -136,7 +146,37 @@ pub async fn serve(plant: Plant) -> Result<()> {
             ),
         }
     };
-    mqtt.run(update_rx, set_txs, metrics, shutdown).await
+    // With a page, the updates pass through its hub on their way to the broker.
+    let updates = match page {
+        Some(listener) => {
+            let hub = ui::Hub::new(plant.clone());
+            if let Ok(at) = listener.local_addr() {
+                tracing::info!(url = %format!("http://{at}/"), "the page is served");
+            }
+            let (onward_tx, onward_rx) = mpsc::channel(4096);
+            let onward = mqtt.is_some().then_some(onward_tx);
+            tokio::task::spawn_local(ui::relay(hub.clone(), update_rx, onward));
+            // Ends with the runtime: the page's connections (live event streams) never end
+            // by themselves, so the gateway does not wait for them at the stop.
+            tokio::task::spawn_local(async move {
+                if let Err(e) = ui::serve(listener, hub, std::future::pending()).await {
+                    tracing::error!(error = %e, "the page stopped");
+                }
+            });
+            onward_rx
+        }
+        None => update_rx,
+    };
+    match mqtt {
+        Some(mqtt) => mqtt.run(updates, set_txs, metrics, shutdown).await,
+        None => {
+            // No broker: the page shows the drives until a stop signal.
+            drop(updates);
+            drop(set_txs);
+            shutdown.await;
+            Ok(())
+        }
+    }
 }
 
 /// How long the buses get at the stop to finish their transaction and stop their drives.

@@ -1,0 +1,364 @@
+//! The browser page (`[ui] listen`): every bus and drive of the plant with its live values,
+//! served on a loopback address (`docs/ui.md`).
+//!
+//! The bus tasks' [`Update`]s pass through the [`Hub`] on their way to the MQTT task (or
+//! instead of it, with `broker = "off"`): the hub keeps the latest of each (value, status,
+//! figures) for a page that has just loaded (`GET /api/plant`) and hands every one to the pages
+//! that watch (`GET /api/events`, server-sent events, one JSON object per event). The page
+//! never polls. A page that falls behind by more than [`EVENTS`] events is told to load the
+//! plant again (`{"type":"resync"}`) instead of being sent old values.
+//!
+//! Every request must name a loopback host in its `Host` header, so that a web site a browser
+//! on this machine visits cannot reach the page through a name that resolves to 127.0.0.1
+//! (DNS rebinding). The page loads nothing from elsewhere: its files are in the binary.
+
+use std::convert::Infallible;
+use std::net::SocketAddr;
+use std::sync::{Arc, Mutex, PoisonError};
+
+use axum::Router;
+use axum::extract::{Request, State};
+use axum::http::{HeaderValue, StatusCode, header};
+use axum::middleware::{self, Next};
+use axum::response::sse::{Event, KeepAlive, Sse};
+use axum::response::{IntoResponse, Response};
+use axum::routing::get;
+use serde_json::{Value, json};
+use tokio::sync::{broadcast, mpsc};
+
+use crate::config::Plant;
+use crate::error::{Error, Result};
+use crate::model::Update;
+use crate::mqtt::payload;
+
+/// How many events a watching page may fall behind before it is told to load the plant again.
+pub const EVENTS: usize = 1024;
+
+const INDEX_HTML: &str = include_str!("ui/index.html");
+const APP_JS: &str = include_str!("ui/app.js");
+const STYLE_CSS: &str = include_str!("ui/style.css");
+
+/// The latest of everything the buses reported, and the pages that watch.
+#[derive(Debug)]
+pub struct Hub {
+    plant: Arc<Plant>,
+    latest: Mutex<Latest>,
+    events: broadcast::Sender<Arc<str>>,
+}
+
+/// The latest payload of each value, status and bus figures, as published on MQTT.
+#[derive(Debug)]
+struct Latest {
+    /// `[bus][drive][point]`.
+    values: Vec<Vec<Vec<Option<Value>>>>,
+    /// `[bus][drive]`.
+    status: Vec<Vec<Option<Value>>>,
+    /// `[bus][drive]`: process input words.
+    process_data: Vec<Vec<Option<Value>>>,
+    /// `[bus]`.
+    figures: Vec<Option<Value>>,
+}
+
+/// A payload string of `mqtt::payload` as a JSON value (`null` if it were not JSON).
+fn parsed(text: &str) -> Value {
+    serde_json::from_str(text).unwrap_or(Value::Null)
+}
+
+/// A slot of `v` at `i`, if the index is in the plant.
+fn slot<T>(v: &mut [T], i: usize) -> Option<&mut T> {
+    v.get_mut(i)
+}
+
+impl Hub {
+    /// A hub for `plant`, nothing reported yet.
+    pub fn new(plant: Arc<Plant>) -> Arc<Hub> {
+        let latest = Latest {
+            values: plant
+                .buses
+                .iter()
+                .map(|b| {
+                    b.drives
+                        .iter()
+                        .map(|d| vec![None; d.points.len()])
+                        .collect()
+                })
+                .collect(),
+            status: plant
+                .buses
+                .iter()
+                .map(|b| vec![None; b.drives.len()])
+                .collect(),
+            process_data: plant
+                .buses
+                .iter()
+                .map(|b| vec![None; b.drives.len()])
+                .collect(),
+            figures: vec![None; plant.buses.len()],
+        };
+        let (events, _) = broadcast::channel(EVENTS);
+        Arc::new(Hub {
+            plant,
+            latest: Mutex::new(latest),
+            events,
+        })
+    }
+
+    /// Keep `u` as the latest of its kind and send it to every watching page. An update for a
+    /// bus, drive or point the plant does not have is dropped.
+    pub fn apply(&self, u: &Update) {
+        let Some(event) = self.keep(u) else { return };
+        // No page watching is no error.
+        let _ = self.events.send(Arc::from(event.to_string()));
+    }
+
+    fn keep(&self, u: &Update) -> Option<Value> {
+        let mut latest = self.latest.lock().unwrap_or_else(PoisonError::into_inner);
+        match u {
+            Update::Value {
+                bus,
+                drive,
+                point,
+                raw,
+                at,
+            } => {
+                let d = self.plant.buses.get(*bus)?.drives.get(*drive)?;
+                let p = d.points.get(*point)?;
+                let v = parsed(&payload::value(
+                    &p.target,
+                    *raw,
+                    payload::millis(*at),
+                    &d.device,
+                ));
+                let s = slot(slot(slot(&mut latest.values, *bus)?, *drive)?, *point)?;
+                *s = Some(v.clone());
+                Some(
+                    json!({"type": "value", "bus": bus, "drive": drive, "point": point, "payload": v}),
+                )
+            }
+            Update::Status {
+                bus,
+                drive,
+                status,
+                at,
+            } => {
+                let v = parsed(&payload::status(status, payload::millis(*at)));
+                *slot(slot(&mut latest.status, *bus)?, *drive)? = Some(v.clone());
+                Some(json!({"type": "status", "bus": bus, "drive": drive, "payload": v}))
+            }
+            Update::ProcessData {
+                bus,
+                drive,
+                words,
+                at,
+            } => {
+                let v = json!({"in": words, "ts": payload::millis(*at)});
+                *slot(slot(&mut latest.process_data, *bus)?, *drive)? = Some(v.clone());
+                Some(json!({"type": "process_data", "bus": bus, "drive": drive, "payload": v}))
+            }
+            Update::Figures { bus, figures } => {
+                let ts = payload::millis(std::time::SystemTime::now());
+                let v = parsed(&payload::figures(figures, ts));
+                *slot(&mut latest.figures, *bus)? = Some(v.clone());
+                Some(json!({"type": "figures", "bus": bus, "payload": v}))
+            }
+        }
+    }
+
+    /// The plant with the latest of everything: what `GET /api/plant` answers.
+    pub fn plant_json(&self) -> Value {
+        let latest = self.latest.lock().unwrap_or_else(PoisonError::into_inner);
+        let get = |v: Option<&Option<Value>>| v.and_then(Clone::clone).unwrap_or(Value::Null);
+        let buses: Vec<Value> = self
+            .plant
+            .buses
+            .iter()
+            .enumerate()
+            .map(|(b, bus)| {
+                let drives: Vec<Value> = bus
+                    .drives
+                    .iter()
+                    .enumerate()
+                    .map(|(d, drive)| {
+                        let points: Vec<Value> = drive
+                            .points
+                            .iter()
+                            .enumerate()
+                            .map(|(p, point)| {
+                                let t = &point.target;
+                                json!({
+                                    "name": point.name,
+                                    "label": t.label(),
+                                    "name_en": t.param.map(|q| q.name_en()),
+                                    "name_de": t.param.map(|q| q.name_de()),
+                                    "writable": point.writable,
+                                    // Milliseconds; `null`: read only after a write.
+                                    "period_ms": point.period.map(|d| u64::try_from(d.as_millis()).unwrap_or(u64::MAX)),
+                                    "latest": get(latest.values.get(b).and_then(|x| x.get(d)).and_then(|x| x.get(p))),
+                                })
+                            })
+                            .collect();
+                        json!({
+                            "name": drive.name,
+                            "address": drive.address,
+                            "status": get(latest.status.get(b).and_then(|x| x.get(d))),
+                            "process_data": get(latest.process_data.get(b).and_then(|x| x.get(d))),
+                            "points": points,
+                        })
+                    })
+                    .collect();
+                json!({
+                    "name": bus.name,
+                    "protocol": bus.protocol.name(),
+                    "figures": get(latest.figures.get(b)),
+                    "drives": drives,
+                })
+            })
+            .collect();
+        json!({"gateway": self.plant.gateway.name, "buses": buses})
+    }
+
+    /// A new watcher of every event from now on.
+    pub fn subscribe(&self) -> broadcast::Receiver<Arc<str>> {
+        self.events.subscribe()
+    }
+}
+
+/// Pass every update of the bus tasks to the hub and on to `onward` (the MQTT task), until the
+/// bus tasks are gone. A full `onward` holds the buses back as it would without the page.
+pub async fn relay(
+    hub: Arc<Hub>,
+    mut updates: mpsc::Receiver<Update>,
+    onward: Option<mpsc::Sender<Update>>,
+) {
+    while let Some(u) = updates.recv().await {
+        hub.apply(&u);
+        if let Some(tx) = &onward
+            && tx.send(u).await.is_err()
+        {
+            // The MQTT task ended; the page goes on.
+        }
+    }
+}
+
+/// Bind the page's listener (before any bus opens, so a taken port is an error at the start).
+pub async fn bind(addr: SocketAddr) -> Result<tokio::net::TcpListener> {
+    tokio::net::TcpListener::bind(addr)
+        .await
+        .map_err(|e| Error::failed(format!("[ui] listen = \"{addr}\": cannot listen: {e}")))
+}
+
+/// Serve the page on `listener` until `shutdown` resolves.
+pub async fn serve(
+    listener: tokio::net::TcpListener,
+    hub: Arc<Hub>,
+    shutdown: impl std::future::Future<Output = ()> + Send + 'static,
+) -> Result<()> {
+    axum::serve(listener, router(hub))
+        .with_graceful_shutdown(shutdown)
+        .await
+        .map_err(|e| Error::failed(format!("the page's listener failed: {e}")))
+}
+
+/// The page's routes.
+pub fn router(hub: Arc<Hub>) -> Router {
+    Router::new()
+        .route(
+            "/",
+            get(|| async { file(INDEX_HTML, "text/html; charset=utf-8") }),
+        )
+        .route(
+            "/app.js",
+            get(|| async { file(APP_JS, "text/javascript; charset=utf-8") }),
+        )
+        .route(
+            "/style.css",
+            get(|| async { file(STYLE_CSS, "text/css; charset=utf-8") }),
+        )
+        .route("/api/plant", get(plant))
+        .route("/api/events", get(events))
+        .layer(middleware::from_fn(guard))
+        .with_state(hub)
+}
+
+fn file(body: &'static str, kind: &'static str) -> Response {
+    ([(header::CONTENT_TYPE, kind)], body).into_response()
+}
+
+async fn plant(State(hub): State<Arc<Hub>>) -> Response {
+    (
+        [(header::CONTENT_TYPE, "application/json")],
+        hub.plant_json().to_string(),
+    )
+        .into_response()
+}
+
+async fn events(
+    State(hub): State<Arc<Hub>>,
+) -> Sse<impl futures_util::Stream<Item = std::result::Result<Event, Infallible>>> {
+    let rx = hub.subscribe();
+    let stream = futures_util::stream::unfold(rx, |mut rx| async move {
+        let data = event_data(rx.recv().await)?;
+        Some((Ok(Event::default().data(&*data)), rx))
+    });
+    Sse::new(stream).keep_alive(KeepAlive::default())
+}
+
+/// What a watching page is sent for what its receiver got: the event; `{"type":"resync"}`
+/// when it fell behind (it loads the plant again rather than being sent old values); nothing
+/// more once the hub is gone.
+fn event_data(got: std::result::Result<Arc<str>, broadcast::error::RecvError>) -> Option<Arc<str>> {
+    match got {
+        Ok(e) => Some(e),
+        Err(broadcast::error::RecvError::Lagged(_)) => Some(Arc::from(r#"{"type":"resync"}"#)),
+        Err(broadcast::error::RecvError::Closed) => None,
+    }
+}
+
+/// Whether a `Host` header names this machine: `localhost`, `127.0.0.1` or `[::1]`, with or
+/// without a port.
+pub fn loopback_host(host: &str) -> bool {
+    let name = if let Some(rest) = host.strip_prefix('[') {
+        rest.split_once(']').map_or("", |(n, _)| n)
+    } else {
+        host.rsplit_once(':').map_or(host, |(n, _)| n)
+    };
+    matches!(name, "localhost" | "::1")
+        || name
+            .parse::<std::net::Ipv4Addr>()
+            .is_ok_and(|ip| ip.is_loopback())
+}
+
+/// Refuse a request that does not name a loopback host; give every answer the headers that
+/// keep a browser from caching it, sniffing it or loading anything from elsewhere.
+async fn guard(request: Request, next: Next) -> Response {
+    let host_ok = request
+        .headers()
+        .get(header::HOST)
+        .and_then(|h| h.to_str().ok())
+        .is_some_and(loopback_host);
+    let mut response = if host_ok {
+        next.run(request).await
+    } else {
+        (
+            StatusCode::MISDIRECTED_REQUEST,
+            "this page answers only to localhost, 127.0.0.1 or [::1]\n",
+        )
+            .into_response()
+    };
+    let h = response.headers_mut();
+    h.insert(header::CACHE_CONTROL, HeaderValue::from_static("no-store"));
+    h.insert(
+        header::X_CONTENT_TYPE_OPTIONS,
+        HeaderValue::from_static("nosniff"),
+    );
+    h.insert(header::X_FRAME_OPTIONS, HeaderValue::from_static("DENY"));
+    h.insert(
+        header::CONTENT_SECURITY_POLICY,
+        HeaderValue::from_static("default-src 'self'; frame-ancestors 'none'"),
+    );
+    response
+}
+
+#[cfg(test)]
+#[path = "ui/tests.rs"]
+mod tests;

@@ -1,0 +1,245 @@
+//! The page's hub, its routes and its refusals, over a real loopback socket.
+
+use std::time::{Duration, SystemTime};
+
+use tokio::io::{AsyncReadExt, AsyncWriteExt};
+
+use super::*;
+use crate::model::DriveStatus;
+
+fn plant(extra: &str) -> Arc<Plant> {
+    let text = format!(
+        "[gateway]\nname = \"gw\"\nbroker = \"off\"\n\
+         [[bus]]\nname = \"b\"\nprotocol = \"movilink\"\nsimulate = true\n\
+         [[bus.drive]]\nname = \"d\"\naddress = 1\n\
+         [[bus.drive.param]]\nparam = \"P130\"\nperiod = \"1s\"\nwritable = true\n\
+         [[bus.drive.param]]\nparam = \"P700\"\nperiod = \"1s\"\n\
+         [ui]\nlisten = \"127.0.0.1:0\"\n{extra}"
+    );
+    Arc::new(Plant::parse(&text, "test").unwrap())
+}
+
+fn value(point: usize, raw: i64) -> Update {
+    Update::Value {
+        bus: 0,
+        drive: 0,
+        point,
+        raw,
+        at: SystemTime::UNIX_EPOCH + Duration::from_millis(1_000),
+    }
+}
+
+#[test]
+fn the_page_is_served_on_loopback_only_and_needs_a_broker_or_itself() {
+    assert_eq!(
+        check_ui_of("127.0.0.1:8080").unwrap().listen,
+        "127.0.0.1:8080".parse().unwrap()
+    );
+    assert!(check_ui_of("[::1]:8080").is_ok());
+    for other in ["0.0.0.0:8080", "192.168.1.20:80", "[::]:8080"] {
+        let e = check_ui_of(other).unwrap_err();
+        assert!(
+            e.contains("loopback") && e.contains("TLS and users"),
+            "{other}: {e}"
+        );
+    }
+    assert!(check_ui_of("localhost").unwrap_err().contains("host:port"));
+    // No broker and no page: nothing would show the drives.
+    let e = Plant::parse(
+        "[gateway]\nname = \"gw\"\nbroker = \"off\"\n\
+         [[bus]]\nname = \"b\"\nprotocol = \"movilink\"\nsimulate = true\n\
+         [[bus.drive]]\nname = \"d\"\naddress = 1\n\
+         [[bus.drive.param]]\nparam = \"P130\"\nperiod = \"1s\"\n",
+        "plant.toml",
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("broker = \"off\" needs a [ui]"), "{e}");
+    let p = plant("");
+    assert!(!p.gateway.uses_broker());
+    assert_eq!(p.ui.map(|u| u.listen.ip().is_loopback()), Some(true));
+}
+
+fn check_ui_of(listen: &str) -> std::result::Result<crate::config::Ui, String> {
+    crate::config::check_ui(listen)
+}
+
+#[test]
+fn only_requests_that_name_this_machine_are_answered() {
+    for ok in [
+        "localhost",
+        "localhost:8080",
+        "127.0.0.1",
+        "127.0.0.1:18080",
+        "127.1.2.3:80",
+        "[::1]",
+        "[::1]:8080",
+    ] {
+        assert!(loopback_host(ok), "{ok}");
+    }
+    for bad in [
+        "evil.example",
+        "evil.example:8080",
+        "localhost.evil.example",
+        "192.168.1.2:8080",
+        "[::2]:80",
+        "",
+    ] {
+        assert!(!loopback_host(bad), "{bad}");
+    }
+}
+
+#[test]
+fn the_hub_keeps_the_latest_of_each_and_sends_it_to_every_watcher() {
+    let hub = Hub::new(plant(""));
+    let mut a = hub.subscribe();
+    let mut b = hub.subscribe();
+    hub.apply(&value(0, 2000));
+    hub.apply(&value(0, 2500));
+    hub.apply(&Update::Status {
+        bus: 0,
+        drive: 0,
+        status: DriveStatus::Fault("overcurrent".into()),
+        at: SystemTime::UNIX_EPOCH,
+    });
+    // Out of the plant: dropped, nobody told.
+    hub.apply(&Update::Value {
+        bus: 7,
+        drive: 0,
+        point: 0,
+        raw: 1,
+        at: SystemTime::UNIX_EPOCH,
+    });
+    let v = hub.plant_json();
+    let drive = &v["buses"][0]["drives"][0];
+    assert_eq!(drive["points"][0]["label"], "P130");
+    assert_eq!(drive["points"][0]["writable"], true);
+    assert_eq!(drive["points"][0]["latest"]["value"], 2.5);
+    assert_eq!(drive["points"][0]["latest"]["unit"], "s");
+    assert_eq!(drive["points"][0]["latest"]["ts"], 1000);
+    assert_eq!(drive["points"][1]["latest"], Value::Null, "not read yet");
+    assert_eq!(drive["points"][1]["period_ms"], 1000);
+    assert_eq!(drive["status"]["state"], "fault");
+    assert_eq!(drive["status"]["text"], "overcurrent");
+    for rx in [&mut a, &mut b] {
+        let first: Value = serde_json::from_str(&rx.try_recv().unwrap()).unwrap();
+        assert_eq!(
+            (&first["type"], &first["point"], &first["payload"]["raw"]),
+            (&json!("value"), &json!(0), &json!(2000))
+        );
+        let _ = rx.try_recv().unwrap();
+        let status: Value = serde_json::from_str(&rx.try_recv().unwrap()).unwrap();
+        assert_eq!(status["type"], "status");
+        assert!(
+            rx.try_recv().is_err(),
+            "the update out of the plant was sent"
+        );
+    }
+}
+
+/// One HTTP/1.1 request on a fresh connection; the answer's head and as much of the body as
+/// arrives within `wait`.
+async fn get(addr: SocketAddr, path: &str, host: &str, wait: Duration) -> String {
+    let mut s = tokio::net::TcpStream::connect(addr).await.unwrap();
+    s.write_all(
+        format!("GET {path} HTTP/1.1\r\nHost: {host}\r\nConnection: close\r\n\r\n").as_bytes(),
+    )
+    .await
+    .unwrap();
+    let mut got = Vec::new();
+    let mut buf = [0u8; 4096];
+    let deadline = tokio::time::Instant::now() + wait;
+    loop {
+        match tokio::time::timeout_at(deadline, s.read(&mut buf)).await {
+            Ok(Ok(0)) | Err(_) => break,
+            Ok(Ok(n)) => got.extend_from_slice(&buf[..n]),
+            Ok(Err(e)) => panic!("{e}"),
+        }
+    }
+    String::from_utf8_lossy(&got).into_owned()
+}
+
+#[tokio::test]
+async fn the_routes_answer_the_plant_the_files_and_a_live_event_stream() {
+    let hub = Hub::new(plant(""));
+    let listener = bind("127.0.0.1:0".parse().unwrap()).await.unwrap();
+    let addr = listener.local_addr().unwrap();
+    tokio::spawn(serve(listener, hub.clone(), std::future::pending()));
+    hub.apply(&value(0, 2000));
+
+    let page = get(addr, "/", "127.0.0.1", Duration::from_secs(5)).await;
+    assert!(page.starts_with("HTTP/1.1 200"), "{page}");
+    assert!(
+        page.contains("content-security-policy: default-src 'self'"),
+        "{page}"
+    );
+    assert!(page.contains("<script src=\"/app.js\">"), "{page}");
+    let js = get(addr, "/app.js", "localhost", Duration::from_secs(5)).await;
+    assert!(
+        js.contains("text/javascript") && js.contains("EventSource"),
+        "{js}"
+    );
+
+    let plant = get(addr, "/api/plant", "localhost:1234", Duration::from_secs(5)).await;
+    let body = plant.split("\r\n\r\n").nth(1).unwrap();
+    let v: Value = serde_json::from_str(body).unwrap();
+    assert_eq!(v["gateway"], "gw");
+    assert_eq!(
+        v["buses"][0]["drives"][0]["points"][0]["latest"]["raw"],
+        2000
+    );
+
+    // A rebinding name is refused before any route runs.
+    let refused = get(addr, "/api/plant", "evil.example", Duration::from_secs(5)).await;
+    assert!(refused.starts_with("HTTP/1.1 421"), "{refused}");
+    assert!(!refused.contains("\"gateway\""), "{refused}");
+
+    // The event stream: what happens after the page connects arrives as it happens.
+    let stream = tokio::spawn(async move {
+        get(
+            addr,
+            "/api/events",
+            "127.0.0.1",
+            Duration::from_millis(1500),
+        )
+        .await
+    });
+    tokio::time::sleep(Duration::from_millis(300)).await;
+    hub.apply(&value(0, 3100));
+    let events = stream.await.unwrap();
+    assert!(events.contains("text/event-stream"), "{events}");
+    let data = events
+        .lines()
+        .find_map(|l| l.strip_prefix("data: "))
+        .unwrap_or_else(|| panic!("no event: {events}"));
+    let e: Value = serde_json::from_str(data).unwrap();
+    assert_eq!(
+        (&e["type"], &e["payload"]["raw"]),
+        (&json!("value"), &json!(3100))
+    );
+}
+
+#[tokio::test]
+async fn a_watcher_that_falls_behind_is_told_to_load_the_plant_again() {
+    let hub = Hub::new(plant(""));
+    let mut rx = hub.subscribe();
+    // One more than a watcher may fall behind by: the oldest is gone.
+    for i in 0..=EVENTS {
+        hub.apply(&value(0, i as i64));
+    }
+    let behind = event_data(rx.recv().await).unwrap();
+    assert_eq!(&*behind, r#"{"type":"resync"}"#);
+    // Then the newest ones, as they are.
+    let next: Value = serde_json::from_str(&event_data(rx.recv().await).unwrap()).unwrap();
+    assert_eq!(next["type"], "value");
+    drop(hub);
+    let mut left = 0;
+    while let Some(_e) = event_data(rx.recv().await) {
+        left += 1;
+    }
+    assert_eq!(
+        left,
+        EVENTS - 1,
+        "every event kept is sent, then the stream ends"
+    );
+}

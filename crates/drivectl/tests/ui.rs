@@ -1,0 +1,404 @@
+//! The browser page of `drivectl gateway` (`[ui]`), in a real browser: a headless Chromium
+//! driven through chromedriver (WebDriver) against the example plant on simulated drives,
+//! with `broker = "off"`. Screenshots go to `target/ui-screenshots/`.
+//!
+//! Chromium and chromedriver come from `scripts/setup-browser` (run by `scripts/test` and CI).
+//! Where they are missing the tests fail under CI (the `CI` variable set) and skip with one
+//! line elsewhere.
+
+// Test code: helpers outside `#[test]` fns panic by design.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic
+)]
+
+use std::io::{Read, Write};
+use std::net::{SocketAddr, TcpListener, TcpStream};
+use std::path::PathBuf;
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+use serde_json::{Value, json};
+
+fn under_ci() -> bool {
+    std::env::var_os("CI").is_some_and(|v| !v.is_empty())
+}
+
+/// Where `name` is on the PATH, or `None` (a failure under CI).
+fn tool(name: &str) -> Option<PathBuf> {
+    let found = std::env::var_os("PATH").and_then(|paths| {
+        std::env::split_paths(&paths)
+            .map(|d| d.join(name))
+            .find(|p| p.is_file())
+    });
+    if found.is_none() {
+        let why = format!("{name} is not installed (bash scripts/setup-browser installs it)");
+        assert!(
+            !under_ci(),
+            "{why}; CI is set, so a browser test that cannot run fails"
+        );
+        eprintln!("SKIPPED: {why}");
+    }
+    found
+}
+
+fn free_port() -> u16 {
+    TcpListener::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port()
+}
+
+/// One HTTP/1.1 request; the status code and the body.
+fn http(addr: SocketAddr, method: &str, path: &str, body: Option<&Value>) -> (u16, String) {
+    let mut s = TcpStream::connect(addr).unwrap();
+    s.set_read_timeout(Some(Duration::from_secs(60))).unwrap();
+    let body = body.map(Value::to_string).unwrap_or_default();
+    write!(
+        s,
+        "{method} {path} HTTP/1.1\r\nHost: 127.0.0.1:{}\r\nContent-Type: application/json\r\n\
+         Content-Length: {}\r\nConnection: close\r\n\r\n{body}",
+        addr.port(),
+        body.len()
+    )
+    .unwrap();
+    // Read the head, then the body by its length: chromedriver keeps the connection open.
+    let mut got = Vec::new();
+    let mut buf = [0u8; 65536];
+    let head_end = loop {
+        if let Some(i) = got.windows(4).position(|w| w == b"\r\n\r\n") {
+            break i + 4;
+        }
+        let n = s.read(&mut buf).unwrap();
+        assert!(n > 0, "the connection closed before the answer's head");
+        got.extend_from_slice(&buf[..n]);
+    };
+    let head = String::from_utf8_lossy(&got[..head_end]).to_ascii_lowercase();
+    let length = head
+        .lines()
+        .find_map(|l| l.strip_prefix("content-length:"))
+        .and_then(|n| n.trim().parse::<usize>().ok());
+    match length {
+        Some(n) => {
+            while got.len() < head_end + n {
+                let k = s.read(&mut buf).unwrap();
+                assert!(k > 0, "the connection closed inside the body");
+                got.extend_from_slice(&buf[..k]);
+            }
+        }
+        None => {
+            s.read_to_end(&mut got).unwrap();
+        }
+    }
+    let code = head
+        .split_whitespace()
+        .nth(1)
+        .and_then(|c| c.parse().ok())
+        .unwrap_or(0);
+    let rest = String::from_utf8_lossy(&got[head_end..]).into_owned();
+    let chunked = head.contains("transfer-encoding: chunked");
+    (code, if chunked { dechunk(&rest) } else { rest })
+}
+
+fn dechunk(mut s: &str) -> String {
+    let mut out = String::new();
+    while let Some((size, rest)) = s.split_once("\r\n") {
+        let n = usize::from_str_radix(size.trim(), 16).unwrap_or(0);
+        if n == 0 || rest.len() < n {
+            break;
+        }
+        out.push_str(&rest[..n]);
+        s = rest[n..].trim_start_matches("\r\n");
+    }
+    out
+}
+
+fn base64_decode(text: &str) -> Vec<u8> {
+    let value = |c: u8| match c {
+        b'A'..=b'Z' => Some(c - b'A'),
+        b'a'..=b'z' => Some(c - b'a' + 26),
+        b'0'..=b'9' => Some(c - b'0' + 52),
+        b'+' => Some(62),
+        b'/' => Some(63),
+        _ => None,
+    };
+    let mut out = Vec::new();
+    let (mut acc, mut bits) = (0u32, 0);
+    for v in text.bytes().filter_map(value) {
+        acc = (acc << 6) | u32::from(v);
+        bits += 6;
+        if bits >= 8 {
+            bits -= 8;
+            out.push((acc >> bits) as u8);
+        }
+    }
+    out
+}
+
+/// A process killed when the test ends, however it ends.
+struct Killed(Child);
+
+impl Drop for Killed {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+/// A browser session through chromedriver.
+struct Browser {
+    driver: SocketAddr,
+    session: String,
+    _chromedriver: Killed,
+}
+
+impl Browser {
+    fn start(chromedriver: &PathBuf, chromium: &PathBuf) -> Browser {
+        let port = free_port();
+        let child = Command::new(chromedriver)
+            .arg(format!("--port={port}"))
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap();
+        let guard = Killed(child);
+        let driver: SocketAddr = ([127, 0, 0, 1], port).into();
+        let until = Instant::now() + Duration::from_secs(20);
+        while TcpStream::connect(driver).is_err() {
+            assert!(Instant::now() < until, "chromedriver did not start");
+            std::thread::sleep(Duration::from_millis(50));
+        }
+        let caps = json!({"capabilities": {"alwaysMatch": {
+            "browserName": "chrome",
+            "goog:chromeOptions": {
+                "binary": chromium,
+                "args": ["--headless=new", "--no-sandbox", "--disable-gpu",
+                         "--disable-dev-shm-usage", "--window-size=1280,1100"],
+            },
+        }}});
+        let (code, body) = http(driver, "POST", "/session", Some(&caps));
+        assert_eq!(code, 200, "{body}");
+        let v: Value = serde_json::from_str(&body).unwrap();
+        let session = v["value"]["sessionId"].as_str().unwrap().to_owned();
+        Browser {
+            driver,
+            session,
+            _chromedriver: guard,
+        }
+    }
+
+    fn call(&self, method: &str, what: &str, body: Option<&Value>) -> Value {
+        let (code, text) = http(
+            self.driver,
+            method,
+            &format!("/session/{}/{what}", self.session),
+            body,
+        );
+        assert_eq!(code, 200, "{what}: {text}");
+        serde_json::from_str::<Value>(&text).unwrap()["value"].take()
+    }
+
+    fn open(&self, url: &str) {
+        self.call("POST", "url", Some(&json!({"url": url})));
+    }
+
+    /// The value of a script run in the page (`return …`).
+    fn eval(&self, script: &str) -> Value {
+        self.call(
+            "POST",
+            "execute/sync",
+            Some(&json!({"script": script, "args": []})),
+        )
+    }
+
+    /// Evaluate `script` until `done` holds (at most 15 s).
+    fn until(&self, script: &str, done: impl Fn(&Value) -> bool) -> Value {
+        let until = Instant::now() + Duration::from_secs(15);
+        loop {
+            let v = self.eval(script);
+            if done(&v) {
+                return v;
+            }
+            assert!(Instant::now() < until, "the page never showed it: {v}");
+            std::thread::sleep(Duration::from_millis(100));
+        }
+    }
+
+    /// Save the page as `target/ui-screenshots/NAME.png`; the path.
+    fn screenshot(&self, name: &str) -> PathBuf {
+        let png = base64_decode(self.call("GET", "screenshot", None).as_str().unwrap());
+        assert!(png.starts_with(b"\x89PNG"), "not a PNG");
+        let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../target/ui-screenshots");
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join(format!("{name}.png"));
+        std::fs::write(&path, png).unwrap();
+        path
+    }
+}
+
+impl Drop for Browser {
+    fn drop(&mut self) {
+        let _ = http(
+            self.driver,
+            "DELETE",
+            &format!("/session/{}", self.session),
+            None,
+        );
+    }
+}
+
+/// The example plant on simulated drives, with no broker and the page on `port`.
+fn gateway(port: u16) -> (Killed, tempdir::Dir) {
+    let dir = tempdir::Dir::new();
+    let example = Command::new(env!("CARGO_BIN_EXE_drivectl"))
+        .args(["gateway", "--example-config"])
+        .output()
+        .unwrap();
+    let text = String::from_utf8(example.stdout)
+        .unwrap()
+        .replacen("broker = \"mqtt://127.0.0.1:1883\"", "broker = \"off\"", 1)
+        .replacen("metrics = \"127.0.0.1:9464\"", "metrics = \"off\"", 1);
+    let config = dir.path.join("plant.toml");
+    std::fs::write(
+        &config,
+        format!("{text}\n[ui]\nlisten = \"127.0.0.1:{port}\"\n"),
+    )
+    .unwrap();
+    let child = Command::new(env!("CARGO_BIN_EXE_drivectl"))
+        .args(["gateway", "--simulate", "--config"])
+        .arg(&config)
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let addr: SocketAddr = ([127, 0, 0, 1], port).into();
+    let until = Instant::now() + Duration::from_secs(20);
+    while TcpStream::connect(addr).is_err() {
+        assert!(Instant::now() < until, "the page did not come up");
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    (Killed(child), dir)
+}
+
+/// A directory removed at the end (no crate for it: a test helper of a few lines).
+mod tempdir {
+    pub struct Dir {
+        pub path: std::path::PathBuf,
+    }
+    impl Dir {
+        pub fn new() -> Dir {
+            let path = std::env::temp_dir().join(format!(
+                "drivebus-ui-{}-{:?}",
+                std::process::id(),
+                std::thread::current().id()
+            ));
+            std::fs::create_dir_all(&path).unwrap();
+            Dir { path }
+        }
+    }
+    impl Drop for Dir {
+        fn drop(&mut self) {
+            let _ = std::fs::remove_dir_all(&self.path);
+        }
+    }
+}
+
+#[test]
+fn the_plant_page_shows_every_drive_live_in_a_real_browser_and_the_gateway_stops_under_it() {
+    let (Some(chromium), Some(chromedriver)) = (tool("chromium"), tool("chromedriver")) else {
+        return;
+    };
+    let port = free_port();
+    let (mut gw, _dir) = gateway(port);
+    let page = format!("http://127.0.0.1:{port}/");
+    let browser = Browser::start(&chromedriver, &chromium);
+    browser.open(&page);
+    // Every drive of the example plant, each with its state, the event stream open.
+    let drives = browser.until(
+        "return [...document.querySelectorAll('article.drive')].map(a => a.dataset.drive)",
+        |v| v.as_array().is_some_and(|a| a.len() == 10),
+    );
+    let names: Vec<&str> = drives
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter_map(Value::as_str)
+        .collect();
+    for name in [
+        "conveyor",
+        "lift",
+        "press",
+        "feeder",
+        "mixer",
+        "pump",
+        "fan",
+        "extractor",
+        "dosing",
+        "agitator",
+    ] {
+        assert!(names.contains(&name), "{name} missing: {names:?}");
+    }
+    browser.until("return document.getElementById('link').textContent", |v| {
+        v == "live"
+    });
+    // Every drive online, every polled value shown with its unit.
+    let states = browser.until(
+        "return [...document.querySelectorAll('.state')].map(s => s.textContent)",
+        |v| {
+            v.as_array()
+                .is_some_and(|a| a.iter().all(|s| s.as_str() == Some("online")))
+        },
+    );
+    assert_eq!(states.as_array().map(Vec::len), Some(10));
+    let conveyor_speed = "return (() => { const r = document.querySelector(\
+        'article[data-drive=conveyor] tr[data-point=speed] td.value div'); \
+        return [r.textContent, r.title]; })()";
+    let first = browser.until(conveyor_speed, |v| v[0] != "–");
+    assert!(
+        first[0].as_str().unwrap().ends_with(" 1/min"),
+        "speed without its unit: {first}"
+    );
+    assert!(first[1].as_str().unwrap().starts_with("raw "), "{first}");
+    // Live: the next read of the same value arrives without a reload (its read time moves).
+    let next = browser.until(conveyor_speed, |v| v[1] != first[1]);
+    assert_ne!(next[1], first[1]);
+    // The bus figures arrive too.
+    browser.until(
+        "return document.querySelector('section.bus .figures').textContent",
+        |v| v.as_str().is_some_and(|t| t.starts_with("utilisation ")),
+    );
+    let shot = browser.screenshot("plant");
+    assert!(std::fs::metadata(&shot).unwrap().len() > 10_000, "{shot:?}");
+
+    // A stop signal with the page still connected: the gateway ends promptly and cleanly.
+    let pid = gw.0.id();
+    let killed = Command::new("kill")
+        .args(["-TERM", &pid.to_string()])
+        .status()
+        .unwrap();
+    assert!(killed.success());
+    let until = Instant::now() + Duration::from_secs(15);
+    let status = loop {
+        if let Some(s) = gw.0.try_wait().unwrap() {
+            break s;
+        }
+        assert!(
+            Instant::now() < until,
+            "the gateway did not stop with a page connected"
+        );
+        std::thread::sleep(Duration::from_millis(50));
+    };
+    let mut err = String::new();
+    if let Some(mut e) = gw.0.stderr.take() {
+        let _ = e.read_to_string(&mut err);
+    }
+    assert!(status.success(), "{status:?}: {err}");
+    assert!(err.contains("the page is served"), "{err}");
+    // The page says the link is gone.
+    browser.until("return document.getElementById('link').textContent", |v| {
+        v.as_str().is_some_and(|t| t.starts_with("connection lost"))
+    });
+}
