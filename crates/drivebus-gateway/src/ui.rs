@@ -359,6 +359,121 @@ async fn guard(request: Request, next: Next) -> Response {
     response
 }
 
+/// A plant of one bus made from a command line (`drivectl ui movilink --port …`): the drives
+/// at `addresses`, each with its family's usual points, the page on `listen`, no broker.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct OneBus {
+    /// The gateway's protocol name (`movilink`, `sbus`, `uss`, `modbus-rtu`, `modbus-ascii`).
+    pub protocol: String,
+    /// The serial port (not SBus).
+    pub port: Option<String>,
+    /// The CAN interface (SBus).
+    pub iface: Option<String>,
+    /// The baud rate; `None`: the protocol's factory setting.
+    pub baud: Option<u32>,
+    /// `even`, `odd` or `none`; `None`: the protocol's factory setting.
+    pub parity: Option<String>,
+    /// The drives' addresses.
+    pub addresses: Vec<u8>,
+    /// Run on simulated drives.
+    pub simulate: bool,
+    /// Where the page is served.
+    pub listen: SocketAddr,
+}
+
+/// The points every drive of a [`OneBus`] plant shows, per family: (name, parameter, selector
+/// key and value, poll period).
+fn usual_points(
+    protocol: &str,
+) -> &'static [(&'static str, &'static str, &'static str, &'static str)] {
+    match protocol {
+        "movilink" | "sbus" => &[
+            ("speed", "P000", "", "500ms"),
+            ("current", "P004", "", "500ms"),
+            ("drive_status", "P010", "", "1s"),
+            ("fault", "P012", "", "1s"),
+        ],
+        "uss" => &[
+            ("fault", "P700", "array = 1", "1s"),
+            ("warning", "P700", "array = 2", "1s"),
+            ("max_frequency", "P105", "", "5s"),
+        ],
+        _ => &[
+            ("frequency", "241", "", "500ms"),
+            ("status_word", "411", "", "1s"),
+            ("fault", "260", "", "1s"),
+            ("warnings", "270", "", "1s"),
+        ],
+    }
+}
+
+impl OneBus {
+    /// The plant's config text: checked by [`Plant::parse`] as any config is.
+    pub fn config(&self) -> String {
+        use std::fmt::Write as _;
+        let quoted = |s: &str| serde_json::Value::from(s).to_string();
+        // The bus is named after its port or interface (a topic level: no `/`).
+        let bus = match (&self.port, &self.iface, self.simulate) {
+            (_, _, true) => "simulated".to_owned(),
+            (Some(p), _, _) | (None, Some(p), _) => p
+                .rsplit('/')
+                .next()
+                .unwrap_or("bus")
+                .chars()
+                .map(|c| {
+                    if c.is_ascii_alphanumeric() || "._-".contains(c) {
+                        c
+                    } else {
+                        '-'
+                    }
+                })
+                .take(64)
+                .collect(),
+            (None, None, false) => "bus".to_owned(),
+        };
+        let bus = if bus.is_empty() {
+            "bus".to_owned()
+        } else {
+            bus
+        };
+        let mut t = format!(
+            "[gateway]\nname = \"laptop\"\nbroker = \"off\"\nmetrics = \"off\"\n\n\
+             [ui]\nlisten = {}\n\n[[bus]]\nname = {}\nprotocol = {}\n",
+            quoted(&self.listen.to_string()),
+            quoted(&bus),
+            quoted(&self.protocol)
+        );
+        if let Some(p) = &self.port {
+            let _ = writeln!(t, "port = {}", quoted(p));
+        }
+        if let Some(i) = &self.iface {
+            let _ = writeln!(t, "iface = {}", quoted(i));
+        }
+        if let Some(b) = self.baud {
+            let _ = writeln!(t, "baud = {b}");
+        }
+        if let Some(p) = &self.parity {
+            let _ = writeln!(t, "parity = {}", quoted(p));
+        }
+        if self.simulate {
+            let _ = writeln!(t, "simulate = true");
+        }
+        for a in &self.addresses {
+            let _ = write!(t, "\n[[bus.drive]]\nname = \"drive-{a}\"\naddress = {a}\n");
+            for (name, param, selector, period) in usual_points(&self.protocol) {
+                let _ = write!(
+                    t,
+                    "\n[[bus.drive.param]]\nparam = \"{param}\"\nname = \"{name}\"\nperiod = \"{period}\"\n"
+                );
+                if !selector.is_empty() {
+                    let _ = writeln!(t, "{selector}");
+                }
+            }
+        }
+        t
+    }
+}
+
 #[cfg(test)]
 #[path = "ui/tests.rs"]
 mod tests;

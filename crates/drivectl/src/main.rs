@@ -22,6 +22,7 @@ mod params;
 mod ports;
 mod sbus;
 mod sew;
+mod ui;
 
 use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 use std::process::ExitCode;
@@ -53,6 +54,8 @@ enum Command {
     Sbus(sbus::SbusArgs),
     /// Put every drive of a plant on an MQTT broker: polls, statuses, guarded writes, metrics.
     Gateway(gateway::GatewayArgs),
+    /// The drives on one bus in the browser: a page on 127.0.0.1 with their live values.
+    Ui(ui::UiArgs),
     /// Talk to a NORD NORDAC LINK over USS (RS-485).
     Uss(nord::uss::UssArgs),
     /// Talk to a NORD NORDAC LINK over CTT2 through an AS-i master (simulated: --sim).
@@ -284,6 +287,7 @@ fn main() -> ExitCode {
         Command::Sim(SimCommand::Bonfiglioli(args)) => bonfiglioli::sim::run(&args),
         Command::Sbus(args) => sbus::run(&args),
         Command::Gateway(args) => gateway::run(&args),
+        Command::Ui(args) => ui::run(&args),
         Command::Uss(args) => nord::uss::run(&args),
         Command::Ctt2(args) => nord::ctt2::run(&args),
         Command::Sim(SimCommand::Uss(args)) => nord::sim::run(&args),

@@ -151,6 +151,7 @@ fn run_to_end(mut cmd: Command, interrupt_after: Option<Duration>) -> std::proce
 fn runs_until_stopped(line: &str) -> bool {
     line.starts_with("mosquitto ")
         || line.starts_with("drivectl sim ")
+        || line.starts_with("drivectl ui ")
         || (line.starts_with("drivectl gateway ")
             && !line.contains("--check")
             && !line.contains("--example-config"))

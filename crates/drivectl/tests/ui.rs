@@ -402,3 +402,83 @@ fn the_plant_page_shows_every_drive_live_in_a_real_browser_and_the_gateway_stops
         v.as_str().is_some_and(|t| t.starts_with("connection lost"))
     });
 }
+
+#[test]
+fn drivectl_ui_serves_one_bus_from_the_command_line_and_stops_on_ctrl_c() {
+    use std::io::BufRead;
+    let drivectl = env!("CARGO_BIN_EXE_drivectl");
+    // Refused before anything opens: no port, a listener for other hosts.
+    let o = Command::new(drivectl).args(["ui", "uss"]).output().unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("needs --port"));
+    let o = Command::new(drivectl)
+        .args(["ui", "uss", "--simulate", "--listen", "0.0.0.0:8080"])
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("loopback address only"));
+
+    let mut child = Command::new(drivectl)
+        .args([
+            "ui",
+            "uss",
+            "--simulate",
+            "--addr",
+            "1",
+            "--addr",
+            "2",
+            "--no-open",
+        ])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut line = String::new();
+    std::io::BufReader::new(child.stdout.take().unwrap())
+        .read_line(&mut line)
+        .unwrap();
+    let mut gw = Killed(child);
+    let url = line.trim();
+    let addr: SocketAddr = url
+        .strip_prefix("http://")
+        .and_then(|r| r.strip_suffix('/'))
+        .unwrap_or_else(|| panic!("not the page's address: {line:?}"))
+        .parse()
+        .unwrap();
+    assert!(addr.ip().is_loopback() && addr.port() != 0, "{addr}");
+    let until = Instant::now() + Duration::from_secs(20);
+    let plant: Value = loop {
+        if TcpStream::connect(addr).is_ok() {
+            let (code, body) = http(addr, "GET", "/api/plant", None);
+            assert_eq!(code, 200, "{body}");
+            let v: Value = serde_json::from_str(&body).unwrap();
+            let read = v["buses"][0]["drives"][1]["points"][0]["latest"].is_object();
+            if read {
+                break v;
+            }
+        }
+        assert!(Instant::now() < until, "the page did not show a value");
+        std::thread::sleep(Duration::from_millis(100));
+    };
+    assert_eq!(plant["buses"][0]["protocol"], "uss");
+    assert_eq!(plant["buses"][0]["name"], "simulated");
+    let drive = &plant["buses"][0]["drives"][1];
+    assert_eq!(drive["address"], 2);
+    assert_eq!(drive["points"][0]["label"], "P700 [-01]");
+    assert_eq!(drive["points"][0]["latest"]["text"], "no fault");
+    // Ctrl-C: the gateway stops cleanly.
+    let sent = Command::new("kill")
+        .args(["-INT", &gw.0.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(sent.success());
+    let until = Instant::now() + Duration::from_secs(15);
+    let status = loop {
+        if let Some(s) = gw.0.try_wait().unwrap() {
+            break s;
+        }
+        assert!(Instant::now() < until, "drivectl ui did not stop on Ctrl-C");
+        std::thread::sleep(Duration::from_millis(50));
+    };
+    assert!(status.success(), "{status:?}");
+}

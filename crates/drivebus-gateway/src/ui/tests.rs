@@ -243,3 +243,71 @@ async fn a_watcher_that_falls_behind_is_told_to_load_the_plant_again() {
         "every event kept is sent, then the stream ends"
     );
 }
+
+#[test]
+fn a_plant_of_one_bus_from_the_command_line_is_a_checked_config() {
+    for (protocol, port, iface) in [
+        ("movilink", Some("/dev/ttyUSB0"), None),
+        ("sbus", None, Some("can0")),
+        ("uss", Some("/dev/ttyUSB1"), None),
+        ("modbus-rtu", Some("/dev/ttyUSB2"), None),
+        ("modbus-ascii", Some("/dev/ttyUSB3"), None),
+    ] {
+        let one = OneBus {
+            protocol: protocol.into(),
+            port: port.map(Into::into),
+            iface: iface.map(Into::into),
+            baud: None,
+            parity: None,
+            addresses: vec![1, 2],
+            simulate: false,
+            listen: "127.0.0.1:8080".parse().unwrap(),
+        };
+        let plant = Plant::parse(&one.config(), "the command line")
+            .unwrap_or_else(|e| panic!("{protocol}: {e}\n{}", one.config()));
+        assert!(!plant.gateway.uses_broker());
+        assert_eq!(plant.ui.map(|u| u.listen.port()), Some(8080));
+        let bus = &plant.buses[0];
+        assert_eq!(bus.protocol.name(), protocol);
+        assert_eq!(
+            bus.name,
+            port.or(iface).unwrap().rsplit('/').next().unwrap()
+        );
+        assert_eq!(bus.drives.len(), 2);
+        assert!(bus.drives.iter().all(|d| d.points.len() >= 3), "{protocol}");
+        assert!(
+            bus.drives[0]
+                .points
+                .iter()
+                .all(|p| p.period.is_some() && !p.writable)
+        );
+    }
+    // A port name with quotes and backslashes stays one TOML string.
+    let odd = OneBus {
+        protocol: "movilink".into(),
+        port: Some(r#"/dev/serial/by-id/usb-"odd"\name"#.into()),
+        iface: None,
+        baud: Some(19200),
+        parity: Some("none".into()),
+        addresses: vec![5],
+        simulate: false,
+        listen: "127.0.0.1:0".parse().unwrap(),
+    };
+    let plant = Plant::parse(&odd.config(), "the command line").unwrap();
+    assert_eq!(plant.buses[0].name, "usb--odd--name");
+    match &plant.buses[0].endpoint {
+        crate::config::Endpoint::Serial { path, .. } => {
+            assert_eq!(path, r#"/dev/serial/by-id/usb-"odd"\name"#);
+        }
+        other => panic!("{other:?}"),
+    }
+    // The checks are the config's: an address the protocol does not have is refused.
+    let bad = OneBus {
+        addresses: vec![150],
+        ..odd
+    };
+    let e = Plant::parse(&bad.config(), "the command line")
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("150"), "{e}");
+}
