@@ -276,6 +276,7 @@ pub fn router(hub: Arc<Hub>) -> Router {
         )
         .route("/api/plant", get(plant))
         .route("/api/events", get(events))
+        .route("/api/drive/{bus}/{drive}/params", get(params))
         .layer(middleware::from_fn(guard))
         .with_state(hub)
 }
@@ -301,6 +302,59 @@ async fn events(
         Some((Ok(Event::default().data(&*data)), rx))
     });
     Sse::new(stream).keep_alive(KeepAlive::default())
+}
+
+/// `?search=TERM` of the parameter list.
+#[derive(Debug, serde::Deserialize)]
+pub struct Search {
+    /// Part of a German or English name (case and umlauts folded: `ueberwachung` finds
+    /// `Überwachung`); none lists every parameter.
+    pub search: Option<String>,
+}
+
+/// The most parameters one answer lists (the MOVIDRIVE table has more: search narrows it).
+pub const MAX_PARAMS: usize = 2000;
+
+/// The parameter table of a drive's family, as the page lists it: the manual's number and
+/// group, both names, unit, access, range, default and value list of each parameter that
+/// matches `search`. `None` for a bus or drive the plant does not have.
+pub fn params_json(plant: &Plant, bus: usize, drive: usize, search: Option<&str>) -> Option<Value> {
+    let b = plant.buses.get(bus)?;
+    let d = b.drives.get(drive)?;
+    let family = b.protocol.family();
+    let term = search.map(str::trim).filter(|t| !t.is_empty());
+    let rows: Vec<Value> = drive_profile::family::params(family)
+        .filter(|p| term.is_none_or(|t| drive_profile::ParamMeta::name_matches(*p, t)))
+        .take(MAX_PARAMS)
+        .map(|p| {
+            let full = drive_client::meaning::param_json(p);
+            let key = |k: &str| full.get(k).cloned().unwrap_or(Value::Null);
+            json!({
+                "number": key("number"), "index": key("index"),
+                "name_de": key("name_de"), "name_en": key("name_en"),
+                "group_de": key("group_de"), "group_en": key("group_en"),
+                "unit": key("unit"), "access": key("access"),
+                "min": full.pointer("/range/min_value").cloned().unwrap_or(Value::Null),
+                "max": full.pointer("/range/max_value").cloned().unwrap_or(Value::Null),
+                "default": key("default_value"), "values": key("values"),
+            })
+        })
+        .collect();
+    Some(json!({
+        "bus": b.name, "drive": d.name, "address": d.address,
+        "family": family.to_string(), "search": term, "params": rows,
+    }))
+}
+
+async fn params(
+    State(hub): State<Arc<Hub>>,
+    axum::extract::Path((bus, drive)): axum::extract::Path<(usize, usize)>,
+    axum::extract::Query(q): axum::extract::Query<Search>,
+) -> Response {
+    match params_json(&hub.plant, bus, drive, q.search.as_deref()) {
+        Some(v) => ([(header::CONTENT_TYPE, "application/json")], v.to_string()).into_response(),
+        None => (StatusCode::NOT_FOUND, "no such bus or drive\n").into_response(),
+    }
 }
 
 /// What a watching page is sent for what its receiver got: the event; `{"type":"resync"}`

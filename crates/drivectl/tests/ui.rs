@@ -373,6 +373,40 @@ fn the_plant_page_shows_every_drive_live_in_a_real_browser_and_the_gateway_stops
     let shot = browser.screenshot("plant");
     assert!(std::fs::metadata(&shot).unwrap().len() > 10_000, "{shot:?}");
 
+    // The drive's parameter table, searched in German and in English.
+    browser.eval("document.querySelector('article[data-drive=conveyor] h3 a').click(); return 0");
+    let search = |term: &str| {
+        browser.eval(&format!(
+            "const i = document.getElementById('search'); i.value = {}; \
+             i.dispatchEvent(new Event('input')); return 0",
+            json!(term)
+        ));
+        // The list shown is the answer to this search (the count names the term).
+        let shown = format!("matching “{term}”");
+        browser.until(
+            "return document.querySelector('#drive .figures').textContent",
+            |v| v.as_str().is_some_and(|t| t.ends_with(&shown)),
+        );
+        browser.eval(
+            "return [...document.querySelectorAll('table.params tr[data-number]')].map(r => r.dataset.number)",
+        )
+    };
+    browser.until("return document.getElementById('search') !== null", |v| {
+        v == true
+    });
+    for term in ["Rampe", "ramp"] {
+        let rows = search(term);
+        let rows = rows.as_array().unwrap();
+        assert!(rows.iter().any(|n| n == "P130"), "{term}: {rows:?}");
+        assert!(rows.len() < 100, "{term}: not narrowed: {}", rows.len());
+    }
+    let shot = browser.screenshot("drive-search");
+    assert!(std::fs::metadata(&shot).unwrap().len() > 10_000, "{shot:?}");
+    browser.eval("location.hash = ''; return 0");
+    browser.until("return document.getElementById('plant').hidden", |v| {
+        v == false
+    });
+
     // A stop signal with the page still connected: the gateway ends promptly and cleanly.
     let pid = gw.0.id();
     let killed = Command::new("kill")

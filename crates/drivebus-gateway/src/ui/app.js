@@ -55,7 +55,11 @@ function render(plant) {
     bus.drives.forEach((drive, d) => {
       const art = el("article", "drive");
       art.dataset.drive = drive.name;
-      const h = el("h3", null, `${drive.name} · address ${drive.address}`);
+      const h = el("h3");
+      const a = el("a", null, `${drive.name} · address ${drive.address}`);
+      a.href = `#drive/${b}/${d}`;
+      a.title = "the drive's parameter table";
+      h.append(a);
       const st = el("span", "state");
       showStatus(st, drive.status);
       h.append(st);
@@ -120,6 +124,87 @@ function follow() {
   };
 }
 
+// The drive view (#drive/BUS/DRIVE): its family's parameter table, searched in German and
+// English (umlauts folded by the gateway: "ueberwachung" finds "Überwachung").
+const driveView = document.getElementById("drive");
+let searchTimer = null;
+
+function numberText(v, unit) {
+  if (v === null || v === undefined) return "";
+  return unit ? `${v} ${unit}` : `${v}`;
+}
+
+let searchSeq = 0;
+
+async function showParams(b, d, term, list, count) {
+  // Only the answer to the latest search is shown, whatever order the answers come in.
+  const mine = ++searchSeq;
+  const q = term ? `?search=${encodeURIComponent(term)}` : "";
+  const r = await fetch(`/api/drive/${b}/${d}/params${q}`, { cache: "no-store" });
+  if (mine !== searchSeq) return;
+  if (!r.ok) { list.replaceChildren(el("p", "muted", "no such drive")); return; }
+  const t = await r.json();
+  if (mine !== searchSeq) return;
+  count.textContent = `${t.params.length} parameter(s) of the ${t.family} table` + (t.search ? ` matching “${t.search}”` : "");
+  const table = el("table", "params");
+  let group = null;
+  for (const p of t.params) {
+    const g = p.group_en || p.group_de || "";
+    if (g !== group) {
+      group = g;
+      const tr = el("tr", "group");
+      const th = el("th", null, [p.group_en, p.group_de].filter(Boolean).join(" / "));
+      th.colSpan = 5;
+      tr.append(th);
+      table.append(tr);
+    }
+    const tr = el("tr");
+    tr.dataset.number = p.number;
+    const names = el("td");
+    names.append(el("div", null, p.name_en), el("div", "muted", p.name_de));
+    const range = p.min !== null && p.max !== null ? `${numberText(p.min, p.unit)} … ${numberText(p.max, p.unit)}` : "";
+    tr.append(el("td", "number", p.number), names, el("td", "muted", p.access), el("td", "value", range),
+      el("td", "value", p.default !== null ? `default ${numberText(p.default, p.unit)}` : ""));
+    table.append(tr);
+  }
+  list.replaceChildren(table);
+}
+
+function openDrive(b, d) {
+  main.hidden = true;
+  driveView.hidden = false;
+  driveView.replaceChildren();
+  const back = el("a", null, "← plant");
+  back.href = "#";
+  const input = el("input");
+  input.type = "search";
+  input.placeholder = "search the names (German or English)";
+  input.id = "search";
+  const count = el("div", "figures");
+  const list = el("div");
+  driveView.append(back, el("h2", null, `bus ${b}, drive ${d}`), input, count, list);
+  input.addEventListener("input", () => {
+    clearTimeout(searchTimer);
+    searchTimer = setTimeout(() => showParams(b, d, input.value, list, count), 200);
+  });
+  fetch("/api/plant", { cache: "no-store" }).then((r) => r.json()).then((p) => {
+    const bus = p.buses[b], drive = bus && bus.drives[d];
+    if (drive) driveView.querySelector("h2").textContent = `${drive.name} · address ${drive.address} (${bus.name})`;
+  });
+  showParams(b, d, "", list, count);
+}
+
+function route() {
+  const m = location.hash.match(/^#drive\/(\d+)\/(\d+)$/);
+  if (m) {
+    openDrive(Number(m[1]), Number(m[2]));
+  } else {
+    driveView.hidden = true;
+    main.hidden = false;
+  }
+}
+
+window.addEventListener("hashchange", route);
 // Follow first, so nothing that happens while the plant loads is missed.
 follow();
-load();
+load().then(route);

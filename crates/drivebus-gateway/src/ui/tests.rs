@@ -311,3 +311,36 @@ fn a_plant_of_one_bus_from_the_command_line_is_a_checked_config() {
         .to_string();
     assert!(e.contains("150"), "{e}");
 }
+
+#[test]
+fn the_parameter_table_is_searched_in_german_and_english_with_umlauts_folded() {
+    let p = plant("");
+    let numbers = |term: &str| -> Vec<String> {
+        params_json(&p, 0, 0, Some(term)).unwrap()["params"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|r| r["number"].as_str().unwrap_or("").to_owned())
+            .collect()
+    };
+    for term in ["Rampe", "ramp", "RAMP t11"] {
+        assert!(numbers(term).contains(&"P130".to_owned()), "{term}");
+    }
+    // "ueberwachung" finds "Überwachung" as the command line's --search does.
+    let folded = numbers("ueberwachung");
+    assert!(!folded.is_empty());
+    assert_eq!(folded, numbers("Überwachung"));
+    let all = params_json(&p, 0, 0, None).unwrap();
+    assert_eq!(all["family"], "movidrive");
+    let rows = all["params"].as_array().unwrap();
+    assert!(rows.len() > 100 && rows.len() <= MAX_PARAMS);
+    let p130 = rows.iter().find(|r| r["number"] == "P130").unwrap();
+    assert_eq!(
+        (&p130["unit"], &p130["min"], &p130["max"], &p130["default"]),
+        (&json!("s"), &json!(0.0), &json!(2000.0), &json!(2.0))
+    );
+    assert_eq!(p130["group_en"], "Speed ramps 1");
+    assert!(numbers("no such name at all").is_empty());
+    assert!(params_json(&p, 0, 5, None).is_none());
+    assert!(params_json(&p, 3, 0, None).is_none());
+}
