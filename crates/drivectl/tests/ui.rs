@@ -373,6 +373,53 @@ fn the_plant_page_shows_every_drive_live_in_a_real_browser_and_the_gateway_stops
     let shot = browser.screenshot("plant");
     assert!(std::fs::metadata(&shot).unwrap().len() > 10_000, "{shot:?}");
 
+    // The trend: two points picked, drawn as the bus reads them, and the CSV holds what was
+    // drawn, the value shown last among it.
+    browser.eval(
+        "for (const p of ['speed', 'current']) document.querySelector(\
+         `article[data-drive=conveyor] tr[data-point=${p}] td.pick input`).click(); return 0",
+    );
+    let counts = "return [...document.querySelectorAll('#trend-plot polyline')].map(l => \
+        l.getAttribute('points').trim().split(' ').filter(Boolean).length)";
+    browser.until(counts, |v| {
+        v.as_array()
+            .is_some_and(|a| a.len() == 2 && a.iter().all(|n| n.as_u64() >= Some(3)))
+    });
+    browser.eval("document.getElementById('trend-pause').click(); return 0");
+    let drawn = browser.eval(counts);
+    let csv = browser.eval("return trendCsv()");
+    let csv = csv.as_str().unwrap();
+    let mut lines = csv.lines();
+    assert_eq!(lines.next(), Some("time,point,value,unit,raw"));
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    let speed: Vec<&Vec<&str>> = rows
+        .iter()
+        .filter(|r| r[1] == "\"conveyor speed\"")
+        .collect();
+    let current = rows
+        .iter()
+        .filter(|r| r[1] == "\"conveyor current\"")
+        .count();
+    assert_eq!(
+        json!([speed.len(), current]),
+        drawn,
+        "the CSV and the plot differ: {csv}"
+    );
+    for r in &rows {
+        assert!(
+            r[2].parse::<f64>().is_ok() && r[4].parse::<i64>().is_ok(),
+            "{r:?}"
+        );
+    }
+    assert_eq!(speed.last().unwrap()[3], "\"1/min\"");
+    let shown = browser.eval(
+        "return document.querySelector('article[data-drive=conveyor] tr[data-point=speed] td.value div').textContent",
+    );
+    let last = speed.last().unwrap()[2].parse::<f64>().unwrap();
+    assert_eq!(shown, format!("{last} 1/min"), "{csv}");
+    let shot = browser.screenshot("trend");
+    assert!(std::fs::metadata(&shot).unwrap().len() > 10_000, "{shot:?}");
+
     // The drive's parameter table, searched in German and in English.
     browser.eval("document.querySelector('article[data-drive=conveyor] h3 a').click(); return 0");
     let search = |term: &str| {

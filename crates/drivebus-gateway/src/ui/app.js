@@ -76,7 +76,14 @@ function render(plant) {
         const value = el("div");
         const text = el("div", "text");
         cell.append(value, text);
-        tr.append(name, cell);
+        const pick = el("td", "pick");
+        const box = el("input");
+        box.type = "checkbox";
+        box.title = "show in the trend (up to 8)";
+        box.dataset.key = `${b}.${d}.${i}`;
+        box.addEventListener("change", () => toggleTrend(box, `${b}.${d}.${i}`, `${drive.name} ${p.name}`, p));
+        pick.append(box);
+        tr.append(pick, name, cell);
         table.append(tr);
         // A point without a period is read only after a write.
         const c = { value, text, unread: p.period_ms === null ? "not polled: read after a write" : "not read yet" };
@@ -109,6 +116,7 @@ function follow() {
     if (e.type === "value") {
       const c = cells[`v${e.bus}.${e.drive}.${e.point}`];
       if (c) showValue(c, e.payload);
+      addSample(`${e.bus}.${e.drive}.${e.point}`, e.payload);
     } else if (e.type === "status") {
       const s = cells[`s${e.bus}.${e.drive}`];
       if (s) showStatus(s, e.payload);
@@ -203,6 +211,115 @@ function route() {
     main.hidden = false;
   }
 }
+
+// The trend: up to 8 points, each drawn on its own scale, kept for 10 minutes in the page.
+const TREND_MAX = 8;
+const TREND_WINDOW_MS = 10 * 60 * 1000;
+const COLOURS = ["#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#17becf", "#8c564b", "#e377c2"];
+const trend = new Map();
+let trendPaused = false;
+
+function toggleTrend(box, key, title, point) {
+  if (!box.checked) {
+    trend.delete(key);
+  } else if (trend.size >= TREND_MAX) {
+    box.checked = false;
+    alert(`The trend shows at most ${TREND_MAX} points.`);
+    return;
+  } else {
+    const used = new Set([...trend.values()].map((t) => t.colour));
+    const colour = COLOURS.find((c) => !used.has(c)) || COLOURS[0];
+    trend.set(key, { title, unit: point.latest ? point.latest.unit : null, period: point.period_ms, colour, samples: [] });
+    if (point.latest) addSample(key, point.latest);
+  }
+  drawTrend();
+}
+
+function addSample(key, v) {
+  const t = trend.get(key);
+  if (!t || !v || typeof v.value !== "number") return;
+  const last = t.samples[t.samples.length - 1];
+  if (last && last.ts === v.ts) return;
+  t.unit = v.unit;
+  t.samples.push({ ts: v.ts, value: v.value, raw: v.raw });
+  const oldest = v.ts - TREND_WINDOW_MS;
+  while (t.samples.length && t.samples[0].ts < oldest) t.samples.shift();
+  if (!trendPaused) drawTrend();
+}
+
+function drawTrend() {
+  const section = document.getElementById("trend");
+  section.hidden = trend.size === 0;
+  const svg = document.getElementById("trend-plot");
+  const legend = document.getElementById("trend-legend");
+  const ns = "http://www.w3.org/2000/svg";
+  svg.replaceChildren();
+  legend.replaceChildren();
+  // The time axis runs from the oldest sample kept to the newest (at most 10 minutes), so
+  // the first seconds fill the plot too.
+  let end = 0, first = Infinity;
+  for (const t of trend.values()) for (const s of t.samples) { end = Math.max(end, s.ts); first = Math.min(first, s.ts); }
+  const start = Math.max(end - TREND_WINDOW_MS, first);
+  const width = Math.max(end - start, 1000);
+  for (const [key, t] of trend) {
+    const values = t.samples.map((s) => s.value);
+    const lo = Math.min(...values), hi = Math.max(...values);
+    const span = hi > lo ? hi - lo : 1;
+    const pts = t.samples.map((s) => {
+      const x = ((s.ts - start) / width) * 1000;
+      // A value that does not change is drawn across the middle.
+      const y = hi > lo ? 190 - ((s.value - lo) / span) * 180 : 100;
+      return `${x.toFixed(1)},${y.toFixed(1)}`;
+    });
+    const line = document.createElementNS(ns, "polyline");
+    line.setAttribute("points", pts.join(" "));
+    line.setAttribute("fill", "none");
+    line.setAttribute("stroke", t.colour);
+    line.setAttribute("stroke-width", "2");
+    line.setAttribute("vector-effect", "non-scaling-stroke");
+    line.dataset.key = key;
+    svg.append(line);
+    const last = t.samples[t.samples.length - 1];
+    const li = el("li");
+    const swatch = el("span", "swatch");
+    swatch.style.background = t.colour;
+    const rate = t.period ? `, read every ${t.period} ms` : "";
+    li.append(swatch, el("span", null, `${t.title}: ${last ? valueText(last.value === undefined ? null : { value: last.value, unit: t.unit }) : "–"}` +
+      ` (${t.samples.length} samples, ${values.length ? `${lo} … ${hi}` : "no values"}${rate})`));
+    legend.append(li);
+  }
+}
+
+/// The trend's samples as CSV: one row per sample, oldest first.
+function trendCsv() {
+  const rows = ["time,point,value,unit,raw"];
+  const all = [];
+  for (const t of trend.values()) for (const s of t.samples) all.push([s.ts, t, s]);
+  all.sort((a, b) => a[0] - b[0]);
+  const quote = (x) => `"${String(x).replaceAll('"', '""')}"`;
+  for (const [ts, t, s] of all) rows.push([new Date(ts).toISOString(), quote(t.title), s.value, quote(t.unit || ""), s.raw].join(","));
+  return rows.join("\n") + "\n";
+}
+
+function download(name, type, text) {
+  const a = el("a");
+  a.href = URL.createObjectURL(new Blob([text], { type }));
+  a.download = name;
+  a.click();
+  setTimeout(() => URL.revokeObjectURL(a.href), 1000);
+}
+
+document.getElementById("trend-pause").addEventListener("click", (e) => {
+  trendPaused = !trendPaused;
+  e.target.textContent = trendPaused ? "resume" : "pause";
+  if (!trendPaused) drawTrend();
+});
+document.getElementById("trend-csv").addEventListener("click", () => download("trend.csv", "text/csv", trendCsv()));
+document.getElementById("trend-svg").addEventListener("click", () => {
+  const svg = document.getElementById("trend-plot").cloneNode(true);
+  svg.setAttribute("xmlns", "http://www.w3.org/2000/svg");
+  download("trend.svg", "image/svg+xml", svg.outerHTML);
+});
 
 window.addEventListener("hashchange", route);
 // Follow first, so nothing that happens while the plant loads is missed.
