@@ -417,6 +417,16 @@ fn the_plant_page_shows_every_drive_live_in_a_real_browser_and_the_gateway_stops
     );
     let last = speed.last().unwrap()[2].parse::<f64>().unwrap();
     assert_eq!(shown, format!("{last} 1/min"), "{csv}");
+    // From a value's read on the bus (its `ts`) to the page: the target is 50 ms beyond
+    // the wire time; a debug build on a loaded machine gets a wider bound here, and the
+    // figures are printed.
+    let l = browser.until("return latency()", |v| v["count"].as_u64() >= Some(20));
+    eprintln!("bus read → page: {l}");
+    assert!(
+        l["median"].as_f64().is_some_and(|m| m >= 0.0 && m < 50.0),
+        "{l}"
+    );
+    assert!(l["p99"].as_f64().is_some_and(|p| p < 250.0), "{l}");
     let shot = browser.screenshot("trend");
     assert!(std::fs::metadata(&shot).unwrap().len() > 10_000, "{shot:?}");
 

@@ -107,12 +107,28 @@ async function load() {
   render(await r.json());
 }
 
+// How long a value takes from its read on the bus (its `ts`) to this page: the last 1000.
+const latencies = [];
+
+function noteLatency(ms) {
+  latencies.push(ms);
+  if (latencies.length > 1000) latencies.shift();
+}
+
+// {count, median, p99} in ms, for a look in the console and for the tests.
+function latency() {
+  const sorted = [...latencies].sort((a, b) => a - b);
+  const at = (q) => sorted.length ? sorted[Math.min(sorted.length - 1, Math.floor(q * sorted.length))] : null;
+  return { count: sorted.length, median: at(0.5), p99: at(0.99) };
+}
+
 function follow() {
   const source = new EventSource("/api/events");
   source.onopen = () => { link.textContent = "live"; link.classList.remove("down"); };
   source.onerror = () => { link.textContent = "connection lost: retrying"; link.classList.add("down"); };
   source.onmessage = (m) => {
     const e = JSON.parse(m.data);
+    if (e.type === "value" && e.payload && e.payload.ts) noteLatency(Date.now() - e.payload.ts);
     if (e.type === "value") {
       const c = cells[`v${e.bus}.${e.drive}.${e.point}`];
       if (c) showValue(c, e.payload);
