@@ -423,7 +423,9 @@ fn the_plant_page_shows_every_drive_live_in_a_real_browser_and_the_gateway_stops
     let l = browser.until("return latency()", |v| v["count"].as_u64() >= Some(20));
     eprintln!("bus read → page: {l}");
     assert!(
-        l["median"].as_f64().is_some_and(|m| m >= 0.0 && m < 50.0),
+        l["median"]
+            .as_f64()
+            .is_some_and(|m| (0.0..50.0).contains(&m)),
         "{l}"
     );
     assert!(l["p99"].as_f64().is_some_and(|p| p < 250.0), "{l}");
