@@ -59,16 +59,6 @@ struct Latest {
     figures: Vec<Option<Value>>,
 }
 
-/// A payload string of `mqtt::payload` as a JSON value (`null` if it were not JSON).
-fn parsed(text: &str) -> Value {
-    serde_json::from_str(text).unwrap_or(Value::Null)
-}
-
-/// A slot of `v` at `i`, if the index is in the plant.
-fn slot<T>(v: &mut [T], i: usize) -> Option<&mut T> {
-    v.get_mut(i)
-}
-
 impl Hub {
     /// A hub for `plant`, nothing reported yet.
     pub fn new(plant: Arc<Plant>) -> Arc<Hub> {
@@ -107,8 +97,10 @@ impl Hub {
     /// bus, drive or point the plant does not have is dropped.
     pub fn apply(&self, u: &Update) {
         let Some(event) = self.keep(u) else { return };
-        // No page watching is no error.
-        let _ = self.events.send(Arc::from(event.to_string()));
+        // Written out only for pages that watch.
+        if self.events.receiver_count() > 0 {
+            let _ = self.events.send(Arc::from(event.to_string()));
+        }
     }
 
     fn keep(&self, u: &Update) -> Option<Value> {
@@ -123,13 +115,12 @@ impl Hub {
             } => {
                 let d = self.plant.buses.get(*bus)?.drives.get(*drive)?;
                 let p = d.points.get(*point)?;
-                let v = parsed(&payload::value(
-                    &p.target,
-                    *raw,
-                    payload::millis(*at),
-                    &d.device,
-                ));
-                let s = slot(slot(slot(&mut latest.values, *bus)?, *drive)?, *point)?;
+                let v = payload::value_json(&p.target, *raw, payload::millis(*at), &d.device);
+                let s = latest
+                    .values
+                    .get_mut(*bus)?
+                    .get_mut(*drive)?
+                    .get_mut(*point)?;
                 *s = Some(v.clone());
                 Some(
                     json!({"type": "value", "bus": bus, "drive": drive, "point": point, "payload": v}),
@@ -141,8 +132,8 @@ impl Hub {
                 status,
                 at,
             } => {
-                let v = parsed(&payload::status(status, payload::millis(*at)));
-                *slot(slot(&mut latest.status, *bus)?, *drive)? = Some(v.clone());
+                let v = payload::status_json(status, payload::millis(*at));
+                *latest.status.get_mut(*bus)?.get_mut(*drive)? = Some(v.clone());
                 Some(json!({"type": "status", "bus": bus, "drive": drive, "payload": v}))
             }
             Update::ProcessData {
@@ -152,13 +143,13 @@ impl Hub {
                 at,
             } => {
                 let v = json!({"in": words, "ts": payload::millis(*at)});
-                *slot(slot(&mut latest.process_data, *bus)?, *drive)? = Some(v.clone());
+                *latest.process_data.get_mut(*bus)?.get_mut(*drive)? = Some(v.clone());
                 Some(json!({"type": "process_data", "bus": bus, "drive": drive, "payload": v}))
             }
             Update::Figures { bus, figures } => {
                 let ts = payload::millis(std::time::SystemTime::now());
-                let v = parsed(&payload::figures(figures, ts));
-                *slot(&mut latest.figures, *bus)? = Some(v.clone());
+                let v = payload::figures_json(figures, ts);
+                *latest.figures.get_mut(*bus)? = Some(v.clone());
                 Some(json!({"type": "figures", "bus": bus, "payload": v}))
             }
         }

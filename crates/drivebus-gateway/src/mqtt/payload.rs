@@ -65,24 +65,39 @@ fn value_fields(t: &Target, raw: i64, device: &Device, m: &mut Map<String, Value
 /// `{"value":…,"unit":…,"raw":N,"ts":…}` (+ `"text"`), the meaning for what is known of the
 /// drive (`device`: a Bonfiglioli variant).
 pub fn value(t: &Target, raw: i64, ts: u64, device: &Device) -> String {
+    value_json(t, raw, ts, device).to_string()
+}
+
+/// [`value`] as a JSON value (the browser page's).
+pub fn value_json(t: &Target, raw: i64, ts: u64, device: &Device) -> Value {
     let mut m = Map::new();
     value_fields(t, raw, device, &mut m);
     m.insert("raw".into(), json!(raw));
     m.insert("ts".into(), json!(ts));
-    Value::Object(m).to_string()
+    Value::Object(m)
 }
 
 /// `{"state":…,"text":…,"ts":…}`.
 pub fn status(s: &DriveStatus, ts: u64) -> String {
+    status_json(s, ts).to_string()
+}
+
+/// [`status`] as a JSON value.
+pub fn status_json(s: &DriveStatus, ts: u64) -> Value {
     let text = match s {
         DriveStatus::Fault(t) => json!(t),
         _ => Value::Null,
     };
-    json!({"state": s.state(), "text": text, "ts": ts}).to_string()
+    json!({"state": s.state(), "text": text, "ts": ts})
 }
 
 /// The bus status topic's figures.
 pub fn figures(f: &BusFigures, ts: u64) -> String {
+    figures_json(f, ts).to_string()
+}
+
+/// [`figures`] as a JSON value.
+pub fn figures_json(f: &BusFigures, ts: u64) -> Value {
     json!({
         "utilisation": rounded(f.utilisation, 4),
         "demand": rounded(f.demand, 4),
@@ -92,7 +107,6 @@ pub fn figures(f: &BusFigures, ts: u64) -> String {
         "late_polls": f.late_polls,
         "ts": ts,
     })
-    .to_string()
 }
 
 /// `{"in":[…],"out":[…],"ts":…}`.
