@@ -48,14 +48,11 @@ pub struct UiArgs {
     pub log_level: String,
 }
 
-/// A free port on `addr`'s host when its port is 0 (taken and let go: the gateway binds it a
-/// moment later).
+/// `addr` with a free port when its port is 0, checked by taking it and letting it go (the
+/// gateway binds it a moment later), so a port in use is said with the option's name.
 fn with_port(addr: SocketAddr) -> Result<SocketAddr> {
-    if addr.port() != 0 {
-        return Ok(addr);
-    }
     let l = std::net::TcpListener::bind(addr)
-        .map_err(|e| CliError::failed(format!("--listen {addr}: no free port: {e}")))?;
+        .map_err(|e| CliError::failed(format!("--listen {addr}: cannot listen: {e}")))?;
     l.local_addr()
         .map_err(|e| CliError::failed(format!("--listen {addr}: {e}")))
 }

@@ -510,6 +510,16 @@ fn drivectl_ui_serves_one_bus_from_the_command_line_and_stops_on_ctrl_c() {
         .unwrap();
     assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("loopback address only"));
+    // A port in use is named by the option the user gave.
+    let taken = TcpListener::bind("127.0.0.1:0").unwrap();
+    let at = taken.local_addr().unwrap().to_string();
+    let o = Command::new(drivectl)
+        .args(["ui", "uss", "--simulate", "--no-open", "--listen", &at])
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(1));
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(e.contains(&format!("--listen {at}: cannot listen")), "{e}");
 
     let mut child = Command::new(drivectl)
         .args([
