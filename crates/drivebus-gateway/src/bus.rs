@@ -9,7 +9,7 @@ use tokio::sync::mpsc;
 
 use super::config::Bus;
 use super::metrics::Metrics;
-use super::model::{BusIx, SetRequest, Update};
+use super::model::{Ask, BusIx, SetRequest, Update};
 use drive_client::{ClientError, ParamClient};
 
 /// The kinds of transaction a bus task runs, for wire time and metrics.
@@ -130,6 +130,15 @@ pub struct BusContext {
     pub updates: mpsc::Sender<Update>,
     /// Writes for its drives.
     pub sets: mpsc::Receiver<SetRequest>,
+    /// The page's requests for its drives ([`BusContext::no_asks`] without a page).
+    pub asks: mpsc::Receiver<Ask>,
     /// The metrics registry.
     pub metrics: Arc<Metrics>,
+}
+
+impl BusContext {
+    /// A receiver of asks that never brings one (a bus without the page).
+    pub fn no_asks() -> mpsc::Receiver<Ask> {
+        mpsc::channel(1).1
+    }
 }

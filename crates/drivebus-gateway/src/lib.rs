@@ -103,21 +103,29 @@ pub async fn serve(plant: Plant) -> Result<()> {
     let (update_tx, update_rx) = mpsc::channel(4096);
     let (stop_tx, stop_rx) = tokio::sync::watch::channel(false);
     let mut set_txs = Vec::new();
+    let mut ask_txs = Vec::new();
     let mut buses = Vec::new();
     for (ix, bus) in plant.buses.iter().enumerate() {
         let (set_tx, set_rx) = mpsc::channel(64);
         set_txs.push(set_tx);
+        let (ask_tx, ask_rx) = mpsc::channel(64);
+        ask_txs.push(ask_tx);
         let ctx = bus::BusContext {
             ix,
             bus: bus.clone(),
             updates: update_tx.clone(),
             sets: set_rx,
+            asks: ask_rx,
             metrics: metrics.clone(),
             shutdown: stop_rx.clone(),
         };
         buses.push(tokio::task::spawn_local(families::run_bus(ctx)));
     }
     drop(update_tx);
+    // Without a page nobody asks the buses anything.
+    if page.is_none() {
+        ask_txs.clear();
+    }
     if let Some(addr) = plant.gateway.metrics {
         let listener = metrics::bind(addr).await?;
         tokio::task::spawn_local(metrics::serve(listener, metrics.clone()));
@@ -149,7 +157,11 @@ pub async fn serve(plant: Plant) -> Result<()> {
     // With a page, the updates pass through its hub on their way to the broker.
     let updates = match page {
         Some(listener) => {
-            let hub = ui::Hub::new(plant.clone());
+            // The page's jobs (reads, writes, backups) run on this thread, each bus's part of
+            // them in its bus task.
+            let (jobs, worker) = ui::drive::jobs();
+            tokio::task::spawn_local(worker.run());
+            let hub = ui::Hub::serving(plant.clone(), std::mem::take(&mut ask_txs), Some(jobs));
             if let Ok(at) = listener.local_addr() {
                 tracing::info!(url = %format!("http://{at}/"), "the page is served");
             }

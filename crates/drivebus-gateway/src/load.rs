@@ -98,6 +98,7 @@ where
             bus: bus.clone(),
             updates: tx.clone(),
             sets: set_rx,
+            asks: crate::bus::BusContext::no_asks(),
             metrics: metrics.clone(),
             shutdown: stop_rx.clone(),
         };

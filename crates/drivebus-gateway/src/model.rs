@@ -161,3 +161,73 @@ pub enum SetOutcome {
         message: String,
     },
 }
+
+/// A transaction the page asks a bus task to run for one of its drives (a read on demand, a
+/// guarded write's steps, a backup's reads): taken between the polls as a write is, with its
+/// own wire time, and refused like a write when the drive is offline or the bus too busy
+/// ([`AskOp`]).
+#[derive(Debug)]
+pub struct Ask {
+    /// Drive.
+    pub drive: DriveIx,
+    /// What to do.
+    pub op: AskOp,
+    /// When it was asked (refused once older than `max_age` before it ran).
+    pub received: tokio::time::Instant,
+    /// How long it may wait for the bus.
+    pub max_age: Duration,
+    /// The answer.
+    pub reply: oneshot::Sender<Result<Answer, drive_client::ClientError>>,
+}
+
+/// What an [`Ask`] asks for: one [`ParamClient`](drive_client::ParamClient) call on the drive's
+/// client.
+#[derive(Debug, Clone)]
+pub enum AskOp {
+    /// What the drive's client knows without asking the drive (no transaction):
+    /// [`Answer::Facts`].
+    Facts,
+    /// What writing `raw` to the link setting `target` would do to the link (no transaction):
+    /// [`Answer::Text`].
+    LinkChange(drive_client::target::Target, i64),
+    /// The drive's key for the EEPROM-wear log: [`Answer::Text`].
+    DriveKey,
+    /// A read: [`Answer::Raw`].
+    Read(drive_client::target::Target),
+    /// A write (the guard has passed it): [`Answer::Done`].
+    Write(
+        drive_client::target::Target,
+        i64,
+        drive_profile::Persistence,
+    ),
+    /// The drive's identification for a backup: [`Answer::Identity`].
+    Identify,
+}
+
+/// What a drive's client knows without a transaction.
+#[derive(Debug, Clone, Copy)]
+pub struct Facts {
+    /// The family.
+    pub family: drive_profile::Family,
+    /// Its link settings (address, baud rate, timeouts of the bus the gateway talks over).
+    pub link_settings: &'static [u16],
+    /// What a restore never writes.
+    pub not_restored: &'static [u16],
+    /// What is known of the drive beyond its table.
+    pub device: drive_client::meaning::Device,
+}
+
+/// The answer to an [`Ask`].
+#[derive(Debug, Clone)]
+pub enum Answer {
+    /// [`AskOp::Facts`].
+    Facts(Facts),
+    /// [`AskOp::LinkChange`], [`AskOp::DriveKey`].
+    Text(String),
+    /// [`AskOp::Read`].
+    Raw(i64),
+    /// [`AskOp::Write`].
+    Done,
+    /// [`AskOp::Identify`].
+    Identity(serde_json::Map<String, serde_json::Value>),
+}

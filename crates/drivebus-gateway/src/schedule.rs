@@ -219,6 +219,8 @@ struct Offline {
 struct Queued<W> {
     drive: DriveIx,
     deadline: Instant,
+    /// The wire time it takes when answered.
+    wire: Duration,
     write: W,
 }
 
@@ -238,6 +240,8 @@ pub struct Scheduler<W> {
     /// The last job was a write that went ahead of due polls.
     write_went_ahead: bool,
     running: Option<(Job, Instant)>,
+    /// The wire time of the queued job running now ([`Job::Write`]).
+    running_wire: Duration,
     busy: Duration,
     figures: BusFigures,
 }
@@ -343,6 +347,7 @@ impl<W> Scheduler<W> {
             pd_wire,
             write_went_ahead: false,
             running: None,
+            running_wire: Duration::ZERO,
             busy: Duration::ZERO,
             figures: BusFigures {
                 demand,
@@ -368,11 +373,32 @@ impl<W> Scheduler<W> {
 
     /// Queue a write for `drive`, received at `received`, refused once older than `max_age`.
     pub fn push_write(&mut self, drive: DriveIx, received: Instant, max_age: Duration, write: W) {
+        let wire = self.write_wire + self.read_wire;
+        self.push_job(drive, received, max_age, wire, write);
+    }
+
+    /// Queue another transaction for `drive` in the writes' queue (a read or write the page
+    /// asks for), taking `wire` on the wire when answered; handed back as [`Next::Write`] and
+    /// ended with [`Job::Write`].
+    pub fn push_job(
+        &mut self,
+        drive: DriveIx,
+        received: Instant,
+        max_age: Duration,
+        wire: Duration,
+        write: W,
+    ) {
         self.writes.push_back(Queued {
             drive,
             deadline: received + max_age,
+            wire,
             write,
         });
+    }
+
+    /// The wire time of a parameter read and of a write (without its read-back).
+    pub fn wire_times(&self) -> (Duration, Duration) {
+        (self.read_wire, self.write_wire)
     }
 
     /// Writes waiting.
@@ -507,6 +533,7 @@ impl<W> Scheduler<W> {
     fn start_write(&mut self, q: Queued<W>, now: Instant) -> Next<W> {
         let job = Job::Write { drive: q.drive };
         self.running = Some((job, now));
+        self.running_wire = q.wire;
         Next::Write {
             drive: q.drive,
             write: q.write,
@@ -518,7 +545,7 @@ impl<W> Scheduler<W> {
         match job {
             Job::ProcessData { drive } => self.pd_wire.get(drive).copied().unwrap_or_default(),
             Job::Poll { .. } | Job::Status { .. } | Job::Probe { .. } => self.read_wire,
-            Job::Write { .. } => self.write_wire + self.read_wire,
+            Job::Write { .. } => self.running_wire,
         }
     }
 

@@ -27,7 +27,10 @@ use tokio::time::Instant;
 use super::bus::{BusAccess, BusContext};
 use super::config::{Bus, Point};
 use super::metrics::Metrics;
-use super::model::{BusIx, DriveIx, DriveStatus, SetOutcome, SetRequest, SetValue, Update};
+use super::model::{
+    Answer, Ask, AskOp, BusIx, DriveIx, DriveStatus, Facts, SetOutcome, SetRequest, SetValue,
+    Update,
+};
 use super::schedule::{Change, Job, Next, Outcome, Scheduler};
 
 use drive_client::target::ValueError;
@@ -44,11 +47,18 @@ pub const MAX_WAITING_WRITES: usize = 64;
 /// The longest value text a `set` may carry.
 const MAX_VALUE_TEXT: usize = 64;
 
-/// A write waiting for the bus: the request and its raw value.
+/// A job waiting for the bus in the writes' queue.
 #[derive(Debug)]
-pub struct Pending {
-    req: SetRequest,
-    raw: i64,
+pub enum Pending {
+    /// A `set`: the request and its raw value.
+    Set {
+        /// The request.
+        req: SetRequest,
+        /// Its raw value.
+        raw: i64,
+    },
+    /// A transaction the page asked for.
+    Ask(Ask),
 }
 
 /// What a job read.
@@ -79,7 +89,8 @@ pub async fn run_bus<B: BusAccess>(ctx: BusContext, mut access: B) {
         ix,
         bus,
         updates,
-        mut sets,
+        sets,
+        asks,
         metrics,
         mut shutdown,
     } = ctx;
@@ -148,9 +159,23 @@ pub async fn run_bus<B: BusAccess>(ctx: BusContext, mut access: B) {
         retries: 0,
     };
     let mut next_figures = start + FIGURES_EVERY;
-    let mut sets_open = true;
+    let mut inbox = Inbox {
+        sets,
+        asks,
+        sets_open: true,
+        asks_open: true,
+        held: Vec::new(),
+    };
+    let facts: Vec<Facts> = bus
+        .drives
+        .iter()
+        .map(|d| facts_of(&access.client(d.address)))
+        .collect();
     // A transaction under way is finished; then the loop ends at the shutdown.
     while !updates.is_closed() && !*shutdown.borrow() {
+        for ask in std::mem::take(&mut inbox.held) {
+            take_ask(ask, &bus, &facts, &mut sched, &mut access);
+        }
         let now = Instant::now();
         if now >= next_figures {
             out.figures(&sched, &mut access, now);
@@ -163,67 +188,60 @@ pub async fn run_bus<B: BusAccess>(ctx: BusContext, mut access: B) {
                 tokio::select! {
                     () = tokio::time::sleep_until(until.min(next_figures)) => {}
                     _ = shutdown.changed() => {}
-                    req = sets.recv(), if sets_open => match req {
+                    req = inbox.sets.recv(), if inbox.sets_open => match req {
                         Some(req) => accept(req, &bus, &mut sched),
-                        None => sets_open = false,
+                        None => inbox.sets_open = false,
+                    },
+                    ask = inbox.asks.recv(), if inbox.asks_open => match ask {
+                        Some(ask) => take_ask(ask, &bus, &facts, &mut sched, &mut access),
+                        None => inbox.asks_open = false,
                     },
                 }
             }
             Next::Refuse { write, reason } => {
-                let message = match reason {
-                    super::schedule::Refusal::Expired => format!(
-                        "the write waited {} ms for the bus, longer than max_set_age ({} ms): nothing was sent",
-                        write.req.received.elapsed().as_millis(),
-                        write.req.max_age.as_millis()
-                    ),
-                    super::schedule::Refusal::Offline => offline_message(&bus, write.req.drive),
+                let (received, max_age, drive) = match &write {
+                    Pending::Set { req, .. } => (req.received, req.max_age, req.drive),
+                    Pending::Ask(a) => (a.received, a.max_age, a.drive),
                 };
-                answer(
-                    write.req,
-                    SetOutcome::Refused {
-                        reason: reason.reason(),
-                        message,
-                    },
-                );
+                let message = |what: &str| match reason {
+                    super::schedule::Refusal::Expired => format!(
+                        "{what} waited {} ms for the bus, longer than max_set_age ({} ms): nothing was sent",
+                        received.elapsed().as_millis(),
+                        max_age.as_millis()
+                    ),
+                    super::schedule::Refusal::Offline => offline_message(&bus, drive),
+                };
+                match write {
+                    Pending::Set { req, .. } => answer(
+                        req,
+                        SetOutcome::Refused {
+                            reason: reason.reason(),
+                            message: message("the write"),
+                        },
+                    ),
+                    Pending::Ask(a) => {
+                        let _ = a
+                            .reply
+                            .send(Err(ClientError::Request(message("the request"))));
+                    }
+                }
             }
             Next::Run(job) => {
                 let started = Instant::now();
-                let result = {
-                    let fut = run_job(&mut access, &bus, job);
-                    tokio::pin!(fut);
-                    loop {
-                        tokio::select! {
-                            biased;
-                            r = &mut fut => break r,
-                            req = sets.recv(), if sets_open => match req {
-                                Some(req) => accept(req, &bus, &mut sched),
-                                None => sets_open = false,
-                            },
-                        }
-                    }
-                };
+                let fut = run_job(&mut access, &bus, job);
+                let result = inbox.meanwhile(fut, &bus, &mut sched).await;
                 if !out.job_done(&mut sched, job, started, result).await {
                     return;
                 }
             }
-            Next::Write { drive, write } => {
+            Next::Write {
+                drive,
+                write: Pending::Set { req, raw },
+            } => {
                 let started = Instant::now();
-                let Pending { req, raw } = write;
                 let point = req.point;
-                let (outcome, answered) = {
-                    let fut = write_point(&mut access, &bus, drive, point, raw);
-                    tokio::pin!(fut);
-                    loop {
-                        tokio::select! {
-                            biased;
-                            r = &mut fut => break r,
-                            req = sets.recv(), if sets_open => match req {
-                                Some(req) => accept(req, &bus, &mut sched),
-                                None => sets_open = false,
-                            },
-                        }
-                    }
-                };
+                let fut = write_point(&mut access, &bus, drive, point, raw);
+                let (outcome, answered) = inbox.meanwhile(fut, &bus, &mut sched).await;
                 if !out
                     .write_done(&mut sched, drive, point, started, &outcome, answered)
                     .await
@@ -231,6 +249,22 @@ pub async fn run_bus<B: BusAccess>(ctx: BusContext, mut access: B) {
                     return;
                 }
                 answer(req, outcome);
+            }
+            Next::Write {
+                drive,
+                write: Pending::Ask(ask),
+            } => {
+                let started = Instant::now();
+                let fut = run_ask(&mut access, &bus, drive, ask.op.clone());
+                let result = inbox.meanwhile(fut, &bus, &mut sched).await;
+                if !out
+                    .ask_done(&mut sched, drive, &ask.op, started, &result)
+                    .await
+                {
+                    let _ = ask.reply.send(result);
+                    return;
+                }
+                let _ = ask.reply.send(result);
             }
         }
     }
@@ -332,7 +366,7 @@ fn accept(req: SetRequest, bus: &Bus, sched: &mut Scheduler<Pending>) {
     match raw_value(point, &req.value) {
         Ok(raw) => {
             let (drive, received, max_age) = (req.drive, req.received, req.max_age);
-            sched.push_write(drive, received, max_age, Pending { req, raw });
+            sched.push_write(drive, received, max_age, Pending::Set { req, raw });
         }
         Err((reason, message)) => refuse(req, reason, message),
     }
@@ -419,6 +453,141 @@ fn value_refusal(target: &Target, text: &str, e: &ValueError) -> (&'static str, 
         }
         ValueError::Width { .. } | ValueError::WidthRaw { .. } => ("width", e.to_string()),
         _ => ("bad_request", e.to_string()),
+    }
+}
+
+/// The writes and asks that reach a bus task.
+struct Inbox {
+    sets: mpsc::Receiver<SetRequest>,
+    asks: mpsc::Receiver<Ask>,
+    sets_open: bool,
+    asks_open: bool,
+    /// Asks that came during a transaction, taken after it (the client is busy).
+    held: Vec<Ask>,
+}
+
+impl Inbox {
+    /// Run `fut` (a transaction) while taking the writes and asks that arrive meanwhile.
+    async fn meanwhile<T>(
+        &mut self,
+        fut: impl std::future::Future<Output = T>,
+        bus: &Bus,
+        sched: &mut Scheduler<Pending>,
+    ) -> T {
+        tokio::pin!(fut);
+        loop {
+            tokio::select! {
+                biased;
+                r = &mut fut => break r,
+                req = self.sets.recv(), if self.sets_open => match req {
+                    Some(req) => accept(req, bus, sched),
+                    None => self.sets_open = false,
+                },
+                ask = self.asks.recv(), if self.asks_open => match ask {
+                    Some(ask) => self.held.push(ask),
+                    None => self.asks_open = false,
+                },
+            }
+        }
+    }
+}
+
+/// What a drive's client knows without asking the drive.
+fn facts_of<C: ParamClient>(client: &C) -> Facts {
+    Facts {
+        family: client.family(),
+        link_settings: client.link_settings(),
+        not_restored: client.not_restored(),
+        device: client.device(),
+    }
+}
+
+/// Take an ask of the page: answer it at once when it needs no transaction or cannot be run,
+/// else queue it with its wire time.
+fn take_ask<B: BusAccess>(
+    ask: Ask,
+    bus: &Bus,
+    facts: &[Facts],
+    sched: &mut Scheduler<Pending>,
+    access: &mut B,
+) {
+    let Some(f) = facts.get(ask.drive) else {
+        let m = format!("bus {} has no drive number {}", bus.name, ask.drive);
+        let _ = ask.reply.send(Err(ClientError::Request(m)));
+        return;
+    };
+    let now = match &ask.op {
+        AskOp::Facts => Some(Ok(Answer::Facts(*f))),
+        AskOp::LinkChange(t, raw) => Some(Ok(Answer::Text(link_change_text(
+            bus, ask.drive, access, t, *raw,
+        )))),
+        _ if sched.is_offline(ask.drive) => {
+            Some(Err(ClientError::Request(offline_message(bus, ask.drive))))
+        }
+        _ if sched.writes_waiting() >= MAX_WAITING_WRITES => {
+            Some(Err(ClientError::Request(format!(
+                "bus {} already has {MAX_WAITING_WRITES} jobs waiting: nothing was sent; try again later",
+                bus.name
+            ))))
+        }
+        _ => None,
+    };
+    if let Some(answer) = now {
+        let _ = ask.reply.send(answer);
+        return;
+    }
+    let (read, write) = sched.wire_times();
+    let wire = match &ask.op {
+        AskOp::Write(..) => write,
+        // The identification reads a few parameters (device type, firmware, …).
+        AskOp::Identify => read * 4,
+        _ => read,
+    };
+    let (drive, received, max_age) = (ask.drive, ask.received, ask.max_age);
+    sched.push_job(drive, received, max_age, wire, Pending::Ask(ask));
+}
+
+/// What writing `raw` to the link setting `t` of `drive` does, said for the page: the family's
+/// words for the change and what it means for the gateway, which keeps talking over its config.
+fn link_change_text<B: BusAccess>(
+    bus: &Bus,
+    drive: DriveIx,
+    access: &mut B,
+    t: &Target,
+    raw: i64,
+) -> String {
+    let Some(d) = bus.drives.get(drive) else {
+        return String::new();
+    };
+    let change = access.client(d.address).link_change(t, raw);
+    format!(
+        "{change}; the gateway keeps talking to {} as the config of bus {} says, so the drive may \
+         show timeout until the config is changed to match",
+        d.name, bus.name
+    )
+}
+
+/// Run one ask on the drive's client.
+async fn run_ask<B: BusAccess>(
+    access: &mut B,
+    bus: &Bus,
+    drive: DriveIx,
+    op: AskOp,
+) -> Result<Answer, ClientError> {
+    let Some(d) = bus.drives.get(drive) else {
+        return Err(ClientError::Request(format!("no drive {drive}")));
+    };
+    let mut client = access.client(d.address);
+    match op {
+        AskOp::Facts => Ok(Answer::Facts(facts_of(&client))),
+        AskOp::LinkChange(t, raw) => Ok(Answer::Text(client.link_change(&t, raw))),
+        AskOp::DriveKey => client.drive_key().await.map(Answer::Text),
+        AskOp::Read(t) => client.read(&t).await.map(Answer::Raw),
+        AskOp::Write(t, raw, persistence) => client
+            .write(&t, raw, persistence)
+            .await
+            .map(|()| Answer::Done),
+        AskOp::Identify => client.identify().await.map(Answer::Identity),
     }
 }
 
@@ -548,6 +717,53 @@ impl Out<'_> {
                 true
             }
         }
+    }
+
+    /// Report the end of a transaction the page asked for; false when the gateway is stopping.
+    async fn ask_done(
+        &mut self,
+        sched: &mut Scheduler<Pending>,
+        drive: DriveIx,
+        op: &AskOp,
+        started: Instant,
+        result: &Result<Answer, ClientError>,
+    ) -> bool {
+        let now = Instant::now();
+        let label = match result {
+            Ok(_) => "ok",
+            Err(ClientError::Device(_)) => "device_error",
+            Err(ClientError::Request(_)) => "not_sent",
+            Err(_) => "timeout",
+        };
+        let op_label = if matches!(op, AskOp::Write(..)) {
+            "write"
+        } else {
+            "read"
+        };
+        self.metrics.transaction(
+            &self.bus.name,
+            self.drive_name(drive),
+            op_label,
+            label,
+            now.saturating_duration_since(started),
+        );
+        let answered = match result {
+            Ok(_) | Err(ClientError::Device(_) | ClientError::Request(_)) => Outcome::Answered,
+            Err(_) => Outcome::NoAnswer,
+        };
+        let change = sched.done(Job::Write { drive }, now, answered);
+        if change == Some(Change::WentOffline) {
+            tracing::warn!(
+                bus = %self.bus.name,
+                drive = %self.drive_name(drive),
+                "drive does not answer a request of the page: status timeout; probing it after a back-off"
+            );
+            return self.set_status(drive, DriveStatus::Timeout).await;
+        }
+        if answered == Outcome::Answered {
+            return self.answered(drive).await;
+        }
+        true
     }
 
     /// Report a write's end; false when the gateway is stopping.

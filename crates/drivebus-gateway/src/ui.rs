@@ -22,13 +22,13 @@ use axum::http::{HeaderValue, StatusCode, header};
 use axum::middleware::{self, Next};
 use axum::response::sse::{Event, KeepAlive, Sse};
 use axum::response::{IntoResponse, Response};
-use axum::routing::get;
+use axum::routing::{get, post};
 use serde_json::{Value, json};
 use tokio::sync::{broadcast, mpsc};
 
 use crate::config::Plant;
 use crate::error::{Error, Result};
-use crate::model::Update;
+use crate::model::{Ask, Update};
 use crate::mqtt::payload;
 
 /// How many events a watching page may fall behind before it is told to load the plant again.
@@ -36,6 +36,7 @@ pub const EVENTS: usize = 1024;
 
 const INDEX_HTML: &str = include_str!("ui/index.html");
 const APP_JS: &str = include_str!("ui/app.js");
+const DRIVE_JS: &str = include_str!("ui/drive.js");
 const STYLE_CSS: &str = include_str!("ui/style.css");
 
 /// The latest of everything the buses reported, and the pages that watch.
@@ -44,6 +45,10 @@ pub struct Hub {
     plant: Arc<Plant>,
     latest: Mutex<Latest>,
     events: broadcast::Sender<Arc<str>>,
+    /// Each bus task's way in for the page's requests (`[bus]`); empty: the page only watches.
+    asks: Arc<[mpsc::Sender<Ask>]>,
+    /// Where the page's jobs run (on the gateway's thread).
+    jobs: Option<drive::Jobs>,
 }
 
 /// The latest payload of each value, status and bus figures, as published on MQTT.
@@ -60,8 +65,18 @@ struct Latest {
 }
 
 impl Hub {
-    /// A hub for `plant`, nothing reported yet.
+    /// A hub for `plant` that only watches (no requests reach the buses), nothing reported yet.
     pub fn new(plant: Arc<Plant>) -> Arc<Hub> {
+        Hub::serving(plant, Vec::new(), None)
+    }
+
+    /// A hub for `plant` whose page also reads and writes: `asks` reach each bus task, `jobs`
+    /// run the page's work on the gateway's thread.
+    pub fn serving(
+        plant: Arc<Plant>,
+        asks: Vec<mpsc::Sender<Ask>>,
+        jobs: Option<drive::Jobs>,
+    ) -> Arc<Hub> {
         let latest = Latest {
             values: plant
                 .buses
@@ -90,6 +105,8 @@ impl Hub {
             plant,
             latest: Mutex::new(latest),
             events,
+            asks: asks.into(),
+            jobs,
         })
     }
 
@@ -262,12 +279,27 @@ pub fn router(hub: Arc<Hub>) -> Router {
             get(|| async { file(APP_JS, "text/javascript; charset=utf-8") }),
         )
         .route(
+            "/drive.js",
+            get(|| async { file(DRIVE_JS, "text/javascript; charset=utf-8") }),
+        )
+        .route(
             "/style.css",
             get(|| async { file(STYLE_CSS, "text/css; charset=utf-8") }),
         )
         .route("/api/plant", get(plant))
         .route("/api/events", get(events))
         .route("/api/drive/{bus}/{drive}/params", get(params))
+        .route("/api/drive/{bus}/{drive}/read", get(read))
+        .route("/api/drive/{bus}/{drive}/faults", get(faults))
+        .route("/api/drive/{bus}/{drive}/check", get(check))
+        .route("/api/drive/{bus}/{drive}/write", post(write))
+        .route("/api/drive/{bus}/{drive}/backup", get(backup))
+        .route(
+            "/api/drive/{bus}/{drive}/restore",
+            post(restore).layer(axum::extract::DefaultBodyLimit::max(
+                usize::try_from(drive_client::backup::MAX_LEN).unwrap_or(usize::MAX),
+            )),
+        )
         .layer(middleware::from_fn(guard))
         .with_state(hub)
 }
@@ -321,6 +353,10 @@ pub fn params_json(plant: &Plant, bus: usize, drive: usize, search: Option<&str>
             let full = drive_client::meaning::param_json(p);
             let key = |k: &str| full.get(k).cloned().unwrap_or(Value::Null);
             json!({
+                "key": drive::key_of(&drive_client::target::Target {
+                    sub: drive::page_sub(p),
+                    ..drive_client::target::Target::of(p)
+                }),
                 "number": key("number"), "index": key("index"),
                 "name_de": key("name_de"), "name_en": key("name_en"),
                 "group_de": key("group_de"), "group_en": key("group_en"),
@@ -346,6 +382,262 @@ async fn params(
         Some(v) => ([(header::CONTENT_TYPE, "application/json")], v.to_string()).into_response(),
         None => (StatusCode::NOT_FOUND, "no such bus or drive\n").into_response(),
     }
+}
+
+type DrivePath = axum::extract::Path<(usize, usize)>;
+
+fn json_response(status: StatusCode, v: &Value) -> Response {
+    (
+        status,
+        [(header::CONTENT_TYPE, "application/json")],
+        v.to_string(),
+    )
+        .into_response()
+}
+
+fn not_found() -> Response {
+    json_response(
+        StatusCode::NOT_FOUND,
+        &json!({"error": "not_found", "message": "no such bus or drive"}),
+    )
+}
+
+fn unavailable(message: &str) -> Response {
+    json_response(
+        StatusCode::SERVICE_UNAVAILABLE,
+        &json!({"error": "unavailable", "message": message}),
+    )
+}
+
+/// Run `work` on drive `drive` of bus `bus` as a job whose JSON lines are the answer's body
+/// (`application/x-ndjson`); a drive the bus task cannot be asked about is one error line.
+fn streamed<F, Fut>(hub: &Hub, bus: usize, drive: usize, work: F) -> Response
+where
+    F: FnOnce(drive::Remote, drive::Lines) -> Fut + Send + 'static,
+    Fut: std::future::Future<Output = ()> + 'static,
+{
+    let Some(asks) = drive::asks_for(&hub.asks, bus, drive, &hub.plant) else {
+        return not_found();
+    };
+    let Some(jobs) = &hub.jobs else {
+        return unavailable("this page only watches: it cannot reach the buses");
+    };
+    let max_age = hub.plant.gateway.max_set_age;
+    let (lines, rx) = drive::Lines::new();
+    let job: drive::Job = Box::new(move || {
+        Box::pin(async move {
+            match drive::Remote::connect(asks, drive, max_age).await {
+                Ok(remote) => work(remote, lines).await,
+                Err(e) => {
+                    let mut o = drive::error_json(&e);
+                    if let Some(m) = o.as_object_mut() {
+                        m.insert("type".into(), "error".into());
+                    }
+                    lines.send(&o);
+                }
+            }
+        })
+    });
+    if !jobs.run(job) {
+        return unavailable("the gateway is stopping");
+    }
+    let body = futures_util::stream::unfold(rx, |mut rx| async move {
+        let line = rx.recv().await?;
+        Some((Ok::<_, Infallible>(line), rx))
+    });
+    (
+        [(header::CONTENT_TYPE, "application/x-ndjson")],
+        axum::body::Body::from_stream(body),
+    )
+        .into_response()
+}
+
+/// Run `work` on a drive as a job and answer its one JSON value.
+async fn answered<F, Fut>(hub: &Hub, bus: usize, drive: usize, work: F) -> Response
+where
+    F: FnOnce(drive::Remote) -> Fut + Send + 'static,
+    Fut: std::future::Future<Output = Value> + 'static,
+{
+    let Some(asks) = drive::asks_for(&hub.asks, bus, drive, &hub.plant) else {
+        return not_found();
+    };
+    let Some(jobs) = &hub.jobs else {
+        return unavailable("this page only watches: it cannot reach the buses");
+    };
+    let max_age = hub.plant.gateway.max_set_age;
+    let (tx, rx) = tokio::sync::oneshot::channel();
+    let job: drive::Job = Box::new(move || {
+        Box::pin(async move {
+            let v = match drive::Remote::connect(asks, drive, max_age).await {
+                Ok(remote) => work(remote).await,
+                Err(e) => {
+                    let mut o = drive::error_json(&e);
+                    if let Some(m) = o.as_object_mut() {
+                        m.insert("outcome".into(), "refused".into());
+                        m.insert("ok".into(), false.into());
+                    }
+                    o
+                }
+            };
+            let _ = tx.send(v);
+        })
+    });
+    if !jobs.run(job) {
+        return unavailable("the gateway is stopping");
+    }
+    match rx.await {
+        Ok(v) => json_response(StatusCode::OK, &v),
+        Err(_) => unavailable("the gateway is stopping"),
+    }
+}
+
+/// `?keys=8470.0,8471.0` of a read on demand.
+#[derive(Debug, serde::Deserialize)]
+pub struct Keys {
+    /// The parameters, by the `key` of the parameter list, comma-separated.
+    pub keys: String,
+}
+
+async fn read(
+    State(hub): State<Arc<Hub>>,
+    axum::extract::Path((bus, d)): DrivePath,
+    axum::extract::Query(q): axum::extract::Query<Keys>,
+) -> Response {
+    let Some(family) = hub.plant.buses.get(bus).map(|b| b.protocol.family()) else {
+        return not_found();
+    };
+    let mut targets = Vec::new();
+    for k in q.keys.split(',').map(str::trim).filter(|k| !k.is_empty()) {
+        match drive::target_of(family, k) {
+            Some(t) if targets.len() < MAX_PARAMS => targets.push(t),
+            Some(_) => {
+                return json_response(
+                    StatusCode::BAD_REQUEST,
+                    &json!({"error": "bad_request", "message": format!("at most {MAX_PARAMS} parameters per read")}),
+                );
+            }
+            None => {
+                return json_response(
+                    StatusCode::BAD_REQUEST,
+                    &json!({"error": "bad_request", "message": format!("the {family} table has no parameter {k}")}),
+                );
+            }
+        }
+    }
+    streamed(&hub, bus, d, move |mut remote, lines| async move {
+        drive::read_all(&mut remote, targets, lines).await;
+    })
+}
+
+async fn faults(State(hub): State<Arc<Hub>>, axum::extract::Path((bus, d)): DrivePath) -> Response {
+    let Some(family) = hub.plant.buses.get(bus).map(|b| b.protocol.family()) else {
+        return not_found();
+    };
+    let targets = drive::fault_targets(family);
+    streamed(&hub, bus, d, move |mut remote, lines| async move {
+        drive::read_all(&mut remote, targets, lines).await;
+    })
+}
+
+/// `?key=&value=&eeprom=` of a write's check.
+#[derive(Debug, serde::Deserialize)]
+pub struct CheckQuery {
+    /// The parameter.
+    pub key: String,
+    /// The value as typed.
+    pub value: String,
+    /// To EEPROM too.
+    #[serde(default)]
+    pub eeprom: bool,
+}
+
+async fn check(
+    State(hub): State<Arc<Hub>>,
+    axum::extract::Path((bus, d)): DrivePath,
+    axum::extract::Query(q): axum::extract::Query<CheckQuery>,
+) -> Response {
+    let ask = drive::WriteAsk {
+        key: q.key,
+        value: q.value,
+        eeprom: q.eeprom,
+        confirm: false,
+    };
+    answered(&hub, bus, d, move |mut remote| async move {
+        drive::check(&mut remote, &ask).await.json
+    })
+    .await
+}
+
+async fn write(
+    State(hub): State<Arc<Hub>>,
+    axum::extract::Path((bus, d)): DrivePath,
+    axum::Json(ask): axum::Json<drive::WriteAsk>,
+) -> Response {
+    let (bus_name, drive_name) = match hub
+        .plant
+        .buses
+        .get(bus)
+        .and_then(|b| Some((b, b.drives.get(d)?)))
+    {
+        Some((b, dr)) => (b.name.clone(), dr.name.clone()),
+        None => return not_found(),
+    };
+    let logged = ask.clone();
+    answered(&hub, bus, d, move |mut remote| async move {
+        let v = drive::write(&mut remote, &ask).await;
+        tracing::info!(
+            bus = %bus_name, drive = %drive_name, param = %logged.key, value = %logged.value,
+            eeprom = logged.eeprom, outcome = %v.get("outcome").and_then(serde_json::Value::as_str).unwrap_or("?"),
+            "a write from the page"
+        );
+        v
+    })
+    .await
+}
+
+async fn backup(State(hub): State<Arc<Hub>>, axum::extract::Path((bus, d)): DrivePath) -> Response {
+    streamed(&hub, bus, d, move |mut remote, lines| async move {
+        drive::backup(&mut remote, lines).await;
+    })
+}
+
+/// `?apply=true&name=FILE` of a restore.
+#[derive(Debug, serde::Deserialize)]
+pub struct RestoreQuery {
+    /// Write the changes (else only the plan).
+    #[serde(default)]
+    pub apply: bool,
+    /// The file's name, for the report.
+    #[serde(default)]
+    pub name: Option<String>,
+}
+
+async fn restore(
+    State(hub): State<Arc<Hub>>,
+    axum::extract::Path((bus, d)): DrivePath,
+    axum::extract::Query(q): axum::extract::Query<RestoreQuery>,
+    body: axum::body::Bytes,
+) -> Response {
+    let name = q.name.filter(|n| !n.is_empty()).map_or_else(
+        || "the uploaded file".to_owned(),
+        |n| n.chars().take(200).collect(),
+    );
+    let (bus_name, drive_name) = match hub
+        .plant
+        .buses
+        .get(bus)
+        .and_then(|b| Some((b, b.drives.get(d)?)))
+    {
+        Some((b, dr)) => (b.name.clone(), dr.name.clone()),
+        None => return not_found(),
+    };
+    let apply = q.apply;
+    if apply {
+        tracing::info!(bus = %bus_name, drive = %drive_name, file = %name, "a restore from the page");
+    }
+    streamed(&hub, bus, d, move |mut remote, lines| async move {
+        drive::restore(&mut remote, body.to_vec(), name, apply, lines).await;
+    })
 }
 
 /// What a watching page is sent for what its receiver got: the event; `{"type":"resync"}`
@@ -518,6 +810,8 @@ impl OneBus {
         t
     }
 }
+
+pub mod drive;
 
 #[cfg(test)]
 #[path = "ui/tests.rs"]

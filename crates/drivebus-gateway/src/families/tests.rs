@@ -496,6 +496,7 @@ async fn published_under_faults(p: Protocol, faults: impl FnOnce(&SimulatedBus))
         bus: bus.clone(),
         updates: utx,
         sets: srx,
+        asks: crate::bus::BusContext::no_asks(),
         metrics: std::sync::Arc::new(crate::metrics::Metrics::new(&plant)),
     };
     let task = tokio::task::spawn_local(crate::task::run_bus(ctx, sim.access));
@@ -831,6 +832,7 @@ async fn issue18_an_sbus_timeout_trip_is_reported_at_the_next_cycle() {
                 bus: bus.clone(),
                 updates: utx,
                 sets: srx,
+                asks: crate::bus::BusContext::no_asks(),
                 metrics: std::sync::Arc::new(crate::metrics::Metrics::new(&plant)),
             };
             let start = tokio::time::Instant::now();

@@ -17,6 +17,8 @@ const P130: u16 = 8470;
 
 struct Harness {
     sets: mpsc::Sender<SetRequest>,
+    /// The page's requests.
+    asks: mpsc::Sender<Ask>,
     /// The gateway's stop.
     stop: tokio::sync::watch::Sender<bool>,
     /// The bus task.
@@ -32,12 +34,14 @@ fn start(plant: &Plant) -> Harness {
     let (fake, state) = FakeBus::new(&bus, WIRE);
     let (utx, mut urx) = mpsc::channel(4096);
     let (stx, srx) = mpsc::channel(64);
+    let (atx, arx) = mpsc::channel(64);
     let (stop, shutdown) = tokio::sync::watch::channel(false);
     let ctx = BusContext {
         ix: 0,
         bus,
         updates: utx,
         sets: srx,
+        asks: arx,
         metrics: Arc::new(Metrics::new(plant)),
         shutdown,
     };
@@ -51,6 +55,7 @@ fn start(plant: &Plant) -> Harness {
     });
     Harness {
         sets: stx,
+        asks: atx,
         stop,
         task,
         state,
@@ -422,6 +427,89 @@ async fn writes_for_an_offline_drive_or_waiting_too_long_are_refused_and_never_s
                 .await;
             assert_eq!(refused(&o), "expired");
             assert!(h.state.borrow().written.is_empty());
+        })
+        .await;
+}
+
+/// The page's requests (through [`crate::ui::drive::Remote`], the client the page's jobs use):
+/// a read and a guarded write of a parameter the config does not poll run between the polls,
+/// the polls keep their period, and a request for an offline drive is refused unsent.
+#[tokio::test(start_paused = true)]
+async fn the_pages_reads_and_writes_run_between_the_polls_and_never_reach_an_offline_drive() {
+    tokio::task::LocalSet::new()
+        .run_until(async {
+            let plant = three();
+            let h = start(&plant);
+            sleep(Duration::from_secs(1)).await;
+            let max_age = Duration::from_secs(5);
+            let mut remote = crate::ui::drive::Remote::connect(h.asks.clone(), 1, max_age)
+                .await
+                .unwrap();
+            assert_eq!(remote.family(), drive_profile::Family::Movidrive);
+            // P131 is not in the config: the page reads and writes it all the same.
+            let p131 = drive_client::target::Target::of(
+                drive_profile::family::lookup(drive_profile::Family::Movidrive, "P131").unwrap(),
+            );
+            h.state.borrow_mut().values.insert((2, p131.index), 4000);
+            assert_eq!(remote.read(&p131).await.unwrap(), 4000);
+            let ask = crate::ui::drive::WriteAsk {
+                key: crate::ui::drive::key_of(&p131),
+                value: "2.5".into(),
+                eeprom: false,
+                confirm: false,
+            };
+            let before = h.values(0, 0).len();
+            let v = crate::ui::drive::write(&mut remote, &ask).await;
+            assert_eq!(v["outcome"], "written", "{v}");
+            assert_eq!(v["payload"]["raw"], 2500, "{v}");
+            assert!(
+                h.state
+                    .borrow()
+                    .written
+                    .contains(&(2, p131.index, 2500, Persistence::Volatile)),
+                "written to RAM at address 2"
+            );
+            // Out of range: refused by the guard, nothing sent.
+            let writes = h.state.borrow().written.len();
+            let far = crate::ui::drive::WriteAsk {
+                value: "99999".into(),
+                ..ask.clone()
+            };
+            let v = crate::ui::drive::write(&mut remote, &far).await;
+            assert_eq!(
+                (v["outcome"].as_str(), v["reason"].as_str()),
+                (Some("refused"), Some("range")),
+                "{v}"
+            );
+            assert_eq!(h.state.borrow().written.len(), writes, "nothing sent");
+            // The polls of drive 0 went on at their 100 ms meanwhile.
+            sleep(Duration::from_secs(1)).await;
+            let polls = h.values(0, 0);
+            assert!(polls.len() >= before + 9, "{} then {}", before, polls.len());
+            for w in polls.windows(2).skip(before) {
+                assert!(
+                    w[1].0 - w[0].0 <= Duration::from_millis(130),
+                    "{:?}",
+                    w[1].0 - w[0].0
+                );
+            }
+            // An offline drive: refused at once, never sent.
+            h.state.borrow_mut().dead.insert(2);
+            sleep(Duration::from_secs(2)).await;
+            let sent = h.state.borrow().log.len();
+            let started = Instant::now();
+            let e = remote.read(&p131).await.unwrap_err();
+            assert!(matches!(e, ClientError::Request(_)), "{e:?}");
+            assert!(e.to_string().contains("does not answer"), "{e}");
+            assert!(started.elapsed() < Duration::from_millis(50));
+            let to_2_after = h.state.borrow().log[sent..]
+                .iter()
+                .filter(|(_, a, op)| *a == 2 && *op == crate::bus::Op::Read)
+                .count();
+            assert!(
+                to_2_after <= 1,
+                "at most the back-off's probe: {to_2_after}"
+            );
         })
         .await;
 }

@@ -171,6 +171,7 @@ async function showParams(b, d, term, list, count) {
   if (mine !== searchSeq) return;
   count.textContent = `${t.params.length} parameter(s) of the ${t.family} table` + (t.search ? ` matching “${t.search}”` : "");
   const table = el("table", "params");
+  rowCells = new Map();
   let group = null;
   for (const p of t.params) {
     const g = p.group_en || p.group_de || "";
@@ -178,7 +179,7 @@ async function showParams(b, d, term, list, count) {
       group = g;
       const tr = el("tr", "group");
       const th = el("th", null, [p.group_en, p.group_de].filter(Boolean).join(" / "));
-      th.colSpan = 5;
+      th.colSpan = 8;
       tr.append(th);
       table.append(tr);
     }
@@ -189,6 +190,7 @@ async function showParams(b, d, term, list, count) {
     const range = p.min !== null && p.max !== null ? `${numberText(p.min, p.unit)} … ${numberText(p.max, p.unit)}` : "";
     tr.append(el("td", "number", p.number), names, el("td", "muted", p.access), el("td", "value", range),
       el("td", "value", p.default !== null ? `default ${numberText(p.default, p.unit)}` : ""));
+    driveRow(tr, p, b, d);
     table.append(tr);
   }
   list.replaceChildren(table);
@@ -206,14 +208,17 @@ function openDrive(b, d) {
   input.id = "search";
   const count = el("div", "figures");
   const list = el("div");
-  driveView.append(back, el("h2", null, `bus ${b}, drive ${d}`), input, count, list);
+  const tools = el("div");
+  driveView.append(back, el("h2", null, `bus ${b}, drive ${d}`), tools, input, count, list);
   input.addEventListener("input", () => {
     clearTimeout(searchTimer);
     searchTimer = setTimeout(() => showParams(b, d, input.value, list, count), 200);
   });
   fetch("/api/plant", { cache: "no-store" }).then((r) => r.json()).then((p) => {
     const bus = p.buses[b], drive = bus && bus.drives[d];
-    if (drive) driveView.querySelector("h2").textContent = `${drive.name} · address ${drive.address} (${bus.name})`;
+    if (!drive) return;
+    driveView.querySelector("h2").textContent = `${drive.name} · address ${drive.address} (${bus.name})`;
+    driveTools(b, d, tools, bus.protocol, p);
   });
   showParams(b, d, "", list, count);
 }
