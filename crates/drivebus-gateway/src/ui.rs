@@ -436,7 +436,10 @@ async fn guard(request: Request, next: Next) -> Response {
     h.insert(header::X_FRAME_OPTIONS, HeaderValue::from_static("DENY"));
     h.insert(
         header::CONTENT_SECURITY_POLICY,
-        HeaderValue::from_static("default-src 'self'; frame-ancestors 'none'"),
+        // `blob:` images: the trend's PNG export draws its SVG onto a canvas.
+        HeaderValue::from_static(
+            "default-src 'self'; img-src 'self' blob:; frame-ancestors 'none'",
+        ),
     );
     response
 }
