@@ -147,6 +147,19 @@ fn a_page_opened_late_shows_the_gateways_history_then_follows_zooms_and_exports(
         .and_then(|n| n.parse().ok())
         .unwrap_or_else(|| panic!("no rate: {legend}"));
     assert!((1.6..2.4).contains(&got), "{legend}");
+    // A bus whose polls ask more than its wire carries: every period is stretched by the
+    // demand, and the legend says so (the figures set and read in one script, before the bus's
+    // next figures arrive).
+    let stretched = browser.run(
+        "trendFigures(1, {demand: 1.5}); drawTrend(); \
+         return document.querySelector('#trend-legend li[data-key=\"1.0.0\"]').textContent",
+    );
+    assert!(
+        stretched.as_str().unwrap().contains(
+            "the wire allows 1.33/s (every 500 ms × 1.50 = 750 ms: the bus's polls ask 150 % of the wire)"
+        ),
+        "{stretched}"
+    );
 
     // Paused: the CSV holds what the gateway answered, up to the last live sample shown.
     browser.run("document.getElementById('trend-pause').click(); return 0");
