@@ -38,6 +38,8 @@ function sampleOf(v) {
 async function loadHistory(key) {
   const t = trend.get(key);
   if (!t) return;
+  // Only the latest load is joined: one started before it would miss what it holds.
+  const mine = (t.load = (t.load || 0) + 1);
   t.loading = true;
   t.held = [];
   let got = null;
@@ -48,8 +50,8 @@ async function loadHistory(key) {
   } catch (e) {
     t.error = `no history: ${e.message}`;
   }
-  // Taken off the trend while loading.
-  if (trend.get(key) !== t) return;
+  // Taken off the trend while loading, or loaded again since.
+  if (trend.get(key) !== t || t.load !== mine) return;
   const samples = got ? got.samples.filter(numeric).map(sampleOf) : t.samples;
   if (got) {
     t.error = null;
