@@ -197,9 +197,13 @@ function rates(t) {
   const every = t.period * stretch;
   const allowed = 1000 / every;
   const how = stretch > 1
-    ? `every ${t.period} ms × ${stretch.toFixed(2)} = ${every.toFixed(0)} ms: the bus's polls ask ${(stretch * 100).toFixed(0)} % of the wire`
-    : `every ${t.period} ms`;
+    ? `every ${periodText(t.period)} × ${stretch.toFixed(2)} = ${periodText(Math.round(every))}: the bus's polls ask ${(stretch * 100).toFixed(0)} % of the wire`
+    : `every ${periodText(t.period)}`;
   return { got, allowed, text: `gets ${rateText(got)}, the wire allows ${rateText(allowed)} (${how})` };
+}
+
+function periodText(ms) {
+  return ms >= 1000 && ms % 1000 === 0 ? `${ms / 1000} s` : `${ms} ms`;
 }
 
 function timeText(ms) {
