@@ -22,20 +22,27 @@
 //! The handles of every (bus, drive, op) are built in [`Metrics::new`], so a transaction looks
 //! its handles up by name (or by index, [`Metrics::transaction_at`]) and allocates nothing.
 //!
-//! The endpoint ([`bind`], [`serve`]) is a small HTTP/1.1 responder written here rather than
-//! hyper: it has one route, answers one request per connection and closes it, and the
-//! gateway would otherwise pull in hyper's dependency tree for that. It answers `GET /metrics`
-//! in the OpenMetrics text format (`application/openmetrics-text; version=1.0.0`, the format
+//! The endpoint ([`bind`], [`serve`]) is an axum router on hyper's HTTP/1.1 (the stack the
+//! browser page runs on), one request per connection. It answers `GET /metrics` in the
+//! OpenMetrics text format (`application/openmetrics-text; version=1.0.0`, the format
 //! `prometheus-client` writes natively and Prometheus asks for first), `GET /` with a one-line
-//! pointer, other paths with 404 and other methods with 405. A request head is at most
-//! 8 KiB (431) and must arrive within 5 s (408); at most 16 connections are served at once,
-//! the next ones get 503 at once.
+//! pointer, other paths with 404 and other methods with 405; hyper answers a malformed request
+//! with 400. Its [`Limits`]: a request head is at most 8 KiB and 256 header lines (hyper's
+//! 431) and must arrive
+//! within 5 s (408); at most 16 connections are served at once, the next ones get 503 at once.
 
 use std::collections::HashMap;
-use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::sync::{Arc, OnceLock};
 use std::time::Duration;
 
+use axum::Router;
+use axum::extract::State;
+use axum::http::{HeaderValue, Method, StatusCode, header};
+use axum::response::IntoResponse;
+use axum::routing::any;
+use hyper::body::Incoming;
+use hyper_util::rt::TokioIo;
 use prometheus_client::encoding::text;
 use prometheus_client::metrics::counter::Counter;
 use prometheus_client::metrics::family::Family;
@@ -46,6 +53,7 @@ use prometheus_client::registry::{Registry, Unit};
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio::net::{TcpListener, TcpStream};
 use tokio::sync::{OwnedSemaphorePermit, Semaphore};
+use tower_service::Service;
 
 use super::config::Plant;
 use super::model::{BusIx, DriveIx};
@@ -545,11 +553,13 @@ pub async fn bind(addr: std::net::SocketAddr) -> crate::error::Result<tokio::net
 /// The endpoint's limits.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Limits {
-    /// Largest request head (request line and headers) read; a longer one gets 431.
+    /// Largest request head (request line and headers) read; a longer one, or one of more
+    /// than 256 header lines, gets 431.
     pub max_head: usize,
     /// Time a client has, from its connection, to send the request head; then 408.
     pub head_timeout: Duration,
-    /// Time the answer may take to be taken by the client; then the connection is dropped.
+    /// Time the answer may take, after the head's deadline, to be taken by the client; then
+    /// the connection is dropped.
     pub write_timeout: Duration,
     /// Connections served at once; the next ones get 503 at once.
     pub max_connections: usize,
@@ -572,8 +582,20 @@ const LINGER: Duration = Duration::from_millis(500);
 /// … and at most this much.
 const LINGER_BYTES: usize = 64 * 1024;
 
-/// The answer to a connection over the limit: written without waiting, then closed.
+/// Header lines a request head may have (hyper counts them: 100 unless told; 8 KiB hold
+/// about 140 of a Prometheus scraper's size).
+const MAX_HEADERS: usize = 256;
+
+/// The smallest read buffer hyper takes (it refuses a smaller `max_buf_size`).
+const HYPER_MIN_BUF: usize = 8192;
+
+/// The answer to a connection over the limit: written without waiting for its request (the
+/// connection gets no task of its own), then closed.
 const BUSY: &[u8] = b"HTTP/1.1 503 Service Unavailable\r\nContent-Type: text/plain; charset=utf-8\r\nContent-Length: 38\r\nRetry-After: 1\r\nConnection: close\r\n\r\ntoo many connections to /metrics now\r\n";
+
+/// The answer to a request head that did not arrive within [`Limits::head_timeout`] (hyper's
+/// own header timeout closes without an answer).
+const SLOW: &[u8] = b"HTTP/1.1 408 Request Timeout\r\nContent-Type: text/plain; charset=utf-8\r\nContent-Length: 33\r\nConnection: close\r\n\r\nthe request head came too slowly\n";
 
 /// Serve `GET /metrics` on `listener` until the task is dropped.
 pub async fn serve(listener: tokio::net::TcpListener, metrics: std::sync::Arc<Metrics>) {
@@ -582,6 +604,7 @@ pub async fn serve(listener: tokio::net::TcpListener, metrics: std::sync::Arc<Me
 
 /// [`serve`] with other [`Limits`].
 pub async fn serve_with(listener: TcpListener, metrics: Arc<Metrics>, limits: Limits) {
+    let app = router(metrics);
     let permits = Arc::new(Semaphore::new(limits.max_connections));
     // Dropping the set (this task ends) ends every connection.
     let mut connections = tokio::task::JoinSet::new();
@@ -598,7 +621,7 @@ pub async fn serve_with(listener: TcpListener, metrics: Arc<Metrics>, limits: Li
         };
         match permits.clone().try_acquire_owned() {
             Ok(permit) => {
-                connections.spawn(connection(stream, metrics.clone(), limits, permit));
+                connections.spawn(connection(stream, app.clone(), limits, permit));
             }
             Err(_) => {
                 tracing::debug!(%peer, "metrics endpoint: over the connection limit, 503");
@@ -610,162 +633,132 @@ pub async fn serve_with(listener: TcpListener, metrics: Arc<Metrics>, limits: Li
     }
 }
 
-/// Why a request head was not read.
-#[derive(Debug, PartialEq, Eq)]
-enum HeadError {
-    /// Longer than the limit.
-    TooLarge,
-    /// The client closed or the socket failed before the head was complete.
-    Closed,
+/// The endpoint's routes: `GET /metrics`, `GET /` (a pointer), 404 elsewhere, 405 for every
+/// method but GET; every answer closes its connection.
+fn router(metrics: Arc<Metrics>) -> Router {
+    Router::new()
+        .route("/metrics", any(exposition))
+        .route("/", any(pointer))
+        .fallback(not_found)
+        .layer(axum::middleware::map_response(close))
+        .with_state(metrics)
 }
 
-/// Read up to the blank line ending the head (at most `max` bytes).
-async fn read_head(stream: &mut TcpStream, max: usize) -> Result<Vec<u8>, HeadError> {
-    let mut buf = vec![0u8; max];
-    let mut len = 0;
-    loop {
-        let Some(free) = buf.get_mut(len..) else {
-            return Err(HeadError::TooLarge);
-        };
-        if free.is_empty() {
-            return Err(HeadError::TooLarge);
-        }
-        let n = match stream.read(free).await {
-            Ok(0) | Err(_) => return Err(HeadError::Closed),
-            Ok(n) => n,
-        };
-        // Search from a little before the new bytes: the terminator may straddle two reads.
-        let from = len.saturating_sub(3);
-        len += n;
-        let filled = buf.get(..len).unwrap_or_default();
-        if let Some(end) = head_end(filled.get(from..).unwrap_or_default()) {
-            buf.truncate(from + end);
-            return Ok(buf);
-        }
+fn text(status: StatusCode, body: &str) -> axum::response::Response {
+    (
+        status,
+        [(header::CONTENT_TYPE, "text/plain; charset=utf-8")],
+        format!("{body}\n"),
+    )
+        .into_response()
+}
+
+fn only_get() -> axum::response::Response {
+    let mut r = text(StatusCode::METHOD_NOT_ALLOWED, "only GET");
+    r.headers_mut()
+        .insert(header::ALLOW, HeaderValue::from_static("GET"));
+    r
+}
+
+async fn exposition(
+    method: Method,
+    State(metrics): State<Arc<Metrics>>,
+) -> axum::response::Response {
+    if method != Method::GET {
+        return only_get();
     }
-}
-
-/// Where the head ends (`\r\n\r\n`, or `\n\n` from a sloppy client) in `bytes`.
-fn head_end(bytes: &[u8]) -> Option<usize> {
-    let crlf = bytes
-        .windows(4)
-        .position(|w| w == b"\r\n\r\n")
-        .map(|i| i + 4);
-    let lf = bytes.windows(2).position(|w| w == b"\n\n").map(|i| i + 2);
-    match (crlf, lf) {
-        (Some(a), Some(b)) => Some(a.min(b)),
-        (a, b) => a.or(b),
+    // Written on a blocking thread: a plant of thousands of drives takes milliseconds, which
+    // the bus tasks on the gateway's one thread should not wait.
+    match tokio::task::spawn_blocking(move || metrics.try_encode()).await {
+        Ok(Ok(body)) => ([(header::CONTENT_TYPE, CONTENT_TYPE)], body).into_response(),
+        _ => text(
+            StatusCode::INTERNAL_SERVER_ERROR,
+            "the metrics could not be written",
+        ),
     }
 }
 
-/// An answer: status line, content type, body.
-#[derive(Debug, PartialEq, Eq)]
-struct Response {
-    status: &'static str,
-    content_type: &'static str,
-    extra: &'static str,
-    body: String,
+async fn pointer(method: Method) -> axum::response::Response {
+    if method != Method::GET {
+        return only_get();
+    }
+    text(
+        StatusCode::OK,
+        "drivectl gateway: Prometheus metrics at /metrics",
+    )
 }
 
-impl Response {
-    fn text(status: &'static str, body: &str) -> Response {
-        Response {
-            status,
-            content_type: "text/plain; charset=utf-8",
-            extra: "",
-            body: format!("{body}\n"),
-        }
+async fn not_found(method: Method) -> axum::response::Response {
+    if method != Method::GET {
+        return only_get();
     }
-
-    fn head(&self) -> String {
-        format!(
-            "HTTP/1.1 {}\r\nContent-Type: {}\r\nContent-Length: {}\r\n{}Connection: close\r\n\r\n",
-            self.status,
-            self.content_type,
-            self.body.len(),
-            self.extra
-        )
-    }
+    text(
+        StatusCode::NOT_FOUND,
+        "not found; the metrics are at /metrics",
+    )
 }
 
-/// The answer to a request head.
-async fn route(head: &[u8], metrics: &Arc<Metrics>) -> Response {
-    let line_end = head.iter().position(|&b| b == b'\n').unwrap_or(head.len());
-    let line = head.get(..line_end).unwrap_or_default();
-    let line = std::str::from_utf8(line)
-        .unwrap_or("")
-        .trim_end_matches('\r');
-    let mut parts = line.split(' ');
-    let (Some(method), Some(target), Some(version), None) =
-        (parts.next(), parts.next(), parts.next(), parts.next())
-    else {
-        return Response::text("400 Bad Request", "bad request line");
-    };
-    if !matches!(version, "HTTP/1.0" | "HTTP/1.1")
-        || method.is_empty()
-        || !method.bytes().all(|b| b.is_ascii_uppercase())
-    {
-        return Response::text("400 Bad Request", "bad request line");
-    }
-    if method != "GET" {
-        let mut r = Response::text("405 Method Not Allowed", "only GET");
-        r.extra = "Allow: GET\r\n";
-        return r;
-    }
-    let path = target.split_once('?').map_or(target, |(p, _)| p);
-    match path {
-        "/metrics" => {
-            // Written on a blocking thread: a plant of thousands of drives takes
-            // milliseconds, which the bus tasks on the gateway's one thread should not wait.
-            let m = metrics.clone();
-            match tokio::task::spawn_blocking(move || m.try_encode()).await {
-                Ok(Ok(body)) => Response {
-                    status: "200 OK",
-                    content_type: CONTENT_TYPE,
-                    extra: "",
-                    body,
-                },
-                _ => Response::text(
-                    "500 Internal Server Error",
-                    "the metrics could not be written",
-                ),
+/// One request per connection: every answer says so.
+async fn close(mut r: axum::response::Response) -> axum::response::Response {
+    tracing::debug!(status = r.status().as_u16(), "metrics endpoint");
+    r.headers_mut()
+        .insert(header::CONNECTION, HeaderValue::from_static("close"));
+    r
+}
+
+/// One connection on hyper's HTTP/1.1: one request (its head at most `max_head` bytes,
+/// within `head_timeout`), its answer (taken within `write_timeout` more), a lingering close.
+async fn connection(stream: TcpStream, app: Router, limits: Limits, permit: OwnedSemaphorePermit) {
+    // Set once the request head is in and the router has it.
+    let asked = Arc::new(AtomicBool::new(false));
+    let seen = asked.clone();
+    let service = hyper::service::service_fn(move |request: hyper::Request<Incoming>| {
+        seen.store(true, Ordering::Relaxed);
+        let mut app = app.clone();
+        Box::pin(async move { app.call(request).await })
+    });
+    let mut conn = hyper::server::conn::http1::Builder::new()
+        .max_header_size(limits.max_head)
+        .max_buf_size(limits.max_head.max(HYPER_MIN_BUF))
+        .max_headers(MAX_HEADERS)
+        .keep_alive(false)
+        .title_case_headers(true)
+        .serve_connection(TokioIo::new(stream), service);
+    let head_by = tokio::time::Instant::now() + limits.head_timeout;
+    let mut deadline = head_by;
+    let timed_out = loop {
+        tokio::select! {
+            done = std::future::poll_fn(|cx| conn.poll_without_shutdown(cx)) => {
+                if let Err(e) = done {
+                    tracing::debug!(error = %e, "metrics endpoint: connection ended");
+                }
+                break false;
+            }
+            () = tokio::time::sleep_until(deadline) => {
+                if !asked.load(Ordering::Relaxed) {
+                    break true;
+                }
+                if deadline > head_by {
+                    // The answer was not taken in time: dropped.
+                    return;
+                }
+                deadline = head_by + limits.write_timeout;
             }
         }
-        "/" => Response::text("200 OK", "drivectl gateway: Prometheus metrics at /metrics"),
-        _ => Response::text("404 Not Found", "not found; the metrics are at /metrics"),
+    };
+    let mut stream = conn.into_parts().io.into_inner();
+    if timed_out {
+        tracing::debug!("metrics endpoint: request head too slow, 408");
+        let sent = tokio::time::timeout(limits.write_timeout, stream.write_all(SLOW)).await;
+        if !matches!(sent, Ok(Ok(()))) {
+            return;
+        }
     }
-}
-
-/// One connection: read the head, answer, close.
-async fn connection(
-    mut stream: TcpStream,
-    metrics: Arc<Metrics>,
-    limits: Limits,
-    permit: OwnedSemaphorePermit,
-) {
-    let deadline = tokio::time::Instant::now() + limits.head_timeout;
-    let response =
-        match tokio::time::timeout_at(deadline, read_head(&mut stream, limits.max_head)).await {
-            Err(_) => Response::text("408 Request Timeout", "the request head came too slowly"),
-            Ok(Err(HeadError::TooLarge)) => Response::text(
-                "431 Request Header Fields Too Large",
-                &format!("the request head is over {} bytes", limits.max_head),
-            ),
-            Ok(Err(HeadError::Closed)) => return,
-            Ok(Ok(head)) => route(&head, &metrics).await,
-        };
-    tracing::debug!(status = response.status, "metrics endpoint");
-    let sent = tokio::time::timeout(limits.write_timeout, async {
-        stream.write_all(response.head().as_bytes()).await?;
-        stream.write_all(response.body.as_bytes()).await?;
-        stream.shutdown().await
-    })
-    .await;
-    if !matches!(sent, Ok(Ok(()))) {
+    if stream.shutdown().await.is_err() {
         return;
     }
-    // Lingering close: take what the client still sends (the rest of an oversized head)
-    // so that closing does not reset the connection before it has read the answer.
+    // Lingering close: take what the client still sends (the rest of an oversized head) so
+    // that closing does not reset the connection before it has read the answer.
     let _ = tokio::time::timeout(LINGER, async {
         let mut sink = [0u8; 1024];
         let mut total = 0;

@@ -31,12 +31,15 @@ use crate::error::{Error, Result};
 use crate::model::{Ask, Update};
 use crate::mqtt::payload;
 
+pub mod history;
+
 /// How many events a watching page may fall behind before it is told to load the plant again.
 pub const EVENTS: usize = 1024;
 
 const INDEX_HTML: &str = include_str!("ui/index.html");
 const APP_JS: &str = include_str!("ui/app.js");
 const DRIVE_JS: &str = include_str!("ui/drive.js");
+const TREND_JS: &str = include_str!("ui/trend.js");
 const STYLE_CSS: &str = include_str!("ui/style.css");
 
 /// The latest of everything the buses reported, and the pages that watch.
@@ -44,6 +47,8 @@ const STYLE_CSS: &str = include_str!("ui/style.css");
 pub struct Hub {
     plant: Arc<Plant>,
     latest: Mutex<Latest>,
+    /// The last 10 minutes of every point (the trend's history).
+    history: Mutex<history::History>,
     events: broadcast::Sender<Arc<str>>,
     /// Each bus task's way in for the page's requests (`[bus]`); empty: the page only watches.
     asks: Arc<[mpsc::Sender<Ask>]>,
@@ -102,6 +107,7 @@ impl Hub {
         };
         let (events, _) = broadcast::channel(EVENTS);
         Arc::new(Hub {
+            history: Mutex::new(history::History::new(&plant)),
             plant,
             latest: Mutex::new(latest),
             events,
@@ -132,7 +138,9 @@ impl Hub {
             } => {
                 let d = self.plant.buses.get(*bus)?.drives.get(*drive)?;
                 let p = d.points.get(*point)?;
-                let v = payload::value_json(&p.target, *raw, payload::millis(*at), &d.device);
+                let ts = payload::millis(*at);
+                let v = payload::value_json(&p.target, *raw, ts, &d.device);
+                self.history_mut().push(*bus, *drive, *point, ts, *raw);
                 let s = latest
                     .values
                     .get_mut(*bus)?
@@ -225,6 +233,20 @@ impl Hub {
         json!({"gateway": self.plant.gateway.name, "buses": buses})
     }
 
+    fn history_mut(&self) -> std::sync::MutexGuard<'_, history::History> {
+        self.history.lock().unwrap_or_else(PoisonError::into_inner)
+    }
+
+    /// What `GET /api/history/{bus}/{drive}/{point}` answers at `now` (ms since the epoch);
+    /// `None` for a point the plant does not have.
+    pub fn history_json(&self, at: (usize, usize, usize), now: u64) -> Option<Value> {
+        let (samples, size) = {
+            let h = self.history_mut();
+            (h.samples(at.0, at.1, at.2, now)?, h.size(at.0, at.1, at.2)?)
+        };
+        history::history_value(&self.plant, at, &samples, size, now)
+    }
+
     /// A new watcher of every event from now on.
     pub fn subscribe(&self) -> broadcast::Receiver<Arc<str>> {
         self.events.subscribe()
@@ -283,6 +305,10 @@ pub fn router(hub: Arc<Hub>) -> Router {
             get(|| async { file(DRIVE_JS, "text/javascript; charset=utf-8") }),
         )
         .route(
+            "/trend.js",
+            get(|| async { file(TREND_JS, "text/javascript; charset=utf-8") }),
+        )
+        .route(
             "/style.css",
             get(|| async { file(STYLE_CSS, "text/css; charset=utf-8") }),
         )
@@ -300,6 +326,7 @@ pub fn router(hub: Arc<Hub>) -> Router {
                 usize::try_from(drive_client::backup::MAX_LEN).unwrap_or(usize::MAX),
             )),
         )
+        .route("/api/history/{bus}/{drive}/{point}", get(history))
         .layer(middleware::from_fn(guard))
         .with_state(hub)
 }
@@ -640,6 +667,16 @@ async fn restore(
     })
 }
 
+async fn history(
+    State(hub): State<Arc<Hub>>,
+    axum::extract::Path(at): axum::extract::Path<(usize, usize, usize)>,
+) -> Response {
+    match hub.history_json(at, payload::millis(std::time::SystemTime::now())) {
+        Some(v) => ([(header::CONTENT_TYPE, "application/json")], v.to_string()).into_response(),
+        None => (StatusCode::NOT_FOUND, "no such bus, drive or point\n").into_response(),
+    }
+}
+
 /// What a watching page is sent for what its receiver got: the event; `{"type":"resync"}`
 /// when it fell behind (it loads the plant again rather than being sent old values); nothing
 /// more once the hub is gone.
@@ -691,7 +728,10 @@ async fn guard(request: Request, next: Next) -> Response {
     h.insert(header::X_FRAME_OPTIONS, HeaderValue::from_static("DENY"));
     h.insert(
         header::CONTENT_SECURITY_POLICY,
-        HeaderValue::from_static("default-src 'self'; frame-ancestors 'none'"),
+        // `blob:` images: the trend's PNG export draws its SVG onto a canvas.
+        HeaderValue::from_static(
+            "default-src 'self'; img-src 'self' blob:; frame-ancestors 'none'",
+        ),
     );
     response
 }

@@ -43,6 +43,7 @@ function showProcessData(e, pd) {
 
 function render(plant) {
   document.getElementById("gateway").textContent = plant.gateway;
+  trendPlant(plant);
   main.replaceChildren();
   cells = {};
   plant.buses.forEach((bus, b) => {
@@ -124,7 +125,11 @@ function latency() {
 
 function follow() {
   const source = new EventSource("/api/events");
-  source.onopen = () => { link.textContent = "live"; link.classList.remove("down"); };
+  source.onopen = () => {
+    // Back after a loss: the trend loads what it missed from the gateway's history.
+    if (link.classList.contains("down")) trendReload();
+    link.textContent = "live"; link.classList.remove("down");
+  };
   source.onerror = () => { link.textContent = "connection lost: retrying"; link.classList.add("down"); };
   source.onmessage = (m) => {
     const e = JSON.parse(m.data);
@@ -142,8 +147,10 @@ function follow() {
     } else if (e.type === "figures") {
       const f = cells[`f${e.bus}`];
       if (f) f.textContent = figuresText(e.payload);
+      trendFigures(e.bus, e.payload);
     } else if (e.type === "resync") {
       load();
+      trendReload();
     }
   };
 }
@@ -232,115 +239,6 @@ function route() {
     main.hidden = false;
   }
 }
-
-// The trend: up to 8 points, each drawn on its own scale, kept for 10 minutes in the page.
-const TREND_MAX = 8;
-const TREND_WINDOW_MS = 10 * 60 * 1000;
-const COLOURS = ["#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#17becf", "#8c564b", "#e377c2"];
-const trend = new Map();
-let trendPaused = false;
-
-function toggleTrend(box, key, title, point) {
-  if (!box.checked) {
-    trend.delete(key);
-  } else if (trend.size >= TREND_MAX) {
-    box.checked = false;
-    alert(`The trend shows at most ${TREND_MAX} points.`);
-    return;
-  } else {
-    const used = new Set([...trend.values()].map((t) => t.colour));
-    const colour = COLOURS.find((c) => !used.has(c)) || COLOURS[0];
-    trend.set(key, { title, unit: point.latest ? point.latest.unit : null, period: point.period_ms, colour, samples: [] });
-    if (point.latest) addSample(key, point.latest);
-  }
-  drawTrend();
-}
-
-function addSample(key, v) {
-  const t = trend.get(key);
-  if (!t || !v || typeof v.value !== "number") return;
-  const last = t.samples[t.samples.length - 1];
-  if (last && last.ts === v.ts) return;
-  t.unit = v.unit;
-  t.samples.push({ ts: v.ts, value: v.value, raw: v.raw });
-  const oldest = v.ts - TREND_WINDOW_MS;
-  while (t.samples.length && t.samples[0].ts < oldest) t.samples.shift();
-  if (!trendPaused) drawTrend();
-}
-
-function drawTrend() {
-  const section = document.getElementById("trend");
-  section.hidden = trend.size === 0;
-  const svg = document.getElementById("trend-plot");
-  const legend = document.getElementById("trend-legend");
-  const ns = "http://www.w3.org/2000/svg";
-  svg.replaceChildren();
-  legend.replaceChildren();
-  // The time axis runs from the oldest sample kept to the newest (at most 10 minutes), so
-  // the first seconds fill the plot too.
-  let end = 0, first = Infinity;
-  for (const t of trend.values()) for (const s of t.samples) { end = Math.max(end, s.ts); first = Math.min(first, s.ts); }
-  const start = Math.max(end - TREND_WINDOW_MS, first);
-  const width = Math.max(end - start, 1000);
-  for (const [key, t] of trend) {
-    const values = t.samples.map((s) => s.value);
-    const lo = Math.min(...values), hi = Math.max(...values);
-    const span = hi > lo ? hi - lo : 1;
-    const pts = t.samples.map((s) => {
-      const x = ((s.ts - start) / width) * 1000;
-      // A value that does not change is drawn across the middle.
-      const y = hi > lo ? 190 - ((s.value - lo) / span) * 180 : 100;
-      return `${x.toFixed(1)},${y.toFixed(1)}`;
-    });
-    const line = document.createElementNS(ns, "polyline");
-    line.setAttribute("points", pts.join(" "));
-    line.setAttribute("fill", "none");
-    line.setAttribute("stroke", t.colour);
-    line.setAttribute("stroke-width", "2");
-    line.setAttribute("vector-effect", "non-scaling-stroke");
-    line.dataset.key = key;
-    svg.append(line);
-    const last = t.samples[t.samples.length - 1];
-    const li = el("li");
-    const swatch = el("span", "swatch");
-    swatch.style.background = t.colour;
-    const rate = t.period ? `, read every ${t.period} ms` : "";
-    li.append(swatch, el("span", null, `${t.title}: ${last ? valueText(last.value === undefined ? null : { value: last.value, unit: t.unit }) : "–"}` +
-      ` (${t.samples.length} samples, ${values.length ? `${lo} … ${hi}` : "no values"}${rate})`));
-    legend.append(li);
-  }
-}
-
-/// The trend's samples as CSV: one row per sample, oldest first.
-function trendCsv() {
-  const rows = ["time,point,value,unit,raw"];
-  const all = [];
-  for (const t of trend.values()) for (const s of t.samples) all.push([s.ts, t, s]);
-  all.sort((a, b) => a[0] - b[0]);
-  const quote = (x) => `"${String(x).replaceAll('"', '""')}"`;
-  for (const [ts, t, s] of all) rows.push([new Date(ts).toISOString(), quote(t.title), s.value, quote(t.unit || ""), s.raw].join(","));
-  return rows.join("\n") + "\n";
-}
-
-function download(name, type, text) {
-  const a = el("a");
-  a.href = URL.createObjectURL(new Blob([text], { type }));
-  a.download = name;
-  a.click();
-  setTimeout(() => URL.revokeObjectURL(a.href), 1000);
-}
-
-document.getElementById("trend-pause").addEventListener("click", (e) => {
-  trendPaused = !trendPaused;
-  e.target.textContent = trendPaused ? "resume" : "pause";
-  if (!trendPaused) drawTrend();
-});
-document.getElementById("trend-csv").addEventListener("click", () => download("trend.csv", "text/csv", trendCsv()));
-document.getElementById("trend-svg").addEventListener("click", () => {
-  const svg = document.getElementById("trend-plot").cloneNode(true);
-  svg.setAttribute("xmlns", "http://www.w3.org/2000/svg");
-  download("trend.svg", "image/svg+xml", svg.outerHTML);
-});
 
 window.addEventListener("hashchange", route);
 // Follow first, so nothing that happens while the plant loads is missed.
