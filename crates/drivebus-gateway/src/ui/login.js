@@ -68,6 +68,8 @@ function showLogin(why) {
     if (e) e.hidden = true;
   }
   form.hidden = false;
+  const link = document.getElementById("link");
+  if (link) link.textContent = "not logged in";
   document.getElementById("login-message").textContent = why || "";
   document.getElementById("login-user").focus();
 }
@@ -115,6 +117,7 @@ async function submitLogin(ev) {
   const answer = await r.json().catch(() => ({}));
   if (r.ok) {
     document.getElementById("login-password").value = "";
+    message.textContent = "";
     sessionInfo = answer;
     csrfToken = answer.csrf;
     if (loginDone) {

@@ -336,6 +336,15 @@ async fn a_log_in_sets_a_strict_secure_http_only_cookie_and_a_session_says_who()
         s.body,
         json!({"login_required": true, "user": null, "role": null, "csrf": null})
     );
+    // A path spelled otherwise reaches no route past the guard.
+    for odd in ["//api/test", "/%61pi/test", "/api//test", "/x/../api/test"] {
+        let r = call(&app, "GET", odd, &[], None).await;
+        assert!(
+            r.status == StatusCode::NOT_FOUND || r.status == StatusCode::UNAUTHORIZED,
+            "{odd}: {}",
+            r.status
+        );
+    }
     // Without users the host is checked; with users the session does that job.
     assert_eq!(
         call(&app, "GET", "/", &[("host", "gw.plant.example")], None)
