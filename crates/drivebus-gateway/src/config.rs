@@ -38,6 +38,12 @@ pub struct File {
 pub struct UiFile {
     /// Where the page is served, `host:port`.
     pub listen: String,
+    /// PEM file of the page's certificate chain (TLS; with `tls_key`).
+    pub tls_cert: Option<String>,
+    /// PEM file of the certificate's private key.
+    pub tls_key: Option<String>,
+    /// The page's password file (`name:role:argon2id-hash` lines, `drivectl ui passwd`).
+    pub users: Option<String>,
 }
 
 /// `[gateway]`.
@@ -283,11 +289,24 @@ pub struct Plant {
     pub ui: Option<Ui>,
 }
 
-/// Checked `[ui]`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+/// Checked `[ui]`. The files are named here and read at the start (`ui::auth::Security`).
+#[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Ui {
-    /// Where the page is served (a loopback address).
+    /// Where the page is served (any address other than loopback only with `tls` and `users`).
     pub listen: std::net::SocketAddr,
+    /// The certificate chain's and the key's PEM files: the page is served over HTTPS.
+    pub tls: Option<UiTls>,
+    /// The password file: the page asks for a user and a password.
+    pub users: Option<String>,
+}
+
+/// `[ui] tls_cert` and `tls_key`.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct UiTls {
+    /// The certificate chain (PEM), the server's certificate first.
+    pub cert: String,
+    /// Its private key (PEM).
+    pub key: String,
 }
 
 impl Gateway {
@@ -300,21 +319,75 @@ impl Gateway {
 /// `broker = "off"`: no MQTT, the values only on the page.
 pub const BROKER_OFF: &str = "off";
 
-/// Check `[ui] listen`: a loopback `host:port`. A page that can move motors is served to other
-/// hosts only with TLS and users, which this gateway does not have yet.
+/// Check `[ui] listen` alone (no TLS, no users): a loopback `host:port`.
 pub fn check_ui(listen: &str) -> std::result::Result<Ui, String> {
-    let text = listen.trim();
+    check_ui_file(UiFile {
+        listen: listen.to_owned(),
+        tls_cert: None,
+        tls_key: None,
+        users: None,
+    })
+}
+
+/// Whether `ip` is a loopback address (127.0.0.0/8, `::1`, or `::ffff:127.x.y.z`).
+fn loopback(ip: std::net::IpAddr) -> bool {
+    match ip {
+        std::net::IpAddr::V6(v6) => v6
+            .to_ipv4_mapped()
+            .map_or(v6.is_loopback(), |v4| v4.is_loopback()),
+        v4 => v4.is_loopback(),
+    }
+}
+
+/// Check `[ui]`: `listen` is a `host:port`; a page that can move motors is served to hosts other
+/// than this one only over TLS and with users (both), never in the clear or to anyone.
+pub fn check_ui_file(u: UiFile) -> std::result::Result<Ui, String> {
+    let text = u.listen.trim();
     let addr: std::net::SocketAddr = text.parse().map_err(|_| {
         format!("[ui] listen = {text:?}: give host:port such as \"127.0.0.1:8080\"")
     })?;
-    if !addr.ip().is_loopback() {
+    let nonempty = |key: &str, v: Option<String>| match v {
+        Some(p) if p.trim().is_empty() => Err(format!("[ui] {key} = \"\": give a file's path")),
+        other => Ok(other),
+    };
+    let tls = match (
+        nonempty("tls_cert", u.tls_cert)?,
+        nonempty("tls_key", u.tls_key)?,
+    ) {
+        (Some(cert), Some(key)) => Some(UiTls { cert, key }),
+        (None, None) => None,
+        (Some(_), None) => {
+            return Err(
+                "[ui] tls_cert needs tls_key (the certificate's private key, PEM)".to_owned(),
+            );
+        }
+        (None, Some(_)) => {
+            return Err("[ui] tls_key needs tls_cert (the certificate chain, PEM)".to_owned());
+        }
+    };
+    let users = nonempty("users", u.users)?;
+    if !loopback(addr.ip()) && (tls.is_none() || users.is_none()) {
+        let missing = match (&tls, &users) {
+            (None, None) => {
+                "tls_cert = \"/etc/drivebus/page.crt\", tls_key = \"/etc/drivebus/page.key\" and users = \"/etc/drivebus/page.users\""
+            }
+            (None, Some(_)) => {
+                "tls_cert = \"/etc/drivebus/page.crt\" and tls_key = \"/etc/drivebus/page.key\""
+            }
+            _ => "users = \"/etc/drivebus/page.users\"",
+        };
         return Err(format!(
-            "[ui] listen = {text:?}: the page is served on a loopback address only (127.0.0.1 \
-             or [::1]); serving it to other hosts needs TLS and users, which this version does \
-             not have"
+            "[ui] listen = {text:?}: a page that is not on a loopback address (127.0.0.1 or \
+             [::1]) needs TLS and users: add {missing} to [ui] (the users file is made with \
+             `drivectl ui passwd --file FILE --user NAME --role operator`), or listen on \
+             127.0.0.1"
         ));
     }
-    Ok(Ui { listen: addr })
+    Ok(Ui {
+        listen: addr,
+        tls,
+        users,
+    })
 }
 
 /// Checked `[gateway]`.
@@ -609,7 +682,7 @@ fn check(file: File) -> std::result::Result<Plant, Fault> {
     let ui = match file.ui {
         Some(u) => {
             let at = u.span().start;
-            Some(check_ui(&u.into_inner().listen).map_err(|m| Fault::new(at, m))?)
+            Some(check_ui_file(u.into_inner()).map_err(|m| Fault::new(at, m))?)
         }
         None => None,
     };

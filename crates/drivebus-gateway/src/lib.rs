@@ -95,9 +95,10 @@ pub async fn serve(plant: Plant) -> Result<()> {
     } else {
         None
     };
-    // The page's port is taken before a bus opens: a port in use is an error at the start.
-    let page = match plant.ui {
-        Some(u) => Some(ui::bind(u.listen).await?),
+    // The page's files (certificate, key, users) are read and its port is taken before a bus
+    // opens: a bad file or a port in use is an error at the start.
+    let page = match &plant.ui {
+        Some(u) => Some((ui::auth::Security::load(u)?, ui::bind(u.listen).await?)),
         None => None,
     };
     let (update_tx, update_rx) = mpsc::channel(4096);
@@ -156,14 +157,20 @@ pub async fn serve(plant: Plant) -> Result<()> {
     };
     // With a page, the updates pass through its hub on their way to the broker.
     let updates = match page {
-        Some(listener) => {
+        Some((security, listener)) => {
             // The page's jobs (reads, writes, backups) run on this thread, each bus's part of
             // them in its bus task.
             let (jobs, worker) = ui::drive::jobs();
             tokio::task::spawn_local(worker.run());
             let hub = ui::Hub::serving(plant.clone(), std::mem::take(&mut ask_txs), Some(jobs));
             if let Ok(at) = listener.local_addr() {
-                tracing::info!(url = %format!("http://{at}/"), "the page is served");
+                let scheme = if security.tls.is_some() {
+                    "https"
+                } else {
+                    "http"
+                };
+                let login = security.auth.login_required();
+                tracing::info!(url = %format!("{scheme}://{at}/"), login, "the page is served");
             }
             let (onward_tx, onward_rx) = mpsc::channel(4096);
             let onward = mqtt.is_some().then_some(onward_tx);
@@ -171,7 +178,9 @@ pub async fn serve(plant: Plant) -> Result<()> {
             // Ends with the runtime: the page's connections (live event streams) never end
             // by themselves, so the gateway does not wait for them at the stop.
             tokio::task::spawn_local(async move {
-                if let Err(e) = ui::serve(listener, hub, std::future::pending()).await {
+                if let Err(e) =
+                    ui::serve_with(listener, hub, security, std::future::pending()).await
+                {
                     tracing::error!(error = %e, "the page stopped");
                 }
             });

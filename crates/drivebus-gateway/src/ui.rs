@@ -8,9 +8,10 @@
 //! never polls. A page that falls behind by more than [`EVENTS`] events is told to load the
 //! plant again (`{"type":"resync"}`) instead of being sent old values.
 //!
-//! Every request must name a loopback host in its `Host` header, so that a web site a browser
-//! on this machine visits cannot reach the page through a name that resolves to 127.0.0.1
-//! (DNS rebinding). The page loads nothing from elsewhere: its files are in the binary.
+//! Who may use the page, and how, is [`auth`]'s: on a page without users every request must
+//! name a loopback host in its `Host` header, so that a web site a browser on this machine
+//! visits cannot reach the page through a name that resolves to 127.0.0.1 (DNS rebinding);
+//! with users, a session. The page loads nothing from elsewhere: its files are in the binary.
 
 use std::convert::Infallible;
 use std::net::SocketAddr;
@@ -32,6 +33,7 @@ use crate::model::{Ask, Update};
 use crate::mqtt::payload;
 
 pub mod history;
+pub mod auth;
 
 /// How many events a watching page may fall behind before it is told to load the plant again.
 pub const EVENTS: usize = 1024;
@@ -277,20 +279,33 @@ pub async fn bind(addr: SocketAddr) -> Result<tokio::net::TcpListener> {
         .map_err(|e| Error::failed(format!("[ui] listen = \"{addr}\": cannot listen: {e}")))
 }
 
-/// Serve the page on `listener` until `shutdown` resolves.
+/// Serve the page on `listener` until `shutdown` resolves: a loopback page without TLS or users.
 pub async fn serve(
     listener: tokio::net::TcpListener,
     hub: Arc<Hub>,
     shutdown: impl std::future::Future<Output = ()> + Send + 'static,
 ) -> Result<()> {
-    axum::serve(listener, router(hub))
-        .with_graceful_shutdown(shutdown)
-        .await
-        .map_err(|e| Error::failed(format!("the page's listener failed: {e}")))
+    serve_with(listener, hub, auth::Security::local()?, shutdown).await
 }
 
-/// The page's routes.
-pub fn router(hub: Arc<Hub>) -> Router {
+/// Serve the page on `listener` with `security` (TLS, users) until `shutdown` resolves.
+pub async fn serve_with(
+    listener: tokio::net::TcpListener,
+    hub: Arc<Hub>,
+    security: auth::Security,
+    shutdown: impl std::future::Future<Output = ()> + Send + 'static,
+) -> Result<()> {
+    let app = router_with(hub, security.auth);
+    auth::tls::serve(listener, app, security.tls, shutdown).await
+}
+
+/// The page's routes, on a loopback page without users.
+pub fn router(hub: Arc<Hub>) -> Result<Router> {
+    Ok(router_with(hub, auth::Auth::local()?))
+}
+
+/// The page's routes, each behind [`auth::guard`].
+pub fn router_with(hub: Arc<Hub>, auth: Arc<auth::Auth>) -> Router {
     Router::new()
         .route(
             "/",
@@ -327,6 +342,8 @@ pub fn router(hub: Arc<Hub>) -> Router {
             )),
         )
         .route("/api/history/{bus}/{drive}/{point}", get(history))
+        .merge(auth::routes(auth.clone()))
+        .layer(middleware::from_fn_with_state(auth, auth::guard))
         .layer(middleware::from_fn(guard))
         .with_state(hub)
 }
@@ -702,23 +719,10 @@ pub fn loopback_host(host: &str) -> bool {
             .is_ok_and(|ip| ip.is_loopback())
 }
 
-/// Refuse a request that does not name a loopback host; give every answer the headers that
-/// keep a browser from caching it, sniffing it or loading anything from elsewhere.
+/// Give every answer (refusals too) the headers that keep a browser from caching it, sniffing
+/// it or loading anything from elsewhere.
 async fn guard(request: Request, next: Next) -> Response {
-    let host_ok = request
-        .headers()
-        .get(header::HOST)
-        .and_then(|h| h.to_str().ok())
-        .is_some_and(loopback_host);
-    let mut response = if host_ok {
-        next.run(request).await
-    } else {
-        (
-            StatusCode::MISDIRECTED_REQUEST,
-            "this page answers only to localhost, 127.0.0.1 or [::1]\n",
-        )
-            .into_response()
-    };
+    let mut response = next.run(request).await;
     let h = response.headers_mut();
     h.insert(header::CACHE_CONTROL, HeaderValue::from_static("no-store"));
     h.insert(

@@ -59,6 +59,10 @@ pub fn run(args: &GatewayArgs) -> Result<()> {
         drivebus_gateway::simulate_all(&mut plant);
     }
     if args.check {
+        // The page's certificate, key and password file are read as at the start.
+        if let Some(ui) = &plant.ui {
+            drivebus_gateway::ui::auth::Security::load(ui).map_err(cli_error)?;
+        }
         let (text, verdict) = drivebus_gateway::families::check_report(&plant);
         crate::tool::output::emit(format_args!("{text}"))?;
         return verdict.map_err(cli_error);

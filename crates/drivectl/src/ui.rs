@@ -1,24 +1,31 @@
 //! `drivectl ui`: the gateway's browser page for the drives on one bus, from the command line
 //! (a laptop on one drive): a one-bus plant (`drivebus_gateway::ui::OneBus`) without a broker,
-//! the page on 127.0.0.1, its address printed and opened where a desktop is.
+//! the page on 127.0.0.1, its address printed and opened where a desktop is. `drivectl ui
+//! passwd` adds a user to the password file of a gateway's page (`[ui] users`).
 
 use std::net::SocketAddr;
 
-use clap::Args;
+use clap::{Args, Subcommand};
 use drivebus_gateway::Plant;
 use drivebus_gateway::ui::OneBus;
+use drivebus_gateway::ui::auth::{self, Role};
 
 use crate::error::{CliError, Result};
 
 /// `drivectl ui`.
 #[derive(Debug, Args)]
 #[command(
-    after_help = "Examples:\n  drivectl ui movilink --port /dev/ttyUSB0 --addr 1\n  drivectl ui modbus-rtu --port /dev/ttyUSB0 --baud 19200 --addr 1 --addr 2\n  drivectl ui sbus --iface can0 --addr 1\n  drivectl ui uss --simulate --addr 1 --addr 2       simulated drives, no hardware\n\nA whole plant's page: `[ui] listen = \"127.0.0.1:8080\"` in the config of `drivectl gateway`."
+    args_conflicts_with_subcommands = true,
+    subcommand_negates_reqs = true,
+    after_help = "Examples:\n  drivectl ui movilink --port /dev/ttyUSB0 --addr 1\n  drivectl ui modbus-rtu --port /dev/ttyUSB0 --baud 19200 --addr 1 --addr 2\n  drivectl ui sbus --iface can0 --addr 1\n  drivectl ui uss --simulate --addr 1 --addr 2       simulated drives, no hardware\n\nA whole plant's page: `[ui] listen = \"127.0.0.1:8080\"` in the config of `drivectl gateway`;\n  drivectl ui passwd --file /etc/drivebus/page.users --user anna --role operator\nadds a user to its password file (`[ui] users`)."
 )]
 pub struct UiArgs {
+    /// Another task than serving a page.
+    #[command(subcommand)]
+    pub command: Option<UiCommand>,
     /// The bus: movilink, sbus, uss, modbus-rtu or modbus-ascii.
-    #[arg(value_parser = ["movilink", "sbus", "uss", "modbus-rtu", "modbus-ascii"])]
-    pub protocol: String,
+    #[arg(required = true, value_parser = ["movilink", "sbus", "uss", "modbus-rtu", "modbus-ascii"])]
+    pub protocol: Option<String>,
     /// Serial port (not SBus), e.g. /dev/ttyUSB0.
     #[arg(long)]
     pub port: Option<String>,
@@ -48,6 +55,128 @@ pub struct UiArgs {
     pub log_level: String,
 }
 
+/// `drivectl ui …` tasks.
+#[derive(Debug, Subcommand)]
+pub enum UiCommand {
+    /// Add a user to a gateway page's password file ([ui] users), or give one a new password
+    /// or role.
+    #[command(
+        after_help = "The password is read twice without echo on a terminal, or as one line from standard input otherwise:\n  drivectl ui passwd --file page.users --user anna --role operator\n  printf '%s\\n' \"$PW\" | drivectl ui passwd --file page.users --user viewer1\n\nThe file is written atomically, mode 0600 when new (an existing file keeps its mode and owner)."
+    )]
+    Passwd(PasswdArgs),
+}
+
+/// `drivectl ui passwd`.
+#[derive(Debug, Args)]
+pub struct PasswdArgs {
+    /// The password file (made when missing).
+    #[arg(long)]
+    pub file: String,
+    /// The user's name (1–64 characters, no ':').
+    #[arg(long)]
+    pub user: String,
+    /// What the user may do: viewer (reads) or operator (also writes and controls).
+    #[arg(long, default_value = "viewer", value_parser = ["viewer", "operator"])]
+    pub role: String,
+}
+
+/// The new password: twice without echo on a terminal, or one line of standard input.
+fn read_new_password(user: &str) -> Result<String> {
+    use std::io::IsTerminal as _;
+    let fail = |e: std::io::Error| CliError::failed(format!("cannot read the password: {e}"));
+    let password = if std::io::stdin().is_terminal() {
+        let first =
+            rpassword::prompt_password(format!("new password for {user}: ")).map_err(fail)?;
+        let again = rpassword::prompt_password("the same again: ").map_err(fail)?;
+        if first != again {
+            return Err(CliError::usage(
+                "the two passwords differ: nothing was changed",
+            ));
+        }
+        first
+    } else {
+        let mut line = String::new();
+        std::io::stdin().read_line(&mut line).map_err(fail)?;
+        let l = line.strip_suffix('\n').unwrap_or(&line);
+        l.strip_suffix('\r').unwrap_or(l).to_owned()
+    };
+    if password.is_empty() {
+        return Err(CliError::usage(
+            "the password is empty: nothing was changed",
+        ));
+    }
+    if password.len() > auth::MAX_PASSWORD {
+        return Err(CliError::usage(format!(
+            "the password is longer than {} bytes: nothing was changed",
+            auth::MAX_PASSWORD
+        )));
+    }
+    Ok(password)
+}
+
+/// Run `drivectl ui passwd`: check the user name and the file before asking for the password,
+/// then write the file atomically.
+fn passwd(args: &PasswdArgs) -> Result<()> {
+    use drive_client::outfile::OutputFile;
+    let path = std::path::Path::new(&args.file);
+    auth::check_user_name(&args.user).map_err(|e| CliError::usage(format!("--user: {e}")))?;
+    let role = Role::parse(&args.role).unwrap_or(Role::Viewer);
+    let old = match std::fs::symlink_metadata(path) {
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => String::new(),
+        _ => {
+            let bytes = drive_client::infile::read_limited(path, false, 1 << 20)
+                .map_err(|e| CliError::failed(format!("--file: {e}")))?;
+            String::from_utf8(bytes).map_err(|_| {
+                CliError::usage(format!(
+                    "{}: not UTF-8 text: nothing was changed",
+                    args.file
+                ))
+            })?
+        }
+    };
+    let problem = |e: auth::UsersError| match e {
+        auth::UsersError::Line { line, problem } => CliError::usage(format!(
+            "{}:{line}: {problem}: nothing was changed",
+            args.file
+        )),
+        other => CliError::usage(format!("{}: {other}", args.file)),
+    };
+    // A broken file is said before the password is asked for.
+    auth::Users::parse(&old).map_err(problem)?;
+    let password = read_new_password(&args.user)?;
+    let out =
+        OutputFile::prepare(path, true).map_err(|e| CliError::failed(format!("--file: {e}")))?;
+    let phc = auth::hash_password(&password).map_err(|e| CliError::failed(e.to_string()))?;
+    let text = auth::set_user(&old, &args.user, role, &phc).map_err(problem)?;
+    if old.is_empty() {
+        use std::os::unix::fs::PermissionsExt as _;
+        out.writer()
+            .and_then(|f| {
+                f.set_permissions(std::fs::Permissions::from_mode(0o600))
+                    .map_err(|source| drive_client::outfile::OutputError::Write {
+                        path: path.to_path_buf(),
+                        source,
+                    })
+            })
+            .map_err(|e| CliError::failed(format!("--file: {e}")))?;
+    }
+    out.commit(&text)
+        .map_err(|e| CliError::failed(format!("--file: {e}")))?;
+    let verb = if auth::Users::parse(&old)
+        .ok()
+        .and_then(|u| u.get(&args.user).cloned())
+        .is_some()
+    {
+        "replaced"
+    } else {
+        "added"
+    };
+    crate::tool::output::emit(format_args!(
+        "{}: {verb} {} ({role})\n",
+        args.file, args.user
+    ))
+}
+
 /// `addr` with a free port when its port is 0, checked by taking it and letting it go (the
 /// gateway binds it a moment later), so a port in use is said with the option's name.
 fn with_port(addr: SocketAddr) -> Result<SocketAddr> {
@@ -73,8 +202,16 @@ fn open(url: &str) {
 
 /// Run `drivectl ui`.
 pub fn run(args: &UiArgs) -> Result<()> {
+    if let Some(UiCommand::Passwd(p)) = &args.command {
+        return passwd(p);
+    }
+    let protocol = args.protocol.clone().ok_or_else(|| {
+        CliError::usage(
+            "drivectl ui needs a protocol (movilink, sbus, uss, modbus-rtu, modbus-ascii)",
+        )
+    })?;
     if !args.simulate {
-        match args.protocol.as_str() {
+        match protocol.as_str() {
             "sbus" if args.iface.is_none() => {
                 return Err(CliError::usage(
                     "drivectl ui sbus needs --iface (can0 or slcan:PATH), or --simulate",
@@ -83,8 +220,7 @@ pub fn run(args: &UiArgs) -> Result<()> {
             "sbus" => {}
             _ if args.port.is_none() => {
                 return Err(CliError::usage(format!(
-                    "drivectl ui {} needs --port (e.g. /dev/ttyUSB0), or --simulate",
-                    args.protocol
+                    "drivectl ui {protocol} needs --port (e.g. /dev/ttyUSB0), or --simulate"
                 )));
             }
             _ => {}
@@ -98,13 +234,13 @@ pub fn run(args: &UiArgs) -> Result<()> {
     })?;
     if !listen.ip().is_loopback() {
         return Err(CliError::usage(format!(
-            "--listen {listen}: the page is served on a loopback address only (127.0.0.1 or \
-             [::1]); serving it to other hosts needs TLS and users, which this version does not \
-             have"
+            "--listen {listen}: drivectl ui serves the page on a loopback address only \
+             (127.0.0.1 or [::1]); for other hosts run drivectl gateway with [ui] tls_cert, \
+             tls_key and users (see drivectl ui passwd)"
         )));
     }
     let one = OneBus {
-        protocol: args.protocol.clone(),
+        protocol,
         port: args.port.clone(),
         iface: args.iface.clone(),
         baud: args.baud,

@@ -241,6 +241,9 @@ function route() {
 }
 
 window.addEventListener("hashchange", route);
-// Follow first, so nothing that happens while the plant loads is missed.
-follow();
-load().then(route);
+// After the log-in (login.js); follow first, so nothing that happens while the plant loads is
+// missed.
+sessionReady().then(() => {
+  follow();
+  load().then(route);
+});

@@ -3,10 +3,11 @@
 // drive's bus between its polls.
 "use strict";
 
-// A POST with the page's CSRF token (the gateway refuses a state-changing request without it).
+// A POST of `body` (text, sent as it is: a backup file) with the session's CSRF token (login.js;
+// the gateway refuses a state-changing request without it).
 async function postTo(path, body, type) {
-  const headers = { "Content-Type": type || "application/json" };
-  if (window.csrfToken) headers["X-CSRF-Token"] = window.csrfToken;
+  if (csrfToken === null) await sessionReady();
+  const headers = { "Content-Type": type || "application/json", "X-CSRF-Token": csrfToken || "" };
   return fetch(path, { method: "POST", headers, body, cache: "no-store" });
 }
 

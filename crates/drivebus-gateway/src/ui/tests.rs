@@ -57,7 +57,10 @@ fn the_page_is_served_on_loopback_only_and_needs_a_broker_or_itself() {
     assert!(e.contains("broker = \"off\" needs a [ui]"), "{e}");
     let p = plant("");
     assert!(!p.gateway.uses_broker());
-    assert_eq!(p.ui.map(|u| u.listen.ip().is_loopback()), Some(true));
+    assert_eq!(
+        p.ui.as_ref().map(|u| u.listen.ip().is_loopback()),
+        Some(true)
+    );
 }
 
 fn check_ui_of(listen: &str) -> std::result::Result<crate::config::Ui, String> {
@@ -266,7 +269,7 @@ fn a_plant_of_one_bus_from_the_command_line_is_a_checked_config() {
         let plant = Plant::parse(&one.config(), "the command line")
             .unwrap_or_else(|e| panic!("{protocol}: {e}\n{}", one.config()));
         assert!(!plant.gateway.uses_broker());
-        assert_eq!(plant.ui.map(|u| u.listen.port()), Some(8080));
+        assert_eq!(plant.ui.as_ref().map(|u| u.listen.port()), Some(8080));
         let bus = &plant.buses[0];
         assert_eq!(bus.protocol.name(), protocol);
         assert_eq!(
