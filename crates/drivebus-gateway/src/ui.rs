@@ -615,28 +615,39 @@ async fn check(
 async fn write(
     State(hub): State<Arc<Hub>>,
     axum::extract::Path((bus, d)): DrivePath,
+    who: Option<axum::Extension<auth::Who>>,
     axum::Json(ask): axum::Json<drive::WriteAsk>,
 ) -> Response {
-    let (bus_name, drive_name) = match hub
-        .plant
-        .buses
-        .get(bus)
-        .and_then(|b| Some((b, b.drives.get(d)?)))
-    {
-        Some((b, dr)) => (b.name.clone(), dr.name.clone()),
-        None => return not_found(),
+    let Some(what) = drive_words(&hub, bus, d) else {
+        return not_found();
     };
-    let logged = ask.clone();
+    let who = who.map(|w| w.0);
     answered(&hub, bus, d, move |mut remote| async move {
         let v = drive::write(&mut remote, &ask).await;
-        tracing::info!(
-            bus = %bus_name, drive = %drive_name, param = %logged.key, value = %logged.value,
-            eeprom = logged.eeprom, outcome = %v.get("outcome").and_then(serde_json::Value::as_str).unwrap_or("?"),
-            "a write from the page"
-        );
+        let outcome = v.get("outcome").and_then(serde_json::Value::as_str).unwrap_or("?");
+        let reason = v.get("reason").and_then(serde_json::Value::as_str);
+        if let Some(who) = &who {
+            auth::action(
+                who,
+                &format!(
+                    "write {} = {} ({}) to {what}",
+                    ask.key,
+                    ask.value,
+                    if ask.eeprom { "EEPROM" } else { "RAM" }
+                ),
+                &reason.map_or_else(|| outcome.to_owned(), |r| format!("{outcome}: {r}")),
+            );
+        }
         v
     })
     .await
+}
+
+/// `drive NAME on bus NAME`, for the action log; `None` for a drive the plant does not have.
+fn drive_words(hub: &Hub, bus: usize, drive: usize) -> Option<String> {
+    let b = hub.plant.buses.get(bus)?;
+    let d = b.drives.get(drive)?;
+    Some(format!("drive {} on bus {}", d.name, b.name))
 }
 
 async fn backup(State(hub): State<Arc<Hub>>, axum::extract::Path((bus, d)): DrivePath) -> Response {
@@ -660,27 +671,23 @@ async fn restore(
     State(hub): State<Arc<Hub>>,
     axum::extract::Path((bus, d)): DrivePath,
     axum::extract::Query(q): axum::extract::Query<RestoreQuery>,
+    who: Option<axum::Extension<auth::Who>>,
     body: axum::body::Bytes,
 ) -> Response {
     let name = q.name.filter(|n| !n.is_empty()).map_or_else(
         || "the uploaded file".to_owned(),
         |n| n.chars().take(200).collect(),
     );
-    let (bus_name, drive_name) = match hub
-        .plant
-        .buses
-        .get(bus)
-        .and_then(|b| Some((b, b.drives.get(d)?)))
-    {
-        Some((b, dr)) => (b.name.clone(), dr.name.clone()),
-        None => return not_found(),
+    let Some(what) = drive_words(&hub, bus, d) else {
+        return not_found();
     };
     let apply = q.apply;
-    if apply {
-        tracing::info!(bus = %bus_name, drive = %drive_name, file = %name, "a restore from the page");
-    }
+    let who = who.map(|w| w.0);
     streamed(&hub, bus, d, move |mut remote, lines| async move {
-        drive::restore(&mut remote, body.to_vec(), name, apply, lines).await;
+        let outcome = drive::restore(&mut remote, body.to_vec(), name.clone(), apply, lines).await;
+        if let (true, Some(who)) = (apply, &who) {
+            auth::action(who, &format!("restore {name} to {what}"), outcome);
+        }
     })
 }
 

@@ -632,11 +632,22 @@ pub async fn backup(client: &mut Remote, lines: Lines) {
 /// `{"type":"plan","changes":[…],"refused":[…],"summary":{…}}`; with `apply`, the changes are
 /// then written (if none is refused) and verified: `{"type":"written",…}` per change and
 /// `{"type":"restored","report"}` or `{"type":"halted","report","message"}`.
-pub async fn restore(client: &mut Remote, file: Vec<u8>, name: String, apply: bool, lines: Lines) {
+/// Returns the outcome for the action log: `planned`, `refused`, `restored`, `halted` or
+/// `failed`.
+pub async fn restore(
+    client: &mut Remote,
+    file: Vec<u8>,
+    name: String,
+    apply: bool,
+    lines: Lines,
+) -> &'static str {
     use drive_client::restore;
     let stop = lines.interrupt();
     let front = drive_client::front::Plain;
-    let fail = |m: String| lines.send(&json!({"type": "error", "message": m}));
+    let fail = |m: String| {
+        lines.send(&json!({"type": "error", "message": m}));
+        "failed"
+    };
     let loaded = match BackupFile::parse(
         &file,
         client.family(),
@@ -661,13 +672,14 @@ pub async fn restore(client: &mut Remote, file: Vec<u8>, name: String, apply: bo
         "summary": plan.dry_run_json(&name, &refused, &front),
     }));
     if !apply {
-        return;
+        return "planned";
     }
     if !refused.is_empty() {
-        return fail(format!(
+        fail(format!(
             "{} change(s) refused: nothing was written",
             refused.len()
         ));
+        return "refused";
     }
     let applied = match restore::apply(client, &plan, &log, &mut progress, &stop).await {
         Ok(a) => a,
@@ -676,7 +688,7 @@ pub async fn restore(client: &mut Remote, file: Vec<u8>, name: String, apply: bo
                 &json!({"type": "halted", "report": h.report_json(&plan, &name, &front),
                                "message": h.state_text()}),
             );
-            return;
+            return "halted";
         }
         Err(e) => return fail(e.to_string()),
     };
@@ -688,12 +700,15 @@ pub async fn restore(client: &mut Remote, file: Vec<u8>, name: String, apply: bo
         lines.send(&o);
     }
     match restore::verify(client, &plan, &mut progress, &stop).await {
-        Ok(mismatches) => lines.send(&json!({
-            "type": "restored",
-            "report": plan.report_json(&applied, &mismatches, &name, &front),
-            "mismatches": mismatches.iter().map(restore::Mismatch::to_json).collect::<Vec<_>>(),
-            "shortfalls": plan.shortfalls(&applied, &mismatches),
-        })),
+        Ok(mismatches) => {
+            lines.send(&json!({
+                "type": "restored",
+                "report": plan.report_json(&applied, &mismatches, &name, &front),
+                "mismatches": mismatches.iter().map(restore::Mismatch::to_json).collect::<Vec<_>>(),
+                "shortfalls": plan.shortfalls(&applied, &mismatches),
+            }));
+            "restored"
+        }
         Err(e) => fail(e.to_string()),
     }
 }
