@@ -32,8 +32,8 @@ use crate::error::{Error, Result};
 use crate::model::{Ask, Update};
 use crate::mqtt::payload;
 
-pub mod history;
 pub mod auth;
+pub mod history;
 
 /// How many events a watching page may fall behind before it is told to load the plant again.
 pub const EVENTS: usize = 1024;
@@ -624,7 +624,10 @@ async fn write(
     let who = who.map(|w| w.0);
     answered(&hub, bus, d, move |mut remote| async move {
         let v = drive::write(&mut remote, &ask).await;
-        let outcome = v.get("outcome").and_then(serde_json::Value::as_str).unwrap_or("?");
+        let outcome = v
+            .get("outcome")
+            .and_then(serde_json::Value::as_str)
+            .unwrap_or("?");
         let reason = v.get("reason").and_then(serde_json::Value::as_str);
         if let Some(who) = &who {
             auth::action(
@@ -803,20 +806,25 @@ impl OneBus {
         // The bus is named after its port or interface (a topic level: no `/`).
         let bus = match (&self.port, &self.iface, self.simulate) {
             (_, _, true) => "simulated".to_owned(),
-            (Some(p), _, _) | (None, Some(p), _) => p
-                .rsplit('/')
-                .next()
-                .unwrap_or("bus")
-                .chars()
-                .map(|c| {
-                    if c.is_ascii_alphanumeric() || "._-".contains(c) {
-                        c
-                    } else {
-                        '-'
-                    }
-                })
-                .take(64)
-                .collect(),
+            // `/dev/ttyUSB0` → `ttyUSB0`, a pseudo-terminal `/dev/pts/3` → `pts-3`.
+            (Some(p), _, _) | (None, Some(p), _) => {
+                let mut parts = p.rsplit('/');
+                let last = parts.next().unwrap_or("bus");
+                match parts.next() {
+                    Some("pts") => format!("pts-{last}"),
+                    _ => last.to_owned(),
+                }
+            }
+            .chars()
+            .map(|c| {
+                if c.is_ascii_alphanumeric() || "._-".contains(c) {
+                    c
+                } else {
+                    '-'
+                }
+            })
+            .take(64)
+            .collect(),
             (None, None, false) => "bus".to_owned(),
         };
         let bus = if bus.is_empty() {

@@ -187,8 +187,15 @@ function driveTools(b, d, view, family, plant) {
   plant.buses.forEach((bus, ob) => bus.drives.forEach((drive, od) => {
     if ((ob !== b || od !== d) && bus.protocol === plant.buses[b].protocol) compareWith.append(new Option(`${drive.name} (${bus.name})`, `${ob}/${od}`));
   }));
-  compareWith.append(new Option("a backup file…", "file"));
-  bar.append(compareWith);
+  // Only where the plant has another drive of the family.
+  if (compareWith.options.length > 1) bar.append(compareWith);
+  const compareFile = el("input");
+  compareFile.type = "file";
+  compareFile.accept = ".json,application/json";
+  compareFile.id = "compare-file";
+  const compareLabel = el("label", null, "compare with a file: ");
+  compareLabel.append(compareFile);
+  bar.append(compareLabel);
   view.append(bar, status, out);
 
   readShown.addEventListener("click", () => readKeys(b, d, [...rowCells.keys()], status));
@@ -197,13 +204,11 @@ function driveTools(b, d, view, family, plant) {
     const table = el("table", "faults");
     out.replaceChildren(el("h3", null, "Present fault and fault memory"), table);
     const r = await fetch(`/api/drive/${b}/${d}/faults`, { cache: "no-store" });
-    const names = await paramNames(b, d);
     await readLines(r, (line) => {
       if (line.type === "progress") status.textContent = `faults: ${progressText(line)}`;
       else if (line.type === "value" || (line.type === "error" && line.key)) {
-        const n = names.get(line.key) || {};
         const tr = el("tr");
-        tr.append(el("td", "number", n.number || line.key), el("td", null, n.name_en || ""), el("td", "muted", n.name_de || ""),
+        tr.append(el("td", "number", line.label), el("td", null, line.name_en || ""), el("td", "muted", line.name_de || ""),
           el("td", "value", line.type === "value" ? payloadText(line.payload) : line.message));
         table.append(tr);
       } else if (line.type === "end") status.textContent = `faults: ${line.read} read`;
@@ -229,33 +234,20 @@ function driveTools(b, d, view, family, plant) {
     const which = compareWith.value;
     compareWith.value = "";
     if (!which) return;
-    let otherText, otherName;
-    if (which === "file") {
-      const pick = el("input");
-      pick.type = "file";
-      pick.accept = ".json,application/json";
-      const chosen = new Promise((resolve) => pick.addEventListener("change", () => resolve(pick.files[0])));
-      pick.click();
-      const f = await chosen;
-      if (!f) return;
-      otherText = await f.text();
-      otherName = f.name;
-    } else {
-      const [ob, od] = which.split("/").map(Number);
-      otherName = plant.buses[ob].drives[od].name;
-      otherText = await fetchBackup(ob, od, status);
-    }
+    const [ob, od] = which.split("/").map(Number);
+    const other = await fetchBackup(ob, od, status);
     const mine = await fetchBackup(b, d, status);
-    if (!mine || !otherText) return;
-    showCompare(out, plant.buses[b].drives[d].name, mine, otherName, otherText);
+    if (mine && other) showCompare(out, plant.buses[b].drives[d].name, mine, plant.buses[ob].drives[od].name, other);
   });
-}
 
-// The table's numbers and names by key, for the lines that carry only keys.
-async function paramNames(b, d) {
-  const r = await fetch(`/api/drive/${b}/${d}/params`, { cache: "no-store" });
-  const t = await r.json();
-  return new Map(t.params.map((p) => [p.key, p]));
+  compareFile.addEventListener("change", async () => {
+    const f = compareFile.files[0];
+    if (!f) return;
+    const other = await f.text();
+    compareFile.value = "";
+    const mine = await fetchBackup(b, d, status);
+    if (mine) showCompare(out, plant.buses[b].drives[d].name, mine, f.name, other);
+  });
 }
 
 // Two backups side by side: the parameters whose raw values differ.

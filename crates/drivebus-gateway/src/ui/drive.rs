@@ -367,15 +367,17 @@ pub async fn read_all(client: &mut Remote, targets: Vec<Target>, lines: Lines) {
             Ok(raw) => {
                 read += 1;
                 let v = value_of(t, raw, client.facts());
-                lines.send(&json!({"type": "value", "key": key_of(t), "payload": v}));
+                let mut o = json!({"type": "value", "payload": v});
+                named(&mut o, t);
+                lines.send(&o);
             }
             Err(e) => {
                 failed += 1;
                 let mut o = error_json(&e);
                 if let Some(m) = o.as_object_mut() {
                     m.insert("type".into(), "error".into());
-                    m.insert("key".into(), key_of(t).into());
                 }
+                named(&mut o, t);
                 lines.send(&o);
                 // A drive that stopped answering answers no further read either.
                 if matches!(e, ClientError::Link(_)) {
@@ -386,6 +388,17 @@ pub async fn read_all(client: &mut Remote, targets: Vec<Target>, lines: Lines) {
         progress.done();
     }
     lines.send(&json!({"type": "end", "read": read, "failed": failed}));
+}
+
+/// Put the key, label and names of `t` into the object `o` (several table rows share one bus
+/// index: the line says which was read).
+fn named(o: &mut Value, t: &Target) {
+    if let Some(m) = o.as_object_mut() {
+        m.insert("key".into(), key_of(t).into());
+        m.insert("label".into(), t.label().into());
+        m.insert("name_en".into(), t.param.map(|p| p.name_en()).into());
+        m.insert("name_de".into(), t.param.map(|p| p.name_de()).into());
+    }
 }
 
 /// A write as the page asks for it.

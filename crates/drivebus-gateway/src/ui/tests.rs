@@ -298,6 +298,13 @@ fn a_plant_of_one_bus_from_the_command_line_is_a_checked_config() {
     };
     let plant = Plant::parse(&odd.config(), "the command line").unwrap();
     assert_eq!(plant.buses[0].name, "usb--odd--name");
+    // A pseudo-terminal keeps its directory's name: `0` alone says nothing.
+    let pty = OneBus {
+        port: Some("/dev/pts/0".into()),
+        ..odd.clone()
+    };
+    let pty_plant = Plant::parse(&pty.config(), "the command line").unwrap();
+    assert_eq!(pty_plant.buses[0].name, "pts-0");
     match &plant.buses[0].endpoint {
         crate::config::Endpoint::Serial { path, .. } => {
             assert_eq!(path, r#"/dev/serial/by-id/usb-"odd"\name"#);
