@@ -91,7 +91,7 @@ fn search(s: &Session, term: &str, number: &str) {
     s.wait_for(
         20,
         &format!(
-            "const c = document.querySelector('#drive .figures:not(#tool-status)'); \
+            "const c = document.querySelector('#drive .figures'); \
              return !!document.querySelector('tr[data-number={number}]') && !!c && c.textContent.includes({term:?});"
         ),
         |v| v == &json!(true),

@@ -167,7 +167,8 @@ async function fetchBackup(b, d, status) {
 // The drive view's tools: read what is shown, faults, backup, restore, compare.
 function driveTools(b, d, view, family, plant) {
   const bar = el("div", "tools");
-  const status = el("div", "figures");
+  // Not `.figures`: the parameter count below is the view's `.figures` line.
+  const status = el("div", "tool-status");
   status.id = "tool-status";
   const out = el("div", "tool-out");
   const button = (text, title) => { const x = el("button", null, text); x.type = "button"; x.title = title; bar.append(x); return x; };
