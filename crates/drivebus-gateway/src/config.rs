@@ -1214,3 +1214,36 @@ fn check_point(
 
 #[cfg(test)]
 mod tests;
+
+/// A small config file read whole: a regular file only (never a device node or a FIFO, which
+/// could block the start for ever), at most `limit` bytes. `key` names the config key in errors
+/// (`[gateway] ca_file`, `[ui] users`).
+pub(crate) fn read_small_file(path: &str, key: &str, limit: u64) -> crate::error::Result<Vec<u8>> {
+    use std::io::Read as _;
+    let fail = |why: String| {
+        crate::error::Error::config(format!(
+            "{key} = {path:?}: {why}; give a readable regular file"
+        ))
+    };
+    let meta = std::fs::metadata(path).map_err(|e| fail(format!("cannot read it: {e}")))?;
+    if !meta.is_file() {
+        return Err(fail(if meta.is_dir() {
+            "a directory".to_owned()
+        } else {
+            "not a regular file (a device node, FIFO or socket)".to_owned()
+        }));
+    }
+    let mut buf = Vec::new();
+    std::fs::File::open(path)
+        .and_then(|f| f.take(limit + 1).read_to_end(&mut buf))
+        .map_err(|e| fail(format!("cannot read it: {e}")))?;
+    if buf.len() as u64 > limit {
+        let size = if limit >= 1 << 20 {
+            format!("{} MiB", limit >> 20)
+        } else {
+            format!("{} KiB", limit >> 10)
+        };
+        return Err(fail(format!("larger than {size}")));
+    }
+    Ok(buf)
+}

@@ -939,34 +939,35 @@ impl<C: ParamClient> ParamClient for Watched<C> {
 /// A refusal of the write path as an outcome, with the gateway's way out where there is one
 /// (its config keys, never a command-line option).
 fn refusal_of(e: &WriteError) -> SetOutcome {
-    let (reason, message) = match e {
+    let (reason, message) = write_refusal(
+        e,
+        "writes of this point go to EEPROM (eeprom = true in the config): write less often, or \
+         list it without eeprom for RAM writes",
+        "give the gateway a writable DRIVECTL_STATE_DIR (the systemd unit's StateDirectory), or \
+         list the point without eeprom for RAM writes",
+    );
+    SetOutcome::Refused { reason, message }
+}
+
+/// The reason code (as the `set` results and the page name them) and the message of a refusal
+/// of the write path; `wear` and `no_log` are the front end's way out of an EEPROM write too
+/// soon after the last and of a wear log that cannot be kept.
+pub(crate) fn write_refusal(e: &WriteError, wear: &str, no_log: &str) -> (&'static str, String) {
+    match e {
         WriteError::Width(_) => ("width", e.to_string()),
         WriteError::Guard { error, message } => match error {
             GuardError::DoesNotFit { .. } => ("width", message.clone()),
             GuardError::ReadOnly { .. } => ("access", message.clone()),
             GuardError::OutOfRange { .. } => ("range", message.clone()),
             GuardError::NotInValueList { .. } => ("value_list", message.clone()),
-            GuardError::TooFrequent { .. } => (
-                "wear",
-                format!(
-                    "{message}; writes of this point go to EEPROM (eeprom = true in the config): \
-                     write less often, or list it without eeprom for RAM writes"
-                ),
-            ),
+            GuardError::TooFrequent { .. } => ("wear", format!("{message}; {wear}")),
             _ => ("refused", message.clone()),
         },
         // The EEPROM-wear log cannot be kept: the rule would be off.
-        WriteError::WearLog(w) => (
-            "wear",
-            format!(
-                "{w}; give the gateway a writable DRIVECTL_STATE_DIR (the systemd unit's \
-                 StateDirectory), or list the point without eeprom for RAM writes"
-            ),
-        ),
+        WriteError::WearLog(w) => ("wear", format!("{w}; {no_log}")),
         WriteError::NotInTable { .. } | WriteError::LinkSetting { .. } => ("access", e.to_string()),
         _ => ("refused", e.to_string()),
-    };
-    SetOutcome::Refused { reason, message }
+    }
 }
 
 /// Check, write and read back `raw` to `point` of `drive`: the outcome, and whether the drive

@@ -3,8 +3,6 @@
 //! `ca_file` or the system's roots, client certificates), the last-will. The gateway speaks
 //! MQTT 5, so that it can tell the broker the largest packet it takes (below).
 
-use std::io::Read as _;
-use std::path::Path;
 use std::sync::Arc;
 use std::time::Duration;
 
@@ -99,30 +97,10 @@ pub fn parse_url(url: &str) -> std::result::Result<BrokerUrl, String> {
     })
 }
 
-/// A small file read whole: a regular file only (never a device node or a FIFO, which could
-/// block the start for ever), at most [`FILE_LIMIT`] bytes. `what` names the config key.
+/// A small file read whole (a regular file, at most [`FILE_LIMIT`] bytes); `what` names the
+/// `[gateway]` key.
 fn read_file(path: &str, what: &str) -> Result<Vec<u8>> {
-    let fail = |why: String| {
-        Error::config(format!(
-            "[gateway] {what} = {path:?}: {why}; give a readable regular file"
-        ))
-    };
-    let meta = std::fs::metadata(path).map_err(|e| fail(format!("cannot read it: {e}")))?;
-    if !meta.is_file() {
-        return Err(fail(if meta.is_dir() {
-            "a directory".to_owned()
-        } else {
-            "not a regular file (a device node, FIFO or socket)".to_owned()
-        }));
-    }
-    let mut buf = Vec::new();
-    std::fs::File::open(Path::new(path))
-        .and_then(|f| f.take(FILE_LIMIT + 1).read_to_end(&mut buf))
-        .map_err(|e| fail(format!("cannot read it: {e}")))?;
-    if buf.len() as u64 > FILE_LIMIT {
-        return Err(fail(format!("larger than {} MiB", FILE_LIMIT >> 20)));
-    }
-    Ok(buf)
+    crate::config::read_small_file(path, &format!("[gateway] {what}"), FILE_LIMIT)
 }
 
 /// The password in `path`: its first line, without a byte-order mark or CR LF. An empty

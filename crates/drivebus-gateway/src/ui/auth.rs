@@ -648,31 +648,9 @@ impl Security {
     }
 }
 
-/// A small regular file read whole (never a device node or a FIFO, which could block the start
-/// for ever); `key` names the `[ui]` key in errors.
+/// A small regular file read whole; `key` names the `[ui]` key in errors.
 pub(crate) fn read_small(path: &str, key: &str, limit: u64) -> Result<Vec<u8>> {
-    use std::io::Read as _;
-    let fail = |why: String| {
-        Error::config(format!(
-            "[ui] {key} = {path:?}: {why}; give a readable regular file"
-        ))
-    };
-    let meta = std::fs::metadata(path).map_err(|e| fail(format!("cannot read it: {e}")))?;
-    if !meta.is_file() {
-        return Err(fail(if meta.is_dir() {
-            "a directory".to_owned()
-        } else {
-            "not a regular file (a device node, FIFO or socket)".to_owned()
-        }));
-    }
-    let mut buf = Vec::new();
-    std::fs::File::open(path)
-        .and_then(|f| f.take(limit + 1).read_to_end(&mut buf))
-        .map_err(|e| fail(format!("cannot read it: {e}")))?;
-    if buf.len() as u64 > limit {
-        return Err(fail(format!("larger than {} KiB", limit >> 10)));
-    }
-    Ok(buf)
+    crate::config::read_small_file(path, &format!("[ui] {key}"), limit)
 }
 
 /// Read the password file `path` (`[ui] users`): at least one user.

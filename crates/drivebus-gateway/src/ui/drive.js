@@ -45,6 +45,12 @@ function payloadText(v) {
   return v.text ? `${value} (${v.text})` : value;
 }
 
+// A viewer reads; only an operator writes and restores (the gateway refuses a viewer's POST
+// anyway: the page does not offer what would be refused).
+function mayWrite() {
+  return !sessionInfo || sessionInfo.role !== "viewer";
+}
+
 // The value cells of the rows shown, by the parameter's key.
 let rowCells = new Map();
 
@@ -72,7 +78,7 @@ function driveRow(tr, p, b, d) {
   writeButton.type = "button";
   writeButton.disabled = true;
   const note = el("div", "note");
-  edit.append(input, eepromLabel, checkButton, writeButton, note);
+  if (mayWrite()) edit.append(input, eepromLabel, checkButton, writeButton, note);
   const readCell = el("td");
   readCell.append(readButton);
   tr.append(readCell, value, edit);
@@ -181,7 +187,7 @@ function driveTools(b, d, view, family, plant) {
   fileInput.id = "restore-file";
   const restoreLabel = el("label", null, "restore from a file: ");
   restoreLabel.append(fileInput);
-  bar.append(restoreLabel);
+  if (mayWrite()) bar.append(restoreLabel);
   const compareWith = el("select");
   compareWith.id = "compare-with";
   compareWith.append(new Option("compare with…", ""));

@@ -24,7 +24,6 @@ use drive_client::progress::{Notice, Phase, Progress};
 use drive_client::target::{Target, ValueText};
 use drive_client::write::{WriteError, WriteRequest};
 use drive_client::{ClientError, FileWearLog, ParamClient};
-use drive_profile::guard::GuardError;
 use drive_profile::{Family, Persistence};
 use serde_json::{Map, Value, json};
 use tokio::sync::{mpsc, oneshot};
@@ -545,30 +544,11 @@ pub async fn check(client: &mut Remote, ask: &WriteAsk) -> Checked {
 /// results name them) and the message.
 pub fn refusal(e: &WriteError) -> (&'static str, String) {
     match e {
-        WriteError::Width(_) => ("width", e.to_string()),
-        WriteError::Guard { error, message } => match error {
-            GuardError::DoesNotFit { .. } => ("width", message.clone()),
-            GuardError::ReadOnly { .. } => ("access", message.clone()),
-            GuardError::OutOfRange { .. } => ("range", message.clone()),
-            GuardError::NotInValueList { .. } => ("value_list", message.clone()),
-            GuardError::TooFrequent { .. } => (
-                "wear",
-                format!("{message}; write to RAM only, or wait before the next EEPROM write"),
-            ),
-            _ => ("refused", message.clone()),
-        },
-        WriteError::WearLog(w) => (
-            "wear",
-            format!(
-                "{w}; the gateway needs a writable DRIVECTL_STATE_DIR to keep the EEPROM-wear \
-                 rule: write to RAM only"
-            ),
-        ),
-        WriteError::NotInTable { .. } => ("access", e.to_string()),
         WriteError::LinkSetting { label, change } => (
             "confirm",
             format!(
-                "{label} is a setting of the link the gateway talks over: {change}; confirm to write it"
+                "{label} is a setting of the link the gateway talks over: {change}; confirm to \
+                 write it"
             ),
         ),
         WriteError::Client {
@@ -577,7 +557,12 @@ pub fn refusal(e: &WriteError) -> (&'static str, String) {
         } => ("device", e.to_string()),
         WriteError::Client { .. } | WriteError::Key(_) => ("link", e.to_string()),
         WriteError::ReadBack { .. } => ("read_back", e.to_string()),
-        _ => ("refused", e.to_string()),
+        _ => crate::task::write_refusal(
+            e,
+            "write to RAM only, or wait before the next EEPROM write",
+            "the gateway needs a writable DRIVECTL_STATE_DIR to keep the EEPROM-wear rule: write \
+             to RAM only",
+        ),
     }
 }
 
