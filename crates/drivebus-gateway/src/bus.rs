@@ -54,6 +54,13 @@ pub trait BusAccess {
     /// The drive at `address` as a [`ParamClient`].
     fn client(&mut self, address: u8) -> Self::Client<'_>;
 
+    /// The client the page's requests use: any parameter of the table, also one whose access
+    /// width the manual does not give and the config does not say (a Bonfiglioli client finds
+    /// it by trying, as `drivectl … backup` does). The polls' client otherwise.
+    fn page_client(&mut self, address: u8) -> Self::Client<'_> {
+        self.client(address)
+    }
+
     /// Exchange process data with the drive at `address`: send `out`, return its input
     /// words.
     async fn process_data(&mut self, address: u8, out: &[u16]) -> Result<Vec<u16>, ClientError>;

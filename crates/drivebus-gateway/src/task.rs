@@ -577,7 +577,7 @@ async fn run_ask<B: BusAccess>(
     let Some(d) = bus.drives.get(drive) else {
         return Err(ClientError::Request(format!("no drive {drive}")));
     };
-    let mut client = access.client(d.address);
+    let mut client = access.page_client(d.address);
     match op {
         AskOp::Facts => Ok(Answer::Facts(facts_of(&client))),
         AskOp::LinkChange(t, raw) => Ok(Answer::Text(client.link_change(&t, raw))),

@@ -613,6 +613,18 @@ impl BusAccess for Access {
         r.unwrap_or_else(|message| AnyClient::Invalid { family, message })
     }
 
+    fn page_client(&mut self, address: u8) -> AnyClient<'_> {
+        if !matches!(self.proto, Proto::Modbus(_)) {
+            return self.client(address);
+        }
+        let family = self.family();
+        let r = match &mut self.proto {
+            Proto::Modbus(b) => b.client_of(address).map(|c| AnyClient::Modbus(c.probing())),
+            _ => Err(String::new()),
+        };
+        r.unwrap_or_else(|message| AnyClient::Invalid { family, message })
+    }
+
     async fn process_data(&mut self, address: u8, out: &[u16]) -> Result<Vec<u16>, ClientError> {
         match &mut self.proto {
             Proto::Movilink(b) => b.pd(address, out).await,

@@ -938,3 +938,110 @@ async fn a_refused_line_setting_names_the_config_key() {
     assert!(!e.contains("--"), "{e}");
     assert!(e.contains("/nonexistent/tty"), "{e}");
 }
+
+/// The page's jobs on every protocol's simulated bus, through its bus task: a backup made
+/// through the asks is the backup `drive-client` makes straight on the drive (the same file),
+/// and a guarded write through them is read back, the polls running meanwhile.
+#[tokio::test(start_paused = true)]
+async fn the_pages_backup_and_write_run_on_every_protocols_bus_task() {
+    tokio::task::LocalSet::new()
+        .run_until(pages_jobs_on_every_bus())
+        .await;
+}
+
+async fn pages_jobs_on_every_bus() {
+    use crate::bus::BusContext;
+    use crate::ui::drive::Remote;
+    let plant = example();
+    for bus in &plant.buses {
+        let mut bus = bus.clone();
+        for d in &mut bus.drives {
+            d.process_data = None;
+        }
+        let mut sim = simulated_bus(&bus);
+        let d = &bus.drives[0];
+        let point = d.points.iter().find(|p| p.writable).unwrap().clone();
+        // As `drivectl … backup` makes it (a Bonfiglioli client that finds unknown widths).
+        let direct = {
+            let mut c = sim.access.page_client(d.address);
+            drive_client::backup::backup(&mut c, &mut (), &drive_client::Interrupt::new())
+                .await
+                .unwrap_or_else(|e| panic!("{}: {e}", bus.name))
+                .text()
+                .unwrap()
+        };
+        let now = sim
+            .access
+            .client(d.address)
+            .read(&point.target)
+            .await
+            .unwrap();
+        let raw = other_value(&point, now, &[]);
+        let (utx, mut urx) = tokio::sync::mpsc::channel(4096);
+        let (_stx, srx) = tokio::sync::mpsc::channel(1);
+        let (atx, arx) = tokio::sync::mpsc::channel(64);
+        let (_stop, shutdown) = tokio::sync::watch::channel(false);
+        let ctx = BusContext {
+            shutdown,
+            ix: 0,
+            bus: bus.clone(),
+            updates: utx,
+            sets: srx,
+            asks: arx,
+            metrics: std::sync::Arc::new(crate::metrics::Metrics::new(&plant)),
+        };
+        let values = std::rc::Rc::new(std::cell::Cell::new(0u32));
+        let seen = values.clone();
+        tokio::task::spawn_local(async move {
+            while let Some(u) = urx.recv().await {
+                if matches!(u, crate::model::Update::Value { .. }) {
+                    seen.set(seen.get() + 1);
+                }
+            }
+        });
+        let task = tokio::task::spawn_local(crate::task::run_bus(ctx, sim.access));
+        let mut remote = Remote::connect(atx, 0, Duration::from_secs(30))
+            .await
+            .unwrap();
+        let polls_before = values.get();
+        let paged =
+            drive_client::backup::backup(&mut remote, &mut (), &drive_client::Interrupt::new())
+                .await
+                .unwrap_or_else(|e| panic!("{}: {e}", bus.name))
+                .text()
+                .unwrap();
+        assert_eq!(
+            paged, direct,
+            "bus {}: the page's backup is drive-client's",
+            bus.name
+        );
+        assert!(
+            values.get() > polls_before,
+            "bus {}: the polls ran during the backup",
+            bus.name
+        );
+        let req = WriteRequest {
+            target: point.target,
+            raw,
+            persistence: Persistence::Volatile,
+            force: false,
+        };
+        let done = write_checked(
+            &mut remote,
+            &req,
+            false,
+            &MemoryWearLog::default(),
+            &mut |_| {},
+        )
+        .await
+        .unwrap_or_else(|e| panic!("{}/{}: {e}", bus.name, point.name));
+        assert_eq!(done.back, raw, "bus {}", bus.name);
+        assert_eq!(
+            remote.read(&point.target).await.unwrap(),
+            raw,
+            "bus {}",
+            bus.name
+        );
+        task.abort();
+    }
+}
