@@ -513,3 +513,55 @@ async fn the_pages_reads_and_writes_run_between_the_polls_and_never_reach_an_off
         })
         .await;
 }
+
+/// A page that goes away during a backup (its answer's reader dropped) stops the backup before
+/// its next transaction: the bus is not kept busy for a page nobody reads.
+#[tokio::test(start_paused = true)]
+async fn a_backup_stops_at_the_next_transaction_when_its_page_goes_away() {
+    tokio::task::LocalSet::new()
+        .run_until(async {
+            let plant = three();
+            let h = start(&plant);
+            sleep(Duration::from_secs(1)).await;
+            let remote =
+                crate::ui::drive::Remote::connect(h.asks.clone(), 1, Duration::from_secs(5))
+                    .await
+                    .unwrap();
+            let (lines, mut rx) = crate::ui::drive::Lines::new();
+            let job = tokio::task::spawn_local(async move {
+                let mut remote = remote;
+                crate::ui::drive::backup(&mut remote, lines).await;
+            });
+            // A few values, then the page is gone.
+            for _ in 0..6 {
+                rx.recv().await.unwrap();
+            }
+            drop(rx);
+            let gone = Instant::now();
+            let reads_after = || {
+                h.state
+                    .borrow()
+                    .log
+                    .iter()
+                    .filter(|(at, a, op)| *at >= gone && *a == 2 && *op == crate::bus::Op::Read)
+                    .count()
+            };
+            tokio::time::timeout(Duration::from_secs(5), job)
+                .await
+                .expect("the job ends")
+                .unwrap();
+            sleep(Duration::from_secs(3)).await;
+            // The drive's own polls go on: P130 every 100 ms, "fixed" and the status every
+            // second (12 a second); of the backup, at most the read under way.
+            let secs = gone.elapsed().as_secs_f64();
+            let polls = (12.0 * secs).ceil() as usize + 2;
+            assert!(
+                reads_after() <= polls + 1,
+                "{} reads in {secs} s after the page went away (polls: {polls})",
+                reads_after()
+            );
+            let rows = drive_client::backup::rows(drive_profile::Family::Movidrive).len();
+            assert!(rows > 100, "a whole backup would have taken {rows} reads");
+        })
+        .await;
+}

@@ -267,47 +267,39 @@ impl Lines {
         let _ = self.0.send(format!("{v}\n"));
     }
 
-    /// An interrupt raised when the page stops reading (it closed or lost its connection),
-    /// looked at every [`GONE_CHECK`] until the job's lines are done.
-    pub fn interrupt(&self) -> Interrupt {
-        let stop = Interrupt::new();
-        let (weak, flag) = (self.0.downgrade(), stop.clone());
-        tokio::task::spawn_local(async move {
-            loop {
-                tokio::time::sleep(GONE_CHECK).await;
-                // Every sender gone: the job is over.
-                let Some(tx) = weak.upgrade() else { return };
-                if tx.is_closed() {
-                    flag.raise(Cause {
-                        name: "the page going away".into(),
-                        code: 0,
-                    });
-                    return;
-                }
-            }
-        });
-        stop
+    /// Whether the page stopped reading (it closed, reloaded or lost its connection).
+    pub fn gone(&self) -> bool {
+        self.0.is_closed()
     }
 }
 
-/// How often a long job looks whether its page is still reading.
-pub const GONE_CHECK: Duration = Duration::from_millis(200);
+/// The cause a job stops for when its page goes away.
+fn page_gone() -> Cause {
+    Cause {
+        name: "the page going away".into(),
+        code: 0,
+    }
+}
 
 /// Progress as JSON lines: `{"type":"progress","phase","done","of"}` at the start, after each
-/// step and at the end of each phase; notices as `{"type":"notice","text"}`.
+/// step and at the end of each phase; notices as `{"type":"notice","text"}`. Before each step
+/// it looks whether the page still reads: if not, it raises `stop`, which the job checks before
+/// its next transaction.
 #[derive(Debug)]
 pub struct LineProgress {
     lines: Lines,
+    stop: Interrupt,
     phase: &'static str,
     done: usize,
     of: usize,
 }
 
 impl LineProgress {
-    /// Progress onto `lines`.
-    pub fn new(lines: Lines) -> Self {
+    /// Progress onto `lines`, raising `stop` when the page is gone.
+    pub fn new(lines: Lines, stop: Interrupt) -> Self {
         LineProgress {
             lines,
+            stop,
             phase: "",
             done: 0,
             of: 0,
@@ -337,6 +329,11 @@ impl Progress for LineProgress {
         self.of = steps;
         self.say();
     }
+    fn step(&mut self, _: &Target) {
+        if self.lines.gone() {
+            self.stop.raise(page_gone());
+        }
+    }
     fn done(&mut self) {
         self.done += 1;
         self.say();
@@ -354,12 +351,11 @@ impl Progress for LineProgress {
 /// `{"type":"error","key","reason","message"}` line each, with progress, then
 /// `{"type":"end","read","failed"}`. Stops when the page goes away.
 pub async fn read_all(client: &mut Remote, targets: Vec<Target>, lines: Lines) {
-    let stop = lines.interrupt();
-    let mut progress = LineProgress::new(lines.clone());
+    let mut progress = LineProgress::new(lines.clone(), Interrupt::new());
     progress.start(Phase::Reading, targets.len());
     let (mut read, mut failed) = (0usize, 0usize);
     for t in &targets {
-        if stop.requested() {
+        if lines.gone() {
             return;
         }
         match client.read(t).await {
@@ -612,8 +608,8 @@ pub async fn write(client: &mut Remote, ask: &WriteAsk) -> Value {
 /// Back the drive up: progress lines, then `{"type":"backup","file","complete","absent",
 /// "unreadable"}` with the file's text, or `{"type":"error","message"}`.
 pub async fn backup(client: &mut Remote, lines: Lines) {
-    let stop = lines.interrupt();
-    let mut progress = LineProgress::new(lines.clone());
+    let stop = Interrupt::new();
+    let mut progress = LineProgress::new(lines.clone(), stop.clone());
     match backup::backup(client, &mut progress, &stop).await {
         Ok(b) => match b.text() {
             Ok(text) => lines.send(&json!({
@@ -640,7 +636,7 @@ pub async fn restore(
     lines: Lines,
 ) -> &'static str {
     use drive_client::restore;
-    let stop = lines.interrupt();
+    let stop = Interrupt::new();
     let front = drive_client::front::Plain;
     let fail = |m: String| {
         lines.send(&json!({"type": "error", "message": m}));
@@ -656,7 +652,7 @@ pub async fn restore(
         Err(e) => return fail(format!("{name}: {e}")),
     };
     let log = FileWearLog::from_env();
-    let mut progress = LineProgress::new(lines.clone());
+    let mut progress = LineProgress::new(lines.clone(), stop.clone());
     let opts = restore::Options::default();
     let plan = match restore::plan(client, &loaded, &opts, &log, &mut progress, &stop).await {
         Ok(p) => p,
