@@ -194,6 +194,14 @@ async function showParams(b, d, term, list, count) {
     tr.dataset.number = p.number;
     const names = el("td");
     names.append(el("div", null, p.name_en), el("div", "muted", p.name_de));
+    // The value list, as the manual names each value (English, German).
+    if (p.values && p.values.length) {
+      const list = p.values.map((v) => `${v.value} = ${v.en || v.de}`);
+      const shown = list.length > 6 ? [...list.slice(0, 6), `… ${list.length} values`] : list;
+      const line = el("div", "values muted", shown.join(", "));
+      line.title = p.values.map((v) => `${v.value} = ${v.en} / ${v.de}`).join("\n");
+      names.append(line);
+    }
     const range = p.min !== null && p.max !== null ? `${numberText(p.min, p.unit)} … ${numberText(p.max, p.unit)}` : "";
     tr.append(el("td", "number", p.number), names, el("td", "muted", p.access), el("td", "value", range),
       el("td", "value", p.default !== null ? `default ${numberText(p.default, p.unit)}` : ""));

@@ -67,6 +67,14 @@ function driveRow(tr, p, b, d) {
   input.size = 8;
   input.placeholder = "new value";
   input.setAttribute("aria-label", `new value of ${p.number}`);
+  // A value list: the names to pick from (the gateway takes a value's name or its number).
+  if (p.values && p.values.length) {
+    const list = el("datalist");
+    list.id = `values-${p.key}`;
+    for (const v of p.values) list.append(new Option(`${v.value} = ${v.en || v.de}`, v.en || String(v.value)));
+    edit.append(list);
+    input.setAttribute("list", list.id);
+  }
   const eeprom = el("input");
   eeprom.type = "checkbox";
   eeprom.title = "write to EEPROM too (kept after power-off; the wear rule applies)";

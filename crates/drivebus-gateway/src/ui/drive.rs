@@ -710,7 +710,7 @@ pub async fn restore(
 /// The parameters that show a drive's present fault and its fault memory, in the manual's
 /// order: MOVIDRIVE P012 status word 1 and the fault memory P080–P084 (group 08, each with its
 /// entries); NORD P700 [-01]–[-03] and P701 [-01]–[-05]; Bonfiglioli 260 current fault and 270
-/// warnings (the table holds no fault memory of the ACTIVE: see `docs/ui.md`).
+/// warnings (its Modbus manual describes no fault memory).
 pub fn fault_targets(family: Family) -> Vec<Target> {
     match family {
         Family::Nord => backup::rows(family)
