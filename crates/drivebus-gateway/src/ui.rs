@@ -798,7 +798,65 @@ fn usual_points(
     }
 }
 
+/// The addresses a `--scan` probes by default, per protocol (as `drivectl … scan` does): the
+/// protocol's whole range of single drives.
+pub fn scan_range(protocol: &str) -> (u8, u8) {
+    match protocol {
+        "movilink" => (0, 99),
+        "sbus" => (0, 63),
+        "uss" => (0, 31),
+        _ => (1, 247),
+    }
+}
+
 impl OneBus {
+    /// Probe every address from `from` to `to` on this bus (one read of the drive's fault
+    /// status each, no retries): the addresses that answer, in order. `each` hears every
+    /// address probed and whether it answered (a refusal answers too). A bus that cannot be
+    /// opened answers nowhere.
+    pub fn scan(&self, from: u8, to: u8, each: &mut dyn FnMut(u8, bool)) -> Result<Vec<u8>> {
+        let probe = OneBus {
+            addresses: vec![from],
+            ..self.clone()
+        };
+        let mut plant = Plant::parse(&probe.config(), "the command line")?;
+        let Some(mut bus) = plant.buses.pop() else {
+            return Ok(Vec::new());
+        };
+        bus.retries = 0;
+        // The simulated bus holds the drives the command line names.
+        bus.drives = self
+            .addresses
+            .iter()
+            .filter_map(|a| {
+                let mut d = bus.drives.first()?.clone();
+                d.address = *a;
+                Some(d)
+            })
+            .collect();
+        let rt = tokio::runtime::Builder::new_current_thread()
+            .enable_all()
+            .build()
+            .map_err(|e| Error::failed(format!("cannot start the runtime: {e}")))?;
+        let local = tokio::task::LocalSet::new();
+        local.block_on(&rt, async {
+            use crate::bus::BusAccess as _;
+            let mut access = crate::families::open_bus(&bus);
+            let mut found = Vec::new();
+            for a in from..=to {
+                let answered = match access.fault(a).await {
+                    Ok(_) | Err(drive_client::ClientError::Device(_)) => true,
+                    Err(_) => false,
+                };
+                each(a, answered);
+                if answered {
+                    found.push(a);
+                }
+            }
+            Ok(found)
+        })
+    }
+
     /// The plant's config text: checked by [`Plant::parse`] as any config is.
     pub fn config(&self) -> String {
         use std::fmt::Write as _;

@@ -17,15 +17,19 @@ use crate::error::{CliError, Result};
 #[command(
     args_conflicts_with_subcommands = true,
     subcommand_negates_reqs = true,
-    after_help = "Examples:\n  drivectl ui movilink --port /dev/ttyUSB0 --addr 1\n  drivectl ui modbus-rtu --port /dev/ttyUSB0 --baud 19200 --addr 1 --addr 2\n  drivectl ui sbus --iface can0 --addr 1\n  drivectl ui uss --simulate --addr 1 --addr 2       simulated drives, no hardware\n\nA whole plant's page: `[ui] listen = \"127.0.0.1:8080\"` in the config of `drivectl gateway`;\n  drivectl ui passwd --file /etc/drivebus/page.users --user anna --role operator\nadds a user to its password file (`[ui] users`)."
+    after_help = "Examples:\n  drivectl ui movilink --port /dev/ttyUSB0 --addr 1\n  drivectl ui modbus-rtu --port /dev/ttyUSB0 --baud 19200 --addr 1 --addr 2\n  drivectl ui sbus --iface can0 --addr 1\n  drivectl ui uss --simulate --addr 1 --addr 2       simulated drives, no hardware\n  drivectl ui bonfiglioli --port /dev/ttyUSB0 --scan --to 10   serve the drives that answer\n\nA whole plant's page: `[ui] listen = \"127.0.0.1:8080\"` in the config of `drivectl gateway`;\n  drivectl ui passwd --file /etc/drivebus/page.users --user anna --role operator\nadds a user to its password file (`[ui] users`)."
 )]
 pub struct UiArgs {
     /// Another task than serving a page.
     #[command(subcommand)]
     pub command: Option<UiCommand>,
-    /// The bus: movilink, sbus, uss, modbus-rtu or modbus-ascii.
-    #[arg(required = true, value_parser = ["movilink", "sbus", "uss", "modbus-rtu", "modbus-ascii"])]
+    /// The bus: movilink, sbus, uss, bonfiglioli (Modbus RTU, or ASCII with --mode ascii),
+    /// modbus-rtu or modbus-ascii.
+    #[arg(required = true, value_parser = ["movilink", "sbus", "uss", "bonfiglioli", "modbus-rtu", "modbus-ascii"])]
     pub protocol: Option<String>,
+    /// bonfiglioli: the transmission mode (the drive's parameter 395).
+    #[arg(long, value_parser = ["rtu", "ascii"])]
+    pub mode: Option<String>,
     /// Serial port (not SBus), e.g. /dev/ttyUSB0.
     #[arg(long)]
     pub port: Option<String>,
@@ -41,6 +45,18 @@ pub struct UiArgs {
     /// A drive's address; repeat for several drives.
     #[arg(long = "addr", default_value = "1")]
     pub addresses: Vec<u8>,
+    /// Serve the drives that answer: probe every address from --from to --to first (one read
+    /// each, no retries) instead of taking --addr. With --simulate the drives of --addr answer.
+    #[arg(long)]
+    pub scan: bool,
+    /// --scan: the first address (default: the protocol's first: MOVILINK, SBus, USS 0,
+    /// Modbus 1).
+    #[arg(long, requires = "scan")]
+    pub from: Option<u8>,
+    /// --scan: the last address (default: the protocol's last: MOVILINK 99, SBus 63, USS 31,
+    /// Modbus 247).
+    #[arg(long, requires = "scan")]
+    pub to: Option<u8>,
     /// Run against simulated drives (no port needed).
     #[arg(long)]
     pub simulate: bool,
@@ -186,6 +202,38 @@ fn with_port(addr: SocketAddr) -> Result<SocketAddr> {
         .map_err(|e| CliError::failed(format!("--listen {addr}: {e}")))
 }
 
+/// `--scan`: the addresses that answer between `from` and `to` (the protocol's range by
+/// default), said on standard error as they are found.
+fn scan(one: &OneBus, from: Option<u8>, to: Option<u8>) -> Result<Vec<u8>> {
+    let (first, last) = drivebus_gateway::ui::scan_range(&one.protocol);
+    let (from, to) = (from.unwrap_or(first), to.unwrap_or(last));
+    if from > to || from < first || to > last {
+        return Err(CliError::usage(format!(
+            "--from {from} --to {to}: give {first} ≤ from ≤ to ≤ {last} for {}",
+            one.protocol
+        )));
+    }
+    crate::errln!(
+        "drivectl: note: scanning {} addresses {from}–{to}…",
+        one.protocol
+    );
+    let mut each = |a: u8, answered: bool| {
+        if answered {
+            crate::errln!("drivectl: note: a drive answers at address {a}");
+        }
+    };
+    let found = one
+        .scan(from, to, &mut each)
+        .map_err(|e| CliError::failed(e.to_string()))?;
+    if found.is_empty() {
+        return Err(CliError::failed(format!(
+            "no drive answered at addresses {from}–{to}: check the port, the baud rate and the \
+             parity (--baud, --parity), and that the drives are powered and wired"
+        )));
+    }
+    Ok(found)
+}
+
 /// Open `url` in the desktop's browser, where there is a desktop (quietly nothing elsewhere).
 fn open(url: &str) {
     let desktop = ["DISPLAY", "WAYLAND_DISPLAY"]
@@ -207,9 +255,20 @@ pub fn run(args: &UiArgs) -> Result<()> {
     }
     let protocol = args.protocol.clone().ok_or_else(|| {
         CliError::usage(
-            "drivectl ui needs a protocol (movilink, sbus, uss, modbus-rtu, modbus-ascii)",
+            "drivectl ui needs a protocol (movilink, sbus, uss, bonfiglioli, modbus-rtu, \
+             modbus-ascii)",
         )
     })?;
+    let protocol = match (protocol.as_str(), args.mode.as_deref()) {
+        ("bonfiglioli", Some("ascii")) => "modbus-ascii".to_owned(),
+        ("bonfiglioli", _) => "modbus-rtu".to_owned(),
+        (_, Some(_)) => {
+            return Err(CliError::usage(format!(
+                "--mode is for bonfiglioli, not {protocol}"
+            )));
+        }
+        _ => protocol,
+    };
     if !args.simulate {
         match protocol.as_str() {
             "sbus" if args.iface.is_none() => {
@@ -239,7 +298,7 @@ pub fn run(args: &UiArgs) -> Result<()> {
              tls_key and users (see drivectl ui passwd)"
         )));
     }
-    let one = OneBus {
+    let mut one = OneBus {
         protocol,
         port: args.port.clone(),
         iface: args.iface.clone(),
@@ -249,6 +308,9 @@ pub fn run(args: &UiArgs) -> Result<()> {
         simulate: args.simulate,
         listen: with_port(listen)?,
     };
+    if args.scan {
+        one.addresses = scan(&one, args.from, args.to)?;
+    }
     let plant = Plant::parse(&one.config(), "the command line").map_err(|e| match e {
         drivebus_gateway::Error::Config(m) => CliError::usage(m),
         other => CliError::failed(other.to_string()),

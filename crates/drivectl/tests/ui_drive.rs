@@ -332,3 +332,75 @@ fn the_page_refuses_requests_for_drives_it_does_not_have() {
     assert_eq!(a.code, 400, "{}", a.body);
     assert!(a.body.contains("no parameter 99999.0"), "{}", a.body);
 }
+
+/// `drivectl ui --scan` serves the drives that answer on the line: a MOVILINK and a Bonfiglioli
+/// simulator on pseudo-terminals, with drives at addresses the command line does not name.
+#[test]
+fn drivectl_ui_scan_serves_the_drives_that_answer() {
+    for (sim_args, ui_args, want) in [
+        (
+            vec![
+                "sim", "movilink", "--pty", "--parity", "none", "--addr", "2", "--addr", "5",
+            ],
+            vec!["ui", "movilink", "--parity", "none", "--scan", "--to", "8"],
+            vec![2, 5],
+        ),
+        (
+            vec![
+                "sim",
+                "bonfiglioli",
+                "--pty",
+                "--parity",
+                "none",
+                "--addr",
+                "4",
+            ],
+            vec![
+                "ui",
+                "bonfiglioli",
+                "--parity",
+                "none",
+                "--scan",
+                "--to",
+                "6",
+            ],
+            vec![4],
+        ),
+    ] {
+        let sim = PtySim::start(&sim_args);
+        let port = free_port();
+        let page = SocketAddr::from(([127, 0, 0, 1], port));
+        let child = sim
+            .command()
+            .args(&ui_args)
+            .args([
+                "--port",
+                &sim.path,
+                "--listen",
+                &page.to_string(),
+                "--no-open",
+            ])
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap();
+        let _ui = Reaped(child);
+        let until = Instant::now() + Duration::from_secs(60);
+        while std::net::TcpStream::connect(page).is_err() {
+            assert!(
+                Instant::now() < until,
+                "{ui_args:?}: the page did not listen"
+            );
+            std::thread::sleep(Duration::from_millis(100));
+        }
+        let a = request(page, "GET", "/api/plant", None);
+        let plant: Value = serde_json::from_str(&a.body).unwrap();
+        let found: Vec<u64> = plant["buses"][0]["drives"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .filter_map(|d| d["address"].as_u64())
+            .collect();
+        assert_eq!(found, want, "{ui_args:?}");
+    }
+}
