@@ -74,7 +74,7 @@ pub struct UiArgs {
 /// `drivectl ui …` tasks.
 #[derive(Debug, Subcommand)]
 pub enum UiCommand {
-    /// Add a user to a gateway page's password file ([ui] users), or give one a new password
+    /// Add a user to a gateway page's password file (`[ui] users`), or give one a new password
     /// or role.
     #[command(
         after_help = "The password is read twice without echo on a terminal, or as one line from standard input otherwise:\n  drivectl ui passwd --file page.users --user anna --role operator\n  printf '%s\\n' \"$PW\" | drivectl ui passwd --file page.users --user viewer1\n\nThe file is written atomically, mode 0600 when new (an existing file keeps its mode and owner)."

@@ -773,7 +773,7 @@ fn public(path: &str) -> bool {
 }
 
 /// The check every request passes before its route: on a page without users, a loopback `Host`
-/// (else 421); with users, a live session except for [`public`] paths (else 401); on every
+/// (else 421); with users, a live session except for the public paths (the page's files, the session, the log-in) (else 401); on every
 /// request but GET and HEAD, the `X-CSRF-Token` of the session or the page (else 403 `csrf`);
 /// on a POST under `/api/` but log-in and log-out, an operator (else 403 `role`). The request
 /// then carries a [`Who`].
