@@ -347,7 +347,10 @@ async function restorePlan(b, d, name, text, status, out) {
     out.append(report);
     await readLines(await postTo(`/api/drive/${b}/${d}/restore?${new URLSearchParams({ name, apply: true })}`, text, "application/json"), (line) => {
       if (line.type === "progress") status.textContent = `restore: ${progressText(line)}`;
-      else if (line.type === "written") report.append(el("div", "ok", `written ${line.label}: ${line.from} → ${line.to}`));
+      else if (line.type === "written") {
+        const unit = line.unit ? ` ${line.unit}` : "";
+        report.append(el("div", "ok", `written ${line.label}: ${line.from}${unit} → ${line.to}${unit}`));
+      }
       else if (line.type === "restored") {
         const r = line.report;
         status.textContent = `restored: ${r.written} written, ${r.unchanged} unchanged, ${r.mismatches} mismatch(es)`;
