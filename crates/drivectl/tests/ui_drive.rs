@@ -151,14 +151,14 @@ fn the_drive_view_writes_refuses_restores_and_backs_up_as_drivectl_does() {
         return;
     };
     let sim = PtySim::start(&[
-        "sim", "movilink", "--pty", "--parity", "none", "--addr", "1",
+        "sim", "movilink", "--pty", "--parity", "none", "--addr", "1", "--addr", "2",
     ]);
     let port = free_port();
     let page = SocketAddr::from(([127, 0, 0, 1], port));
     let ui = sim
         .command()
         .args([
-            "ui", "movilink", "--port", &sim.path, "--parity", "none", "--addr", "1",
+            "ui", "movilink", "--port", &sim.path, "--parity", "none", "--addr", "1", "--addr", "2",
         ])
         .args(["--listen", &page.to_string(), "--no-open"])
         .stdout(Stdio::null())
@@ -292,6 +292,22 @@ fn the_drive_view_writes_refuses_restores_and_backs_up_as_drivectl_does() {
     });
     assert_eq!(rows, json!(["8471.0"]), "only P131 differs");
     s.screenshot("compare");
+    // Compare with the other drive, untouched: the ramps the page changed and the address.
+    s.run(
+        "const c = document.getElementById('compare-with'); c.value = '0/1'; \
+         c.dispatchEvent(new Event('change'));",
+    );
+    let rows = s.wait_for(
+        120,
+        "return [...document.querySelectorAll('table.compare tr[data-key]')].map(r => r.dataset.key);",
+        |v| v.as_array().is_some_and(|a| a.len() > 1),
+    );
+    assert_eq!(
+        rows,
+        json!(["8470.0", "8471.0", "8472.0", "8597.0"]),
+        "P130, P131, P132 and P810 differ"
+    );
+    s.screenshot("compare-drives");
     drop(s);
 
     // The page stops; the simulator is asked directly.
