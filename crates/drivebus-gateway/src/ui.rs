@@ -42,6 +42,7 @@ const INDEX_HTML: &str = include_str!("ui/index.html");
 const APP_JS: &str = include_str!("ui/app.js");
 const DRIVE_JS: &str = include_str!("ui/drive.js");
 const TREND_JS: &str = include_str!("ui/trend.js");
+const EVENTS_JS: &str = include_str!("ui/events.js");
 const STYLE_CSS: &str = include_str!("ui/style.css");
 
 /// The latest of everything the buses reported, and the pages that watch.
@@ -318,6 +319,10 @@ pub fn router_with(hub: Arc<Hub>, auth: Arc<auth::Auth>) -> Router {
         .route(
             "/drive.js",
             get(|| async { file(DRIVE_JS, "text/javascript; charset=utf-8") }),
+        )
+        .route(
+            "/events.js",
+            get(|| async { file(EVENTS_JS, "text/javascript; charset=utf-8") }),
         )
         .route(
             "/trend.js",

@@ -348,3 +348,34 @@ fn drivectl_ui_serves_one_bus_from_the_command_line_and_stops_on_ctrl_c() {
     };
     assert!(status.success(), "{status:?}");
 }
+
+/// Ten tabs of the page in one browser all follow the plant live: the browser's tabs share one
+/// event stream (a browser opens at most six HTTP/1.1 connections to a host; with a stream per
+/// tab the seventh tab never loaded).
+#[test]
+fn ten_tabs_of_the_page_in_one_browser_all_follow_live() {
+    let Some((chromium, chromedriver)) = browser_tools() else {
+        return;
+    };
+    let port = free_port();
+    let (_gw, _dir) = web::example_gateway(port);
+    let page = format!("http://127.0.0.1:{port}/");
+    let browser = Session::start(&chromium, &chromedriver, 1000, 800);
+    browser.open(&page);
+    let mut tabs = vec![browser.command("GET", "window", None)];
+    for _ in 1..10 {
+        let t = browser.command("POST", "window/new", Some(&json!({"type": "tab"})));
+        let handle = t["handle"].clone();
+        browser.command("POST", "window", Some(&json!({"handle": handle})));
+        browser.open(&page);
+        tabs.push(handle);
+    }
+    for (i, handle) in tabs.iter().enumerate() {
+        browser.command("POST", "window", Some(&json!({"handle": handle})));
+        let l = browser.wait_for(30, "return latency().count;", |v| {
+            v.as_u64().is_some_and(|n| n >= 3)
+        });
+        let link = browser.run("return document.getElementById('link').textContent;");
+        assert_eq!(link, json!("live"), "tab {i}: {l} values");
+    }
+}

@@ -125,36 +125,55 @@ function latency() {
   return { count: sorted.length, median: at(0.5), p99: at(0.99) };
 }
 
+// The live events: through the shared worker of events.js (one stream for all of this
+// browser's tabs of the page), or this tab's own stream where there are no shared workers.
 function follow() {
-  const source = new EventSource("/api/events");
-  source.onopen = () => {
+  const opened = () => {
     // Back after a loss: the trend loads what it missed from the gateway's history.
     if (link.classList.contains("down")) trendReload();
     link.textContent = "live"; link.classList.remove("down");
   };
-  source.onerror = () => { link.textContent = "connection lost: retrying"; link.classList.add("down"); };
-  source.onmessage = (m) => {
-    const e = JSON.parse(m.data);
-    if (e.type === "value" && e.payload && e.payload.ts) noteLatency(Date.now() - e.payload.ts);
-    if (e.type === "value") {
-      const c = cells[`v${e.bus}.${e.drive}.${e.point}`];
-      if (c) showValue(c, e.payload);
-      addSample(`${e.bus}.${e.drive}.${e.point}`, e.payload);
-    } else if (e.type === "status") {
-      const s = cells[`s${e.bus}.${e.drive}`];
-      if (s) showStatus(s, e.payload);
-    } else if (e.type === "process_data") {
-      const p = cells[`p${e.bus}.${e.drive}`];
-      if (p) showProcessData(p, e.payload);
-    } else if (e.type === "figures") {
-      const f = cells[`f${e.bus}`];
-      if (f) f.textContent = figuresText(e.payload);
-      trendFigures(e.bus, e.payload);
-    } else if (e.type === "resync") {
-      load();
-      trendReload();
-    }
-  };
+  const lost = () => { link.textContent = "connection lost: retrying"; link.classList.add("down"); };
+  if (typeof SharedWorker === "function") {
+    try {
+      const worker = new SharedWorker("/events.js");
+      worker.port.onmessage = (m) => {
+        if (m.data.kind === "open") opened();
+        else if (m.data.kind === "error") lost();
+        else if (m.data.kind === "event") onEvent(m.data.data);
+      };
+      worker.port.start();
+      window.addEventListener("pagehide", () => worker.port.postMessage("bye"));
+      return;
+    } catch (_) { /* no shared worker here: a stream of this tab's own */ }
+  }
+  const source = new EventSource("/api/events");
+  source.onopen = opened;
+  source.onerror = lost;
+  source.onmessage = (m) => onEvent(m.data);
+}
+
+function onEvent(data) {
+  const e = JSON.parse(data);
+  if (e.type === "value" && e.payload && e.payload.ts) noteLatency(Date.now() - e.payload.ts);
+  if (e.type === "value") {
+    const c = cells[`v${e.bus}.${e.drive}.${e.point}`];
+    if (c) showValue(c, e.payload);
+    addSample(`${e.bus}.${e.drive}.${e.point}`, e.payload);
+  } else if (e.type === "status") {
+    const s = cells[`s${e.bus}.${e.drive}`];
+    if (s) showStatus(s, e.payload);
+  } else if (e.type === "process_data") {
+    const p = cells[`p${e.bus}.${e.drive}`];
+    if (p) showProcessData(p, e.payload);
+  } else if (e.type === "figures") {
+    const f = cells[`f${e.bus}`];
+    if (f) f.textContent = figuresText(e.payload);
+    trendFigures(e.bus, e.payload);
+  } else if (e.type === "resync") {
+    load();
+    trendReload();
+  }
 }
 
 // The drive view (#drive/BUS/DRIVE): its family's parameter table, searched in German and
