@@ -32,8 +32,8 @@ use crate::error::{Error, Result};
 use crate::model::{Ask, Update};
 use crate::mqtt::payload;
 
-pub mod history;
 pub mod auth;
+pub mod history;
 
 /// How many events a watching page may fall behind before it is told to load the plant again.
 pub const EVENTS: usize = 1024;
@@ -624,7 +624,10 @@ async fn write(
     let who = who.map(|w| w.0);
     answered(&hub, bus, d, move |mut remote| async move {
         let v = drive::write(&mut remote, &ask).await;
-        let outcome = v.get("outcome").and_then(serde_json::Value::as_str).unwrap_or("?");
+        let outcome = v
+            .get("outcome")
+            .and_then(serde_json::Value::as_str)
+            .unwrap_or("?");
         let reason = v.get("reason").and_then(serde_json::Value::as_str);
         if let Some(who) = &who {
             auth::action(
