@@ -289,7 +289,12 @@ pub async fn cycle<B: BusAccess>(
     d.inputs = inputs.clone();
     if d.lost {
         d.released = true;
-        match command {
+        match d.command {
+            Some(PageCommand::Stop) => auth::action(
+                &d.who,
+                &format!("release {what}"),
+                &format!("stop sent again ({})", hex(&words)),
+            ),
             Some(_) if refusal.is_none() => {
                 tracing::warn!(bus = %bus.name, drive = %bus.drives.get(drive).map_or("?", |d| d.name.as_str()), user = %d.who.user, "the page that drove the drive went away: stop sent in the process data");
                 auth::action(
