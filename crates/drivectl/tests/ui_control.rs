@@ -34,7 +34,10 @@ fn gateway(port: u16) -> (Reaped, Scratch) {
         .unwrap();
     assert!(example.status.success());
     let text = String::from_utf8(example.stdout).unwrap();
-    assert!(text.contains("out = [0x0002, 0, 0]\n"), "the example's conveyor");
+    assert!(
+        text.contains("out = [0x0002, 0, 0]\n"),
+        "the example's conveyor"
+    );
     let config = text
         .replacen("broker = \"mqtt://127.0.0.1:1883\"", "broker = \"off\"", 1)
         .replacen("metrics = \"127.0.0.1:9464\"", "metrics = \"off\"", 1)
@@ -107,7 +110,9 @@ fn lost_stops(addr: SocketAddr) -> usize {
             a["action"]
                 .as_str()
                 .is_some_and(|s| s.starts_with("page lost: stop drive conveyor"))
-                && a["outcome"].as_str().is_some_and(|s| s.starts_with("stopped"))
+                && a["outcome"]
+                    .as_str()
+                    .is_some_and(|s| s.starts_with("stopped"))
         })
         .count()
 }
@@ -115,9 +120,11 @@ fn lost_stops(addr: SocketAddr) -> usize {
 /// Open the conveyor's view, wait for its control, type `setpoint`, enable.
 fn enable(s: &Session, port: u16, setpoint: &str) {
     s.open(&format!("http://127.0.0.1:{port}/#drive/0/0"));
-    s.wait_for(20, "return !!document.getElementById('control-enable')", |v| {
-        v == &Value::Bool(true)
-    });
+    s.wait_for(
+        20,
+        "return !!document.getElementById('control-enable')",
+        |v| v == &Value::Bool(true),
+    );
     s.run(&format!(
         "const i = document.getElementById('control-setpoint'); i.value = '{setpoint}'; \
          document.getElementById('control-enable').click(); return true;"
@@ -125,8 +132,7 @@ fn enable(s: &Session, port: u16, setpoint: &str) {
 }
 
 #[test]
-fn the_page_enables_a_page_control_drive_at_a_setpoint_and_leaving_or_closing_it_stops_the_drive()
-{
+fn the_page_enables_a_page_control_drive_at_a_setpoint_and_leaving_or_closing_it_stops_the_drive() {
     let Some((chromium, chromedriver)) = browser_tools() else {
         return;
     };
@@ -157,7 +163,10 @@ fn the_page_enables_a_page_control_drive_at_a_setpoint_and_leaving_or_closing_it
     s.wait_for(
         20,
         "return document.getElementById('control-state').textContent",
-        |v| v.as_str().is_some_and(|t| t.contains("enabled at 300.0 1/min")),
+        |v| {
+            v.as_str()
+                .is_some_and(|t| t.contains("enabled at 300.0 1/min"))
+        },
     );
     let speed = wait_speed(addr, 30, "the speed follows the setpoint", |v| {
         (v - 300.0).abs() < 0.5
@@ -165,7 +174,9 @@ fn the_page_enables_a_page_control_drive_at_a_setpoint_and_leaving_or_closing_it
     assert!((speed - 300.0).abs() < 0.5);
     let message = s.run("return document.getElementById('control-message').textContent");
     assert!(
-        message.as_str().is_some_and(|t| t.contains("enable at 300.0 1/min")),
+        message
+            .as_str()
+            .is_some_and(|t| t.contains("enable at 300.0 1/min")),
         "{message}"
     );
     // While it drives, the page asks before it is left (beforeunload is armed).
@@ -183,7 +194,9 @@ fn the_page_enables_a_page_control_drive_at_a_setpoint_and_leaving_or_closing_it
     );
     assert_eq!(refused[0], 403, "{refused}");
     assert!(
-        refused[1].as_str().is_some_and(|m| m.contains("page_control = true")),
+        refused[1]
+            .as_str()
+            .is_some_and(|m| m.contains("page_control = true")),
         "{refused}"
     );
     // A second page (another lease) is refused and told who drives it.
@@ -193,7 +206,9 @@ fn the_page_enables_a_page_control_drive_at_a_setpoint_and_leaving_or_closing_it
     );
     assert_eq!(second[0], 409, "{second}");
     assert!(
-        second[1].as_str().is_some_and(|m| m.contains("driven from another page by local")),
+        second[1]
+            .as_str()
+            .is_some_and(|m| m.contains("driven from another page by local")),
         "{second}"
     );
 
@@ -205,10 +220,14 @@ fn the_page_enables_a_page_control_drive_at_a_setpoint_and_leaving_or_closing_it
 
     // Enabled again, then the browser session ends: the drive stops.
     enable(&s, port, "150");
-    wait_speed(addr, 30, "enabled again at 150", |v| (v - 150.0).abs() < 0.5);
+    wait_speed(addr, 30, "enabled again at 150", |v| {
+        (v - 150.0).abs() < 0.5
+    });
     drop(s);
     let stopped_at = Instant::now();
-    wait_speed(addr, 30, "closing the browser stops the drive", |v| v == 0.0);
+    wait_speed(addr, 30, "closing the browser stops the drive", |v| {
+        v == 0.0
+    });
     let (_, inputs) = conveyor(addr);
     // PI1 is status word 1: bit 0 "output stage enabled" clear once stopped on the ramp.
     let until = Instant::now() + Duration::from_secs(10);

@@ -692,7 +692,7 @@ async fn a_second_page_and_a_drive_without_page_control_are_refused() {
             let plant = page_plant();
             let h = start(&plant);
             sleep(Duration::from_millis(200)).await;
-            let (_lease, _rx) = h.take(0, "alice").await.unwrap();
+            let (lease, _rx) = h.take(0, "alice").await.unwrap();
             let second = h.take(0, "bob").await;
             match second {
                 Err(ClientError::Request(m)) => {
@@ -732,6 +732,25 @@ async fn a_second_page_and_a_drive_without_page_control_are_refused() {
                     .all(|(_, w)| w == &vec![0x0102, 7]),
                 "nothing commanded yet"
             );
+            // The page's stop: the stop words from the next cycle on, the lease still held.
+            let before_stop = Instant::now();
+            let stopped = h
+                .control(
+                    0,
+                    ControlOp::Command {
+                        lease,
+                        command: PageCommand::Stop,
+                    },
+                )
+                .await;
+            assert!(
+                matches!(stopped, Ok(Answer::Text(ref t)) if t.contains("sent stop")),
+                "{stopped:?}"
+            );
+            sleep(Duration::from_millis(200)).await;
+            let after = h.sent_since(1, before_stop);
+            assert_eq!(after.last().map(|(_, w)| w.clone()), Some(vec![2, 0]));
+            assert!(h.take(0, "bob").await.is_err(), "alice still holds it");
         })
         .await;
 }
