@@ -221,6 +221,13 @@ pub enum ControlOp {
         /// drive at the next cycle once it has no receiver.
         lease: std::sync::Arc<tokio::sync::watch::Sender<serde_json::Value>>,
     },
+    /// The page holding lease number `lease` is still there (it says so every second; a
+    /// lease not heard of for [`LEASE_SILENCE`] ends as if its page had gone: a connection
+    /// lost without a word ends no TCP stream for minutes). Answered at once ([`Answer::Done`]).
+    Alive {
+        /// The lease's number.
+        lease: u64,
+    },
     /// Run `command` for the page holding lease number `lease`: answered after the cycle that
     /// sent it ([`Answer::Text`]: what was sent and what the drive answered).
     Command {
@@ -230,6 +237,10 @@ pub enum ControlOp {
         command: PageCommand,
     },
 }
+
+/// How long a lease may go unheard of ([`ControlOp::Alive`], or a command) before the drive
+/// is stopped as if its page had gone.
+pub const LEASE_SILENCE: Duration = Duration::from_secs(5);
 
 /// What a page sends a drive it controls, in the family's words.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -2,7 +2,7 @@
 //! a drive at a time, holding a lease; while it does, the family's control and setpoint words
 //! replace the config's `out` in the drive's cycles. A command is answered after the cycle
 //! that sent it. Once the lease has no receiver (the page closed, reloaded, lost its
-//! connection) the next cycle sends the family's stop, the action log says that a lost page
+//! connection) or was not heard of for [`LEASE_SILENCE`], the next cycle sends the family's stop, the action log says that a lost page
 //! stopped it, and the cycles after it send the config's `out` again.
 
 use std::sync::Arc;
@@ -16,7 +16,7 @@ use tokio::sync::{oneshot, watch};
 
 use super::super::bus::BusAccess;
 use super::super::config::Bus;
-use super::super::model::{Answer, Ask, ControlOp, DriveIx, PageCommand};
+use super::super::model::{Answer, Ask, ControlOp, DriveIx, LEASE_SILENCE, PageCommand};
 use crate::ui::auth::{self, Who};
 
 /// The reply of an ask.
@@ -41,6 +41,8 @@ pub struct Driven {
     inputs: Vec<u16>,
     /// The lease ended: the stop goes out at the next cycle.
     lost: bool,
+    /// When the page last said it is there.
+    heard: tokio::time::Instant,
     /// Done: the task forgets the drive after this cycle.
     pub released: bool,
 }
@@ -177,12 +179,24 @@ pub fn take(ask: Ask, op: ControlOp, bus: &Bus, family: Family, driven: &mut [Op
                 sent: Vec::new(),
                 inputs: Vec::new(),
                 lost: false,
+                heard: tokio::time::Instant::now(),
                 released: false,
             });
             let _ = ask.reply.send(Ok(Answer::Lease(lease_no)));
         }
+        ControlOp::Alive { lease } => match slot.as_mut() {
+            Some(d) if d.lease_no == lease && !d.lost && !d.lease.is_closed() => {
+                d.heard = tokio::time::Instant::now();
+                let _ = ask.reply.send(Ok(Answer::Done));
+            }
+            _ => refuse(
+                ask.reply,
+                format!("this page does not drive {}", words_of(bus, drive)),
+            ),
+        },
         ControlOp::Command { lease, command } => match slot.as_mut() {
             Some(d) if d.lease_no == lease && !d.lost && !d.lease.is_closed() => {
+                d.heard = tokio::time::Instant::now();
                 if let Some((_, old)) = d.pending.replace((command, ask.reply)) {
                     refuse(
                         old,
@@ -220,8 +234,12 @@ pub async fn cycle<B: BusAccess>(
     out: &[u16],
     d: &mut Driven,
 ) -> Result<Vec<u16>, ClientError> {
-    if !d.lost && d.lease.is_closed() {
+    let silent = d.heard.elapsed() > LEASE_SILENCE;
+    if !d.lost && (d.lease.is_closed() || silent) {
         d.lost = true;
+        if silent {
+            tracing::warn!(bus = %bus.name, user = %d.who.user, "the page that drives {} was not heard of for {} s: stopping it", words_of(bus, drive), LEASE_SILENCE.as_secs());
+        }
         if let Some((_, reply)) = d.pending.take() {
             let _ = reply.send(Err(ClientError::Request("the page went away".to_owned())));
         }

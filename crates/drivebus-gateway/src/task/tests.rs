@@ -832,3 +832,50 @@ fn the_families_words_follow_the_drive_s_layout() {
     );
     assert!(nord_control_words(&[0], PageCommand::Enable { word: 1 }, &[], &[]).is_err());
 }
+
+/// A lease whose page is silent (a connection lost without a word keeps its TCP stream open
+/// for minutes) ends after LEASE_SILENCE: the stop goes out; a page that says it is there
+/// keeps driving.
+#[tokio::test(start_paused = true)]
+async fn a_silent_lease_ends_and_its_drive_is_stopped() {
+    tokio::task::LocalSet::new()
+        .run_until(async {
+            let plant = page_plant();
+            let h = start(&plant);
+            sleep(Duration::from_millis(200)).await;
+            let (lease, _rx) = h.take(0, "carol").await.unwrap();
+            let enable = PageCommand::Enable { word: 500 };
+            h.control(
+                0,
+                ControlOp::Command {
+                    lease,
+                    command: enable,
+                },
+            )
+            .await
+            .unwrap();
+            // Heard of every second for twice the silence: it keeps driving.
+            for _ in 0..10 {
+                sleep(Duration::from_secs(1)).await;
+                assert!(matches!(
+                    h.control(0, ControlOp::Alive { lease }).await,
+                    Ok(Answer::Done)
+                ));
+            }
+            let quiet = Instant::now();
+            let sent = h.sent_since(1, h.t0);
+            assert_eq!(sent.last().map(|(_, w)| w.clone()), Some(vec![6, 500]));
+            sleep(crate::model::LEASE_SILENCE + Duration::from_millis(200)).await;
+            let after = h.sent_since(1, quiet);
+            let stop = after
+                .iter()
+                .position(|(_, w)| w == &vec![2, 0])
+                .expect("the stop goes out");
+            let (at, _) = after[stop];
+            assert!(at - quiet <= crate::model::LEASE_SILENCE + Duration::from_millis(60));
+            assert!(after[..stop].iter().all(|(_, w)| w == &vec![6, 500]));
+            assert!(after[stop + 1..].iter().all(|(_, w)| w == &vec![0x0102, 7]));
+            assert!(h.control(0, ControlOp::Alive { lease }).await.is_err());
+        })
+        .await;
+}

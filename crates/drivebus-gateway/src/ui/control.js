@@ -8,6 +8,7 @@ let controlLease = null; // { n, abort, b, d, driving }
 
 function endLease() {
   if (controlLease) {
+    clearInterval(controlLease.alive);
     controlLease.abort.abort();
     controlLease = null;
   }
@@ -83,7 +84,7 @@ function driveControl(b, d, view, bus, drive) {
       if (line.refused) message.textContent = line.refused;
     } else if (line.type === "ended") {
       state.textContent = "not driven from this page (the lease ended)";
-      if (controlLease && controlLease.b === b && controlLease.d === d) controlLease = null;
+      if (controlLease && controlLease.b === b && controlLease.d === d) endLease();
     }
   };
   const send = async (action) => {
@@ -99,6 +100,10 @@ function driveControl(b, d, view, bus, drive) {
       const lease = await openLease(b, d, show);
       if (lease.error) { message.textContent = lease.error; return; }
       controlLease = lease;
+      // The gateway stops the drive when it does not hear from this page for 5 s.
+      lease.alive = setInterval(() => {
+        postTo(`/api/drive/${b}/${d}/control`, JSON.stringify({ lease: lease.n, action: "alive" })).catch(() => {});
+      }, 1000);
     }
     const ok = await send(controlLease.driving ? "setpoint" : "enable");
     if (ok && controlLease) controlLease.driving = true;

@@ -179,7 +179,8 @@ async fn lease(
 pub struct CommandBody {
     /// The lease's number (the first line of the lease).
     pub lease: u64,
-    /// `enable`, `setpoint` (a new setpoint while enabled) or `stop`.
+    /// `enable`, `setpoint` (a new setpoint while enabled), `stop`, or `alive` (the page is
+    /// still there: every second while it holds the lease).
     pub action: String,
     /// The setpoint as typed, in the unit of the lease (`enable`, `setpoint`; 0 if absent).
     #[serde(default)]
@@ -208,6 +209,13 @@ async fn command(
     };
     let family = bus.protocol.family();
     let what = format!("drive {} on bus {}", drive.name, bus.name);
+    if body.action == "alive" {
+        return match ask(&hub, b, d, ControlOp::Alive { lease: body.lease }).await {
+            Some(Ok(_)) => json_response(StatusCode::OK, &json!({"ok": true})),
+            Some(Err(e)) => refused(&e),
+            None => unavailable("the bus task is not running"),
+        };
+    }
     let (command, words) = match body.action.as_str() {
         "enable" | "setpoint" => {
             let text = body.setpoint.as_deref().unwrap_or("0");
@@ -228,7 +236,7 @@ async fn command(
         other => {
             return json_response(
                 StatusCode::BAD_REQUEST,
-                &json!({"error": "bad_request", "ok": false, "message": format!("action `{}`: give enable, setpoint or stop", other.chars().take(40).collect::<String>())}),
+                &json!({"error": "bad_request", "ok": false, "message": format!("action `{}`: give enable, setpoint, stop or alive", other.chars().take(40).collect::<String>())}),
             );
         }
     };
