@@ -2,8 +2,10 @@
 //! a drive at a time, holding a lease; while it does, the family's control and setpoint words
 //! replace the config's `out` in the drive's cycles. A command is answered after the cycle
 //! that sent it. Once the lease has no receiver (the page closed, reloaded, lost its
-//! connection) or was not heard of for [`LEASE_SILENCE`], the next cycle sends the family's stop, the action log says that a lost page
-//! stopped it, and the cycles after it send the config's `out` again.
+//! connection) or was not heard of for
+//! [`LEASE_SILENCE`](crate::model::LEASE_SILENCE), the next cycle sends the family's stop, the
+//! action log says that a lost page stopped it, and the cycles after it send the config's
+//! `out` again.
 
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -348,7 +350,7 @@ pub async fn cycle<B: BusAccess>(
 }
 
 /// At the gateway's stop: the action log says who drove which drive when the gateway stopped
-/// it (the stop itself is [`super::stop_process_data`]'s).
+/// it (the stop itself is the one every process-data drive gets).
 pub fn at_gateway_stop(bus: &Bus, driven: &[Option<Driven>]) {
     for (i, d) in driven.iter().enumerate() {
         if let Some(d) = d
