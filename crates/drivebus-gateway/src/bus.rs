@@ -9,7 +9,7 @@ use tokio::sync::mpsc;
 
 use super::config::Bus;
 use super::metrics::Metrics;
-use super::model::{Ask, BusIx, SetRequest, Update};
+use super::model::{Ask, BusIx, PageCommand, SetRequest, Update};
 use drive_client::{ClientError, ParamClient};
 
 /// The kinds of transaction a bus task runs, for wire time and metrics.
@@ -109,6 +109,31 @@ pub trait BusAccess {
     /// `Some(Some(text))` the fault (as [`BusAccess::fault`] names it), `None` where the inputs
     /// carry no status word (then only the status reads tell).
     fn fault_in_inputs(&self, _address: u8, _inputs: &[u16]) -> Option<Option<String>> {
+        None
+    }
+
+    /// The process output words that carry the page's `command` to the drive at `address` in
+    /// place of the config's `out` (SEW: the command in every control word slot and the speed
+    /// setpoint in the speed slot, as P870–P872 describe them, read once; NORD: STW toward
+    /// "operation enabled" step by step from the status word in `inputs`, the last exchange's
+    /// input words, after `sent`, its output words; SW1 the setpoint). `Ok(Err(why))` when the
+    /// drive cannot be driven so (no control word, no setpoint word, no process data).
+    async fn control_words(
+        &mut self,
+        _address: u8,
+        _out: &[u16],
+        _command: PageCommand,
+        _sent: &[u16],
+        _inputs: &[u16],
+    ) -> Result<Result<Vec<u16>, String>, ClientError> {
+        Ok(Err(
+            "the gateway has no process data control for this bus".to_owned()
+        ))
+    }
+
+    /// The drive's state as its process input words show it, in words for a person (`None`
+    /// where they carry no status word).
+    fn state_in_inputs(&self, _address: u8, _inputs: &[u16]) -> Option<String> {
         None
     }
 

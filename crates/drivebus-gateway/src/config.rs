@@ -173,6 +173,9 @@ pub struct ProcessDataFile {
     pub period: String,
     /// The output words sent every cycle (control word first).
     pub out: Vec<u16>,
+    /// The browser page may enable and stop the drive with a setpoint (`docs/ui.md`).
+    #[serde(default)]
+    pub page_control: bool,
 }
 
 /// The protocol of a bus.
@@ -478,6 +481,9 @@ pub struct ProcessData {
     pub period: Duration,
     /// Output words.
     pub out: Vec<u16>,
+    /// The browser page may enable and stop the drive with a setpoint: while a page drives it,
+    /// the family's control and setpoint words replace `out`.
+    pub page_control: bool,
 }
 
 /// The largest config file read (a plant of thousands of drives is far below it).
@@ -1126,6 +1132,7 @@ fn check_drive(
             Some(ProcessData {
                 period,
                 out: pd.out,
+                page_control: pd.page_control,
             })
         }
     };

@@ -202,6 +202,57 @@ pub enum AskOp {
     ),
     /// The drive's identification for a backup: [`Answer::Identity`].
     Identify,
+    /// The page's control of the drive over process data (no transaction of its own: it
+    /// changes the words of the drive's next cycles).
+    Control(ControlOp),
+}
+
+/// What the page asks of a drive it controls over process data ([`AskOp::Control`]); refused
+/// as [`ClientError::Request`](drive_client::ClientError::Request) with the reason.
+#[derive(Debug, Clone)]
+pub enum ControlOp {
+    /// Take the drive for `who`: the page drives it for as long as `lease` has a receiver
+    /// (the page's open answer, which hears every cycle's state on it). Answered with the
+    /// lease's number ([`Answer::Lease`]); refused when another page drives it.
+    Take {
+        /// The user, for the action log and for a page refused.
+        who: crate::ui::auth::Who,
+        /// The lease: the bus task sends the drive's state on it each cycle, and stops the
+        /// drive at the next cycle once it has no receiver.
+        lease: std::sync::Arc<tokio::sync::watch::Sender<serde_json::Value>>,
+    },
+    /// The page holding lease number `lease` is still there (it says so every second; a
+    /// lease not heard of for [`LEASE_SILENCE`] ends as if its page had gone: a connection
+    /// lost without a word ends no TCP stream for minutes). Answered at once ([`Answer::Done`]).
+    Alive {
+        /// The lease's number.
+        lease: u64,
+    },
+    /// Run `command` for the page holding lease number `lease`: answered after the cycle that
+    /// sent it ([`Answer::Text`]: what was sent and what the drive answered).
+    Command {
+        /// The lease's number.
+        lease: u64,
+        /// What to send.
+        command: PageCommand,
+    },
+}
+
+/// How long a lease may go unheard of ([`ControlOp::Alive`], or a command) before the drive
+/// is stopped as if its page had gone.
+pub const LEASE_SILENCE: Duration = Duration::from_secs(5);
+
+/// What a page sends a drive it controls, in the family's words.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PageCommand {
+    /// Enable at the setpoint (already the family's setpoint word: SEW 0.2 1/min per digit,
+    /// NORD SW1 with 4000h = 100 %); a new setpoint while enabled is another `Enable`.
+    Enable {
+        /// The setpoint word.
+        word: u16,
+    },
+    /// Stop on the ramp (SEW control word "stop", NORD STW shutdown 047Eh).
+    Stop,
 }
 
 /// What a drive's client knows without a transaction.
@@ -230,4 +281,6 @@ pub enum Answer {
     Done,
     /// [`AskOp::Identify`].
     Identity(serde_json::Map<String, serde_json::Value>),
+    /// [`ControlOp::Take`]: the lease's number.
+    Lease(u64),
 }

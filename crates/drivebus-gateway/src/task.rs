@@ -166,6 +166,8 @@ pub async fn run_bus<B: BusAccess>(ctx: BusContext, mut access: B) {
         asks_open: true,
         held: Vec::new(),
     };
+    // The drives a page drives (`page_control`).
+    let mut driven: Vec<Option<control::Driven>> = bus.drives.iter().map(|_| None).collect();
     let facts: Vec<Facts> = bus
         .drives
         .iter()
@@ -174,7 +176,7 @@ pub async fn run_bus<B: BusAccess>(ctx: BusContext, mut access: B) {
     // A transaction under way is finished; then the loop ends at the shutdown.
     while !updates.is_closed() && !*shutdown.borrow() {
         for ask in std::mem::take(&mut inbox.held) {
-            take_ask(ask, &bus, &facts, &mut sched, &mut access);
+            take_ask(ask, &bus, &facts, &mut sched, &mut access, &mut driven);
         }
         let now = Instant::now();
         if now >= next_figures {
@@ -193,7 +195,7 @@ pub async fn run_bus<B: BusAccess>(ctx: BusContext, mut access: B) {
                         None => inbox.sets_open = false,
                     },
                     ask = inbox.asks.recv(), if inbox.asks_open => match ask {
-                        Some(ask) => take_ask(ask, &bus, &facts, &mut sched, &mut access),
+                        Some(ask) => take_ask(ask, &bus, &facts, &mut sched, &mut access, &mut driven),
                         None => inbox.asks_open = false,
                     },
                 }
@@ -228,8 +230,19 @@ pub async fn run_bus<B: BusAccess>(ctx: BusContext, mut access: B) {
             }
             Next::Run(job) => {
                 let started = Instant::now();
-                let fut = run_job(&mut access, &bus, job);
+                let page = match job {
+                    Job::ProcessData { drive, .. } => {
+                        driven.get_mut(drive).and_then(Option::as_mut)
+                    }
+                    _ => None,
+                };
+                let fut = run_job(&mut access, &bus, job, page);
                 let result = inbox.meanwhile(fut, &bus, &mut sched).await;
+                if let Some(slot) = driven.get_mut(job.drive())
+                    && slot.as_ref().is_some_and(|d| d.released)
+                {
+                    *slot = None;
+                }
                 if !out.job_done(&mut sched, job, started, result).await {
                     return;
                 }
@@ -269,6 +282,7 @@ pub async fn run_bus<B: BusAccess>(ctx: BusContext, mut access: B) {
         }
     }
     if *shutdown.borrow() {
+        control::at_gateway_stop(&bus, &driven);
         stop_process_data(&mut access, &bus, &sched).await;
     }
 }
@@ -510,6 +524,7 @@ fn take_ask<B: BusAccess>(
     facts: &[Facts],
     sched: &mut Scheduler<Pending>,
     access: &mut B,
+    driven: &mut [Option<control::Driven>],
 ) {
     let Some(f) = facts.get(ask.drive) else {
         let m = format!("bus {} has no drive number {}", bus.name, ask.drive);
@@ -535,6 +550,10 @@ fn take_ask<B: BusAccess>(
     if let Some(answer) = now {
         let _ = ask.reply.send(answer);
         return;
+    }
+    if let AskOp::Control(op) = &ask.op {
+        let op = op.clone();
+        return control::take(ask, op, bus, f.family, driven);
     }
     let (read, write) = sched.wire_times();
     let wire = match &ask.op {
@@ -588,11 +607,20 @@ async fn run_ask<B: BusAccess>(
             .await
             .map(|()| Answer::Done),
         AskOp::Identify => client.identify().await.map(Answer::Identity),
+        // Taken at once ([`take_ask`]), never queued.
+        AskOp::Control(_) => Err(ClientError::Request(
+            "a control request is no transaction".to_owned(),
+        )),
     }
 }
 
 /// Run one read job.
-async fn run_job<B: BusAccess>(access: &mut B, bus: &Bus, job: Job) -> Result<Read, ClientError> {
+async fn run_job<B: BusAccess>(
+    access: &mut B,
+    bus: &Bus,
+    job: Job,
+    page: Option<&mut control::Driven>,
+) -> Result<Read, ClientError> {
     let Some(drive) = bus.drives.get(job.drive()) else {
         return Err(ClientError::Request(format!("no drive {}", job.drive())));
     };
@@ -612,7 +640,10 @@ async fn run_job<B: BusAccess>(access: &mut B, bus: &Bus, job: Job) -> Result<Re
                 .process_data
                 .as_ref()
                 .map_or(&[][..], |pd| pd.out.as_slice());
-            let words = access.process_data(drive.address, out).await?;
+            let words = match page {
+                Some(d) => control::cycle(access, bus, job.drive(), drive.address, out, d).await?,
+                None => access.process_data(drive.address, out).await?,
+            };
             let fault = access.fault_in_inputs(drive.address, &words);
             Ok(Read::ProcessData(words, fault))
         }
@@ -1067,6 +1098,9 @@ async fn write_point<B: BusAccess>(
 /// A scripted bus for the gateway's tests: drives that answer after their wire time on
 /// tokio's clock, drives that are dead (each attempt waits the timeout), and a record of every
 /// transaction.
+/// The page's control of a drive over process data.
+pub mod control;
+
 #[cfg(test)]
 pub(crate) mod fake;
 

@@ -33,6 +33,7 @@ use crate::model::{Ask, Update};
 use crate::mqtt::payload;
 
 pub mod auth;
+pub mod control;
 pub mod history;
 
 /// How many events a watching page may fall behind before it is told to load the plant again.
@@ -222,6 +223,7 @@ impl Hub {
                             "status": get(latest.status.get(b).and_then(|x| x.get(d))),
                             "process_data": get(latest.process_data.get(b).and_then(|x| x.get(d))),
                             "points": points,
+                            "control": control::drive_json(bus, drive),
                         })
                     })
                     .collect();
@@ -347,6 +349,7 @@ pub fn router_with(hub: Arc<Hub>, auth: Arc<auth::Auth>) -> Router {
             )),
         )
         .route("/api/history/{bus}/{drive}/{point}", get(history))
+        .merge(control::routes())
         .merge(auth::routes(auth.clone()))
         .layer(middleware::from_fn_with_state(auth, auth::guard))
         .layer(middleware::from_fn(guard))

@@ -724,3 +724,28 @@ fn issue18_the_selectors_the_table_has_are_taken() {
         .writable
     );
 }
+
+/// `page_control` lets the page drive a drive over its process data; it is off unless given,
+/// and only a boolean.
+#[test]
+fn page_control_is_a_boolean_of_the_process_data_and_off_by_default() {
+    let pd = |extra: &str| {
+        with(
+            "[[bus.drive.param]]",
+            &format!(
+                "[bus.drive.process_data]\nperiod = \"50ms\"\nout = [2, 0]\n{extra}[[bus.drive.param]]"
+            ),
+        )
+    };
+    let drive = |text: &str| {
+        let plant = Plant::parse(text, "plant.toml").unwrap();
+        plant.buses[0].drives[0].process_data.clone().unwrap()
+    };
+    assert!(!drive(&pd("")).page_control);
+    assert!(drive(&pd("page_control = true\n")).page_control);
+    let e = err(&pd("page_control = \"yes\"\n"));
+    assert!(
+        e.contains("expected a boolean") && e.starts_with("plant.toml:18:"),
+        "{e}"
+    );
+}

@@ -26,6 +26,7 @@ use super::io::{CanBox, LineIo, SharedLine};
 use super::wire::WireDesc;
 use crate::bus::{BusAccess, LinkTally, Op};
 use crate::config::Bus;
+use crate::model::PageCommand;
 use drive_client::Plain;
 use drive_client::bonfiglioli::BonfiglioliClient;
 use drive_client::nord::NordParamClient;
@@ -573,6 +574,118 @@ pub struct Access {
     /// MOVIDRIVE: the process input word that is status word 1 (P873–P875 = 6), per drive
     /// address, as read before the first cycle.
     pub status_slots: Vec<(u8, usize)>,
+    /// MOVIDRIVE: where the page's control goes in the process output words, per drive
+    /// address, read (P870–P872) before the page's first cycle.
+    pub control_layouts: Vec<(u8, SewLayout)>,
+}
+
+/// Where a MOVIDRIVE takes the page's control in its process output words (P870–P872).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct SewLayout {
+    /// The words that are control words (9, 10).
+    pub control: Vec<usize>,
+    /// The word that is the speed setpoint (1), if one is.
+    pub speed: Option<usize>,
+}
+
+/// The layout P870–P872 (their values `descriptions`) give the first words.
+pub fn sew_layout(descriptions: &[u32]) -> SewLayout {
+    SewLayout {
+        control: descriptions
+            .iter()
+            .enumerate()
+            .filter(|(_, d)| matches!(d, 9 | 10))
+            .map(|(i, _)| i)
+            .collect(),
+        speed: descriptions.iter().position(|d| *d == 1),
+    }
+}
+
+/// P870–P872 of the first `words` process output words.
+async fn read_layout<L: SewLink>(link: &mut L, words: usize) -> Result<SewLayout, ClientError> {
+    let mut d = Vec::new();
+    for i in [sew_index::PO1_DESCRIPTION, 8305, 8306]
+        .into_iter()
+        .take(words)
+    {
+        d.push(
+            link.service(drive_profile::sew::ParamChannel::read(i))
+                .await?,
+        );
+    }
+    Ok(sew_layout(&d))
+}
+
+/// The output words that carry `command` to a MOVIDRIVE whose output words are laid out as
+/// `layout`, the others as `out` has them.
+pub fn sew_control_words(
+    layout: &SewLayout,
+    out: &[u16],
+    command: PageCommand,
+) -> Result<Vec<u16>, String> {
+    if layout.control.is_empty() {
+        return Err(
+            "no process output word is a control word (P870–P872 = 9 or 10): the \
+                    drive cannot be driven over process data"
+                .to_owned(),
+        );
+    }
+    let (cmd, word) = match command {
+        PageCommand::Enable { word } => (ControlWord1::ENABLE, word),
+        PageCommand::Stop => (ControlWord1::STOP, 0),
+    };
+    let mut words = with_command(out, &layout.control, cmd);
+    match (layout.speed.and_then(|s| words.get_mut(s)), command) {
+        (Some(w), _) => *w = word,
+        (None, PageCommand::Enable { word: 0 }) | (None, PageCommand::Stop) => {}
+        (None, PageCommand::Enable { .. }) => {
+            return Err(
+                "no process output word is the speed setpoint (P870–P872 = 1 speed): set one \
+                 in the drive or give [bus.drive.process_data] out more words"
+                    .to_owned(),
+            );
+        }
+    }
+    Ok(words)
+}
+
+/// The output words that carry `command` to a NORD drive: STW first, toward "operation
+/// enabled" from the state the status word in `inputs` shows (after `sent`), or shutdown;
+/// SW1 second.
+pub fn nord_control_words(
+    out: &[u16],
+    command: PageCommand,
+    sent: &[u16],
+    inputs: &[u16],
+) -> Result<Vec<u16>, String> {
+    use drive_profile::nord::{NordStateMachine, State, StatusWord, command as nord_command};
+    let mut words = out.to_vec();
+    let (stw, sw1) = match command {
+        PageCommand::Enable { word } => {
+            let state = StatusWord(inputs.first().copied().unwrap_or(0)).state();
+            let last = sent.first().copied().unwrap_or(0);
+            let stw = NordStateMachine::next_control(last, state, State::OperationEnabled)
+                .unwrap_or_else(|| drive_client::control::nord::hold_word(State::OperationEnabled));
+            (stw, word)
+        }
+        PageCommand::Stop => (nord_command::SHUTDOWN.0, 0),
+    };
+    match words.first_mut() {
+        Some(w) => *w = stw,
+        None => return Err("no process data words configured".to_owned()),
+    }
+    match (words.get_mut(1), command) {
+        (Some(w), _) => *w = sw1,
+        (None, PageCommand::Enable { word: 0 }) | (None, PageCommand::Stop) => {}
+        (None, PageCommand::Enable { .. }) => {
+            return Err(
+                "the process data carry no setpoint word: give [bus.drive.process_data] out \
+                 two words (STW, SW1)"
+                    .to_owned(),
+            );
+        }
+    }
+    Ok(words)
 }
 
 /// The protocol's part of an [`Access`].
@@ -767,6 +880,65 @@ impl BusAccess for Access {
             Proto::Modbus(_) => return Ok(Err("Modbus has no process data".to_owned())),
         }
         self.process_data(address, &words).await.map(Ok)
+    }
+
+    async fn control_words(
+        &mut self,
+        address: u8,
+        out: &[u16],
+        command: PageCommand,
+        sent: &[u16],
+        inputs: &[u16],
+    ) -> Result<Result<Vec<u16>, String>, ClientError> {
+        if let Proto::Uss(_) = self.proto {
+            return Ok(nord_control_words(out, command, sent, inputs));
+        }
+        if let Some((_, layout)) = self.control_layouts.iter().find(|(a, _)| *a == address) {
+            return Ok(sew_control_words(layout, out, command));
+        }
+        let layout = match &mut self.proto {
+            Proto::Movilink(b) => {
+                let mut c = b.client_of(address).map_err(ClientError::Request)?;
+                read_layout(&mut c.link, out.len()).await?
+            }
+            Proto::Sbus(b) => {
+                let mut c = b.client_of(address).map_err(ClientError::Request)?;
+                read_layout(&mut c.link, out.len()).await?
+            }
+            Proto::Uss(_) | Proto::Modbus(_) => {
+                return Ok(Err(
+                    "Bonfiglioli drives have no process data in the gateway: no control from \
+                     the page"
+                        .to_owned(),
+                ));
+            }
+        };
+        let words = sew_control_words(&layout, out, command);
+        self.control_layouts.push((address, layout));
+        Ok(words)
+    }
+
+    fn state_in_inputs(&self, address: u8, inputs: &[u16]) -> Option<String> {
+        match &self.proto {
+            Proto::Uss(_) => inputs.first().map(|w| {
+                drive_client::meaning::nord_state_text(drive_profile::nord::StatusWord(*w).state())
+            }),
+            Proto::Movilink(_) | Proto::Sbus(_) => {
+                let (_, slot) = self.status_slots.iter().find(|(a, _)| *a == address)?;
+                let sw = StatusWord1::from_bits(*inputs.get(*slot)?);
+                if let Some(fault) = drive_client::meaning::sew_fault_text(sw) {
+                    return Some(format!("fault: {fault}"));
+                }
+                let unit = sw.unit_status().map_or("?", |u| u.name());
+                let stage = if sw.contains(StatusWord1::OUTPUT_STAGE_ENABLED) {
+                    "output stage enabled"
+                } else {
+                    "output stage inhibited"
+                };
+                Some(format!("{unit}, {stage}"))
+            }
+            Proto::Modbus(_) => None,
+        }
     }
 
     async fn fault(&mut self, address: u8) -> Result<Option<String>, ClientError> {

@@ -204,6 +204,7 @@ pub fn open_bus(bus: &Bus) -> Access {
         proto,
         wire,
         status_slots: Vec::new(),
+        control_layouts: Vec::new(),
     }
 }
 
@@ -300,6 +301,7 @@ pub fn simulated_bus(bus: &Bus) -> SimulatedBus {
             proto,
             wire,
             status_slots: Vec::new(),
+            control_layouts: Vec::new(),
         },
         faults,
         can,

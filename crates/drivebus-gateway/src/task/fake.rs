@@ -9,6 +9,7 @@ use tokio::time::Instant;
 
 use super::super::bus::{BusAccess, LinkTally, Op};
 use super::super::config::{Bus, Plant};
+use super::super::model::PageCommand;
 use drive_client::{ClientError, DeviceError, DeviceErrorKind, ParamClient, Target};
 
 /// What the test sees and changes while the bus runs.
@@ -30,6 +31,8 @@ pub struct State {
     pub retries: u64,
     /// Every stop sent in process data: address, output words given.
     pub stopped: Vec<(u8, Vec<u16>)>,
+    /// Every process-data exchange: when it started, the address, the output words sent.
+    pub exchanged: Vec<(Instant, u8, Vec<u16>)>,
 }
 
 /// The bus.
@@ -126,8 +129,34 @@ impl BusAccess for FakeBus {
     }
     async fn process_data(&mut self, address: u8, out: &[u16]) -> Result<Vec<u16>, ClientError> {
         let n = u8::try_from(out.len()).unwrap_or(u8::MAX);
+        self.state
+            .borrow_mut()
+            .exchanged
+            .push((Instant::now(), address, out.to_vec()));
         self.transaction(address, Op::ProcessData(n)).await?;
         Ok(out.iter().map(|w| w ^ 0xFFFF).collect())
+    }
+    /// Like a MOVIDRIVE with PO1 the control word and PO2 the speed setpoint.
+    async fn control_words(
+        &mut self,
+        _address: u8,
+        out: &[u16],
+        command: PageCommand,
+        _sent: &[u16],
+        _inputs: &[u16],
+    ) -> Result<Result<Vec<u16>, String>, ClientError> {
+        let mut w = out.to_vec();
+        let (cw, sp) = match command {
+            PageCommand::Enable { word } => (6, word),
+            PageCommand::Stop => (2, 0),
+        };
+        if let Some(x) = w.get_mut(0) {
+            *x = cw;
+        }
+        if let Some(x) = w.get_mut(1) {
+            *x = sp;
+        }
+        Ok(Ok(w))
     }
     async fn stop_process_data(
         &mut self,

@@ -565,3 +565,369 @@ async fn a_backup_stops_at_the_next_transaction_when_its_page_goes_away() {
         })
         .await;
 }
+
+/// Two drives with process data every 50 ms; only the first lets the page drive it.
+fn page_plant() -> Plant {
+    let t = "[gateway]\nname = \"gw\"\nbroker = \"mqtt://127.0.0.1:1883\"\nmetrics = \"off\"\n\
+             [[bus]]\nname = \"line1\"\nprotocol = \"movilink\"\nsimulate = true\n\
+             status_period = \"1s\"\n\
+             [[bus.drive]]\nname = \"belt\"\naddress = 1\n\
+             [bus.drive.process_data]\nperiod = \"50ms\"\nout = [0x0102, 7]\npage_control = true\n\
+             [[bus.drive]]\nname = \"fan\"\naddress = 2\n\
+             [bus.drive.process_data]\nperiod = \"50ms\"\nout = [0x0102, 7]\n";
+    match Plant::parse(t, "test") {
+        Ok(p) => p,
+        Err(e) => panic!("test config: {e}"),
+    }
+}
+
+fn who(user: &str) -> crate::ui::auth::Who {
+    crate::ui::auth::Who {
+        user: user.to_owned(),
+        role: crate::ui::auth::Role::Operator,
+    }
+}
+
+impl Harness {
+    async fn control(&self, drive: DriveIx, op: ControlOp) -> Result<Answer, ClientError> {
+        let (reply, rx) = oneshot::channel();
+        let ask = Ask {
+            drive,
+            op: AskOp::Control(op),
+            received: Instant::now(),
+            max_age: Duration::from_secs(5),
+            reply,
+        };
+        self.asks.send(ask).await.unwrap();
+        rx.await.unwrap()
+    }
+
+    /// Take `drive` for `user`: the lease's number and its receiver.
+    async fn take(
+        &self,
+        drive: DriveIx,
+        user: &str,
+    ) -> Result<(u64, tokio::sync::watch::Receiver<Value>), ClientError> {
+        let (tx, rx) = tokio::sync::watch::channel(Value::Null);
+        let op = ControlOp::Take {
+            who: who(user),
+            lease: Arc::new(tx),
+        };
+        match self.control(drive, op).await? {
+            Answer::Lease(n) => Ok((n, rx)),
+            other => panic!("not a lease: {other:?}"),
+        }
+    }
+
+    /// The words sent to `address` since `t`, each with its time.
+    fn sent_since(&self, address: u8, t: Instant) -> Vec<(Instant, Vec<u16>)> {
+        self.state
+            .borrow()
+            .exchanged
+            .iter()
+            .filter(|(at, a, _)| *a == address && *at >= t)
+            .map(|(at, _, w)| (*at, w.clone()))
+            .collect()
+    }
+}
+
+use crate::model::{ControlOp, PageCommand};
+
+/// Enable: the cycles after it carry the enable and the setpoint, and the command is answered
+/// after the cycle that sent it; the lease dropped: the stop goes out at the next cycle (within
+/// one period), then the config's `out` again.
+#[tokio::test(start_paused = true)]
+async fn the_page_drives_with_the_enable_and_setpoint_and_a_lost_lease_stops_within_a_cycle() {
+    tokio::task::LocalSet::new()
+        .run_until(async {
+            let plant = page_plant();
+            let h = start(&plant);
+            sleep(Duration::from_millis(300)).await;
+            assert!(
+                h.sent_since(1, h.t0)
+                    .iter()
+                    .all(|(_, w)| w == &vec![0x0102, 7]),
+                "the config's out until the page drives it"
+            );
+            let (lease, mut rx) = h.take(0, "alice").await.unwrap();
+            let word = control::setpoint_word(drive_profile::Family::Movidrive, "300").unwrap();
+            assert_eq!(word, 1500, "300 1/min at 0.2 1/min per digit");
+            let asked = Instant::now();
+            let answer = h
+                .control(
+                    0,
+                    ControlOp::Command {
+                        lease,
+                        command: PageCommand::Enable { word },
+                    },
+                )
+                .await
+                .unwrap();
+            let Answer::Text(text) = answer else {
+                panic!("{answer:?}")
+            };
+            assert!(text.contains("enable at 300.0 1/min"), "{text}");
+            let after = h.sent_since(1, asked);
+            assert_eq!(after.last().map(|(_, w)| w.clone()), Some(vec![6, 1500]));
+            assert!(
+                Instant::now() - asked <= Duration::from_millis(60),
+                "answered after one cycle"
+            );
+            let answered = Instant::now();
+            sleep(Duration::from_millis(200)).await;
+            assert!(
+                h.sent_since(1, answered)
+                    .iter()
+                    .all(|(_, w)| w == &vec![6, 1500])
+            );
+            // The lease hears each cycle's state.
+            assert!(rx.has_changed().unwrap());
+            let v = rx.borrow_and_update().clone();
+            assert_eq!(v["command"], "enable");
+            assert_eq!(v["sent"], json!([6, 1500]));
+            // The other drive never got the page's words.
+            assert!(
+                h.sent_since(2, h.t0)
+                    .iter()
+                    .all(|(_, w)| w == &vec![0x0102, 7])
+            );
+            let dropped = Instant::now();
+            drop(rx);
+            sleep(Duration::from_millis(300)).await;
+            let after = h.sent_since(1, dropped);
+            let (first, stop) = after.first().cloned().unwrap();
+            assert_eq!(
+                stop,
+                vec![2, 0],
+                "the stop is the first cycle after the lease ended"
+            );
+            assert!(
+                first - dropped <= Duration::from_millis(50),
+                "within one period"
+            );
+            assert!(after.len() > 2);
+            assert!(
+                after.iter().skip(1).all(|(_, w)| w == &vec![0x0102, 7]),
+                "then the config's out again: {after:?}"
+            );
+            // The action log says the lost page stopped it.
+            assert!(
+                crate::ui::auth::actions()
+                    .iter()
+                    .any(|a| a.user == "alice" && a.action.contains("page lost: stop drive belt")),
+            );
+            // The drive is free again: a command of the old lease is refused.
+            let late = h
+                .control(
+                    0,
+                    ControlOp::Command {
+                        lease,
+                        command: PageCommand::Stop,
+                    },
+                )
+                .await;
+            assert!(
+                matches!(late, Err(ClientError::Request(ref m)) if m.contains("lease ended")),
+                "{late:?}"
+            );
+            assert!(h.take(0, "bob").await.is_ok());
+        })
+        .await;
+}
+
+/// One page drives a drive at a time: a second is refused and told who drives it; a drive
+/// the config does not give the page is refused with what the config needs.
+#[tokio::test(start_paused = true)]
+async fn a_second_page_and_a_drive_without_page_control_are_refused() {
+    tokio::task::LocalSet::new()
+        .run_until(async {
+            let plant = page_plant();
+            let h = start(&plant);
+            sleep(Duration::from_millis(200)).await;
+            let (lease, _rx) = h.take(0, "alice").await.unwrap();
+            let second = h.take(0, "bob").await;
+            match second {
+                Err(ClientError::Request(m)) => {
+                    assert!(m.contains("driven from another page by alice"), "{m}")
+                }
+                other => panic!("{other:?}"),
+            }
+            // Another lease number does not command it either.
+            let (tx, _keep) = tokio::sync::watch::channel(Value::Null);
+            drop(tx);
+            let wrong = h
+                .control(
+                    0,
+                    ControlOp::Command {
+                        lease: u64::MAX,
+                        command: PageCommand::Stop,
+                    },
+                )
+                .await;
+            assert!(
+                matches!(wrong, Err(ClientError::Request(ref m)) if m.contains("alice does")),
+                "{wrong:?}"
+            );
+            match h.take(1, "alice").await {
+                Err(ClientError::Request(m)) => assert!(m.contains("page_control = true"), "{m}"),
+                other => panic!("{other:?}"),
+            }
+            sleep(Duration::from_millis(200)).await;
+            assert!(
+                h.sent_since(2, h.t0)
+                    .iter()
+                    .all(|(_, w)| w == &vec![0x0102, 7])
+            );
+            assert!(
+                h.sent_since(1, h.t0)
+                    .iter()
+                    .all(|(_, w)| w == &vec![0x0102, 7]),
+                "nothing commanded yet"
+            );
+            // The page's stop: the stop words from the next cycle on, the lease still held.
+            let before_stop = Instant::now();
+            let stopped = h
+                .control(
+                    0,
+                    ControlOp::Command {
+                        lease,
+                        command: PageCommand::Stop,
+                    },
+                )
+                .await;
+            assert!(
+                matches!(stopped, Ok(Answer::Text(ref t)) if t.contains("sent stop")),
+                "{stopped:?}"
+            );
+            sleep(Duration::from_millis(200)).await;
+            let after = h.sent_since(1, before_stop);
+            assert_eq!(after.last().map(|(_, w)| w.clone()), Some(vec![2, 0]));
+            assert!(h.take(0, "bob").await.is_err(), "alice still holds it");
+        })
+        .await;
+}
+
+/// Setpoints past the family's limits are refused with the reason before anything is sent.
+#[test]
+fn setpoints_are_checked_against_the_family_words() {
+    use drive_profile::Family;
+    assert_eq!(
+        control::setpoint_word(Family::Movidrive, "-1000"),
+        Ok((-5000i16) as u16)
+    );
+    assert_eq!(
+        control::setpoint_word(Family::Movidrive, "6553.4"),
+        Ok(32767)
+    );
+    let past = control::setpoint_word(Family::Movidrive, "7000").unwrap_err();
+    assert!(
+        past.contains("past what the speed setpoint word holds"),
+        "{past}"
+    );
+    let fine = control::setpoint_word(Family::Movidrive, "300.1").unwrap_err();
+    assert!(
+        fine.contains("nearest is 300.0") || fine.contains("nearest is 300.2"),
+        "{fine}"
+    );
+    assert!(control::setpoint_word(Family::Movidrive, "fast").is_err());
+    assert_eq!(control::setpoint_word(Family::Nord, "50"), Ok(0x2000));
+    assert!(
+        control::setpoint_word(Family::Nord, "250")
+            .unwrap_err()
+            .contains("−200 %")
+    );
+    assert!(
+        control::setpoint_word(Family::Bonfiglioli, "10")
+            .unwrap_err()
+            .contains("no process data")
+    );
+}
+
+/// The families' words: SEW as P870–P872 lay them out (the factory's PO1 control word 1, PO2
+/// speed), NORD STW/SW1 stepping toward "operation enabled".
+#[test]
+fn the_families_words_follow_the_drive_s_layout() {
+    use crate::families::access::{nord_control_words, sew_control_words, sew_layout};
+    let factory = sew_layout(&[9, 1, 0]);
+    let out = [0x0102, 7, 9];
+    assert_eq!(
+        sew_control_words(&factory, &out, PageCommand::Enable { word: 1500 }),
+        Ok(vec![0x0106, 1500, 9])
+    );
+    assert_eq!(
+        sew_control_words(&factory, &out, PageCommand::Stop),
+        Ok(vec![0x0102, 0, 9])
+    );
+    let no_speed = sew_layout(&[9, 0, 0]);
+    assert!(
+        sew_control_words(&no_speed, &out, PageCommand::Enable { word: 5 })
+            .unwrap_err()
+            .contains("speed setpoint")
+    );
+    assert!(
+        sew_control_words(&sew_layout(&[1, 0]), &out, PageCommand::Stop)
+            .unwrap_err()
+            .contains("control word")
+    );
+    // NORD from "switch on disabled" (ZSW 0x0040): shutdown first, SW1 the setpoint.
+    let w = nord_control_words(
+        &[0, 0],
+        PageCommand::Enable { word: 0x2000 },
+        &[],
+        &[0x0040],
+    )
+    .unwrap();
+    assert_eq!(w, vec![0x047E, 0x2000]);
+    assert_eq!(
+        nord_control_words(&[0, 0], PageCommand::Stop, &[], &[]),
+        Ok(vec![0x047E, 0])
+    );
+    assert!(nord_control_words(&[0], PageCommand::Enable { word: 1 }, &[], &[]).is_err());
+}
+
+/// A lease whose page is silent (a connection lost without a word keeps its TCP stream open
+/// for minutes) ends after LEASE_SILENCE: the stop goes out; a page that says it is there
+/// keeps driving.
+#[tokio::test(start_paused = true)]
+async fn a_silent_lease_ends_and_its_drive_is_stopped() {
+    tokio::task::LocalSet::new()
+        .run_until(async {
+            let plant = page_plant();
+            let h = start(&plant);
+            sleep(Duration::from_millis(200)).await;
+            let (lease, _rx) = h.take(0, "carol").await.unwrap();
+            let enable = PageCommand::Enable { word: 500 };
+            h.control(
+                0,
+                ControlOp::Command {
+                    lease,
+                    command: enable,
+                },
+            )
+            .await
+            .unwrap();
+            // Heard of every second for twice the silence: it keeps driving.
+            for _ in 0..10 {
+                sleep(Duration::from_secs(1)).await;
+                assert!(matches!(
+                    h.control(0, ControlOp::Alive { lease }).await,
+                    Ok(Answer::Done)
+                ));
+            }
+            let quiet = Instant::now();
+            let sent = h.sent_since(1, h.t0);
+            assert_eq!(sent.last().map(|(_, w)| w.clone()), Some(vec![6, 500]));
+            sleep(crate::model::LEASE_SILENCE + Duration::from_millis(200)).await;
+            let after = h.sent_since(1, quiet);
+            let stop = after
+                .iter()
+                .position(|(_, w)| w == &vec![2, 0])
+                .expect("the stop goes out");
+            let (at, _) = after[stop];
+            assert!(at - quiet <= crate::model::LEASE_SILENCE + Duration::from_millis(60));
+            assert!(after[..stop].iter().all(|(_, w)| w == &vec![6, 500]));
+            assert!(after[stop + 1..].iter().all(|(_, w)| w == &vec![0x0102, 7]));
+            assert!(h.control(0, ControlOp::Alive { lease }).await.is_err());
+        })
+        .await;
+}

@@ -255,6 +255,7 @@ function openDrive(b, d) {
     if (!drive) return;
     driveView.querySelector("h2").textContent = `${drive.name} · address ${drive.address} (${bus.name})`;
     driveTools(b, d, tools, bus.protocol, p);
+    driveControl(b, d, tools, bus, drive);
   });
   showParams(b, d, "", list, count);
 }
