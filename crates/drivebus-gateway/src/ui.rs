@@ -778,6 +778,10 @@ pub struct OneBus {
     pub simulate: bool,
     /// Where the page is served.
     pub listen: SocketAddr,
+    /// The response timeout of one attempt, in ms; `None`: the protocol's.
+    pub timeout_ms: Option<u64>,
+    /// Attempts after a failed one; `None`: the gateway's default.
+    pub retries: Option<u8>,
 }
 
 /// The points every drive of a [`OneBus`] plant shows, per family: (name, parameter, selector
@@ -919,6 +923,12 @@ impl OneBus {
         }
         if self.simulate {
             let _ = writeln!(t, "simulate = true");
+        }
+        if let Some(ms) = self.timeout_ms {
+            let _ = writeln!(t, "timeout = \"{ms}ms\"");
+        }
+        if let Some(r) = self.retries {
+            let _ = writeln!(t, "retries = {r}");
         }
         for a in &self.addresses {
             let _ = write!(t, "\n[[bus.drive]]\nname = \"drive-{a}\"\naddress = {a}\n");

@@ -45,6 +45,13 @@ pub struct UiArgs {
     /// A drive's address; repeat for several drives.
     #[arg(long = "addr", default_value = "1")]
     pub addresses: Vec<u8>,
+    /// Response timeout of one attempt in ms (default: the protocol's; never below the least
+    /// the line allows).
+    #[arg(long)]
+    pub timeout: Option<u64>,
+    /// Attempts after a timeout or a corrupt answer (default: the gateway's, 2).
+    #[arg(long)]
+    pub retries: Option<u8>,
     /// Serve the drives that answer: probe every address from --from to --to first (one read
     /// each, no retries) instead of taking --addr. With --simulate the drives of --addr answer.
     #[arg(long)]
@@ -307,6 +314,8 @@ pub fn run(args: &UiArgs) -> Result<()> {
         addresses: args.addresses.clone(),
         simulate: args.simulate,
         listen: with_port(listen)?,
+        timeout_ms: args.timeout,
+        retries: args.retries,
     };
     if args.scan {
         one.addresses = scan(&one, args.from, args.to)?;

@@ -115,14 +115,15 @@ fn page_post(s: &Session, path: &str, headers: &str, body: &Value) -> (u64, Valu
 /// The page's backup of the drive (the backup button, the file it offers).
 fn page_backup(s: &Session) -> String {
     s.run("window.lastBackup = undefined; document.querySelectorAll('.tools button')[2].click();");
-    s.wait_for(
+    let file = s.wait_for(
         120,
-        "return window.lastBackup === undefined ? null : window.lastBackup;",
-        |v| !v.is_null(),
-    )
-    .as_str()
-    .expect("the backup is a file's text")
-    .to_owned()
+        "return window.lastBackup === undefined ? 'waiting' : window.lastBackup;",
+        |v| v != "waiting",
+    );
+    let status = s.run("return document.getElementById('tool-status').textContent;");
+    file.as_str()
+        .unwrap_or_else(|| panic!("no backup: {status}"))
+        .to_owned()
 }
 
 /// Choose `file` in the file input `selector`, as a person picking it would.
@@ -160,6 +161,9 @@ fn the_drive_view_writes_refuses_restores_and_backs_up_as_drivectl_does() {
         .args([
             "ui", "movilink", "--port", &sim.path, "--parity", "none", "--addr", "1", "--addr", "2",
         ])
+        // A machine loaded by other tests is slow on the pty: more time and attempts per read
+        // (the page's work, not the line's timing, is under test).
+        .args(["--timeout", "300", "--retries", "4"])
         .args(["--listen", &page.to_string(), "--no-open"])
         .stdout(Stdio::null())
         .stderr(Stdio::null())

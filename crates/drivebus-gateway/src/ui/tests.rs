@@ -265,6 +265,8 @@ fn a_plant_of_one_bus_from_the_command_line_is_a_checked_config() {
             addresses: vec![1, 2],
             simulate: false,
             listen: "127.0.0.1:8080".parse().unwrap(),
+            timeout_ms: None,
+            retries: None,
         };
         let plant = Plant::parse(&one.config(), "the command line")
             .unwrap_or_else(|e| panic!("{protocol}: {e}\n{}", one.config()));
@@ -295,9 +297,17 @@ fn a_plant_of_one_bus_from_the_command_line_is_a_checked_config() {
         addresses: vec![5],
         simulate: false,
         listen: "127.0.0.1:0".parse().unwrap(),
+        timeout_ms: Some(200),
+        retries: Some(4),
     };
     let plant = Plant::parse(&odd.config(), "the command line").unwrap();
     assert_eq!(plant.buses[0].name, "usb--odd--name");
+    // The line's timeout and retries reach the bus.
+    assert_eq!(
+        plant.buses[0].timeout,
+        std::time::Duration::from_millis(200)
+    );
+    assert_eq!(plant.buses[0].retries, 4);
     // A pseudo-terminal keeps its directory's name: `0` alone says nothing.
     let pty = OneBus {
         port: Some("/dev/pts/0".into()),
