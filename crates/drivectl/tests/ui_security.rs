@@ -22,6 +22,9 @@ use std::time::{Duration, Instant};
 
 use serde_json::{Value, json};
 
+#[path = "common/web.rs"]
+mod web;
+
 const DRIVECTL: &str = env!("CARGO_BIN_EXE_drivectl");
 
 fn free_port() -> u16 {
@@ -472,4 +475,109 @@ fn the_page_over_https_with_users_sessions_csrf_and_roles() {
         None,
     );
     assert_eq!(r.json()["user"], "olga");
+}
+
+/// In a real browser (headless Chromium, trusting the test's certificate): a viewer logs in
+/// through the form, sees the drive view without an editor or a restore, and a write sent from
+/// the page all the same is refused for the role; an operator's page has the editor.
+#[test]
+fn a_viewer_in_the_browser_reads_but_cannot_write() {
+    let Some((chromium, chromedriver)) = web::browser_tools() else {
+        return;
+    };
+    let dir = Dir::new("viewer");
+    let Some((cert, key)) = certificate(&dir) else {
+        return;
+    };
+    let users = dir.0.join("page.users");
+    for (user, role, password) in [
+        ("bert", "viewer", "bert's secret"),
+        ("anna", "operator", "anna's secret"),
+    ] {
+        let o = passwd(&users, user, role, password);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    }
+    let port = free_port();
+    let plant = config(
+        &dir,
+        &format!(
+            "listen = \"127.0.0.1:{port}\"\ntls_cert = {:?}\ntls_key = {:?}\nusers = {:?}",
+            cert.display().to_string(),
+            key.display().to_string(),
+            users.display().to_string()
+        ),
+    );
+    let child = Command::new(DRIVECTL)
+        .args(["gateway", "--simulate", "--config"])
+        .arg(&plant)
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let _gateway = Killed(child);
+    let addr: SocketAddr = ([127, 0, 0, 1], port).into();
+    let until = Instant::now() + Duration::from_secs(30);
+    while TcpStream::connect(addr).is_err() {
+        assert!(Instant::now() < until, "the page did not come up");
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    for (user, password, role) in [
+        ("bert", "bert's secret", "viewer"),
+        ("anna", "anna's secret", "operator"),
+    ] {
+        let s = web::Session::start_with(
+            &chromium,
+            &chromedriver,
+            1280,
+            900,
+            &["--ignore-certificate-errors"],
+        );
+        s.open(&format!("https://127.0.0.1:{port}/"));
+        s.wait_for(20, "return !!document.getElementById('login-user') && !document.getElementById('login').hidden;", |v| v == &json!(true));
+        s.run(&format!(
+            "document.getElementById('login-user').value = {user:?}; \
+             document.getElementById('login-password').value = {password:?}; \
+             document.getElementById('login-submit').click();"
+        ));
+        let who = s.wait_for(
+            20,
+            "const w = document.getElementById('who'); return w ? w.textContent : '';",
+            |v| v.as_str().is_some_and(|t| t.contains(user)),
+        );
+        assert!(who.as_str().unwrap().contains(role), "{who}");
+        s.run("location.hash = '#drive/0/0';");
+        s.wait_for(
+            30,
+            "return document.querySelectorAll('table.params tr').length;",
+            |v| v.as_u64().is_some_and(|n| n > 100),
+        );
+        let editors = s.run("return [document.querySelectorAll('td.edit input').length, !!document.getElementById('restore-file')];");
+        let write = s.run(
+            "return post('/api/drive/0/0/check', {}).then(() => \
+               fetch('/api/drive/0/0/write', {method: 'POST', headers: {'Content-Type': 'application/json', \
+                 'X-CSRF-Token': csrfToken}, body: JSON.stringify({key: '8470.0', value: '2.5'})}))\
+             .then(async r => [r.status, await r.text()]);",
+        );
+        if role == "viewer" {
+            assert_eq!(
+                editors,
+                json!([0, false]),
+                "a viewer's page offers no editor, no restore"
+            );
+            assert_eq!(write[0], json!(403), "{write}");
+            assert!(write[1].as_str().unwrap().contains("role"), "{write}");
+            s.screenshot("viewer-drive");
+        } else {
+            assert!(editors[0].as_u64().unwrap() > 100, "{editors}");
+            assert_eq!(editors[1], json!(true));
+            assert_eq!(write[0], json!(200), "{write}");
+            assert!(
+                write[1]
+                    .as_str()
+                    .unwrap()
+                    .contains("\"outcome\":\"written\""),
+                "{write}"
+            );
+        }
+    }
 }

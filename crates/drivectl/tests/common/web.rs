@@ -203,6 +203,18 @@ pub struct Session {
 impl Session {
     /// Start chromedriver on a free port and open a session of a `width` × `height` window.
     pub fn start(chromium: &Path, chromedriver: &Path, width: u32, height: u32) -> Session {
+        Session::start_with(chromium, chromedriver, width, height, &[])
+    }
+
+    /// [`Session::start`] with further Chromium arguments (`--ignore-certificate-errors` for a
+    /// test's self-signed certificate).
+    pub fn start_with(
+        chromium: &Path,
+        chromedriver: &Path,
+        width: u32,
+        height: u32,
+        extra: &[&str],
+    ) -> Session {
         let port = free_port();
         let child = Command::new(chromedriver)
             .arg(format!("--port={port}"))
@@ -213,12 +225,22 @@ impl Session {
         let chromedriver = Reaped(child);
         let driver = SocketAddr::from(([127, 0, 0, 1], port));
         wait_for_listener(driver, "chromedriver");
+        let args: Vec<String> = [
+            "--headless=new",
+            "--no-sandbox",
+            "--disable-gpu",
+            "--disable-dev-shm-usage",
+        ]
+        .iter()
+        .map(|a| (*a).to_owned())
+        .chain([format!("--window-size={width},{height}")])
+        .chain(extra.iter().map(|a| (*a).to_owned()))
+        .collect();
         let caps = json!({"capabilities": {"alwaysMatch": {
             "browserName": "chrome",
             "goog:chromeOptions": {
                 "binary": chromium,
-                "args": ["--headless=new", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage",
-                         format!("--window-size={width},{height}")],
+                "args": args,
             },
         }}});
         let a = request(driver, "POST", "/session", Some(&caps));
