@@ -754,7 +754,8 @@ async fn guard(request: Request, next: Next) -> Response {
 /// at `addresses`, each with its family's usual points, the page on `listen`, no broker.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct OneBus {
-    /// The gateway's protocol name (`movilink`, `sbus`, `uss`, `modbus-rtu`, `modbus-ascii`).
+    /// The gateway's protocol name (`movilink`, `sbus`, `uss`, `ctt2`, `modbus-rtu`,
+    /// `modbus-ascii`).
     pub protocol: String,
     /// The serial port (not SBus).
     pub port: Option<String>,
@@ -784,7 +785,7 @@ fn usual_points(
             ("drive_status", "P010", "", "1s"),
             ("fault", "P012", "", "1s"),
         ],
-        "uss" => &[
+        "uss" | "ctt2" => &[
             ("fault", "P700", "array = 1", "1s"),
             ("warning", "P700", "array = 2", "1s"),
             ("max_frequency", "P105", "", "5s"),
@@ -805,6 +806,8 @@ pub fn scan_range(protocol: &str) -> (u8, u8) {
         "movilink" => (0, 99),
         "sbus" => (0, 63),
         "uss" => (0, 31),
+        // The double slaves' numbers (1A…31A).
+        "ctt2" => (1, 31),
         _ => (1, 247),
     }
 }
