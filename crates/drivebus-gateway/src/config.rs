@@ -85,7 +85,7 @@ pub struct GatewayFile {
 pub struct BusFile {
     /// The bus's name: the third level of its topics.
     pub name: String,
-    /// `movilink`, `sbus`, `uss`, `modbus-rtu` or `modbus-ascii`.
+    /// `movilink`, `sbus`, `uss`, `ctt2` (simulated only), `modbus-rtu` or `modbus-ascii`.
     pub protocol: String,
     /// Serial port (MOVILINK, USS, Modbus).
     pub port: Option<String>,
@@ -187,6 +187,9 @@ pub enum Protocol {
     Sbus,
     /// NORD USS over RS-485.
     Uss,
+    /// NORD CTT2 over AS-Interface, on the simulated AS-i link only (drivebus has no real AS-i
+    /// master); a drive's address is its double slave's number 1–31 (`5`: 5A with 5B).
+    Ctt2,
     /// Bonfiglioli Modbus RTU.
     ModbusRtu,
     /// Bonfiglioli Modbus ASCII.
@@ -195,10 +198,11 @@ pub enum Protocol {
 
 impl Protocol {
     /// All protocols, in the order the example config lists them.
-    pub const ALL: [Protocol; 5] = [
+    pub const ALL: [Protocol; 6] = [
         Protocol::Movilink,
         Protocol::Sbus,
         Protocol::Uss,
+        Protocol::Ctt2,
         Protocol::ModbusRtu,
         Protocol::ModbusAscii,
     ];
@@ -209,6 +213,7 @@ impl Protocol {
             Protocol::Movilink => "movilink",
             Protocol::Sbus => "sbus",
             Protocol::Uss => "uss",
+            Protocol::Ctt2 => "ctt2",
             Protocol::ModbusRtu => "modbus-rtu",
             Protocol::ModbusAscii => "modbus-ascii",
         }
@@ -218,7 +223,7 @@ impl Protocol {
     pub fn family(self) -> Family {
         match self {
             Protocol::Movilink | Protocol::Sbus => Family::Movidrive,
-            Protocol::Uss => Family::Nord,
+            Protocol::Uss | Protocol::Ctt2 => Family::Nord,
             Protocol::ModbusRtu | Protocol::ModbusAscii => Family::Bonfiglioli,
         }
     }
@@ -229,13 +234,19 @@ impl Protocol {
             Protocol::Movilink => 0..=99,
             Protocol::Sbus => 0..=63,
             Protocol::Uss => 0..=31,
+            // The double slave's number: 1A…31A (its 2nd slave the same number in bank B);
+            // AS-i address 0 exchanges no data.
+            Protocol::Ctt2 => 1..=31,
             Protocol::ModbusRtu | Protocol::ModbusAscii => 1..=247,
         }
     }
 
     /// Whether the gateway can exchange process data on this protocol.
     pub fn has_process_data(self) -> bool {
-        matches!(self, Protocol::Movilink | Protocol::Sbus | Protocol::Uss)
+        matches!(
+            self,
+            Protocol::Movilink | Protocol::Sbus | Protocol::Uss | Protocol::Ctt2
+        )
     }
 
     /// Default line settings: baud, parity (the drives' factory settings).
@@ -243,8 +254,9 @@ impl Protocol {
         match self {
             Protocol::Movilink => (9600, Parity::Even),
             Protocol::Uss => (9600, Parity::Even),
+            // No serial line: the AS-i network's size sets the CTT2 byte time.
+            Protocol::Sbus | Protocol::Ctt2 => (0, Parity::None),
             Protocol::ModbusRtu | Protocol::ModbusAscii => (9600, Parity::None),
-            Protocol::Sbus => (0, Parity::None),
         }
     }
 
@@ -816,7 +828,8 @@ fn check_line(at: &str, b: BusFile) -> std::result::Result<Bus, String> {
     }
     let protocol = Protocol::parse(&b.protocol).ok_or_else(|| {
         format!(
-            "{at}: protocol = {:?}: give one of movilink, sbus, uss, modbus-rtu, modbus-ascii",
+            "{at}: protocol = {:?}: give one of movilink, sbus, uss, ctt2, modbus-rtu, \
+             modbus-ascii",
             b.protocol
         )
     })?;
@@ -834,7 +847,23 @@ fn check_line(at: &str, b: BusFile) -> std::result::Result<Bus, String> {
         Some(n) => return Err(format!("{at}: stop_bits = {n}: give 1 or 2")),
     };
     let baud = b.baud.unwrap_or(baud0);
-    if protocol != Protocol::Sbus && !(1..=4_000_000).contains(&baud) {
+    if protocol == Protocol::Ctt2 {
+        // drivebus reaches CTT2 only through its simulated AS-i link (`drivectl ctt2 --sim`).
+        if b.port.is_some() || b.iface.is_some() || !b.simulate {
+            return Err(format!(
+                "{at}: drivebus has no real AS-i master: a ctt2 bus runs only on the simulated \
+                 AS-i link; write simulate = true and no port or iface"
+            ));
+        }
+        if b.baud.is_some() || b.parity.is_some() || b.stop_bits.is_some() || b.data_bits.is_some()
+        {
+            return Err(format!(
+                "{at}: a ctt2 bus has no serial line (baud, parity, stop_bits, data_bits): the \
+                 AS-i network's size sets its byte time"
+            ));
+        }
+    }
+    if !matches!(protocol, Protocol::Sbus | Protocol::Ctt2) && !(1..=4_000_000).contains(&baud) {
         return Err(format!("{at}: baud = {baud}: give 1–4000000"));
     }
     let data_bits = match (protocol, b.data_bits) {
@@ -957,6 +986,9 @@ fn check_line(at: &str, b: BusFile) -> std::result::Result<Bus, String> {
                 bonfiglioli_modbus::master::least_response_timeout(mode, &line),
             ))
         }
+        // The double slave answers within its 200 ms window or with error 4 (BU 0255 4.3.5):
+        // the driver waits for that, there is no response timeout to floor.
+        Protocol::Ctt2 => None,
         Protocol::Sbus => drive_core::can::Bitrate::new(bitrate).map(|rate| {
             (
                 format!(
@@ -1066,6 +1098,13 @@ fn check_drive(
         }
     };
     let r = protocol.addresses();
+    if protocol == Protocol::Ctt2 && !r.contains(&d.address) {
+        return Err(fail(format!(
+            "{at}: address = {}: a ctt2 drive is addressed by its AS-i double slave's number, \
+             1–31 (address = 5 is 5A, its 2nd slave 5B; AS-i address 0 exchanges no data)",
+            d.address
+        )));
+    }
     if !r.contains(&d.address) {
         return Err(fail(format!(
             "{at}: address = {}: {} drives have addresses {}–{}",
@@ -1124,6 +1163,8 @@ fn check_drive(
                 })?;
             let max = match protocol {
                 Protocol::Uss => 16,
+                // The PZD channel: control word and up to 3 setpoints (BU 0255 4.3.4).
+                Protocol::Ctt2 => 4,
                 _ => 3,
             };
             if pd.out.is_empty() || pd.out.len() > max {

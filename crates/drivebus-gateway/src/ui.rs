@@ -762,7 +762,8 @@ async fn guard(request: Request, next: Next) -> Response {
 /// at `addresses`, each with its family's usual points, the page on `listen`, no broker.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct OneBus {
-    /// The gateway's protocol name (`movilink`, `sbus`, `uss`, `modbus-rtu`, `modbus-ascii`).
+    /// The gateway's protocol name (`movilink`, `sbus`, `uss`, `ctt2`, `modbus-rtu`,
+    /// `modbus-ascii`).
     pub protocol: String,
     /// The serial port (not SBus).
     pub port: Option<String>,
@@ -801,6 +802,13 @@ fn usual_points(
             ("warning", "P700", "array = 2", "1s"),
             ("max_frequency", "P105", "", "5s"),
         ],
+        // The same points slower: a read takes about 0.7 s on the AS-i link of two drives
+        // (the CTT2 byte time, BU 0255 4.4), so that two drives fit the wire.
+        "ctt2" => &[
+            ("fault", "P700", "array = 1", "5s"),
+            ("warning", "P700", "array = 2", "10s"),
+            ("max_frequency", "P105", "", "30s"),
+        ],
         _ => &[
             ("frequency", "241", "", "500ms"),
             ("status_word", "411", "", "1s"),
@@ -817,6 +825,8 @@ pub fn scan_range(protocol: &str) -> (u8, u8) {
         "movilink" => (0, 99),
         "sbus" => (0, 63),
         "uss" => (0, 31),
+        // The double slaves' numbers (1A…31A).
+        "ctt2" => (1, 31),
         _ => (1, 247),
     }
 }

@@ -17,15 +17,15 @@ use crate::error::{CliError, Result};
 #[command(
     args_conflicts_with_subcommands = true,
     subcommand_negates_reqs = true,
-    after_help = "Examples:\n  drivectl ui movilink --port /dev/ttyUSB0 --addr 1\n  drivectl ui modbus-rtu --port /dev/ttyUSB0 --baud 19200 --addr 1 --addr 2\n  drivectl ui sbus --iface can0 --addr 1\n  drivectl ui uss --simulate --addr 1 --addr 2       simulated drives, no hardware\n  drivectl ui bonfiglioli --port /dev/ttyUSB0 --scan --to 10   serve the drives that answer\n\nA whole plant's page: `[ui] listen = \"127.0.0.1:8080\"` in the config of `drivectl gateway`;\n  drivectl ui passwd --file /etc/drivebus/page.users --user anna --role operator\nadds a user to its password file (`[ui] users`)."
+    after_help = "Examples:\n  drivectl ui movilink --port /dev/ttyUSB0 --addr 1\n  drivectl ui modbus-rtu --port /dev/ttyUSB0 --baud 19200 --addr 1 --addr 2\n  drivectl ui sbus --iface can0 --addr 1\n  drivectl ui uss --simulate --addr 1 --addr 2       simulated drives, no hardware\n  drivectl ui ctt2 --sim --addr 1 --addr 5           NORDAC LINKs at 1A and 5A on the simulated AS-i link\n  drivectl ui bonfiglioli --port /dev/ttyUSB0 --scan --to 10   serve the drives that answer\n\nA whole plant's page: `[ui] listen = \"127.0.0.1:8080\"` in the config of `drivectl gateway`;\n  drivectl ui passwd --file /etc/drivebus/page.users --user anna --role operator\nadds a user to its password file (`[ui] users`)."
 )]
 pub struct UiArgs {
     /// Another task than serving a page.
     #[command(subcommand)]
     pub command: Option<UiCommand>,
-    /// The bus: movilink, sbus, uss, bonfiglioli (Modbus RTU, or ASCII with --mode ascii),
-    /// modbus-rtu or modbus-ascii.
-    #[arg(required = true, value_parser = ["movilink", "sbus", "uss", "bonfiglioli", "modbus-rtu", "modbus-ascii"])]
+    /// The bus: movilink, sbus, uss, ctt2 (simulated AS-i link only: --sim), bonfiglioli
+    /// (Modbus RTU, or ASCII with --mode ascii), modbus-rtu or modbus-ascii.
+    #[arg(required = true, value_parser = ["movilink", "sbus", "uss", "ctt2", "bonfiglioli", "modbus-rtu", "modbus-ascii"])]
     pub protocol: Option<String>,
     /// bonfiglioli: the transmission mode (the drive's parameter 395).
     #[arg(long, value_parser = ["rtu", "ascii"])]
@@ -42,7 +42,8 @@ pub struct UiArgs {
     /// Parity: even, odd or none (default: the protocol's factory setting).
     #[arg(long, value_parser = ["even", "odd", "none"])]
     pub parity: Option<String>,
-    /// A drive's address; repeat for several drives.
+    /// A drive's address; repeat for several drives (ctt2: the double slave's number 1–31,
+    /// 5 for 5A/5B).
     #[arg(long = "addr", default_value = "1")]
     pub addresses: Vec<u8>,
     /// Response timeout of one attempt in ms (default: the protocol's; never below the least
@@ -57,15 +58,15 @@ pub struct UiArgs {
     #[arg(long)]
     pub scan: bool,
     /// --scan: the first address (default: the protocol's first: MOVILINK, SBus, USS 0,
-    /// Modbus 1).
+    /// CTT2 and Modbus 1).
     #[arg(long, requires = "scan")]
     pub from: Option<u8>,
     /// --scan: the last address (default: the protocol's last: MOVILINK 99, SBus 63, USS 31,
-    /// Modbus 247).
+    /// CTT2 31, Modbus 247).
     #[arg(long, requires = "scan")]
     pub to: Option<u8>,
-    /// Run against simulated drives (no port needed).
-    #[arg(long)]
+    /// Run against simulated drives (no port needed); `--sim` as `drivectl ctt2` spells it.
+    #[arg(long, visible_alias = "sim")]
     pub simulate: bool,
     /// Where to serve the page: a loopback host:port; port 0 picks a free one.
     #[arg(long, default_value = "127.0.0.1:0")]
@@ -262,7 +263,7 @@ pub fn run(args: &UiArgs) -> Result<()> {
     }
     let protocol = args.protocol.clone().ok_or_else(|| {
         CliError::usage(
-            "drivectl ui needs a protocol (movilink, sbus, uss, bonfiglioli, modbus-rtu, \
+            "drivectl ui needs a protocol (movilink, sbus, uss, ctt2, bonfiglioli, modbus-rtu, \
              modbus-ascii)",
         )
     })?;
@@ -278,6 +279,12 @@ pub fn run(args: &UiArgs) -> Result<()> {
     };
     if !args.simulate {
         match protocol.as_str() {
+            "ctt2" => {
+                return Err(CliError::usage(
+                    "drivectl ui ctt2 needs --sim: drivebus reaches CTT2 only through its \
+                     simulated AS-i link (it has no real AS-i master)",
+                ));
+            }
             "sbus" if args.iface.is_none() => {
                 return Err(CliError::usage(
                     "drivectl ui sbus needs --iface (can0 or slcan:PATH), or --simulate",

@@ -424,3 +424,158 @@ fn drivectl_ui_scan_serves_the_drives_that_answer() {
         assert_eq!(found, want, "{ui_args:?}");
     }
 }
+
+/// `POST path` with the page's CSRF token (from `GET /api/session`), its status and JSON body.
+fn post_with_token(page: SocketAddr, path: &str, body: &Value) -> (u16, Value) {
+    use std::io::{Read as _, Write as _};
+    let session: Value =
+        serde_json::from_str(&request(page, "GET", "/api/session", None).body).unwrap();
+    let token = session["csrf"].as_str().unwrap().to_owned();
+    let body = body.to_string();
+    let mut s = std::net::TcpStream::connect(page).unwrap();
+    s.set_read_timeout(Some(Duration::from_secs(60))).unwrap();
+    write!(
+        s,
+        "POST {path} HTTP/1.1\r\nHost: 127.0.0.1:{}\r\nConnection: close\r\n\
+         Content-Type: application/json\r\nX-CSRF-Token: {token}\r\nContent-Length: {}\r\n\r\n{body}",
+        page.port(),
+        body.len()
+    )
+    .unwrap();
+    let mut got = String::new();
+    s.read_to_string(&mut got).unwrap();
+    let (head, rest) = got.split_once("\r\n\r\n").unwrap();
+    let code = head.split(' ').nth(1).unwrap().parse().unwrap();
+    // A chunked body: its chunks' data are between the size lines.
+    let text = if head
+        .to_ascii_lowercase()
+        .contains("transfer-encoding: chunked")
+    {
+        let mut out = String::new();
+        let mut r = rest;
+        while let Some((size, tail)) = r.split_once("\r\n") {
+            let n = usize::from_str_radix(size.trim(), 16).unwrap_or(0);
+            if n == 0 {
+                break;
+            }
+            out.push_str(&tail[..n]);
+            r = &tail[n + 2..];
+        }
+        out
+    } else {
+        rest.to_owned()
+    };
+    (code, serde_json::from_str(&text).unwrap_or(json!(text)))
+}
+
+/// `drivectl ui ctt2 --sim` serves NORDAC LINKs on the simulated AS-i link: the plant shows
+/// them at their double slaves' numbers, a drive reads its parameters, and a guarded write is
+/// read back while one out of range is refused and leaves the value. `ctt2` without `--sim`
+/// and a port for it are refused with what to do.
+#[test]
+fn drivectl_ui_ctt2_sim_serves_the_simulated_as_i_drives() {
+    let refused = Command::new(env!("CARGO_BIN_EXE_drivectl"))
+        .args(["ui", "ctt2", "--no-open"])
+        .output()
+        .unwrap();
+    assert_eq!(refused.status.code(), Some(2));
+    let e = String::from_utf8_lossy(&refused.stderr);
+    assert!(e.contains("--sim") && e.contains("AS-i"), "{e}");
+    let refused = Command::new(env!("CARGO_BIN_EXE_drivectl"))
+        .args(["ui", "ctt2", "--sim", "--port", "/dev/ttyUSB0", "--no-open"])
+        .output()
+        .unwrap();
+    let e = String::from_utf8_lossy(&refused.stderr);
+    assert!(
+        !refused.status.success() && e.contains("no real AS-i master"),
+        "{e}"
+    );
+
+    let port = free_port();
+    let page = SocketAddr::from(([127, 0, 0, 1], port));
+    let child = Command::new(env!("CARGO_BIN_EXE_drivectl"))
+        .args(["ui", "ctt2", "--sim", "--addr", "1", "--addr", "5"])
+        .args(["--listen", &page.to_string(), "--no-open"])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let _ui = Reaped(child);
+    let until = Instant::now() + Duration::from_secs(60);
+    while std::net::TcpStream::connect(page).is_err() {
+        assert!(Instant::now() < until, "the page did not listen");
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    let plant: Value =
+        serde_json::from_str(&request(page, "GET", "/api/plant", None).body).unwrap();
+    let found: Vec<u64> = plant["buses"][0]["drives"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter_map(|d| d["address"].as_u64())
+        .collect();
+    assert_eq!(found, vec![1, 5], "{plant}");
+    let params: Value =
+        serde_json::from_str(&request(page, "GET", "/api/drive/0/1/params", None).body).unwrap();
+    assert_eq!(params["family"], "nord", "{params}");
+    let key_of = |number: &str| {
+        params["params"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|r| r["number"] == number)
+            .unwrap_or_else(|| panic!("no {number}"))["key"]
+            .as_str()
+            .unwrap()
+            .to_owned()
+    };
+    let (p102, p105) = (key_of("P102"), key_of("P105"));
+    // Reads on the AS-i link: a value line per key, then the end line.
+    let read = |key: &str| -> Value {
+        let a = request(
+            page,
+            "GET",
+            &format!("/api/drive/0/1/read?keys={key}"),
+            None,
+        );
+        assert_eq!(a.code, 200, "{}", a.body);
+        let lines: Vec<Value> = a
+            .body
+            .lines()
+            .filter_map(|l| serde_json::from_str(l).ok())
+            .collect();
+        let v = lines
+            .iter()
+            .find(|l| l["type"] == "value" && l["key"] == key)
+            .unwrap_or_else(|| panic!("{key}: {}", a.body))
+            .clone();
+        assert!(
+            lines.iter().any(|l| l["type"] == "end" && l["failed"] == 0),
+            "{}",
+            a.body
+        );
+        v["payload"].clone()
+    };
+    let max = read(&p105);
+    assert!(max["value"].as_f64().is_some_and(|v| v > 0.0), "{max}");
+    let before = read(&p102);
+    let (code, v) = post_with_token(
+        page,
+        "/api/drive/0/1/write",
+        &json!({"key": p102, "value": "3.5"}),
+    );
+    assert_eq!((code, v["outcome"].as_str()), (200, Some("written")), "{v}");
+    assert_eq!(read(&p102)["value"].as_f64(), Some(3.5), "before: {before}");
+    let (code, v) = post_with_token(
+        page,
+        "/api/drive/0/1/write",
+        &json!({"key": p102, "value": "99999"}),
+    );
+    // The guard's refusal: the value does not fit the parameter's 16 bits.
+    assert_eq!(
+        (code, v["outcome"].as_str(), v["reason"].as_str()),
+        (200, Some("refused"), Some("width")),
+        "{v}"
+    );
+    assert_eq!(read(&p102)["value"].as_f64(), Some(3.5));
+}

@@ -44,7 +44,7 @@ fn link_settings(protocol: Protocol) -> &'static [u16] {
         Protocol::Movilink => drive_client::sew::movilink::LINK_SETTINGS,
         Protocol::Sbus => drive_client::sew::sbus::LINK_SETTINGS,
         Protocol::ModbusRtu | Protocol::ModbusAscii => drive_client::bonfiglioli::LINK_SETTINGS,
-        Protocol::Uss => &[],
+        Protocol::Uss | Protocol::Ctt2 => &[],
     }
 }
 

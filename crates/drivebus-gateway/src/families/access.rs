@@ -11,6 +11,9 @@ use std::time::Duration;
 
 use bonfiglioli_modbus::framing::Mode;
 use ctt2_uss::client::{ClientConfig, NordClient, ParameterChannel};
+use ctt2_uss::ctt2::link::{SimulatedDoubleSlave, SimulatedLink};
+use ctt2_uss::ctt2::master::{Ctt2Driver, DriverConfig as Ctt2Config};
+use ctt2_uss::ctt2::{AsiAddress, AsiNetwork, Bank, DoubleSlaveAddress};
 use ctt2_uss::serial::driver::{DriverConfig as UssConfig, UssDriver};
 use ctt2_uss::serial::{Layout, UssAddress, UssTiming};
 use drive_core::LineSettings;
@@ -50,6 +53,8 @@ pub enum AnyClient<'a> {
     Sbus(SewClient<SbusLink<'a, CanBox>>),
     /// USS.
     Uss(NordParamClient<'a, UssDriver<SharedLine>>),
+    /// CTT2 on the simulated AS-i link.
+    Ctt2(NordParamClient<'a, Ctt2Driver<SimulatedLink>>),
     /// Modbus RTU or ASCII.
     Modbus(BonfiglioliClient<'a, LineIo>),
     /// An address the protocol cannot reach: every call fails with this message.
@@ -67,6 +72,7 @@ impl std::fmt::Debug for AnyClient<'_> {
             AnyClient::Movilink(_) => f.write_str("AnyClient::Movilink"),
             AnyClient::Sbus(_) => f.write_str("AnyClient::Sbus"),
             AnyClient::Uss(_) => f.write_str("AnyClient::Uss"),
+            AnyClient::Ctt2(_) => f.write_str("AnyClient::Ctt2"),
             AnyClient::Modbus(_) => f.write_str("AnyClient::Modbus"),
             AnyClient::Invalid { family, message } => f
                 .debug_struct("AnyClient::Invalid")
@@ -83,6 +89,7 @@ macro_rules! each {
             AnyClient::Movilink($c) => $e,
             AnyClient::Sbus($c) => $e,
             AnyClient::Uss($c) => $e,
+            AnyClient::Ctt2($c) => $e,
             AnyClient::Modbus($c) => $e,
             AnyClient::Invalid { .. } => $invalid,
         }
@@ -486,6 +493,146 @@ impl UssBus {
 }
 
 // ---------------------------------------------------------------------------------------------
+// CTT2
+
+/// The double slave of a CTT2 drive at `address` (its number: `5` is 5A with its 2nd slave
+/// 5B, as `drivectl ctt2 --asi-address 5A` names it).
+pub fn ctt2_double_slave(address: u8) -> Option<DoubleSlaveAddress> {
+    let first = AsiAddress::new(address, Bank::A)?;
+    let second = AsiAddress::new(address, Bank::B)?;
+    DoubleSlaveAddress::new(first, second)
+}
+
+/// The AS-i network of a CTT2 bus: a double slave per drive (two AS-i slaves each), nothing
+/// else; its size sets the CTT2 byte time (BU 0255 4.4). Drives whose address is no double
+/// slave's are left out (their clients fail without a transaction).
+pub fn ctt2_network(bus: &Bus) -> AsiNetwork {
+    let mut net = AsiNetwork::new();
+    for d in &bus.drives {
+        if let Some(a) = ctt2_double_slave(d.address) {
+            let _ = net.add_double_slave(a);
+        }
+    }
+    net
+}
+
+/// A CTT2 bus: one simulated AS-i link per drive (each double slave has its own CTT2
+/// channel; the AS-i master polls all of them in every cycle), all on the bus's one
+/// [`AsiNetwork`] (see [`ctt2_network`]), each with a [`Ctt2Driver`] and the drive's
+/// [`NordClient`] (which keeps its last PKW answer for the plausibility check).
+///
+/// drivebus has no real AS-i master: a real one needs its own
+/// [`Ctt2Link`](ctt2_uss::ctt2::master::Ctt2Link), and this bus would hold it instead.
+#[derive(Debug)]
+pub struct Ctt2Bus {
+    drives: BTreeMap<u8, NordClient<Ctt2Driver<SimulatedLink>>>,
+    /// Repetitions after error 4 or 5 at the last tally.
+    last: u64,
+}
+
+impl Ctt2Bus {
+    /// A simulated NORDAC LINK after power-on behind the double slave of every drive of
+    /// `bus`, on the bus's AS-i network.
+    pub fn simulated(bus: &Bus) -> Self {
+        let network = ctt2_network(bus);
+        let mut drives = BTreeMap::new();
+        for d in &bus.drives {
+            let Some(a) = ctt2_double_slave(d.address) else {
+                continue;
+            };
+            let Some(id) = network.double_slave_at(a.first) else {
+                continue;
+            };
+            let link =
+                SimulatedLink::on_network(SimulatedDoubleSlave::default(), network.clone(), id);
+            let driver = Ctt2Driver::new(link, Ctt2Config::default());
+            drives.insert(d.address, NordClient::new(driver, ClientConfig::default()));
+        }
+        Self { drives, last: 0 }
+    }
+
+    fn drive(&mut self, address: u8) -> Result<&mut NordClient<Ctt2Driver<SimulatedLink>>, String> {
+        let Some(a) = ctt2_double_slave(address) else {
+            return Err(format!(
+                "CTT2 address {address}: a double slave has the number 1–31 (1A…31A)"
+            ));
+        };
+        self.drives.get_mut(&address).ok_or_else(|| {
+            format!(
+                "no double slave at AS-i address {} on this simulated AS-i network",
+                a.first
+            )
+        })
+    }
+
+    fn client_of(
+        &mut self,
+        address: u8,
+    ) -> Result<NordParamClient<'_, Ctt2Driver<SimulatedLink>>, String> {
+        let client = self.drive(address)?;
+        let first = ctt2_double_slave(address).map(|a| a.first.to_string());
+        let first = first.unwrap_or_default();
+        // The key `drivectl ctt2 --sim --asi-address …` uses (the EEPROM-wear log's).
+        let key = format!("ctt2-sim {first}");
+        let mut identity = Map::new();
+        identity.insert("asi_address".into(), first.into());
+        Ok(NordParamClient::new(client, &key, identity))
+    }
+
+    async fn pd(&mut self, address: u8, out: &[u16]) -> Result<Vec<u16>, ClientError> {
+        let (control, setpoints) = out.split_first().ok_or_else(|| {
+            ClientError::Request("CTT2 process data need at least the control word".to_owned())
+        })?;
+        if setpoints.len() > ctt2_uss::uss::pzd::MAX_VALUES {
+            return Err(ClientError::Request(format!(
+                "the CTT2 process channel carries the control word and up to {} setpoints, not \
+                 {} words",
+                ctt2_uss::uss::pzd::MAX_VALUES,
+                out.len()
+            )));
+        }
+        let actuals = u8::try_from(setpoints.len()).unwrap_or(0);
+        let client = self.drive(address).map_err(ClientError::Request)?;
+        let answer = client
+            .process(ControlWord(*control), setpoints, actuals)
+            .await
+            .map_err(|e| {
+                drive_client::nord::client_error(
+                    e,
+                    <Ctt2Driver<SimulatedLink> as ParameterChannel>::link_fault,
+                    &Plain,
+                )
+            })?;
+        let mut words = vec![answer.status().0];
+        words.extend_from_slice(answer.actuals());
+        Ok(words)
+    }
+
+    /// The simulated drive at `address` (tests look at what a write did).
+    #[cfg_attr(not(test), allow(dead_code))]
+    pub fn simulated_drive(&self, address: u8) -> Option<&drive_sim::nord::SimulatedNord> {
+        self.drives
+            .get(&address)
+            .map(|c| c.channel().link().drive())
+    }
+
+    fn tally(&mut self) -> LinkTally {
+        let retries = self
+            .drives
+            .values()
+            .map(|c| c.channel().counters().retries)
+            .sum::<u64>();
+        // The simulated link checks nothing a fault could break: no frames are refused.
+        let t = LinkTally {
+            retries: retries.saturating_sub(self.last),
+            rejected: Vec::new(),
+        };
+        self.last = retries;
+        t
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
 // Modbus
 
 /// A Bonfiglioli Modbus bus (RTU or ASCII): one [`bonfiglioli_modbus::driver::ModbusDriver`].
@@ -697,6 +844,8 @@ pub enum Proto {
     Sbus(Box<SbusBus<CanBox>>),
     /// USS.
     Uss(Box<UssBus>),
+    /// CTT2 (simulated AS-i link).
+    Ctt2(Box<Ctt2Bus>),
     /// Modbus RTU or ASCII.
     Modbus(Box<ModbusBus<LineIo>>),
 }
@@ -706,7 +855,7 @@ impl Access {
     pub fn family(&self) -> Family {
         match &self.proto {
             Proto::Movilink(_) | Proto::Sbus(_) => Family::Movidrive,
-            Proto::Uss(_) => Family::Nord,
+            Proto::Uss(_) | Proto::Ctt2(_) => Family::Nord,
             Proto::Modbus(_) => Family::Bonfiglioli,
         }
     }
@@ -721,6 +870,7 @@ impl BusAccess for Access {
             Proto::Movilink(b) => b.client_of(address).map(AnyClient::Movilink),
             Proto::Sbus(b) => b.client_of(address).map(AnyClient::Sbus),
             Proto::Uss(b) => b.client_of(address).map(AnyClient::Uss),
+            Proto::Ctt2(b) => b.client_of(address).map(AnyClient::Ctt2),
             Proto::Modbus(b) => b.client_of(address).map(AnyClient::Modbus),
         };
         r.unwrap_or_else(|message| AnyClient::Invalid { family, message })
@@ -743,6 +893,7 @@ impl BusAccess for Access {
             Proto::Movilink(b) => b.pd(address, out).await,
             Proto::Sbus(b) => b.pd(address, out).await,
             Proto::Uss(b) => b.pd(address, out).await,
+            Proto::Ctt2(b) => b.pd(address, out).await,
             Proto::Modbus(_) => Err(ClientError::Request(
                 "Modbus has no process data: poll parameters instead".to_owned(),
             )),
@@ -775,7 +926,7 @@ impl BusAccess for Access {
                 let (t, s) = sew_timeout_and_status(&mut c.link, timeout.0, out.len()).await;
                 (w, t.map(|t| (t, timeout.1, "F47 SBus timeout")), s)
             }
-            Proto::Uss(_) | Proto::Modbus(_) => return Ok(Vec::new()),
+            Proto::Uss(_) | Proto::Ctt2(_) | Proto::Modbus(_) => return Ok(Vec::new()),
         };
         if let Some((timeout, name, fault)) = timeout
             && period >= timeout
@@ -870,7 +1021,7 @@ impl BusAccess for Access {
                 }
                 words = with_command(out, &slots, ControlWord1::STOP);
             }
-            Proto::Uss(_) => {
+            Proto::Uss(_) | Proto::Ctt2(_) => {
                 // The first PZD word is the control word (STW): "Stillsetzen", the ramp down.
                 match words.first_mut() {
                     Some(w) => *w = drive_profile::nord::command::SHUTDOWN.0,
@@ -890,7 +1041,8 @@ impl BusAccess for Access {
         sent: &[u16],
         inputs: &[u16],
     ) -> Result<Result<Vec<u16>, String>, ClientError> {
-        if let Proto::Uss(_) = self.proto {
+        // NORD, over USS or CTT2: STW and SW1 as the first two words.
+        if let Proto::Uss(_) | Proto::Ctt2(_) = self.proto {
             return Ok(nord_control_words(out, command, sent, inputs));
         }
         if let Some((_, layout)) = self.control_layouts.iter().find(|(a, _)| *a == address) {
@@ -905,7 +1057,7 @@ impl BusAccess for Access {
                 let mut c = b.client_of(address).map_err(ClientError::Request)?;
                 read_layout(&mut c.link, out.len()).await?
             }
-            Proto::Uss(_) | Proto::Modbus(_) => {
+            Proto::Uss(_) | Proto::Ctt2(_) | Proto::Modbus(_) => {
                 return Ok(Err(
                     "Bonfiglioli drives have no process data in the gateway: no control from \
                      the page"
@@ -920,7 +1072,7 @@ impl BusAccess for Access {
 
     fn state_in_inputs(&self, address: u8, inputs: &[u16]) -> Option<String> {
         match &self.proto {
-            Proto::Uss(_) => inputs.first().map(|w| {
+            Proto::Uss(_) | Proto::Ctt2(_) => inputs.first().map(|w| {
                 drive_client::meaning::nord_state_text(drive_profile::nord::StatusWord(*w).state())
             }),
             Proto::Movilink(_) | Proto::Sbus(_) => {
@@ -954,6 +1106,7 @@ impl BusAccess for Access {
             Proto::Movilink(b) => b.tally(),
             Proto::Sbus(b) => b.tally(),
             Proto::Uss(b) => b.tally(),
+            Proto::Ctt2(b) => b.tally(),
             Proto::Modbus(b) => b.tally(),
         }
     }

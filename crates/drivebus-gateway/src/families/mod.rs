@@ -51,6 +51,9 @@ pub fn endpoint_text(e: &Endpoint, protocol: Protocol) -> String {
         Endpoint::Simulated { bitrate, .. } if protocol == Protocol::Sbus => {
             format!("simulated (virtual CAN bus at {bitrate} bit/s)")
         }
+        Endpoint::Simulated { .. } if protocol == Protocol::Ctt2 => {
+            "the simulated AS-i link".to_owned()
+        }
         Endpoint::Simulated { line, .. } => format!("simulated (wire model {line})"),
     }
 }
@@ -194,9 +197,9 @@ pub fn open_bus(bus: &Bus) -> Access {
                     Mode::Ascii,
                     line,
                 ))),
-                // The config gives SBus a CAN interface, never a port: run it on the virtual
-                // bus rather than nowhere.
-                Protocol::Sbus => return simulated_bus(bus).access,
+                // The config gives SBus a CAN interface, never a port, and CTT2 only the
+                // simulated AS-i link: run them simulated rather than nowhere.
+                Protocol::Sbus | Protocol::Ctt2 => return simulated_bus(bus).access,
             }
         }
     };
@@ -263,6 +266,7 @@ pub fn simulated_bus(bus: &Bus) -> SimulatedBus {
                 None,
             )
         }
+        Protocol::Ctt2 => (Proto::Ctt2(Box::new(access::Ctt2Bus::simulated(bus))), None),
         Protocol::ModbusRtu | Protocol::ModbusAscii => {
             let mode = if bus.protocol == Protocol::ModbusRtu {
                 Mode::Rtu

@@ -87,7 +87,8 @@ async fn write_distinct(access: &mut Access, bus: &Bus) -> Vec<(u8, Point, i64)>
 fn the_example_config_parses_and_every_bus_fits_the_wire() {
     let plant = Plant::parse(EXAMPLE_CONFIG, "example").unwrap();
     let protocols: Vec<Protocol> = plant.buses.iter().map(|b| b.protocol).collect();
-    for p in Protocol::ALL {
+    // CTT2 runs only on the simulated AS-i link: it has its own config (CTT2_CONFIG).
+    for p in Protocol::ALL.into_iter().filter(|p| *p != Protocol::Ctt2) {
         assert!(protocols.contains(&p), "no {} bus", p.name());
     }
     for bus in &plant.buses {
@@ -950,9 +951,14 @@ async fn the_pages_backup_and_write_run_on_every_protocols_bus_task() {
 }
 
 async fn pages_jobs_on_every_bus() {
+    for plant in [example(), ctt2_plant()] {
+        pages_jobs_on(&plant).await;
+    }
+}
+
+async fn pages_jobs_on(plant: &Plant) {
     use crate::bus::BusContext;
     use crate::ui::drive::Remote;
-    let plant = example();
     for bus in &plant.buses {
         let mut bus = bus.clone();
         for d in &mut bus.drives {
@@ -988,7 +994,7 @@ async fn pages_jobs_on_every_bus() {
             updates: utx,
             sets: srx,
             asks: arx,
-            metrics: std::sync::Arc::new(crate::metrics::Metrics::new(&plant)),
+            metrics: std::sync::Arc::new(crate::metrics::Metrics::new(plant)),
         };
         let values = std::rc::Rc::new(std::cell::Cell::new(0u32));
         let seen = values.clone();
@@ -1044,4 +1050,226 @@ async fn pages_jobs_on_every_bus() {
         );
         task.abort();
     }
+}
+
+// ---------------------------------------------------------------------------------------------
+// CTT2 (simulated AS-i link only: not in the example config, which names real ports)
+
+/// A CTT2 bus of two simulated NORDAC LINKs at the double slaves 1A/1B and 5A/5B.
+const CTT2_CONFIG: &str = r#"
+[gateway]
+name = "asi"
+broker = "off"
+metrics = "off"
+
+[ui]
+listen = "127.0.0.1:8080"
+
+[[bus]]
+name = "asi-1"
+protocol = "ctt2"
+simulate = true
+
+[[bus.drive]]
+name = "feeder"
+address = 1
+
+[[bus.drive.param]]
+param = "P700"
+array = 1
+name = "fault"
+period = "5s"
+
+[[bus.drive.param]]
+param = "P102"
+name = "ramp_up"
+writable = true
+
+[[bus.drive]]
+name = "lift"
+address = 5
+
+[[bus.drive.param]]
+param = "P112"
+name = "current_limit"
+writable = true
+
+[bus.drive.process_data]
+period = "1s"
+out = [0x047E, 0]
+"#;
+
+fn ctt2_plant() -> Plant {
+    Plant::parse(CTT2_CONFIG, "ctt2").unwrap()
+}
+
+#[test]
+fn a_ctt2_bus_is_simulated_only_and_its_drives_are_double_slave_numbers() {
+    let plant = ctt2_plant();
+    let bus = &plant.buses[0];
+    assert_eq!(bus.protocol, Protocol::Ctt2);
+    assert!(matches!(bus.endpoint, Endpoint::Simulated { .. }));
+    // Two double slaves: four AS-i slaves, 16 × 154 µs × 6 per byte (BU 0255 4.4).
+    assert_eq!(WireDesc::of(bus).asi_slaves, 4);
+    let (text, verdict) = check_report(&plant);
+    verdict.unwrap();
+    assert!(
+        text.contains("ctt2 on the simulated AS-i link, 2 drive(s)"),
+        "{text}"
+    );
+    assert!(text.trim_end().ends_with(": fits"), "{text}");
+    let refused = |from: &str, to: &str| {
+        let text = CTT2_CONFIG.replacen(from, to, 1);
+        assert_ne!(text, CTT2_CONFIG, "{from}");
+        Plant::parse(&text, "ctt2").unwrap_err().to_string()
+    };
+    for (from, to) in [
+        ("simulate = true", "simulate = false"),
+        ("simulate = true", "port = \"/dev/ttyUSB0\""),
+        (
+            "simulate = true",
+            "simulate = true\nport = \"/dev/ttyUSB0\"",
+        ),
+        ("simulate = true", "simulate = true\niface = \"can0\""),
+    ] {
+        let e = refused(from, to);
+        assert!(e.contains("no real AS-i master"), "{to}: {e}");
+        assert!(e.contains("simulate = true"), "{to}: {e}");
+    }
+    let e = refused("simulate = true", "simulate = true\nbaud = 19200");
+    assert!(e.contains("no serial line"), "{e}");
+    for bad in ["address = 0", "address = 32"] {
+        let e = refused("address = 1", bad);
+        assert!(e.contains("double slave's number, 1–31"), "{bad}: {e}");
+        assert!(e.contains("5A"), "{bad}: {e}");
+    }
+    let e = refused("out = [0x047E, 0]", "out = [0x047E, 0, 0, 0, 0]");
+    assert!(e.contains("1–4 words"), "{e}");
+    let e = refused("protocol = \"ctt2\"", "protocol = \"asi\"");
+    assert!(e.contains("ctt2"), "{e}");
+}
+
+#[tokio::test(start_paused = true)]
+async fn a_ctt2_bus_reads_writes_and_exchanges_process_data_with_its_simulated_drives() {
+    use drive_profile::nord::StatusWord as NordStatus;
+    let plant = ctt2_plant();
+    let bus = &plant.buses[0];
+    let mut sim = simulated_bus(bus);
+    // A guarded write of each writable point, read back; then seen on the simulated drive.
+    let written = write_distinct(&mut sim.access, bus).await;
+    assert_eq!(written.len(), 2);
+    let Proto::Ctt2(b) = &sim.access.proto else {
+        panic!("not a CTT2 bus");
+    };
+    for (address, point, raw) in &written {
+        let drive = b.simulated_drive(*address).unwrap();
+        assert_eq!(
+            drive.ram_value(point.target.index, 0, 0).map(i64::from),
+            Some(*raw),
+            "{address}: {}",
+            point.name
+        );
+    }
+    for d in &bus.drives {
+        assert_eq!(sim.access.fault(d.address).await.unwrap(), None);
+    }
+    // A number that is no double slave, or none on this network: refused without a transaction.
+    for bad in [0u8, 3, 32] {
+        let t = bus.drives[0].points[0].target;
+        let r = sim.access.client(bad).read(&t).await;
+        assert!(matches!(r, Err(ClientError::Request(_))), "{bad}: {r:?}");
+    }
+    // Process data: enable, then the gateway's stop ramps the drive down.
+    let a = 5;
+    sim.access.process_data(a, &[0x047E, 0]).await.unwrap();
+    let out = [0x047F, 0x1000];
+    let mut words = Vec::new();
+    for _ in 0..3 {
+        words = sim.access.process_data(a, &out).await.unwrap();
+    }
+    assert_eq!(words.len(), 2);
+    assert!(
+        NordStatus(words[0]).contains(NordStatus::OPERATION_ENABLED),
+        "0x{:04X}",
+        words[0]
+    );
+    sim.access
+        .stop_process_data(a, &out)
+        .await
+        .unwrap()
+        .unwrap();
+    tokio::time::sleep(Duration::from_secs(5)).await;
+    let after = sim
+        .access
+        .stop_process_data(a, &out)
+        .await
+        .unwrap()
+        .unwrap();
+    assert!(
+        !NordStatus(after[0]).contains(NordStatus::OPERATION_ENABLED),
+        "0x{:04X}",
+        after[0]
+    );
+    assert!(matches!(
+        sim.access.process_data(a, &[0x047E, 0, 0, 0, 0]).await,
+        Err(ClientError::Request(_))
+    ));
+    assert_eq!(sim.access.take_tally(), crate::bus::LinkTally::default());
+}
+
+#[tokio::test(start_paused = true)]
+async fn the_wire_time_of_a_ctt2_transaction_is_what_the_simulated_link_takes() {
+    // Each op against the formula on the paused clock: the link keeps its byte times exactly,
+    // tokio's clock to the millisecond (hence 1 ms below the formula allowed).
+    let plant = ctt2_plant();
+    let bus = &plant.buses[0];
+    let mut sim = simulated_bus(bus);
+    let d = &bus.drives[1];
+    let t = d.points[0].target;
+    let read = sim.access.wire_time(Op::Read);
+    // 4 AS-i slaves: 14.784 ms per byte; an order is 12 bytes of the write and 12 of a read,
+    // and the same parameter again needs a "no order" before it.
+    assert_eq!(read, Duration::from_micros(14_784 * 48));
+    let pd = sim.access.wire_time(Op::ProcessData(2));
+    assert_eq!(pd, Duration::from_micros(14_784 * (9 + 6)));
+    let n = 10u32;
+    let start = tokio::time::Instant::now();
+    for _ in 0..n {
+        sim.access.client(d.address).read(&t).await.unwrap();
+    }
+    let measured = start.elapsed() / n;
+    assert!(
+        measured + Duration::from_millis(1) >= read && measured <= read + Duration::from_millis(2),
+        "read: measured {measured:?}, formula {read:?}"
+    );
+    let start = tokio::time::Instant::now();
+    for _ in 0..n {
+        sim.access
+            .process_data(d.address, &[0x047E, 0])
+            .await
+            .unwrap();
+    }
+    let measured = start.elapsed() / n;
+    assert!(
+        measured + Duration::from_millis(1) >= pd && measured <= pd + Duration::from_millis(2),
+        "process data: measured {measured:?}, formula {pd:?}"
+    );
+    // One drive alone (2 slaves, 9.856 ms per byte): the drive's 50 ms on the order outlast
+    // the first read of the channel, which the client repeats (the "no order" before it is
+    // answered at once).
+    let mut one = bus.clone();
+    one.drives.truncate(1);
+    let w = WireDesc::of(&one);
+    assert_eq!(w.time(Op::Read), Duration::from_micros(9_856 * 60));
+    let mut sim = simulated_bus(&one);
+    let t = one.drives[0].points[0].target;
+    let start = tokio::time::Instant::now();
+    sim.access.client(1).read(&t).await.unwrap();
+    let measured = start.elapsed();
+    assert!(
+        measured + Duration::from_millis(1) >= w.time(Op::Read)
+            && measured <= w.time(Op::Read) + Duration::from_millis(2),
+        "one drive: measured {measured:?}, formula {:?}",
+        w.time(Op::Read)
+    );
 }

@@ -9,6 +9,7 @@
 //! | Modbus RTU | t3.5 + request + max(answer delay 10 ms, t3.5) + answer |
 //! | Modbus ASCII | request + answer delay 10 ms + answer |
 //! | SBus | request frame + answer frame ([`drive_core::can::CanFrame::duration`]) |
+//! | CTT2 | a parameter order: NORD write of the PKW channel (request + answer) and NORD reads of it (request + answer) until the drive has worked on the order, twice (a "no order" first, as on USS); process data: one NORD write/read of the PZD channel; every byte 16 AS-i cycles of 154 µs × (2 + slaves) (BU 0255 4.4) |
 
 use std::time::Duration;
 
@@ -32,6 +33,8 @@ pub struct WireDesc {
     pub bitrate: Bitrate,
     /// The USS telegram layout.
     pub layout: Layout,
+    /// CTT2: the AS-i slaves on the network (two per drive's double slave).
+    pub asi_slaves: u8,
 }
 
 /// The CAN bit rate of an SBus bus: the slcan interface's or the simulated bus's; 500 kbit/s
@@ -65,6 +68,7 @@ impl WireDesc {
             line: line_of(bus),
             bitrate: bitrate_of(bus),
             layout: super::access::uss_layout(bus),
+            asi_slaves: super::access::ctt2_network(bus).slave_count(),
         }
     }
 
@@ -74,6 +78,7 @@ impl WireDesc {
             Protocol::Movilink => self.movilink(op),
             Protocol::Sbus => self.sbus(op),
             Protocol::Uss => self.uss(),
+            Protocol::Ctt2 => self.ctt2(op),
             Protocol::ModbusRtu => self.modbus(Mode::Rtu, op),
             Protocol::ModbusAscii => self.modbus(Mode::Ascii, op),
         }
@@ -136,6 +141,61 @@ impl WireDesc {
         let one =
             timing.start_delay + self.line.wire_time(chars) + delay + self.line.wire_time(chars);
         one * 2
+    }
+
+    /// CTT2 on the simulated AS-i link (see [`ctt2_uss::ctt2::link`]): request bytes × byte
+    /// time, the double slave's answer (at once in the simulation), answer bytes × byte time.
+    /// A parameter order is handed over with a NORD write of the PKW channel and read back with
+    /// NORD reads; the drive works on it for [`SIM_PKW_TIME`](ctt2_uss::ctt2::link::SIM_PKW_TIME)
+    /// (the simulator's figure: the manual says only "low priority"), and a read before that
+    /// returns the previous answer, so the client reads again.
+    fn ctt2(&self, op: Op) -> Duration {
+        use ctt2_uss::ctt2::message::{Channel, Data, Request, Response};
+        use ctt2_uss::uss::pkw::PKW_LEN;
+        let byte = Duration::from_micros(u64::from(drive_profile::nord::ctt2_byte_time_us(
+            self.asi_slaves,
+        )));
+        let bytes = |n: usize| byte.saturating_mul(u32::try_from(n).unwrap_or(u32::MAX));
+        let ok = |n: usize| Response::Ok {
+            kind: drive_profile::nord::Ctt2MessageType::NordRead,
+            data: [0u8; 14].get(..n).and_then(Data::new).unwrap_or_default(),
+        };
+        match op {
+            Op::Read | Op::Write => {
+                let pkw = Data::new(&[0; PKW_LEN]).unwrap_or_default();
+                let write = Request::NordWrite {
+                    index: Channel::Pkw,
+                    data: pkw,
+                }
+                .encoded_len()
+                    + ok(0).encoded_len();
+                let read_request = Request::NordRead {
+                    index: Channel::Pkw,
+                    len: PKW_LEN as u8,
+                }
+                .encoded_len();
+                let read = read_request + ok(PKW_LEN).encoded_len();
+                // The order reaches the drive at the end of the write's request; a read sees
+                // its answer when the drive was done by the end of that read's request.
+                let mut since_order = ok(0).encoded_len() + read_request;
+                let mut reads = 1;
+                while bytes(since_order) < ctt2_uss::ctt2::link::SIM_PKW_TIME && reads < 50 {
+                    since_order += read;
+                    reads += 1;
+                }
+                // A read or write of the parameter the previous order had needs a "no order"
+                // first (answered at once), as on USS (erratum E21): counted, the worst case.
+                bytes(write + read + write + read * reads)
+            }
+            Op::ProcessData(n) => {
+                // Address 1, the control word and the setpoints; the answer: address 1, the
+                // status word and as many actual values.
+                let words = usize::from(n.clamp(1, 4));
+                let request = 4 + 1 + 2 * words;
+                let answer = ok(1 + 2 * words).encoded_len();
+                bytes(request + answer)
+            }
+        }
     }
 
     fn modbus(&self, mode: Mode, op: Op) -> Duration {

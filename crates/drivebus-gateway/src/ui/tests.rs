@@ -364,3 +364,44 @@ fn the_parameter_table_is_searched_in_german_and_english_with_umlauts_folded() {
     assert!(params_json(&p, 0, 5, None).is_none());
     assert!(params_json(&p, 3, 0, None).is_none());
 }
+
+/// `drivectl ui ctt2 --sim`: NORD's points on the simulated AS-i link, slow enough that two
+/// drives fit its wire (a read takes about 0.7 s there); without `simulate` it is refused, and
+/// `--scan` probes the double slaves' numbers 1–31.
+#[test]
+fn a_one_bus_ctt2_plant_is_simulated_and_its_polls_fit_the_as_i_link() {
+    let one = OneBus {
+        protocol: "ctt2".into(),
+        port: None,
+        iface: None,
+        baud: None,
+        parity: None,
+        addresses: vec![1, 5],
+        simulate: true,
+        listen: "127.0.0.1:8080".parse().unwrap(),
+        timeout_ms: None,
+        retries: None,
+    };
+    let plant = Plant::parse(&one.config(), "the command line").unwrap();
+    let bus = &plant.buses[0];
+    assert_eq!(bus.protocol, crate::config::Protocol::Ctt2);
+    let names: Vec<&str> = bus.drives[0]
+        .points
+        .iter()
+        .map(|p| p.name.as_str())
+        .collect();
+    assert_eq!(names, ["fault", "warning", "max_frequency"]);
+    let d = crate::families::demand(bus);
+    assert!(d > 0.5 && d < 1.0, "demand {d}");
+    assert_eq!(scan_range("ctt2"), (1, 31));
+    let real = OneBus {
+        simulate: false,
+        ..one.clone()
+    };
+    let e = Plant::parse(&real.config(), "the command line")
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("no real AS-i master"), "{e}");
+    let found = one.scan(1, 8, &mut |_, _| {}).unwrap();
+    assert_eq!(found, vec![1, 5]);
+}
