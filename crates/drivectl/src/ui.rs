@@ -233,6 +233,11 @@ fn scan(one: &OneBus, from: Option<u8>, to: Option<u8>) -> Result<Vec<u8>> {
     let found = one
         .scan(from, to, &mut each)
         .map_err(|e| CliError::failed(e.to_string()))?;
+    if found.is_empty() && one.protocol == "ctt2" {
+        return Err(CliError::failed(format!(
+            "no double slave answered at {from}–{to}: the simulated AS-i link has those of --addr"
+        )));
+    }
     if found.is_empty() {
         return Err(CliError::failed(format!(
             "no drive answered at addresses {from}–{to}: check the port, the baud rate and the \
