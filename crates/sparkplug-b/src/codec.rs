@@ -219,8 +219,10 @@ mod tests {
 
     #[test]
     fn a_payload_of_max_metrics_decodes_and_one_more_is_refused() {
-        let mut payload = Payload::default();
-        payload.metrics = (0..MAX_METRICS).map(|_| Metric::default()).collect();
+        let mut payload = Payload {
+            metrics: (0..MAX_METRICS).map(|_| Metric::default()).collect(),
+            ..Payload::default()
+        };
         let bytes = encoded(&payload);
         assert_eq!(decode(&bytes).unwrap().metrics.len(), MAX_METRICS);
         payload.metrics.push(Metric::default());

@@ -310,11 +310,14 @@ pub fn get(metric: &Metric, datatype: DataType) -> Result<Number, ValueError> {
 pub fn integer_type(min: i64, max: i64) -> DataType {
     let (lo, hi) = if min <= max { (min, max) } else { (max, min) };
     if lo >= 0 {
-        match hi {
-            ..=0xFF => DataType::UInt8,
-            ..=0xFFFF => DataType::UInt16,
-            ..=0xFFFF_FFFF => DataType::UInt32,
-            _ => DataType::UInt64,
+        if hi <= u8::MAX.into() {
+            DataType::UInt8
+        } else if hi <= u16::MAX.into() {
+            DataType::UInt16
+        } else if hi <= u32::MAX.into() {
+            DataType::UInt32
+        } else {
+            DataType::UInt64
         }
     } else {
         let fits = |l: i64, h: i64| lo >= l && hi <= h;
