@@ -1,4 +1,5 @@
-//! Code generation from the tables extracted from the vendor manuals.
+//! Code generation from the tables extracted from the vendor manuals, and of sparkplug-b's
+//! payload types from the Sparkplug B schema ([`codegen::sparkplug`]).
 //!
 //! Every CSV file is read with [`table::Table`], which names `file:line` in every error.
 //! Each drive family has its own folder under [`codegen`](mod@codegen) that validates its files
@@ -9,7 +10,7 @@ pub mod interop;
 pub mod render;
 pub mod table;
 
-use codegen::{bonfiglioli, nord, sew};
+use codegen::{bonfiglioli, nord, sew, sparkplug};
 
 use std::fmt;
 use std::path::{Path, PathBuf};
@@ -108,6 +109,16 @@ pub fn codegen(root: &Path, check: bool) -> Result<String> {
             }
         }
     }
+    // sparkplug-b's payload types, from its `.proto`.
+    let proto = sparkplug::generate(root)?;
+    let path = sparkplug::output_path(root);
+    if std::fs::read_to_string(&path).ok().as_deref() != Some(proto.as_str()) {
+        stale.push(sparkplug::OUTPUT.to_owned());
+        if !check {
+            std::fs::write(&path, &proto).map_err(|e| Error(format!("{}: {e}", path.display())))?;
+        }
+    }
+    let total = outputs.len() + 1;
     if check && !stale.is_empty() {
         return Err(Error(format!(
             "generated tables are stale ({}); run `cargo xtask codegen` and commit the result",
@@ -115,12 +126,12 @@ pub fn codegen(root: &Path, check: bool) -> Result<String> {
         )));
     }
     Ok(if stale.is_empty() {
-        format!("{} generated files up to date", outputs.len())
+        format!("{total} generated files up to date")
     } else {
         format!(
             "wrote {} of {} generated files: {}",
             stale.len(),
-            outputs.len(),
+            total,
             stale.join(", ")
         )
     })

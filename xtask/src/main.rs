@@ -1,7 +1,8 @@
 //! `cargo xtask`: workspace automation.
 //!
 //! * `cargo xtask codegen` validates every CSV under `crates/drive-profile/data/` and writes
-//!   the Rust tables to `crates/drive-profile/src/generated/`.
+//!   the Rust tables to `crates/drive-profile/src/generated/`; it also compiles
+//!   `crates/sparkplug-b/proto/sparkplug_b.proto` into `crates/sparkplug-b/src/proto.rs`.
 //! * `cargo xtask codegen --check` does the same in memory and fails when the committed
 //!   output differs (CI runs it; a `#[test]` in this crate runs it too).
 //! * `cargo xtask interop [--only mbpoll|libmodbus|pymodbus|master] [--no-install]` runs
