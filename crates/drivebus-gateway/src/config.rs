@@ -30,6 +30,24 @@ pub struct File {
     pub buses: Vec<Spanned<BusFile>>,
     /// `[ui]`: the browser page.
     pub ui: Option<Spanned<UiFile>>,
+    /// `[sparkplug]`: the plant as a Sparkplug B edge node.
+    pub sparkplug: Option<Spanned<SparkplugFile>>,
+}
+
+/// `[sparkplug]`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SparkplugFile {
+    /// The Sparkplug group (topic level 2).
+    pub group_id: String,
+    /// The gateway's edge node id (topic level 4).
+    pub edge_node_id: String,
+    /// A primary host application: no NBIRTH until its STATE says online.
+    pub primary_host_id: Option<String>,
+    /// The JSON topics beside Sparkplug (default true).
+    pub json: Option<bool>,
+    /// MQTT client id of the Sparkplug connection (default: the gateway's with `-spb`).
+    pub client_id: Option<String>,
 }
 
 /// `[ui]`.
@@ -302,6 +320,23 @@ pub struct Plant {
     pub buses: Vec<Bus>,
     /// The browser page, when `[ui]` asks for it.
     pub ui: Option<Ui>,
+    /// The Sparkplug B edge node, when `[sparkplug]` asks for it.
+    pub sparkplug: Option<Sparkplug>,
+}
+
+/// Checked `[sparkplug]` (`docs/sparkplug.md`).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Sparkplug {
+    /// Group id.
+    pub group_id: String,
+    /// Edge node id.
+    pub edge_node_id: String,
+    /// Primary host id.
+    pub primary_host_id: Option<String>,
+    /// The JSON topics are published too.
+    pub json: bool,
+    /// MQTT client id of the Sparkplug connection.
+    pub client_id: String,
 }
 
 /// Checked `[ui]`. The files are named here and read at the start (`ui::auth::Security`).
@@ -328,6 +363,13 @@ impl Gateway {
     /// Whether the gateway publishes on a broker (`broker = "off"`: the page only).
     pub fn uses_broker(&self) -> bool {
         self.broker != BROKER_OFF
+    }
+}
+
+impl Plant {
+    /// Whether the JSON topics are published (a broker, and `[sparkplug] json` not false).
+    pub fn publishes_json(&self) -> bool {
+        self.gateway.uses_broker() && self.sparkplug.as_ref().is_none_or(|s| s.json)
     }
 }
 
@@ -712,7 +754,76 @@ fn check(file: File) -> std::result::Result<Plant, Fault> {
                 .to_owned(),
         ));
     }
-    Ok(Plant { gateway, buses, ui })
+    let sparkplug = match file.sparkplug {
+        Some(s) => {
+            let at = s.span().start;
+            let s = check_sparkplug(s.into_inner(), &gateway).map_err(|m| Fault::new(at, m))?;
+            // The drive's config name is its device id: one node, one device of a name.
+            let mut seen: std::collections::HashMap<&str, &str> = std::collections::HashMap::new();
+            for b in &buses {
+                for d in &b.drives {
+                    if let Some(other) = seen.insert(&d.name, &b.name) {
+                        return Err(Fault::new(
+                            at,
+                            format!(
+                                "[sparkplug]: drive {:?} is on bus {other:?} and on bus {:?}; a \
+                                 drive's name is its Sparkplug device id, unique in the node: \
+                                 rename one",
+                                d.name, b.name
+                            ),
+                        ));
+                    }
+                }
+            }
+            Some(s)
+        }
+        None => None,
+    };
+    Ok(Plant {
+        gateway,
+        buses,
+        ui,
+        sparkplug,
+    })
+}
+
+/// Check `[sparkplug]`: ids usable as Sparkplug topic levels, a broker to publish on.
+fn check_sparkplug(s: SparkplugFile, g: &Gateway) -> std::result::Result<Sparkplug, String> {
+    if !g.uses_broker() {
+        return Err(
+            "[sparkplug] needs a broker: [gateway] broker = \"off\" publishes nothing".to_owned(),
+        );
+    }
+    for (key, id) in [
+        ("group_id", Some(&s.group_id)),
+        ("edge_node_id", Some(&s.edge_node_id)),
+        ("primary_host_id", s.primary_host_id.as_ref()),
+    ] {
+        if let Some(id) = id
+            && !topic_level_ok(id)
+        {
+            return Err(format!(
+                "[sparkplug] {key} = {id:?}: a Sparkplug id is one topic level of 1–64 \
+                 characters without '/', '+', '#' or spaces"
+            ));
+        }
+    }
+    let client_id = s
+        .client_id
+        .unwrap_or_else(|| format!("{}-spb", g.client_id));
+    if client_id == g.client_id && s.json != Some(false) {
+        return Err(format!(
+            "[sparkplug] client_id = {client_id:?} is the JSON connection's: each connection \
+             needs its own (the broker drops the older of two with one id)"
+        ));
+    }
+    Ok(Sparkplug {
+        group_id: s.group_id,
+        edge_node_id: s.edge_node_id,
+        primary_host_id: s.primary_host_id,
+        json: s.json.unwrap_or(true),
+        client_id,
+    })
 }
 
 fn check_gateway(g: GatewayFile) -> std::result::Result<Gateway, String> {

@@ -37,6 +37,7 @@ pub mod metrics;
 pub mod model;
 pub mod mqtt;
 pub mod schedule;
+pub mod sparkplug;
 pub mod task;
 pub mod ui;
 
@@ -90,11 +91,12 @@ pub async fn serve(plant: Plant) -> Result<()> {
     let metrics = Arc::new(metrics::Metrics::new(&plant));
     // Prepared before anything else starts, so that a bad certificate or password file is
     // an error before a bus is opened.
-    let mqtt = if plant.gateway.uses_broker() {
+    let mqtt = if plant.publishes_json() {
         Some(mqtt::Mqtt::prepare(&plant)?)
     } else {
         None
     };
+    let sparkplug = sparkplug::Sparkplug::prepare(&plant)?;
     // The page's files (certificate, key, users) are read and its port is taken before a bus
     // opens: a bad file or a port in use is an error at the start.
     let page = match &plant.ui {
@@ -188,14 +190,70 @@ pub async fn serve(plant: Plant) -> Result<()> {
         }
         None => update_rx,
     };
-    match mqtt {
-        Some(mqtt) => mqtt.run(updates, set_txs, metrics, shutdown).await,
-        None => {
-            // No broker: the page shows the drives until a stop signal.
+    // The stop reaches every publisher once the buses are done.
+    let (stopped_tx, stopped_rx) = tokio::sync::watch::channel(false);
+    tokio::task::spawn_local(async move {
+        shutdown.await;
+        let _ = stopped_tx.send(true);
+    });
+    let stopped = |mut rx: tokio::sync::watch::Receiver<bool>| async move {
+        let _ = rx.wait_for(|s| *s).await;
+    };
+    // Both ways of publishing see every update.
+    let (json_updates, spb_updates) = match (&mqtt, &sparkplug) {
+        (Some(_), Some(_)) => {
+            let (a_tx, a_rx) = mpsc::channel(4096);
+            let (b_tx, b_rx) = mpsc::channel(4096);
+            tokio::task::spawn_local(tee(updates, a_tx, b_tx));
+            (Some(a_rx), Some(b_rx))
+        }
+        (Some(_), None) => (Some(updates), None),
+        (None, Some(_)) => (None, Some(updates)),
+        (None, None) => {
             drop(updates);
+            (None, None)
+        }
+    };
+    let spb_task = match (sparkplug, spb_updates) {
+        (Some(spb), Some(u)) => Some(tokio::task::spawn_local(spb.run(
+            u,
+            set_txs.clone(),
+            metrics.clone(),
+            stopped_rx.clone(),
+        ))),
+        _ => None,
+    };
+    let json = match (mqtt, json_updates) {
+        (Some(mqtt), Some(u)) => {
+            mqtt.run(u, set_txs, metrics, stopped(stopped_rx.clone()))
+                .await
+        }
+        _ => {
+            // No JSON topics: the page or Sparkplug shows the drives until a stop signal.
             drop(set_txs);
-            shutdown.await;
+            stopped(stopped_rx.clone()).await;
             Ok(())
+        }
+    };
+    if let Some(t) = spb_task {
+        match t.await {
+            Ok(r) => r?,
+            Err(e) => tracing::error!(error = %e, "the Sparkplug task ended abnormally"),
+        }
+    }
+    json
+}
+
+/// Hand every update to both publishers (waits for the slower: the buses never outrun it).
+async fn tee(
+    mut from: mpsc::Receiver<model::Update>,
+    a: mpsc::Sender<model::Update>,
+    b: mpsc::Sender<model::Update>,
+) {
+    while let Some(u) = from.recv().await {
+        let (ra, rb) = (a.send(u.clone()).await, b.send(u).await);
+        if ra.is_err() && rb.is_err() {
+            return;
         }
     }
 }

@@ -209,8 +209,14 @@ pub fn gateway_status_topic(g: &Gateway) -> String {
     format!("{}/{}/status", g.prefix, g.name)
 }
 
-/// Everything the connection needs, read now: a missing or bad file is an error here.
-pub fn options(g: &Gateway) -> Result<(MqttOptions, BrokerUrl)> {
+/// What a connection to the broker needs, read now: a missing or bad file is an error here.
+struct Resolved {
+    url: BrokerUrl,
+    credentials: Option<(String, String)>,
+    tls: Option<rustls::ClientConfig>,
+}
+
+fn resolve(g: &Gateway) -> Result<Resolved> {
     let url = parse_url(&g.broker).map_err(|e| Error::config(format!("[gateway] {e}")))?;
     if !url.tls && (g.ca_file.is_some() || g.client_cert.is_some()) {
         return Err(Error::config(format!(
@@ -226,12 +232,28 @@ pub fn options(g: &Gateway) -> Result<(MqttOptions, BrokerUrl)> {
             "[gateway] password_file without a user: give username, or user@ in the broker URL",
         ));
     }
-    let mut o = MqttOptions::new(g.client_id.clone(), url.host.clone(), url.port);
-    // MQTT carries the keep-alive in 16 bits of seconds: a longer one would be cut.
-    o.set_keep_alive(g.keep_alive.clamp(
+    let tls = if url.tls { Some(tls_config(g)?) } else { None };
+    Ok(Resolved {
+        credentials: user.map(|u| (u, password.unwrap_or_default())),
+        url,
+        tls,
+    })
+}
+
+/// MQTT carries the keep-alive in 16 bits of seconds: a longer one would be cut.
+fn keep_alive(g: &Gateway) -> Duration {
+    g.keep_alive.clamp(
         Duration::from_secs(1),
         Duration::from_secs(u64::from(u16::MAX)),
-    ));
+    )
+}
+
+/// The JSON connection's options (MQTT 5): everything read now, a missing or bad file is an
+/// error here.
+pub fn options(g: &Gateway) -> Result<(MqttOptions, BrokerUrl)> {
+    let r = resolve(g)?;
+    let mut o = MqttOptions::new(g.client_id.clone(), r.url.host.clone(), r.url.port);
+    o.set_keep_alive(keep_alive(g));
     // A clean start and a session that ends with the connection (expiry 0, the default):
     // nothing is kept at the broker across connections, as 3.1.1's clean session.
     o.set_clean_start(true);
@@ -243,16 +265,42 @@ pub fn options(g: &Gateway) -> Result<(MqttOptions, BrokerUrl)> {
         true,
         None,
     ));
-    if let Some(u) = user {
-        o.set_credentials(u, password.unwrap_or_default());
+    if let Some((u, p)) = r.credentials {
+        o.set_credentials(u, p);
     }
-    if url.tls {
-        let config = tls_config(g)?;
+    if let Some(config) = r.tls {
         o.set_transport(Transport::tls_with_config(TlsConfiguration::Rustls(
             Arc::new(config),
         )));
     }
-    Ok((o, url))
+    Ok((o, r.url))
+}
+
+/// The largest packet the Sparkplug connection takes. MQTT 3.1.1 cannot tell the broker (the
+/// JSON connection's MQTT 5 can), so a larger one ends the connection; this is far above any
+/// command or STATE message, and a retained command is cleared when it arrives.
+pub const MAX_INCOMING_PACKET_V4: usize = 16 << 20;
+
+/// The Sparkplug connection's options (MQTT 3.1.1: an edge node publishes its NDEATH before
+/// a DISCONNECT, which MQTT 5 would have to send with the reason code "disconnect with will
+/// message", and rumqttc's MQTT 5 client sends only a normal disconnection). The will is set
+/// for each connection by the Sparkplug task (its `bdSeq`).
+pub fn options_v4(g: &Gateway, client_id: &str) -> Result<rumqttc::MqttOptions> {
+    let r = resolve(g)?;
+    let mut o = rumqttc::MqttOptions::new(client_id, r.url.host.clone(), r.url.port);
+    o.set_keep_alive(keep_alive(g));
+    // Sparkplug: a clean session at every connection.
+    o.set_clean_session(true);
+    o.set_max_packet_size(MAX_INCOMING_PACKET_V4, MAX_INCOMING_PACKET_V4);
+    if let Some((u, p)) = r.credentials {
+        o.set_credentials(u, p);
+    }
+    if let Some(config) = r.tls {
+        o.set_transport(Transport::tls_with_config(TlsConfiguration::Rustls(
+            Arc::new(config),
+        )));
+    }
+    Ok(o)
 }
 
 #[cfg(test)]

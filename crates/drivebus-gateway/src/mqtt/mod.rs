@@ -343,6 +343,46 @@ pub fn describe(e: &ConnectionError, client_id: &str) -> String {
     }
 }
 
+/// [`describe`] for the Sparkplug connection's MQTT 3.1.1 client.
+pub fn describe_v4(e: &rumqttc::ConnectionError, client_id: &str) -> String {
+    use rumqttc::ConnectReturnCode as C;
+    use rumqttc::ConnectionError as E;
+    match e {
+        E::ConnectionRefused(C::BadUserNamePassword | C::NotAuthorized) => {
+            "the broker refused the user name or password: check username (or user@ in the \
+             broker URL), the password in password_file, client_cert, and the broker's access \
+             rules"
+                .to_owned()
+        }
+        E::ConnectionRefused(C::BadClientId) => {
+            format!("the broker refused the client id {client_id:?}: set [sparkplug] client_id")
+        }
+        E::ConnectionRefused(code) => format!("the broker refused the connection ({code:?})"),
+        E::Tls(t) => format!(
+            "TLS: {t}; check ca_file (the CA that signed the broker's certificate), that the \
+             broker URL's host is a name in the certificate, and client_cert/client_key"
+        ),
+        E::Io(io) if io.kind() == std::io::ErrorKind::ConnectionRefused => {
+            format!("{io}: is the broker running at the configured host and port?")
+        }
+        E::Io(io) => format!("i/o: {io}"),
+        E::MqttState(rumqttc::StateError::Deserialization(
+            rumqttc::mqttbytes::Error::PayloadSizeLimitExceeded(n),
+        )) => format!(
+            "the broker sent a message of {n} bytes, more than the {} the Sparkplug connection \
+             takes: a retained message on a command or STATE topic? remove it (mosquitto_pub \
+             -r -n -t TOPIC)",
+            connect::MAX_INCOMING_PACKET_V4
+        ),
+        E::NetworkTimeout | E::FlushTimeout => {
+            "no answer from the broker in time (network, firewall, or a TLS port spoken to \
+             as plain mqtt://?)"
+                .to_owned()
+        }
+        other => other.to_string(),
+    }
+}
+
 /// Topic names → indices, built once.
 #[derive(Debug)]
 struct Names {

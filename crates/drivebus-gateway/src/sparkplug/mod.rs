@@ -1,0 +1,460 @@
+//! The plant as a Sparkplug B 3.0 edge node (`[sparkplug]`, `docs/sparkplug.md`): the gateway
+//! is the node, each drive a device, each point a metric.
+//!
+//! - [`catalogue`]: the metrics, their aliases, datatypes and birth properties.
+//! - [`node`]: the session as a state machine without I/O (births, deaths, data by exception,
+//!   commands, the primary host).
+//! - here: the task. Its own broker connection (MQTT 3.1.1, clean session) beside the JSON
+//!   topics' one: a connection has one will, and the node's is its NDEATH with the `bdSeq` of
+//!   that connection, which changes at every CONNECT. rumqttc's event loop runs in its own local
+//!   task and sets the will before each connection attempt; `bdSeq` is kept in the state
+//!   directory across restarts.
+
+pub mod catalogue;
+pub mod node;
+
+#[cfg(test)]
+mod tests;
+
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::time::{Duration, SystemTime};
+
+use rumqttc::{AsyncClient, Event, EventLoop, LastWill, Outgoing, Packet, QoS};
+use sparkplug_b::seq::Seq;
+use tokio::sync::{mpsc, oneshot, watch};
+use tokio::time::Instant;
+
+use crate::config::Plant;
+use crate::error::Result;
+use crate::metrics::Metrics;
+use crate::model::{SetOutcome, SetRequest, Update};
+use crate::mqtt::payload::millis;
+use crate::mqtt::{Backoff, SHUTDOWN_FLUSH};
+use node::{Node, Out};
+
+/// The client's request queue: a birth of a large plant is one message per drive.
+const CLIENT_QUEUE: usize = 4096;
+/// How long a write may wait for its bus task's answer beyond its age limit.
+const ANSWER_GRACE: Duration = Duration::from_secs(60);
+
+/// Where `bdSeq` is kept: one file per group and node in the state directory.
+#[derive(Debug, Clone)]
+pub struct BdSeqStore {
+    path: Option<PathBuf>,
+}
+
+impl BdSeqStore {
+    /// The file of `group`/`node` in `dir` (`None`: nowhere; `bdSeq` starts at 0 each time).
+    pub fn new(dir: Option<PathBuf>, group: &str, node: &str) -> BdSeqStore {
+        BdSeqStore {
+            path: dir.map(|d| d.join(format!("sparkplug-{group}-{node}.bdseq"))),
+        }
+    }
+
+    /// The file, where there is one.
+    pub fn path(&self) -> Option<&std::path::Path> {
+        self.path.as_deref()
+    }
+
+    /// The `bdSeq` of the next connection: one after the last one kept, 0 without one.
+    pub fn next(&self) -> Seq {
+        let Some(p) = &self.path else {
+            return Seq::default();
+        };
+        match std::fs::read_to_string(p) {
+            Ok(text) => match text.trim().parse::<u8>() {
+                Ok(v) => Seq::new(v).next(),
+                Err(_) => {
+                    tracing::warn!(path = %p.display(), "the bdSeq file is damaged (not 0–255): starting at 0");
+                    Seq::default()
+                }
+            },
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => Seq::default(),
+            Err(e) => {
+                tracing::warn!(path = %p.display(), error = %e, "cannot read the bdSeq file: starting at 0");
+                Seq::default()
+            }
+        }
+    }
+
+    /// Keep `used`, the `bdSeq` of a connection the broker took.
+    pub fn save(&self, used: u8) -> std::result::Result<(), String> {
+        let Some(p) = &self.path else {
+            return Ok(());
+        };
+        if let Some(dir) = p.parent() {
+            std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+        }
+        let file =
+            drive_client::outfile::OutputFile::prepare(p, true).map_err(|e| e.to_string())?;
+        file.commit(&format!("{used}\n")).map_err(|e| e.to_string())
+    }
+}
+
+/// The prepared Sparkplug connection (files read, options built).
+#[derive(Debug)]
+pub struct Sparkplug {
+    plant: Arc<Plant>,
+    options: rumqttc::MqttOptions,
+    store: BdSeqStore,
+}
+
+/// What the event-loop task reports.
+#[derive(Debug)]
+enum Link {
+    /// Connected with this `bdSeq` in the will.
+    Up(u8),
+    Event(Box<Event>),
+    Down {
+        error: String,
+        retry_in: Duration,
+    },
+}
+
+/// A finished write.
+#[derive(Debug)]
+struct Done {
+    device: usize,
+    point: usize,
+    outcome: SetOutcome,
+}
+
+impl Sparkplug {
+    /// Build the connection's options from `plant` (reads the password and TLS files).
+    pub fn prepare(plant: &Arc<Plant>) -> Result<Option<Sparkplug>> {
+        let Some(sp) = &plant.sparkplug else {
+            return Ok(None);
+        };
+        let options = crate::mqtt::connect::options_v4(&plant.gateway, &sp.client_id)?;
+        let store = BdSeqStore::new(
+            drive_client::wear::env_dir(),
+            &sp.group_id,
+            &sp.edge_node_id,
+        );
+        Ok(Some(Sparkplug {
+            plant: plant.clone(),
+            options,
+            store,
+        }))
+    }
+
+    /// Run the node until `stop` turns true: then NDEATH and the disconnect.
+    pub async fn run(
+        self,
+        mut updates: mpsc::Receiver<Update>,
+        sets: Vec<mpsc::Sender<SetRequest>>,
+        _metrics: Arc<Metrics>,
+        mut stop: watch::Receiver<bool>,
+    ) -> Result<()> {
+        let Some(sp) = self.plant.sparkplug.clone() else {
+            return Ok(());
+        };
+        let mut node = Node::new(&self.plant, &sp);
+        let (client, eventloop) = AsyncClient::new(self.options.clone(), CLIENT_QUEUE);
+        let (link_tx, mut link_rx) = mpsc::channel(256);
+        let death_topic = node.death(0, 0).topic;
+        let first = self.store.next();
+        tracing::info!(
+            group = %sp.group_id, node = %sp.edge_node_id, bd_seq = first.get(),
+            file = ?self.store.path(), "Sparkplug edge node"
+        );
+        let driver = AbortOnDrop(tokio::task::spawn_local(drive(
+            eventloop,
+            link_tx,
+            self.store.clone(),
+            first,
+            death_topic,
+            sp.client_id.clone(),
+        )));
+        let (done_tx, mut done_rx) = mpsc::unbounded_channel::<Done>();
+        let mut connected = false;
+        let mut updates_open = true;
+        loop {
+            let now = millis(SystemTime::now());
+            let outs = tokio::select! {
+                biased;
+                r = stop.wait_for(|s| *s) => {
+                    let _ = r;
+                    break;
+                }
+                link = link_rx.recv() => match link {
+                    Some(Link::Up(bd)) => {
+                        connected = true;
+                        tracing::info!(bd_seq = bd, "Sparkplug: connected to the broker");
+                        node.connected(bd)
+                    }
+                    Some(Link::Event(e)) => match *e {
+                        Event::Incoming(Packet::SubAck(_)) => node.subscribed(now),
+                        Event::Incoming(Packet::Publish(p)) => {
+                            node.incoming(&p.topic, &p.payload, p.retain, now)
+                        }
+                        _ => Vec::new(),
+                    },
+                    Some(Link::Down { error, retry_in }) => {
+                        if connected {
+                            tracing::warn!(%error, retry_in_ms = retry_in.as_millis() as u64,
+                                "Sparkplug: lost the broker connection; reconnecting");
+                        } else {
+                            tracing::warn!(%error, retry_in_ms = retry_in.as_millis() as u64,
+                                "Sparkplug: cannot connect to the broker; retrying");
+                        }
+                        connected = false;
+                        node.disconnected();
+                        Vec::new()
+                    }
+                    None => break,
+                },
+                Some(d) = done_rx.recv() => {
+                    node.write_done(d.device, d.point, &d.outcome, now);
+                    Vec::new()
+                }
+                u = updates.recv(), if updates_open => match u {
+                    Some(u) => node.update(&u, now),
+                    None => {
+                        updates_open = false;
+                        Vec::new()
+                    }
+                },
+            };
+            let mut outs = outs;
+            // Whatever else is waiting joins this flush (one DDATA per drive for a burst).
+            while let Ok(u) = updates.try_recv() {
+                outs.extend(node.update(&u, now));
+            }
+            outs.extend(node.flush(now));
+            if connected {
+                execute(&client, &mut node, outs, &sets, &done_tx, now);
+            }
+        }
+        // Writes answered as the buses stopped go out before the NDEATH.
+        tokio::task::yield_now().await;
+        let now = millis(SystemTime::now());
+        while let Ok(d) = done_rx.try_recv() {
+            node.write_done(d.device, d.point, &d.outcome, now);
+        }
+        if connected {
+            let mut outs = node.flush(now);
+            outs.extend(node.stopping(now));
+            execute(&client, &mut node, outs, &sets, &done_tx, now);
+            let deadline = Instant::now() + SHUTDOWN_FLUSH;
+            loop {
+                match tokio::time::timeout_at(deadline, link_rx.recv()).await {
+                    Ok(Some(Link::Event(e)))
+                        if matches!(*e, Event::Outgoing(Outgoing::Disconnect)) =>
+                    {
+                        tracing::info!("Sparkplug: NDEATH sent, disconnected");
+                        break;
+                    }
+                    Ok(Some(Link::Event(_) | Link::Up(_))) => {}
+                    Ok(Some(Link::Down { .. }) | None) => break,
+                    Err(_) => {
+                        tracing::warn!(
+                            "Sparkplug: the NDEATH and disconnect did not go out in time"
+                        );
+                        break;
+                    }
+                }
+            }
+        }
+        drop(driver);
+        Ok(())
+    }
+}
+
+/// Carry out what the session asks for.
+fn execute(
+    client: &AsyncClient,
+    node: &mut Node,
+    outs: Vec<Out>,
+    sets: &[mpsc::Sender<SetRequest>],
+    done: &mpsc::UnboundedSender<Done>,
+    now: u64,
+) {
+    let mut lost = false;
+    for o in outs {
+        match o {
+            Out::Publish(m) => {
+                let qos = if m.qos1 {
+                    QoS::AtLeastOnce
+                } else {
+                    QoS::AtMostOnce
+                };
+                if let Err(e) = client.try_publish(&m.topic, qos, m.retain, m.payload) {
+                    tracing::warn!(topic = %m.topic, error = %e, "Sparkplug: the client's queue is full: message dropped");
+                    lost = true;
+                }
+            }
+            Out::Subscribe(filter) => {
+                if let Err(e) = client.try_subscribe(&filter, QoS::AtLeastOnce) {
+                    tracing::warn!(%filter, error = %e, "Sparkplug: cannot subscribe");
+                }
+            }
+            Out::Disconnect => {
+                if let Err(e) = client.try_disconnect() {
+                    tracing::warn!(error = %e, "Sparkplug: cannot disconnect");
+                }
+            }
+            Out::Write {
+                device,
+                point,
+                value,
+                max_age,
+            } => write(node, device, point, value, max_age, sets, done, now),
+        }
+    }
+    if lost {
+        // A host sees the gap in `seq` and asks for a rebirth; the node sends it anyway.
+        let again = node.rebirth(now);
+        for o in again {
+            if let Out::Publish(m) = o {
+                let _ = client.try_publish(&m.topic, QoS::AtMostOnce, false, m.payload);
+            }
+        }
+    }
+}
+
+/// Hand a write to its bus task; its outcome comes back through `done`.
+#[allow(clippy::too_many_arguments)]
+fn write(
+    node: &mut Node,
+    device: usize,
+    point: usize,
+    value: crate::model::SetValue,
+    max_age: Duration,
+    sets: &[mpsc::Sender<SetRequest>],
+    done: &mpsc::UnboundedSender<Done>,
+    now: u64,
+) {
+    let Some((bus, drive, p)) = node
+        .catalogue()
+        .devices
+        .get(device)
+        .and_then(|d| Some((d.bus, d.drive, d.points.get(point)?.point)))
+    else {
+        return;
+    };
+    let (reply, answer) = oneshot::channel();
+    let req = SetRequest {
+        drive,
+        point: p,
+        value,
+        received: Instant::now(),
+        max_age,
+        reply,
+    };
+    let Some(tx) = sets.get(bus) else {
+        return;
+    };
+    match tx.try_send(req) {
+        Ok(()) => {
+            let done = done.clone();
+            tokio::task::spawn_local(async move {
+                let outcome = match tokio::time::timeout(max_age + ANSWER_GRACE, answer).await {
+                    Ok(Ok(o)) => o,
+                    Ok(Err(_)) => SetOutcome::Refused {
+                        reason: "expired",
+                        message: "the bus task ended without executing it".to_owned(),
+                    },
+                    Err(_) => SetOutcome::LinkFailed {
+                        message: "no answer from the bus task: whether it was written is unknown"
+                            .to_owned(),
+                    },
+                };
+                let _ = done.send(Done {
+                    device,
+                    point,
+                    outcome,
+                });
+            });
+        }
+        Err(mpsc::error::TrySendError::Full(_)) => node.write_done(
+            device,
+            point,
+            &SetOutcome::Refused {
+                reason: "busy",
+                message: "the bus has too many writes waiting: not queued; send it again later"
+                    .to_owned(),
+            },
+            now,
+        ),
+        Err(mpsc::error::TrySendError::Closed(_)) => node.write_done(
+            device,
+            point,
+            &SetOutcome::Refused {
+                reason: "offline",
+                message: "the bus task has ended: not sent".to_owned(),
+            },
+            now,
+        ),
+    }
+}
+
+/// Aborts its task when dropped.
+#[derive(Debug)]
+struct AbortOnDrop(tokio::task::JoinHandle<()>);
+
+impl Drop for AbortOnDrop {
+    fn drop(&mut self) {
+        self.0.abort();
+    }
+}
+
+/// Runs rumqttc's event loop. Before each connection attempt the will becomes the NDEATH of
+/// the next `bdSeq` (one more per CONNECT, as the specification asks, so that a late will of
+/// an earlier connection is never taken for this one's); a connection the broker takes is
+/// reported with its `bdSeq`, which is kept in the state directory.
+async fn drive(
+    mut el: EventLoop,
+    tx: mpsc::Sender<Link>,
+    store: BdSeqStore,
+    mut next: Seq,
+    death_topic: String,
+    client_id: String,
+) {
+    let mut backoff = Backoff::default();
+    let mut attempt: Option<u8> = None;
+    let mut save_failed = false;
+    loop {
+        if el.network.is_none() {
+            let bd = next.get();
+            next = next.next();
+            attempt = Some(bd);
+            let payload = node::death_payload(bd, millis(SystemTime::now()));
+            el.mqtt_options.set_last_will(LastWill::new(
+                death_topic.clone(),
+                payload,
+                QoS::AtLeastOnce,
+                false,
+            ));
+        }
+        match el.poll().await {
+            Ok(Event::Incoming(Packet::ConnAck(_))) => {
+                backoff.reset();
+                let bd = attempt.unwrap_or_default();
+                if let Err(e) = store.save(bd) {
+                    if !save_failed {
+                        tracing::warn!(error = %e, "cannot keep bdSeq in the state directory: after a restart it starts at 0 again (set DRIVECTL_STATE_DIR to a writable directory)");
+                    }
+                    save_failed = true;
+                }
+                if tx.send(Link::Up(bd)).await.is_err() {
+                    return;
+                }
+            }
+            Ok(ev) => {
+                if tx.send(Link::Event(Box::new(ev))).await.is_err() {
+                    return;
+                }
+            }
+            Err(e) => {
+                let retry_in = backoff.failed();
+                let error = crate::mqtt::describe_v4(&e, &client_id);
+                if tx.send(Link::Down { error, retry_in }).await.is_err() {
+                    return;
+                }
+                tokio::time::sleep(retry_in).await;
+            }
+        }
+    }
+}
