@@ -255,10 +255,11 @@ fn integer_range(datatype: &str) -> Option<(i128, i128)> {
     })
 }
 
-/// The bdSeq metric of an NBIRTH or NDEATH: a UInt64 0–255.
+/// The bdSeq metric of an NBIRTH or NDEATH: an Int64 0–255 (as Eclipse Tahu sends it and the
+/// specification's NBIRTH example shows; its NDEATH example says UInt64, docs/errata-sparkplug.md).
 fn bd_seq(m: &Msg) -> u64 {
     let bd = m.get("bdSeq");
-    assert_eq!(bd.datatype, "UInt64", "{}: {bd:?}", m.topic);
+    assert_eq!(bd.datatype, "Int64", "{}: {bd:?}", m.topic);
     assert!(bd.uint() <= 255, "{bd:?}");
     bd.uint()
 }
@@ -424,7 +425,7 @@ fn births_carry_the_simulators_values_and_the_tables_properties() {
     assert_eq!(p(ramp, "nameDe"), s(t["name_de"].as_str().unwrap()));
     assert_eq!(p(ramp, "nameEn"), s(t["name_en"].as_str().unwrap()));
     assert_eq!(p(ramp, "parameter"), s("P130"));
-    assert_eq!(p(ramp, "index"), (json!(8470), "UInt32".to_owned()));
+    assert_eq!(p(ramp, "index"), (json!(8470), "UInt64".to_owned()));
     for key in ["set", "element", "dataSet"] {
         assert!(
             ramp.property(key).is_none(),
@@ -439,7 +440,7 @@ fn births_carry_the_simulators_values_and_the_tables_properties() {
     assert_eq!(p(off, "engUnit"), s("Inc"));
     assert_eq!(p(off, "engLow"), (json!(-32767.0), "Double".to_owned()));
     assert_eq!(p(off, "engHigh"), (json!(32767.0), "Double".to_owned()));
-    assert_eq!(p(off, "index"), (json!(8506), "UInt32".to_owned()));
+    assert_eq!(p(off, "index"), (json!(8506), "UInt64".to_owned()));
 
     // d2: its own birth, its own value.
     assert_eq!(d2.get("ramp").float(), ramp2 as f64 * 1e-3);

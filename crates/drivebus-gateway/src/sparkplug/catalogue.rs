@@ -64,6 +64,8 @@ pub struct PointMetric {
     pub scaled: bool,
     /// Decimals of a scaled value.
     pub decimals: u8,
+    /// Read on a period (not only after writes).
+    pub polled: bool,
     /// `<point>/Write Result` of a writable point: its alias.
     pub result_alias: Option<u64>,
     /// The birth's properties.
@@ -220,6 +222,7 @@ impl Catalogue {
                         datatype,
                         scaled,
                         decimals,
+                        polled: point.period.is_some(),
                         result_alias,
                         properties: properties(point),
                         target: point.target,

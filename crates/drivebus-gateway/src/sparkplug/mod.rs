@@ -170,6 +170,9 @@ impl Sparkplug {
         let (done_tx, mut done_rx) = mpsc::unbounded_channel::<Done>();
         let mut connected = false;
         let mut updates_open = true;
+        // The births' wait for the drives' first answers ends at the latest with a tick.
+        let mut tick = tokio::time::interval(Duration::from_secs(1));
+        tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
         loop {
             let now = millis(SystemTime::now());
             let outs = tokio::select! {
@@ -209,6 +212,7 @@ impl Sparkplug {
                     node.write_done(d.device, d.point, &d.outcome, now);
                     Vec::new()
                 }
+                _ = tick.tick() => Vec::new(),
                 u = updates.recv(), if updates_open => match u {
                     Some(u) => node.update(&u, now),
                     None => {

@@ -73,6 +73,9 @@ pub enum Phase {
     Subscribing(usize),
     /// Subscribed, the primary host not (yet) online.
     WaitingForHost,
+    /// Ready to be born, waiting (since then, ms) for every drive's first answers, so that the
+    /// births carry values rather than nulls; at most [`SETTLE_LIMIT`].
+    Settling(u64),
     /// NBIRTH and the DBIRTHs are out.
     Born,
     /// NDEATH sent, disconnecting.
@@ -122,6 +125,9 @@ pub struct Node {
     buf: Vec<u8>,
 }
 
+/// The longest the births wait for the drives' first answers.
+pub const SETTLE_LIMIT: Duration = Duration::from_secs(10);
+
 /// The largest `Node Control`/DCMD metrics taken from one command (more are refused).
 pub const MAX_COMMAND_METRICS: usize = 256;
 
@@ -157,7 +163,17 @@ impl Node {
             seq: Seq::default(),
             host: PrimaryHost::new(),
             devices,
-            figures: vec![None; buses],
+            // Known from the start: the demand of the config's polls, nothing done yet.
+            figures: plant
+                .buses
+                .iter()
+                .map(|b| {
+                    Some(BusFigures {
+                        demand: crate::families::wire::demand(b),
+                        ..BusFigures::default()
+                    })
+                })
+                .collect(),
             figures_published: vec![None; buses],
             figures_dirty: vec![false; buses],
             buf: Vec::new(),
@@ -241,7 +257,7 @@ impl Node {
                     self.phase = Phase::WaitingForHost;
                     Vec::new()
                 } else {
-                    self.births(now_ms)
+                    self.settle(now_ms)
                 }
             }
             _ => Vec::new(),
@@ -264,6 +280,34 @@ impl Node {
         self.phase = Phase::Leaving;
         let death = self.death(self.bd_seq, now_ms);
         vec![Out::Publish(death), Out::Disconnect]
+    }
+
+    /// Whether every drive has answered (or timed out) and every polled point of the drives
+    /// that answer has a value.
+    fn settled(&self) -> bool {
+        self.cat
+            .devices
+            .iter()
+            .zip(&self.devices)
+            .all(|(dev, s)| match &s.status {
+                None => false,
+                Some((DriveStatus::Timeout, _)) => true,
+                Some(_) => dev
+                    .points
+                    .iter()
+                    .zip(&s.values)
+                    .all(|(p, v)| !p.polled || v.is_some()),
+            })
+    }
+
+    /// The births now if the drives have answered, else once they have ([`Node::flush`]).
+    fn settle(&mut self, now_ms: u64) -> Vec<Out> {
+        if self.settled() {
+            self.births(now_ms)
+        } else {
+            self.phase = Phase::Settling(now_ms);
+            Vec::new()
+        }
     }
 
     /// NBIRTH (seq 0) and a DBIRTH for every drive not timed out.
@@ -478,8 +522,15 @@ impl Node {
         }
     }
 
-    /// The DATA messages of what changed since the last flush.
+    /// The DATA messages of what changed since the last flush (or the births, once the drives
+    /// have answered or [`SETTLE_LIMIT`] has passed).
     pub fn flush(&mut self, now_ms: u64) -> Vec<Out> {
+        if let Phase::Settling(since) = self.phase {
+            let limit = u64::try_from(SETTLE_LIMIT.as_millis()).unwrap_or(u64::MAX);
+            if self.settled() || now_ms.saturating_sub(since) >= limit {
+                return self.births(now_ms);
+            }
+        }
         if self.phase != Phase::Born {
             return Vec::new();
         }
@@ -657,7 +708,7 @@ impl Node {
         match (online, self.phase) {
             (true, Phase::WaitingForHost) => {
                 tracing::info!(host, "the primary host is online: births");
-                self.births(now_ms)
+                self.settle(now_ms)
             }
             (false, Phase::Born) => {
                 tracing::warn!(
@@ -665,6 +716,14 @@ impl Node {
                     "the primary host is offline: NDEATH, disconnecting, and waiting for it at the next connection"
                 );
                 self.stopping(now_ms)
+            }
+            (false, Phase::Settling(_)) => {
+                tracing::info!(
+                    host,
+                    "the primary host is offline: no births until it is online"
+                );
+                self.phase = Phase::WaitingForHost;
+                Vec::new()
             }
             (false, Phase::Subscribing(_) | Phase::WaitingForHost) => {
                 tracing::info!(

@@ -53,13 +53,21 @@ fn metric<'a>(p: &'a Payload, name: &str) -> &'a Metric {
         .unwrap_or_else(|| panic!("no metric {name} in {p:?}"))
 }
 
-/// Connected with `bd`, every subscription acknowledged: the births.
+/// When [`born`]'s births go out: the drives never answered, so after the settling limit.
+const BORN: u64 = NOW + 10_000;
+
+/// Connected with `bd`, every subscription acknowledged, the drives' first answers not waited
+/// for any longer: the births.
 fn born(n: &mut Node, bd: u8) -> Vec<Out> {
     let subs = n.connected(bd);
     let mut out = Vec::new();
     for _ in 0..subs.len() {
         out.extend(n.subscribed(NOW));
     }
+    assert!(out.is_empty(), "born before the drives answered: {out:?}");
+    assert!(n.flush(BORN - 1).is_empty());
+    out.extend(n.flush(BORN));
+    assert_eq!(n.phase(), Phase::Born);
     out
 }
 
@@ -119,7 +127,9 @@ fn subscriptions_then_nbirth_seq_0_with_the_connections_bdseq_then_every_dbirth(
     );
     // Nothing is born before every subscription is acknowledged.
     assert!(n.subscribed(NOW).is_empty());
-    let out = n.subscribed(NOW);
+    assert!(n.subscribed(NOW).is_empty());
+    assert_eq!(n.phase(), Phase::Settling(NOW));
+    let out = n.flush(BORN);
     assert_eq!(n.phase(), Phase::Born);
     let p = publishes(&out);
     let topics: Vec<&str> = p.iter().map(|(t, _)| *t).collect();
@@ -134,7 +144,7 @@ fn subscriptions_then_nbirth_seq_0_with_the_connections_bdseq_then_every_dbirth(
     let seqs: Vec<u64> = p.iter().map(|(_, p)| p.seq.unwrap()).collect();
     assert_eq!(seqs, [0, 1, 2]);
     let nbirth = &p[0].1;
-    assert_eq!(nbirth.timestamp, Some(NOW));
+    assert_eq!(nbirth.timestamp, Some(BORN));
     let bd = metric(nbirth, "bdSeq");
     assert_eq!(bd.datatype, Some(DataType::Int64 as u32));
     assert_eq!(value::get(bd, DataType::Int64).unwrap(), Number::Int(7));
@@ -143,10 +153,19 @@ fn subscriptions_then_nbirth_seq_0_with_the_connections_bdseq_then_every_dbirth(
         value::get(rebirth, DataType::Boolean).unwrap(),
         Number::Bool(false)
     );
-    // The bus's figures are not known yet: null, with their datatypes.
+    // The bus's figures before its first report: nothing done, the config's demand.
     let util = metric(nbirth, "Buses/line1/Utilisation");
-    assert_eq!(util.datatype, Some(DataType::Double as u32));
-    assert_eq!(util.is_null, Some(true));
+    assert_eq!(
+        value::get(util, DataType::Double).unwrap(),
+        Number::Float(0.0)
+    );
+    let demand = metric(nbirth, "Buses/line1/Demand");
+    let expect = crate::families::wire::demand(&plant("").buses[0]);
+    assert!(expect > 0.0);
+    assert_eq!(
+        value::get(demand, DataType::Double).unwrap(),
+        Number::Float(expect)
+    );
     // QoS 0, not retained (tck-id-topics-nbirth-mqtt, dbirth alike).
     for o in &out {
         if let Out::Publish(m) = o {
@@ -306,6 +325,43 @@ fn a_timed_out_drive_dies_and_is_born_again_when_it_answers() {
             Number::Text("fault".into()),
             Number::Text("F07 overvoltage".into())
         ]
+    );
+}
+
+#[test]
+fn the_births_wait_for_the_drives_first_answers() {
+    let mut n = node("");
+    let subs = n.connected(1);
+    for _ in 0..subs.len() {
+        assert!(n.subscribed(NOW).is_empty());
+    }
+    // conv answers with both its points, pump times out: born at once, with the values.
+    for u in [
+        status_update(0, DriveStatus::Online),
+        value_update(0, 0, 2500, NOW + 1),
+        status_update(1, DriveStatus::Timeout),
+    ] {
+        n.update(&u, NOW + 2);
+        assert!(
+            n.flush(NOW + 2).is_empty(),
+            "born before every first answer"
+        );
+    }
+    n.update(&value_update(0, 1, 3, NOW + 3), NOW + 3);
+    let out_ = n.flush(NOW + 3);
+    let p = publishes(&out_);
+    let topics: Vec<&str> = p.iter().map(|(t, _)| *t).collect();
+    assert_eq!(
+        topics,
+        [
+            "spBv1.0/plant/NBIRTH/cabinet1",
+            "spBv1.0/plant/DBIRTH/cabinet1/conv"
+        ]
+    );
+    assert_eq!(metric(&p[1].1, "mode").is_null, None);
+    assert_eq!(
+        value::get(metric(&p[1].1, STATE), DataType::String).unwrap(),
+        Number::Text("online".into())
     );
 }
 
@@ -637,6 +693,9 @@ fn with_a_primary_host_the_births_wait_for_its_state_online() {
         true,
         NOW,
     );
+    assert!(out_.is_empty());
+    assert_eq!(n.phase(), Phase::Settling(NOW));
+    let out_ = n.flush(BORN);
     let p = publishes(&out_);
     assert_eq!(p[0].0, "spBv1.0/plant/NBIRTH/cabinet1");
     // An offline older than the online: not this session's, ignored.
@@ -726,8 +785,8 @@ fn bus_figures_are_ndata_of_what_changed() {
     let out_ = n.flush(NOW);
     let p = publishes(&out_);
     assert_eq!(p[0].0, "spBv1.0/plant/NDATA/cabinet1");
-    // Utilisation, demand, transactions, and the zeros of the rest (null before).
-    assert_eq!(p[0].1.metrics.len(), 6);
+    // Utilisation, demand, transactions: what changed from the start's figures.
+    assert_eq!(p[0].1.metrics.len(), 3);
     let g = crate::model::BusFigures {
         transactions: 11,
         ..f
