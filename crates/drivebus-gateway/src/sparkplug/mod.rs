@@ -14,6 +14,8 @@ pub mod catalogue;
 pub mod node;
 
 #[cfg(test)]
+mod measure_tests;
+#[cfg(test)]
 mod tests;
 
 use std::path::PathBuf;
