@@ -48,21 +48,39 @@ pub struct LoadReport {
 /// The config of the load plant: `buses` simulated MOVILINK buses of `drives` drives, each
 /// drive with P130 polled every `period` (and its status read every 5 s).
 pub fn plant(buses: usize, drives: usize, period: &str) -> crate::error::Result<Plant> {
+    Plant::parse(&plant_text(buses, drives, period, ""), "load plant")
+}
+
+/// The load plant as a Sparkplug B edge node only (`[sparkplug]` with `json = false`), its
+/// drives named `b<bus>d<drive>`: a drive's name is its device id, unique in the node.
+pub fn sparkplug_plant(buses: usize, drives: usize, period: &str) -> crate::error::Result<Plant> {
+    let sparkplug = "[sparkplug]\ngroup_id = \"load\"\nedge_node_id = \"gw\"\njson = false\n";
+    Plant::parse(&plant_text(buses, drives, period, sparkplug), "load plant")
+}
+
+fn plant_text(buses: usize, drives: usize, period: &str, sparkplug: &str) -> String {
     let mut t = String::from(
         "[gateway]\nname = \"load\"\nbroker = \"mqtt://127.0.0.1:1883\"\nmetrics = \"off\"\n",
     );
+    t.push_str(sparkplug);
     for b in 0..buses {
         t.push_str(&format!(
             "[[bus]]\nname = \"bus{b}\"\nprotocol = \"movilink\"\nsimulate = true\n"
         ));
         for d in 0..drives {
+            // Unique across buses only where they are device ids.
+            let name = if sparkplug.is_empty() {
+                format!("d{d}")
+            } else {
+                format!("b{b}d{d}")
+            };
             t.push_str(&format!(
-                "[[bus.drive]]\nname = \"d{d}\"\naddress = {}\n[[bus.drive.param]]\nparam = \"P130\"\nperiod = \"{period}\"\n",
+                "[[bus.drive]]\nname = \"{name}\"\naddress = {}\n[[bus.drive.param]]\nparam = \"P130\"\nperiod = \"{period}\"\n",
                 d + 1
             ));
         }
     }
-    Plant::parse(&t, "load plant")
+    t
 }
 
 /// Resident memory of this process in bytes (`VmRSS`).
@@ -188,6 +206,29 @@ mod tests {
                 }
             })
             .await;
+    }
+
+    #[test]
+    fn the_sparkplug_load_plant_is_an_edge_node_only_with_a_device_id_per_drive() {
+        let p = sparkplug_plant(3, 31, "1s").unwrap();
+        let sp = p.sparkplug.as_ref().unwrap();
+        assert_eq!(
+            (sp.group_id.as_str(), sp.edge_node_id.as_str()),
+            ("load", "gw")
+        );
+        assert!(!p.publishes_json());
+        let mut ids: Vec<&str> = p
+            .buses
+            .iter()
+            .flat_map(|b| b.drives.iter().map(|d| d.name.as_str()))
+            .collect();
+        assert_eq!(ids.len(), 93);
+        assert_eq!((ids[0], ids[92]), ("b0d0", "b2d30"));
+        ids.sort_unstable();
+        ids.dedup();
+        assert_eq!(ids.len(), 93);
+        // The JSON load plant is the one it always was.
+        assert_eq!(plant(2, 1, "1s").unwrap().buses[1].drives[0].name, "d0");
     }
 
     // The figures are what this test is for: `cargo test … gateway::load -- --nocapture`.
