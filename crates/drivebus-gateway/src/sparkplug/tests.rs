@@ -924,3 +924,105 @@ fn config_refuses_what_sparkplug_cannot_carry() {
             .contains("needs a broker")
     );
 }
+
+mod properties {
+    use super::*;
+    use proptest::prelude::*;
+
+    /// A command metric: a name the drive has (or not), an alias (or not), any datatype code,
+    /// any value field.
+    fn command_metric() -> impl Strategy<Value = Metric> {
+        let names = prop::sample::select(vec![
+            Some("ramp"),
+            Some("mode"),
+            Some("ramp/Write Result"),
+            Some("Status/State"),
+            Some("Node Control/Rebirth"),
+            Some("nothing"),
+            None,
+        ]);
+        let value = prop_oneof![
+            Just(None),
+            any::<u32>().prop_map(|v| Some(sparkplug_b::metric::Value::IntValue(v))),
+            any::<u64>().prop_map(|v| Some(sparkplug_b::metric::Value::LongValue(v))),
+            any::<f32>().prop_map(|v| Some(sparkplug_b::metric::Value::FloatValue(v))),
+            any::<f64>().prop_map(|v| Some(sparkplug_b::metric::Value::DoubleValue(v))),
+            any::<bool>().prop_map(|v| Some(sparkplug_b::metric::Value::BooleanValue(v))),
+            ".{0,12}".prop_map(|v| Some(sparkplug_b::metric::Value::StringValue(v))),
+        ];
+        (
+            names,
+            prop::option::of(0u64..40),
+            prop::option::of(0u32..40),
+            prop::option::of(any::<bool>()),
+            value,
+        )
+            .prop_map(|(name, alias, datatype, is_null, value)| Metric {
+                name: name.map(str::to_owned),
+                alias,
+                datatype,
+                is_null,
+                value,
+                ..Metric::default()
+            })
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(300))]
+
+        /// Any bytes on a command topic: no panic, and nothing written unless they decode.
+        #[test]
+        fn any_bytes_on_a_command_topic_are_taken_or_refused(
+            bytes in prop::collection::vec(any::<u8>(), 0..200),
+            retained in any::<bool>(),
+            device in any::<bool>(),
+        ) {
+            let mut n = node("");
+            born(&mut n, 0);
+            let topic = if device {
+                "spBv1.0/plant/DCMD/cabinet1/conv"
+            } else {
+                "spBv1.0/plant/NCMD/cabinet1"
+            };
+            let out = n.incoming(topic, &bytes, retained, NOW);
+            let writes = out.iter().filter(|o| matches!(o, Out::Write { .. })).count();
+            if retained || sparkplug_b::decode(&bytes).is_err() {
+                prop_assert_eq!(writes, 0);
+            }
+        }
+
+        /// Any well-formed command: a write only of the writable point, with a value its
+        /// datatype carries; everything else refused or ignored.
+        #[test]
+        fn a_write_comes_only_from_a_valid_command_of_the_writable_point(
+            metrics in prop::collection::vec(command_metric(), 0..6),
+            age in 0u64..30_000,
+        ) {
+            let mut n = node("");
+            born(&mut n, 0);
+            let ramp = n.catalogue().devices[0].points[0].clone();
+            let payload = dcmd(metrics.clone(), Some(NOW - age));
+            let out = n.incoming("spBv1.0/plant/DCMD/cabinet1/conv", &payload, false, NOW);
+            for o in &out {
+                if let Out::Write { device, point, value, max_age } = o {
+                    prop_assert_eq!((*device, *point), (0, 0));
+                    prop_assert!(age <= 10_000, "a stale command was written");
+                    prop_assert!(*max_age <= Duration::from_secs(10));
+                    // It came from a metric naming ramp with its datatype (or none) and a value.
+                    let from = metrics.iter().find(|m| {
+                        let named = match (&m.name, m.alias) {
+                            (Some(name), _) => name == "ramp",
+                            (None, Some(a)) => a == ramp.alias,
+                            (None, None) => false,
+                        };
+                        named
+                            && m.datatype.is_none_or(|d| d == ramp.datatype as u32)
+                            && m.is_null != Some(true)
+                            && value::get(m, ramp.datatype).is_ok()
+                    });
+                    prop_assert!(from.is_some(), "{value:?} from {metrics:?}");
+                }
+            }
+        }
+    }
+}
