@@ -1026,3 +1026,44 @@ mod properties {
         }
     }
 }
+
+/// The example config's commented `[sparkplug]` block, uncommented, is a valid table with what
+/// its comments say; the example's drive names are unique, as Sparkplug needs.
+#[test]
+fn the_example_configs_sparkplug_block_runs_uncommented() {
+    let mut out = String::new();
+    let mut inside = false;
+    for line in crate::EXAMPLE_CONFIG.lines() {
+        if line == "# [sparkplug]" {
+            inside = true;
+        } else if inside && !line.starts_with("# ") {
+            inside = false;
+        }
+        let line = match line.strip_prefix("# ") {
+            Some(rest) if inside => rest,
+            _ => line,
+        };
+        out.push_str(line);
+        out.push('\n');
+    }
+    assert!(
+        out.contains("\n[sparkplug]\n"),
+        "no [sparkplug] block in the example"
+    );
+    let plant = Plant::parse(&out, "example").unwrap();
+    let sp = plant.sparkplug.unwrap();
+    assert_eq!(
+        (sp.group_id.as_str(), sp.edge_node_id.as_str()),
+        ("plant-1", "cabinet-1")
+    );
+    assert_eq!(sp.primary_host_id.as_deref(), Some("scada"));
+    assert!(sp.json);
+    assert_eq!(sp.client_id, "drivebus-cabinet-1-spb");
+    // As shipped (commented out): no Sparkplug.
+    assert!(
+        Plant::parse(crate::EXAMPLE_CONFIG, "example")
+            .unwrap()
+            .sparkplug
+            .is_none()
+    );
+}
