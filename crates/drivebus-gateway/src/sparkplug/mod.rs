@@ -35,6 +35,8 @@ use node::{Node, Out};
 
 /// The client's request queue: a birth of a large plant is one message per drive.
 const CLIENT_QUEUE: usize = 4096;
+/// The most updates taken into one flush.
+const DRAIN_MAX: usize = 4096;
 /// How long a write may wait for its bus task's answer beyond its age limit.
 const ANSWER_GRACE: Duration = Duration::from_secs(60);
 
@@ -223,8 +225,13 @@ impl Sparkplug {
                 },
             };
             let mut outs = outs;
-            // Whatever else is waiting joins this flush (one DDATA per drive for a burst).
-            while let Ok(u) = updates.try_recv() {
+            // Whatever else is waiting joins this flush (one DDATA per drive for a burst), up
+            // to a bound, so that the broker's events are never kept waiting behind a stream of
+            // updates.
+            for _ in 0..DRAIN_MAX {
+                let Ok(u) = updates.try_recv() else {
+                    break;
+                };
                 outs.extend(node.update(&u, now));
             }
             outs.extend(node.flush(now));
