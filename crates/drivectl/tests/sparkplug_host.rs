@@ -449,3 +449,92 @@ async fn state_is_retained_and_the_will_says_offline() {
     assert!(will.timestamp <= now_ms());
     drop(host);
 }
+
+/// What the gateway's crate encodes, the PyPI host decodes: every integer width at its ends
+/// (negative Int8 and Int16 in their own width, which pysparkplug takes and Tahu's Java decoder
+/// reads too), UInt32 in long_value, Double, Boolean, String, null.
+#[test]
+fn the_host_decodes_every_datatype_as_the_gateways_crate_encodes_it() {
+    use sparkplug_b::value::{self, Value as V};
+    use sparkplug_b::{DataType as T, Metric, Payload};
+    let Some((_broker, mut host)) = setup() else {
+        return;
+    };
+    let cases: Vec<(&str, T, V<'_>, Value)> = vec![
+        ("i8min", T::Int8, V::Int(-128), json!(-128)),
+        ("i8neg", T::Int8, V::Int(-1), json!(-1)),
+        ("i8max", T::Int8, V::Int(127), json!(127)),
+        ("i16min", T::Int16, V::Int(-32768), json!(-32768)),
+        ("i16neg", T::Int16, V::Int(-300), json!(-300)),
+        ("i16max", T::Int16, V::Int(32767), json!(32767)),
+        (
+            "i32min",
+            T::Int32,
+            V::Int(i64::from(i32::MIN)),
+            json!(i32::MIN),
+        ),
+        (
+            "i32max",
+            T::Int32,
+            V::Int(i64::from(i32::MAX)),
+            json!(i32::MAX),
+        ),
+        ("i64min", T::Int64, V::Int(i64::MIN), json!(i64::MIN)),
+        ("u8max", T::UInt8, V::Int(255), json!(255)),
+        ("u16max", T::UInt16, V::Int(65535), json!(65535)),
+        (
+            "u32max",
+            T::UInt32,
+            V::UInt(u64::from(u32::MAX)),
+            json!(u32::MAX),
+        ),
+        ("u64max", T::UInt64, V::UInt(u64::MAX), json!(u64::MAX)),
+        ("double", T::Double, V::Double(-2.5), json!(-2.5)),
+        ("bool", T::Boolean, V::Bool(true), json!(true)),
+        (
+            "text",
+            T::String,
+            V::Text("F07 Überspannung"),
+            json!("F07 Überspannung"),
+        ),
+    ];
+    let ts = now_ms();
+    let mut metrics = Vec::new();
+    for (alias, (name, dt, v, _)) in cases.iter().enumerate() {
+        let mut m = Metric {
+            name: Some((*name).to_owned()),
+            alias: Some(alias as u64),
+            timestamp: Some(ts),
+            ..Metric::default()
+        };
+        value::set(&mut m, *dt, *v).unwrap();
+        metrics.push(m);
+    }
+    let mut null = Metric {
+        name: Some("null".into()),
+        alias: Some(99),
+        timestamp: Some(ts),
+        ..Metric::default()
+    };
+    value::set_null(&mut null, T::Int16).unwrap();
+    metrics.push(null);
+    let payload = Payload {
+        timestamp: Some(ts),
+        seq: Some(1),
+        metrics,
+        ..Payload::default()
+    };
+    let mut bytes = Vec::new();
+    sparkplug_b::encode_into(&payload, &mut bytes);
+    host.mark();
+    host.raw(&topic("DBIRTH", Some("widths")), &bytes);
+    let m = host.expect_kind("DBIRTH", NODE, Some("widths"), WAIT);
+    for (name, dt, _, expect) in &cases {
+        let got = m.get(name);
+        assert_eq!(got.datatype, dt.as_str_name(), "{name}: {got:?}");
+        assert_eq!(&got.value, expect, "{name}: {got:?}");
+    }
+    let null = m.get("null");
+    assert!(null.is_null, "{null:?}");
+    assert_eq!(null.datatype, "Int16");
+}

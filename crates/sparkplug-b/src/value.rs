@@ -10,10 +10,14 @@
 //! | Boolean | `boolean_value` |
 //! | String, Text | `string_value` |
 //!
-//! Signed integers travel in the unsigned fields as two's complement of the field's width:
-//! Int8, Int16 and Int32 sign-extended to 32 bits (-1 is `0xFFFF_FFFF`), Int64 in 64 bits. That
-//! is what the Eclipse Tahu encoders (the specification's reference implementation) send; a
-//! narrower form (Int16 -87 as `0xFFA9`) is refused as out of range rather than guessed at.
+//! Signed integers travel in the unsigned fields as two's complement; the specification does
+//! not say of which width, and the implementations differ: Tahu's Java encoder sign-extends
+//! Int8 and Int16 to 32 bits (-1 is `0xFFFF_FFFF`), the Python hosts (Tahu's Python library,
+//! pysparkplug) use the type's own width (-1 is `0xFFFF`) and refuse the 32-bit form as out of
+//! range, while Tahu's Java decoder takes either (it casts to `byte` or `short`). [`set`] sends
+//! the own-width form, which every one of them reads; [`get`] takes both (they never overlap:
+//! `0x0000_0080..=0x0000_FFFF` against `0xFFFF_8000..`). Int32 in 32 bits, Int64 in 64.
+//! `docs/errata-sparkplug.md` records it.
 //!
 //! UInt32: the specification's table names protobuf `uint32` (`int_value`), the Tahu encoders
 //! and the specification's compatibility kit send `long_value`. [`set`] sends `long_value`, as
@@ -418,8 +422,17 @@ pub(crate) fn encode<'a>(datatype: DataType, value: Value<'a>) -> Result<Raw<'a>
         }
         let out_of_range = ValueError::OutOfRange { datatype, value: n };
         return match datatype {
-            // Sign-extended to 32 bits, then the bits as the unsigned field.
-            T::Int8 | T::Int16 | T::Int32 => i32::try_from(n)
+            // Int8 and Int16 in the two's complement of their own width (-1 is 0xFF, 0xFFFF):
+            // what the Python hosts take (pysparkplug refuses a sign-extended one as out of
+            // range) and what Tahu's Java decoder reads too (it casts the field to byte or
+            // short). Int32 in 32 bits.
+            T::Int8 => i8::try_from(n)
+                .map(|x| Raw::Int(u32::from(x.cast_unsigned())))
+                .map_err(|_| out_of_range),
+            T::Int16 => i16::try_from(n)
+                .map(|x| Raw::Int(u32::from(x.cast_unsigned())))
+                .map_err(|_| out_of_range),
+            T::Int32 => i32::try_from(n)
                 .map(|x| Raw::Int(x.cast_unsigned()))
                 .map_err(|_| out_of_range),
             T::UInt8 | T::UInt16 => u32::try_from(n).map(Raw::Int).map_err(|_| out_of_range),
@@ -463,7 +476,13 @@ pub(crate) fn number(datatype: DataType, raw: Raw<'_>) -> Result<Number, ValueEr
         _ => Err(ValueError::OutOfRange { datatype, value: n }),
     };
     match (datatype, raw) {
-        // Two's complement in 32 bits: the bits read as a signed number.
+        // Int8 and Int16 in either form a sender uses: the two's complement of their own
+        // width (0xFF is -1 for Int8) or sign-extended to 32 bits (0xFFFF_FFFF is -1); the two
+        // never overlap. Int32: the 32 bits read as a signed number.
+        (T::Int8, Raw::Int(x)) if x <= 0xFF => Ok(Number::Int(i64::from((x as u8).cast_signed()))),
+        (T::Int16, Raw::Int(x)) if x <= 0xFFFF => {
+            Ok(Number::Int(i64::from((x as u16).cast_signed())))
+        }
         (T::Int8 | T::Int16 | T::Int32, Raw::Int(x)) => {
             checked(x.cast_signed().into()).map(Number::Int)
         }
@@ -602,18 +621,33 @@ mod tests {
     }
 
     #[test]
-    fn negative_small_integers_are_sign_extended_to_32_bits() {
-        for (datatype, value, bits) in [
-            (DataType::Int8, -1, 0xFFFF_FFFF),
-            (DataType::Int8, -128, 0xFFFF_FF80),
-            (DataType::Int16, -87, 0xFFFF_FFA9),
-            (DataType::Int16, -32768, 0xFFFF_8000),
-            (DataType::Int32, i64::from(i32::MIN), 0x8000_0000),
+    fn negative_small_integers_go_in_their_own_width_and_are_read_in_either() {
+        for (datatype, value, bits, extended) in [
+            (DataType::Int8, -1, 0xFF, 0xFFFF_FFFF),
+            (DataType::Int8, -128, 0x80, 0xFFFF_FF80),
+            (DataType::Int16, -87, 0xFFA9, 0xFFFF_FFA9),
+            (DataType::Int16, -32768, 0x8000, 0xFFFF_8000),
+            (
+                DataType::Int32,
+                i64::from(i32::MIN),
+                0x8000_0000,
+                0x8000_0000,
+            ),
         ] {
             let m = with(datatype, Value::Int(value)).unwrap();
             assert_eq!(m.value, Some(M::IntValue(bits)), "{datatype:?} {value}");
             assert_eq!(get(&m, datatype), Ok(Number::Int(value)));
+            // Tahu's Java encoder sends the sign-extended form: read as the same value.
+            let ext = received(Some(M::IntValue(extended)));
+            assert_eq!(
+                get(&ext, datatype),
+                Ok(Number::Int(value)),
+                "{datatype:?} {extended:#x}"
+            );
         }
+        // Positive values are the same in both forms.
+        let m = with(DataType::Int16, Value::Int(300)).unwrap();
+        assert_eq!(m.value, Some(M::IntValue(300)));
     }
 
     #[test]
@@ -698,9 +732,9 @@ mod tests {
                 value: 300
             }
         );
-        // Int16 -87 in the narrow two's complement form is not guessed at.
-        let err = get(&received(Some(M::IntValue(0xFFA9))), DataType::Int16).unwrap_err();
-        assert_eq!(err.to_string(), "65449 is out of range for Int16");
+        // Int16 with a 32-bit value that is neither its own width nor sign-extended from 16.
+        let err = get(&received(Some(M::IntValue(0x0001_0000))), DataType::Int16).unwrap_err();
+        assert_eq!(err.to_string(), "65536 is out of range for Int16");
         // Int8 with a 32-bit value that is not sign-extended from 8 bits.
         let err = get(&received(Some(M::IntValue(0x8000_0000))), DataType::Int8).unwrap_err();
         assert_eq!(err.to_string(), "-2147483648 is out of range for Int8");

@@ -32,7 +32,8 @@ fn payload_sizes() {
         assert_eq!(decode(&buf).unwrap(), payload);
     }
     // One Int16 metric, byte by byte: payload timestamp 7, seq 2, metric 2 + alias 2 +
-    // timestamp 7 + int_value 6 (-300 sign-extended: a five-byte varint).
+    // timestamp 7 + int_value 4 (-300 as 0xFED4, Int16's own width: a three-byte varint; a
+    // sign-extended 0xFFFF_FED4 would take five).
     encode_into(&support::ddata(1, 17), &mut buf);
-    assert_eq!(buf.len(), 7 + 2 + 2 + 2 + 7 + 6);
+    assert_eq!(buf.len(), 7 + 2 + 2 + 2 + 7 + 4);
 }

@@ -37,6 +37,8 @@ use node::{Node, Out};
 
 /// The client's request queue: a birth of a large plant is one message per drive.
 const CLIENT_QUEUE: usize = 4096;
+/// The most updates taken into one flush.
+const DRAIN_MAX: usize = 4096;
 /// How long a write may wait for its bus task's answer beyond its age limit.
 const ANSWER_GRACE: Duration = Duration::from_secs(60);
 
@@ -146,7 +148,7 @@ impl Sparkplug {
         self,
         mut updates: mpsc::Receiver<Update>,
         sets: Vec<mpsc::Sender<SetRequest>>,
-        _metrics: Arc<Metrics>,
+        metrics: Arc<Metrics>,
         mut stop: watch::Receiver<bool>,
     ) -> Result<()> {
         let Some(sp) = self.plant.sparkplug.clone() else {
@@ -211,6 +213,7 @@ impl Sparkplug {
                     None => break,
                 },
                 Some(d) = done_rx.recv() => {
+                    metrics.set_outcome(outcome_label(&d.outcome));
                     node.write_done(d.device, d.point, &d.outcome, now);
                     Vec::new()
                 }
@@ -224,13 +227,18 @@ impl Sparkplug {
                 },
             };
             let mut outs = outs;
-            // Whatever else is waiting joins this flush (one DDATA per drive for a burst).
-            while let Ok(u) = updates.try_recv() {
+            // Whatever else is waiting joins this flush (one DDATA per drive for a burst), up
+            // to a bound, so that the broker's events are never kept waiting behind a stream of
+            // updates.
+            for _ in 0..DRAIN_MAX {
+                let Ok(u) = updates.try_recv() else {
+                    break;
+                };
                 outs.extend(node.update(&u, now));
             }
             outs.extend(node.flush(now));
             if connected {
-                execute(&client, &mut node, outs, &sets, &done_tx, now);
+                execute(&client, &mut node, outs, &sets, &done_tx, &metrics, now);
             }
         }
         // Writes answered as the buses stopped go out before the NDEATH.
@@ -242,7 +250,7 @@ impl Sparkplug {
         if connected {
             let mut outs = node.flush(now);
             outs.extend(node.stopping(now));
-            execute(&client, &mut node, outs, &sets, &done_tx, now);
+            execute(&client, &mut node, outs, &sets, &done_tx, &metrics, now);
             let deadline = Instant::now() + SHUTDOWN_FLUSH;
             loop {
                 match tokio::time::timeout_at(deadline, link_rx.recv()).await {
@@ -268,13 +276,39 @@ impl Sparkplug {
     }
 }
 
+/// A write's outcome as the `set` metrics count it.
+fn outcome_label(o: &SetOutcome) -> &'static str {
+    match o {
+        SetOutcome::Written { .. } => "written",
+        SetOutcome::Refused { reason, .. } => reason,
+        SetOutcome::DeviceRefused { .. } => "device_refused",
+        SetOutcome::LinkFailed { .. } => "link_failed",
+    }
+}
+
+/// A published message's kind as the publish metrics count it.
+fn kind_label(topic: &str) -> &'static str {
+    use sparkplug_b::topic::MessageType as M;
+    match sparkplug_b::topic::Topic::parse(topic).map(|t| t.kind) {
+        Ok(M::NBirth) => "sparkplug_nbirth",
+        Ok(M::DBirth) => "sparkplug_dbirth",
+        Ok(M::NData) => "sparkplug_ndata",
+        Ok(M::DData) => "sparkplug_ddata",
+        Ok(M::DDeath) => "sparkplug_ddeath",
+        Ok(M::NDeath) => "sparkplug_ndeath",
+        _ => "sparkplug_other",
+    }
+}
+
 /// Carry out what the session asks for.
+#[allow(clippy::too_many_arguments)]
 fn execute(
     client: &AsyncClient,
     node: &mut Node,
     outs: Vec<Out>,
     sets: &[mpsc::Sender<SetRequest>],
     done: &mpsc::UnboundedSender<Done>,
+    metrics: &Metrics,
     now: u64,
 ) {
     let mut lost = false;
@@ -286,9 +320,13 @@ fn execute(
                 } else {
                     QoS::AtMostOnce
                 };
-                if let Err(e) = client.try_publish(&m.topic, qos, m.retain, m.payload) {
-                    tracing::warn!(topic = %m.topic, error = %e, "Sparkplug: the client's queue is full: message dropped");
-                    lost = true;
+                let kind = kind_label(&m.topic);
+                match client.try_publish(&m.topic, qos, m.retain, m.payload) {
+                    Ok(()) => metrics.published(kind),
+                    Err(e) => {
+                        tracing::warn!(topic = %m.topic, error = %e, "Sparkplug: the client's queue is full: message dropped");
+                        lost = true;
+                    }
                 }
             }
             Out::Subscribe(filter) => {

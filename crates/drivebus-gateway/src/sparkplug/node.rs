@@ -353,8 +353,8 @@ impl Node {
         let v = match kind {
             NodeKind::BdSeq => Some(Value::Int(i64::from(self.bd_seq))),
             NodeKind::Rebirth => Some(Value::Bool(false)),
-            NodeKind::Utilisation(b) => f(b).map(|f| Value::Double(f.utilisation)),
-            NodeKind::Demand(b) => f(b).map(|f| Value::Double(f.demand)),
+            NodeKind::Utilisation(b) => f(b).map(|f| Value::Double(share(f.utilisation))),
+            NodeKind::Demand(b) => f(b).map(|f| Value::Double(share(f.demand))),
             NodeKind::Transactions(b) => f(b).map(|f| Value::UInt(f.transactions)),
             NodeKind::Timeouts(b) => f(b).map(|f| Value::UInt(f.timeouts)),
             NodeKind::Retries(b) => f(b).map(|f| Value::UInt(f.retries)),
@@ -1049,14 +1049,20 @@ fn status_texts(
     }
 }
 
+/// A share (0–1) to four decimals, as the JSON bus status gives it: a change in the fifth is
+/// no news.
+fn share(x: f64) -> f64 {
+    (x * 1e4).round() / 1e4
+}
+
 /// Whether a node metric's value is the same in two sets of figures.
 fn same_node_value(kind: NodeKind, a: Option<&BusFigures>, b: Option<&BusFigures>) -> bool {
     let (Some(a), Some(b)) = (a, b) else {
         return false;
     };
     match kind {
-        NodeKind::Utilisation(_) => a.utilisation == b.utilisation,
-        NodeKind::Demand(_) => a.demand == b.demand,
+        NodeKind::Utilisation(_) => share(a.utilisation) == share(b.utilisation),
+        NodeKind::Demand(_) => share(a.demand) == share(b.demand),
         NodeKind::Transactions(_) => a.transactions == b.transactions,
         NodeKind::Timeouts(_) => a.timeouts == b.timeouts,
         NodeKind::Retries(_) => a.retries == b.retries,
