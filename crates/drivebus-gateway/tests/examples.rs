@@ -48,3 +48,39 @@ fn load_keeps_every_bus_at_its_wire_bound() {
     let min = figure(&out, "utilisation of the wire bound", "min");
     assert!((0.95..=1.0).contains(&min), "{out}");
 }
+
+/// The Sparkplug load example, both cases, both flushes: one DDATA metric per value that
+/// changed, one DDATA per change when every update is flushed on its own, and one in ten reads
+/// a change in the realistic case.
+#[test]
+fn sparkplug_load_publishes_one_ddata_metric_per_changed_value() {
+    for flush in ["each", "100ms"] {
+        let out = run_example_with("sparkplug_load", &["3x31", "6", "1s", flush, "1"]);
+        assert!(out.starts_with("3 buses x 31 drives"), "{out}");
+        let cases: Vec<&str> = out
+            .split("\n\n")
+            .filter(|c| c.contains("values changed"))
+            .collect();
+        assert_eq!(cases.len(), 2, "{out}");
+        let mut changed = Vec::new();
+        for case in cases {
+            let head = case.lines().next().unwrap();
+            let name = head.split(':').next().unwrap();
+            let fed = figure(head, name, ":");
+            let values = figure(head, name, "fed,");
+            let ddata = figure(case, "  published:", "published:");
+            let metrics = figure(case, "  published:", "DDATA (");
+            assert_eq!(metrics, values, "{case}");
+            if flush == "each" {
+                assert_eq!(ddata, values, "{case}");
+            } else {
+                assert!(ddata <= values, "{case}");
+            }
+            assert!(fed > values, "{case}");
+            changed.push(values);
+        }
+        // 3 × 31 drives read about every 1.28 s for 6 s: some 450 reads, one in ten new.
+        assert!((400.0..500.0).contains(&changed[0]), "{out}");
+        assert!((changed[0] / changed[1] - 10.0).abs() < 1.0, "{out}");
+    }
+}
