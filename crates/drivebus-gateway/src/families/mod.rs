@@ -83,6 +83,34 @@ pub fn check_report(plant: &Plant) -> (String, Result<()>) {
             over.push(format!("{} ({:.0} %)", bus.name, d * 100.0));
         }
     }
+    if let Some(sp) = &plant.sparkplug {
+        let cat = crate::sparkplug::catalogue::Catalogue::new(plant);
+        let metrics: usize = cat.node.len()
+            + cat
+                .devices
+                .iter()
+                .map(|d| {
+                    2 + d.points.len()
+                        + d.points.iter().filter(|p| p.result_alias.is_some()).count()
+                })
+                .sum::<usize>();
+        let _ = writeln!(
+            text,
+            "sparkplug: edge node spBv1.0/{}/…/{}, {} device(s), {metrics} metrics{}{}",
+            sp.group_id,
+            sp.edge_node_id,
+            cat.devices.len(),
+            sp.primary_host_id
+                .as_deref()
+                .map(|h| format!(", waits for primary host {h:?}"))
+                .unwrap_or_default(),
+            if sp.json {
+                ", beside the JSON topics"
+            } else {
+                ", no JSON topics"
+            }
+        );
+    }
     let verdict = if over.is_empty() {
         Ok(())
     } else {

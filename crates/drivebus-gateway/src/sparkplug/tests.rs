@@ -1069,3 +1069,19 @@ fn the_example_configs_sparkplug_block_runs_uncommented() {
             .is_none()
     );
 }
+
+/// `--check` says what the node will publish.
+#[test]
+fn the_check_report_names_the_edge_node() {
+    let (text, verdict) = crate::families::check_report(&plant("primary_host_id = \"scada\"\n"));
+    verdict.unwrap();
+    let last = text.lines().last().unwrap();
+    // Node: bdSeq, rebirth, six per bus; conv: 2 status + ramp, its result, mode; pump: 2 + speed.
+    let n = Node::new(&plant(""), &plant("").sparkplug.unwrap());
+    assert_eq!(n.catalogue().node.len(), 8);
+    assert_eq!(
+        last,
+        "sparkplug: edge node spBv1.0/plant/…/cabinet1, 2 device(s), 16 metrics, waits for \
+         primary host \"scada\", beside the JSON topics"
+    );
+}

@@ -106,8 +106,38 @@ function render(plant) {
 async function load() {
   const r = await fetch("/api/plant", { cache: "no-store" });
   render(await r.json());
+  rendered = true;
+  if (refreshAfterLoad) { refreshAfterLoad = false; refresh(); }
   // Every drive is on the page from here on: scripts/ui-measure reads the first of these.
   performance.mark("plant-shown");
+}
+let rendered = false;
+// The stream opened while the first load was on its way: refresh once it is shown.
+let refreshAfterLoad = false;
+
+// The gateway's latest of everything onto the page as it stands (its check boxes and trend
+// kept): each time the event stream opens, so that what changed before it was open (a drive's
+// first status, a change while it was lost) is not missed: statuses are sent only on change.
+async function refresh() {
+  if (!rendered) { refreshAfterLoad = true; return; }
+  const r = await fetch("/api/plant", { cache: "no-store" });
+  if (!r.ok) return;
+  const plant = await r.json();
+  plant.buses.forEach((bus, b) => {
+    const f = cells[`f${b}`];
+    if (f && bus.figures) f.textContent = figuresText(bus.figures);
+    trendFigures(b, bus.figures);
+    bus.drives.forEach((drive, d) => {
+      const s = cells[`s${b}.${d}`];
+      if (s && drive.status) showStatus(s, drive.status);
+      const pd = cells[`p${b}.${d}`];
+      if (pd && drive.process_data) showProcessData(pd, drive.process_data);
+      drive.points.forEach((p, i) => {
+        const c = cells[`v${b}.${d}.${i}`];
+        if (c && p.latest) showValue(c, p.latest);
+      });
+    });
+  });
 }
 
 // How long a value takes from its read on the bus (its `ts`) to this page: the last 1000.
@@ -132,6 +162,7 @@ function follow() {
     // Back after a loss: the trend loads what it missed from the gateway's history.
     if (link.classList.contains("down")) trendReload();
     link.textContent = "live"; link.classList.remove("down");
+    refresh();
   };
   const lost = () => { link.textContent = "connection lost: retrying"; link.classList.add("down"); };
   if (typeof SharedWorker === "function") {
@@ -171,7 +202,7 @@ function onEvent(data) {
     if (f) f.textContent = figuresText(e.payload);
     trendFigures(e.bus, e.payload);
   } else if (e.type === "resync") {
-    load();
+    refresh();
     trendReload();
   }
 }
