@@ -157,10 +157,7 @@ fn value_len(m: &Metric) -> usize {
 /// nothing else (no datatype: the birth gave it, tck-id-payloads-metric-datatype-not-req).
 fn ddata_len(ts: u64, seq: u64, metrics: &[Metric]) -> usize {
     let body = |m: &Metric| {
-        1 + varint_len(m.alias.unwrap())
-            + 1
-            + varint_len(m.timestamp.unwrap())
-            + value_len(m)
+        1 + varint_len(m.alias.unwrap()) + 1 + varint_len(m.timestamp.unwrap()) + value_len(m)
     };
     1 + varint_len(ts)
         + metrics.iter().map(|m| len_field(body(m))).sum::<usize>()
