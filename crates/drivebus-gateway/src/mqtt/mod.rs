@@ -761,12 +761,25 @@ impl Task {
             return;
         }
         let deadline = Instant::now() + SHUTDOWN_FLUSH;
+        // Every value published, retained as stale: after the stop no consumer takes one for a
+        // current value.
+        let stale = self.outbox.stopping(payload::millis(SystemTime::now()));
+        let count = stale.len();
         let handed = async {
+            for (topic, p) in stale {
+                self.client
+                    .publish(topic, QoS::AtLeastOnce, true, p.into_bytes())
+                    .await?;
+            }
             self.client
                 .publish(&self.names.status, QoS::AtLeastOnce, true, "offline")
                 .await?;
             self.client.disconnect().await
         };
+        tracing::info!(
+            values = count,
+            "stopping: the values as stale, then offline"
+        );
         match tokio::time::timeout_at(deadline, handed).await {
             Ok(Ok(())) => {}
             Ok(Err(e)) => {

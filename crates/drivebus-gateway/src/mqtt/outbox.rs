@@ -55,6 +55,9 @@ struct Slot {
     raw: Option<i64>,
     /// The input words last published (process data).
     words: Option<Vec<u16>>,
+    /// Its payload says the value is stale (the drive stopped answering, or the gateway
+    /// stopped): the next read publishes it fresh, changed or not.
+    stale: bool,
 }
 
 /// A result to publish (not retained).
@@ -124,6 +127,7 @@ impl Outbox {
             published: None,
             raw: None,
             words: None,
+            stale: false,
         };
         for bus in &plant.buses {
             let base = format!("{}/{}/{}", g.prefix, g.name, bus.name);
@@ -208,8 +212,9 @@ impl Outbox {
                 let Some(s) = self.slots.get_mut(ix) else {
                     return false;
                 };
-                if s.raw != Some(raw) || s.payload.is_none() || due(s) {
+                if s.raw != Some(raw) || s.payload.is_none() || s.stale || due(s) {
                     s.raw = Some(raw);
+                    s.stale = false;
                     s.payload = Some(payload::value(&target, raw, payload::millis(at), &device));
                     self.mark(ix);
                 }
@@ -252,10 +257,23 @@ impl Outbox {
                     return false;
                 };
                 s.payload = Some(payload::status(&status, payload::millis(at)));
+                let timed_out = status == DriveStatus::Timeout;
                 if let Some(st) = self.statuses.get_mut(bus).and_then(|b| b.get_mut(drive)) {
                     *st = Some(status);
                 }
                 self.mark(ix);
+                if timed_out {
+                    // Its retained values are republished as stale, so that no consumer takes
+                    // a value read before the drive went quiet for a current one.
+                    let n = plant
+                        .buses
+                        .get(bus)
+                        .and_then(|b| b.drives.get(drive))
+                        .map_or(0, |d| d.points.len());
+                    for point in ix + 2..ix + 2 + n {
+                        self.make_stale(point, payload::millis(at));
+                    }
+                }
                 true
             }
             Update::Figures { bus, figures } => {
@@ -271,6 +289,49 @@ impl Outbox {
                 true
             }
         }
+    }
+
+    /// Republish value slot `ix` as stale since `since` (ms), if it has a fresh value.
+    fn make_stale(&mut self, ix: usize, since: u64) {
+        let Some(s) = self.slots.get_mut(ix) else {
+            return;
+        };
+        if s.stale || s.kind != Kind::Value {
+            return;
+        }
+        if let Some(p) = s.payload.as_deref().and_then(|p| payload::stale(p, since)) {
+            s.payload = Some(p);
+            s.stale = true;
+            self.mark(ix);
+        }
+    }
+
+    /// The gateway is stopping: every value it has published, as stale since `since` (ms), to
+    /// publish before `offline` (a consumer reading only a value topic sees that it is no
+    /// longer kept current).
+    pub fn stopping(&mut self, since: u64) -> Vec<(String, String)> {
+        let mut out = Vec::new();
+        for ix in 0..self.slots.len() {
+            let fresh = self
+                .slots
+                .get(ix)
+                .is_some_and(|s| s.published.is_some() && !s.stale);
+            if !fresh {
+                continue;
+            }
+            self.make_stale(ix, since);
+            if let Some(s) = self.slots.get_mut(ix)
+                && s.stale
+                && let Some(p) = &s.payload
+            {
+                out.push((s.topic.clone(), p.clone()));
+                // Handed directly by the caller: not queued again.
+                s.dirty = false;
+            }
+        }
+        self.queue
+            .retain(|ix| self.slots.get(*ix).is_some_and(|s| s.dirty));
+        out
     }
 
     /// The drive's last reported status.
@@ -433,6 +494,71 @@ mod tests {
             true
         });
         all
+    }
+
+    fn status(s: DriveStatus, at_ms: u64) -> Update {
+        Update::Status {
+            bus: 0,
+            drive: 0,
+            status: s,
+            at: SystemTime::UNIX_EPOCH + Duration::from_millis(at_ms),
+        }
+    }
+
+    fn json(p: &str) -> serde_json::Value {
+        serde_json::from_str(p).unwrap()
+    }
+
+    /// Issue 22, item 3: a drive that stops answering has its retained values republished
+    /// stale; the next read publishes them fresh even unchanged; at the stop every value is
+    /// stale.
+    #[tokio::test(start_paused = true)]
+    async fn values_go_stale_at_a_timeout_and_fresh_at_the_next_read() {
+        let p = plant();
+        let mut o = Outbox::new(&p);
+        let t = Instant::now();
+        o.update(value(0, 2000), t, &p);
+        o.update(value(1, 3), t, &p);
+        drain(&mut o, t);
+        o.update(status(DriveStatus::Timeout, 5000), t, &p);
+        let out = drain(&mut o, t);
+        let topics: Vec<&str> = out.iter().map(|(t, _, _)| t.as_str()).collect();
+        assert_eq!(
+            topics,
+            [
+                "drivebus/gw/b/d/status",
+                "drivebus/gw/b/d/P130",
+                "drivebus/gw/b/d/P700"
+            ]
+        );
+        let v = json(&out[1].1);
+        assert_eq!(
+            v,
+            serde_json::json!({"value": 2.0, "unit": "s", "raw": 2000, "ts": 1234,
+                               "stale": true, "stale_since": 5000})
+        );
+        assert!(out[1].2, "retained");
+        // A second timeout report changes nothing more.
+        o.update(status(DriveStatus::Timeout, 6000), t, &p);
+        assert_eq!(drain(&mut o, t).len(), 1, "the status only");
+        // Back: the same raw value is published fresh at once (not at the heartbeat).
+        o.update(status(DriveStatus::Online, 7000), t, &p);
+        o.update(value(0, 2000), t, &p);
+        let out = drain(&mut o, t);
+        assert_eq!(out.len(), 2);
+        assert_eq!(json(&out[1].1).get("stale"), None);
+        // A fault is no timeout: the drive answers, its values are read and current.
+        o.update(status(DriveStatus::Fault("F07".into()), 8000), t, &p);
+        assert_eq!(drain(&mut o, t).len(), 1, "the status only");
+        // The stop: every value published so far, stale (P700 stayed stale from before).
+        let stop = o.stopping(9000);
+        let topics: Vec<&str> = stop.iter().map(|(t, _)| t.as_str()).collect();
+        assert_eq!(topics, ["drivebus/gw/b/d/P130"]);
+        assert_eq!(json(&stop[0].1)["stale_since"], 9000);
+        assert!(
+            drain(&mut o, t).is_empty(),
+            "handed by the caller, not queued"
+        );
     }
 
     #[tokio::test(start_paused = true)]

@@ -77,6 +77,16 @@ pub fn value_json(t: &Target, raw: i64, ts: u64, device: &Device) -> Value {
     Value::Object(m)
 }
 
+/// A value payload marked stale since `since` (ms): `"stale": true, "stale_since": …` added,
+/// the value, its unit, raw value and read time (`ts`) kept. `None` if it is not a value's JSON.
+pub fn stale(payload: &str, since: u64) -> Option<String> {
+    let mut v: Value = serde_json::from_str(payload).ok()?;
+    let m = v.as_object_mut()?;
+    m.insert("stale".into(), json!(true));
+    m.insert("stale_since".into(), json!(since));
+    Some(v.to_string())
+}
+
 /// `{"state":…,"text":…,"ts":…}`.
 pub fn status(s: &DriveStatus, ts: u64) -> String {
     status_json(s, ts).to_string()

@@ -731,3 +731,60 @@ async fn a_result_ready_at_the_stop_is_published_before_offline() {
         })
         .await;
 }
+
+/// Issue 22, item 3: a drive in timeout and the gateway's stop leave no value that looks
+/// current: the retained values say `stale`, and a read after the timeout makes them fresh.
+#[tokio::test]
+async fn retained_values_say_stale_after_a_timeout_and_after_the_stop() {
+    let Some(b) = broker(BrokerOptions::default()) else {
+        return;
+    };
+    let ramp = format!("{BASE}/ramp");
+    LocalSet::new()
+        .run_until(async {
+            let mut gw = Gw::start(&plant(&b.url(), ""));
+            gw.ready().await;
+            let mut live =
+                TestClient::connect(b.client_options("live", None), &["drivebus/gw1/#"]).await;
+            gw.value(0, 2000).await;
+            let p = live.next_on(&ramp, WAIT).await.unwrap();
+            assert_eq!(payload_json(&p).get("stale"), None);
+            gw.send(Update::Status {
+                bus: 0,
+                drive: 0,
+                status: DriveStatus::Timeout,
+                at: SystemTime::now(),
+            })
+            .await;
+            let p = live.next_on(&ramp, WAIT).await.unwrap();
+            let v = payload_json(&p);
+            assert_eq!(v["stale"], json!(true), "{v}");
+            assert_eq!(v["raw"], json!(2000));
+            assert!(v["stale_since"].as_i64().unwrap() >= v["ts"].as_i64().unwrap());
+            // A consumer that comes later reads the retained value: stale.
+            let mut later =
+                TestClient::connect(b.client_options("later", None), &[ramp.as_str()]).await;
+            let p = later.next_on(&ramp, WAIT).await.unwrap();
+            assert!(p.retain);
+            assert_eq!(payload_json(&p)["stale"], json!(true));
+            // Answering again: the same value, fresh, at once.
+            gw.send(Update::Status {
+                bus: 0,
+                drive: 0,
+                status: DriveStatus::Online,
+                at: SystemTime::now(),
+            })
+            .await;
+            gw.value(0, 2000).await;
+            let p = live.next_on(&ramp, WAIT).await.unwrap();
+            assert_eq!(payload_json(&p).get("stale"), None);
+            gw.shutdown().await;
+            let p = live.next_on(&ramp, WAIT).await.unwrap();
+            assert_eq!(payload_json(&p)["stale"], json!(true), "at the stop");
+        })
+        .await;
+    let mut after = TestClient::connect(b.client_options("after", None), &[ramp.as_str()]).await;
+    let p = after.next_on(&ramp, WAIT).await.unwrap();
+    assert!(p.retain);
+    assert_eq!(payload_json(&p)["stale"], json!(true));
+}
