@@ -392,30 +392,48 @@ struct Names {
     points: HashMap<String, (usize, usize, usize)>,
     /// The gateway's status topic.
     status: String,
-    /// The subscription.
+    /// The subscription of the `set`s ([`SETS`]).
     set_filter: String,
+    /// The subscription that finds retained topics of an earlier config ([`EARLIER`]):
+    /// everything under `base`, without the gateway's own messages (MQTT 5 no-local).
+    all_filter: String,
+    /// The retained topics the gateway publishes.
+    known: std::collections::HashSet<String>,
 }
+
+/// The subscription identifier (MQTT 5) of the `set` subscription: a `set` is executed only
+/// when it came through it.
+const SETS: usize = 1;
+/// The subscription identifier of the subscription to everything under the gateway's topics.
+const EARLIER: usize = 2;
 
 impl Names {
     fn new(plant: &Plant) -> Names {
         let g = &plant.gateway;
         let base = format!("{}/{}/", g.prefix, g.name);
         let mut points = HashMap::new();
+        let mut known = std::collections::HashSet::new();
         for (b, bus) in plant.buses.iter().enumerate() {
+            known.insert(format!("{base}{}/status", bus.name));
             for (d, drive) in bus.drives.iter().enumerate() {
+                known.insert(format!("{base}{}/{}/status", bus.name, drive.name));
+                known.insert(format!("{base}{}/{}/pd", bus.name, drive.name));
                 for (p, point) in drive.points.iter().enumerate() {
-                    points.insert(
-                        format!("{}/{}/{}", bus.name, drive.name, point.name),
-                        (b, d, p),
-                    );
+                    let at = format!("{}/{}/{}", bus.name, drive.name, point.name);
+                    known.insert(format!("{base}{at}"));
+                    points.insert(at, (b, d, p));
                 }
             }
         }
+        let status = connect::gateway_status_topic(g);
+        known.insert(status.clone());
         Names {
             set_filter: format!("{base}+/+/+/set"),
-            status: connect::gateway_status_topic(g),
+            all_filter: format!("{base}#"),
+            status,
             base,
             points,
+            known,
         }
     }
 
@@ -450,7 +468,16 @@ const UNKNOWN_LOG_EVERY: Duration = Duration::from_secs(10);
 impl Task {
     fn event(&mut self, e: Event) {
         match e {
-            Event::Incoming(Packet::ConnAck(_)) => self.connack(),
+            Event::Incoming(Packet::ConnAck(c)) => {
+                // A broker without subscription identifiers gets the set subscription alone
+                // (without them a set matching both could not be told from its copy).
+                let ids = c
+                    .properties
+                    .as_ref()
+                    .and_then(|p| p.subscription_identifiers_available)
+                    != Some(0);
+                self.connack(ids)
+            }
             Event::Incoming(Packet::Publish(p)) => self.incoming(p),
             Event::Incoming(Packet::PubAck(a)) => self.outbox.acked(a.pkid),
             Event::Incoming(Packet::SubAck(_)) => {
@@ -461,7 +488,7 @@ impl Task {
         }
     }
 
-    fn connack(&mut self) {
+    fn connack(&mut self, subscription_ids: bool) {
         self.connected = true;
         tracing::info!(broker = %self.broker, "connected to the broker");
         metrics_connected(&self.metrics, true);
@@ -479,11 +506,54 @@ impl Task {
         } else {
             self.outbox.handed_other();
         }
+        use rumqttc::v5::mqttbytes::v5::{Filter, SubscribeProperties};
+        let id = |id| SubscribeProperties {
+            id: Some(id),
+            user_properties: Vec::new(),
+        };
+        if let Err(e) = self.client.try_subscribe_with_properties(
+            &self.names.set_filter,
+            QoS::AtLeastOnce,
+            id(SETS),
+        ) {
+            tracing::warn!(error = %e, "cannot subscribe to the set topics");
+        }
+        // Retained topics of an earlier config: what the broker holds under the gateway's
+        // topics arrives with this subscription (a broker whose access rules do not allow it
+        // refuses it: logged at its acknowledgement, the sets are not touched).
+        if !subscription_ids {
+            tracing::info!(
+                "the broker has no subscription identifiers: retained topics of an earlier config are not looked for"
+            );
+            return;
+        }
+        let mut all = Filter::new(&self.names.all_filter, QoS::AtLeastOnce);
+        all.nolocal = true;
         if let Err(e) = self
             .client
-            .try_subscribe(&self.names.set_filter, QoS::AtLeastOnce)
+            .try_subscribe_many_with_properties(vec![all], id(EARLIER))
         {
-            tracing::warn!(error = %e, "cannot subscribe to the set topics");
+            tracing::warn!(error = %e, "cannot subscribe to the gateway's own topics");
+        }
+    }
+
+    /// A retained topic under the gateway's that none of its points, drives or buses has (an
+    /// earlier config's): cleared, so that nobody reads its last value as current.
+    fn earlier(&mut self, topic: &str, retained: bool) {
+        if !retained || topic.ends_with("/set") || self.names.known.contains(topic) {
+            return;
+        }
+        match self
+            .client
+            .try_publish(topic, QoS::AtLeastOnce, true, Vec::new())
+        {
+            Ok(()) => {
+                self.outbox.handed_other();
+                tracing::info!(%topic, "cleared a retained topic no point of the config has");
+            }
+            Err(e) => {
+                tracing::warn!(%topic, error = %e, "cannot clear a retained topic of an earlier config")
+            }
         }
     }
 
@@ -568,6 +638,20 @@ impl Task {
         }
         // MQTT topics are UTF-8 (the broker checks it).
         let topic = String::from_utf8_lossy(&p.topic).into_owned();
+        // Which subscription it came through (a broker that matches a message to both sends
+        // one copy with both identifiers, or one copy per subscription): a `set` is taken only
+        // through the set subscription.
+        let ids = p
+            .properties
+            .as_ref()
+            .map(|pp| pp.subscription_identifiers.as_slice())
+            .unwrap_or_default();
+        if ids.contains(&EARLIER) {
+            self.earlier(&topic, p.retain);
+        }
+        if !ids.is_empty() && !ids.contains(&SETS) {
+            return;
+        }
         let Some((bus, drive, point)) = self.names.set_target(&topic) else {
             self.unknown_sets += 1;
             self.metrics.set_outcome("unknown_topic");
@@ -875,6 +959,13 @@ mod unit_tests {
         .unwrap();
         let n = Names::new(&plant);
         assert_eq!(n.set_filter, "plant/a/gw/+/+/+/set");
+        assert_eq!(n.all_filter, "plant/a/gw/#");
+        assert!(n.known.contains("plant/a/gw/b/d/mode"));
+        assert!(n.known.contains("plant/a/gw/b/d/status"));
+        assert!(n.known.contains("plant/a/gw/b/d/pd"));
+        assert!(n.known.contains("plant/a/gw/b/status"));
+        assert!(n.known.contains("plant/a/gw/status"));
+        assert!(!n.known.contains("plant/a/gw/b/d/P700"));
         assert_eq!(n.set_target("plant/a/gw/b/d/P130/set"), Some((0, 0, 0)));
         assert_eq!(n.set_target("plant/a/gw/b/d/mode/set"), Some((0, 0, 1)));
         for bad in [

@@ -788,3 +788,62 @@ async fn retained_values_say_stale_after_a_timeout_and_after_the_stop() {
     assert!(p.retain);
     assert_eq!(payload_json(&p)["stale"], json!(true));
 }
+
+/// Issue 22, item 3: retained topics under the gateway's that no point, drive or bus of the
+/// config has (an earlier config's) are cleared when it connects; its own are kept, another
+/// gateway's are not touched, and a `set` (which both subscriptions match) reaches the bus once.
+#[tokio::test]
+async fn retained_topics_of_an_earlier_config_are_cleared_at_the_start() {
+    let Some(b) = broker(BrokerOptions::default()) else {
+        return;
+    };
+    let old_point = format!("{BASE}/old_point");
+    let old_drive = "drivebus/gw1/line1/gone/status";
+    let other_gw = "drivebus/gw2/line1/conv/ramp";
+    let c = TestClient::connect(b.client_options("old", None), &[]).await;
+    for t in [old_point.as_str(), old_drive, other_gw] {
+        c.publish(t, r#"{"value":1,"raw":1,"ts":1}"#, true).await;
+    }
+    let ramp = format!("{BASE}/ramp");
+    LocalSet::new()
+        .run_until(async {
+            let mut gw = Gw::start(&plant(&b.url(), ""));
+            gw.ready().await;
+            gw.value(0, 2000).await;
+            let mut live = TestClient::connect(b.client_options("live", None), &[&ramp]).await;
+            live.next_on(&ramp, WAIT).await.unwrap();
+            // One set: handed to the bus once.
+            c.publish(
+                &format!("{ramp}/set"),
+                json!({"value": 3.0, "id": "once"}).to_string(),
+                false,
+            )
+            .await;
+            let first = tokio::time::timeout(WAIT, gw.sets.recv()).await.unwrap();
+            assert!(first.is_some());
+            let again = tokio::time::timeout(QUIET, gw.sets.recv()).await;
+            assert!(again.is_err(), "a set reached the bus twice");
+            gw.shutdown().await;
+        })
+        .await;
+    let mut after = TestClient::connect(
+        b.client_options("after", None),
+        &["drivebus/gw1/#", "drivebus/gw2/#"],
+    )
+    .await;
+    let seen: std::collections::HashSet<String> = after
+        .collect(Duration::from_secs(1))
+        .await
+        .into_iter()
+        .filter(|p| !p.payload.is_empty())
+        .map(|p| p.topic.clone())
+        .collect();
+    assert!(!seen.contains(&old_point), "{seen:?}");
+    assert!(!seen.contains(old_drive), "{seen:?}");
+    assert!(
+        seen.contains(other_gw),
+        "another gateway's topics are not this one's: {seen:?}"
+    );
+    assert!(seen.contains(&ramp), "{seen:?}");
+    assert!(seen.contains("drivebus/gw1/status"), "{seen:?}");
+}
