@@ -162,6 +162,19 @@ pub enum SetOutcome {
     },
 }
 
+impl SetOutcome {
+    /// The outcome as the set metrics count it: `written`, the refusal's reason,
+    /// `device_refused` or `link_failed`.
+    pub fn label(&self) -> &'static str {
+        match self {
+            SetOutcome::Written { .. } => "written",
+            SetOutcome::Refused { reason, .. } => reason,
+            SetOutcome::DeviceRefused { .. } => "device_refused",
+            SetOutcome::LinkFailed { .. } => "link_failed",
+        }
+    }
+}
+
 /// A transaction the page asks a bus task to run for one of its drives (a read on demand, a
 /// guarded write's steps, a backup's reads): taken between the polls as a write is, with its
 /// own wire time, and refused like a write when the drive is offline or the bus too busy

@@ -48,7 +48,7 @@ pub const SHUTDOWN_FLUSH: Duration = Duration::from_secs(2);
 const CLIENT_QUEUE: usize = 128;
 /// How long a `set` may wait for its bus task's answer beyond `max_set_age` before it is
 /// answered `link_failed` (a bus task that never answers must not keep it for ever).
-const ANSWER_GRACE: Duration = Duration::from_secs(60);
+pub(crate) const ANSWER_GRACE: Duration = Duration::from_secs(60);
 
 /// Reconnection back-off: 0.5 s doubling to 30 s, back to 0.5 s at each ConnAck.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -217,7 +217,61 @@ impl Mqtt {
 
 /// Aborts its task when dropped.
 #[derive(Debug)]
-struct AbortOnDrop(tokio::task::JoinHandle<()>);
+pub(crate) struct AbortOnDrop(pub(crate) tokio::task::JoinHandle<()>);
+
+/// Hand a write to its bus task (`tx`), the JSON topics' `set` and Sparkplug's DCMD alike:
+/// `done` gets the outcome from a task that waits for it at most `max_age` and
+/// [`ANSWER_GRACE`] (a bus task that never answers must not keep it for ever); a bus that
+/// cannot take it now is the refusal returned at once.
+pub(crate) fn hand_set(
+    tx: &mpsc::Sender<SetRequest>,
+    drive: usize,
+    point: usize,
+    value: crate::model::SetValue,
+    max_age: Duration,
+    done: impl FnOnce(SetOutcome) + 'static,
+) -> std::result::Result<(), SetOutcome> {
+    let (reply, answer) = oneshot::channel();
+    let req = SetRequest {
+        drive,
+        point,
+        value,
+        received: Instant::now(),
+        max_age,
+        reply,
+    };
+    match tx.try_send(req) {
+        Ok(()) => {
+            tokio::task::spawn_local(async move {
+                let outcome = match tokio::time::timeout(max_age + ANSWER_GRACE, answer).await {
+                    Ok(Ok(o)) => o,
+                    Ok(Err(_)) => SetOutcome::Refused {
+                        reason: "expired",
+                        message: "the bus task ended without executing it".to_owned(),
+                    },
+                    Err(_) => SetOutcome::LinkFailed {
+                        message: format!(
+                            "no answer from the bus task within {} s: whether it was \
+                             written is unknown",
+                            (max_age + ANSWER_GRACE).as_secs()
+                        ),
+                    },
+                };
+                done(outcome);
+            });
+            Ok(())
+        }
+        Err(mpsc::error::TrySendError::Full(_)) => Err(SetOutcome::Refused {
+            reason: "busy",
+            message: "the bus has too many writes waiting: not queued; send it again later"
+                .to_owned(),
+        }),
+        Err(mpsc::error::TrySendError::Closed(_)) => Err(SetOutcome::Refused {
+            reason: "offline",
+            message: "the bus task has ended: not sent".to_owned(),
+        }),
+    }
+}
 
 impl Drop for AbortOnDrop {
     fn drop(&mut self) {
@@ -606,12 +660,7 @@ impl Task {
         outcome: &SetOutcome,
         id: Option<&serde_json::Value>,
     ) {
-        let label = match outcome {
-            SetOutcome::Written { .. } => "written",
-            SetOutcome::Refused { reason, .. } => reason,
-            SetOutcome::DeviceRefused { .. } => "device_refused",
-            SetOutcome::LinkFailed { .. } => "link_failed",
-        };
+        let label = outcome.label();
         self.metrics.set_outcome(label);
         let Some((b, d, p)) = self.plant.buses.get(bus).and_then(|b| {
             let d = b.drives.get(drive)?;
@@ -780,62 +829,22 @@ impl Task {
         msg: payload::SetMessage,
         max_age: Duration,
     ) {
-        let (reply, answer) = oneshot::channel();
-        let req = SetRequest {
-            drive,
-            point,
-            value: msg.value,
-            received: Instant::now(),
-            max_age,
-            reply,
-        };
         let Some(tx) = self.sets.get(bus) else {
             return;
         };
-        match tx.try_send(req) {
-            Ok(()) => {
-                let done = self.done_tx.clone();
-                let id = msg.id;
-                tokio::task::spawn_local(async move {
-                    let outcome = match tokio::time::timeout(max_age + ANSWER_GRACE, answer).await {
-                        Ok(Ok(o)) => o,
-                        Ok(Err(_)) => SetOutcome::Refused {
-                            reason: "expired",
-                            message: "the bus task ended without executing it".to_owned(),
-                        },
-                        Err(_) => SetOutcome::LinkFailed {
-                            message: format!(
-                                "no answer from the bus task within {} s: whether it was \
-                                 written is unknown",
-                                (max_age + ANSWER_GRACE).as_secs()
-                            ),
-                        },
-                    };
-                    let _ = done.send(Done {
-                        bus,
-                        drive,
-                        point,
-                        outcome,
-                        id,
-                    });
-                });
-            }
-            Err(mpsc::error::TrySendError::Full(_)) => {
-                let outcome = SetOutcome::Refused {
-                    reason: "busy",
-                    message: "the bus has too many writes waiting: not queued; send it again \
-                              later"
-                        .to_owned(),
-                };
-                self.result(bus, drive, point, &outcome, msg.id.as_ref());
-            }
-            Err(mpsc::error::TrySendError::Closed(_)) => {
-                let outcome = SetOutcome::Refused {
-                    reason: "offline",
-                    message: "the bus task has ended: not sent".to_owned(),
-                };
-                self.result(bus, drive, point, &outcome, msg.id.as_ref());
-            }
+        let done = self.done_tx.clone();
+        let id = msg.id.clone();
+        let handed = hand_set(tx, drive, point, msg.value, max_age, move |outcome| {
+            let _ = done.send(Done {
+                bus,
+                drive,
+                point,
+                outcome,
+                id,
+            });
+        });
+        if let Err(outcome) = handed {
+            self.result(bus, drive, point, &outcome, msg.id.as_ref());
         }
     }
 

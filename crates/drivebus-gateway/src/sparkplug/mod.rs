@@ -24,7 +24,7 @@ use std::time::{Duration, SystemTime};
 
 use rumqttc::{AsyncClient, Event, EventLoop, LastWill, Outgoing, Packet, QoS};
 use sparkplug_b::seq::Seq;
-use tokio::sync::{mpsc, oneshot, watch};
+use tokio::sync::{mpsc, watch};
 use tokio::time::Instant;
 
 use crate::config::Plant;
@@ -32,15 +32,13 @@ use crate::error::Result;
 use crate::metrics::Metrics;
 use crate::model::{SetOutcome, SetRequest, Update};
 use crate::mqtt::payload::millis;
-use crate::mqtt::{Backoff, SHUTDOWN_FLUSH};
+use crate::mqtt::{AbortOnDrop, Backoff, SHUTDOWN_FLUSH};
 use node::{Node, Out};
 
 /// The client's request queue: a birth of a large plant is one message per drive.
 const CLIENT_QUEUE: usize = 4096;
 /// The most updates taken into one flush.
 const DRAIN_MAX: usize = 4096;
-/// How long a write may wait for its bus task's answer beyond its age limit.
-const ANSWER_GRACE: Duration = Duration::from_secs(60);
 
 /// Where `bdSeq` is kept: one file per group and node in the state directory.
 #[derive(Debug, Clone)]
@@ -213,7 +211,7 @@ impl Sparkplug {
                     None => break,
                 },
                 Some(d) = done_rx.recv() => {
-                    metrics.set_outcome(outcome_label(&d.outcome));
+                    metrics.set_outcome(d.outcome.label());
                     node.write_done(d.device, d.point, &d.outcome, now);
                     Vec::new()
                 }
@@ -273,16 +271,6 @@ impl Sparkplug {
         }
         drop(driver);
         Ok(())
-    }
-}
-
-/// A write's outcome as the `set` metrics count it.
-fn outcome_label(o: &SetOutcome) -> &'static str {
-    match o {
-        SetOutcome::Written { .. } => "written",
-        SetOutcome::Refused { reason, .. } => reason,
-        SetOutcome::DeviceRefused { .. } => "device_refused",
-        SetOutcome::LinkFailed { .. } => "link_failed",
     }
 }
 
@@ -358,7 +346,8 @@ fn execute(
     }
 }
 
-/// Hand a write to its bus task; its outcome comes back through `done`.
+/// Hand a write to its bus task; its outcome comes back through `done` (a bus that cannot
+/// take it now: the refusal at once).
 #[allow(clippy::too_many_arguments)]
 fn write(
     node: &mut Node,
@@ -378,69 +367,19 @@ fn write(
     else {
         return;
     };
-    let (reply, answer) = oneshot::channel();
-    let req = SetRequest {
-        drive,
-        point: p,
-        value,
-        received: Instant::now(),
-        max_age,
-        reply,
-    };
     let Some(tx) = sets.get(bus) else {
         return;
     };
-    match tx.try_send(req) {
-        Ok(()) => {
-            let done = done.clone();
-            tokio::task::spawn_local(async move {
-                let outcome = match tokio::time::timeout(max_age + ANSWER_GRACE, answer).await {
-                    Ok(Ok(o)) => o,
-                    Ok(Err(_)) => SetOutcome::Refused {
-                        reason: "expired",
-                        message: "the bus task ended without executing it".to_owned(),
-                    },
-                    Err(_) => SetOutcome::LinkFailed {
-                        message: "no answer from the bus task: whether it was written is unknown"
-                            .to_owned(),
-                    },
-                };
-                let _ = done.send(Done {
-                    device,
-                    point,
-                    outcome,
-                });
-            });
-        }
-        Err(mpsc::error::TrySendError::Full(_)) => node.write_done(
+    let done = done.clone();
+    let handed = crate::mqtt::hand_set(tx, drive, p, value, max_age, move |outcome| {
+        let _ = done.send(Done {
             device,
             point,
-            &SetOutcome::Refused {
-                reason: "busy",
-                message: "the bus has too many writes waiting: not queued; send it again later"
-                    .to_owned(),
-            },
-            now,
-        ),
-        Err(mpsc::error::TrySendError::Closed(_)) => node.write_done(
-            device,
-            point,
-            &SetOutcome::Refused {
-                reason: "offline",
-                message: "the bus task has ended: not sent".to_owned(),
-            },
-            now,
-        ),
-    }
-}
-
-/// Aborts its task when dropped.
-#[derive(Debug)]
-struct AbortOnDrop(tokio::task::JoinHandle<()>);
-
-impl Drop for AbortOnDrop {
-    fn drop(&mut self) {
-        self.0.abort();
+            outcome,
+        });
+    });
+    if let Err(outcome) = handed {
+        node.write_done(device, point, &outcome, now);
     }
 }
 

@@ -127,7 +127,6 @@ pub struct Node {
     /// The drives with something to publish at the next flush (a flush looks at these only:
     /// on 64 × 31 drives, looking at every drive took most of the node's time).
     changed: Vec<usize>,
-    buf: Vec<u8>,
 }
 
 /// The longest the births wait for the drives' first answers.
@@ -182,7 +181,6 @@ impl Node {
             figures_published: vec![None; buses],
             figures_dirty: vec![false; buses],
             changed: Vec::new(),
-            buf: Vec::new(),
         }
     }
 
@@ -207,8 +205,10 @@ impl Node {
     }
 
     fn encode(&mut self, payload: &Payload) -> Vec<u8> {
-        sparkplug_b::encode_into(payload, &mut self.buf);
-        self.buf.clone()
+        // Into a buffer of its own: the client takes the bytes (no copy of a reused one).
+        let mut buf = Vec::new();
+        sparkplug_b::encode_into(payload, &mut buf);
+        buf
     }
 
     /// The NDEATH of `bd_seq` (the will of the connection that uses it, and what a clean stop
