@@ -52,7 +52,8 @@ pub struct NodeMetric {
 /// A point's metric.
 #[derive(Debug, Clone)]
 pub struct PointMetric {
-    /// The point's index in its drive.
+    /// The point's index in its drive (also its index in [`Device::points`]: every point of
+    /// the drive is a metric, in the config's order).
     pub point: usize,
     /// The metric's name: the point's topic name.
     pub name: String,

@@ -456,14 +456,8 @@ impl Node {
                 let Some(d) = self.cat.device_of(*bus, *drive) else {
                     return Vec::new();
                 };
-                let Some(ix) = self
-                    .cat
-                    .devices
-                    .get(d)
-                    .and_then(|dev| dev.points.iter().position(|p| p.point == *point))
-                else {
-                    return Vec::new();
-                };
+                // The catalogue has every point of the drive, in its order.
+                let ix = *point;
                 if let Some(s) = self.devices.get_mut(d) {
                     let ts = crate::mqtt::payload::millis(*at);
                     if let Some(v) = s.values.get_mut(ix) {
