@@ -166,12 +166,17 @@ fn passwd(file: &Path, user: &str, role: &str, password: &str) -> std::process::
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();
-    child
+    // A refused name is said before the password is read: the command may have exited, and
+    // closed its end, before the password is written.
+    match child
         .stdin
         .take()
         .unwrap()
         .write_all(format!("{password}\n").as_bytes())
-        .unwrap();
+    {
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => {}
+        other => other.unwrap(),
+    }
     child.wait_with_output().unwrap()
 }
 

@@ -182,8 +182,10 @@ impl SimulatedSbusDrive {
     /// Serve the bus on `io` until it closes (`Ok`) or fails; the drive's time goes on across
     /// serves.
     pub async fn serve<IO: CanIo>(&mut self, io: IO) -> io::Result<()> {
-        let epoch = *self.epoch.get_or_insert_with(drive_core::rt::time::now);
-        serve_can(core::slice::from_mut(self), epoch, io).await
+        let mut epoch = *self.epoch.get_or_insert_with(drive_core::rt::time::now);
+        let r = serve_can(core::slice::from_mut(self), &mut epoch, io).await;
+        self.epoch = Some(epoch);
+        r
     }
 
     /// The drive's time: tokio's time since its first [`serve`](Self::serve) (zero before).
@@ -566,7 +568,7 @@ impl SimulatedSbusBus {
     /// Serve the bus on `io` until it closes (`Ok`) or fails; the time goes on across serves.
     /// MOVLNK commands of the bus's [`MovlnkHandle`]s are taken meanwhile.
     pub async fn serve<IO: CanIo>(&mut self, mut io: IO) -> io::Result<()> {
-        let epoch = *self.epoch.get_or_insert_with(drive_core::rt::time::now);
+        let mut epoch = *self.epoch.get_or_insert_with(drive_core::rt::time::now);
         loop {
             let mut taken = None;
             let wrapped = WithMailbox {
@@ -574,7 +576,9 @@ impl SimulatedSbusBus {
                 rx: &mut self.mailbox.rx,
                 taken: &mut taken,
             };
-            serve_can(&mut self.drives, epoch, wrapped).await?;
+            let served = serve_can(&mut self.drives, &mut epoch, wrapped).await;
+            self.epoch = Some(epoch);
+            served?;
             let Some(request) = taken else {
                 return Ok(());
             };

@@ -348,6 +348,62 @@ async fn p815_timeout_f47_through_the_bus() {
     assert_eq!(drives.drive(2).unwrap().movidrive().fault_number(), None);
 }
 
+/// A stalled host is not a silent bus: the simulated drives' task is not run for 150 ms while
+/// the master's PO of the 50th millisecond waits in another task on its way to the bus (the
+/// simulated slcan adapter reads the pty in a task of its own). When the drives' loop wakes,
+/// the P815 deadline has passed and the PO, stamped after the stall, is not there yet. The
+/// stall is taken out of the drives' time: the PO is heard in time and the drive does not
+/// trip F47; a bus that then stays silent still trips it. Failed (F47 at once) before
+/// `serve_can` took a stall out of the drives' time.
+#[tokio::test(start_paused = true)]
+async fn a_stalled_host_does_not_trip_p815_while_a_po_waits_on_its_way() {
+    let drives = SimulatedSbusBus::new(&[1]);
+    let mut rig = Rig::new(k500(), drives, MasterConfig::default());
+    tokio::time::sleep(Duration::from_millis(3)).await;
+    let pi = rig
+        .master
+        .process_data(a(1), ProcessData([6, 0, 0]))
+        .await
+        .unwrap();
+    assert_eq!(pi.0[0], 0x0407);
+    // The relay: an adapter task that puts a frame on the bus when it is run.
+    let (tx, rx) = tokio::sync::oneshot::channel::<CanFrame>();
+    let mut adapter = rig.bus.node();
+    let relay = tokio::spawn(async move {
+        let frame = rx.await.unwrap();
+        drive_core::rt::send_frame(&mut adapter, &frame)
+            .await
+            .unwrap();
+        adapter
+    });
+    tokio::time::sleep(Duration::from_millis(50)).await;
+    let po = CanFrame::standard(8 + 3, &[0x00, 0x06, 0, 0, 0, 0]).unwrap();
+    tx.send(po).unwrap();
+    // The stall: 150 ms pass with no task run; the drives' deadline (100 ms after the first
+    // PO) is met late, the relayed PO reaches the bus only after that.
+    tokio::time::advance(Duration::from_millis(150)).await;
+    drop(relay.await.unwrap());
+    tokio::time::sleep(Duration::from_millis(30)).await;
+    let sw = rig.master.read(a(1), index::DRIVE_STATUS).await.unwrap() as u16;
+    assert_eq!(
+        sw, 0x0407,
+        "no F47 after a stall with a PO on its way: {sw:04X}h"
+    );
+    // A bus that really goes silent still trips, at P815 plus the grace at most.
+    tokio::time::sleep(Duration::from_millis(100)).await;
+    let sw = rig.master.read(a(1), index::DRIVE_STATUS).await.unwrap() as u16;
+    assert_eq!(
+        sw >> 8,
+        FAULT_SBUS_TIMEOUT,
+        "F47 after 130 ms of silence: {sw:04X}h"
+    );
+    let drives = rig.finish().await;
+    assert_eq!(
+        drives.drive(1).unwrap().movidrive().fault_number(),
+        Some(FAULT_SBUS_TIMEOUT)
+    );
+}
+
 /// P750 "slave setpoint", P751 "scaling slave setpoint" (×1000), P100 = 8 MASTER-SBus.
 const P750: u16 = 8592;
 const P751: u16 = 8593;
@@ -821,7 +877,8 @@ async fn bus_load_measured_against_the_model() {
         vn.start(drive_core::Instant::ZERO);
         let sender = tokio::spawn(async move {
             let mut eps = [vn];
-            let _ = drive_core::rt::can_serve::serve_can(&mut eps, t0, node).await;
+            let mut epoch = t0;
+            let _ = drive_core::rt::can_serve::serve_can(&mut eps, &mut epoch, node).await;
         });
         tokio::time::sleep(Duration::from_millis(1001)).await;
         sender.abort();
