@@ -15,6 +15,10 @@ pub enum CharError {
     /// The UART lost characters before this one.
     #[error("receiver overrun")]
     Overrun,
+    /// What came back from an echoing adapter differs from what was sent: another transmitter
+    /// on the line, or noise (see `rt::echo`).
+    #[error("bus collision (the echo differs from what was sent)")]
+    Collision,
 }
 
 /// One character from the UART.

@@ -120,6 +120,19 @@ pub struct BusFile {
     pub data_bits: Option<u8>,
     /// CAN bit rate for SBus on slcan or the simulated bus (default 500k).
     pub bitrate: Option<String>,
+    /// Serial buses: the adapter echoes what it sends (two-wire RS-485 converters); each frame
+    /// is read back, compared and discarded, an echo that differs is a collision.
+    #[serde(default)]
+    pub echo: bool,
+    /// Serial buses: Linux kernel RS-485 mode (RTS switches the transceiver).
+    #[serde(default)]
+    pub rs485: bool,
+    /// RS-485 mode: RTS level while sending, `high` (default) or `low`.
+    pub rs485_rts: Option<String>,
+    /// RS-485 mode: delay between RTS on and the first bit (default 0 ms, at most 100 ms).
+    pub rs485_delay_before: Option<String>,
+    /// RS-485 mode: delay between the last bit and RTS off (default 0 ms, at most 100 ms).
+    pub rs485_delay_after: Option<String>,
     /// Response timeout of one attempt (default: the protocol's).
     pub timeout: Option<String>,
     /// Retries after a failed attempt (default 1).
@@ -292,6 +305,8 @@ pub enum Endpoint {
         path: String,
         /// Line settings (8 data bits).
         line: drive_core::LineSettings,
+        /// How the adapter drives the line.
+        adapter: Adapter,
     },
     /// A CAN interface (`can0`, `slcan:…`), SBus.
     Can {
@@ -542,6 +557,62 @@ pub struct ProcessData {
 
 /// The largest config file read (a plant of thousands of drives is far below it).
 const CONFIG_LIMIT: u64 = 16 << 20;
+
+/// How a serial bus's adapter drives the line (`echo`, `rs485…` keys).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Adapter {
+    /// The adapter echoes what it sends: the echo is taken out (`drive_core::rt::echo`).
+    pub echo: bool,
+    /// Kernel RS-485 mode, if asked for.
+    pub rs485: Option<drive_transport::serial::Rs485Config>,
+}
+
+/// The adapter keys of bus `b` (at `at` for messages): RS-485 settings only with `rs485 =
+/// true`, delays within 100 ms.
+fn adapter_of(b: &BusFile, at: &str) -> std::result::Result<Adapter, String> {
+    let given =
+        b.rs485_rts.is_some() || b.rs485_delay_before.is_some() || b.rs485_delay_after.is_some();
+    if given && !b.rs485 {
+        return Err(format!(
+            "{at}: rs485_rts and rs485_delay_* apply in RS-485 mode: add rs485 = true (or leave              them out)"
+        ));
+    }
+    let delay = |key: &str, text: &Option<String>| -> std::result::Result<u32, String> {
+        let d = duration(&format!("{at}: {key}"), text.as_deref(), Duration::ZERO)?;
+        let ms = d.as_millis();
+        if d != Duration::from_millis(u64::try_from(ms).unwrap_or(u64::MAX)) || ms > 100 {
+            return Err(format!(
+                "{at}: {key} = {:?}: give whole milliseconds, 0ms to 100ms",
+                text.as_deref().unwrap_or_default()
+            ));
+        }
+        Ok(u32::try_from(ms).unwrap_or(100))
+    };
+    let rs485 = if b.rs485 {
+        let rts_high = match b.rs485_rts.as_deref() {
+            None | Some("high") => true,
+            Some("low") => false,
+            Some(other) => {
+                return Err(format!(
+                    "{at}: rs485_rts = {other:?}: give \"high\" (RTS high while sending, most                      transceivers) or \"low\""
+                ));
+            }
+        };
+        Some(drive_transport::serial::Rs485Config {
+            rts_on_send: rts_high,
+            rts_after_send: !rts_high,
+            delay_rts_before_send_ms: delay("rs485_delay_before", &b.rs485_delay_before)?,
+            delay_rts_after_send_ms: delay("rs485_delay_after", &b.rs485_delay_after)?,
+            rx_during_tx: false,
+        })
+    } else {
+        None
+    };
+    Ok(Adapter {
+        echo: b.echo,
+        rs485,
+    })
+}
 
 /// Parse a duration: `250ms`, `5s`, `2m`, `1h`, `500us` (a bare number is refused: the unit
 /// is never guessed).
@@ -1005,6 +1076,13 @@ fn check_line(at: &str, b: BusFile) -> std::result::Result<Bus, String> {
             .map_err(|e| format!("{at}: {e}"))?
             .bits_per_second(),
     };
+    let adapter = adapter_of(&b, at)?;
+    if protocol == Protocol::Sbus && adapter != Adapter::default() {
+        return Err(format!(
+            "{at}: echo and rs485 are settings of a serial adapter; an SBus bus runs on a CAN \
+             interface"
+        ));
+    }
     let endpoint = if b.simulate {
         Endpoint::Simulated { line, bitrate }
     } else if protocol == Protocol::Sbus {
@@ -1063,7 +1141,11 @@ fn check_line(at: &str, b: BusFile) -> std::result::Result<Bus, String> {
                  the adapter's port (or a simulator's /dev/pts/N)"
             ));
         }
-        Endpoint::Serial { path, line }
+        Endpoint::Serial {
+            path,
+            line,
+            adapter,
+        }
     };
     // As `drivectl movilink` and `drivectl uss` refuse it: a timeout shorter than the pause a
     // drive keeps before answering lets no answer arrive in time (the drives would flap).

@@ -31,6 +31,7 @@ mod can_port;
 pub mod can_serve;
 mod clock;
 mod driver;
+pub mod echo;
 mod io;
 mod port;
 mod serve;

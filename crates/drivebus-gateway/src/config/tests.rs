@@ -46,7 +46,7 @@ fn a_minimal_config_gets_the_documented_defaults() {
     assert_eq!(b.retries, 1);
     assert_eq!(b.status_period, Duration::from_secs(5));
     match &b.endpoint {
-        Endpoint::Serial { path, line } => {
+        Endpoint::Serial { path, line, .. } => {
             assert_eq!(path, "/dev/ttyUSB0");
             assert_eq!(line.baud, 9600);
             assert_eq!(line.parity, Parity::Even);
@@ -748,4 +748,56 @@ fn page_control_is_a_boolean_of_the_process_data_and_off_by_default() {
         e.contains("expected a boolean") && e.starts_with("plant.toml:18:"),
         "{e}"
     );
+}
+
+#[test]
+fn a_serial_bus_takes_its_adapters_echo_and_rs485_mode() {
+    let port = "port = \"/dev/ttyUSB0\"";
+    let p = Plant::parse(
+        &with(
+            port,
+            "port = \"/dev/ttyUSB0\"\necho = true\nrs485 = true\nrs485_rts = \"low\"\n\
+             rs485_delay_before = \"2ms\"\nrs485_delay_after = \"1ms\"",
+        ),
+        "plant.toml",
+    )
+    .unwrap();
+    let Endpoint::Serial { adapter, .. } = &p.buses[0].endpoint else {
+        panic!("{:?}", p.buses[0].endpoint);
+    };
+    assert!(adapter.echo);
+    let rs485 = adapter.rs485.unwrap();
+    assert!(!rs485.rts_on_send && rs485.rts_after_send);
+    assert_eq!(
+        (
+            rs485.delay_rts_before_send_ms,
+            rs485.delay_rts_after_send_ms
+        ),
+        (2, 1)
+    );
+    // By default: no echo, the port's RS-485 setting left as it is.
+    let p = Plant::parse(MINIMAL, "plant.toml").unwrap();
+    let Endpoint::Serial { adapter, .. } = &p.buses[0].endpoint else {
+        panic!();
+    };
+    assert_eq!(*adapter, Adapter::default());
+    for (keys, says) in [
+        ("rs485_rts = \"low\"", "add rs485 = true"),
+        ("rs485 = true\nrs485_rts = \"up\"", "give \"high\""),
+        (
+            "rs485 = true\nrs485_delay_before = \"200ms\"",
+            "0ms to 100ms",
+        ),
+        (
+            "rs485 = true\nrs485_delay_after = \"500us\"",
+            "whole milliseconds",
+        ),
+        ("rs485 = true\nrs485_delay_after = \"2\"", "give a duration"),
+    ] {
+        let e = err(&with(port, &format!("{port}\n{keys}")));
+        assert!(e.contains(says), "{keys}: {e}");
+    }
+    let sbus = with("protocol = \"movilink\"", "protocol = \"sbus\"")
+        .replace(port, "iface = \"can0\"\necho = true");
+    assert!(err(&sbus).contains("serial adapter"), "{}", err(&sbus));
 }

@@ -45,7 +45,20 @@ pub fn simulated_endpoint(bus: &Bus) -> Endpoint {
 /// The endpoint as a person reads it.
 pub fn endpoint_text(e: &Endpoint, protocol: Protocol) -> String {
     match e {
-        Endpoint::Serial { path, line } => format!("{path} {line}"),
+        Endpoint::Serial {
+            path,
+            line,
+            adapter,
+        } => {
+            let mut text = format!("{path} {line}");
+            if adapter.rs485.is_some() {
+                text.push_str(" rs485");
+            }
+            if adapter.echo {
+                text.push_str(" echo");
+            }
+            text
+        }
         Endpoint::Can { iface, bitrate } => format!("CAN {iface} at {bitrate} bit/s"),
         // Only the setting the protocol uses: a line for serial buses, a bit rate for SBus.
         Endpoint::Simulated { bitrate, .. } if protocol == Protocol::Sbus => {
@@ -131,30 +144,46 @@ const CAN_HINT: &str = "check that the interface is up (ip link set can0 up type
                         500000) or the slcan adapter is plugged in, and that no other program \
                         holds it";
 
-/// The bus's port, opened on first use and reopened after a failure with a back-off.
-fn serial_line(bus: &Bus, path: &str, line: drive_core::LineSettings) -> LineIo {
+/// The bus's port, opened on first use and reopened after a failure with a back-off; the
+/// adapter's echo taken out when the config says it echoes.
+fn serial_line(
+    bus: &Bus,
+    path: &str,
+    line: drive_core::LineSettings,
+    adapter: crate::config::Adapter,
+) -> LineIo {
     let p = path.to_owned();
     let opener: io::Opener<LineIo> = Box::new(move || {
         let p = p.clone();
-        Box::pin(async move { open_serial(&p, line).map(|port| LineIo(Box::new(Stream(port)))) })
+        Box::pin(async move {
+            open_serial(&p, line, adapter).map(|port| {
+                LineIo(Box::new(drive_core::rt::echo::EchoCancel::new(
+                    Stream(port),
+                    adapter.echo,
+                )))
+            })
+        })
     });
     LineIo(Box::new(Reopen::new(&bus.name, path, SERIAL_HINT, opener)))
 }
 
-/// Open the serial port `path` with `line` (every setting read back); a setting the device
-/// refuses names the config key that sets it.
+/// Open the serial port `path` with `line` and the adapter's RS-485 mode (every setting read
+/// back); a setting the device refuses names the config key that sets it.
 fn open_serial(
     path: &str,
     line: drive_core::LineSettings,
+    adapter: crate::config::Adapter,
 ) -> std::result::Result<drive_transport::serial::SerialPort, String> {
     use drive_transport::LineOption;
-    let config = drive_transport::serial::SerialConfig::with_line(path, line);
+    let mut config = drive_transport::serial::SerialConfig::with_line(path, line);
+    config.rs485 = adapter.rs485;
     drive_transport::serial::open(&config).map_err(|e| {
         let key = match e.refused_setting() {
             Some(LineOption::Baud) => "baud",
             Some(LineOption::Parity) => "parity",
             Some(LineOption::StopBits) => "stop_bits",
             Some(LineOption::DataBits) => "data_bits",
+            Some(LineOption::Rs485) => "rs485",
             _ => return e.to_string(),
         };
         format!("{e} (the bus's {key} in the config)")
@@ -203,9 +232,9 @@ pub fn open_bus(bus: &Bus) -> Access {
             bus,
             iface,
         ))),
-        Endpoint::Serial { path, .. } => {
+        Endpoint::Serial { path, adapter, .. } => {
             let line = wire.line;
-            let io = serial_line(bus, path, line);
+            let io = serial_line(bus, path, line, *adapter);
             match bus.protocol {
                 Protocol::Movilink => Proto::Movilink(Box::new(access::MovilinkBus::new(
                     io, bus, path, line, true,

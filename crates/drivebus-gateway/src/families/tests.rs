@@ -418,6 +418,7 @@ async fn a_port_that_cannot_be_opened_fails_every_call_and_is_tried_again_with_a
     bus.endpoint = Endpoint::Serial {
         path: "/nonexistent/ttyUSB9".into(),
         line: drive_core::LineSettings::new(9600),
+        adapter: crate::config::Adapter::default(),
     };
     let mut access = open_bus(bus);
     let t = bus.drives[0].points[0].target;
@@ -928,8 +929,24 @@ async fn a_refused_line_setting_names_the_config_key() {
     let path = pty.slave_path().to_str().unwrap().to_owned();
     // Pseudo-terminals refuse parity.
     let line = drive_core::LineSettings::new(9600).with_parity(drive_core::Parity::Even);
-    let e = super::open_serial(&path, line).map(drop).unwrap_err();
+    let adapter = crate::config::Adapter::default();
+    let e = super::open_serial(&path, line, adapter)
+        .map(drop)
+        .unwrap_err();
     assert!(e.contains("the bus's parity in the config"), "{e}");
+    assert!(!e.contains("--"), "{e}");
+    // Nor kernel RS-485 mode.
+    let adapter = crate::config::Adapter {
+        echo: false,
+        rs485: Some(drive_transport::serial::Rs485Config::default()),
+    };
+    let e = super::open_serial(&path, line.with_parity(drive_core::Parity::None), adapter)
+        .map(drop)
+        .unwrap_err();
+    assert!(
+        e.contains("RS-485") && e.contains("the bus's rs485 in the config"),
+        "{e}"
+    );
     assert!(!e.contains("--"), "{e}");
     // A missing adapter: the transport's words, no option either.
     let e = super::open_can("slcan:/nonexistent/tty@500k")

@@ -76,7 +76,8 @@ pub fn again_with_data_bits(args: &BonfiglioliArgs, data_bits: Option<u8>) -> Ag
     let mut a = Again::new("bonfiglioli")
         .arg("--port", &args.port)
         .arg_unless("--mode", args.mode.as_str(), "rtu")
-        .line(&args.line);
+        .line(&args.line)
+        .adapter(&args.adapter);
     if let Some(bits) = data_bits {
         a = a.arg("--data-bits", bits);
     }
@@ -134,10 +135,9 @@ pub fn given_variant(args: &BonfiglioliArgs) -> Option<Variant> {
 pub fn open(
     args: &BonfiglioliArgs,
     settings: drive_core::LineSettings,
-) -> Result<drive_transport::serial::SerialPort> {
+) -> Result<crate::tool::line::EchoPort> {
     let path = &args.port;
-    let config = drive_transport::serial::SerialConfig::with_line(path, settings);
-    drive_transport::serial::open(&config).map_err(|e| match e.refused_setting() {
+    args.adapter.open(path, settings).map_err(|e| match e.refused_setting() {
         Some(drive_transport::LineOption::DataBits) if settings.data_bits == 7 => {
             let sim = Again::new("sim bonfiglioli --pty --parity none --mode ascii --data-bits 8")
                 .arg_unless("--baud", args.line.baud, 9600)

@@ -50,7 +50,7 @@ use crate::tool::client::{ParamClient, Target, ValueText};
 use crate::tool::cmd::{self, WriteValue};
 use crate::tool::front::Cli;
 use crate::tool::interrupt::Interrupt;
-use crate::tool::line::{LineArgs, runtime};
+use crate::tool::line::{AdapterArgs, LineArgs, runtime};
 use crate::tool::meaning::KnownVariant;
 use crate::tool::motor::{AtEnd, Motion, MotorGuard, Stopped};
 use crate::tool::{backup, stale, write};
@@ -92,6 +92,8 @@ pub struct BonfiglioliArgs {
     mode: String,
     #[command(flatten)]
     line: LineArgs,
+    #[command(flatten)]
+    adapter: AdapterArgs,
     /// Data bits, 7 or 8: by default the mode's (RTU 8, ASCII 7: ch. 6.7); a pseudo-terminal
     /// takes only 8.
     #[arg(long, global = true, value_parser = clap::value_parser!(u8).range(7..=8))]
@@ -278,7 +280,7 @@ pub fn run(args: &BonfiglioliArgs) -> Result<()> {
     rt.block_on(async {
         // The mode's character format: RTU 8 data bits, ASCII 7 (ch. 6.7).
         let port = open(args, config.line)?;
-        stale::note_flushed(port.flushed_at_open());
+        stale::note_flushed(port.get_ref().flushed_at_open());
         let mut master = MasterDriver::new(port, config);
         let r = execute(&mut master, args).await;
         stale::note_stale(master.stats().stale);

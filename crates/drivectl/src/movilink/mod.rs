@@ -26,7 +26,7 @@ use crate::sew::{Sew, SewBus, SewDrive};
 use crate::tool::again::Again;
 use crate::tool::backup;
 use crate::tool::cmd;
-use crate::tool::line::{LineArgs, MasterArgs, runtime};
+use crate::tool::line::{AdapterArgs, LineArgs, MasterArgs, runtime};
 use crate::tool::{stale, write};
 pub use drive_client::scan::firmware_text;
 
@@ -69,6 +69,8 @@ pub struct MovilinkArgs {
     port: String,
     #[command(flatten)]
     line: LineArgs,
+    #[command(flatten)]
+    adapter: AdapterArgs,
     #[command(flatten)]
     master: MasterArgs,
     /// Drive address: 0–99 single drive, 254 point-to-point. Default 0: P810's factory
@@ -230,6 +232,7 @@ fn again(args: &MovilinkArgs) -> Again {
     Again::new("movilink")
         .arg("--port", &args.port)
         .line(&args.line)
+        .adapter(&args.adapter)
         .arg_unless("--timeout", args.master.timeout, 50)
         .arg_unless("--char-gap", args.master.char_gap, 20)
         .arg("--addr", args.addr)
@@ -242,8 +245,8 @@ pub fn run(args: &MovilinkArgs) -> Result<()> {
     precheck(&args.command)?;
     let rt = runtime()?;
     rt.block_on(async {
-        let port = args.line.open(&args.port)?;
-        stale::note_flushed(port.flushed_at_open());
+        let port = args.line.open(&args.port, &args.adapter)?;
+        stale::note_flushed(port.get_ref().flushed_at_open());
         let mut master = MasterDriver::new(port, config);
         let r = execute(&mut master, args).await;
         stale::note_stale(master.stats().stale);

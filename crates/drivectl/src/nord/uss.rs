@@ -23,7 +23,7 @@ use serde_json::{Map, Value, json};
 use super::{NordCommand, Session, execute, precheck};
 use crate::error::{CliError, Result};
 use crate::tool::client::canonical_port;
-use crate::tool::line::{LineArgs, MAX_TIMEOUT_MS, runtime};
+use crate::tool::line::{AdapterArgs, LineArgs, MAX_TIMEOUT_MS, runtime};
 use crate::tool::stale;
 
 /// Below `drivectl uss --help`.
@@ -50,6 +50,8 @@ pub struct UssArgs {
     port: String,
     #[command(flatten)]
     line: LineArgs,
+    #[command(flatten)]
+    adapter: AdapterArgs,
     /// Response timeout in milliseconds, 1–60000: from the end of a telegram to the start of
     /// its answer. Default 50: the 20 ms a USS drive may take before it answers at most (the
     /// USS response delay; NORD BU 0050 1.7), and 30 ms for USB adapters that hand characters
@@ -139,6 +141,7 @@ fn again(args: &UssArgs) -> String {
     crate::tool::again::Again::new("uss")
         .arg("--port", &args.port)
         .line(&args.line)
+        .adapter(&args.adapter)
         .arg_unless("--timeout", args.timeout, 50)
         .arg_unless("--retries", args.retries, 2)
         .arg_unless("--pkw", args.pkw, 4)
@@ -165,8 +168,8 @@ pub fn run(args: &UssArgs) -> Result<()> {
     }
     let rt = runtime()?;
     rt.block_on(async {
-        let port = args.line.open(&args.port)?;
-        stale::note_flushed(port.flushed_at_open());
+        let port = args.line.open(&args.port, &args.adapter)?;
+        stale::note_flushed(port.get_ref().flushed_at_open());
         let master = UssDriver::new(port, config);
         match &args.command {
             UssCommand::Nord(cmd) => {

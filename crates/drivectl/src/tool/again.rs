@@ -5,7 +5,7 @@
 
 use std::fmt::Display;
 
-use super::line::LineArgs;
+use super::line::{AdapterArgs, LineArgs, RtsLevel};
 
 /// A `drivectl …` command line being put together.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -57,6 +57,24 @@ impl Again {
             .arg_unless("--stop-bits", line.stop_bits.bits(), 1)
     }
 
+    /// Add the adapter options given (`--echo`, `--rs485` and its settings that differ from
+    /// their defaults).
+    pub fn adapter(mut self, adapter: &AdapterArgs) -> Self {
+        if adapter.echo {
+            self.0.push_str(" --echo");
+        }
+        if adapter.rs485 {
+            self.0.push_str(" --rs485");
+            if adapter.rs485_rts == RtsLevel::Low {
+                self.0.push_str(" --rs485-rts low");
+            }
+            self = self
+                .arg_unless("--rs485-delay-before", adapter.rs485_delay_before, 0)
+                .arg_unless("--rs485-delay-after", adapter.rs485_delay_after, 0);
+        }
+        self
+    }
+
     /// The command line with `rest` (a subcommand and its arguments) at the end.
     pub fn then(&self, rest: &str) -> String {
         format!("{} {rest}", self.0)
@@ -93,5 +111,22 @@ mod tests {
         assert_eq!(shell_word("it's"), r"'it'\''s'");
         assert_eq!(shell_word("/dev/pts/3"), "/dev/pts/3");
         assert_eq!(shell_word(""), "''");
+    }
+
+    #[test]
+    fn the_adapter_options_given_are_carried() {
+        let plain = Again::new("uss").adapter(&AdapterArgs::default());
+        assert_eq!(plain.to_string(), "drivectl uss");
+        let a = Again::new("uss").adapter(&AdapterArgs {
+            echo: true,
+            rs485: true,
+            rs485_rts: RtsLevel::Low,
+            rs485_delay_before: 2,
+            rs485_delay_after: 0,
+        });
+        assert_eq!(
+            a.to_string(),
+            "drivectl uss --echo --rs485 --rs485-rts low --rs485-delay-before 2"
+        );
     }
 }

@@ -1,6 +1,7 @@
 //! Serial line and master options, shared by every protocol command and `drivectl sim`.
 
 use clap::Args;
+use drive_core::rt::echo::EchoCancel;
 use drive_transport::serial::{self, LineSettings, Parity, SerialConfig, SerialPort, StopBits};
 use drive_transport::{LineOption, TransportError};
 use std::time::Duration;
@@ -29,10 +30,12 @@ impl LineArgs {
             .with_stop_bits(self.stop_bits)
     }
 
-    /// Open `path` with these settings (every setting read back; a refused one is named, with
-    /// the option that changes it).
-    pub fn open(&self, path: &str) -> Result<SerialPort> {
-        open_settings(path, self.line())
+    /// Open a master's port at `path` with these settings and `adapter`'s (every setting read
+    /// back; a refused one is named, with the option that changes it).
+    pub fn open(&self, path: &str, adapter: &AdapterArgs) -> Result<EchoPort> {
+        adapter
+            .open(path, self.line())
+            .map_err(|e| open_cli_error(&e))
     }
 }
 
@@ -42,6 +45,75 @@ impl LineArgs {
 pub fn open_settings(path: &str, settings: LineSettings) -> Result<SerialPort> {
     serial::open(&SerialConfig::with_line(path, settings)).map_err(|e| open_cli_error(&e))
 }
+
+/// The RTS level in kernel RS-485 mode while a frame is sent.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, clap::ValueEnum)]
+pub enum RtsLevel {
+    /// RTS high while sending, low after (most transceivers).
+    #[default]
+    High,
+    /// RTS low while sending, high after (inverted driver enable).
+    Low,
+}
+
+/// The longest RTS delay in RS-485 mode, in milliseconds (the kernel takes more, but a delay
+/// this long already costs a whole telegram at 9600 baud).
+pub const MAX_RTS_DELAY_MS: u32 = 100;
+
+/// How the master's serial adapter drives an RS-485 line: the same options in every serial
+/// family (MOVILINK, USS, Modbus RTU/ASCII). Every option is accepted before or after the
+/// subcommand.
+#[derive(Debug, Args, Clone, Default)]
+pub struct AdapterArgs {
+    /// The adapter echoes what it sends (two-wire RS-485 converters whose receiver stays on):
+    /// each frame is read back, compared and discarded; an echo that differs is a bus
+    /// collision and the frame is not taken. Without it, such an adapter's echo of a Modbus
+    /// FC 5/6/8 request looks exactly like the drive's answer.
+    #[arg(long, global = true)]
+    pub echo: bool,
+    /// Linux kernel RS-485 mode (TIOCSRS485): the UART switches the transceiver with RTS
+    /// around each frame. For UARTs wired to a transceiver (boards, HATs); leave it out for
+    /// USB adapters that switch direction themselves.
+    #[arg(long, global = true)]
+    pub rs485: bool,
+    /// RS-485 mode: RTS level while sending, high or low.
+    #[arg(long, global = true, default_value = "high", requires = "rs485")]
+    pub rs485_rts: RtsLevel,
+    /// RS-485 mode: milliseconds between RTS on and the first bit, 0–100.
+    #[arg(long, global = true, default_value_t = 0, requires = "rs485", value_parser = clap::value_parser!(u32).range(0..=i64::from(MAX_RTS_DELAY_MS)))]
+    pub rs485_delay_before: u32,
+    /// RS-485 mode: milliseconds between the last bit and RTS off, 0–100.
+    #[arg(long, global = true, default_value_t = 0, requires = "rs485", value_parser = clap::value_parser!(u32).range(0..=i64::from(MAX_RTS_DELAY_MS)))]
+    pub rs485_delay_after: u32,
+}
+
+impl AdapterArgs {
+    /// The kernel RS-485 setting asked for, if any.
+    pub fn rs485(&self) -> Option<serial::Rs485Config> {
+        self.rs485.then(|| serial::Rs485Config {
+            rts_on_send: self.rs485_rts == RtsLevel::High,
+            rts_after_send: self.rs485_rts == RtsLevel::Low,
+            delay_rts_before_send_ms: self.rs485_delay_before,
+            delay_rts_after_send_ms: self.rs485_delay_after,
+            rx_during_tx: false,
+        })
+    }
+
+    /// Open a master's port at `path` with `settings` and these adapter settings: the echo
+    /// taken out when `--echo` is given.
+    pub fn open(
+        &self,
+        path: &str,
+        settings: LineSettings,
+    ) -> std::result::Result<EchoPort, TransportError> {
+        let mut config = SerialConfig::with_line(path, settings);
+        config.rs485 = self.rs485();
+        serial::open(&config).map(|port| EchoCancel::new(port, self.echo))
+    }
+}
+
+/// A master's serial port, its adapter's echo taken out when asked for.
+pub type EchoPort = EchoCancel<SerialPort>;
 
 /// A port's refusal as the command line's error: a setting the device refuses or a path that
 /// is no port at all (`/dev/ptmx`) is the user's to change (exit 2); a missing or busy port is a
@@ -61,6 +133,7 @@ pub fn open_error(e: &TransportError) -> String {
         Some(LineOption::Parity) => "--parity even|odd|none",
         Some(LineOption::StopBits) => "--stop-bits 1|2",
         Some(LineOption::DataBits) => "--data-bits 7|8",
+        Some(LineOption::Rs485) => "--rs485",
         _ => return e.to_string(),
     };
     format!("{e} (option {option})")
