@@ -783,6 +783,10 @@ pub struct OneBus {
     pub timeout_ms: Option<u64>,
     /// Attempts after a failed one; `None`: the gateway's default.
     pub retries: Option<u8>,
+    /// The serial adapter echoes what it sends (`echo = true`).
+    pub echo: bool,
+    /// Kernel RS-485 mode (`rs485 = true` and its settings).
+    pub rs485: Option<drive_transport::serial::Rs485Config>,
 }
 
 /// The points every drive of a [`OneBus`] plant shows, per family: (name, parameter, selector
@@ -939,6 +943,18 @@ impl OneBus {
         }
         if let Some(r) = self.retries {
             let _ = writeln!(t, "retries = {r}");
+        }
+        if self.echo {
+            let _ = writeln!(t, "echo = true");
+        }
+        if let Some(r) = &self.rs485 {
+            let rts = if r.rts_on_send { "high" } else { "low" };
+            let _ = writeln!(
+                t,
+                "rs485 = true\nrs485_rts = \"{rts}\"\nrs485_delay_before = \"{}ms\"\n\
+                 rs485_delay_after = \"{}ms\"",
+                r.delay_rts_before_send_ms, r.delay_rts_after_send_ms
+            );
         }
         for a in &self.addresses {
             let _ = write!(t, "\n[[bus.drive]]\nname = \"drive-{a}\"\naddress = {a}\n");

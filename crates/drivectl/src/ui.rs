@@ -53,6 +53,8 @@ pub struct UiArgs {
     /// Attempts after a timeout or a corrupt answer (default: the gateway's, 2).
     #[arg(long)]
     pub retries: Option<u8>,
+    #[command(flatten)]
+    pub adapter: crate::tool::line::AdapterArgs,
     /// Serve the drives that answer: probe every address from --from to --to first (one read
     /// each, no retries) instead of taking --addr. With --simulate the drives of --addr answer.
     #[arg(long)]
@@ -328,6 +330,8 @@ pub fn run(args: &UiArgs) -> Result<()> {
         listen: with_port(listen)?,
         timeout_ms: args.timeout,
         retries: args.retries,
+        echo: args.adapter.echo,
+        rs485: args.adapter.rs485(),
     };
     if args.scan {
         one.addresses = scan(&one, args.from, args.to)?;

@@ -267,6 +267,8 @@ fn a_plant_of_one_bus_from_the_command_line_is_a_checked_config() {
             listen: "127.0.0.1:8080".parse().unwrap(),
             timeout_ms: None,
             retries: None,
+            echo: false,
+            rs485: None,
         };
         let plant = Plant::parse(&one.config(), "the command line")
             .unwrap_or_else(|e| panic!("{protocol}: {e}\n{}", one.config()));
@@ -299,6 +301,13 @@ fn a_plant_of_one_bus_from_the_command_line_is_a_checked_config() {
         listen: "127.0.0.1:0".parse().unwrap(),
         timeout_ms: Some(200),
         retries: Some(4),
+        echo: true,
+        rs485: Some(drive_transport::serial::Rs485Config {
+            rts_on_send: false,
+            rts_after_send: true,
+            delay_rts_before_send_ms: 3,
+            ..Default::default()
+        }),
     };
     let plant = Plant::parse(&odd.config(), "the command line").unwrap();
     assert_eq!(plant.buses[0].name, "usb--odd--name");
@@ -316,8 +325,12 @@ fn a_plant_of_one_bus_from_the_command_line_is_a_checked_config() {
     let pty_plant = Plant::parse(&pty.config(), "the command line").unwrap();
     assert_eq!(pty_plant.buses[0].name, "pts-0");
     match &plant.buses[0].endpoint {
-        crate::config::Endpoint::Serial { path, .. } => {
+        crate::config::Endpoint::Serial { path, adapter, .. } => {
             assert_eq!(path, r#"/dev/serial/by-id/usb-"odd"\name"#);
+            // The adapter settings of the command line reach the bus.
+            assert!(adapter.echo);
+            let r = adapter.rs485.unwrap();
+            assert!(!r.rts_on_send && r.delay_rts_before_send_ms == 3);
         }
         other => panic!("{other:?}"),
     }
@@ -381,6 +394,8 @@ fn a_one_bus_ctt2_plant_is_simulated_and_its_polls_fit_the_as_i_link() {
         listen: "127.0.0.1:8080".parse().unwrap(),
         timeout_ms: None,
         retries: None,
+        echo: false,
+        rs485: None,
     };
     let plant = Plant::parse(&one.config(), "the command line").unwrap();
     let bus = &plant.buses[0];
