@@ -15,9 +15,9 @@ pub enum CharError {
     /// The UART lost characters before this one.
     #[error("receiver overrun")]
     Overrun,
-    /// What came back from an echoing adapter differs from what was sent: another transmitter
-    /// on the line, or noise (see `rt::echo`).
-    #[error("bus collision (the echo differs from what was sent)")]
+    /// What came back from an echoing adapter is not the echo of what was sent: another
+    /// transmitter on the line, noise, or an adapter that does not echo (see `rt::echo`).
+    #[error("bus collision or no echo (what came back is not the echo of what was sent)")]
     Collision,
 }
 

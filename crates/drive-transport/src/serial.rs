@@ -45,6 +45,24 @@ pub struct Rs485Config {
     pub rx_during_tx: bool,
 }
 
+impl Rs485Config {
+    /// The longest RTS delay front ends accept, in milliseconds: the kernel takes more, but a
+    /// delay this long already costs a whole telegram at 9600 baud.
+    pub const MAX_DELAY_MS: u32 = 100;
+
+    /// RTS `high` while sending (and the other level after), with the delays before the first
+    /// bit and after the last one; the receiver off while sending.
+    pub fn with_rts(high: bool, delay_before_ms: u32, delay_after_ms: u32) -> Self {
+        Rs485Config {
+            rts_on_send: high,
+            rts_after_send: !high,
+            delay_rts_before_send_ms: delay_before_ms,
+            delay_rts_after_send_ms: delay_after_ms,
+            rx_during_tx: false,
+        }
+    }
+}
+
 impl Default for Rs485Config {
     /// RTS high while sending, low afterwards, no delays, receiver off while sending.
     fn default() -> Self {

@@ -579,14 +579,16 @@ fn adapter_of(b: &BusFile, at: &str) -> std::result::Result<Adapter, String> {
     }
     let delay = |key: &str, text: &Option<String>| -> std::result::Result<u32, String> {
         let d = duration(&format!("{at}: {key}"), text.as_deref(), Duration::ZERO)?;
+        let max = drive_transport::serial::Rs485Config::MAX_DELAY_MS;
         let ms = d.as_millis();
-        if d != Duration::from_millis(u64::try_from(ms).unwrap_or(u64::MAX)) || ms > 100 {
+        if d != Duration::from_millis(u64::try_from(ms).unwrap_or(u64::MAX)) || ms > u128::from(max)
+        {
             return Err(format!(
-                "{at}: {key} = {:?}: give whole milliseconds, 0ms to 100ms",
+                "{at}: {key} = {:?}: give whole milliseconds, 0ms to {max}ms",
                 text.as_deref().unwrap_or_default()
             ));
         }
-        Ok(u32::try_from(ms).unwrap_or(100))
+        Ok(u32::try_from(ms).unwrap_or(max))
     };
     let rs485 = if b.rs485 {
         let rts_high = match b.rs485_rts.as_deref() {
@@ -598,13 +600,11 @@ fn adapter_of(b: &BusFile, at: &str) -> std::result::Result<Adapter, String> {
                 ));
             }
         };
-        Some(drive_transport::serial::Rs485Config {
-            rts_on_send: rts_high,
-            rts_after_send: !rts_high,
-            delay_rts_before_send_ms: delay("rs485_delay_before", &b.rs485_delay_before)?,
-            delay_rts_after_send_ms: delay("rs485_delay_after", &b.rs485_delay_after)?,
-            rx_during_tx: false,
-        })
+        Some(drive_transport::serial::Rs485Config::with_rts(
+            rts_high,
+            delay("rs485_delay_before", &b.rs485_delay_before)?,
+            delay("rs485_delay_after", &b.rs485_delay_after)?,
+        ))
     } else {
         None
     };

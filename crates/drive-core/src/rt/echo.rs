@@ -4,14 +4,24 @@
 //! Unhandled, the echo is taken for an answer where a protocol's answer repeats its request
 //! (Modbus FC 5, 6, 8: a write reported as done that no drive answered). [`EchoCancel`] wraps
 //! a line and takes each written byte back out of what is received, in order: the master never
-//! sees its own frames. What comes back different is a **collision** (another transmitter on
-//! the line, or noise): the character is handed on flagged [`CharError::Collision`], as are the
-//! rest of that frame's echo, so the endpoint throws the frame away as it would a corrupt one
-//! and its retry rules apply. An echo that does not start (something else came first: the
-//! adapter does not echo after all, or another station sent over the request) is counted as
-//! **missing**, and the character that came instead is flagged too: an answer is never taken
-//! from characters that may hold our own frame. An echo still outstanding when the next frame
-//! is written is given up (missing): a frame's echo comes before the next frame.
+//! sees its own frames.
+//!
+//! * What comes back different once a frame's echo has begun is a **collision** (another
+//!   transmitter on the line, or noise): the character is handed on flagged
+//!   [`CharError::Collision`], as is the rest of that frame's echo, so the endpoint throws the
+//!   frame away as it would a corrupt one and its retry rules apply.
+//! * A character that comes while an echo is due but has not begun is **foreign** (a late
+//!   answer, another station, or an adapter that does not echo after all): it is flagged, and
+//!   the echo is still expected after it. No answer is ever taken from characters received
+//!   while our own frame may still come back, so an echo cannot slip through behind a stray
+//!   byte.
+//! * Echoes come back in the order the frames were written, also when the next frame is written
+//!   before the last one's echo was read (a broadcast, then a request, on a USB adapter that
+//!   hands characters over late). An echo that has not begun [`ECHO_START`] after its frame was
+//!   written is given up when the next frame is written: its first character comes back within
+//!   a character time and an adapter's latency of its being sent, whatever the frame's length.
+//!   So on an adapter that does not echo, every exchange fails (its answers are foreign): leave
+//!   the echo off there.
 //!
 //! Why not in the endpoints: the echo is the adapter's, not the protocol's; every serial
 //! family gets the same handling from one wrapper, and the endpoints' framing, stale-character
@@ -20,6 +30,7 @@
 use std::collections::VecDeque;
 use std::io;
 use std::task::{Context, Poll};
+use std::time::Duration;
 
 use tokio::time::Instant as TokioInstant;
 
@@ -27,8 +38,13 @@ use super::io::{CharIo, ReceivedChar, WireTime};
 use crate::char::CharError;
 
 /// The most bytes written and not yet echoed that are kept (several of the longest frames of
-/// any family); beyond, the oldest are dropped as missing.
+/// any family); beyond, the oldest frames are given up.
 const MAX_PENDING: usize = 2048;
+
+/// How long after a frame is written its echo must have begun before the next frame gives it
+/// up: a character time at the slowest rates (9 ms at 1200 baud) and a USB adapter's latency
+/// (an FTDI's 16 ms), with room.
+pub const ECHO_START: Duration = Duration::from_millis(100);
 
 /// What an [`EchoCancel`] saw.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -37,8 +53,21 @@ pub struct EchoStats {
     pub echoed: u64,
     /// Frames whose echo differed from what was sent (collisions).
     pub collisions: u64,
-    /// Bytes whose echo never came.
+    /// Characters that came while an echo was due but had not begun (flagged).
+    pub foreign: u64,
+    /// Bytes whose echo never came (given up).
     pub missing: u64,
+}
+
+/// A frame written whose echo has not all come back.
+#[derive(Debug, Clone, Copy)]
+struct Frame {
+    /// Bytes of its echo still to come.
+    left: usize,
+    /// When it was written.
+    at: TokioInstant,
+    /// Whether its echo has begun.
+    started: bool,
 }
 
 /// A line whose adapter echoes what is written (see the [module docs](self)); with echo off
@@ -49,8 +78,8 @@ pub struct EchoCancel<IO> {
     on: bool,
     /// Bytes written whose echo has not come back yet, oldest first.
     pending: VecDeque<u8>,
-    /// Whether the echo of the bytes pending has started (a first byte matched).
-    started: bool,
+    /// The frames those bytes belong to, oldest first (their `left` add up to `pending`).
+    frames: VecDeque<Frame>,
     /// After a collision: how many more bytes of that frame's echo are flagged.
     garbled: usize,
     /// A frame is being written (bytes written since the last flush).
@@ -65,7 +94,7 @@ impl<IO> EchoCancel<IO> {
             io,
             on,
             pending: VecDeque::new(),
-            started: false,
+            frames: VecDeque::new(),
             garbled: 0,
             writing: false,
             stats: EchoStats::default(),
@@ -97,22 +126,49 @@ impl<IO> EchoCancel<IO> {
         self.io
     }
 
+    /// Drop the oldest frame's echo still to come; how many bytes it had left.
+    fn drop_front(&mut self) -> usize {
+        let left = self.frames.pop_front().map_or(0, |f| f.left);
+        for _ in 0..left {
+            self.pending.pop_front();
+        }
+        left
+    }
+
+    /// Give up the oldest frame's echo: it never came.
+    fn give_up_front(&mut self) {
+        self.stats.missing += self.drop_front() as u64;
+    }
+
     /// A frame (or part of one) of `bytes` was written: its echo is expected after whatever
-    /// is still pending. At the start of a frame (after a flush), an echo of an earlier frame
-    /// that has not started is given up: a frame's echo comes before the next frame is sent.
+    /// is still pending. At the start of a frame (after a flush), earlier echoes that have
+    /// not begun [`ECHO_START`] after their frame was written are given up.
     fn wrote(&mut self, bytes: &[u8]) {
         if !self.on || bytes.is_empty() {
             return;
         }
-        if !self.writing && !self.started && !self.pending.is_empty() {
-            self.stats.missing += self.pending.len() as u64;
-            self.pending.clear();
+        let now = super::time::now();
+        match self.frames.back_mut() {
+            Some(f) if self.writing => f.left += bytes.len(),
+            _ => {
+                while self
+                    .frames
+                    .front()
+                    .is_some_and(|f| !f.started && now.duration_since(f.at) >= ECHO_START)
+                {
+                    self.give_up_front();
+                }
+                self.frames.push_back(Frame {
+                    left: bytes.len(),
+                    at: now,
+                    started: false,
+                });
+            }
         }
         self.writing = true;
         self.pending.extend(bytes);
-        while self.pending.len() > MAX_PENDING {
-            self.pending.pop_front();
-            self.stats.missing += 1;
+        while self.pending.len() > MAX_PENDING && self.frames.len() > 1 {
+            self.give_up_front();
         }
     }
 
@@ -126,27 +182,30 @@ impl<IO> EchoCancel<IO> {
             if self.garbled > 0 {
                 self.garbled -= 1;
                 c.error = Some(CharError::Collision);
-            } else if let Some(&sent) = self.pending.front() {
+            } else if let (Some(&sent), Some(front)) =
+                (self.pending.front(), self.frames.front_mut())
+            {
                 if c.byte == sent && c.error.is_none() {
                     self.pending.pop_front();
-                    self.started = !self.pending.is_empty();
+                    front.left -= 1;
+                    front.started = true;
+                    if front.left == 0 {
+                        self.frames.pop_front();
+                    }
                     self.stats.echoed += 1;
                     continue;
                 }
-                if self.started {
+                if front.started {
                     // The echo began and then differed: the frame on the line was not ours.
+                    // The rest of its echo is garbled too; later frames' echoes still come.
                     self.stats.collisions += 1;
-                    self.garbled = self.pending.len().saturating_sub(1);
-                    self.pending.clear();
-                    self.started = false;
-                    c.error = Some(CharError::Collision);
+                    self.garbled = self.drop_front().saturating_sub(1);
                 } else {
-                    // Something else came before the echo: the adapter did not echo this
-                    // frame, or another station sent over it. Never an answer.
-                    self.stats.missing += self.pending.len() as u64;
-                    self.pending.clear();
-                    c.error = Some(CharError::Collision);
+                    // Something came before the echo: never an answer, and the echo is still
+                    // due after it.
+                    self.stats.foreign += 1;
                 }
+                c.error = Some(CharError::Collision);
             }
             if let Some(slot) = buf.get_mut(kept) {
                 *slot = c;
@@ -306,8 +365,7 @@ mod tests {
             e.stats(),
             EchoStats {
                 echoed: 16,
-                collisions: 0,
-                missing: 0
+                ..EchoStats::default()
             }
         );
     }
@@ -323,6 +381,7 @@ mod tests {
         assert_eq!(got.len(), 5);
         assert!(got.iter().all(|&(_, flagged)| flagged), "{got:?}");
         assert_eq!(e.stats().collisions, 1);
+        assert_eq!(e.stats().missing, 0);
         // The next answer is clean again.
         assert_eq!(
             read(&mut e, &[0x01, 0x83, 0x02]),
@@ -331,18 +390,20 @@ mod tests {
     }
 
     #[tokio::test]
-    async fn an_echo_that_does_not_start_flags_what_came_instead() {
+    async fn what_comes_before_the_echo_is_flagged_and_the_echo_behind_it_is_still_taken_out() {
         let mut e = EchoCancel::new(Script::default(), true);
         send(&mut e, &FC6);
-        // Another station's frame where the echo should be.
+        // A stray byte (another station, a late answer) before the echo: flagged, and the
+        // FC 6 echo behind it never reaches the master as an answer.
+        let arriving: Vec<u8> = [0x55].iter().chain(&FC6).copied().collect();
+        assert_eq!(read(&mut e, &arriving), [(0x55, true)]);
+        assert_eq!(e.stats().foreign, 1);
+        // A station's whole frame where the echo should be: every character flagged.
+        send(&mut e, &FC6);
         let got = read(&mut e, &[0x02, 0x83, 0x02, 0xC0, 0xF1]);
-        assert_eq!(
-            got[0],
-            (0x02, true),
-            "the first character is never an answer's"
-        );
-        assert_eq!(got[1..], clean(&[0x83, 0x02, 0xC0, 0xF1]));
-        assert_eq!(e.stats().missing, 8);
+        assert!(got.iter().all(|&(_, flagged)| flagged), "{got:?}");
+        // The echo comes after all and is taken out.
+        assert_eq!(read(&mut e, &FC6), []);
         // One that starts like the echo and then differs is a collision: all of it flagged.
         send(&mut e, &FC6);
         let got = read(&mut e, &[0x01, 0x83, 0x02, 0xC0, 0xF1]);
@@ -351,20 +412,38 @@ mod tests {
         assert_eq!(e.stats().collisions, 1);
     }
 
-    #[tokio::test]
-    async fn a_frame_written_in_parts_is_one_echo_and_an_unstarted_echo_ends_at_the_next_frame() {
+    #[tokio::test(start_paused = true)]
+    async fn echoes_come_in_order_and_one_that_never_begins_is_given_up_at_a_later_frame() {
         let mut e = EchoCancel::new(Script::default(), true);
         let mut cx = Context::from_waker(Waker::noop());
+        // A frame written in parts is one echo.
         let _ = e.poll_write(&mut cx, &FC6[..3]);
         let _ = e.poll_write(&mut cx, &FC6[3..]);
         let _ = e.poll_flush(&mut cx);
         assert_eq!(read(&mut e, &FC6), []);
-        // A frame whose echo never came, then the next frame and its echo.
-        send(&mut e, &[0x01, 0x03, 0x00, 0x00, 0x00, 0x01, 0x84, 0x0A]);
+        // A broadcast, then a request before the broadcast's echo was read (a USB adapter's
+        // latency): both echoes come, in order, and both are taken out.
+        let read1 = [0x01, 0x03, 0x00, 0x00, 0x00, 0x01, 0x84, 0x0A];
+        let broadcast = [0x00, 0x06, 0x00, 0x10, 0x00, 0x03, 0xC9, 0xDF];
+        send(&mut e, &broadcast);
+        send(&mut e, &read1);
+        let both: Vec<u8> = broadcast.iter().chain(&read1).copied().collect();
+        assert_eq!(read(&mut e, &both), []);
+        // An echo that has not begun ECHO_START after its frame is given up by the next frame
+        // (an adapter that does not echo): that frame's echo is then taken out.
+        send(&mut e, &read1);
+        tokio::time::advance(ECHO_START).await;
         send(&mut e, &FC6);
         assert_eq!(read(&mut e, &FC6), []);
         assert_eq!(e.stats().missing, 8);
-        assert_eq!(e.stats().echoed, 16);
+        assert_eq!(e.stats().echoed, 32);
+        // Within ECHO_START it is kept: a late echo is still taken out.
+        send(&mut e, &read1);
+        tokio::time::advance(ECHO_START / 2).await;
+        send(&mut e, &FC6);
+        let both: Vec<u8> = read1.iter().chain(&FC6).copied().collect();
+        assert_eq!(read(&mut e, &both), []);
+        assert_eq!(e.stats().missing, 8);
     }
 
     #[tokio::test]

@@ -56,9 +56,8 @@ pub enum RtsLevel {
     Low,
 }
 
-/// The longest RTS delay in RS-485 mode, in milliseconds (the kernel takes more, but a delay
-/// this long already costs a whole telegram at 9600 baud).
-pub const MAX_RTS_DELAY_MS: u32 = 100;
+/// The longest RTS delay in RS-485 mode, in milliseconds.
+const MAX_RTS_DELAY_MS: u32 = serial::Rs485Config::MAX_DELAY_MS;
 
 /// How the master's serial adapter drives an RS-485 line: the same options in every serial
 /// family (MOVILINK, USS, Modbus RTU/ASCII). Every option is accepted before or after the
@@ -90,12 +89,12 @@ pub struct AdapterArgs {
 impl AdapterArgs {
     /// The kernel RS-485 setting asked for, if any.
     pub fn rs485(&self) -> Option<serial::Rs485Config> {
-        self.rs485.then(|| serial::Rs485Config {
-            rts_on_send: self.rs485_rts == RtsLevel::High,
-            rts_after_send: self.rs485_rts == RtsLevel::Low,
-            delay_rts_before_send_ms: self.rs485_delay_before,
-            delay_rts_after_send_ms: self.rs485_delay_after,
-            rx_during_tx: false,
+        self.rs485.then(|| {
+            serial::Rs485Config::with_rts(
+                self.rs485_rts == RtsLevel::High,
+                self.rs485_delay_before,
+                self.rs485_delay_after,
+            )
         })
     }
 
