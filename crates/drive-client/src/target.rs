@@ -162,6 +162,21 @@ pub struct Target {
     pub param: Option<AnyParam>,
 }
 
+/// Two targets are equal when they name the same parameter the same way: family, index,
+/// sub-index and the same table entry (or none).
+impl PartialEq for Target {
+    fn eq(&self, other: &Self) -> bool {
+        self.family == other.family
+            && self.index == other.index
+            && self.sub == other.sub
+            && match (self.param, other.param) {
+                (Some(a), Some(b)) => std::ptr::addr_eq(a, b),
+                (None, None) => true,
+                _ => false,
+            }
+    }
+}
+
 impl std::fmt::Debug for Target {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("Target")

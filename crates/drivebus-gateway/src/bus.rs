@@ -9,7 +9,7 @@ use tokio::sync::mpsc;
 
 use super::config::Bus;
 use super::metrics::Metrics;
-use super::model::{Ask, BusIx, PageCommand, SetRequest, Update};
+use super::model::{Ask, BusSlot, PageCommand, SetRequest, Update};
 use drive_client::{ClientError, ParamClient};
 
 /// The kinds of transaction a bus task runs, for wire time and metrics.
@@ -148,14 +148,33 @@ pub trait BusAccess {
     fn take_tally(&mut self) -> LinkTally;
 }
 
+/// What the gateway asks of a running bus task ([`BusContext::shutdown`]).
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub enum Stop {
+    /// Keep running.
+    #[default]
+    Run,
+    /// The gateway stops: the task finishes its transaction, sends every drive it controls
+    /// over process data its stop, and returns.
+    Gateway,
+    /// A reloaded config removes the bus or runs it with other settings: the task finishes its
+    /// transaction and returns. The drives at the addresses in `continued` are controlled over
+    /// process data on the same line by the new config, whose task sends their next cycle: they
+    /// keep their last words until then. Every other drive it controls gets its stop.
+    Retire {
+        /// Addresses whose process data the new config carries on.
+        continued: Vec<u8>,
+    },
+}
+
 /// What a bus task gets from the gateway.
 #[derive(Debug)]
 pub struct BusContext {
-    /// Turns `true` when the gateway stops: the task stops the drives it controls over
-    /// process data and returns.
-    pub shutdown: tokio::sync::watch::Receiver<bool>,
-    /// The bus's index in the plant.
-    pub ix: BusIx,
+    /// Leaves [`Stop::Run`] when the gateway stops or a reload retires the bus: the task stops
+    /// the drives it controls over process data (as [`Stop`] says) and returns.
+    pub shutdown: tokio::sync::watch::Receiver<Stop>,
+    /// The bus's index in the plant (a reload may move it).
+    pub ix: BusSlot,
     /// Its configuration.
     pub bus: Bus,
     /// Where it reports values, statuses and figures.

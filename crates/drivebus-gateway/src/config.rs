@@ -327,7 +327,7 @@ pub enum Endpoint {
 }
 
 /// The checked plant.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct Plant {
     /// Gateway settings.
     pub gateway: Gateway,
@@ -463,7 +463,7 @@ pub fn check_ui_file(u: UiFile) -> std::result::Result<Ui, String> {
 }
 
 /// Checked `[gateway]`.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct Gateway {
     /// Name (topic level 2).
     pub name: String,
@@ -492,7 +492,7 @@ pub struct Gateway {
 }
 
 /// A checked bus.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct Bus {
     /// Name (topic level 3).
     pub name: String,
@@ -511,7 +511,7 @@ pub struct Bus {
 }
 
 /// A checked drive.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct Drive {
     /// Name (topic level 4).
     pub name: String,
@@ -526,7 +526,7 @@ pub struct Drive {
 }
 
 /// One parameter of a drive on the broker.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct Point {
     /// Topic name (level 5).
     pub name: String,
@@ -544,7 +544,7 @@ pub struct Point {
 }
 
 /// Process data of a drive.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct ProcessData {
     /// Cycle period.
     pub period: Duration,

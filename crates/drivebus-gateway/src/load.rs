@@ -105,14 +105,14 @@ where
     let real = std::time::Instant::now();
     let (tx, mut rx) = mpsc::channel(4096);
     // Never set: a load run ends by aborting its tasks.
-    let (_stop_tx, stop_rx) = tokio::sync::watch::channel(false);
+    let (_stop_tx, stop_rx) = tokio::sync::watch::channel(crate::bus::Stop::Run);
     let mut tasks = Vec::new();
     let mut keep = Vec::new();
     for ((ix, bus), access) in plant.buses.iter().enumerate().zip(buses) {
         let (set_tx, set_rx) = mpsc::channel(1);
         keep.push(set_tx);
         let ctx = BusContext {
-            ix,
+            ix: crate::model::BusSlot::new(ix),
             bus: bus.clone(),
             updates: tx.clone(),
             sets: set_rx,

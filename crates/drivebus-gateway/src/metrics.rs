@@ -33,7 +33,7 @@
 
 use std::collections::HashMap;
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
-use std::sync::{Arc, OnceLock};
+use std::sync::{Arc, OnceLock, PoisonError, RwLock};
 use std::time::Duration;
 
 use axum::Router;
@@ -165,12 +165,30 @@ struct BusHandles {
     demand: F64Gauge,
 }
 
+/// The handles of the plant's buses and drives, by name and by index (replaced whole at a
+/// reload).
+#[derive(Debug, Default)]
+struct Table {
+    buses: Vec<BusHandles>,
+    bus_ix: HashMap<String, BusIx>,
+}
+
+/// The label families whose series are per bus or drive (a reload adds and removes series).
+#[derive(Debug)]
+struct PerBus {
+    retries: Family<Labels, Counter>,
+    rejected: Family<Labels, Counter>,
+    utilisation: Family<Labels, F64Gauge>,
+    demand: Family<Labels, F64Gauge>,
+    up: Family<Labels, Gauge>,
+}
+
 /// The gateway's metrics registry.
 #[derive(Debug)]
 pub struct Metrics {
     registry: Registry,
-    buses: Vec<BusHandles>,
-    bus_ix: HashMap<String, BusIx>,
+    table: RwLock<Table>,
+    per_bus: PerBus,
     transactions: Family<Labels, Counter>,
     latency: Family<Labels, Histogram, fn() -> Histogram>,
     broker: Gauge,
@@ -187,6 +205,69 @@ fn position(list: &[&str], item: &str) -> Option<usize> {
     list.iter().position(|x| *x == item)
 }
 
+/// The handles of `plant`'s buses and drives (series that exist already are taken as they are:
+/// their counts go on).
+fn table(
+    plant: &Plant,
+    per_bus: &PerBus,
+    transactions: &Family<Labels, Counter>,
+    latency: &Family<Labels, Histogram, fn() -> Histogram>,
+) -> Table {
+    let mut buses = Vec::with_capacity(plant.buses.len());
+    let mut bus_ix = HashMap::with_capacity(plant.buses.len());
+    for (bi, bus) in plant.buses.iter().enumerate() {
+        let b = || vec![("bus", bus.name.clone())];
+        let mut drives = Vec::with_capacity(bus.drives.len());
+        let mut drive_ix = HashMap::with_capacity(bus.drives.len());
+        for (di, drive) in bus.drives.iter().enumerate() {
+            let handles = DriveHandles {
+                ops: Default::default(),
+                up: STATES.map(|s| {
+                    per_bus.up.get_or_create_owned(&vec![
+                        ("bus", bus.name.clone()),
+                        ("drive", drive.name.clone()),
+                        ("state", s.to_owned()),
+                    ])
+                }),
+            };
+            // Zero series for what the drive does, so that rate() works from the start.
+            let used = [
+                true,
+                drive.points.iter().any(|p| p.writable),
+                drive.process_data.is_some(),
+            ];
+            for (op, slot) in handles.ops.iter().enumerate() {
+                if used.get(op).copied().unwrap_or(false) {
+                    let h = op_handles(transactions, latency, &bus.name, &drive.name, op);
+                    let _ = slot.set(h);
+                }
+            }
+            drives.push(handles);
+            drive_ix.insert(drive.name.clone(), di);
+        }
+        buses.push(BusHandles {
+            name: bus.name.clone(),
+            drive_names: bus.drives.iter().map(|d| d.name.clone()).collect(),
+            drive_ix,
+            drives,
+            retries: per_bus.retries.get_or_create_owned(&b()),
+            rejected: REJECT_REASONS
+                .iter()
+                .map(|r| {
+                    per_bus.rejected.get_or_create_owned(&vec![
+                        ("bus", bus.name.clone()),
+                        ("reason", (*r).to_owned()),
+                    ])
+                })
+                .collect(),
+            utilisation: per_bus.utilisation.get_or_create_owned(&b()),
+            demand: per_bus.demand.get_or_create_owned(&b()),
+        });
+        bus_ix.insert(bus.name.clone(), bi);
+    }
+    Table { buses, bus_ix }
+}
+
 impl Metrics {
     /// A registry for `plant`'s buses and drives.
     pub fn new(plant: &Plant) -> Self {
@@ -195,67 +276,17 @@ impl Metrics {
         let latency = Family::<Labels, Histogram, fn() -> Histogram>::new_with_constructor(
             new_histogram as fn() -> Histogram,
         );
-        let retries = Family::<Labels, Counter>::default();
-        let rejected = Family::<Labels, Counter>::default();
-        let utilisation = Family::<Labels, F64Gauge>::default();
-        let demand = Family::<Labels, F64Gauge>::default();
-        let up = Family::<Labels, Gauge>::default();
+        let per_bus = PerBus {
+            retries: Family::default(),
+            rejected: Family::default(),
+            utilisation: Family::default(),
+            demand: Family::default(),
+            up: Family::default(),
+        };
         let broker = Gauge::default();
         let published_family = Family::<Labels, Counter>::default();
         let sets = Family::<Labels, Counter>::default();
-
-        let mut buses = Vec::with_capacity(plant.buses.len());
-        let mut bus_ix = HashMap::with_capacity(plant.buses.len());
-        for (bi, bus) in plant.buses.iter().enumerate() {
-            let b = || vec![("bus", bus.name.clone())];
-            let mut drives = Vec::with_capacity(bus.drives.len());
-            let mut drive_ix = HashMap::with_capacity(bus.drives.len());
-            for (di, drive) in bus.drives.iter().enumerate() {
-                let handles = DriveHandles {
-                    ops: Default::default(),
-                    up: STATES.map(|s| {
-                        up.get_or_create_owned(&vec![
-                            ("bus", bus.name.clone()),
-                            ("drive", drive.name.clone()),
-                            ("state", s.to_owned()),
-                        ])
-                    }),
-                };
-                // Zero series for what the drive does, so that rate() works from the start.
-                let used = [
-                    true,
-                    drive.points.iter().any(|p| p.writable),
-                    drive.process_data.is_some(),
-                ];
-                for (op, slot) in handles.ops.iter().enumerate() {
-                    if used.get(op).copied().unwrap_or(false) {
-                        let h = op_handles(&transactions, &latency, &bus.name, &drive.name, op);
-                        let _ = slot.set(h);
-                    }
-                }
-                drives.push(handles);
-                drive_ix.insert(drive.name.clone(), di);
-            }
-            buses.push(BusHandles {
-                name: bus.name.clone(),
-                drive_names: bus.drives.iter().map(|d| d.name.clone()).collect(),
-                drive_ix,
-                drives,
-                retries: retries.get_or_create_owned(&b()),
-                rejected: REJECT_REASONS
-                    .iter()
-                    .map(|r| {
-                        rejected.get_or_create_owned(&vec![
-                            ("bus", bus.name.clone()),
-                            ("reason", (*r).to_owned()),
-                        ])
-                    })
-                    .collect(),
-                utilisation: utilisation.get_or_create_owned(&b()),
-                demand: demand.get_or_create_owned(&b()),
-            });
-            bus_ix.insert(bus.name.clone(), bi);
-        }
+        let table = table(plant, &per_bus, &transactions, &latency);
         let published = PUBLISH_KINDS
             .iter()
             .map(|k| published_family.get_or_create_owned(&vec![("kind", (*k).to_owned())]))
@@ -279,27 +310,27 @@ impl Metrics {
         registry.register(
             "drivebus_retries",
             "Attempts repeated after a failed one",
-            retries,
+            per_bus.retries.clone(),
         );
         registry.register(
             "drivebus_rejected_frames",
             "Received frames refused, by reason",
-            rejected,
+            per_bus.rejected.clone(),
         );
         registry.register(
             "drivebus_bus_utilisation",
             "Share of the time the wire was busy with the gateway's transactions (0-1)",
-            utilisation,
+            per_bus.utilisation.clone(),
         );
         registry.register(
             "drivebus_bus_demand",
             "Share of the wire the configured polls ask for (above 1 the polls are stretched)",
-            demand,
+            per_bus.demand.clone(),
         );
         registry.register(
             "drivebus_drive_up",
             "1 for the drive's current state, 0 for the others (all 0 before the first answer or timeout)",
-            up,
+            per_bus.up.clone(),
         );
         registry.register(
             "drivebus_broker_connected",
@@ -319,8 +350,8 @@ impl Metrics {
         );
         Self {
             registry,
-            buses,
-            bus_ix,
+            table: RwLock::new(table),
+            per_bus,
             transactions,
             latency,
             broker,
@@ -331,21 +362,79 @@ impl Metrics {
         }
     }
 
-    fn bus(&self, bus: &str) -> Option<&BusHandles> {
-        let found = self
-            .bus_ix
-            .get(bus)
-            .and_then(|&ix| self.buses.get(ix))
-            .filter(|b| b.name == bus);
-        if found.is_none() {
-            tracing::debug!(bus, "metrics for a bus the plant does not have: dropped");
+    /// A reloaded config: the series of its buses and drives, those of buses and drives it
+    /// no longer has removed (a bus or drive that stays keeps its counts, also when a reload
+    /// restarts its bus).
+    pub fn reconfigure(&self, plant: &Plant) {
+        let new = table(plant, &self.per_bus, &self.transactions, &self.latency);
+        let old = std::mem::replace(&mut *self.write_table(), new);
+        let table = self.read_table();
+        for b in &old.buses {
+            let kept = table.bus_ix.get(&b.name).and_then(|&i| table.buses.get(i));
+            if kept.is_none() {
+                let bus = vec![("bus", b.name.clone())];
+                self.per_bus.retries.remove(&bus);
+                self.per_bus.utilisation.remove(&bus);
+                self.per_bus.demand.remove(&bus);
+                for r in REJECT_REASONS {
+                    self.per_bus
+                        .rejected
+                        .remove(&vec![("bus", b.name.clone()), ("reason", r.to_owned())]);
+                }
+            }
+            for d in &b.drive_names {
+                if kept.is_some_and(|k| k.drive_ix.contains_key(d)) {
+                    continue;
+                }
+                for s in STATES {
+                    self.per_bus.up.remove(&vec![
+                        ("bus", b.name.clone()),
+                        ("drive", d.clone()),
+                        ("state", s.to_owned()),
+                    ]);
+                }
+                for op in OPS {
+                    let base = vec![
+                        ("bus", b.name.clone()),
+                        ("drive", d.clone()),
+                        ("op", op.to_owned()),
+                    ];
+                    self.latency.remove(&base);
+                    for o in OUTCOMES {
+                        let mut labels = base.clone();
+                        labels.push(("outcome", o.to_owned()));
+                        self.transactions.remove(&labels);
+                    }
+                }
+            }
         }
-        found
     }
 
-    fn drive(&self, bus: &str, drive: &str) -> Option<(BusIx, DriveIx)> {
-        let b = self.bus_ix.get(bus).copied()?;
-        let d = self.buses.get(b)?.drive_ix.get(drive).copied();
+    fn read_table(&self) -> std::sync::RwLockReadGuard<'_, Table> {
+        self.table.read().unwrap_or_else(PoisonError::into_inner)
+    }
+
+    fn write_table(&self) -> std::sync::RwLockWriteGuard<'_, Table> {
+        self.table.write().unwrap_or_else(PoisonError::into_inner)
+    }
+
+    /// Run `f` on the handles of `bus` (dropped and logged when the plant has no such bus).
+    fn with_bus(&self, bus: &str, f: impl FnOnce(&BusHandles)) {
+        let table = self.read_table();
+        let found = table
+            .bus_ix
+            .get(bus)
+            .and_then(|&ix| table.buses.get(ix))
+            .filter(|b| b.name == bus);
+        match found {
+            Some(b) => f(b),
+            None => tracing::debug!(bus, "metrics for a bus the plant does not have: dropped"),
+        }
+    }
+
+    fn drive(table: &Table, bus: &str, drive: &str) -> Option<(BusIx, DriveIx)> {
+        let b = table.bus_ix.get(bus).copied()?;
+        let d = table.buses.get(b)?.drive_ix.get(drive).copied();
         if d.is_none() {
             tracing::debug!(
                 bus,
@@ -367,8 +456,18 @@ impl Metrics {
         outcome: &'static str,
         latency: Duration,
     ) {
-        if let Some((b, d)) = self.drive(bus, drive) {
-            self.transaction_at(b, d, op, outcome, latency);
+        let table = self.read_table();
+        if let Some((b, d)) = Self::drive(&table, bus, drive) {
+            Self::transaction_in(
+                &table,
+                &self.transactions,
+                &self.latency,
+                b,
+                d,
+                op,
+                outcome,
+                latency,
+            );
         }
     }
 
@@ -382,7 +481,31 @@ impl Metrics {
         outcome: &'static str,
         latency: Duration,
     ) {
-        let Some(b) = self.buses.get(bus) else {
+        let table = self.read_table();
+        Self::transaction_in(
+            &table,
+            &self.transactions,
+            &self.latency,
+            bus,
+            drive,
+            op,
+            outcome,
+            latency,
+        );
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn transaction_in(
+        table: &Table,
+        transactions: &Family<Labels, Counter>,
+        latency_family: &Family<Labels, Histogram, fn() -> Histogram>,
+        bus: BusIx,
+        drive: DriveIx,
+        op: &'static str,
+        outcome: &'static str,
+        latency: Duration,
+    ) {
+        let Some(b) = table.buses.get(bus) else {
             return;
         };
         let (Some(d), Some(name)) = (b.drives.get(drive), b.drive_names.get(drive)) else {
@@ -397,16 +520,15 @@ impl Metrics {
                 ("drive", name.clone()),
                 ("op", op.to_owned()),
             ];
-            self.latency.get_or_create(&labels).observe(secs);
+            latency_family.get_or_create(&labels).observe(secs);
             labels.push(("outcome", outcome.to_owned()));
-            self.transactions.get_or_create(&labels).inc();
+            transactions.get_or_create(&labels).inc();
             return;
         };
         let Some(slot) = d.ops.get(opi) else {
             return;
         };
-        let h =
-            slot.get_or_init(|| op_handles(&self.transactions, &self.latency, &b.name, name, opi));
+        let h = slot.get_or_init(|| op_handles(transactions, latency_family, &b.name, name, opi));
         if let Some(c) = h.outcomes.get(oi) {
             c.inc();
         }
@@ -415,17 +537,19 @@ impl Metrics {
 
     /// Repeated attempts on `bus`.
     pub fn retries(&self, bus: &str, n: u64) {
-        if let Some(b) = self.bus(bus) {
+        self.with_bus(bus, |b| {
             b.retries.inc_by(n);
-        }
+        });
     }
 
     /// Received frames refused on `bus` for `reason` (one of [`REJECT_REASONS`]; any other is
     /// counted as `other`).
     pub fn rejected(&self, bus: &str, reason: &str, n: u64) {
-        let Some(b) = self.bus(bus) else {
-            return;
-        };
+        self.with_bus(bus, |b| Self::rejected_on(b, reason, n));
+    }
+
+    fn rejected_on(b: &BusHandles, reason: &str, n: u64) {
+        let bus = b.name.as_str();
         let i = position(&REJECT_REASONS, reason).unwrap_or_else(|| {
             tracing::debug!(
                 bus,
@@ -443,23 +567,23 @@ impl Metrics {
     /// the polls are stretched). A value that is not a finite number leaves the gauge as it
     /// was.
     pub fn utilisation(&self, bus: &str, utilisation: f64, demand: f64) {
-        let Some(b) = self.bus(bus) else {
-            return;
-        };
-        if utilisation.is_finite() {
-            b.utilisation.set(utilisation.clamp(0.0, 1.0));
-        }
-        if demand.is_finite() {
-            b.demand.set(demand.max(0.0));
-        }
+        self.with_bus(bus, |b| {
+            if utilisation.is_finite() {
+                b.utilisation.set(utilisation.clamp(0.0, 1.0));
+            }
+            if demand.is_finite() {
+                b.demand.set(demand.max(0.0));
+            }
+        });
     }
 
     /// A drive's status (`online`, `timeout`, `fault`).
     pub fn drive_status(&self, bus: &str, drive: &str, state: &'static str) {
-        let Some((b, d)) = self.drive(bus, drive) else {
+        let table = self.read_table();
+        let Some((b, d)) = Self::drive(&table, bus, drive) else {
             return;
         };
-        let Some(h) = self.buses.get(b).and_then(|b| b.drives.get(d)) else {
+        let Some(h) = table.buses.get(b).and_then(|b| b.drives.get(d)) else {
             return;
         };
         if position(&STATES, state).is_none() {

@@ -4,9 +4,13 @@
 //! Drives and points are named by their indices in the [`Plant`](super::config::Plant)
 //! (`bus`, `drive`, `point`), so nothing is allocated per value on the way.
 
+use std::sync::Arc;
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::{Duration, SystemTime};
 
-use tokio::sync::oneshot;
+use tokio::sync::{mpsc, oneshot};
+
+use crate::config::Plant;
 
 /// Index of a bus in the plant.
 pub type BusIx = usize;
@@ -14,6 +18,74 @@ pub type BusIx = usize;
 pub type DriveIx = usize;
 /// Index of a point (parameter) in its drive.
 pub type PointIx = usize;
+
+/// A bus task's index in the plant, which a reload may change while the task runs on (a bus
+/// whose settings did not change keeps running when another before it is removed). The task
+/// reads it each time it reports; the gateway changes it in the same step that sends the
+/// [`Update::Reconfigured`] after which the new index holds.
+#[derive(Debug, Clone, Default)]
+pub struct BusSlot(Arc<AtomicUsize>);
+
+impl BusSlot {
+    /// A slot holding `ix`.
+    pub fn new(ix: BusIx) -> BusSlot {
+        BusSlot(Arc::new(AtomicUsize::new(ix)))
+    }
+
+    /// The bus's index now.
+    pub fn get(&self) -> BusIx {
+        self.0.load(Ordering::Relaxed)
+    }
+
+    /// Move the bus to index `ix` (the gateway, at a reload).
+    pub fn set(&self, ix: BusIx) {
+        self.0.store(ix, Ordering::Relaxed);
+    }
+}
+
+/// A reloaded config taking effect ([`Update::Reconfigured`]): every update before it names
+/// the old plant's buses, every update after it the new plant's.
+#[derive(Debug)]
+pub struct Reconfig {
+    /// The config's generation: 1 at the start, one more at each reload that took effect.
+    pub generation: u64,
+    /// The new plant.
+    pub plant: Arc<Plant>,
+    /// For each bus of the old plant, its index in the new one where it keeps running (its
+    /// settings did not change: its drives, points and their indices are the same); `None`
+    /// for a bus removed or restarted with new settings.
+    pub kept: Vec<Option<BusIx>>,
+    /// The writes' way to each bus task of the new plant.
+    pub sets: Vec<mpsc::Sender<SetRequest>>,
+    /// The page's way to each bus task of the new plant.
+    pub asks: Vec<mpsc::Sender<Ask>>,
+    /// The JSON topics' broker connection changed (its settings or files): the publisher
+    /// stops the old one and starts this one. Taken once.
+    pub json: std::sync::Mutex<Option<crate::mqtt::Mqtt>>,
+    /// The same for the Sparkplug connection.
+    pub sparkplug: std::sync::Mutex<Option<crate::sparkplug::Sparkplug>>,
+}
+
+impl Reconfig {
+    /// Where bus `old` of the old plant is in the new one (`None`: not running on).
+    pub fn kept(&self, old: BusIx) -> Option<BusIx> {
+        self.kept.get(old).copied().flatten()
+    }
+}
+
+/// The running config as the gateway's status topic tells it: which file, which generation,
+/// since when, and how the last reload went.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct ConfigStatus {
+    /// The file it was read from (`None`: given by a program, not read from a file).
+    pub file: Option<String>,
+    /// 1 at the start, one more at each reload that took effect.
+    pub generation: u64,
+    /// When the running config took effect (ms since the Unix epoch).
+    pub loaded: u64,
+    /// The last reload asked for: when (ms) and, when it did not take effect, why.
+    pub last_reload: Option<(u64, Option<String>)>,
+}
 
 /// A drive's state as the gateway sees it.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -101,6 +173,9 @@ pub enum Update {
         /// The figures.
         figures: BusFigures,
     },
+    /// A reloaded config takes effect: the updates after this one name the new plant's
+    /// buses, drives and points.
+    Reconfigured(Arc<Reconfig>),
 }
 
 /// A write asked for on `…/set`, checked against the config (writable) but not yet against

@@ -24,11 +24,11 @@ use serde_json::{Map, Value};
 use tokio::sync::mpsc;
 use tokio::time::Instant;
 
-use super::bus::{BusAccess, BusContext};
+use super::bus::{BusAccess, BusContext, Stop};
 use super::config::{Bus, Point};
 use super::metrics::Metrics;
 use super::model::{
-    Answer, Ask, AskOp, BusIx, DriveIx, DriveStatus, Facts, SetOutcome, SetRequest, SetValue,
+    Answer, Ask, AskOp, BusSlot, DriveIx, DriveStatus, Facts, SetOutcome, SetRequest, SetValue,
     Update,
 };
 use super::schedule::{Change, Job, Next, Outcome, Scheduler};
@@ -72,7 +72,7 @@ enum Read {
 
 /// What the task reports to and where.
 struct Out<'a> {
-    ix: BusIx,
+    ix: BusSlot,
     bus: &'a Bus,
     updates: &'a mpsc::Sender<Update>,
     metrics: &'a Metrics,
@@ -174,7 +174,7 @@ pub async fn run_bus<B: BusAccess>(ctx: BusContext, mut access: B) {
         .map(|d| facts_of(&access.client(d.address)))
         .collect();
     // A transaction under way is finished; then the loop ends at the shutdown.
-    while !updates.is_closed() && !*shutdown.borrow() {
+    while !updates.is_closed() && *shutdown.borrow() == Stop::Run {
         for ask in std::mem::take(&mut inbox.held) {
             take_ask(ask, &bus, &facts, &mut sched, &mut access, &mut driven);
         }
@@ -281,18 +281,46 @@ pub async fn run_bus<B: BusAccess>(ctx: BusContext, mut access: B) {
             }
         }
     }
-    if *shutdown.borrow() {
-        control::at_gateway_stop(&bus, &driven);
-        stop_process_data(&mut access, &bus, &sched).await;
+    let stop = shutdown.borrow().clone();
+    match stop {
+        Stop::Run => {}
+        Stop::Gateway => {
+            control::at_gateway_stop(&bus, &driven, "gateway stop");
+            stop_process_data(&mut access, &bus, &sched, &[]).await;
+        }
+        Stop::Retire { continued } => {
+            // A drive a page drives gets its stop: the new config's words are not the page's.
+            let continued: Vec<u8> = continued
+                .into_iter()
+                .filter(|a| {
+                    !bus.drives.iter().zip(&driven).any(|(d, page)| {
+                        d.address == *a && page.as_ref().is_some_and(|p| p.command.is_some())
+                    })
+                })
+                .collect();
+            control::at_gateway_stop(&bus, &driven, "config reload");
+            stop_process_data(&mut access, &bus, &sched, &continued).await;
+            tracing::info!(bus = %bus.name, "bus stopped for the reloaded config");
+        }
     }
 }
 
 /// At the gateway's stop: every drive the gateway controls over process data (and that
 /// answers) gets the family's stop in its control word, as `drivectl pd` sends at its end; a
-/// drive left running is logged as such.
-async fn stop_process_data<B: BusAccess>(access: &mut B, bus: &Bus, sched: &Scheduler<Pending>) {
+/// drive left running is logged as such. At a reload, the drives at the addresses in
+/// `continued` keep their words: the new config's task carries on their process data.
+async fn stop_process_data<B: BusAccess>(
+    access: &mut B,
+    bus: &Bus,
+    sched: &Scheduler<Pending>,
+    continued: &[u8],
+) {
     for (i, d) in bus.drives.iter().enumerate() {
         let Some(pd) = &d.process_data else { continue };
+        if continued.contains(&d.address) {
+            tracing::info!(bus = %bus.name, drive = %d.name, "no stop sent: the reloaded config carries on its process data");
+            continue;
+        }
         if sched.is_offline(i) {
             tracing::warn!(bus = %bus.name, drive = %d.name, "the drive does not answer: no stop sent; its own bus timeout must stop it");
             continue;
@@ -692,7 +720,7 @@ impl Out<'_> {
             Ok(Read::Value(raw)) => {
                 if let Job::Poll { point, .. } = job {
                     self.send(Update::Value {
-                        bus: self.ix,
+                        bus: self.ix.get(),
                         drive,
                         point,
                         raw,
@@ -703,7 +731,7 @@ impl Out<'_> {
             }
             Ok(Read::ProcessData(words, fault)) => {
                 self.send(Update::ProcessData {
-                    bus: self.ix,
+                    bus: self.ix.get(),
                     drive,
                     words,
                     at,
@@ -823,7 +851,7 @@ impl Out<'_> {
         let change = sched.done(Job::Write { drive }, now, answered);
         if let SetOutcome::Written { raw, .. } = outcome {
             self.send(Update::Value {
-                bus: self.ix,
+                bus: self.ix.get(),
                 drive,
                 point,
                 raw: *raw,
@@ -873,16 +901,18 @@ impl Out<'_> {
         }
         self.metrics
             .drive_status(&self.bus.name, &name, status.state());
-        // A status is never dropped: wait for room.
-        self.updates
-            .send(Update::Status {
-                bus: self.ix,
-                drive,
-                status,
-                at: SystemTime::now(),
-            })
-            .await
-            .is_ok()
+        // A status is never dropped: wait for room, then read the bus's index (a reload that
+        // moved it while this task waited has its notice in the queue before this status).
+        let Ok(permit) = self.updates.reserve().await else {
+            return false;
+        };
+        permit.send(Update::Status {
+            bus: self.ix.get(),
+            drive,
+            status,
+            at: SystemTime::now(),
+        });
+        true
     }
 
     /// Report a value; dropped (and logged) when the MQTT task is that far behind — the next
@@ -907,7 +937,7 @@ impl Out<'_> {
         self.metrics
             .utilisation(&self.bus.name, figures.utilisation, figures.demand);
         self.send(Update::Figures {
-            bus: self.ix,
+            bus: self.ix.get(),
             figures,
         });
     }

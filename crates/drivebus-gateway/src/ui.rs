@@ -15,7 +15,8 @@
 
 use std::convert::Infallible;
 use std::net::SocketAddr;
-use std::sync::{Arc, Mutex, PoisonError};
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, Mutex, PoisonError, RwLock};
 
 use axum::Router;
 use axum::extract::{Request, State};
@@ -29,7 +30,7 @@ use tokio::sync::{broadcast, mpsc};
 
 use crate::config::Plant;
 use crate::error::{Error, Result};
-use crate::model::{Ask, Update};
+use crate::model::{Ask, BusIx, Reconfig, Update};
 use crate::mqtt::payload;
 
 pub mod auth;
@@ -49,16 +50,30 @@ const STYLE_CSS: &str = include_str!("ui/style.css");
 /// The latest of everything the buses reported, and the pages that watch.
 #[derive(Debug)]
 pub struct Hub {
-    plant: Arc<Plant>,
+    plant: RwLock<Arc<Plant>>,
     latest: Mutex<Latest>,
     /// The last 10 minutes of every point (the trend's history).
     history: Mutex<history::History>,
     events: broadcast::Sender<Arc<str>>,
     /// Each bus task's way in for the page's requests (`[bus]`); empty: the page only watches.
-    asks: Arc<[mpsc::Sender<Ask>]>,
+    asks: RwLock<Arc<[mpsc::Sender<Ask>]>>,
     /// Where the page's jobs run (on the gateway's thread).
     jobs: Option<drive::Jobs>,
+    /// The config's generation the plant is of (a page sends the one it shows).
+    generation: AtomicU64,
+    /// For the last few generations before this one: where each of its buses is now (`None`:
+    /// removed or restarted with other settings), so that a page that has not yet loaded the
+    /// reloaded plant still reaches the drives it shows, and never another one.
+    earlier: Mutex<std::collections::VecDeque<(u64, Vec<Option<BusIx>>)>>,
 }
+
+/// How many earlier generations a page may still name.
+const EARLIER_GENERATIONS: usize = 8;
+
+/// A page named a bus of an earlier config that the reloaded one removed or runs with other
+/// settings (or a generation too old to know).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Reloaded;
 
 /// The latest payload of each value, status and bus figures, as published on MQTT.
 #[derive(Debug)]
@@ -73,20 +88,10 @@ struct Latest {
     figures: Vec<Option<Value>>,
 }
 
-impl Hub {
-    /// A hub for `plant` that only watches (no requests reach the buses), nothing reported yet.
-    pub fn new(plant: Arc<Plant>) -> Arc<Hub> {
-        Hub::serving(plant, Vec::new(), None)
-    }
-
-    /// A hub for `plant` whose page also reads and writes: `asks` reach each bus task, `jobs`
-    /// run the page's work on the gateway's thread.
-    pub fn serving(
-        plant: Arc<Plant>,
-        asks: Vec<mpsc::Sender<Ask>>,
-        jobs: Option<drive::Jobs>,
-    ) -> Arc<Hub> {
-        let latest = Latest {
+impl Latest {
+    /// Nothing known yet of `plant`.
+    fn of(plant: &Plant) -> Latest {
+        Latest {
             values: plant
                 .buses
                 .iter()
@@ -108,16 +113,116 @@ impl Hub {
                 .map(|b| vec![None; b.drives.len()])
                 .collect(),
             figures: vec![None; plant.buses.len()],
-        };
+        }
+    }
+}
+
+/// Move `from[a]` into `to[b]` (a kept bus's latest), where both are.
+fn move_at<T: Default>(from: &mut [T], a: usize, to: &mut [T], b: usize) {
+    if let (Some(x), Some(y)) = (from.get_mut(a), to.get_mut(b)) {
+        *y = std::mem::take(x);
+    }
+}
+
+impl Hub {
+    /// A hub for `plant` that only watches (no requests reach the buses), nothing reported yet.
+    pub fn new(plant: Arc<Plant>) -> Arc<Hub> {
+        Hub::serving(plant, Vec::new(), None)
+    }
+
+    /// A hub for `plant` whose page also reads and writes: `asks` reach each bus task, `jobs`
+    /// run the page's work on the gateway's thread.
+    pub fn serving(
+        plant: Arc<Plant>,
+        asks: Vec<mpsc::Sender<Ask>>,
+        jobs: Option<drive::Jobs>,
+    ) -> Arc<Hub> {
         let (events, _) = broadcast::channel(EVENTS);
         Arc::new(Hub {
             history: Mutex::new(history::History::new(&plant)),
-            plant,
-            latest: Mutex::new(latest),
+            latest: Mutex::new(Latest::of(&plant)),
+            plant: RwLock::new(plant),
             events,
-            asks: asks.into(),
+            asks: RwLock::new(asks.into()),
             jobs,
+            generation: AtomicU64::new(1),
+            earlier: Mutex::new(std::collections::VecDeque::new()),
         })
+    }
+
+    /// The plant the page shows now.
+    pub fn plant(&self) -> Arc<Plant> {
+        self.plant
+            .read()
+            .unwrap_or_else(PoisonError::into_inner)
+            .clone()
+    }
+
+    /// Each bus task's way in for the page's requests.
+    pub fn asks(&self) -> Arc<[mpsc::Sender<Ask>]> {
+        self.asks
+            .read()
+            .unwrap_or_else(PoisonError::into_inner)
+            .clone()
+    }
+
+    /// The config's generation the plant is of.
+    pub fn generation(&self) -> u64 {
+        self.generation.load(Ordering::Relaxed)
+    }
+
+    /// Bus `bus` of the plant of generation `seen` (what a page shows; `None`: the page did not
+    /// say, the current plant's) in the current plant.
+    pub fn resolve(&self, seen: Option<u64>, bus: usize) -> std::result::Result<usize, Reloaded> {
+        let now = self.generation();
+        match seen {
+            None => Ok(bus),
+            Some(g) if g == now => Ok(bus),
+            Some(g) => self
+                .earlier
+                .lock()
+                .unwrap_or_else(PoisonError::into_inner)
+                .iter()
+                .find(|(e, _)| *e == g)
+                .and_then(|(_, map)| map.get(bus).copied().flatten())
+                .ok_or(Reloaded),
+        }
+    }
+
+    /// A reloaded config takes effect: the new plant, with the latest of the buses that keep
+    /// running; every watching page is told (`{"type":"reload","generation":N}`) and loads the
+    /// plant again.
+    pub fn reconfigure(&self, r: &Reconfig) {
+        {
+            let mut latest = self.latest.lock().unwrap_or_else(PoisonError::into_inner);
+            let mut new = Latest::of(&r.plant);
+            for (from, to) in r.kept.iter().enumerate() {
+                let Some(to) = *to else { continue };
+                move_at(&mut latest.values, from, &mut new.values, to);
+                move_at(&mut latest.status, from, &mut new.status, to);
+                move_at(&mut latest.process_data, from, &mut new.process_data, to);
+                move_at(&mut latest.figures, from, &mut new.figures, to);
+            }
+            *latest = new;
+        }
+        self.history_mut().reconfigure(&r.plant, &r.kept);
+        {
+            let mut earlier = self.earlier.lock().unwrap_or_else(PoisonError::into_inner);
+            // Maps of older generations go through this reload too.
+            for (_, map) in earlier.iter_mut() {
+                for to in map.iter_mut() {
+                    *to = to.and_then(|b| r.kept(b));
+                }
+            }
+            earlier.push_front((self.generation(), r.kept.clone()));
+            earlier.truncate(EARLIER_GENERATIONS);
+        }
+        *self.asks.write().unwrap_or_else(PoisonError::into_inner) = r.asks.clone().into();
+        *self.plant.write().unwrap_or_else(PoisonError::into_inner) = r.plant.clone();
+        self.generation.store(r.generation, Ordering::Relaxed);
+        let _ = self.events.send(Arc::from(
+            json!({"type": "reload", "generation": r.generation}).to_string(),
+        ));
     }
 
     /// Keep `u` as the latest of its kind and send it to every watching page. An update for a
@@ -140,7 +245,8 @@ impl Hub {
                 raw,
                 at,
             } => {
-                let d = self.plant.buses.get(*bus)?.drives.get(*drive)?;
+                let plant = self.plant();
+                let d = plant.buses.get(*bus)?.drives.get(*drive)?;
                 let p = d.points.get(*point)?;
                 let ts = payload::millis(*at);
                 let v = payload::value_json(&p.target, *raw, ts, &d.device);
@@ -181,6 +287,8 @@ impl Hub {
                 *latest.figures.get_mut(*bus)? = Some(v.clone());
                 Some(json!({"type": "figures", "bus": bus, "payload": v}))
             }
+            // The relay hands a reload to [`Hub::reconfigure`].
+            Update::Reconfigured(_) => None,
         }
     }
 
@@ -188,8 +296,8 @@ impl Hub {
     pub fn plant_json(&self) -> Value {
         let latest = self.latest.lock().unwrap_or_else(PoisonError::into_inner);
         let get = |v: Option<&Option<Value>>| v.and_then(Clone::clone).unwrap_or(Value::Null);
-        let buses: Vec<Value> = self
-            .plant
+        let plant = self.plant();
+        let buses: Vec<Value> = plant
             .buses
             .iter()
             .enumerate()
@@ -235,7 +343,7 @@ impl Hub {
                 })
             })
             .collect();
-        json!({"gateway": self.plant.gateway.name, "buses": buses})
+        json!({"gateway": plant.gateway.name, "generation": self.generation(), "buses": buses})
     }
 
     fn history_mut(&self) -> std::sync::MutexGuard<'_, history::History> {
@@ -249,7 +357,7 @@ impl Hub {
             let h = self.history_mut();
             (h.samples(at.0, at.1, at.2, now)?, h.size(at.0, at.1, at.2)?)
         };
-        history::history_value(&self.plant, at, &samples, size, now)
+        history::history_value(&self.plant(), at, &samples, size, now)
     }
 
     /// A new watcher of every event from now on.
@@ -427,16 +535,85 @@ pub fn params_json(plant: &Plant, bus: usize, drive: usize, search: Option<&str>
 
 async fn params(
     State(hub): State<Arc<Hub>>,
-    axum::extract::Path((bus, drive)): axum::extract::Path<(usize, usize)>,
+    DriveAt(bus, drive): DriveAt,
     axum::extract::Query(q): axum::extract::Query<Search>,
 ) -> Response {
-    match params_json(&hub.plant, bus, drive, q.search.as_deref()) {
+    match params_json(&hub.plant(), bus, drive, q.search.as_deref()) {
         Some(v) => ([(header::CONTENT_TYPE, "application/json")], v.to_string()).into_response(),
         None => (StatusCode::NOT_FOUND, "no such bus or drive\n").into_response(),
     }
 }
 
-type DrivePath = axum::extract::Path<(usize, usize)>;
+/// The header in which a page names the config generation of the plant it shows.
+pub const GENERATION_HEADER: &str = "x-drivebus-generation";
+
+/// The generation a request names ([`GENERATION_HEADER`]; `None` without one: the current
+/// plant), or the answer to a header that is no number.
+fn generation_of(
+    parts: &axum::http::request::Parts,
+) -> std::result::Result<Option<u64>, Box<Response>> {
+    let Some(v) = parts.headers.get(GENERATION_HEADER) else {
+        return Ok(None);
+    };
+    match v.to_str().ok().and_then(|t| t.trim().parse().ok()) {
+        Some(g) => Ok(Some(g)),
+        None => Err(Box::new(json_response(
+            StatusCode::BAD_REQUEST,
+            &json!({"error": "bad_request", "message": format!("{GENERATION_HEADER} is no number")}),
+        ))),
+    }
+}
+
+/// The answer to a page that names a bus the reloaded config removed or restarted.
+fn reloaded() -> Response {
+    json_response(
+        StatusCode::CONFLICT,
+        &json!({"error": "reloaded", "ok": false, "message": "the gateway's config was reloaded and this drive's bus changed or is gone: go back to the plant, which shows the reloaded config"}),
+    )
+}
+
+/// A drive a page names by `{bus}/{drive}` of the plant it shows, as indices of the current
+/// plant (a reload may have moved its bus; a bus it removed or restarted is refused with 409).
+#[derive(Debug, Clone, Copy)]
+pub struct DriveAt(pub usize, pub usize);
+
+impl axum::extract::FromRequestParts<Arc<Hub>> for DriveAt {
+    type Rejection = Response;
+
+    async fn from_request_parts(
+        parts: &mut axum::http::request::Parts,
+        hub: &Arc<Hub>,
+    ) -> std::result::Result<Self, Response> {
+        let axum::extract::Path((bus, drive)) =
+            axum::extract::Path::<(usize, usize)>::from_request_parts(parts, hub)
+                .await
+                .map_err(IntoResponse::into_response)?;
+        let seen = generation_of(parts).map_err(|r| *r)?;
+        let bus = hub.resolve(seen, bus).map_err(|_| reloaded())?;
+        Ok(DriveAt(bus, drive))
+    }
+}
+
+/// A point a page names by `{bus}/{drive}/{point}`, as [`DriveAt`].
+#[derive(Debug, Clone, Copy)]
+pub struct PointAt(pub usize, pub usize, pub usize);
+
+impl axum::extract::FromRequestParts<Arc<Hub>> for PointAt {
+    type Rejection = Response;
+
+    async fn from_request_parts(
+        parts: &mut axum::http::request::Parts,
+        hub: &Arc<Hub>,
+    ) -> std::result::Result<Self, Response> {
+        let axum::extract::Path((bus, drive, point)) =
+            axum::extract::Path::<(usize, usize, usize)>::from_request_parts(parts, hub)
+                .await
+                .map_err(IntoResponse::into_response)?;
+        let seen = generation_of(parts).map_err(|r| *r)?;
+        let bus = hub.resolve(seen, bus).map_err(|_| reloaded())?;
+        Ok(PointAt(bus, drive, point))
+    }
+}
 
 fn json_response(status: StatusCode, v: &Value) -> Response {
     (
@@ -468,13 +645,13 @@ where
     F: FnOnce(drive::Remote, drive::Lines) -> Fut + Send + 'static,
     Fut: std::future::Future<Output = ()> + 'static,
 {
-    let Some(asks) = drive::asks_for(&hub.asks, bus, drive, &hub.plant) else {
+    let Some(asks) = drive::asks_for(&hub.asks(), bus, drive, &hub.plant()) else {
         return not_found();
     };
     let Some(jobs) = &hub.jobs else {
         return unavailable("this page only watches: it cannot reach the buses");
     };
-    let max_age = hub.plant.gateway.max_set_age;
+    let max_age = hub.plant().gateway.max_set_age;
     let (lines, rx) = drive::Lines::new();
     let job: drive::Job = Box::new(move || {
         Box::pin(async move {
@@ -510,13 +687,13 @@ where
     F: FnOnce(drive::Remote) -> Fut + Send + 'static,
     Fut: std::future::Future<Output = Value> + 'static,
 {
-    let Some(asks) = drive::asks_for(&hub.asks, bus, drive, &hub.plant) else {
+    let Some(asks) = drive::asks_for(&hub.asks(), bus, drive, &hub.plant()) else {
         return not_found();
     };
     let Some(jobs) = &hub.jobs else {
         return unavailable("this page only watches: it cannot reach the buses");
     };
-    let max_age = hub.plant.gateway.max_set_age;
+    let max_age = hub.plant().gateway.max_set_age;
     let (tx, rx) = tokio::sync::oneshot::channel();
     let job: drive::Job = Box::new(move || {
         Box::pin(async move {
@@ -552,10 +729,10 @@ pub struct Keys {
 
 async fn read(
     State(hub): State<Arc<Hub>>,
-    axum::extract::Path((bus, d)): DrivePath,
+    DriveAt(bus, d): DriveAt,
     axum::extract::Query(q): axum::extract::Query<Keys>,
 ) -> Response {
-    let Some(family) = hub.plant.buses.get(bus).map(|b| b.protocol.family()) else {
+    let Some(family) = hub.plant().buses.get(bus).map(|b| b.protocol.family()) else {
         return not_found();
     };
     let mut targets = Vec::new();
@@ -581,8 +758,8 @@ async fn read(
     })
 }
 
-async fn faults(State(hub): State<Arc<Hub>>, axum::extract::Path((bus, d)): DrivePath) -> Response {
-    let Some(family) = hub.plant.buses.get(bus).map(|b| b.protocol.family()) else {
+async fn faults(State(hub): State<Arc<Hub>>, DriveAt(bus, d): DriveAt) -> Response {
+    let Some(family) = hub.plant().buses.get(bus).map(|b| b.protocol.family()) else {
         return not_found();
     };
     let targets = drive::fault_targets(family);
@@ -605,7 +782,7 @@ pub struct CheckQuery {
 
 async fn check(
     State(hub): State<Arc<Hub>>,
-    axum::extract::Path((bus, d)): DrivePath,
+    DriveAt(bus, d): DriveAt,
     axum::extract::Query(q): axum::extract::Query<CheckQuery>,
 ) -> Response {
     let ask = drive::WriteAsk {
@@ -622,7 +799,7 @@ async fn check(
 
 async fn write(
     State(hub): State<Arc<Hub>>,
-    axum::extract::Path((bus, d)): DrivePath,
+    DriveAt(bus, d): DriveAt,
     who: Option<axum::Extension<auth::Who>>,
     axum::Json(ask): axum::Json<drive::WriteAsk>,
 ) -> Response {
@@ -656,12 +833,13 @@ async fn write(
 
 /// `drive NAME on bus NAME`, for the action log; `None` for a drive the plant does not have.
 fn drive_words(hub: &Hub, bus: usize, drive: usize) -> Option<String> {
-    let b = hub.plant.buses.get(bus)?;
+    let plant = hub.plant();
+    let b = plant.buses.get(bus)?;
     let d = b.drives.get(drive)?;
     Some(format!("drive {} on bus {}", d.name, b.name))
 }
 
-async fn backup(State(hub): State<Arc<Hub>>, axum::extract::Path((bus, d)): DrivePath) -> Response {
+async fn backup(State(hub): State<Arc<Hub>>, DriveAt(bus, d): DriveAt) -> Response {
     streamed(&hub, bus, d, move |mut remote, lines| async move {
         drive::backup(&mut remote, lines).await;
     })
@@ -680,7 +858,7 @@ pub struct RestoreQuery {
 
 async fn restore(
     State(hub): State<Arc<Hub>>,
-    axum::extract::Path((bus, d)): DrivePath,
+    DriveAt(bus, d): DriveAt,
     axum::extract::Query(q): axum::extract::Query<RestoreQuery>,
     who: Option<axum::Extension<auth::Who>>,
     body: axum::body::Bytes,
@@ -702,11 +880,8 @@ async fn restore(
     })
 }
 
-async fn history(
-    State(hub): State<Arc<Hub>>,
-    axum::extract::Path(at): axum::extract::Path<(usize, usize, usize)>,
-) -> Response {
-    match hub.history_json(at, payload::millis(std::time::SystemTime::now())) {
+async fn history(State(hub): State<Arc<Hub>>, PointAt(b, d, p): PointAt) -> Response {
+    match hub.history_json((b, d, p), payload::millis(std::time::SystemTime::now())) {
         Some(v) => ([(header::CONTENT_TYPE, "application/json")], v.to_string()).into_response(),
         None => (StatusCode::NOT_FOUND, "no such bus, drive or point\n").into_response(),
     }

@@ -51,13 +51,7 @@ pub fn run(args: &GatewayArgs) -> Result<()> {
         return crate::tool::output::emit(format_args!("{}", drivebus_gateway::example_config()));
     }
     let path = args.config.as_deref().unwrap_or("-");
-    let mut plant = Plant::load(path).map_err(cli_error)?;
-    if let Some(b) = &args.broker {
-        drivebus_gateway::set_broker(&mut plant, b).map_err(cli_error)?;
-    }
-    if args.simulate {
-        drivebus_gateway::simulate_all(&mut plant);
-    }
+    let plant = load(path, args.broker.as_deref(), args.simulate).map_err(cli_error)?;
     if args.check {
         // The page's certificate, key and password file are read as at the start.
         if let Some(ui) = &plant.ui {
@@ -68,5 +62,25 @@ pub fn run(args: &GatewayArgs) -> Result<()> {
         return verdict.map_err(cli_error);
     }
     drivebus_gateway::init_logs(&args.log_format, &args.log_level);
-    drivebus_gateway::run(plant).map_err(cli_error)
+    // SIGHUP (`systemctl reload`) reads the file again, with the same --broker and --simulate.
+    let source = if path == "-" {
+        drivebus_gateway::Source::once("-")
+    } else {
+        let (file, broker, simulate) = (path.to_owned(), args.broker.clone(), args.simulate);
+        drivebus_gateway::Source::file(path, move || load(&file, broker.as_deref(), simulate))
+    };
+    drivebus_gateway::run_source(plant, source).map_err(cli_error)
+}
+
+/// The plant of the config file `path` with what the command line adds (`--broker`,
+/// `--simulate`).
+fn load(path: &str, broker: Option<&str>, simulate: bool) -> std::result::Result<Plant, Error> {
+    let mut plant = Plant::load(path)?;
+    if let Some(b) = broker {
+        drivebus_gateway::set_broker(&mut plant, b)?;
+    }
+    if simulate {
+        drivebus_gateway::simulate_all(&mut plant);
+    }
+    Ok(plant)
 }

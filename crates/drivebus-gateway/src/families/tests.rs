@@ -491,10 +491,10 @@ async fn published_under_faults(p: Protocol, faults: impl FnOnce(&SimulatedBus))
     faults(&sim);
     let (utx, mut urx) = tokio::sync::mpsc::channel(4096);
     let (_stx, srx) = tokio::sync::mpsc::channel(1);
-    let (_stop, shutdown) = tokio::sync::watch::channel(false);
+    let (_stop, shutdown) = tokio::sync::watch::channel(crate::bus::Stop::Run);
     let ctx = BusContext {
         shutdown,
-        ix: 0,
+        ix: crate::model::BusSlot::new(0),
         bus: bus.clone(),
         updates: utx,
         sets: srx,
@@ -827,10 +827,10 @@ async fn issue18_an_sbus_timeout_trip_is_reported_at_the_next_cycle() {
             let sim = simulated_bus(&bus);
             let (utx, mut urx) = tokio::sync::mpsc::channel(4096);
             let (_stx, srx) = tokio::sync::mpsc::channel(1);
-            let (_stop, shutdown) = tokio::sync::watch::channel(false);
+            let (_stop, shutdown) = tokio::sync::watch::channel(crate::bus::Stop::Run);
             let ctx = BusContext {
                 shutdown,
-                ix: 0,
+                ix: crate::model::BusSlot::new(0),
                 bus: bus.clone(),
                 updates: utx,
                 sets: srx,
@@ -1003,10 +1003,10 @@ async fn pages_jobs_on(plant: &Plant) {
         let (utx, mut urx) = tokio::sync::mpsc::channel(4096);
         let (_stx, srx) = tokio::sync::mpsc::channel(1);
         let (atx, arx) = tokio::sync::mpsc::channel(64);
-        let (_stop, shutdown) = tokio::sync::watch::channel(false);
+        let (_stop, shutdown) = tokio::sync::watch::channel(crate::bus::Stop::Run);
         let ctx = BusContext {
             shutdown,
-            ix: 0,
+            ix: crate::model::BusSlot::new(0),
             bus: bus.clone(),
             updates: utx,
             sets: srx,

@@ -204,6 +204,44 @@ fn tls_config(g: &Gateway) -> Result<rustls::ClientConfig> {
     }
 }
 
+/// The `reason` of the last will's `offline`.
+pub const LOST: &str = "connection lost";
+
+/// What the broker connections depend on, as one number: the `[gateway]` keys that make a
+/// connection (broker, client id, user, keep-alive, the topic prefix and name of the last
+/// will) and the contents of its files (password, CA, client certificate and key), read now.
+/// A reload that changes it connects again; one that keeps it keeps the connection.
+pub fn fingerprint(g: &Gateway, extra: &str) -> u64 {
+    use std::hash::{Hash, Hasher};
+    let mut h = std::collections::hash_map::DefaultHasher::new();
+    (
+        &g.broker,
+        &g.client_id,
+        &g.username,
+        &g.password_file,
+        &g.ca_file,
+        &g.client_cert,
+        g.keep_alive,
+        &g.prefix,
+        &g.name,
+        extra,
+    )
+        .hash(&mut h);
+    let files = [
+        g.password_file.as_deref(),
+        g.ca_file.as_deref(),
+        g.client_cert.as_ref().map(|c| c.0.as_str()),
+        g.client_cert.as_ref().map(|c| c.1.as_str()),
+    ];
+    for f in files.into_iter().flatten() {
+        match read_file(f, "file") {
+            Ok(bytes) => bytes.hash(&mut h),
+            Err(e) => e.to_string().hash(&mut h),
+        }
+    }
+    h.finish()
+}
+
 /// The topic of the gateway's own status.
 pub fn gateway_status_topic(g: &Gateway) -> String {
     format!("{}/{}/status", g.prefix, g.name)
@@ -260,7 +298,7 @@ pub fn options(g: &Gateway) -> Result<(MqttOptions, BrokerUrl)> {
     o.set_max_packet_size(Some(MAX_INCOMING_PACKET));
     o.set_last_will(LastWill::new(
         gateway_status_topic(g),
-        "offline",
+        super::payload::gateway_offline(LOST, None),
         QoS::AtLeastOnce,
         true,
         None,
@@ -420,7 +458,10 @@ mod tests {
         );
         let will = o.last_will().unwrap();
         assert_eq!(will.topic, "drivebus/gw/status");
-        assert_eq!(&will.message[..], b"offline");
+        assert_eq!(
+            &will.message[..],
+            br#"{"reason":"connection lost","state":"offline"}"#
+        );
         assert!(will.retain && will.qos == QoS::AtLeastOnce);
         assert!(o.clean_start());
         assert_eq!(o.max_packet_size(), Some(MAX_INCOMING_PACKET));

@@ -32,7 +32,7 @@ use tokio::time::Instant;
 
 use super::config::Plant;
 use super::metrics::Metrics;
-use super::model::{DriveStatus, SetOutcome, SetRequest, Update};
+use super::model::{ConfigStatus, DriveStatus, Reconfig, SetOutcome, SetRequest, Update};
 use crate::error::Result;
 use outbox::{Outbox, ResultMsg};
 
@@ -49,6 +49,16 @@ const CLIENT_QUEUE: usize = 128;
 /// How long a `set` may wait for its bus task's answer beyond `max_set_age` before it is
 /// answered `link_failed` (a bus task that never answers must not keep it for ever).
 pub(crate) const ANSWER_GRACE: Duration = Duration::from_secs(60);
+
+/// How the JSON publisher ends.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum End {
+    /// The gateway stops: every value published stale, the status `offline`.
+    Stop,
+    /// A reloaded config publishes no JSON topics any more: every retained topic the gateway
+    /// published is cleared, its status too.
+    Clear,
+}
 
 /// Reconnection back-off: 0.5 s doubling to 30 s, back to 0.5 s at each ConnAck.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -100,6 +110,8 @@ pub struct Mqtt {
     options: MqttOptions,
     /// The broker URL as configured (for logs).
     broker: String,
+    /// [`connect::fingerprint`] of the settings it was prepared from.
+    fingerprint: u64,
     state: watch::Sender<BrokerState>,
 }
 
@@ -114,12 +126,18 @@ enum Link {
     },
 }
 
+/// Where a `set`'s result goes: its topic and the point's parameter (for the value read
+/// back), taken when the set arrives, so that a reload meanwhile cannot send it elsewhere.
+#[derive(Debug, Clone)]
+struct ResultAt {
+    topic: String,
+    target: drive_client::target::Target,
+}
+
 /// A finished `set`, from its waiting task.
 #[derive(Debug)]
 struct Done {
-    bus: usize,
-    drive: usize,
-    point: usize,
+    at: ResultAt,
     outcome: SetOutcome,
     id: Option<serde_json::Value>,
 }
@@ -127,13 +145,21 @@ struct Done {
 impl Mqtt {
     /// Build the client's options from `plant` (reads the password, CA and certificate files).
     pub fn prepare(plant: &Arc<Plant>) -> Result<Mqtt> {
+        let fingerprint = connect::fingerprint(&plant.gateway, "");
         let (options, _url) = connect::options(&plant.gateway)?;
         Ok(Mqtt {
             plant: plant.clone(),
             options,
             broker: plant.gateway.broker.clone(),
+            fingerprint,
             state: watch::channel(BrokerState::default()).0,
         })
+    }
+
+    /// [`connect::fingerprint`] of the settings it was prepared from: a reload whose settings
+    /// give another one connects again.
+    pub fn fingerprint(&self) -> u64 {
+        self.fingerprint
     }
 
     /// The broker connection's state, updated as it changes.
@@ -143,23 +169,19 @@ impl Mqtt {
     }
 
     /// Connect (and reconnect) to the broker, publish `updates`, hand `set`s to the bus
-    /// tasks (`sets[bus]`), until `shutdown` resolves; then publish the gateway's `offline`
-    /// and disconnect.
+    /// tasks (`sets[bus]`), publish the gateway's status with `config` (again at each change),
+    /// until `shutdown` resolves; then publish the gateway's `offline` and disconnect. An
+    /// [`Update::Reconfigured`] switches to its plant, and to its connection where it brings one.
     pub async fn run(
         self,
         mut updates: mpsc::Receiver<Update>,
         sets: Vec<mpsc::Sender<SetRequest>>,
         metrics: Arc<Metrics>,
-        shutdown: impl std::future::Future<Output = ()>,
+        mut config: watch::Receiver<ConfigStatus>,
+        shutdown: impl std::future::Future<Output = End>,
     ) -> Result<()> {
-        let (client, eventloop) = AsyncClient::new(self.options.clone(), CLIENT_QUEUE);
-        let (link_tx, mut link_rx) = mpsc::channel(256);
-        // Aborted when `run` ends or is dropped: the connection never outlives the task.
-        let driver = AbortOnDrop(tokio::task::spawn_local(drive(
-            eventloop,
-            link_tx,
-            self.plant.gateway.client_id.clone(),
-        )));
+        let (client, mut link_rx, mut driver) =
+            start(self.options.clone(), &self.plant.gateway.client_id);
         let (done_tx, mut done_rx) = mpsc::unbounded_channel();
         let mut task = Task {
             plant: self.plant.clone(),
@@ -172,23 +194,52 @@ impl Mqtt {
             connected: false,
             state: self.state,
             broker: self.broker,
+            config: config.borrow_and_update().clone(),
             unknown_sets: 0,
             unknown_logged: None,
         };
         metrics_connected(&task.metrics, false);
         tokio::pin!(shutdown);
         let mut updates_open = true;
-        loop {
+        let mut config_open = true;
+        let end = loop {
             tokio::select! {
                 biased;
-                () = &mut shutdown => break,
+                end = &mut shutdown => break end,
                 link = link_rx.recv() => match link {
                     Some(Link::Event(e)) => task.event(*e),
                     Some(Link::Down { error, retry_in }) => task.down(error, retry_in),
-                    None => break,
+                    None => break End::Stop,
                 },
                 Some(done) = done_rx.recv() => task.done(done),
+                changed = config.changed(), if config_open => match changed {
+                    Ok(()) => {
+                        task.config = config.borrow_and_update().clone();
+                        task.publish_status();
+                    }
+                    Err(_) => config_open = false,
+                },
                 u = updates.recv(), if updates_open => match u {
+                    Some(Update::Reconfigured(r)) => {
+                        let fresh = r.json.lock().unwrap_or_else(std::sync::PoisonError::into_inner).take();
+                        match fresh {
+                            Some(m) => {
+                                // Other broker settings: the old connection ends, the new one
+                                // starts with what is known of the buses that keep running.
+                                task.end_connection(&mut link_rx, &r).await;
+                                drop(driver);
+                                let (client, rx, d) = start(m.options.clone(), &r.plant.gateway.client_id);
+                                task.client = client;
+                                link_rx = rx;
+                                driver = d;
+                                task.broker = m.broker;
+                                task.connected = false;
+                                metrics_connected(&task.metrics, false);
+                                task.reconfigure(&r, false);
+                            }
+                            None => task.reconfigure(&r, true),
+                        }
+                    }
                     Some(u) => {
                         if !task.outbox.update(u, Instant::now(), &task.plant) {
                             tracing::debug!("an update named no topic of the plant");
@@ -201,7 +252,7 @@ impl Mqtt {
                 },
             }
             task.flush();
-        }
+        };
         // Writes the buses answered as they stopped: their waiting tasks run once more, and
         // their results go out before `offline`.
         tokio::task::yield_now().await;
@@ -209,10 +260,26 @@ impl Mqtt {
             task.done(done);
         }
         task.flush();
-        task.shutdown(&mut link_rx).await;
+        task.shutdown(&mut link_rx, end).await;
         drop(driver);
         Ok(())
     }
+}
+
+/// A client on `options` and its event loop, running in a task of its own (aborted when the
+/// returned handle is dropped: the connection never outlives its owner).
+fn start(
+    options: MqttOptions,
+    client_id: &str,
+) -> (AsyncClient, mpsc::Receiver<Link>, AbortOnDrop) {
+    let (client, eventloop) = AsyncClient::new(options, CLIENT_QUEUE);
+    let (link_tx, link_rx) = mpsc::channel(256);
+    let driver = AbortOnDrop(tokio::task::spawn_local(drive(
+        eventloop,
+        link_tx,
+        client_id.to_owned(),
+    )));
+    (client, link_rx, driver)
 }
 
 /// Aborts its task when dropped.
@@ -510,6 +577,8 @@ struct Task {
     connected: bool,
     state: watch::Sender<BrokerState>,
     broker: String,
+    /// The running config, for the gateway's status topic.
+    config: ConfigStatus,
     unknown_sets: u64,
     /// When a set for an unknown point was last logged, and the count then (a flood of them is
     /// logged once per [`UNKNOWN_LOG_EVERY`], with the number left out).
@@ -552,14 +621,7 @@ impl Task {
         });
         self.outbox.connected();
         // A fresh connection's queue is empty: these fit.
-        if let Err(e) =
-            self.client
-                .try_publish(&self.names.status, QoS::AtLeastOnce, true, "online")
-        {
-            tracing::warn!(error = %e, "cannot publish the gateway's online status");
-        } else {
-            self.outbox.handed_other();
-        }
+        self.publish_status();
         use rumqttc::v5::mqttbytes::v5::{Filter, SubscribeProperties};
         let id = |id| SubscribeProperties {
             id: Some(id),
@@ -588,6 +650,96 @@ impl Task {
             .try_subscribe_many_with_properties(vec![all], id(EARLIER))
         {
             tracing::warn!(error = %e, "cannot subscribe to the gateway's own topics");
+        }
+    }
+
+    /// The gateway's status (`online`, with the running config), while connected.
+    fn publish_status(&mut self) {
+        if !self.connected {
+            return;
+        }
+        let payload = payload::gateway_online(&self.config, payload::millis(SystemTime::now()));
+        match self
+            .client
+            .try_publish(&self.names.status, QoS::AtLeastOnce, true, payload)
+        {
+            Ok(()) => {
+                self.outbox.handed_other();
+                self.metrics.published("gateway");
+            }
+            Err(e) => tracing::warn!(error = %e, "cannot publish the gateway's status"),
+        }
+    }
+
+    /// A reloaded config: its topics (the retained ones of buses, drives and points it no
+    /// longer has cleared when `clear`), its set topics and bus tasks.
+    fn reconfigure(&mut self, r: &Reconfig, clear: bool) {
+        let cleared = self.outbox.reconfigure(&self.plant, r);
+        if !clear {
+            // A new connection: the old one's topics were dealt with as it ended.
+            self.outbox.drop_clears();
+        }
+        self.plant = r.plant.clone();
+        self.names = Names::new(&self.plant);
+        self.sets = r.sets.clone();
+        tracing::info!(
+            generation = r.generation,
+            cleared = if clear { cleared } else { 0 },
+            "MQTT: the reloaded config's topics"
+        );
+    }
+
+    /// The connection ends for one with other settings: a reload changed the broker, the
+    /// credentials, or the gateway's topics. When the topics stay (`prefix` and `name`), every
+    /// value is published stale and the status `offline`, as at a stop; when they change, every
+    /// retained topic of the old ones is cleared (the gateway no longer publishes there). At
+    /// most [`SHUTDOWN_FLUSH`].
+    async fn end_connection(&mut self, link_rx: &mut mpsc::Receiver<Link>, r: &Reconfig) {
+        let (old, new) = (&self.plant.gateway, &r.plant.gateway);
+        let same_topics = old.prefix == new.prefix && old.name == new.name;
+        let now = payload::millis(SystemTime::now());
+        let messages: Vec<(String, Vec<u8>)> = if same_topics {
+            let mut m: Vec<(String, Vec<u8>)> = self
+                .outbox
+                .stale_copies(now)
+                .into_iter()
+                .map(|(t, p)| (t, p.into_bytes()))
+                .collect();
+            m.push((
+                self.names.status.clone(),
+                payload::gateway_offline("reconfigured", Some(now)).into_bytes(),
+            ));
+            m
+        } else {
+            let mut m: Vec<(String, Vec<u8>)> = self
+                .outbox
+                .topics()
+                .map(|t| (t.to_owned(), Vec::new()))
+                .collect();
+            m.push((self.names.status.clone(), Vec::new()));
+            m
+        };
+        tracing::info!(
+            broker = %self.broker,
+            messages = messages.len(),
+            "MQTT: the reloaded config connects otherwise: {} the old connection's topics",
+            if same_topics { "marking stale" } else { "clearing" }
+        );
+        if !self.connected {
+            return;
+        }
+        let deadline = Instant::now() + SHUTDOWN_FLUSH;
+        let client = self.client.clone();
+        let handed = async {
+            for (topic, p) in messages {
+                client.publish(topic, QoS::AtLeastOnce, true, p).await?;
+            }
+            client.disconnect().await
+        };
+        match tokio::time::timeout_at(deadline, handed).await {
+            Ok(Ok(())) => wait_disconnect(link_rx, deadline).await,
+            Ok(Err(e)) => tracing::warn!(error = %e, "MQTT: cannot end the old connection cleanly"),
+            Err(_) => tracing::warn!("MQTT: the old connection did not end in time"),
         }
     }
 
@@ -652,32 +804,30 @@ impl Task {
         });
     }
 
-    fn result(
-        &mut self,
-        bus: usize,
-        drive: usize,
-        point: usize,
-        outcome: &SetOutcome,
-        id: Option<&serde_json::Value>,
-    ) {
+    /// Where the result of a set of point `(bus, drive, point)` goes.
+    fn result_at(&self, bus: usize, drive: usize, point: usize) -> Option<ResultAt> {
+        let b = self.plant.buses.get(bus)?;
+        let d = b.drives.get(drive)?;
+        let p = d.points.get(point)?;
+        Some(ResultAt {
+            topic: format!("{}{}/{}/{}/result", self.names.base, b.name, d.name, p.name),
+            target: p.target,
+        })
+    }
+
+    fn result(&mut self, at: &ResultAt, outcome: &SetOutcome, id: Option<&serde_json::Value>) {
         let label = outcome.label();
         self.metrics.set_outcome(label);
-        let Some((b, d, p)) = self.plant.buses.get(bus).and_then(|b| {
-            let d = b.drives.get(drive)?;
-            Some((b, d, d.points.get(point)?))
-        }) else {
-            return;
-        };
-        let topic = format!("{}{}/{}/{}/result", self.names.base, b.name, d.name, p.name);
-        let payload = payload::result(outcome, &p.target, id, payload::millis(SystemTime::now()));
-        tracing::info!(%topic, outcome = label, "set answered");
+        let payload = payload::result(outcome, &at.target, id, payload::millis(SystemTime::now()));
+        tracing::info!(topic = %at.topic, outcome = label, "set answered");
+        let topic = at.topic.clone();
         if self.outbox.push_result(ResultMsg { topic, payload }) {
             tracing::warn!("more results waiting for the broker than kept: dropped the oldest");
         }
     }
 
     fn done(&mut self, d: Done) {
-        self.result(d.bus, d.drive, d.point, &d.outcome, d.id.as_ref());
+        self.result(&d.at, &d.outcome, d.id.as_ref());
     }
 
     fn incoming(&mut self, p: Publish) {
@@ -701,7 +851,11 @@ impl Task {
         if !ids.is_empty() && !ids.contains(&SETS) {
             return;
         }
-        let Some((bus, drive, point)) = self.names.set_target(&topic) else {
+        let Some(((bus, drive, point), at)) = self
+            .names
+            .set_target(&topic)
+            .and_then(|(b, d, p)| Some(((b, d, p), self.result_at(b, d, p)?)))
+        else {
             self.unknown_sets += 1;
             self.metrics.set_outcome("unknown_topic");
             let now = Instant::now();
@@ -744,13 +898,13 @@ impl Task {
                 } else {
                     refuse("bad_request", bad.message)
                 };
-                self.result(bus, drive, point, &outcome, bad.id.as_ref());
+                self.result(&at, &outcome, bad.id.as_ref());
                 return;
             }
         };
         match self.check(bus, drive, point, &msg, p.retain) {
-            Err(outcome) => self.result(bus, drive, point, &outcome, msg.id.as_ref()),
-            Ok(max_age) => self.send(bus, drive, point, msg, max_age),
+            Err(outcome) => self.result(&at, &outcome, msg.id.as_ref()),
+            Ok(max_age) => self.send(bus, drive, point, at, msg, max_age),
         }
     }
 
@@ -826,6 +980,7 @@ impl Task {
         bus: usize,
         drive: usize,
         point: usize,
+        at: ResultAt,
         msg: payload::SetMessage,
         max_age: Duration,
     ) {
@@ -834,44 +989,69 @@ impl Task {
         };
         let done = self.done_tx.clone();
         let id = msg.id.clone();
+        let at_done = at.clone();
         let handed = hand_set(tx, drive, point, msg.value, max_age, move |outcome| {
             let _ = done.send(Done {
-                bus,
-                drive,
-                point,
+                at: at_done,
                 outcome,
                 id,
             });
         });
         if let Err(outcome) = handed {
-            self.result(bus, drive, point, &outcome, msg.id.as_ref());
+            self.result(&at, &outcome, msg.id.as_ref());
         }
     }
 
-    /// Publish `offline` (retained) and disconnect, waiting at most [`SHUTDOWN_FLUSH`].
-    async fn shutdown(&mut self, link_rx: &mut mpsc::Receiver<Link>) {
+    /// Publish `offline` (retained) and disconnect, waiting at most [`SHUTDOWN_FLUSH`]; at
+    /// [`End::Clear`] every retained topic is cleared instead.
+    async fn shutdown(&mut self, link_rx: &mut mpsc::Receiver<Link>, end: End) {
         if !self.connected {
             return;
         }
         let deadline = Instant::now() + SHUTDOWN_FLUSH;
-        // Every value published, retained as stale: after the stop no consumer takes one for a
-        // current value.
-        let stale = self.outbox.stopping(payload::millis(SystemTime::now()));
-        let count = stale.len();
+        let now = payload::millis(SystemTime::now());
+        let messages: Vec<(String, Vec<u8>)> = match end {
+            // Every value published, retained as stale: after the stop no consumer takes one
+            // for a current value.
+            End::Stop => {
+                let mut m: Vec<(String, Vec<u8>)> = self
+                    .outbox
+                    .stopping(now)
+                    .into_iter()
+                    .map(|(t, p)| (t, p.into_bytes()))
+                    .collect();
+                m.push((
+                    self.names.status.clone(),
+                    payload::gateway_offline("stopped", Some(now)).into_bytes(),
+                ));
+                m
+            }
+            End::Clear => {
+                let mut m: Vec<(String, Vec<u8>)> = self
+                    .outbox
+                    .topics()
+                    .map(|t| (t.to_owned(), Vec::new()))
+                    .collect();
+                m.push((self.names.status.clone(), Vec::new()));
+                m
+            }
+        };
+        let count = messages.len();
         let handed = async {
-            for (topic, p) in stale {
+            for (topic, p) in messages {
                 self.client
-                    .publish(topic, QoS::AtLeastOnce, true, p.into_bytes())
+                    .publish(topic, QoS::AtLeastOnce, true, p)
                     .await?;
             }
-            self.client
-                .publish(&self.names.status, QoS::AtLeastOnce, true, "offline")
-                .await?;
             self.client.disconnect().await
         };
         tracing::info!(
-            values = count,
-            "stopping: the values as stale, then offline"
+            messages = count,
+            "{}",
+            match end {
+                End::Stop => "stopping: the values as stale, then offline",
+                End::Clear => "the reloaded config has no JSON topics: clearing them",
+            }
         );
         match tokio::time::timeout_at(deadline, handed).await {
             Ok(Ok(())) => {}
@@ -884,21 +1064,26 @@ impl Task {
                 return;
             }
         }
-        loop {
-            match tokio::time::timeout_at(deadline, link_rx.recv()).await {
-                Ok(Some(Link::Event(e))) if matches!(*e, Event::Outgoing(Outgoing::Disconnect)) => {
-                    break;
-                }
-                Ok(Some(Link::Event(_))) => {}
-                Ok(Some(Link::Down { .. }) | None) => break,
-                Err(_) => {
-                    tracing::warn!("shutdown: the disconnect did not go out in time");
-                    break;
-                }
-            }
-        }
+        wait_disconnect(link_rx, deadline).await;
         tracing::info!("disconnected from the broker");
         metrics_connected(&self.metrics, false);
+    }
+}
+
+/// Wait (until `deadline`) for the client to have sent its DISCONNECT.
+async fn wait_disconnect(link_rx: &mut mpsc::Receiver<Link>, deadline: Instant) {
+    loop {
+        match tokio::time::timeout_at(deadline, link_rx.recv()).await {
+            Ok(Some(Link::Event(e))) if matches!(*e, Event::Outgoing(Outgoing::Disconnect)) => {
+                break;
+            }
+            Ok(Some(Link::Event(_))) => {}
+            Ok(Some(Link::Down { .. }) | None) => break,
+            Err(_) => {
+                tracing::warn!("the disconnect did not go out in time");
+                break;
+            }
+        }
     }
 }
 

@@ -9,7 +9,7 @@ use std::time::Duration;
 use tokio::time::Instant;
 
 use super::super::config::Plant;
-use super::super::model::{DriveStatus, Update};
+use super::super::model::{DriveStatus, Reconfig, Update};
 use super::payload;
 
 /// Results kept while the broker is away; past this the oldest are dropped (and logged).
@@ -100,6 +100,9 @@ pub struct Outbox {
     pd_out: Vec<Vec<Vec<u16>>>,
     statuses: Vec<Vec<Option<DriveStatus>>>,
     queue: VecDeque<usize>,
+    /// Retained topics to clear (an empty retained message each): those of buses, drives and
+    /// points a reloaded config no longer has.
+    clears: VecDeque<String>,
     results: VecDeque<ResultMsg>,
     /// Handed to the client, not yet seen going out.
     sent: VecDeque<Sent>,
@@ -160,6 +163,7 @@ impl Outbox {
             pd_out,
             statuses,
             queue: VecDeque::new(),
+            clears: VecDeque::new(),
             results: VecDeque::new(),
             sent: VecDeque::new(),
             inflight: HashMap::new(),
@@ -288,7 +292,120 @@ impl Outbox {
                 self.mark(ix);
                 true
             }
+            // The MQTT task takes a reload itself ([`Outbox::reconfigure`]).
+            Update::Reconfigured(_) => false,
         }
+    }
+
+    /// A reloaded config ([`Reconfig`]) after `old`: the topics of the new plant, with all
+    /// that is known of the buses that keep running (their latest payloads, what is still to
+    /// be published, their drives' statuses), and every retained topic of `old` that the new
+    /// plant does not have queued to be cleared (an empty retained message), so that no
+    /// consumer reads the last value of a removed point as current. Results waiting and
+    /// unacknowledged stay. Returns how many topics are to be cleared.
+    pub fn reconfigure(&mut self, old: &Plant, r: &Reconfig) -> usize {
+        let mut new = Outbox::new(&r.plant);
+        for (old_bus, bus) in old.buses.iter().enumerate() {
+            let Some(new_bus) = r.kept(old_bus) else {
+                continue;
+            };
+            // A kept bus has the same drives and points: its slots line up one to one.
+            if let (Some(&from), Some(&to)) =
+                (self.bus_slot.get(old_bus), new.bus_slot.get(new_bus))
+            {
+                self.move_slot(from, &mut new, to);
+            }
+            for (d, drive) in bus.drives.iter().enumerate() {
+                let (Some(from), Some(to)) =
+                    (self.drive_base(old_bus, d), new.drive_base(new_bus, d))
+                else {
+                    continue;
+                };
+                for k in 0..2 + drive.points.len() {
+                    self.move_slot(from + k, &mut new, to + k);
+                }
+            }
+            if let (Some(from), Some(to)) = (
+                self.statuses.get_mut(old_bus),
+                new.statuses.get_mut(new_bus),
+            ) {
+                *to = std::mem::take(from);
+            }
+        }
+        let topics: std::collections::HashSet<&str> =
+            new.slots.iter().map(|s| s.topic.as_str()).collect();
+        let mut clears = std::mem::take(&mut self.clears);
+        let before = clears.len();
+        for s in &self.slots {
+            if !s.topic.is_empty() && !topics.contains(s.topic.as_str()) {
+                clears.push_back(s.topic.clone());
+            }
+        }
+        let cleared = clears.len() - before;
+        // A topic queued to be cleared that the new plant has again is no longer cleared.
+        clears.retain(|t| !topics.contains(t.as_str()));
+        new.clears = clears;
+        new.results = std::mem::take(&mut self.results);
+        new.sent = std::mem::take(&mut self.sent);
+        new.inflight = std::mem::take(&mut self.inflight);
+        new.dropped_results = self.dropped_results;
+        for ix in 0..new.slots.len() {
+            if new.slots.get(ix).is_some_and(|s| s.dirty) {
+                new.queue.push_back(ix);
+            }
+        }
+        *self = new;
+        cleared
+    }
+
+    /// Move what is known of slot `from` into slot `to` of `new` (its topic is `new`'s); the
+    /// old slot is left without a topic.
+    fn move_slot(&mut self, from: usize, new: &mut Outbox, to: usize) {
+        let (Some(a), Some(b)) = (self.slots.get_mut(from), new.slots.get_mut(to)) else {
+            return;
+        };
+        b.payload = a.payload.take();
+        b.dirty = a.dirty;
+        b.published = a.published;
+        b.raw = a.raw;
+        b.words = a.words.take();
+        b.stale = a.stale;
+        a.topic.clear();
+    }
+
+    /// Topics waiting to be cleared.
+    pub fn clears_waiting(&self) -> usize {
+        self.clears.len()
+    }
+
+    /// Forget the topics waiting to be cleared (a new connection after the old one's topics
+    /// were cleared there).
+    pub fn drop_clears(&mut self) {
+        self.clears.clear();
+    }
+
+    /// Every retained topic of the plant.
+    pub fn topics(&self) -> impl Iterator<Item = &str> {
+        self.slots
+            .iter()
+            .map(|s| s.topic.as_str())
+            .filter(|t| !t.is_empty())
+    }
+
+    /// Every value published and still fresh, as a stale copy since `since` (ms), without
+    /// changing what is kept: for a connection that ends while the values stay current (the
+    /// next connection publishes them as they are).
+    pub fn stale_copies(&self, since: u64) -> Vec<(String, String)> {
+        self.slots
+            .iter()
+            .filter(|s| s.kind == Kind::Value && s.published.is_some() && !s.stale)
+            .filter_map(|s| {
+                Some((
+                    s.topic.clone(),
+                    payload::stale(s.payload.as_deref()?, since)?,
+                ))
+            })
+            .collect()
     }
 
     /// Republish value slot `ix` as stale since `since` (ms), if it has a fresh value.
@@ -412,6 +529,20 @@ impl Outbox {
     /// number handed.
     pub fn flush(&mut self, now: Instant, mut publish: impl FnMut(Out<'_>) -> bool) -> usize {
         let mut n = 0;
+        while let Some(t) = self.clears.front() {
+            let out = Out {
+                topic: t,
+                payload: "",
+                retain: true,
+                kind: "clear",
+            };
+            if !publish(out) {
+                return n;
+            }
+            self.clears.pop_front();
+            self.sent.push_back(Sent::Other);
+            n += 1;
+        }
         while let Some(r) = self.results.front() {
             let out = Out {
                 topic: &r.topic,
@@ -452,10 +583,10 @@ impl Outbox {
         n
     }
 
-    /// Messages waiting (results and retained topics).
+    /// Messages waiting (clears, results and retained topics).
     #[cfg(test)]
     pub fn waiting(&self) -> usize {
-        self.results.len() + self.queue.len()
+        self.clears.len() + self.results.len() + self.queue.len()
     }
 }
 

@@ -87,6 +87,36 @@ pub fn stale(payload: &str, since: u64) -> Option<String> {
     Some(v.to_string())
 }
 
+/// The gateway's status topic while it runs: `{"state":"online","config":{"file":…,
+/// "generation":N,"loaded":ms,"last_reload":null|{"ok":bool,"at":ms,"error":null|"…"}},"ts":…}`.
+pub fn gateway_online(config: &crate::model::ConfigStatus, ts: u64) -> String {
+    let last = config
+        .last_reload
+        .as_ref()
+        .map(|(at, error)| json!({"ok": error.is_none(), "at": at, "error": error}));
+    json!({
+        "state": "online",
+        "config": {
+            "file": config.file,
+            "generation": config.generation,
+            "loaded": config.loaded,
+            "last_reload": last,
+        },
+        "ts": ts,
+    })
+    .to_string()
+}
+
+/// The gateway's status topic once it no longer publishes: `{"state":"offline","reason":…}`
+/// (`stopped` with the time at a clean stop; `connection lost`, without a time, as the last
+/// will the broker publishes when the connection dies).
+pub fn gateway_offline(reason: &str, ts: Option<u64>) -> String {
+    match ts {
+        Some(ts) => json!({"state": "offline", "reason": reason, "ts": ts}).to_string(),
+        None => json!({"state": "offline", "reason": reason}).to_string(),
+    }
+}
+
 /// `{"state":…,"text":…,"ts":…}`.
 pub fn status(s: &DriveStatus, ts: u64) -> String {
     status_json(s, ts).to_string()

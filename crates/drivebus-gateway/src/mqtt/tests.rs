@@ -55,9 +55,15 @@ impl Gw {
         let (set_tx, sets) = mpsc::channel(4);
         let (stop, stopped) = oneshot::channel::<()>();
         let metrics = Arc::new(Metrics::new(plant));
-        let run = tokio::task::spawn_local(mqtt.run(update_rx, vec![set_tx], metrics, async {
-            let _ = stopped.await;
-        }));
+        let (_config, config) = watch::channel(crate::model::ConfigStatus {
+            generation: 1,
+            ..crate::model::ConfigStatus::default()
+        });
+        let run =
+            tokio::task::spawn_local(mqtt.run(update_rx, vec![set_tx], metrics, config, async {
+                let _ = stopped.await;
+                crate::mqtt::End::Stop
+            }));
         Gw {
             state,
             updates,
@@ -190,7 +196,7 @@ async fn values_are_published_retained_on_change_and_on_heartbeat() {
                     .unwrap_or_else(|| panic!("{t} in {all:?}"))
             };
             assert!(all.iter().all(|p| p.retain), "{all:?}");
-            assert_eq!(&find("drivebus/gw1/status").payload[..], b"online");
+            assert_eq!(state(find("drivebus/gw1/status")), "online");
             assert_eq!(
                 payload_json(find(&format!("{BASE}/ramp")))["raw"],
                 json!(2500)
@@ -485,7 +491,7 @@ async fn broker_restart_reconnects_and_republishes_only_the_latest() {
             assert_eq!(ramps, [200], "only the latest, once: {all:?}");
             assert!(
                 all.iter()
-                    .any(|p| p.topic == "drivebus/gw1/status" && &p.payload[..] == b"online")
+                    .any(|p| p.topic == "drivebus/gw1/status" && state(p) == "online")
             );
             gw.shutdown().await;
         })
@@ -558,18 +564,25 @@ async fn offline_by_last_will_when_the_connection_dies_and_on_clean_shutdown() {
         .await;
     local.run_until(gw.ready()).await;
     let p = watcher.next_on(status, WAIT).await.unwrap();
-    assert_eq!(&p.payload[..], b"online");
+    assert_eq!(state(&p), "online");
+    // The running config: generation 1, no reload yet.
+    let v = payload_json(&p);
+    assert_eq!(v["config"]["generation"], json!(1), "{v}");
+    assert_eq!(v["config"]["last_reload"], json!(null), "{v}");
     drop(local);
     let p = watcher
         .next_on(status, WAIT)
         .await
         .expect("the broker sends the last-will");
-    assert_eq!(&p.payload[..], b"offline");
+    assert_eq!(
+        payload_json(&p),
+        json!({"state": "offline", "reason": "connection lost"})
+    );
     // Retained.
     let mut later = TestClient::connect(b.client_options("later", None), &[status]).await;
     let p = later.next_on(status, WAIT).await.unwrap();
     assert!(p.retain);
-    assert_eq!(&p.payload[..], b"offline");
+    assert_eq!(state(&p), "offline");
     drop(later);
 
     // Clean shutdown: `offline` published by the gateway, retained.
@@ -578,19 +591,33 @@ async fn offline_by_last_will_when_the_connection_dies_and_on_clean_shutdown() {
             let mut gw = Gw::start(&plant(&b.url(), ""));
             gw.ready().await;
             assert_eq!(
-                &watcher.next_on(status, WAIT).await.unwrap().payload[..],
-                b"online"
+                state(&watcher.next_on(status, WAIT).await.unwrap()),
+                "online"
             );
             gw.shutdown().await;
         })
         .await;
     let p = watcher.next_on(status, WAIT).await.unwrap();
-    assert_eq!(&p.payload[..], b"offline");
+    let v = payload_json(&p);
+    assert_eq!(
+        (&v["state"], &v["reason"]),
+        (&json!("offline"), &json!("stopped")),
+        "{v}"
+    );
+    assert!(v["ts"].is_u64(), "{v}");
     let mut later = TestClient::connect(b.client_options("later2", None), &[status]).await;
     assert_eq!(
-        &later.next_on(status, WAIT).await.unwrap().payload[..],
-        b"offline"
+        state(&later.next_on(status, WAIT).await.unwrap()),
+        "offline"
     );
+}
+
+/// The `state` of the gateway's status topic.
+fn state(p: &rumqttc::Publish) -> String {
+    payload_json(p)["state"]
+        .as_str()
+        .unwrap_or_default()
+        .to_owned()
 }
 
 fn tls_broker() -> Option<Mosquitto> {
@@ -723,7 +750,9 @@ async fn a_result_ready_at_the_stop_is_published_before_offline() {
             let result = topics
                 .iter()
                 .position(|t| t.contains("/ramp/result") && t.contains("\"last\""));
-            let offline = topics.iter().position(|t| t.ends_with("status offline"));
+            let offline = topics
+                .iter()
+                .position(|t| t.starts_with("drivebus/gw1/status ") && t.contains("\"offline\""));
             assert!(
                 matches!((result, offline), (Some(r), Some(o)) if r < o),
                 "the result, then offline: {topics:?}"

@@ -53,14 +53,14 @@ fn example_plant() -> Plant {
 async fn simulated_values(plant: &Plant) -> HashMap<(usize, usize, usize), i64> {
     let metrics = Arc::new(Metrics::new(plant));
     let (tx, mut rx) = mpsc::channel(4096);
-    let (_stop, stop_rx) = watch::channel(false);
+    let (_stop, stop_rx) = watch::channel(crate::bus::Stop::Run);
     let mut tasks = Vec::new();
     let mut keep = Vec::new();
     for (ix, bus) in plant.buses.iter().enumerate() {
         let (set_tx, set_rx) = mpsc::channel(1);
         keep.push(set_tx);
         let ctx = BusContext {
-            ix,
+            ix: crate::model::BusSlot::new(ix),
             bus: bus.clone(),
             updates: tx.clone(),
             sets: set_rx,

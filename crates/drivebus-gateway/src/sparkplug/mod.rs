@@ -100,6 +100,7 @@ pub struct Sparkplug {
     plant: Arc<Plant>,
     options: rumqttc::MqttOptions,
     store: BdSeqStore,
+    fingerprint: u64,
 }
 
 /// What the event-loop task reports.
@@ -114,11 +115,12 @@ enum Link {
     },
 }
 
-/// A finished write.
+/// A finished write, of the point its device (by id) had when it was asked for (a reload
+/// meanwhile may have moved it).
 #[derive(Debug)]
 struct Done {
-    device: usize,
-    point: usize,
+    device: String,
+    point: String,
     outcome: SetOutcome,
 }
 
@@ -128,6 +130,7 @@ impl Sparkplug {
         let Some(sp) = &plant.sparkplug else {
             return Ok(None);
         };
+        let fingerprint = Self::fingerprint_of(plant).unwrap_or_default();
         let options = crate::mqtt::connect::options_v4(&plant.gateway, &sp.client_id)?;
         let store = BdSeqStore::new(
             drive_client::wear::env_dir(),
@@ -138,100 +141,154 @@ impl Sparkplug {
             plant: plant.clone(),
             options,
             store,
+            fingerprint,
         }))
     }
 
-    /// Run the node until `stop` turns true: then NDEATH and the disconnect.
+    /// What the connection of `plant`'s `[sparkplug]` depends on, as one number (the broker
+    /// settings, their files, the group, node, primary host and client id); `None` without
+    /// `[sparkplug]`. A reload that changes it connects again (NDEATH, then a new session).
+    pub fn fingerprint_of(plant: &Plant) -> Option<u64> {
+        let sp = plant.sparkplug.as_ref()?;
+        let extra = format!(
+            "{}\0{}\0{:?}\0{}",
+            sp.group_id, sp.edge_node_id, sp.primary_host_id, sp.client_id
+        );
+        Some(crate::mqtt::connect::fingerprint(&plant.gateway, &extra))
+    }
+
+    /// The fingerprint it was prepared with ([`Sparkplug::fingerprint_of`]).
+    pub fn fingerprint(&self) -> u64 {
+        self.fingerprint
+    }
+
+    /// Run the node until `stop` turns true: then NDEATH and the disconnect. An
+    /// [`Update::Reconfigured`] moves it to its plant (every birth again), and to its
+    /// connection where it brings one (NDEATH of this session first).
     pub async fn run(
         self,
         mut updates: mpsc::Receiver<Update>,
-        sets: Vec<mpsc::Sender<SetRequest>>,
+        mut sets: Vec<mpsc::Sender<SetRequest>>,
         metrics: Arc<Metrics>,
         mut stop: watch::Receiver<bool>,
     ) -> Result<()> {
-        let Some(sp) = self.plant.sparkplug.clone() else {
+        let Some(mut sp) = self.plant.sparkplug.clone() else {
             return Ok(());
         };
         let mut node = Node::new(&self.plant, &sp);
-        let (client, eventloop) = AsyncClient::new(self.options.clone(), CLIENT_QUEUE);
-        let (link_tx, mut link_rx) = mpsc::channel(256);
-        let death_topic = node.death(0, 0).topic;
-        let first = self.store.next();
-        tracing::info!(
-            group = %sp.group_id, node = %sp.edge_node_id, bd_seq = first.get(),
-            file = ?self.store.path(), "Sparkplug edge node"
-        );
-        let driver = AbortOnDrop(tokio::task::spawn_local(drive(
-            eventloop,
-            link_tx,
-            self.store.clone(),
-            first,
-            death_topic,
-            sp.client_id.clone(),
-        )));
+        let (mut client, mut link_rx, mut driver) = start(&self, &node, &sp);
         let (done_tx, mut done_rx) = mpsc::unbounded_channel::<Done>();
         let mut connected = false;
         let mut updates_open = true;
         // The births' wait for the drives' first answers ends at the latest with a tick.
         let mut tick = tokio::time::interval(Duration::from_secs(1));
         tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+        // A reload found among the updates of a flush, taken at the next turn.
+        let mut held: Option<Update> = None;
         loop {
             let now = millis(SystemTime::now());
-            let outs = tokio::select! {
-                biased;
-                r = stop.wait_for(|s| *s) => {
-                    let _ = r;
-                    break;
-                }
-                link = link_rx.recv() => match link {
-                    Some(Link::Up(bd)) => {
-                        connected = true;
-                        tracing::info!(bd_seq = bd, "Sparkplug: connected to the broker");
-                        node.connected(bd)
+            let event = match held.take() {
+                Some(u) => Next::Update(Some(u)),
+                None => tokio::select! {
+                    biased;
+                    r = stop.wait_for(|s| *s) => {
+                        let _ = r;
+                        Next::Stop
                     }
-                    Some(Link::Event(e)) => match *e {
-                        Event::Incoming(Packet::SubAck(_)) => node.subscribed(now),
-                        Event::Incoming(Packet::Publish(p)) => {
-                            node.incoming(&p.topic, &p.payload, p.retain, now)
-                        }
-                        _ => Vec::new(),
-                    },
-                    Some(Link::Down { error, retry_in }) => {
-                        if connected {
-                            tracing::warn!(%error, retry_in_ms = retry_in.as_millis() as u64,
-                                "Sparkplug: lost the broker connection; reconnecting");
-                        } else {
-                            tracing::warn!(%error, retry_in_ms = retry_in.as_millis() as u64,
-                                "Sparkplug: cannot connect to the broker; retrying");
-                        }
-                        connected = false;
-                        node.disconnected();
-                        Vec::new()
-                    }
-                    None => break,
-                },
-                Some(d) = done_rx.recv() => {
-                    metrics.set_outcome(d.outcome.label());
-                    node.write_done(d.device, d.point, &d.outcome, now);
-                    Vec::new()
-                }
-                _ = tick.tick() => Vec::new(),
-                u = updates.recv(), if updates_open => match u {
-                    Some(u) => node.update(&u, now),
-                    None => {
-                        updates_open = false;
-                        Vec::new()
-                    }
+                    link = link_rx.recv() => Next::Link(link),
+                    Some(d) = done_rx.recv() => Next::Done(d),
+                    _ = tick.tick() => Next::Tick,
+                    u = updates.recv(), if updates_open => Next::Update(u),
                 },
             };
-            let mut outs = outs;
+            let mut outs = match event {
+                Next::Stop => break,
+                Next::Link(Some(Link::Up(bd))) => {
+                    connected = true;
+                    tracing::info!(bd_seq = bd, "Sparkplug: connected to the broker");
+                    node.connected(bd)
+                }
+                Next::Link(Some(Link::Event(e))) => match *e {
+                    Event::Incoming(Packet::SubAck(_)) => node.subscribed(now),
+                    Event::Incoming(Packet::Publish(p)) => {
+                        node.incoming(&p.topic, &p.payload, p.retain, now)
+                    }
+                    _ => Vec::new(),
+                },
+                Next::Link(Some(Link::Down { error, retry_in })) => {
+                    if connected {
+                        tracing::warn!(%error, retry_in_ms = retry_in.as_millis() as u64,
+                            "Sparkplug: lost the broker connection; reconnecting");
+                    } else {
+                        tracing::warn!(%error, retry_in_ms = retry_in.as_millis() as u64,
+                            "Sparkplug: cannot connect to the broker; retrying");
+                    }
+                    connected = false;
+                    node.disconnected();
+                    Vec::new()
+                }
+                Next::Link(None) => break,
+                Next::Done(d) => {
+                    metrics.set_outcome(d.outcome.label());
+                    write_done(&mut node, &d, now);
+                    Vec::new()
+                }
+                Next::Tick => Vec::new(),
+                Next::Update(Some(Update::Reconfigured(r))) => {
+                    let fresh = r
+                        .sparkplug
+                        .lock()
+                        .unwrap_or_else(std::sync::PoisonError::into_inner)
+                        .take();
+                    sets.clone_from(&r.sets);
+                    match (fresh, r.plant.sparkplug.clone()) {
+                        (Some(next), Some(next_sp)) => {
+                            // Another session: this one ends with its NDEATH.
+                            if connected {
+                                let outs = node.stopping(now);
+                                execute(&client, &mut node, outs, &sets, &done_tx, &metrics, now);
+                                wait_disconnect(&mut link_rx).await;
+                            }
+                            drop(driver);
+                            connected = false;
+                            sp = next_sp;
+                            node = Node::new(&r.plant, &sp);
+                            (client, link_rx, driver) = start(&next, &node, &sp);
+                            tracing::info!(
+                                generation = r.generation,
+                                "Sparkplug: a new session for the reloaded config"
+                            );
+                            Vec::new()
+                        }
+                        (None, Some(next_sp)) => {
+                            sp = next_sp;
+                            tracing::info!(
+                                generation = r.generation,
+                                "Sparkplug: the reloaded config's devices, born again"
+                            );
+                            node.reconfigure(&r, &sp, now)
+                        }
+                        // No [sparkplug] any more: the gateway stops this task.
+                        (_, None) => Vec::new(),
+                    }
+                }
+                Next::Update(Some(u)) => node.update(&u, now),
+                Next::Update(None) => {
+                    updates_open = false;
+                    Vec::new()
+                }
+            };
             // Whatever else is waiting joins this flush (one DDATA per drive for a burst), up
             // to a bound, so that the broker's events are never kept waiting behind a stream of
-            // updates.
+            // updates. A reload among them ends the flush and is taken at the next turn.
             for _ in 0..DRAIN_MAX {
                 let Ok(u) = updates.try_recv() else {
                     break;
                 };
+                if let Update::Reconfigured(_) = u {
+                    held = Some(u);
+                    break;
+                }
                 outs.extend(node.update(&u, now));
             }
             outs.extend(node.flush(now));
@@ -243,35 +300,89 @@ impl Sparkplug {
         tokio::task::yield_now().await;
         let now = millis(SystemTime::now());
         while let Ok(d) = done_rx.try_recv() {
-            node.write_done(d.device, d.point, &d.outcome, now);
+            write_done(&mut node, &d, now);
         }
         if connected {
             let mut outs = node.flush(now);
             outs.extend(node.stopping(now));
             execute(&client, &mut node, outs, &sets, &done_tx, &metrics, now);
-            let deadline = Instant::now() + SHUTDOWN_FLUSH;
-            loop {
-                match tokio::time::timeout_at(deadline, link_rx.recv()).await {
-                    Ok(Some(Link::Event(e)))
-                        if matches!(*e, Event::Outgoing(Outgoing::Disconnect)) =>
-                    {
-                        tracing::info!("Sparkplug: NDEATH sent, disconnected");
-                        break;
-                    }
-                    Ok(Some(Link::Event(_) | Link::Up(_))) => {}
-                    Ok(Some(Link::Down { .. }) | None) => break,
-                    Err(_) => {
-                        tracing::warn!(
-                            "Sparkplug: the NDEATH and disconnect did not go out in time"
-                        );
-                        break;
-                    }
-                }
+            if wait_disconnect(&mut link_rx).await {
+                tracing::info!("Sparkplug: NDEATH sent, disconnected");
             }
         }
         drop(driver);
         Ok(())
     }
+}
+
+/// What the Sparkplug task waits for.
+enum Next {
+    Stop,
+    Link(Option<Link>),
+    Done(Done),
+    Tick,
+    Update(Option<Update>),
+}
+
+/// The connection of `spb` for `node`'s session: a client and its event loop in a task of
+/// its own (aborted when the handle is dropped).
+fn start(
+    spb: &Sparkplug,
+    node: &Node,
+    sp: &crate::config::Sparkplug,
+) -> (AsyncClient, mpsc::Receiver<Link>, AbortOnDrop) {
+    let (client, eventloop) = AsyncClient::new(spb.options.clone(), CLIENT_QUEUE);
+    let (link_tx, link_rx) = mpsc::channel(256);
+    let death_topic = node.death(0, 0).topic;
+    let first = spb.store.next();
+    tracing::info!(
+        group = %sp.group_id, node = %sp.edge_node_id, bd_seq = first.get(),
+        file = ?spb.store.path(), "Sparkplug edge node"
+    );
+    let driver = AbortOnDrop(tokio::task::spawn_local(drive(
+        eventloop,
+        link_tx,
+        spb.store.clone(),
+        first,
+        death_topic,
+        sp.client_id.clone(),
+    )));
+    (client, link_rx, driver)
+}
+
+/// Wait (at most [`SHUTDOWN_FLUSH`]) for the client to have sent its DISCONNECT; false when
+/// it did not.
+async fn wait_disconnect(link_rx: &mut mpsc::Receiver<Link>) -> bool {
+    let deadline = Instant::now() + SHUTDOWN_FLUSH;
+    loop {
+        match tokio::time::timeout_at(deadline, link_rx.recv()).await {
+            Ok(Some(Link::Event(e))) if matches!(*e, Event::Outgoing(Outgoing::Disconnect)) => {
+                return true;
+            }
+            Ok(Some(Link::Event(_) | Link::Up(_))) => {}
+            Ok(Some(Link::Down { .. }) | None) => return false,
+            Err(_) => {
+                tracing::warn!("Sparkplug: the NDEATH and disconnect did not go out in time");
+                return false;
+            }
+        }
+    }
+}
+
+/// A write's outcome onto the point it was asked of, where the node still has it.
+fn write_done(node: &mut Node, d: &Done, now: u64) {
+    let cat = node.catalogue();
+    let Some(dev) = cat.device_named(&d.device) else {
+        return;
+    };
+    let Some(ix) = cat
+        .devices
+        .get(dev)
+        .and_then(|x| x.points.iter().position(|p| p.name == d.point))
+    else {
+        return;
+    };
+    node.write_done(dev, ix, &d.outcome, now);
 }
 
 /// A published message's kind as the publish metrics count it.
@@ -359,12 +470,10 @@ fn write(
     done: &mpsc::UnboundedSender<Done>,
     now: u64,
 ) {
-    let Some((bus, drive, p)) = node
-        .catalogue()
-        .devices
-        .get(device)
-        .and_then(|d| Some((d.bus, d.drive, d.points.get(point)?.point)))
-    else {
+    let Some((bus, drive, p, id, name)) = node.catalogue().devices.get(device).and_then(|d| {
+        let pm = d.points.get(point)?;
+        Some((d.bus, d.drive, pm.point, d.id.clone(), pm.name.clone()))
+    }) else {
         return;
     };
     let Some(tx) = sets.get(bus) else {
@@ -373,8 +482,8 @@ fn write(
     let done = done.clone();
     let handed = crate::mqtt::hand_set(tx, drive, p, value, max_age, move |outcome| {
         let _ = done.send(Done {
-            device,
-            point,
+            device: id,
+            point: name,
             outcome,
         });
     });

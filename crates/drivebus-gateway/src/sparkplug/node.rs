@@ -25,7 +25,7 @@ use sparkplug_b::{DataType, Metric, Payload};
 
 use super::catalogue::{Catalogue, DeviceRef, FAULT, NodeKind, STATE, WRITE_RESULT};
 use crate::config::{Plant, Sparkplug};
-use crate::model::{BusFigures, DriveStatus, SetOutcome, SetValue, Update};
+use crate::model::{BusFigures, DriveStatus, Reconfig, SetOutcome, SetValue, Update};
 use crate::mqtt::MAX_SET_FUTURE;
 
 /// What the session asks its task to do.
@@ -493,8 +493,66 @@ impl Node {
                 }
                 Vec::new()
             }
-            Update::ProcessData { .. } => Vec::new(),
+            // The task takes a reload itself ([`Node::reconfigure`]).
+            Update::ProcessData { .. } | Update::Reconfigured(_) => Vec::new(),
         }
+    }
+
+    /// A reloaded config on the same connection (the same group, node, primary host and
+    /// broker): the new plant's devices and metrics, with what is known of the drives on the
+    /// buses that keep running. While born: a DDEATH for every device born in this session that
+    /// the new plant no longer has, then every birth again (NBIRTH with `seq` 0 and the same
+    /// `bdSeq`, a DBIRTH per device): a device's metrics and aliases are those of the new
+    /// catalogue, which a host learns only from births.
+    pub fn reconfigure(&mut self, r: &Reconfig, sp: &Sparkplug, now_ms: u64) -> Vec<Out> {
+        let mut new = Node::new(&r.plant, sp);
+        new.phase = self.phase;
+        new.bd_seq = self.bd_seq;
+        new.seq = self.seq;
+        new.host = std::mem::replace(&mut self.host, PrimaryHost::new());
+        for (old_bus, f) in self.figures.iter().enumerate() {
+            if let Some(slot) = r.kept(old_bus).and_then(|b| new.figures.get_mut(b)) {
+                slot.clone_from(f);
+            }
+        }
+        let mut out = Vec::new();
+        for (d, dev) in self.cat.devices.iter().enumerate() {
+            let Some(state) = self.devices.get_mut(d) else {
+                continue;
+            };
+            let carried = r
+                .kept(dev.bus)
+                .and_then(|b| new.cat.device_of(b, dev.drive))
+                .and_then(|nd| Some((nd, new.devices.get_mut(nd)?)));
+            match carried {
+                Some((_, slot)) => {
+                    let mut moved = std::mem::take(state);
+                    moved.queued = false;
+                    *slot = moved;
+                }
+                None if state.born && self.phase == Phase::Born => {
+                    // A device a host knows that is gone (or on a bus restarted with other
+                    // settings, whose device is born again below if it stays).
+                    let payload = Payload {
+                        timestamp: Some(now_ms),
+                        seq: Some(new.seq.take()),
+                        ..Payload::default()
+                    };
+                    out.push(Out::Publish(Message {
+                        topic: new.topic(MessageType::DDeath, Some(&dev.id)),
+                        payload: new.encode(&payload),
+                        qos1: false,
+                        retain: false,
+                    }));
+                }
+                None => {}
+            }
+        }
+        *self = new;
+        if self.phase == Phase::Born {
+            out.extend(self.births(now_ms));
+        }
+        out
     }
 
     fn status(&mut self, d: usize, status: DriveStatus, at_ms: u64, now_ms: u64) -> Vec<Out> {

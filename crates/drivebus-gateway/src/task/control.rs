@@ -35,7 +35,7 @@ pub struct Driven {
     lease: Arc<watch::Sender<Value>>,
     family: Family,
     /// The command in effect (`None`: nothing sent yet, the config's `out` goes on).
-    command: Option<PageCommand>,
+    pub(crate) command: Option<PageCommand>,
     /// A command waiting for its cycle, and whom to answer after it.
     pending: Option<(PageCommand, Reply)>,
     /// The last cycle's output and input words.
@@ -351,14 +351,14 @@ pub async fn cycle<B: BusAccess>(
 
 /// At the gateway's stop: the action log says who drove which drive when the gateway stopped
 /// it (the stop itself is the one every process-data drive gets).
-pub fn at_gateway_stop(bus: &Bus, driven: &[Option<Driven>]) {
+pub fn at_gateway_stop(bus: &Bus, driven: &[Option<Driven>], why: &str) {
     for (i, d) in driven.iter().enumerate() {
         if let Some(d) = d
             && d.command.is_some()
         {
             auth::action(
                 &d.who,
-                &format!("gateway stop: stop {}", words_of(bus, i)),
+                &format!("{why}: stop {}", words_of(bus, i)),
                 "the gateway's stop sends it",
             );
         }

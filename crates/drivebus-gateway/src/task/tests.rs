@@ -20,7 +20,7 @@ struct Harness {
     /// The page's requests.
     asks: mpsc::Sender<Ask>,
     /// The gateway's stop.
-    stop: tokio::sync::watch::Sender<bool>,
+    stop: tokio::sync::watch::Sender<crate::bus::Stop>,
     /// The bus task.
     task: tokio::task::JoinHandle<()>,
     state: Rc<RefCell<State>>,
@@ -35,9 +35,9 @@ fn start(plant: &Plant) -> Harness {
     let (utx, mut urx) = mpsc::channel(4096);
     let (stx, srx) = mpsc::channel(64);
     let (atx, arx) = mpsc::channel(64);
-    let (stop, shutdown) = tokio::sync::watch::channel(false);
+    let (stop, shutdown) = tokio::sync::watch::channel(crate::bus::Stop::Run);
     let ctx = BusContext {
-        ix: 0,
+        ix: crate::model::BusSlot::new(0),
         bus,
         updates: utx,
         sets: srx,
@@ -165,7 +165,7 @@ async fn at_the_stop_every_answering_process_data_drive_gets_its_stop() {
             h.state.borrow_mut().dead.insert(3);
             sleep(Duration::from_secs(3)).await;
             assert!(h.state.borrow().stopped.is_empty());
-            h.stop.send(true).unwrap();
+            h.stop.send(crate::bus::Stop::Gateway).unwrap();
             let done = tokio::time::timeout(Duration::from_secs(5), h.task).await;
             assert!(
                 matches!(done, Ok(Ok(()))),

@@ -18,7 +18,7 @@ use serde_json::{Value, json};
 use tokio::sync::{oneshot, watch};
 
 use super::auth::{self, Who};
-use super::{DrivePath, Hub, json_response, not_found, unavailable};
+use super::{DriveAt, Hub, json_response, not_found, unavailable};
 use crate::config::{Bus, Drive};
 use crate::model::{Answer, Ask, AskOp, ControlOp, PageCommand};
 use crate::task::control::{no_control, setpoint_word, unit};
@@ -87,13 +87,13 @@ async fn ask(
     drive: usize,
     op: ControlOp,
 ) -> Option<Result<Answer, drive_client::ClientError>> {
-    let asks = hub.asks.get(bus)?;
+    let asks = hub.asks().get(bus)?.clone();
     let (reply, answer) = oneshot::channel();
     let ask = Ask {
         drive,
         op: AskOp::Control(op),
         received: tokio::time::Instant::now(),
-        max_age: hub.plant.gateway.max_set_age,
+        max_age: hub.plant().gateway.max_set_age,
         reply,
     };
     asks.send(ask).await.ok()?;
@@ -113,11 +113,11 @@ fn refused(e: &drive_client::ClientError) -> Response {
 
 async fn lease(
     State(hub): State<Arc<Hub>>,
-    axum::extract::Path((b, d)): DrivePath,
+    DriveAt(b, d): DriveAt,
     who: Option<axum::Extension<Who>>,
 ) -> Response {
-    let Some((bus, drive)) = hub
-        .plant
+    let plant = hub.plant();
+    let Some((bus, drive)) = plant
         .buses
         .get(b)
         .and_then(|bus| Some((bus, bus.drives.get(d)?)))
@@ -189,12 +189,12 @@ pub struct CommandBody {
 
 async fn command(
     State(hub): State<Arc<Hub>>,
-    axum::extract::Path((b, d)): DrivePath,
+    DriveAt(b, d): DriveAt,
     who: Option<axum::Extension<Who>>,
     axum::Json(body): axum::Json<CommandBody>,
 ) -> Response {
-    let Some((bus, drive)) = hub
-        .plant
+    let plant = hub.plant();
+    let Some((bus, drive)) = plant
         .buses
         .get(b)
         .and_then(|bus| Some((bus, bus.drives.get(d)?)))

@@ -153,6 +153,20 @@ pub struct History {
 }
 
 impl History {
+    /// A reloaded config: rings for the new plant's points, those of the buses that keep
+    /// running (`kept[old bus]` is its index in `plant`) with what they hold.
+    pub fn reconfigure(&mut self, plant: &Plant, kept: &[Option<usize>]) {
+        let mut new = History::new(plant);
+        for (old, to) in kept.iter().enumerate() {
+            if let (Some(to), Some(rings)) = (to, self.rings.get_mut(old))
+                && let Some(slot) = new.rings.get_mut(*to)
+            {
+                *slot = std::mem::take(rings);
+            }
+        }
+        *self = new;
+    }
+
     /// Rings for every point of `plant`, sized from their periods and shrunk together to
     /// [`MAX_SAMPLES`] where they would ask for more.
     pub fn new(plant: &Plant) -> History {
