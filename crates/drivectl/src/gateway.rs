@@ -67,7 +67,11 @@ pub fn run(args: &GatewayArgs) -> Result<()> {
         drivebus_gateway::Source::once("-")
     } else {
         let (file, broker, simulate) = (path.to_owned(), args.broker.clone(), args.simulate);
-        drivebus_gateway::Source::file(path, move || load(&file, broker.as_deref(), simulate))
+        // The status topic names the file as a plant's IT finds it.
+        let shown = std::fs::canonicalize(path)
+            .map(|p| p.display().to_string())
+            .unwrap_or_else(|_| path.to_owned());
+        drivebus_gateway::Source::file(shown, move || load(&file, broker.as_deref(), simulate))
     };
     drivebus_gateway::run_source(plant, source).map_err(cli_error)
 }

@@ -12,139 +12,18 @@
 )]
 
 mod common;
+#[path = "common/gateway.rs"]
+mod gateway;
 #[path = "../../drivebus-gateway/tests/common/mosquitto.rs"]
 mod mosquitto;
 
-use std::path::PathBuf;
-use std::process::{Child, Command, Stdio};
+use std::process::Command;
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
 use common::{PtySim, ok_json};
+use gateway::{Gateway, free_port, gw_state, metric, scrape, signal};
 use mosquitto::{BrokerOptions, Mosquitto, TestClient};
 use serde_json::{Value, json};
-
-/// A running `drivectl gateway`; killed when dropped.
-struct Gateway {
-    child: Option<Child>,
-    dir: PathBuf,
-    /// Its `DRIVECTL_STATE_DIR` (default: `state` in its directory).
-    state: Option<PathBuf>,
-}
-
-static SEQ: std::sync::atomic::AtomicU32 = std::sync::atomic::AtomicU32::new(0);
-
-impl Gateway {
-    /// Write `config` and start `drivectl gateway --config … <extra>`; its log goes to a file.
-    fn start(config: &str, extra: &[&str]) -> Gateway {
-        let dir = std::env::temp_dir().join(format!(
-            "drivebus-gw-{}-{}",
-            std::process::id(),
-            SEQ.fetch_add(1, std::sync::atomic::Ordering::Relaxed)
-        ));
-        let _ = std::fs::remove_dir_all(&dir);
-        std::fs::create_dir_all(&dir).unwrap();
-        let mut gw = Gateway {
-            child: None,
-            dir,
-            state: None,
-        };
-        gw.write_config(config);
-        gw.spawn(extra);
-        gw
-    }
-
-    /// [`Gateway::start`] with `state` as its `DRIVECTL_STATE_DIR`.
-    fn start_with_state(config: &str, state: PathBuf) -> Gateway {
-        let dir = std::env::temp_dir().join(format!(
-            "drivebus-gw-{}-{}",
-            std::process::id(),
-            SEQ.fetch_add(1, std::sync::atomic::Ordering::Relaxed)
-        ));
-        let _ = std::fs::remove_dir_all(&dir);
-        std::fs::create_dir_all(&dir).unwrap();
-        let mut gw = Gateway {
-            child: None,
-            dir,
-            state: Some(state),
-        };
-        gw.write_config(config);
-        gw.spawn(&[]);
-        gw
-    }
-
-    fn write_config(&self, config: &str) {
-        std::fs::write(self.dir.join("plant.toml"), config).unwrap();
-    }
-
-    fn spawn(&mut self, extra: &[&str]) {
-        let log = std::fs::File::create(self.dir.join("gateway.log")).unwrap();
-        let state = self.state.clone().unwrap_or_else(|| self.dir.join("state"));
-        let child = Command::new(env!("CARGO_BIN_EXE_drivectl"))
-            .arg("gateway")
-            .arg("--config")
-            .arg(self.dir.join("plant.toml"))
-            .args(extra)
-            .env("DRIVECTL_STATE_DIR", state)
-            .stdout(Stdio::null())
-            .stderr(log)
-            .spawn()
-            .expect("drivectl gateway starts");
-        self.child = Some(child);
-    }
-
-    fn log(&self) -> String {
-        std::fs::read_to_string(self.dir.join("gateway.log")).unwrap_or_default()
-    }
-
-    /// SIGTERM (systemd's stop) and wait for the exit (5 s at most); the exit status.
-    fn terminate(&mut self) -> std::process::ExitStatus {
-        self.stop_with("TERM")
-    }
-
-    /// Send `sig` and wait for the exit (5 s at most); the exit status.
-    fn stop_with(&mut self, sig: &str) -> std::process::ExitStatus {
-        let mut child = self.child.take().expect("running");
-        signal(child.id(), sig);
-        let deadline = Instant::now() + Duration::from_secs(5);
-        loop {
-            if let Some(s) = child.try_wait().unwrap() {
-                return s;
-            }
-            if Instant::now() > deadline {
-                let _ = child.kill();
-                panic!(
-                    "the gateway did not stop within 5 s of SIG{sig}:\n{}",
-                    self.log()
-                );
-            }
-            std::thread::sleep(Duration::from_millis(20));
-        }
-    }
-}
-
-impl Drop for Gateway {
-    fn drop(&mut self) {
-        if let Some(mut c) = self.child.take() {
-            let _ = c.kill();
-            let _ = c.wait();
-        }
-        if !std::thread::panicking() {
-            let _ = std::fs::remove_dir_all(&self.dir);
-        } else {
-            eprintln!("gateway log ({}):\n{}", self.dir.display(), self.log());
-        }
-    }
-}
-
-fn signal(pid: u32, sig: &str) {
-    let ok = Command::new("kill")
-        .arg(format!("-{sig}"))
-        .arg(pid.to_string())
-        .status()
-        .unwrap()
-        .success();
-    assert!(ok, "kill -{sig} {pid}");
-}
 
 /// Every figure in the gateway's log is rounded to what is meaningful: no number with more
 /// than four decimals (`demand=0.06797656140000001` was one), timestamps aside.
@@ -433,7 +312,7 @@ async fn every_family_end_to_end_over_ptys() {
     let gw = Gateway::start(&config, &[]);
     let online = seen
         .wait(&mut c, "drivebus/gw/status", Duration::from_secs(10), |p| {
-            p == b"online"
+            gw_state(p) == "online"
         })
         .await;
     assert!(online.is_some(), "{}", gw.log());
@@ -495,7 +374,7 @@ async fn every_family_end_to_end_over_ptys() {
     );
     let last = seen
         .wait(&mut c, "drivebus/gw/status", Duration::from_secs(5), |p| {
-            p == b"offline"
+            gw_state(p) == "offline"
         })
         .await;
     assert!(last.is_some(), "offline at SIGTERM");
@@ -510,36 +389,6 @@ async fn every_family_end_to_end_over_ptys() {
 }
 
 /// A free TCP port on 127.0.0.1.
-fn free_port() -> u16 {
-    std::net::TcpListener::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port()
-}
-
-/// `GET /metrics` on 127.0.0.1:`port`.
-fn scrape(port: u16) -> String {
-    use std::io::{Read as _, Write as _};
-    let mut s = std::net::TcpStream::connect(("127.0.0.1", port)).unwrap();
-    s.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
-    s.write_all(b"GET /metrics HTTP/1.1\r\nHost: localhost\r\n\r\n")
-        .unwrap();
-    let mut out = String::new();
-    s.read_to_string(&mut out).unwrap();
-    assert!(out.starts_with("HTTP/1.1 200"), "{out}");
-    out
-}
-
-/// The value of the metric line starting with `prefix` (labels included), 0 when absent.
-fn metric(text: &str, prefix: &str) -> f64 {
-    text.lines()
-        .find(|l| l.starts_with(prefix))
-        .and_then(|l| l.rsplit(' ').next())
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(0.0)
-}
-
 /// A drive that stops answering is `timeout` within its period + timeout × attempts, and
 /// `online` again after it answers; a drive that never answers costs its bus one timeout per
 /// back-off and does not starve the drive beside it (counted on `/metrics`).
@@ -669,8 +518,9 @@ async fn retained_and_stale_sets_are_never_executed_also_after_restart() {
         .await;
     assert_eq!(v["raw"], 2000, "{v}");
 
-    // A retained `set` published while the gateway runs arrives live (MQTT 3.1.1 delivers it
-    // to a present subscriber without the retain flag): it is a present command, executed.
+    // A retained `set` published while the gateway runs: the gateway subscribes with MQTT 5's
+    // Retain As Published, so it arrives as retained (as a bridge passes a retained set on at
+    // each of its reconnections) and is refused and cleared, never executed.
     c.publish(
         &format!("{topic}/set"),
         json!({"value": 7.7, "id": "r2"}).to_string(),
@@ -686,9 +536,30 @@ async fn retained_and_stale_sets_are_never_executed_also_after_restart() {
         )
         .await;
     assert_eq!(
-        (r["ok"].clone(), r["raw"].clone()),
-        (json!(true), json!(7700)),
+        (r["ok"].clone(), r["reason"].clone()),
+        (json!(false), json!("retained")),
         "{r}"
+    );
+    tokio::time::sleep(Duration::from_secs(1)).await;
+    seen.clear(topic);
+    let v = seen
+        .json(&mut c, topic, Duration::from_secs(5), |_| true)
+        .await;
+    assert_eq!(v["raw"], 2000, "the retained set was not executed: {v}");
+    // Cleared by the gateway: a client that subscribes later does not get it.
+    let mut later = subscriber(&broker, "later").await;
+    let mut seen_later = Seen::default();
+    assert!(
+        seen_later
+            .wait(
+                &mut later,
+                &format!("{topic}/set"),
+                Duration::from_millis(500),
+                |p| !p.is_empty()
+            )
+            .await
+            .is_none(),
+        "the retained set was cleared"
     );
     // Restarted (the simulated plant starts again at the factory 2 s): the retained copy
     // reaches the new connection and is refused, never written again.
@@ -759,7 +630,7 @@ async fn broker_restart_reconnection_and_republication() {
     let mut seen = Seen::default();
     let online = seen
         .wait(&mut c, "drivebus/gw/status", Duration::from_secs(15), |p| {
-            p == b"online"
+            gw_state(p) == "online"
         })
         .await;
     assert!(online.is_some(), "{}", gw.log());
@@ -825,7 +696,7 @@ async fn accepted_then_refused(c: &mut TestClient, good: &str, bad: &str) -> Str
     let gw = Gateway::start(good, &[]);
     let online = seen
         .wait(c, "drivebus/gw/status", Duration::from_secs(10), |p| {
-            p == b"online"
+            gw_state(p) == "online"
         })
         .await;
     assert!(online.is_some(), "{}", gw.log());
@@ -838,7 +709,7 @@ async fn accepted_then_refused(c: &mut TestClient, good: &str, bad: &str) -> Str
     let mut gw = Gateway::start(bad, &[]);
     let online = seen
         .wait(c, "drivebus/gw/status", Duration::from_secs(3), |p| {
-            p == b"online"
+            gw_state(p) == "online"
         })
         .await;
     assert!(online.is_none(), "refused credentials must not get online");
@@ -883,7 +754,7 @@ async fn the_example_config_runs_with_simulate() {
             &mut c,
             "drivebus/cabinet-1/status",
             Duration::from_secs(10),
-            |p| p == b"online",
+            |p| gw_state(p) == "online",
         )
         .await;
     assert!(online.is_some(), "{}", gw.log());
@@ -1008,7 +879,7 @@ async fn a_flood_of_sets_for_unknown_points_is_logged_once() {
     let mut seen = Seen::default();
     let gw = Gateway::start(&config, &[]);
     seen.wait(&mut c, "drivebus/gw/status", Duration::from_secs(10), |p| {
-        p == b"online"
+        gw_state(p) == "online"
     })
     .await
     .expect("online");
@@ -1310,7 +1181,7 @@ async fn issue18_an_oversize_retained_set_does_not_end_the_connection() {
     );
     let mut gw = Gateway::start(&config, &[]);
     seen.wait(&mut c, "drivebus/gw/status", Duration::from_secs(10), |p| {
-        p == b"online"
+        gw_state(p) == "online"
     })
     .await
     .unwrap_or_else(|| panic!("never online:\n{}", gw.log()));
@@ -1351,7 +1222,7 @@ async fn issue18_an_oversize_retained_set_does_not_end_the_connection() {
         .cloned()
         .unwrap_or_default();
     assert!(
-        statuses.iter().all(|p| p == b"online"),
+        statuses.iter().all(|p| gw_state(p) == "online"),
         "the status flapped: {:?}",
         statuses
             .iter()
@@ -1401,7 +1272,7 @@ async fn issue18_two_gateways_with_one_client_id_are_told_apart_in_the_log() {
     let mut seen = Seen::default();
     let mut first = Gateway::start(&config, &[]);
     seen.wait(&mut c, "drivebus/gw/status", Duration::from_secs(10), |p| {
-        p == b"online"
+        gw_state(p) == "online"
     })
     .await
     .unwrap_or_else(|| panic!("never online:\n{}", first.log()));

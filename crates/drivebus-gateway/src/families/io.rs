@@ -151,6 +151,8 @@ impl<IO> Reopen<IO> {
                     Poll::Ready(Ok(io)) => {
                         if self.failures > 0 {
                             tracing::info!(bus = %self.bus, port = %self.what, "port open again");
+                        } else {
+                            tracing::info!(bus = %self.bus, port = %self.what, "port open");
                         }
                         self.failures = 0;
                         self.backoff = BACKOFF_MIN;

@@ -642,3 +642,53 @@ fn the_deployment_pages_config_is_accepted() {
     assert_eq!(plant.gateway.name, "cabinet-12");
     assert_eq!(plant.buses[0].drives[0].points.len(), 2);
 }
+
+/// Issue 22, item 2: a reload's metrics: the series of a bus or drive the new config no longer
+/// has are gone from the exposition, those that stay keep counting, new ones start at 0.
+#[test]
+fn a_reload_removes_the_series_that_went_and_keeps_the_counts_that_stay() {
+    let m = Metrics::new(&plant(2, 2));
+    m.transaction("line0", "d1", "read", "ok", Duration::from_millis(3));
+    m.transaction("line1", "d0", "read", "ok", Duration::from_millis(3));
+    m.retries("line1", 4);
+    m.drive_status("line1", "d1", "online");
+    // line1 goes, line0 keeps only d1.
+    let mut t = String::from("[gateway]\nname = \"gw1\"\nbroker = \"mqtt://127.0.0.1:1883\"\n");
+    t += "[[bus]]\nname = \"line0\"\nprotocol = \"movilink\"\nsimulate = true\n";
+    t += "[[bus.drive]]\nname = \"d1\"\naddress = 2\n[[bus.drive.param]]\nparam = \"P130\"\nperiod = \"1s\"\n";
+    t += "[[bus]]\nname = \"line9\"\nprotocol = \"movilink\"\nsimulate = true\n";
+    t += "[[bus.drive]]\nname = \"n\"\naddress = 1\n[[bus.drive.param]]\nparam = \"P130\"\nperiod = \"1s\"\n";
+    let reloaded = Plant::parse(&t, "test").unwrap();
+    m.reconfigure(&reloaded);
+    let text = m.encode();
+    assert!(!text.contains("line1"), "{text}");
+    assert!(!text.contains("drive=\"d0\""), "{text}");
+    assert_eq!(
+        sample(
+            &text,
+            "drivebus_transactions_total{bus=\"line0\",drive=\"d1\",op=\"read\",outcome=\"ok\"}"
+        ),
+        1.0
+    );
+    assert_eq!(
+        sample(
+            &text,
+            "drivebus_transactions_total{bus=\"line9\",drive=\"n\",op=\"read\",outcome=\"ok\"}"
+        ),
+        0.0
+    );
+    // Metric calls by the names of what went are dropped; by the new names, counted.
+    m.retries("line1", 1);
+    m.transaction("line9", "n", "read", "ok", Duration::from_millis(1));
+    m.transaction("line0", "d1", "read", "ok", Duration::from_millis(1));
+    let text = m.encode();
+    assert!(!text.contains("line1"), "{text}");
+    assert_eq!(
+        sample(
+            &text,
+            "drivebus_transactions_total{bus=\"line0\",drive=\"d1\",op=\"read\",outcome=\"ok\"}"
+        ),
+        2.0
+    );
+    assert_eq!(sample(&text, "drivebus_retries_total{bus=\"line9\"}"), 0.0);
+}

@@ -627,11 +627,16 @@ impl Task {
             id: Some(id),
             user_properties: Vec::new(),
         };
-        if let Err(e) = self.client.try_subscribe_with_properties(
-            &self.names.set_filter,
-            QoS::AtLeastOnce,
-            id(SETS),
-        ) {
+        // Retain As Published (MQTT 5): a set the broker holds retained arrives with its
+        // retained flag also while the gateway is connected (a retained set published then, or
+        // one a bridge passes on from another broker at each of its reconnections), so it is
+        // refused and cleared, never executed.
+        let mut sets = Filter::new(&self.names.set_filter, QoS::AtLeastOnce);
+        sets.preserve_retain = true;
+        if let Err(e) = self
+            .client
+            .try_subscribe_many_with_properties(vec![sets], id(SETS))
+        {
             tracing::warn!(error = %e, "cannot subscribe to the set topics");
         }
         // Retained topics of an earlier config: what the broker holds under the gateway's

@@ -692,6 +692,141 @@ mod tests {
         );
     }
 
+    /// A plant of the buses named, each with one drive `d` (address 1) and points `P130`
+    /// and the names in `points` (P700).
+    fn plant_of(buses: &[(&str, &[&str])]) -> Plant {
+        let mut text = "[gateway]\nname = \"gw\"\nbroker = \"mqtt://h\"\n".to_owned();
+        for (bus, points) in buses {
+            text.push_str(&format!(
+                "[[bus]]\nname = \"{bus}\"\nprotocol = \"movilink\"\nsimulate = true\n\
+                 [[bus.drive]]\nname = \"d\"\naddress = 1\n\
+                 [[bus.drive.param]]\nparam = \"P130\"\nperiod = \"1s\"\n"
+            ));
+            for p in *points {
+                text.push_str(&format!(
+                    "[[bus.drive.param]]\nparam = \"P700\"\nname = \"{p}\"\nperiod = \"1s\"\n"
+                ));
+            }
+        }
+        Plant::parse(&text, "test").unwrap()
+    }
+
+    fn reconfig(plant: &Plant, kept: Vec<Option<usize>>) -> Reconfig {
+        Reconfig {
+            generation: 2,
+            plant: std::sync::Arc::new(plant.clone()),
+            kept,
+            sets: Vec::new(),
+            asks: Vec::new(),
+            json: std::sync::Mutex::new(None),
+            sparkplug: std::sync::Mutex::new(None),
+        }
+    }
+
+    fn value_on(bus: usize, point: usize, raw: i64) -> Update {
+        Update::Value {
+            bus,
+            drive: 0,
+            point,
+            raw,
+            at: SystemTime::UNIX_EPOCH + Duration::from_millis(1234),
+        }
+    }
+
+    /// Issue 22, item 2: a reload keeps what is known of the buses that run on (moved to their
+    /// new places, nothing published again), queues the retained topics of what went to be
+    /// cleared (first, before results and values), and starts the new ones empty.
+    #[tokio::test(start_paused = true)]
+    async fn a_reload_carries_kept_buses_over_and_clears_the_topics_that_went() {
+        let old = plant_of(&[("a", &["mode"]), ("b", &["mode", "extra"])]);
+        let mut o = Outbox::new(&old);
+        let t = Instant::now();
+        o.update(value_on(0, 0, 100), t, &old);
+        o.update(value_on(1, 0, 200), t, &old);
+        o.update(value_on(1, 1, 11), t, &old);
+        o.update(
+            Update::Status {
+                bus: 1,
+                drive: 0,
+                status: DriveStatus::Timeout,
+                at: SystemTime::UNIX_EPOCH,
+            },
+            t,
+            &old,
+        );
+        drain(&mut o, t);
+        o.push_result(ResultMsg {
+            topic: "r".into(),
+            payload: "{}".into(),
+        });
+        // Bus b stays as it was and moves to index 0; bus a goes; bus c is new.
+        let new = plant_of(&[("b", &["mode", "extra"]), ("c", &[])]);
+        let r = reconfig(&new, vec![None, Some(0)]);
+        let cleared = o.reconfigure(&old, &r);
+        let gone = [
+            "drivebus/gw/a/status",
+            "drivebus/gw/a/d/status",
+            "drivebus/gw/a/d/pd",
+            "drivebus/gw/a/d/P130",
+            "drivebus/gw/a/d/mode",
+        ];
+        assert_eq!(cleared, gone.len());
+        let out = drain(&mut o, t);
+        let topics: Vec<&str> = out.iter().map(|(t, _, _)| t.as_str()).collect();
+        // The clears (empty, retained), then the result; nothing of b again.
+        let mut want: Vec<&str> = gone.to_vec();
+        want.push("r");
+        assert_eq!(topics, want, "{out:?}");
+        assert!(out[..gone.len()].iter().all(|(_, p, r)| p.is_empty() && *r));
+        // b's state came along: its drive is still in timeout, its value unchanged is not
+        // published again, a changed one is, under b's topic.
+        assert_eq!(o.status(0, 0), Some(&DriveStatus::Timeout));
+        o.update(value_on(0, 1, 11), t, &new);
+        let out = drain(&mut o, t);
+        assert_eq!(out.len(), 1, "stale, so published fresh: {out:?}");
+        assert_eq!(out[0].0, "drivebus/gw/b/d/mode");
+        o.update(value_on(0, 1, 11), t, &new);
+        assert!(
+            drain(&mut o, t).is_empty(),
+            "unchanged within the heartbeat"
+        );
+        // c is new: nothing known, its first value published.
+        assert_eq!(o.status(1, 0), None);
+        o.update(value_on(1, 0, 5), t, &new);
+        assert_eq!(drain(&mut o, t)[0].0, "drivebus/gw/c/d/P130");
+        // Updates that name the old numbering's bus 1 point 1 now name nothing.
+        assert!(!o.update(value_on(1, 1, 1), t, &new));
+        // At the next connection, what was known is published again, b's values included.
+        o.connected();
+        let again: Vec<String> = drain(&mut o, t).into_iter().map(|m| m.0).collect();
+        assert!(
+            again.contains(&"drivebus/gw/b/d/P130".to_owned()),
+            "{again:?}"
+        );
+        assert!(
+            !again.iter().any(|t| t.starts_with("drivebus/gw/a/")),
+            "{again:?}"
+        );
+    }
+
+    /// Clears wait for the connection (they are queued, not lost) and a topic that comes back
+    /// before they went out is not cleared.
+    #[tokio::test(start_paused = true)]
+    async fn clears_wait_for_the_broker_and_a_topic_back_again_is_kept() {
+        let one = plant_of(&[("a", &[]), ("b", &[])]);
+        let mut o = Outbox::new(&one);
+        let t = Instant::now();
+        let two = plant_of(&[("b", &[])]);
+        o.reconfigure(&one, &reconfig(&two, vec![None, Some(0)]));
+        assert_eq!(o.clears_waiting(), 4);
+        // a comes back (another reload) before the broker took the clears.
+        let three = plant_of(&[("b", &[]), ("a", &[])]);
+        o.reconfigure(&two, &reconfig(&three, vec![Some(0)]));
+        assert_eq!(o.clears_waiting(), 0, "a's topics are the config's again");
+        o.drop_clears();
+        assert!(drain(&mut o, t).is_empty());
+    }
+
     #[tokio::test(start_paused = true)]
     async fn values_on_change_and_heartbeat() {
         let p = plant();

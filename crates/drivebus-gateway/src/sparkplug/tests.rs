@@ -1085,3 +1085,101 @@ fn the_check_report_names_the_edge_node() {
          primary host \"scada\", beside the JSON topics"
     );
 }
+
+/// Issue 22, item 2: a reload on the same connection sends DDEATH for a device that went and
+/// then every birth again (NBIRTH seq 0 with the same bdSeq, a DBIRTH per device with the new
+/// catalogue's aliases), with the values of the drives whose bus runs on.
+#[test]
+fn a_reload_kills_the_devices_that_went_and_is_born_again_with_the_values_it_had() {
+    let one = plant("");
+    let sp = one.sparkplug.clone().unwrap();
+    let mut n = Node::new(&one, &sp);
+    born(&mut n, 3);
+    n.update(&value_update(0, 0, 2500, NOW), BORN);
+    n.flush(BORN);
+    // A second bus in front of the first, which runs on unchanged (its index becomes 1); the
+    // new bus's drive `fan` is new; none went.
+    let text = "[gateway]\nname = \"gw1\"\nbroker = \"mqtt://127.0.0.1:1883\"\nmetrics = \"off\"\n\
+         max_set_age = \"10s\"\n\
+         [sparkplug]\ngroup_id = \"plant\"\nedge_node_id = \"cabinet1\"\n\
+         [[bus]]\nname = \"line0\"\nprotocol = \"modbus-rtu\"\nsimulate = true\n\
+         [[bus.drive]]\nname = \"fan\"\naddress = 1\n\
+         [[bus.drive.param]]\nparam = \"241\"\nname = \"frequency\"\nperiod = \"1s\"\n\
+         [[bus]]\nname = \"line1\"\nprotocol = \"movilink\"\nsimulate = true\n\
+         [[bus.drive]]\nname = \"conv\"\naddress = 1\n\
+         [[bus.drive.param]]\nparam = \"P130\"\nname = \"ramp\"\nperiod = \"1s\"\nwritable = true\n\
+         [[bus.drive.param]]\nparam = \"P700\"\nname = \"mode\"\nperiod = \"1s\"\n";
+    let two = Plant::parse(text, "test").unwrap();
+    let r = crate::model::Reconfig {
+        generation: 2,
+        plant: std::sync::Arc::new(two.clone()),
+        // line1 stays but lost its drive `pump`: it is a changed bus, restarted.
+        kept: vec![None],
+        sets: Vec::new(),
+        asks: Vec::new(),
+        json: std::sync::Mutex::new(None),
+        sparkplug: std::sync::Mutex::new(None),
+    };
+    let out = n.reconfigure(&r, two.sparkplug.as_ref().unwrap(), BORN + 5);
+    let p = publishes(&out);
+    let topics: Vec<&str> = p.iter().map(|(t, _)| *t).collect();
+    assert_eq!(
+        topics,
+        [
+            "spBv1.0/plant/DDEATH/cabinet1/conv",
+            "spBv1.0/plant/DDEATH/cabinet1/pump",
+            "spBv1.0/plant/NBIRTH/cabinet1",
+            "spBv1.0/plant/DBIRTH/cabinet1/fan",
+            "spBv1.0/plant/DBIRTH/cabinet1/conv",
+        ]
+    );
+    // The DDEATHs carry the next seq of the old session; the rebirth starts at 0 with the
+    // connection's bdSeq.
+    let nbirth = &p[2].1;
+    assert_eq!(nbirth.seq, Some(0));
+    assert_eq!(
+        value::get(metric(nbirth, "bdSeq"), DataType::Int64).unwrap(),
+        Number::Int(3),
+        "{nbirth:?}"
+    );
+    assert_eq!(n.phase(), Phase::Born);
+
+    // Now the same bus runs on (kept): its drive's value is in its DBIRTH, no DDEATH.
+    let three = two.clone();
+    let r = crate::model::Reconfig {
+        generation: 3,
+        plant: std::sync::Arc::new(three.clone()),
+        kept: vec![Some(0), Some(1)],
+        sets: Vec::new(),
+        asks: Vec::new(),
+        json: std::sync::Mutex::new(None),
+        sparkplug: std::sync::Mutex::new(None),
+    };
+    n.update(
+        &Update::Value {
+            bus: 1,
+            drive: 0,
+            point: 0,
+            raw: 3000,
+            at: UNIX_EPOCH + Duration::from_millis(NOW),
+        },
+        BORN + 6,
+    );
+    let out = n.reconfigure(&r, three.sparkplug.as_ref().unwrap(), BORN + 7);
+    let p = publishes(&out);
+    let topics: Vec<&str> = p.iter().map(|(t, _)| *t).collect();
+    assert_eq!(
+        topics,
+        [
+            "spBv1.0/plant/NBIRTH/cabinet1",
+            "spBv1.0/plant/DBIRTH/cabinet1/fan",
+            "spBv1.0/plant/DBIRTH/cabinet1/conv",
+        ]
+    );
+    let conv = &p[2].1;
+    assert_eq!(
+        value::get(metric(conv, "ramp"), DataType::Double).unwrap(),
+        Number::Float(3.0),
+        "{conv:?}"
+    );
+}

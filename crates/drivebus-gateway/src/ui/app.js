@@ -82,6 +82,7 @@ function render(plant) {
         box.type = "checkbox";
         box.title = "show in the trend (up to 8)";
         box.dataset.key = `${b}.${d}.${i}`;
+        box.checked = trend.has(box.dataset.key);
         box.addEventListener("change", () => toggleTrend(box, `${b}.${d}.${i}`, `${drive.name} ${p.name}`, p));
         pick.append(box);
         tr.append(pick, name, cell);
@@ -105,13 +106,46 @@ function render(plant) {
 
 async function load() {
   const r = await fetch("/api/plant", { cache: "no-store" });
-  render(await r.json());
+  const plant = await r.json();
+  shownPlant = plant;
+  plantGeneration = plant.generation;
+  render(plant);
   rendered = true;
   if (refreshAfterLoad) { refreshAfterLoad = false; refresh(); }
   // Every drive is on the page from here on: scripts/ui-measure reads the first of these.
   performance.mark("plant-shown");
 }
 let rendered = false;
+// The plant as shown (names and numbers), for a reload of the gateway's config.
+let shownPlant = null;
+// Between a reload's notice and the reloaded plant on the page: events are not drawn (their
+// numbers are the new plant's).
+let reloading = false;
+
+// The gateway's config was reloaded: the plant again (its buses may have other numbers now),
+// the trend's points carried over by name, the drive view told.
+async function reloadPlant() {
+  reloading = true;
+  cells = {};
+  try {
+    const r = await fetch("/api/plant", { cache: "no-store" });
+    if (!r.ok) return;
+    const plant = await r.json();
+    trendRekey(shownPlant, plant);
+    shownPlant = plant;
+    plantGeneration = plant.generation;
+    render(plant);
+    if (!driveView.hidden) {
+      const note = document.getElementById("reloaded") || el("p", "control-note");
+      note.id = "reloaded";
+      note.textContent = `The gateway's config was reloaded (generation ${plant.generation}): this view still reaches its drive if its bus runs on unchanged; otherwise go back to the plant.`;
+      if (!note.parentNode) driveView.prepend(note);
+    }
+  } finally {
+    reloading = false;
+  }
+  trendReload();
+}
 // The stream opened while the first load was on its way: refresh once it is shown.
 let refreshAfterLoad = false;
 
@@ -186,6 +220,8 @@ function follow() {
 
 function onEvent(data) {
   const e = JSON.parse(data);
+  if (e.type === "reload") { reloadPlant(); return; }
+  if (reloading) return;
   if (e.type === "value" && e.payload && e.payload.ts) noteLatency(Date.now() - e.payload.ts);
   if (e.type === "value") {
     const c = cells[`v${e.bus}.${e.drive}.${e.point}`];
@@ -264,6 +300,7 @@ async function showParams(b, d, term, list, count) {
 }
 
 function openDrive(b, d) {
+  driveGeneration = plantGeneration;
   main.hidden = true;
   driveView.hidden = false;
   driveView.replaceChildren();

@@ -6,6 +6,23 @@
 let csrfToken = null;
 let sessionInfo = null;
 
+// The gateway's config generation of the plant this page shows (app.js) and of the open drive
+// view: sent with every request that names a bus by its number, so that after a reload of the
+// gateway's config a request reaches the drive this page means, or is refused (409: its bus was
+// removed or changed), never another drive that now has that number.
+let plantGeneration = null;
+let driveGeneration = null;
+const plainFetch = window.fetch.bind(window);
+window.fetch = (input, init) => {
+  const path = typeof input === "string" ? input : "";
+  const g = path.startsWith("/api/drive/") ? driveGeneration
+    : path.startsWith("/api/history/") ? plantGeneration : null;
+  if (g === null) return plainFetch(input, init);
+  const o = Object.assign({}, init || {});
+  o.headers = Object.assign({}, o.headers || {}, { "X-Drivebus-Generation": String(g) });
+  return plainFetch(input, o);
+};
+
 function loginEl(tag, attrs, text) {
   const e = document.createElement(tag);
   for (const [k, v] of Object.entries(attrs || {})) e.setAttribute(k, v);

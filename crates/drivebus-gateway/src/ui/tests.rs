@@ -420,3 +420,130 @@ fn a_one_bus_ctt2_plant_is_simulated_and_its_polls_fit_the_as_i_link() {
     let found = one.scan(1, 8, &mut |_, _| {}).unwrap();
     assert_eq!(found, vec![1, 5]);
 }
+
+/// One GET with extra header lines.
+async fn get_with(addr: SocketAddr, path: &str, headers: &str) -> String {
+    let mut s = tokio::net::TcpStream::connect(addr).await.unwrap();
+    s.write_all(
+        format!("GET {path} HTTP/1.1\r\nHost: 127.0.0.1\r\n{headers}Connection: close\r\n\r\n")
+            .as_bytes(),
+    )
+    .await
+    .unwrap();
+    let mut got = Vec::new();
+    tokio::time::timeout(Duration::from_secs(5), s.read_to_end(&mut got))
+        .await
+        .unwrap()
+        .unwrap();
+    String::from_utf8_lossy(&got).into_owned()
+}
+
+/// Issue 22, item 2: a reload moves the page to the new plant (the latest of the buses that
+/// run on kept, the pages told), and a page that still shows the old plant reaches the drive it
+/// means by its old numbers, or is refused (409): never another drive that now has them.
+#[tokio::test]
+async fn a_reload_moves_the_page_and_old_numbers_reach_their_drive_or_are_refused() {
+    let movilink = |name: &str| {
+        format!(
+            "[[bus]]\nname = \"{name}\"\nprotocol = \"movilink\"\nsimulate = true\n\
+             [[bus.drive]]\nname = \"d\"\naddress = 1\n\
+             [[bus.drive.param]]\nparam = \"P130\"\nperiod = \"1s\"\n"
+        )
+    };
+    let modbus = "[[bus]]\nname = \"b\"\nprotocol = \"modbus-rtu\"\nsimulate = true\n\
+                  [[bus.drive]]\nname = \"e\"\naddress = 1\n\
+                  [[bus.drive.param]]\nparam = \"241\"\nperiod = \"1s\"\n";
+    let two = |first: &str, second: &str| {
+        Arc::new(
+            Plant::parse(
+                &format!(
+                    "[gateway]\nname = \"gw\"\nbroker = \"off\"\n{first}{second}\
+                     [ui]\nlisten = \"127.0.0.1:0\"\n"
+                ),
+                "test",
+            )
+            .unwrap(),
+        )
+    };
+    let old = two(&movilink("a"), modbus);
+    let hub = Hub::new(old.clone());
+    assert_eq!(hub.generation(), 1);
+    hub.apply(&Update::Value {
+        bus: 1,
+        drive: 0,
+        point: 0,
+        raw: 4200,
+        at: SystemTime::now(),
+    });
+    let mut watcher = hub.subscribe();
+    let listener = bind("127.0.0.1:0".parse().unwrap()).await.unwrap();
+    let addr = listener.local_addr().unwrap();
+    tokio::spawn(serve(listener, hub.clone(), std::future::pending()));
+
+    // Bus b runs on and moves to 0; a goes; c is new at 1.
+    let new = two(modbus, &movilink("c"));
+    let r = Reconfig {
+        generation: 2,
+        plant: new.clone(),
+        kept: vec![None, Some(0)],
+        sets: Vec::new(),
+        asks: Vec::new(),
+        json: std::sync::Mutex::new(None),
+        sparkplug: std::sync::Mutex::new(None),
+    };
+    assert_eq!(new.buses[0], old.buses[1], "b runs on as it was");
+    hub.reconfigure(&r);
+    let told: Value = serde_json::from_str(&watcher.recv().await.unwrap()).unwrap();
+    assert_eq!(told, json!({"type": "reload", "generation": 2}));
+    let v = hub.plant_json();
+    assert_eq!(v["generation"], 2);
+    assert_eq!(v["buses"][0]["name"], "b");
+    assert_eq!(
+        v["buses"][0]["drives"][0]["points"][0]["latest"]["raw"], 4200,
+        "b's latest came along: {v}"
+    );
+    assert_eq!(
+        v["buses"][1]["drives"][0]["points"][0]["latest"],
+        Value::Null
+    );
+    // Numbers as the old page knows them.
+    assert_eq!(hub.resolve(Some(1), 1), Ok(0));
+    assert_eq!(hub.resolve(Some(1), 0), Err(Reloaded));
+    assert_eq!(hub.resolve(Some(2), 1), Ok(1));
+    assert_eq!(hub.resolve(None, 1), Ok(1));
+    assert_eq!(hub.resolve(Some(7), 0), Err(Reloaded));
+
+    // Over HTTP: bus 1 of generation 1 is b (the modbus drive `e`), bus 0 of it was a: 409.
+    let ok = get_with(
+        addr,
+        "/api/drive/1/0/params",
+        "X-Drivebus-Generation: 1\r\n",
+    )
+    .await;
+    assert!(ok.starts_with("HTTP/1.1 200"), "{ok}");
+    assert!(
+        ok.contains(r#""bus":"b""#) && ok.contains(r#""drive":"e""#),
+        "{ok}"
+    );
+    let gone = get_with(
+        addr,
+        "/api/drive/0/0/params",
+        "X-Drivebus-Generation: 1\r\n",
+    )
+    .await;
+    assert!(gone.starts_with("HTTP/1.1 409"), "{gone}");
+    assert!(gone.contains("reloaded"), "{gone}");
+    // Without the header: the current numbers; with a header that is no number: 400.
+    let now = get_with(addr, "/api/drive/1/0/params", "").await;
+    assert!(now.contains(r#""bus":"c""#), "{now}");
+    let bad = get_with(
+        addr,
+        "/api/drive/1/0/params",
+        "X-Drivebus-Generation: x\r\n",
+    )
+    .await;
+    assert!(bad.starts_with("HTTP/1.1 400"), "{bad}");
+    // The trend's history by old numbers too.
+    let h = get_with(addr, "/api/history/1/0/0", "X-Drivebus-Generation: 1\r\n").await;
+    assert!(h.starts_with("HTTP/1.1 200") && h.contains("4200"), "{h}");
+}

@@ -101,6 +101,29 @@ function trim(t) {
   if (n) t.samples.splice(0, n);
 }
 
+// The gateway's config was reloaded: each point of the trend under its number in `after`, found
+// by its bus, drive and point names in `before`; a point the reloaded config no longer has
+// leaves the trend.
+function trendRekey(before, after) {
+  if (!before) return;
+  const at = new Map();
+  after.buses.forEach((bus, b) => bus.drives.forEach((drive, d) => drive.points.forEach((p, i) => {
+    at.set(`${bus.name}\u0000${drive.name}\u0000${p.name}`, `${b}.${d}.${i}`);
+  })));
+  const old = [...trend.entries()];
+  trend.clear();
+  for (const [key, t] of old) {
+    const [b, d, i] = key.split(".").map(Number);
+    const bus = before.buses[b], drive = bus && bus.drives[d], p = drive && drive.points[i];
+    const next = p && at.get(`${bus.name}\u0000${drive.name}\u0000${p.name}`);
+    if (next) {
+      t.bus = Number(next.split(".")[0]);
+      trend.set(next, t);
+    }
+  }
+  drawTrend();
+}
+
 // A live value (from app.js's event stream).
 function addSample(key, v) {
   const t = trend.get(key);

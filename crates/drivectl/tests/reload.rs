@@ -1,0 +1,349 @@
+//! Issue 22, item 2: `drivectl gateway` reads its config again at SIGHUP, as `systemctl reload`
+//! asks, against a real Mosquitto broker and a drive behind a pseudo-terminal: a bus whose
+//! settings did not change keeps running (its port stays open, its polls keep their period, a
+//! write under way is answered), a new drive appears, a removed one's retained topics are gone,
+//! and a broken config changes nothing and says why on the gateway's status topic.
+
+// Test code: helpers outside `#[test]` fns panic by design.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic
+)]
+
+mod common;
+#[path = "common/gateway.rs"]
+mod gateway;
+#[path = "../../drivebus-gateway/tests/common/mosquitto.rs"]
+mod mosquitto;
+
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
+
+use common::PtySim;
+use gateway::{Gateway, free_port, metric, scrape};
+use mosquitto::{BrokerOptions, Mosquitto, TestClient};
+use serde_json::{Value, json};
+
+const WAIT: Duration = Duration::from_secs(15);
+
+fn now_ms() -> u64 {
+    SystemTime::now()
+        .duration_since(UNIX_EPOCH)
+        .unwrap()
+        .as_millis() as u64
+}
+
+/// A subscriber that keeps what it received on other topics for later questions.
+struct Inbox {
+    c: TestClient,
+    kept: Vec<(String, Value)>,
+}
+
+impl Inbox {
+    async fn connect(broker: &Mosquitto, id: &str, topics: &[&str]) -> Inbox {
+        Inbox {
+            c: TestClient::connect(broker.client_options(id, None), topics).await,
+            kept: Vec::new(),
+        }
+    }
+
+    /// The first JSON message on `topic` (kept from before, or arriving within [`WAIT`]) that
+    /// satisfies `pred`; it and the messages on `topic` before it are taken.
+    async fn next(
+        &mut self,
+        topic: &str,
+        what: &str,
+        mut pred: impl FnMut(&Value) -> bool,
+    ) -> Value {
+        let deadline = tokio::time::Instant::now() + WAIT;
+        loop {
+            if let Some(i) = self.kept.iter().position(|(t, v)| t == topic && pred(v)) {
+                let v = self.kept[i].1.clone();
+                let mut k = 0;
+                self.kept.retain(|(t, _)| {
+                    let keep = !(t == topic && k <= i);
+                    k += 1;
+                    keep
+                });
+                return v;
+            }
+            let left = deadline.saturating_duration_since(tokio::time::Instant::now());
+            if left.is_zero() {
+                panic!(
+                    "no {what} on {topic} within {} s; got {:?}",
+                    WAIT.as_secs(),
+                    self.kept
+                        .iter()
+                        .filter(|(t, _)| t == topic)
+                        .collect::<Vec<_>>()
+                );
+            }
+            for p in self.c.collect(left.min(Duration::from_millis(100))).await {
+                if !p.payload.is_empty()
+                    && let Ok(v) = serde_json::from_slice(&p.payload)
+                {
+                    self.kept.push((p.topic.clone(), v));
+                }
+            }
+        }
+    }
+
+    async fn publish(&self, topic: &str, payload: String) {
+        self.c.publish(topic, payload, false).await;
+    }
+}
+
+/// The kept bus's reads counted on `/metrics` every 20 ms, with when, until stopped.
+struct Sampler {
+    stop: Arc<AtomicBool>,
+    samples: Arc<Mutex<Vec<(Instant, f64)>>>,
+    thread: Option<std::thread::JoinHandle<()>>,
+}
+
+const KEEP_READS: &str =
+    "drivebus_transactions_total{bus=\"keep\",drive=\"d1\",op=\"read\",outcome=\"ok\"}";
+
+impl Sampler {
+    fn start(port: u16) -> Sampler {
+        let stop = Arc::new(AtomicBool::new(false));
+        let samples = Arc::new(Mutex::new(Vec::new()));
+        let (s, v) = (stop.clone(), samples.clone());
+        let thread = std::thread::spawn(move || {
+            while !s.load(Ordering::Relaxed) {
+                let n = metric(&scrape(port), KEEP_READS);
+                v.lock().unwrap().push((Instant::now(), n));
+                std::thread::sleep(Duration::from_millis(20));
+            }
+        });
+        Sampler {
+            stop,
+            samples,
+            thread: Some(thread),
+        }
+    }
+
+    fn finish(mut self) -> Vec<(Instant, f64)> {
+        self.stop.store(true, Ordering::Relaxed);
+        if let Some(t) = self.thread.take() {
+            t.join().unwrap();
+        }
+        self.samples.lock().unwrap().clone()
+    }
+}
+
+/// The times between one increase of the count and the next, in ms, for the samples in
+/// `[from, to]`.
+fn gaps(samples: &[(Instant, f64)], from: Instant, to: Instant) -> Vec<u64> {
+    let mut out = Vec::new();
+    let mut last: Option<(Instant, f64)> = None;
+    for &(t, n) in samples.iter().filter(|(t, _)| *t >= from && *t <= to) {
+        match last {
+            Some((lt, ln)) if n > ln => {
+                out.push(t.duration_since(lt).as_millis() as u64);
+                last = Some((t, n));
+            }
+            None => last = Some((t, n)),
+            _ => {}
+        }
+    }
+    out
+}
+
+fn median(v: &[u64]) -> u64 {
+    let mut s = v.to_vec();
+    s.sort_unstable();
+    s.get(s.len() / 2).copied().unwrap_or(0)
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn issue22_sighup_reloads_the_config_and_keeps_what_did_not_change() {
+    let Some(broker) = Mosquitto::start(BrokerOptions::default()) else {
+        return;
+    };
+    let sim = PtySim::start(&[
+        "sim", "movilink", "--pty", "--parity", "none", "--addr", "1",
+    ]);
+    let port = free_port();
+    let head = format!(
+        "[gateway]\nname = \"gw\"\nbroker = \"{}\"\nmetrics = \"127.0.0.1:{port}\"\n\
+         heartbeat = \"2s\"\nmax_set_age = \"10s\"\n",
+        broker.url()
+    );
+    // On a real port: reads every 100 ms (a MOVILINK read at 9600 baud takes about 25 ms).
+    let keep = format!(
+        "[[bus]]\nname = \"keep\"\nprotocol = \"movilink\"\nport = \"{}\"\nparity = \"none\"\n\
+         [[bus.drive]]\nname = \"d1\"\naddress = 1\n\
+         [[bus.drive.param]]\nparam = \"P000\"\nname = \"speed\"\nperiod = \"100ms\"\n\
+         [[bus.drive.param]]\nparam = \"P130\"\nname = \"ramp\"\nperiod = \"1s\"\nwritable = true\n",
+        sim.path
+    );
+    let gone = "[[bus]]\nname = \"gone\"\nprotocol = \"modbus-rtu\"\nsimulate = true\n\
+                [[bus.drive]]\nname = \"d2\"\naddress = 1\n\
+                [[bus.drive.param]]\nparam = \"241\"\nname = \"frequency\"\nperiod = \"500ms\"\n";
+    let fresh = "[[bus]]\nname = \"fresh\"\nprotocol = \"sbus\"\nsimulate = true\n\
+                 [[bus.drive]]\nname = \"d3\"\naddress = 3\n\
+                 [[bus.drive.param]]\nparam = \"P000\"\nname = \"speed\"\nperiod = \"500ms\"\n";
+    let mut c = Inbox::connect(&broker, "scada", &["drivebus/gw/#"]).await;
+    let mut gw = Gateway::start(&format!("{head}{keep}{gone}"), &[]);
+    let status = "drivebus/gw/status";
+    let v = c.next(status, "online", |v| v["state"] == "online").await;
+    assert_eq!(v["config"]["generation"], 1, "{v}");
+    let file = gw.dir.join("plant.toml");
+    assert_eq!(
+        v["config"]["file"],
+        json!(std::fs::canonicalize(&file).unwrap().to_string_lossy()),
+        "the status names the config file: {v}"
+    );
+    c.next("drivebus/gw/gone/d2/frequency", "a value", |_| true)
+        .await;
+    c.next("drivebus/gw/keep/d1/speed", "a value", |_| true)
+        .await;
+
+    // The reload: `fresh` before `keep` (which moves from bus 0 to bus 1), `gone` removed, and
+    // a write of the kept bus on its way.
+    let sampler = Sampler::start(port);
+    tokio::time::sleep(Duration::from_millis(1500)).await;
+    gw.write_config(&format!("{head}{fresh}{keep}"));
+    c.publish(
+        "drivebus/gw/keep/d1/ramp/set",
+        json!({"value": 3.5, "ts": now_ms(), "id": "w1"}).to_string(),
+    )
+    .await;
+    let reload_at = Instant::now();
+    gw.signal("HUP");
+    let v = c
+        .next(status, "generation 2", |v| v["config"]["generation"] == 2)
+        .await;
+    let effect = Instant::now();
+    assert_eq!(v["state"], "online", "{v}");
+    assert_eq!(v["config"]["last_reload"]["ok"], true, "{v}");
+    // The write under way was executed, on the bus that ran on.
+    let r = c
+        .next("drivebus/gw/keep/d1/ramp/result", "w1's result", |r| {
+            r["id"] == "w1"
+        })
+        .await;
+    assert_eq!(
+        (&r["outcome"], &r["raw"]),
+        (&json!("written"), &json!(3500)),
+        "{r}"
+    );
+    // The new drive appears.
+    let st = c
+        .next("drivebus/gw/fresh/d3/status", "d3's status", |_| true)
+        .await;
+    assert_eq!(st["state"], "online", "{st}");
+    c.next("drivebus/gw/fresh/d3/speed", "d3's value", |_| true)
+        .await;
+    // A write to the kept bus at its new place, after the reload.
+    c.publish(
+        "drivebus/gw/keep/d1/ramp/set",
+        json!({"value": 4.5, "ts": now_ms(), "id": "w2"}).to_string(),
+    )
+    .await;
+    let r = c
+        .next("drivebus/gw/keep/d1/ramp/result", "w2's result", |r| {
+            r["id"] == "w2"
+        })
+        .await;
+    assert_eq!(
+        (&r["outcome"], &r["raw"]),
+        (&json!("written"), &json!(4500)),
+        "{r}"
+    );
+    tokio::time::sleep(Duration::from_millis(1500)).await;
+    let samples = sampler.finish();
+
+    // The kept bus kept its period across the reload: the longest time without a read around
+    // it is that of the minutes before, not a restart's.
+    let before = gaps(&samples, reload_at - Duration::from_millis(1500), reload_at);
+    let across = gaps(
+        &samples,
+        reload_at - Duration::from_millis(200),
+        effect + Duration::from_millis(1000),
+    );
+    let (typical, worst) = (median(&before), across.iter().copied().max().unwrap_or(0));
+    eprintln!(
+        "kept bus reads: median gap before the reload {typical} ms (of {} gaps), longest across \
+         it {worst} ms (of {}); the reload took {} ms from SIGHUP to the new status",
+        before.len(),
+        across.len(),
+        effect.duration_since(reload_at).as_millis()
+    );
+    assert!(before.len() >= 5 && across.len() >= 5, "{samples:?}");
+    assert!(
+        worst <= 400,
+        "the kept bus stopped polling for {worst} ms across the reload (typical {typical} ms)"
+    );
+    // Its counts went on (no restart of its series).
+    let last = samples.last().map_or(0.0, |s| s.1);
+    assert!(last > samples[0].1, "{samples:?}");
+    // Its port was opened once, and never again.
+    let log = gw.log();
+    let opened = log
+        .lines()
+        .filter(|l| l.contains("port open") && l.contains("bus=keep"))
+        .count();
+    assert_eq!(opened, 1, "{log}");
+
+    // The removed bus's retained topics are gone: a new subscriber gets none of them.
+    let mut late =
+        TestClient::connect(broker.client_options("late", None), &["drivebus/gw/gone/#"]).await;
+    let left: Vec<String> = late
+        .collect(Duration::from_millis(700))
+        .await
+        .into_iter()
+        .filter(|p| !p.payload.is_empty())
+        .map(|p| p.topic)
+        .collect();
+    assert!(
+        left.is_empty(),
+        "retained topics of the removed bus: {left:?}"
+    );
+    // Nor does /metrics have its series.
+    let text = scrape(port);
+    assert!(!text.contains("bus=\"gone\""), "{text}");
+    assert!(text.contains("bus=\"fresh\""), "{text}");
+
+    // A broken config changes nothing and says why, on the status topic and in the log.
+    gw.write_config(&format!(
+        "{head}[[bus]]\nname = \"x\"\nprotocol = \"movilink\"\nperiod = 5\n"
+    ));
+    gw.signal("HUP");
+    let v = c
+        .next(status, "the refused reload", |v| {
+            v["config"]["last_reload"]["ok"] == false
+        })
+        .await;
+    assert_eq!(v["config"]["generation"], 2, "{v}");
+    let error = v["config"]["last_reload"]["error"].as_str().unwrap();
+    assert!(
+        error.contains("plant.toml:") && error.contains("period"),
+        "{error}"
+    );
+    assert!(
+        gw.log().contains("the reloaded config was refused"),
+        "{}",
+        gw.log()
+    );
+    // Still polling both buses, nothing cleared.
+    let mut after = TestClient::connect(
+        broker.client_options("after", None),
+        &["drivebus/gw/fresh/#", "drivebus/gw/keep/#"],
+    )
+    .await;
+    let got = after.collect(Duration::from_millis(1200)).await;
+    for t in ["drivebus/gw/fresh/d3/status", "drivebus/gw/keep/d1/speed"] {
+        assert!(
+            got.iter().any(|p| p.topic == t && !p.payload.is_empty()),
+            "{t} in {:?}",
+            got.iter().map(|p| &p.topic).collect::<Vec<_>>()
+        );
+    }
+    assert!(gw.running(), "{}", gw.log());
+    let status = gw.terminate();
+    assert!(status.success(), "{status:?}\n{}", gw.log());
+}
