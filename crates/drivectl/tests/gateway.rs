@@ -923,12 +923,12 @@ async fn sigterm_stops_the_drives_the_gateway_controls() {
     stops_the_drives_at("TERM").await;
 }
 
-/// Issue 18: SIGHUP (a closed terminal, or a reload asked for) and SIGQUIT stop the gateway as
-/// SIGTERM does, with the stop in the process data; they killed it without one (the signals'
-/// default action) and left the drive enabled.
+/// Issue 18: SIGQUIT stops the gateway as SIGTERM does, with the stop in the process data; it
+/// killed it without one (the signal's default action) and left the drive enabled. (SIGHUP
+/// reloads the config since issue 22, or stops the gateway when its terminal closed:
+/// `tests/reload.rs`.)
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn issue18_sighup_and_sigquit_stop_the_drives_the_gateway_controls() {
-    stops_the_drives_at("HUP").await;
+async fn issue18_sigquit_stops_the_drives_the_gateway_controls() {
     stops_the_drives_at("QUIT").await;
 }
 

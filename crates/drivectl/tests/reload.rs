@@ -347,3 +347,128 @@ async fn issue22_sighup_reloads_the_config_and_keeps_what_did_not_change() {
     let status = gw.terminate();
     assert!(status.success(), "{status:?}\n{}", gw.log());
 }
+
+/// A drive enabled over process data by the gateway of `config`'s bus `ml` (PI1's unit status
+/// 4 = enable, while no fault shows).
+fn enabled(sim: &PtySim) -> bool {
+    let p010 = common::ok_json(&sim.drivectl(&[
+        "movilink", "--port", &sim.path, "--parity", "none", "--addr", "1", "--json", "read",
+        "P010",
+    ]));
+    p010[0]["raw"].as_i64().unwrap() >> 8 & 0xFF == 4
+}
+
+/// SIGHUP is a reload: a drive the gateway controls over process data keeps running (no stop
+/// is sent); but when the gateway's terminal closes (the SIGHUP of a hang-up), it stops as at
+/// SIGTERM, and the drive gets its stop.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn issue22_sighup_reloads_with_the_drives_running_a_closed_terminal_stops_them() {
+    let Some(broker) = Mosquitto::start(BrokerOptions::default()) else {
+        return;
+    };
+    let sim = PtySim::start(&[
+        "sim", "movilink", "--pty", "--parity", "none", "--addr", "1",
+    ]);
+    let config = format!(
+        "[gateway]\nname = \"gw\"\nbroker = \"{}\"\nmetrics = \"off\"\nheartbeat = \"1s\"\n\
+         [[bus]]\nname = \"ml\"\nprotocol = \"movilink\"\nport = \"{}\"\nparity = \"none\"\n\
+         [[bus.drive]]\nname = \"d1\"\naddress = 1\n\
+         [bus.drive.process_data]\nperiod = \"50ms\"\nout = [6, 7500, 0]\n",
+        broker.url(),
+        sim.path
+    );
+    let mut c = Inbox::connect(&broker, "scada", &["drivebus/gw/#"]).await;
+    let mut gw = Gateway::start(&config, &[]);
+    c.next("drivebus/gw/ml/d1/pd", "the drive enabled", |v| {
+        v["in"][0].as_u64().is_some_and(|w| w >> 8 == 4)
+    })
+    .await;
+    gw.signal("HUP");
+    let v = c
+        .next("drivebus/gw/status", "the reload's outcome", |v| {
+            v["config"]["last_reload"]["ok"] == true
+        })
+        .await;
+    assert_eq!(v["config"]["generation"], 1, "the config is unchanged: {v}");
+    // Still enabled after the reload (the process data, published every heartbeat, read
+    // after it).
+    let after = now_ms();
+    let pd = c
+        .next(
+            "drivebus/gw/ml/d1/pd",
+            "process data after the reload",
+            |v| v["ts"].as_u64().is_some_and(|t| t > after + 200),
+        )
+        .await;
+    assert_eq!(pd["in"][0].as_u64().unwrap() >> 8, 4, "enabled: {pd}");
+    assert!(gw.running(), "{}", gw.log());
+    assert!(!gw.log().contains("stop sent"), "{}", gw.log());
+    assert!(gw.log().contains("the config is unchanged"), "{}", gw.log());
+    let status = gw.terminate();
+    assert!(status.success(), "{status:?}");
+    assert!(!enabled(&sim), "the stop at SIGTERM");
+
+    // In a terminal (a pseudo-terminal as the gateway's controlling terminal, python's
+    // pty.fork): SIGHUP with the terminal there reloads; the terminal closing stops it.
+    let dir = std::env::temp_dir().join(format!("drivebus-reload-pty-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let cfg = dir.join("plant.toml");
+    let log = dir.join("gateway.log");
+    std::fs::write(&cfg, &config).unwrap();
+    let script = r#"
+import os, pty, sys, time
+exe, cfg, log = sys.argv[1], sys.argv[2], sys.argv[3]
+pid, fd = pty.fork()
+if pid == 0:
+    f = os.open(log, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o644)
+    os.dup2(f, 2)
+    os.execv(exe, [exe, "gateway", "--config", cfg])
+def wait_for(text):
+    deadline = time.time() + 15
+    while time.time() < deadline:
+        if os.path.exists(log) and text in open(log).read():
+            return
+        time.sleep(0.05)
+    sys.exit("no " + text)
+wait_for("connected to the broker")
+time.sleep(1.0)
+os.kill(pid, 1)
+wait_for("SIGHUP: reading the config again")
+time.sleep(0.5)
+os.close(fd)
+_, status = os.waitpid(pid, 0)
+print(os.waitstatus_to_exitcode(status))
+"#;
+    let python = std::process::Command::new("python3")
+        .arg("-c")
+        .arg(script)
+        .arg(env!("CARGO_BIN_EXE_drivectl"))
+        .arg(&cfg)
+        .arg(&log)
+        .output();
+    let out = match python {
+        Ok(o) => o,
+        Err(e) if std::env::var_os("CI").is_none() => {
+            eprintln!("SKIPPED the terminal part: python3 cannot run ({e})");
+            return;
+        }
+        Err(e) => panic!("python3 (for a pseudo-terminal as controlling terminal): {e}"),
+    };
+    let text = std::fs::read_to_string(&log).unwrap_or_default();
+    assert!(
+        out.status.success(),
+        "{}\n{}",
+        String::from_utf8_lossy(&out.stderr),
+        text
+    );
+    assert_eq!(
+        String::from_utf8_lossy(&out.stdout).trim(),
+        "0",
+        "the gateway's exit code\n{text}"
+    );
+    assert!(text.contains("the config is unchanged"), "{text}");
+    assert!(text.contains("SIGHUP: the terminal closed"), "{text}");
+    assert!(text.contains("stop sent in the process data"), "{text}");
+    assert!(!enabled(&sim), "stopped when the terminal closed");
+    let _ = std::fs::remove_dir_all(&dir);
+}

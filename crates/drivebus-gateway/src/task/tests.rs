@@ -177,6 +177,32 @@ async fn at_the_stop_every_answering_process_data_drive_gets_its_stop() {
         .await;
 }
 
+/// Issue 22, item 2: a bus a reload restarts or removes returns without stopping the drives
+/// whose process data the new config carries on on the same line (its task sends their next
+/// cycle), and stops every other drive it controls, as at the gateway's stop.
+#[tokio::test(start_paused = true)]
+async fn a_bus_retired_by_a_reload_stops_only_the_drives_the_new_config_does_not_carry_on() {
+    tokio::task::LocalSet::new()
+        .run_until(async {
+            let plant = plant(
+                3,
+                &[("ramp", Some("100ms"), true)],
+                Some("20ms"),
+                "status_period = \"1s\"\n",
+            );
+            let h = start(&plant);
+            sleep(Duration::from_secs(3)).await;
+            h.stop
+                .send(crate::bus::Stop::Retire { continued: vec![2] })
+                .unwrap();
+            let done = tokio::time::timeout(Duration::from_secs(5), h.task).await;
+            assert!(matches!(done, Ok(Ok(()))), "the task returns");
+            let stopped = h.state.borrow().stopped.clone();
+            assert_eq!(stopped, vec![(1, vec![6, 1000]), (3, vec![6, 1000])]);
+        })
+        .await;
+}
+
 #[tokio::test(start_paused = true)]
 async fn a_dead_drive_goes_timeout_within_period_and_timeout_and_online_when_it_returns() {
     tokio::task::LocalSet::new()
