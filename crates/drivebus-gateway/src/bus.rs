@@ -185,11 +185,20 @@ pub struct BusContext {
     pub asks: mpsc::Receiver<Ask>,
     /// The metrics registry.
     pub metrics: Arc<Metrics>,
+    /// Changes when the gateway asks every bus for its drives' statuses again (a reload that
+    /// started a new publisher or page, which has seen none of them: a status is reported only
+    /// when it changes).
+    pub announce: tokio::sync::watch::Receiver<u64>,
 }
 
 impl BusContext {
     /// A receiver of asks that never brings one (a bus without the page).
     pub fn no_asks() -> mpsc::Receiver<Ask> {
         mpsc::channel(1).1
+    }
+
+    /// An announce request that never comes.
+    pub fn no_announce() -> tokio::sync::watch::Receiver<u64> {
+        tokio::sync::watch::channel(0).1
     }
 }

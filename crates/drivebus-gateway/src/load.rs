@@ -119,6 +119,7 @@ where
             asks: crate::bus::BusContext::no_asks(),
             metrics: metrics.clone(),
             shutdown: stop_rx.clone(),
+            announce: crate::bus::BusContext::no_announce(),
         };
         tasks.push(tokio::task::spawn_local(super::task::run_bus(ctx, access)));
     }

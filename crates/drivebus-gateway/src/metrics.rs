@@ -117,7 +117,9 @@ pub const SET_OUTCOMES: [&str; 19] = [
 
 /// The `kind` label of `drivebus_mqtt_published_total` counted without a lookup in the
 /// family (another `&'static str` kind is counted too, through the family).
-pub const PUBLISH_KINDS: [&str; 6] = ["value", "pd", "status", "result", "figures", "gateway"];
+pub const PUBLISH_KINDS: [&str; 7] = [
+    "value", "pd", "status", "result", "figures", "gateway", "clear",
+];
 
 /// Upper bounds of the latency histogram, in seconds: a MOVILINK read at 9600 baud takes
 /// about 25 ms, an SBus one under 1 ms, a timeout with retries up to a few hundred ms.

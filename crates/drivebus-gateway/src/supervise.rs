@@ -107,6 +107,7 @@ fn bus_run(
     bus: &Bus,
     updates: &mpsc::Sender<Update>,
     metrics: &Arc<Metrics>,
+    announce: &watch::Sender<u64>,
 ) -> (BusRun, BusContext) {
     let (sets, set_rx) = mpsc::channel(64);
     let (asks, ask_rx) = mpsc::channel(64);
@@ -120,6 +121,7 @@ fn bus_run(
         asks: ask_rx,
         metrics: metrics.clone(),
         shutdown: stop_rx,
+        announce: announce.subscribe(),
     };
     let run = BusRun {
         config: bus.clone(),
@@ -265,6 +267,8 @@ struct Running {
     leaving: Vec<tokio::task::JoinHandle<Result<()>>>,
     changes: mpsc::UnboundedSender<Change>,
     config: watch::Sender<ConfigStatus>,
+    /// Asks every bus task for its drives' statuses again.
+    announce: watch::Sender<u64>,
 }
 
 /// What a reload found to do, all of it checked and prepared ([`Running::prepare`]).
@@ -560,7 +564,7 @@ impl Running {
                     let Some(bus) = new.buses.get(ix) else {
                         continue;
                     };
-                    let (run, ctx) = bus_run(ix, bus, &self.updates, &self.metrics);
+                    let (run, ctx) = bus_run(ix, bus, &self.updates, &self.metrics, &self.announce);
                     buses.push(run);
                     starts.push((ix, ctx));
                 }
@@ -630,7 +634,11 @@ impl Running {
             Some(Some(start)) => {
                 let (hub, fresh) = match &self.page {
                     Some(page) => (page.hub.clone(), false),
-                    None => (new_hub(&new, asks.clone()), true),
+                    None => {
+                        let hub = new_hub(&new, asks.clone());
+                        hub.begin_at(generation);
+                        (hub, true)
+                    }
                 };
                 if fresh {
                     change.hub = Some(Some(hub.clone()));
@@ -705,6 +713,9 @@ impl Running {
                 "the gateway's update queue is gone: the reload reaches no publisher"
             ),
         }
+        // A publisher or page started now has seen no drive's status (each is reported when it
+        // changes): every bus reports them again.
+        self.announce.send_modify(|n| *n += 1);
         for (ix, ctx) in starts {
             if let Some(run) = self.buses.get_mut(ix) {
                 spawn_bus(run, ctx);
@@ -855,9 +866,10 @@ pub async fn serve_source(plant: Plant, mut source: Source) -> Result<()> {
         last_reload: None,
     });
     let (updates, updates_rx) = mpsc::channel(UPDATES);
+    let (announce, _) = watch::channel(0);
     let mut buses = Vec::with_capacity(plant.buses.len());
     for (ix, bus) in plant.buses.iter().enumerate() {
-        let (mut run, ctx) = bus_run(ix, bus, &updates, &metrics);
+        let (mut run, ctx) = bus_run(ix, bus, &updates, &metrics, &announce);
         spawn_bus(&mut run, ctx);
         buses.push(run);
     }
@@ -908,6 +920,7 @@ pub async fn serve_source(plant: Plant, mut source: Source) -> Result<()> {
         leaving: Vec::new(),
         changes,
         config,
+        announce,
     };
     let signal = loop {
         match signals.next().await {

@@ -93,6 +93,7 @@ pub async fn run_bus<B: BusAccess>(ctx: BusContext, mut access: B) {
         asks,
         metrics,
         mut shutdown,
+        mut announce,
     } = ctx;
     // Before the first cycle: what the drives controlled over process data should have set
     // (said once in the log; a drive that does not answer yet is checked no further).
@@ -173,8 +174,15 @@ pub async fn run_bus<B: BusAccess>(ctx: BusContext, mut access: B) {
         .iter()
         .map(|d| facts_of(&access.client(d.address)))
         .collect();
+    let mut announce_open = true;
     // A transaction under way is finished; then the loop ends at the shutdown.
     while !updates.is_closed() && *shutdown.borrow() == Stop::Run {
+        if announce.has_changed().unwrap_or(false) {
+            announce.mark_unchanged();
+            if !out.announce().await {
+                return;
+            }
+        }
         for ask in std::mem::take(&mut inbox.held) {
             take_ask(ask, &bus, &facts, &mut sched, &mut access, &mut driven);
         }
@@ -190,6 +198,15 @@ pub async fn run_bus<B: BusAccess>(ctx: BusContext, mut access: B) {
                 tokio::select! {
                     () = tokio::time::sleep_until(until.min(next_figures)) => {}
                     _ = shutdown.changed() => {}
+                    r = announce.changed(), if announce_open => match r {
+                        Ok(()) => {
+                            announce.mark_unchanged();
+                            if !out.announce().await {
+                                return;
+                            }
+                        }
+                        Err(_) => announce_open = false,
+                    },
                     req = inbox.sets.recv(), if inbox.sets_open => match req {
                         Some(req) => accept(req, &bus, &mut sched),
                         None => inbox.sets_open = false,
@@ -880,6 +897,26 @@ impl Out<'_> {
             }
             _ => true,
         }
+    }
+
+    /// Report every drive's status known again (asked by the gateway); false when the gateway
+    /// is stopping.
+    async fn announce(&mut self) -> bool {
+        for drive in 0..self.status.len() {
+            let Some(status) = self.status.get(drive).cloned().flatten() else {
+                continue;
+            };
+            let Ok(permit) = self.updates.reserve().await else {
+                return false;
+            };
+            permit.send(Update::Status {
+                bus: self.ix.get(),
+                drive,
+                status,
+                at: SystemTime::now(),
+            });
+        }
+        true
     }
 
     /// Report `status` if it is new; false when the gateway is stopping.

@@ -166,6 +166,11 @@ impl Hub {
             .clone()
     }
 
+    /// A hub started by a reload: its plant is of `generation`.
+    pub fn begin_at(&self, generation: u64) {
+        self.generation.store(generation, Ordering::Relaxed);
+    }
+
     /// The config's generation the plant is of.
     pub fn generation(&self) -> u64 {
         self.generation.load(Ordering::Relaxed)

@@ -472,3 +472,143 @@ print(os.waitstatus_to_exitcode(status))
     assert!(!enabled(&sim), "stopped when the terminal closed");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// The retained topics `topics` hold at `broker`, as a new subscriber gets them (empty ones,
+/// clears, left out).
+async fn retained(broker: &Mosquitto, id: &str, topics: &[&str]) -> Vec<(String, Value)> {
+    let mut c = TestClient::connect(broker.client_options(id, None), topics).await;
+    c.collect(Duration::from_millis(800))
+        .await
+        .into_iter()
+        .filter(|p| p.retain && !p.payload.is_empty())
+        .map(|p| (p.topic.clone(), serde_json::from_slice(&p.payload).unwrap()))
+        .collect()
+}
+
+/// `GET path` on 127.0.0.1:`port`: the status line and the body, or why there is none.
+fn http_get(port: u16, path: &str) -> Result<String, std::io::Error> {
+    use std::io::{Read as _, Write as _};
+    let mut s = std::net::TcpStream::connect(("127.0.0.1", port))?;
+    s.set_read_timeout(Some(Duration::from_secs(5)))?;
+    s.write_all(
+        format!("GET {path} HTTP/1.1\r\nHost: 127.0.0.1\r\nConnection: close\r\n\r\n").as_bytes(),
+    )?;
+    let mut out = String::new();
+    s.read_to_string(&mut out)?;
+    Ok(out)
+}
+
+/// A reload that changes what the connections and listeners depend on: another broker (the old
+/// one is left with the values stale and the status offline, the new one gets everything), the
+/// gateway's name (every retained topic under the old name cleared), the page added and
+/// `/metrics` moved, all without a restart of the bus.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn issue22_a_reload_moves_broker_name_page_and_metrics_without_a_restart() {
+    let (Some(a), Some(b)) = (
+        Mosquitto::start(BrokerOptions::default()),
+        Mosquitto::start(BrokerOptions::default()),
+    ) else {
+        return;
+    };
+    let bus = "[[bus]]\nname = \"ml\"\nprotocol = \"movilink\"\nsimulate = true\n\
+               [[bus.drive]]\nname = \"d1\"\naddress = 1\n\
+               [[bus.drive.param]]\nparam = \"P130\"\nname = \"ramp\"\nperiod = \"200ms\"\n";
+    let (m1, m2, page) = (free_port(), free_port(), free_port());
+    let config = |broker: &Mosquitto, name: &str, metrics: u16, ui: &str| {
+        format!(
+            "[gateway]\nname = \"{name}\"\nbroker = \"{}\"\nmetrics = \"127.0.0.1:{metrics}\"\n{ui}{bus}",
+            broker.url()
+        )
+    };
+    let mut at_a = Inbox::connect(&a, "a", &["drivebus/#"]).await;
+    let mut at_b = Inbox::connect(&b, "b", &["drivebus/#"]).await;
+    let mut gw = Gateway::start(&config(&a, "gw", m1, ""), &[]);
+    at_a.next("drivebus/gw/ml/d1/ramp", "a value at a", |_| true)
+        .await;
+    assert!(
+        http_get(m1, "/metrics")
+            .unwrap()
+            .starts_with("HTTP/1.1 200")
+    );
+
+    // Another broker.
+    gw.write_config(&config(&b, "gw", m1, ""));
+    gw.signal("HUP");
+    let v = at_b
+        .next("drivebus/gw/status", "online at b", |v| {
+            v["state"] == "online"
+        })
+        .await;
+    assert_eq!(v["config"]["generation"], 2, "{v}");
+    at_b.next("drivebus/gw/ml/d1/ramp", "a value at b", |v| {
+        v.get("stale").is_none()
+    })
+    .await;
+    let old = retained(&a, "a2", &["drivebus/#"]).await;
+    let find = |t: &str| old.iter().find(|(x, _)| x == t).map(|(_, v)| v.clone());
+    let status = find("drivebus/gw/status").expect("the old broker keeps a status");
+    assert_eq!(
+        (&status["state"], &status["reason"]),
+        (&json!("offline"), &json!("reconfigured")),
+        "{status}"
+    );
+    let ramp = find("drivebus/gw/ml/d1/ramp").expect("the old broker keeps the value");
+    assert_eq!(ramp["stale"], true, "{ramp}");
+
+    // Another name, the page added, /metrics moved.
+    gw.write_config(&config(
+        &b,
+        "gw2",
+        m2,
+        &format!("[ui]\nlisten = \"127.0.0.1:{page}\"\n"),
+    ));
+    gw.signal("HUP");
+    let v = at_b
+        .next("drivebus/gw2/status", "online as gw2", |v| {
+            v["state"] == "online"
+        })
+        .await;
+    assert_eq!(v["config"]["generation"], 3, "{v}");
+    at_b.next("drivebus/gw2/ml/d1/ramp", "a value as gw2", |_| true)
+        .await;
+    let left: Vec<String> = retained(&b, "b2", &["drivebus/gw/#"])
+        .await
+        .into_iter()
+        .map(|(t, _)| t)
+        .collect();
+    assert!(
+        left.is_empty(),
+        "the old name's topics are cleared: {left:?}"
+    );
+    let plant = http_get(page, "/api/plant").unwrap();
+    assert!(plant.starts_with("HTTP/1.1 200"), "{plant}");
+    assert!(plant.contains("\"generation\":3"), "{plant}");
+    // The page started by the reload knows the drive's status (the buses report their
+    // statuses again for it: a status is sent only when it changes).
+    let deadline = Instant::now() + WAIT;
+    loop {
+        let plant = http_get(page, "/api/plant").unwrap();
+        if plant.contains("\"status\":{\"state\":\"online\"") {
+            break;
+        }
+        assert!(Instant::now() < deadline, "no status on the page: {plant}");
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    assert!(
+        http_get(m2, "/metrics")
+            .unwrap()
+            .starts_with("HTTP/1.1 200")
+    );
+    assert!(
+        http_get(m1, "/metrics").is_err(),
+        "the old /metrics address is free"
+    );
+    // The bus never stopped: its simulated drive answered all along, one bus start in the log.
+    let log = gw.log();
+    assert_eq!(
+        log.matches("bus polling starts").count(),
+        1,
+        "the bus was not restarted:\n{log}"
+    );
+    assert!(gw.terminate().success(), "{}", gw.log());
+}

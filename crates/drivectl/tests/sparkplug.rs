@@ -86,6 +86,7 @@ fn temp_dir(what: &str) -> TempDir {
 /// (where it keeps bdSeq); killed when dropped, its log printed if the test fails.
 struct Gateway {
     child: Option<Child>,
+    /// Its config file and log.
     dir: PathBuf,
     state: PathBuf,
 }
@@ -697,6 +698,57 @@ fn ndeath_carries_the_births_bdseq_which_increases_across_restarts() {
     gw.spawn();
     let (n, _, _) = births(&mut host, &mut gw);
     assert_eq!(bd_seq(&n), (second + 1) % 256, "bdSeq after a kill");
+    drop(gw);
+    assert_clean(&mut host);
+}
+
+/// Issue 22, item 2: SIGHUP with a changed config on the same connection: a DDEATH for a drive
+/// the config removed (and one whose bus it restarts), then every birth again with the same
+/// bdSeq (NBIRTH at seq 0): the new drive's DBIRTH, the kept drive's with its values; no NDEATH.
+#[test]
+fn a_reload_kills_a_removed_drive_and_is_born_again_with_a_new_one() {
+    let Some((broker, mut host, sim)) = setup() else {
+        return;
+    };
+    let state = temp_dir("state");
+    let mut gw = Gateway::start(&config(&broker, &sim, ""), &state);
+    let (n, _, _) = births(&mut host, &mut gw);
+    host.mark();
+    // d2 goes (its bus `ml` changes: d1 is restarted with it); a simulated bus with `fan` comes.
+    let two = config(&broker, &sim, "")
+        .split("[[bus.drive]]\nname = \"d2\"")
+        .next()
+        .unwrap()
+        .to_owned()
+        + "[[bus]]\nname = \"sim\"\nprotocol = \"modbus-rtu\"\nsimulate = true\n\
+           [[bus.drive]]\nname = \"fan\"\naddress = 1\n\
+           [[bus.drive.param]]\nparam = \"241\"\nname = \"frequency\"\nperiod = \"200ms\"\n";
+    std::fs::write(gw.dir.join("plant.toml"), two).unwrap();
+    signal(gw.child.as_ref().unwrap().id(), "HUP");
+    let d2 = host.expect_kind("DDEATH", NODE, Some("d2"), WAIT);
+    assert!(d2.seq.is_some());
+    let again = host.expect_kind("NBIRTH", NODE, None, BIRTH);
+    assert_eq!(again.seq, Some(0));
+    assert_eq!(
+        bd_seq(&again),
+        bd_seq(&n),
+        "the same session: the same bdSeq"
+    );
+    let d1 = host.expect_kind("DBIRTH", NODE, Some("d1"), BIRTH);
+    assert!(d1.metric("ramp").is_some_and(|m| !m.is_null), "{d1:?}");
+    let fan = host.expect_kind("DBIRTH", NODE, Some("fan"), BIRTH);
+    assert_eq!(fan.get("Status/State").text(), "online");
+    assert!(
+        fan.metric("frequency").is_some_and(|m| !m.is_null),
+        "{fan:?}"
+    );
+    let since = host.since_mark().to_vec();
+    assert!(since.iter().all(|m| m.kind != "NDEATH"), "{since:?}");
+    assert!(
+        !since.iter().any(|m| m.is("DBIRTH", Some("d2"))),
+        "the removed drive is not born again"
+    );
+    assert!(gw.log().contains("born again"), "{}", gw.log());
     drop(gw);
     assert_clean(&mut host);
 }

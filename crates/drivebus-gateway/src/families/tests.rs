@@ -494,6 +494,7 @@ async fn published_under_faults(p: Protocol, faults: impl FnOnce(&SimulatedBus))
     let (_stop, shutdown) = tokio::sync::watch::channel(crate::bus::Stop::Run);
     let ctx = BusContext {
         shutdown,
+        announce: crate::bus::BusContext::no_announce(),
         ix: crate::model::BusSlot::new(0),
         bus: bus.clone(),
         updates: utx,
@@ -830,6 +831,7 @@ async fn issue18_an_sbus_timeout_trip_is_reported_at_the_next_cycle() {
             let (_stop, shutdown) = tokio::sync::watch::channel(crate::bus::Stop::Run);
             let ctx = BusContext {
                 shutdown,
+                announce: crate::bus::BusContext::no_announce(),
                 ix: crate::model::BusSlot::new(0),
                 bus: bus.clone(),
                 updates: utx,
@@ -1006,6 +1008,7 @@ async fn pages_jobs_on(plant: &Plant) {
         let (_stop, shutdown) = tokio::sync::watch::channel(crate::bus::Stop::Run);
         let ctx = BusContext {
             shutdown,
+            announce: crate::bus::BusContext::no_announce(),
             ix: crate::model::BusSlot::new(0),
             bus: bus.clone(),
             updates: utx,

@@ -67,6 +67,7 @@ async fn simulated_values(plant: &Plant) -> HashMap<(usize, usize, usize), i64> 
             asks: BusContext::no_asks(),
             metrics: metrics.clone(),
             shutdown: stop_rx.clone(),
+            announce: crate::bus::BusContext::no_announce(),
         };
         tasks.push(tokio::task::spawn_local(crate::families::run_bus(ctx)));
     }

@@ -500,10 +500,11 @@ impl Node {
 
     /// A reloaded config on the same connection (the same group, node, primary host and
     /// broker): the new plant's devices and metrics, with what is known of the drives on the
-    /// buses that keep running. While born: a DDEATH for every device born in this session that
-    /// the new plant no longer has, then every birth again (NBIRTH with `seq` 0 and the same
-    /// `bdSeq`, a DBIRTH per device): a device's metrics and aliases are those of the new
-    /// catalogue, which a host learns only from births.
+    /// buses that keep running. While born: a DDEATH for every device born in this session
+    /// whose bus the new plant removed or restarts, then every birth again (NBIRTH with `seq` 0
+    /// and the same `bdSeq`, a DBIRTH per device: a device's metrics and aliases are those of
+    /// the new catalogue, which a host learns only from births) once the drives of new and
+    /// restarted buses have answered, as at the start ([`SETTLE_LIMIT`] at most).
     pub fn reconfigure(&mut self, r: &Reconfig, sp: &Sparkplug, now_ms: u64) -> Vec<Out> {
         let mut new = Node::new(&r.plant, sp);
         new.phase = self.phase;
@@ -550,7 +551,9 @@ impl Node {
         }
         *self = new;
         if self.phase == Phase::Born {
-            out.extend(self.births(now_ms));
+            // Born again once the drives of new and restarted buses have answered (at most
+            // [`SETTLE_LIMIT`]), so that their births carry values, as at the start.
+            out.extend(self.settle(now_ms));
         }
         out
     }

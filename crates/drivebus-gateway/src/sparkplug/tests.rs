@@ -1128,6 +1128,40 @@ fn a_reload_kills_the_devices_that_went_and_is_born_again_with_the_values_it_had
         [
             "spBv1.0/plant/DDEATH/cabinet1/conv",
             "spBv1.0/plant/DDEATH/cabinet1/pump",
+        ]
+    );
+    // Born again once the restarted and the new drives have answered.
+    assert!(n.flush(BORN + 6).is_empty(), "not before they answer");
+    let at = |bus: usize, drive: usize, point: usize, raw: i64| Update::Value {
+        bus,
+        drive,
+        point,
+        raw,
+        at: UNIX_EPOCH + Duration::from_millis(BORN + 7),
+    };
+    for (bus, drive, points) in [(0, 0, 1), (1, 0, 2)] {
+        n.update(
+            &Update::Status {
+                bus,
+                drive,
+                status: DriveStatus::Online,
+                at: SystemTime::now(),
+            },
+            BORN + 7,
+        );
+        for point in 0..points {
+            n.update(&at(bus, drive, point, 2500), BORN + 7);
+        }
+    }
+    let mut out = out;
+    out.extend(n.flush(BORN + 8));
+    let p = publishes(&out);
+    let topics: Vec<&str> = p.iter().map(|(t, _)| *t).collect();
+    assert_eq!(
+        topics,
+        [
+            "spBv1.0/plant/DDEATH/cabinet1/conv",
+            "spBv1.0/plant/DDEATH/cabinet1/pump",
             "spBv1.0/plant/NBIRTH/cabinet1",
             "spBv1.0/plant/DBIRTH/cabinet1/fan",
             "spBv1.0/plant/DBIRTH/cabinet1/conv",

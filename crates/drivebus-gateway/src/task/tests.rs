@@ -44,6 +44,7 @@ fn start(plant: &Plant) -> Harness {
         asks: arx,
         metrics: Arc::new(Metrics::new(plant)),
         shutdown,
+        announce: crate::bus::BusContext::no_announce(),
     };
     let task = tokio::task::spawn_local(run_bus(ctx, fake));
     let seen = Rc::new(RefCell::new(Vec::new()));
