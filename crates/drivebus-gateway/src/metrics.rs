@@ -14,6 +14,7 @@
 //! | `drivebus_mqtt_published_total` | `kind` ([`PUBLISH_KINDS`]) |
 //! | `drivebus_sets_total` | `outcome` ([`SET_OUTCOMES`]) |
 //! | `drivebus_build_info` | `version` |
+//! | `drivebus_runtime_tasks` | |
 //!
 //! Label values are the config's bus and drive names and fixed lists: nothing a drive or the
 //! broker sends can add a series. An unknown rejection reason or `set` outcome is counted as
@@ -191,6 +192,8 @@ pub struct Metrics {
     registry: Registry,
     table: RwLock<Table>,
     per_bus: PerBus,
+    /// The tokio runtime's alive tasks, read at each exposition.
+    runtime_tasks: Gauge,
     transactions: Family<Labels, Counter>,
     latency: Family<Labels, Histogram, fn() -> Histogram>,
     broker: Gauge,
@@ -289,6 +292,7 @@ impl Metrics {
         let published_family = Family::<Labels, Counter>::default();
         let sets = Family::<Labels, Counter>::default();
         let table = table(plant, &per_bus, &transactions, &latency);
+        let runtime_tasks = Gauge::default();
         let published = PUBLISH_KINDS
             .iter()
             .map(|k| published_family.get_or_create_owned(&vec![("kind", (*k).to_owned())]))
@@ -350,10 +354,16 @@ impl Metrics {
             "The drivectl version running the gateway",
             Info::new(vec![("version", env!("CARGO_PKG_VERSION"))]),
         );
+        registry.register(
+            "drivebus_runtime_tasks",
+            "Tasks alive on the tokio runtime at the scrape (not those of its LocalSet)",
+            runtime_tasks.clone(),
+        );
         Self {
             registry,
             table: RwLock::new(table),
             per_bus,
+            runtime_tasks,
             transactions,
             latency,
             broker,
@@ -634,8 +644,15 @@ impl Metrics {
         self.try_encode().unwrap_or_default()
     }
 
-    /// The text exposition, or why it could not be written.
+    /// The text exposition, or why it could not be written. `drivebus_runtime_tasks` is read
+    /// here from the runtime this runs in (also on its blocking threads, where the endpoint
+    /// writes it); outside a runtime it keeps its last value.
     pub fn try_encode(&self) -> Result<String, std::fmt::Error> {
+        if let Ok(rt) = tokio::runtime::Handle::try_current() {
+            let alive = rt.metrics().num_alive_tasks();
+            self.runtime_tasks
+                .set(i64::try_from(alive).unwrap_or(i64::MAX));
+        }
         let mut out = String::with_capacity(self.last_size.load(Ordering::Relaxed) + 1024);
         text::encode(&mut out, &self.registry)?;
         self.last_size.store(out.len(), Ordering::Relaxed);

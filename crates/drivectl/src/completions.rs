@@ -18,7 +18,8 @@ const MAN_AFTER_HELP: &str = "\
 Examples:
   drivectl man | man -l -                      read drivectl(1)
   drivectl man movilink read | man -l -        the page of one command, drivectl-movilink-read(1)
-  drivectl man params > drivectl-params.1      install a page";
+  drivectl man params > drivectl-params.1      install a page
+  drivectl man --list                          every command path that has a page";
 
 /// Arguments of `drivectl completions`.
 #[derive(Debug, Args)]
@@ -35,6 +36,10 @@ pub struct CompletionsArgs {
 pub struct ManArgs {
     /// The command whose page to write (e.g. `movilink read`); none: drivectl(1) itself.
     command: Vec<String>,
+    /// Print every command path that has a page, one a line (`drivectl`, `drivectl movilink`,
+    /// `drivectl movilink read`, …), instead of a page.
+    #[arg(long, conflicts_with = "command")]
+    list: bool,
 }
 
 /// Write the completion script for `args.shell` to standard output.
@@ -50,6 +55,14 @@ pub fn completions(args: &CompletionsArgs, mut cmd: Command) -> Result<()> {
 pub fn man(args: &ManArgs, cmd: Command) -> Result<()> {
     let mut cmd = cmd;
     cmd.build();
+    if args.list {
+        let mut paths = Vec::new();
+        command_paths(&cmd, &mut Vec::new(), &mut paths);
+        for path in &paths {
+            outln!("{path}")?;
+        }
+        return Ok(());
+    }
     let mut page = cmd;
     let mut path = vec![page.get_name().to_owned()];
     for word in &args.command {
@@ -87,4 +100,14 @@ pub fn man(args: &ManArgs, cmd: Command) -> Result<()> {
         .map_err(|e| CliError::failed(format!("cannot render the man page: {e}")))?;
     out!("{}", String::from_utf8_lossy(&buf))?;
     Ok(())
+}
+
+/// Every command path under `cmd` (itself first, then depth first), without `help`.
+fn command_paths(cmd: &Command, prefix: &mut Vec<String>, paths: &mut Vec<String>) {
+    prefix.push(cmd.get_name().to_owned());
+    paths.push(prefix.join(" "));
+    for sub in cmd.get_subcommands().filter(|s| s.get_name() != "help") {
+        command_paths(sub, prefix, paths);
+    }
+    prefix.pop();
 }

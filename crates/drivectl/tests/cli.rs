@@ -779,6 +779,34 @@ fn issue7_man_pages_render_as_roff() {
 }
 
 #[test]
+fn issue22_man_list_names_every_page_the_package_installs() {
+    let o = drivectl(&["man", "--list"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let list = stdout(&o);
+    let paths: Vec<&str> = list.lines().collect();
+    assert_eq!(paths.first(), Some(&"drivectl"), "{list}");
+    for path in [
+        "drivectl params",
+        "drivectl movilink read",
+        "drivectl gateway",
+    ] {
+        assert!(paths.contains(&path), "{path}: {list}");
+    }
+    assert!(!paths.iter().any(|p| p.ends_with(" help")), "{list}");
+    // Every listed path has its page, named after the path (scripts/package installs each).
+    for path in &paths {
+        let mut args = vec!["man"];
+        args.extend(path.split(' ').skip(1));
+        let o = drivectl(&args);
+        assert!(o.status.success(), "{path}: {}", stderr(&o));
+        let title = format!(".TH {} 1", path.replace(' ', "-"));
+        assert!(stdout(&o).contains(&title), "{path}: {}", stdout(&o));
+    }
+    let o = drivectl(&["man", "--list", "params"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+}
+
+#[test]
 fn issue7_help_says_where_the_eeprom_wear_log_lives_and_how_to_move_it() {
     for args in [
         &["movilink", "--help"][..],

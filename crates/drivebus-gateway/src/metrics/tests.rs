@@ -393,6 +393,41 @@ fn figures_of_a_plant_of_64_buses_of_31_drives() {
     assert!(encode < Duration::from_secs(5), "{encode:?}");
 }
 
+/// `drivebus_runtime_tasks` is the runtime's alive tasks at the scrape, also when the
+/// exposition is written on a blocking thread as the endpoint does; a `LocalSet`'s tasks are
+/// not the runtime's and are not counted.
+#[test]
+fn runtime_tasks_are_read_at_each_scrape() {
+    let m = Arc::new(Metrics::new(&plant(1, 1)));
+    // Outside a runtime the gauge keeps its value.
+    assert_eq!(sample(&m.encode(), "drivebus_runtime_tasks"), 0.0);
+    let rt = tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()
+        .unwrap();
+    let local = tokio::task::LocalSet::new();
+    local.block_on(&rt, async {
+        let (stop_tx, stop_rx) = tokio::sync::watch::channel(false);
+        let parked = |mut rx: tokio::sync::watch::Receiver<bool>| async move {
+            let _ = rx.wait_for(|s| *s).await;
+        };
+        let a = tokio::spawn(parked(stop_rx.clone()));
+        let b = tokio::spawn(parked(stop_rx.clone()));
+        let c = tokio::task::spawn_local(parked(stop_rx.clone()));
+        assert_eq!(sample(&m.encode(), "drivebus_runtime_tasks"), 2.0);
+        let on_blocking = m.clone();
+        let body = tokio::task::spawn_blocking(move || on_blocking.encode())
+            .await
+            .unwrap();
+        assert_eq!(sample(&body, "drivebus_runtime_tasks"), 2.0);
+        stop_tx.send(true).unwrap();
+        for t in [a, b, c] {
+            t.await.unwrap();
+        }
+        assert_eq!(sample(&m.encode(), "drivebus_runtime_tasks"), 0.0);
+    });
+}
+
 // ---- the endpoint
 
 async fn endpoint(limits: Limits) -> (std::net::SocketAddr, Arc<Metrics>) {

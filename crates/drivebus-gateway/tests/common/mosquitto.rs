@@ -4,7 +4,8 @@
 //! with a config generated in a temporary directory: no persistence, optionally a password file
 //! (`mosquitto_passwd -b`) and a TLS listener whose CA and server certificate are generated with
 //! the `openssl` CLI. The broker can be stopped and restarted on the same port and is killed
-//! when dropped.
+//! when dropped. [`Mosquitto::start_with`] adds files and config lines of the test's own (a
+//! bridge, an ACL, persistence); [`Mosquitto::terminate`] stops it cleanly.
 //!
 //! The harness installs nothing: `scripts/test` runs `scripts/setup-mosquitto` (apt-get) before
 //! the tests. Where a tool is missing, `start` fails the test under CI (the `CI` variable set
@@ -123,12 +124,26 @@ pub struct Mosquitto {
     /// Its temporary directory (config, log, certificates, password file).
     pub dir: PathBuf,
     options: BrokerOptions,
+    /// Lines appended to the generated config (see [`Mosquitto::start_with`]).
+    extra: String,
 }
 
 impl Mosquitto {
     /// Start a broker. Where Mosquitto (or, for TLS, the openssl CLI) is missing: a panic
     /// under CI, else `None` with one `SKIPPED` line on stderr.
     pub fn start(options: BrokerOptions) -> Option<Mosquitto> {
+        Mosquitto::start_with(options, &[], "")
+    }
+
+    /// [`Mosquitto::start`] with more: `files` (name, text) are written into the broker's
+    /// directory first, and `extra` is appended to the generated config, `{dir}` in it standing
+    /// for that directory (a bridge block, an `acl_file`, persistence; a later line overrides
+    /// an earlier one, so `persistence true` there turns it on).
+    pub fn start_with(
+        options: BrokerOptions,
+        files: &[(&str, &str)],
+        extra: &str,
+    ) -> Option<Mosquitto> {
         let tools = match tools() {
             Ok(t) => t,
             Err(why) => return cannot_run(&why),
@@ -152,8 +167,12 @@ impl Mosquitto {
             port: 0,
             dir,
             options,
+            extra: extra.to_owned(),
         };
         broker.write_files();
+        for (name, text) in files {
+            broker.file(name, text);
+        }
         // A free port can be taken by someone else before the broker binds it: try a few.
         for _ in 0..5 {
             broker.port = free_port();
@@ -195,6 +214,34 @@ impl Mosquitto {
             let _ = c.kill();
             let _ = c.wait();
         }
+    }
+
+    /// Stop it cleanly (SIGTERM, as `systemctl stop` does: with persistence on, it saves its
+    /// retained messages and sessions first) and wait for the exit (10 s at most, then
+    /// SIGKILL).
+    pub fn terminate(&mut self) {
+        let Some(mut c) = self.child.take() else {
+            return;
+        };
+        let sent = Command::new("kill")
+            .arg("-TERM")
+            .arg(c.id().to_string())
+            .status()
+            .is_ok_and(|s| s.success());
+        let deadline = Instant::now() + Duration::from_secs(10);
+        while sent && Instant::now() < deadline {
+            if let Ok(Some(_)) = c.try_wait() {
+                return;
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        let _ = c.kill();
+        let _ = c.wait();
+        panic!(
+            "mosquitto on port {} did not stop within 10 s of SIGTERM: {}",
+            self.port,
+            std::fs::read_to_string(self.dir.join("mosquitto.log")).unwrap_or_default()
+        );
     }
 
     /// Start it again on the same port.
@@ -425,6 +472,10 @@ impl Mosquitto {
             if self.options.client_certificates {
                 c.push_str("require_certificate true\nuse_identity_as_username true\n");
             }
+        }
+        if !self.extra.is_empty() {
+            c.push_str(&self.extra.replace("{dir}", &d.to_string()));
+            c.push('\n');
         }
         let mut f = std::fs::File::create(self.dir.join("mosquitto.conf")).unwrap();
         f.write_all(c.as_bytes()).unwrap();
