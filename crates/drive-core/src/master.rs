@@ -65,6 +65,9 @@ pub enum LinkFault {
     Unexpected,
     /// The port or interface failed or is gone.
     Port,
+    /// What came back was the request itself: the adapter echoes what it sends and its echo is
+    /// not taken out, so no answer on this line can be trusted ([`crate::rt::echo`]).
+    Echo,
 }
 
 /// How many events a master keeps until they are polled (the oldest is dropped beyond).

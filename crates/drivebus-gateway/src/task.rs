@@ -356,6 +356,17 @@ async fn stop_process_data<B: BusAccess>(
     }
 }
 
+/// The gateway's way out of a line whose adapter echoes what it sends while the bus's `echo`
+/// is off.
+fn echo_hint(e: &ClientError) -> &'static str {
+    match e {
+        ClientError::Link(l) if l.fault == drive_client::LinkFault::Echo => {
+            "; set echo = true on the bus if its adapter echoes what it sends"
+        }
+        _ => "",
+    }
+}
+
 /// What a bus-timeout fault means for the gateway (F43 RS-485, F47 SBus: the drive saw no
 /// process data within its timeout).
 fn fault_hint(text: &str) -> &'static str {
@@ -786,7 +797,8 @@ impl Out<'_> {
                     tracing::warn!(
                         bus = %self.bus.name,
                         drive = %self.drive_name(drive),
-                        "drive does not answer ({e}): status timeout; probing it after a back-off"
+                        "drive does not answer ({e}{}): status timeout; probing it after a back-off",
+                        echo_hint(&e)
                     );
                     return self.set_status(drive, DriveStatus::Timeout).await;
                 }

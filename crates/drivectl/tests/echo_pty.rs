@@ -3,8 +3,15 @@
 //! pty and a simulator's. Every byte drivectl writes comes back to it at once (the echo) and
 //! goes on to the simulator; the simulator's answers come back after it.
 //!
-//! * Modbus FC 8 to a silent echoing bus: the echo is the request byte for byte, and the
-//!   answer to it would be the same bytes. With `--echo` it is a timeout, never a success.
+//! * Modbus FC 6, FC 8 and FC 101 and a USS read to a silent echoing bus: the echo is the
+//!   request byte for byte, and the answer to it would (or could) be the same bytes. Without
+//!   `--echo` the driver does not take it: it reads the parameter (an answer that never repeats
+//!   the request) to find out, sees its echo too, and fails saying the adapter echoes, naming
+//!   `--echo`; with `--echo` it is a timeout. Never a success.
+//! * Without `--echo` through an echoing adapter to a simulator, every Modbus and USS call fails
+//!   the same way (no answer can be told from the echo); MOVILINK, whose answers never look like
+//!   its requests, works. Without an echoing adapter the same writes work (the read that finds
+//!   out shows the line does not echo).
 //! * With `--echo`, every serial family works through the echoing relay (MOVILINK, USS,
 //!   Modbus RTU).
 //! * A corrupted echo (the relay flips a bit of what it echoes) is a collision: the frame is
@@ -116,11 +123,20 @@ fn drivectl(args: &[&str]) -> Output {
         .unwrap()
 }
 
+/// The stderr of a command that failed because the adapter echoes while `--echo` is not given.
+fn assert_echo_refused(o: &Output, what: &str) {
+    let e = stderr(o);
+    assert_eq!(o.status.code(), Some(1), "{what}: {e}");
+    assert!(
+        e.contains("the adapter echoes what it sends") && e.contains("--echo"),
+        "{what}: {e}"
+    );
+}
+
 #[test]
-fn modbus_fc8_to_a_silent_echoing_bus_is_a_timeout_with_echo_never_a_success() {
+fn issue22_a_silent_echoing_bus_never_answers_a_write_a_diag_or_a_read_without_echo() {
     let relay = Relay::start(None, None);
-    let base = [
-        "bonfiglioli",
+    let line = [
         "--port",
         &relay.path,
         "--parity",
@@ -131,20 +147,84 @@ fn modbus_fc8_to_a_silent_echoing_bus_is_a_timeout_with_echo_never_a_success() {
         "100",
         "--retries",
         "1",
-        "diag",
     ];
-    // Without --echo the echo is taken for the drive's answer: counters of a drive that is not
-    // there (the defect --echo is for; the timing rule that would catch it unasked is not
-    // there yet, see docs/serial-adapters.md).
-    let o = drivectl(&base);
-    assert!(o.status.success(), "{}", stderr(&o));
+    fn cmd<'a>(line: &[&'a str], family: &'a str, rest: &[&'a str]) -> Vec<&'a str> {
+        let mut v = vec![family];
+        v.extend(line);
+        v.extend(rest);
+        v
+    }
+    // FC 8 (diag): it printed the counters of a drive that is not there (exit 0).
+    assert_echo_refused(&drivectl(&cmd(&line, "bonfiglioli", &["diag"])), "FC 8");
+    // FC 6: a write reported done that no drive answered (only its read-back failed).
+    let o = drivectl(&cmd(&line, "bonfiglioli", &["write", "372", "1400"]));
+    assert_echo_refused(&o, "FC 6");
+    assert!(!stderr(&o).contains("was written"), "{}", stderr(&o));
+    // FC 101 (481, fixed frequency 2, a 32-bit parameter): its answer repeats it too.
+    let o = drivectl(&cmd(&line, "bonfiglioli", &["write", "481", "12.5"]));
+    assert_echo_refused(&o, "FC 101");
+    assert!(!stderr(&o).contains("was written"), "{}", stderr(&o));
+    // A USS read printed 0.00 s, a value no drive sent.
+    let mut uss = cmd(&line, "uss", &["read", "P102"]);
+    let at = uss.iter().position(|a| *a == "1").unwrap();
+    uss[at] = "0";
+    assert_echo_refused(&drivectl(&uss), "USS read");
+    // With --echo: no answer, never a success.
     let started = Instant::now();
-    let mut args = base.to_vec();
+    let mut args = cmd(&line, "bonfiglioli", &["diag"]);
     args.push("--echo");
     let o = drivectl(&args);
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
     assert!(stderr(&o).contains("no answer"), "{}", stderr(&o));
     assert!(started.elapsed() < Duration::from_secs(5));
+}
+
+#[test]
+fn issue22_without_echo_an_echoing_adapter_is_refused_by_modbus_and_uss_and_movilink_works() {
+    for (sim, family, works) in [
+        (
+            vec!["sim", "bonfiglioli", "--pty", "--parity", "none"],
+            vec!["bonfiglioli", "--addr", "1", "read", "372", "--json"],
+            false,
+        ),
+        (
+            vec!["sim", "bonfiglioli", "--pty", "--parity", "none"],
+            vec!["bonfiglioli", "--addr", "1", "write", "372", "1400"],
+            false,
+        ),
+        (
+            vec!["sim", "uss", "--pty", "--parity", "none"],
+            vec!["uss", "--addr", "0", "read", "P102", "--json"],
+            false,
+        ),
+        (
+            vec!["sim", "movilink", "--pty", "--parity", "none"],
+            vec!["movilink", "--addr", "0", "read", "P000", "--json"],
+            true,
+        ),
+    ] {
+        let s = PtySim::start(&sim);
+        let relay = Relay::start(Some(&s.path), None);
+        let mut args = family.clone();
+        args.extend(["--port", &relay.path, "--parity", "none"]);
+        let o = s.drivectl(&args);
+        if works {
+            assert!(o.status.success(), "{family:?}: {}", stderr(&o));
+        } else {
+            assert_echo_refused(&o, &format!("{family:?}"));
+        }
+        // The same command on the simulator's own pty (no echo) works: a write first of all
+        // (its answer repeats it: the read that finds out shows the line does not echo).
+        let own = PtySim::start(&sim);
+        let mut direct = family.clone();
+        direct.extend(["--port", &own.path, "--parity", "none"]);
+        let o = own.drivectl(&direct);
+        assert!(
+            o.status.success(),
+            "{family:?} without an echo: {}",
+            stderr(&o)
+        );
+    }
 }
 
 #[test]

@@ -61,6 +61,19 @@ pub enum LinkError {
     /// The port failed or was closed.
     #[error("port i/o failed: {0}; check that the port still exists and no other program uses it")]
     Io(#[from] std::io::Error),
+    /// What came back was the request itself: the adapter echoes what it sends (a two-wire
+    /// RS-485 converter whose receiver stays on) and its echo is not taken out, so no answer on
+    /// the line can be told from the request's echo.
+    #[error(
+        "what came back for address {address} is the request itself: the adapter echoes what it sends and its echo is not taken out, so no answer can be told from the echo{}",
+        if *sent { "; whether a drive received it is unknown" } else { "; nothing was sent" }
+    )]
+    Echo {
+        /// The request's address.
+        address: u8,
+        /// The request was sent (a write's outcome is then unknown).
+        sent: bool,
+    },
 }
 
 impl LinkError {
@@ -71,6 +84,7 @@ impl LinkError {
             LinkError::Corrupt { .. } => LinkFault::Garbled,
             LinkError::Unexpected { .. } => LinkFault::Unexpected,
             LinkError::Io(_) => LinkFault::Port,
+            LinkError::Echo { .. } => LinkFault::Echo,
         }
     }
 }

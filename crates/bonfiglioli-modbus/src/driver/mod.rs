@@ -7,12 +7,19 @@
 //! manual gives no data type). After an exception 4 the driver reads the VABus error register
 //! (parameter 11, which the read clears) and reports the cause with the exception
 //! ([`DriverError::Device`]).
+//!
+//! On a line whose adapter's echo is not taken out (`drive_core::rt::echo`), the answer of FC 6,
+//! FC 8 and FC 101, which repeats the request, cannot be told from the request's echo: such an
+//! answer is taken only once the line is known not to echo. Until then the driver reads the
+//! parameter (FC 3 or 100, whose answer never repeats the request) to find out; on a line that
+//! echoes every call fails with [`LinkError::Echo`].
 
 mod error;
 
 use std::time::Duration;
 
 use drive_core::LineSettings;
+use drive_core::rt::echo::{self, EchoCheck};
 pub use drive_core::rt::{CharIo, Clock, DriverStats, Port, ReceivedChar, Stream};
 use drive_core::rt::{Driver, Failed, Flow, Tally};
 
@@ -103,8 +110,44 @@ impl<IO: CharIo> ModbusDriver<IO> {
     }
 
     /// One request through the master; the answer (an exception answer too) or why none came.
-    /// A broadcast returns `Ok(None)` once it was sent.
+    /// A broadcast returns `Ok(None)` once it was sent. On a line whose adapter echoes what it
+    /// sends while its echo is not taken out, [`LinkError::Echo`] (see the [module docs](self)).
     pub async fn transact(
+        &mut self,
+        address: Address,
+        request: Request,
+        timeout: Duration,
+    ) -> Result<Option<Response>, DriverError> {
+        let broadcast = address.is_broadcast();
+        let echo = |sent| {
+            DriverError::Link(LinkError::Echo {
+                address: address.get(),
+                sent,
+            })
+        };
+        if !broadcast && echo::echoes(self.driver.link_mut().get_mut()) {
+            return Err(echo(false));
+        }
+        let r = self.exchange(address, request, timeout).await;
+        if broadcast {
+            return r;
+        }
+        match echo::after_exchange(self.driver.link_mut().get_mut(), may_repeat(&request)) {
+            EchoCheck::Fine => r,
+            EchoCheck::Echoes => Err(echo(true)),
+            EchoCheck::Ambiguous => {
+                // A request whose answer never repeats it tells the echo from an answer.
+                let _ = self.exchange(address, probe_for(&request), timeout).await;
+                match echo::after_exchange(self.driver.link_mut().get_mut(), false) {
+                    EchoCheck::Echoes => Err(echo(true)),
+                    _ => r,
+                }
+            }
+        }
+    }
+
+    /// One request through the master, as [`ModbusDriver::transact`] without the echo rules.
+    async fn exchange(
         &mut self,
         address: Address,
         request: Request,
@@ -260,6 +303,36 @@ impl<IO: CharIo> ModbusDriver<IO> {
         }
     }
 }
+
+/// Whether the answer to `request` repeats it (FC 6, 8, 101): its echo looks like its answer.
+fn may_repeat(request: &Request) -> bool {
+    matches!(
+        request,
+        Request::WriteWord { .. } | Request::WriteLong { .. } | Request::Diagnostics { .. }
+    )
+}
+
+/// The parameter read by which a driver tells the echo of `request` from its answer (an FC 3
+/// or FC 100 answer never repeats its request): the parameter written, or for a diagnostic
+/// the drive's Modbus address, parameter 1376.
+fn probe_for(request: &Request) -> Request {
+    match *request {
+        Request::WriteLong { start, .. } | Request::ReadLong { start } => {
+            Request::ReadLong { start }
+        }
+        Request::WriteWord { start, .. } | Request::ReadWord { start, .. } => {
+            Request::ReadWord { start, count: 1 }
+        }
+        Request::Diagnostics { .. } => Request::ReadWord {
+            start: StartAddress::from_raw(ADDRESS_PARAMETER),
+            count: 1,
+        },
+    }
+}
+
+/// The drive's Modbus address, parameter 1376 in data set 0 (ch. 6): a parameter every drive
+/// has, read to tell an echo from an answer.
+const ADDRESS_PARAMETER: u16 = 1376;
 
 fn start(param: u16, data_set: DataSet) -> Result<StartAddress, DriverError> {
     StartAddress::new(data_set, param).ok_or(RequestError::NoSuchParameter(param).into())

@@ -16,6 +16,13 @@
 //! Before the first process exchange the process data are all zero: control word 0000h has
 //! bit 10 ("Steuerdaten gültig") clear, so the drive ignores them.
 //!
+//! On a line whose adapter's echo is not taken out (`drive_core::rt::echo`), an answer that
+//! repeats its telegram (a read's answer can: the same AK, the value and the process data as
+//! sent; a mirror telegram's always does) cannot be told from the telegram's echo: it is taken
+//! only once the line is known not to echo. Until then the driver asks for the parameter as an
+//! array element (AK 6, whose answer has another AK) to find out; on a line that echoes every
+//! call fails with [`LinkError::Echo`].
+//!
 //! The 3-word PKW carries no PWE1: an answer whose value word is the order's takes the order's
 //! PWE1 (a word write's echo, whatever its sign), every other answer has PWE1 = the sign of
 //! its value word. Reading a word above 32767 through the 3-word PKW therefore gives a negative
@@ -25,6 +32,7 @@ use drive_core::LinkFault;
 use std::time::Duration;
 
 use drive_core::LineSettings;
+use drive_core::rt::echo::{self, EchoCheck};
 pub use drive_core::rt::{CharIo, Clock, DriverStats, Port};
 use drive_core::rt::{Driver, Failed, Flow, Tally};
 
@@ -32,7 +40,7 @@ use super::framing::UssTiming;
 use super::master::{MasterConfig, RejectReason, SendError, UssMaster};
 use super::telegram::{Adr, Layout, MAX_PZD, Telegram, TelegramError, UssAddress};
 use crate::client::{ParameterChannel, ProcessChannel};
-use crate::uss::pkw::Pkw;
+use crate::uss::pkw::{Pke, Pkw, ak};
 use crate::uss::pzd::{PzdIn, PzdOut};
 use drive_profile::nord::StatusWord;
 
@@ -135,6 +143,19 @@ pub enum LinkError {
     /// The port failed or was closed.
     #[error("port i/o failed: {0}; check that the port still exists and no other program uses it")]
     Io(#[from] std::io::Error),
+    /// What came back was the telegram itself: the adapter echoes what it sends (a two-wire
+    /// RS-485 converter whose receiver stays on) and its echo is not taken out, so no answer on
+    /// the line can be told from the telegram's echo.
+    #[error(
+        "what came back for USS address {address} is the telegram itself: the adapter echoes what it sends and its echo is not taken out, so no answer can be told from the echo{}",
+        if *sent { "; whether the drive received it is unknown" } else { "; nothing was sent" }
+    )]
+    Echo {
+        /// The drive's address.
+        address: u8,
+        /// The telegram was sent.
+        sent: bool,
+    },
 }
 
 impl LinkError {
@@ -144,6 +165,7 @@ impl LinkError {
             LinkError::Timeout { .. } => LinkFault::NoAnswer,
             LinkError::Corrupt { .. } => LinkFault::Garbled,
             LinkError::Io(_) => LinkFault::Port,
+            LinkError::Echo { .. } => LinkFault::Echo,
         }
     }
 }
@@ -245,8 +267,55 @@ impl<IO: CharIo> UssDriver<IO> {
     }
 
     /// One telegram through the master: the answer (None for a broadcast once sent) or why
-    /// none came.
+    /// none came. On a line whose adapter echoes what it sends while its echo is not taken out,
+    /// [`LinkError::Echo`] (see the [module docs](self)).
     pub async fn transact(&mut self, telegram: Telegram) -> Result<Option<Telegram>, DriverError> {
+        let broadcast = telegram.adr().is_broadcast();
+        let address = self.config.address.get();
+        let echo = |sent| DriverError::Link(LinkError::Echo { address, sent });
+        if !broadcast && echo::echoes(self.driver.link_mut().get_mut()) {
+            return Err(echo(false));
+        }
+        let r = self.exchange_telegram(telegram).await;
+        if broadcast {
+            return r;
+        }
+        let may_repeat = telegram.adr().is_mirror()
+            || telegram
+                .pkw()
+                .is_none_or(|p| matches!(p.pke.ak(), ak::NONE | ak::READ));
+        match echo::after_exchange(self.driver.link_mut().get_mut(), may_repeat) {
+            EchoCheck::Fine => r,
+            EchoCheck::Echoes => Err(echo(true)),
+            EchoCheck::Ambiguous => {
+                // A telegram whose answer never repeats it tells the echo from an answer: the
+                // parameter asked for as an array element (AK 6: answered with AK 4, 5 or 7).
+                let Some(order) = telegram.pkw() else {
+                    // No parameter channel to ask with: the process data's answer repeated
+                    // them, which a drive's status word never does.
+                    return Err(echo(true));
+                };
+                let probe = Pkw {
+                    pke: Pke::new(ak::READ_ARRAY, order.pke.pnu()).unwrap_or(order.pke),
+                    ind: order.ind,
+                    pwe1: 0,
+                    pwe2: 0,
+                };
+                let probe = self.telegram(Adr::new(self.config.address), probe)?;
+                let _ = self.exchange_telegram(probe).await;
+                match echo::after_exchange(self.driver.link_mut().get_mut(), false) {
+                    EchoCheck::Echoes => Err(echo(true)),
+                    _ => r,
+                }
+            }
+        }
+    }
+
+    /// One telegram through the master, as [`UssDriver::transact`] without the echo rules.
+    async fn exchange_telegram(
+        &mut self,
+        telegram: Telegram,
+    ) -> Result<Option<Telegram>, DriverError> {
         let now = self.driver.prepare();
         self.driver.master_mut().send(telegram, now)?;
         self.stats.transactions += 1;

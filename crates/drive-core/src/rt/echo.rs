@@ -26,6 +26,20 @@
 //! Why not in the endpoints: the echo is the adapter's, not the protocol's; every serial
 //! family gets the same handling from one wrapper, and the endpoints' framing, stale-character
 //! and timing rules see the line as it would be without the echo.
+//!
+//! **With the echo off** the wrapper watches instead ([`EchoWatch`], [`CharIo::echo_watch`]):
+//! after each frame written it compares what comes back first with the frame. An echoing
+//! adapter always hands the frame back first, so
+//!
+//! * nothing within [`ECHO_START`] of a frame, or something else first, shows the adapter does
+//!   not echo ([`EchoBelief::Silent`]);
+//! * two exact copies of the frame in a row (its echo and an answer that repeats it) show it
+//!   does ([`EchoBelief::Echoes`]); so does one exact copy of a frame whose answer can never
+//!   repeat it, which only the protocol knows: its driver says so ([`CharIo::confirm_echo`]);
+//! * one exact copy of a frame whose answer may repeat it (Modbus FC 6, 8, 101; USS reads and
+//!   mirror telegrams) is the echo or the answer ([`Replay::Exact`]): the driver does not take it
+//!   while the belief is not [`EchoBelief::Silent`] ([`after_exchange`]). The wrapper never
+//!   changes what it hands on: the drivers decide.
 
 use std::collections::VecDeque;
 use std::io;
@@ -45,6 +59,206 @@ const MAX_PENDING: usize = 2048;
 /// up: a character time at the slowest rates (9 ms at 1200 baud) and a USB adapter's latency
 /// (an FTDI's 16 ms), with room.
 pub const ECHO_START: Duration = Duration::from_millis(100);
+
+/// Whether a line's adapter echoes what is written, as far as the watch of a line whose echo is
+/// off knows (see the [module docs](self)).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum EchoBelief {
+    /// Nothing shows it yet.
+    Unknown,
+    /// It echoes: its frames come back.
+    Echoes,
+    /// It does not: nothing came back after a frame in time, or something else came first.
+    Silent,
+}
+
+/// What came back first after the last frame written, on a watched line.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Replay {
+    /// Nothing yet (or the frame is still being compared).
+    Pending,
+    /// An exact copy of the frame (its echo, or an answer that repeats it).
+    Exact,
+    /// Something else came first.
+    Differed,
+    /// Nothing came within [`ECHO_START`].
+    Nothing,
+}
+
+/// What the echo watch of a line with the echo off has seen ([`CharIo::echo_watch`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct EchoWatch {
+    /// Whether the adapter echoes.
+    pub belief: EchoBelief,
+    /// What came back after the last frame.
+    pub last: Replay,
+}
+
+/// The most bytes of a frame the watch compares (longer frames: their start).
+const WATCH_MAX: usize = 512;
+
+/// The watch's state (echo off).
+#[derive(Debug)]
+struct Watch {
+    belief: EchoBelief,
+    /// The last frame written (its first [`WATCH_MAX`] bytes).
+    frame: Vec<u8>,
+    /// When it was written.
+    at: Option<TokioInstant>,
+    /// Bytes of the current copy compared so far.
+    pos: usize,
+    /// Exact copies seen.
+    copies: u8,
+    last: Replay,
+    /// Nothing more to learn from what comes back after this frame.
+    done: bool,
+}
+
+impl Watch {
+    fn new() -> Watch {
+        Watch {
+            belief: EchoBelief::Unknown,
+            frame: Vec::new(),
+            at: None,
+            pos: 0,
+            copies: 0,
+            last: Replay::Pending,
+            done: true,
+        }
+    }
+
+    fn silent(&mut self) {
+        if self.belief == EchoBelief::Unknown {
+            self.belief = EchoBelief::Silent;
+        }
+    }
+
+    /// Nothing came after the frame for [`ECHO_START`] (at `now`).
+    fn expired(&self, now: TokioInstant) -> bool {
+        !self.done
+            && self.last == Replay::Pending
+            && self.pos == 0
+            && self
+                .at
+                .is_some_and(|at| now.saturating_duration_since(at) >= ECHO_START)
+    }
+
+    fn nothing(&mut self) {
+        self.last = Replay::Nothing;
+        self.done = true;
+        self.silent();
+    }
+
+    /// A frame (or its next part, `more`) was written at `now`.
+    fn wrote(&mut self, bytes: &[u8], more: bool, now: TokioInstant) {
+        if more {
+            let room = WATCH_MAX.saturating_sub(self.frame.len());
+            self.frame.extend(bytes.iter().take(room));
+            return;
+        }
+        if self.expired(now) {
+            self.nothing();
+        }
+        self.frame.clear();
+        self.frame.extend(bytes.iter().take(WATCH_MAX));
+        self.at = Some(now);
+        self.pos = 0;
+        self.copies = 0;
+        self.last = Replay::Pending;
+        self.done = self.frame.is_empty();
+    }
+
+    /// `c` was received.
+    fn received(&mut self, c: &ReceivedChar) {
+        if self.done {
+            return;
+        }
+        if self.expired(c.at) {
+            // Too late for an echo: an answer (or another station).
+            self.nothing();
+            return;
+        }
+        let fits = c.error.is_none() && self.frame.get(self.pos) == Some(&c.byte);
+        if !fits {
+            if self.last == Replay::Pending {
+                self.last = Replay::Differed;
+                self.silent();
+            }
+            self.done = true;
+            return;
+        }
+        self.pos += 1;
+        if self.pos == self.frame.len() {
+            self.pos = 0;
+            self.copies = self.copies.saturating_add(1);
+            self.last = Replay::Exact;
+            if self.copies >= 2 {
+                // The echo, and an answer that repeats the request: the adapter echoes.
+                self.belief = EchoBelief::Echoes;
+                self.done = true;
+            }
+        }
+    }
+
+    fn view(&self, now: TokioInstant) -> EchoWatch {
+        if self.expired(now) {
+            let belief = match self.belief {
+                EchoBelief::Unknown => EchoBelief::Silent,
+                b => b,
+            };
+            return EchoWatch {
+                belief,
+                last: Replay::Nothing,
+            };
+        }
+        EchoWatch {
+            belief: self.belief,
+            last: self.last,
+        }
+    }
+}
+
+/// What a driver does with an exchange's answer on a watched line ([`after_exchange`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum EchoCheck {
+    /// Nothing against it.
+    Fine,
+    /// The adapter echoes and the line's echo is off: no answer on it can be trusted.
+    Echoes,
+    /// An exact copy of a request whose answer may repeat it came back, and whether the
+    /// adapter echoes is not known yet: the driver sends a request whose answer cannot repeat
+    /// it (a read) and asks again.
+    Ambiguous,
+}
+
+/// Before a request on `io`: `true` when its adapter is known to echo while the echo is off
+/// (nothing should be sent: no answer could be trusted).
+pub fn echoes<IO: CharIo + ?Sized>(io: &IO) -> bool {
+    io.echo_watch()
+        .is_some_and(|w| w.belief == EchoBelief::Echoes)
+}
+
+/// After a request on `io` whose answer may repeat it (`may_repeat`) or not: what its answer
+/// is worth (see the [module docs](self)). An exact copy of a request whose answer never
+/// repeats it is the echo: the line is told ([`CharIo::confirm_echo`]).
+pub fn after_exchange<IO: CharIo + ?Sized>(io: &mut IO, may_repeat: bool) -> EchoCheck {
+    let Some(w) = io.echo_watch() else {
+        return EchoCheck::Fine;
+    };
+    match (w.last, may_repeat) {
+        (Replay::Exact, false) => {
+            io.confirm_echo();
+            EchoCheck::Echoes
+        }
+        (Replay::Exact, true) => match w.belief {
+            EchoBelief::Silent => EchoCheck::Fine,
+            EchoBelief::Echoes => EchoCheck::Echoes,
+            EchoBelief::Unknown => EchoCheck::Ambiguous,
+        },
+        _ if w.belief == EchoBelief::Echoes => EchoCheck::Echoes,
+        _ => EchoCheck::Fine,
+    }
+}
 
 /// What an [`EchoCancel`] saw.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -85,6 +299,8 @@ pub struct EchoCancel<IO> {
     /// A frame is being written (bytes written since the last flush).
     writing: bool,
     stats: EchoStats,
+    /// With the echo off: what comes back after each frame.
+    watch: Watch,
 }
 
 impl<IO> EchoCancel<IO> {
@@ -98,6 +314,7 @@ impl<IO> EchoCancel<IO> {
             garbled: 0,
             writing: false,
             stats: EchoStats::default(),
+            watch: Watch::new(),
         }
     }
 
@@ -144,10 +361,15 @@ impl<IO> EchoCancel<IO> {
     /// is still pending. At the start of a frame (after a flush), earlier echoes that have
     /// not begun [`ECHO_START`] after their frame was written are given up.
     fn wrote(&mut self, bytes: &[u8]) {
-        if !self.on || bytes.is_empty() {
+        if bytes.is_empty() {
             return;
         }
         let now = super::time::now();
+        if !self.on {
+            self.watch.wrote(bytes, self.writing, now);
+            self.writing = true;
+            return;
+        }
         match self.frames.back_mut() {
             Some(f) if self.writing => f.left += bytes.len(),
             _ => {
@@ -227,7 +449,13 @@ impl<IO: CharIo> CharIo for EchoCancel<IO> {
                 Poll::Ready(Ok(n)) => n,
                 other => return other,
             };
-            if n == 0 || !self.on {
+            if n == 0 {
+                return Poll::Ready(Ok(n));
+            }
+            if !self.on {
+                for c in buf.iter().take(n) {
+                    self.watch.received(c);
+                }
                 return Poll::Ready(Ok(n));
             }
             let kept = self.cancel(buf, n);
@@ -274,6 +502,16 @@ impl<IO: CharIo> CharIo for EchoCancel<IO> {
 
     fn wire_time(&self) -> WireTime {
         self.io.wire_time()
+    }
+
+    fn echo_watch(&self) -> Option<EchoWatch> {
+        (!self.on).then(|| self.watch.view(super::time::now()))
+    }
+
+    fn confirm_echo(&mut self) {
+        if !self.on {
+            self.watch.belief = EchoBelief::Echoes;
+        }
     }
 }
 
@@ -453,4 +691,94 @@ mod tests {
         assert_eq!(read(&mut e, &FC6), clean(&FC6));
         assert_eq!(e.stats(), EchoStats::default());
     }
+
+    fn watch(e: &EchoCancel<Script>) -> EchoWatch {
+        e.echo_watch().expect("watched with the echo off")
+    }
+
+    /// Issue 22, item 5: with the echo off the watch hands everything on unchanged and learns
+    /// whether the adapter echoes: something else first, or nothing within [`ECHO_START`],
+    /// shows it does not; an exact copy is the echo or an answer that repeats the request.
+    #[tokio::test(start_paused = true)]
+    async fn with_the_echo_off_the_watch_tells_an_adapter_that_does_not_echo() {
+        // An answer that differs from the request comes first: no echo.
+        let mut e = EchoCancel::new(Script::default(), false);
+        assert_eq!(watch(&e).belief, EchoBelief::Unknown);
+        send(&mut e, &FC6);
+        let answer = [0x01, 0x86, 0x02, 0xC3, 0xA1];
+        assert_eq!(read(&mut e, &answer), clean(&answer), "handed on unchanged");
+        assert_eq!(
+            watch(&e),
+            EchoWatch {
+                belief: EchoBelief::Silent,
+                last: Replay::Differed
+            }
+        );
+        // From now on an exact copy is an answer: taken.
+        send(&mut e, &FC6);
+        assert_eq!(read(&mut e, &FC6), clean(&FC6));
+        assert_eq!(watch(&e).last, Replay::Exact);
+        assert_eq!(after_exchange(&mut e, true), EchoCheck::Fine);
+
+        // Nothing within ECHO_START: no echo (one would have begun by then).
+        let mut e = EchoCancel::new(Script::default(), false);
+        send(&mut e, &FC6);
+        assert_eq!(watch(&e).last, Replay::Pending);
+        tokio::time::advance(ECHO_START).await;
+        assert_eq!(watch(&e).belief, EchoBelief::Silent);
+        // A copy that comes that late is an answer, not an echo: the belief stays.
+        assert_eq!(read(&mut e, &FC6), clean(&FC6));
+        assert_eq!(
+            watch(&e),
+            EchoWatch {
+                belief: EchoBelief::Silent,
+                last: Replay::Nothing
+            }
+        );
+        assert_eq!(after_exchange(&mut e, true), EchoCheck::Fine);
+        assert!(!echoes(&e));
+    }
+
+    #[tokio::test(start_paused = true)]
+    async fn with_the_echo_off_an_exact_copy_is_an_echo_when_the_answer_cannot_repeat_the_request()
+    {
+        // FC 3 read: its answer never repeats it, so a copy of it is the echo.
+        const FC3: [u8; 8] = [0x01, 0x03, 0x01, 0x74, 0x00, 0x01, 0xC5, 0xE8];
+        let mut e = EchoCancel::new(Script::default(), false);
+        send(&mut e, &FC3);
+        assert_eq!(read(&mut e, &FC3), clean(&FC3));
+        assert_eq!(
+            watch(&e),
+            EchoWatch {
+                belief: EchoBelief::Unknown,
+                last: Replay::Exact
+            }
+        );
+        assert_eq!(after_exchange(&mut e, false), EchoCheck::Echoes);
+        assert!(echoes(&e), "the driver told the line");
+        // Every later answer is refused, also one that differs (the echo comes first).
+        send(&mut e, &FC6);
+        assert_eq!(after_exchange(&mut e, true), EchoCheck::Echoes);
+
+        // FC 6: one copy is the echo or the answer (ambiguous until the line is known); two
+        // copies in a row are the echo and the answer.
+        let mut e = EchoCancel::new(Script::default(), false);
+        send(&mut e, &FC6);
+        read(&mut e, &FC6);
+        assert_eq!(after_exchange(&mut e, true), EchoCheck::Ambiguous);
+        send(&mut e, &FC6);
+        let both: Vec<u8> = FC6.iter().chain(&FC6).copied().collect();
+        assert_eq!(read(&mut e, &both), clean(&both), "handed on unchanged");
+        assert_eq!(watch(&e).belief, EchoBelief::Echoes);
+        assert_eq!(after_exchange(&mut e, true), EchoCheck::Echoes);
+        // A stray byte later never makes it silent again.
+        send(&mut e, &FC3);
+        read(&mut e, &[0x55]);
+        assert_eq!(watch(&e).belief, EchoBelief::Echoes);
+
+        // With the echo taken out there is nothing to watch.
+        let e = EchoCancel::new(Script::default(), true);
+        assert_eq!(e.echo_watch(), None);
+    }
+
 }

@@ -91,6 +91,18 @@ pub trait CharIo: Send {
     fn wire_time(&self) -> WireTime {
         WireTime::Unknown
     }
+
+    /// What the line's echo watch has seen ([`super::echo`]): whether its adapter echoes what
+    /// is written, and what came back after the last frame. `None` where nothing watches (the
+    /// default; a line whose echo is taken out). Wrappers forward it.
+    fn echo_watch(&self) -> Option<super::echo::EchoWatch> {
+        None
+    }
+
+    /// The protocol knows that an exact copy of the last frame cannot be its answer: the copy
+    /// that came back ([`super::echo::Replay::Exact`]) was the adapter's echo. Wrappers
+    /// forward it.
+    fn confirm_echo(&mut self) {}
 }
 
 /// How a [`CharIo`] carries frames ([`CharIo::wire_time`]).
@@ -152,6 +164,14 @@ impl<T: CharIo + ?Sized> CharIo for &mut T {
 
     fn wire_time(&self) -> WireTime {
         (**self).wire_time()
+    }
+
+    fn echo_watch(&self) -> Option<super::echo::EchoWatch> {
+        (**self).echo_watch()
+    }
+
+    fn confirm_echo(&mut self) {
+        (**self).confirm_echo();
     }
 }
 

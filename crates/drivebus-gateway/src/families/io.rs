@@ -59,6 +59,14 @@ impl CharIo for LineIo {
     fn wire_time(&self) -> WireTime {
         self.0.wire_time()
     }
+
+    fn echo_watch(&self) -> Option<drive_core::rt::echo::EchoWatch> {
+        self.0.echo_watch()
+    }
+
+    fn confirm_echo(&mut self) {
+        self.0.confirm_echo();
+    }
 }
 
 /// The first wait after a port failed, doubled after every failed attempt up to
@@ -270,6 +278,20 @@ impl CharIo for Reopen<LineIo> {
             _ => WireTime::Unknown,
         }
     }
+
+    // A port opened again is a new adapter, perhaps: its watch starts again.
+    fn echo_watch(&self) -> Option<drive_core::rt::echo::EchoWatch> {
+        match &self.state {
+            State::Open(io) => io.echo_watch(),
+            _ => None,
+        }
+    }
+
+    fn confirm_echo(&mut self) {
+        if let State::Open(io) = &mut self.state {
+            io.confirm_echo();
+        }
+    }
 }
 
 /// A boxed CAN interface.
@@ -444,6 +466,14 @@ impl CharIo for SharedLine {
 
     fn wire_time(&self) -> WireTime {
         lock(&self.inner).io.wire_time()
+    }
+
+    fn echo_watch(&self) -> Option<drive_core::rt::echo::EchoWatch> {
+        lock(&self.inner).io.echo_watch()
+    }
+
+    fn confirm_echo(&mut self) {
+        lock(&self.inner).io.confirm_echo();
     }
 }
 

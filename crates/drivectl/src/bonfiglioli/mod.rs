@@ -394,5 +394,11 @@ fn note_probed(n: usize) {
 }
 
 fn driver_error(e: DriverError) -> CliError {
-    CliError::failed(e.to_string())
+    let hint = match &e {
+        DriverError::Link(l) if l.fault() == drive_client::LinkFault::Echo => {
+            crate::tool::client::ECHO_HINT
+        }
+        _ => "",
+    };
+    CliError::failed(format!("{e}{hint}"))
 }

@@ -10,9 +10,22 @@ pub use drive_client::text::{canonical_port, parse_int};
 
 use crate::error::CliError;
 
+/// The command line's way out of a line whose adapter echoes what it sends while `--echo` is
+/// not given (`LinkFault::Echo`).
+pub const ECHO_HINT: &str =
+    "; give --echo for an adapter that echoes what it sends (a two-wire RS-485 converter)";
+
+/// [`ECHO_HINT`] where `e` is a line that echoes.
+pub fn echo_hint(e: &ClientError) -> &'static str {
+    match e {
+        ClientError::Link(l) if l.fault == drive_client::LinkFault::Echo => ECHO_HINT,
+        _ => "",
+    }
+}
+
 impl From<ClientError> for CliError {
     fn from(e: ClientError) -> Self {
-        CliError::failed(e.to_string())
+        CliError::failed(format!("{e}{}", echo_hint(&e)))
     }
 }
 
@@ -55,7 +68,7 @@ pub trait OnTarget {
 
 impl OnTarget for Target {
     fn error(&self, e: ClientError) -> CliError {
-        CliError::failed(format!("{}: {e}", self.label()))
+        CliError::failed(format!("{}: {e}{}", self.label(), echo_hint(&e)))
     }
 }
 

@@ -37,8 +37,9 @@ impl From<WriteError> for CliError {
             }
             WriteError::WearLog(w) => CliError::failed(format!("{w}{CLI_WAY_OUT}")),
             WriteError::Key(c) => c.into(),
-            e @ (WriteError::Client { .. } | WriteError::ReadBack { .. }) => {
-                CliError::failed(e.to_string())
+            WriteError::Client { ref error, .. } | WriteError::ReadBack { ref error, .. } => {
+                let hint = super::client::echo_hint(error);
+                CliError::failed(format!("{e}{hint}"))
             }
             other => CliError::failed(other.to_string()),
         }
