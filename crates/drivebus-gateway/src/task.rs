@@ -918,16 +918,26 @@ impl Out<'_> {
             let Some(status) = self.status.get(drive).cloned().flatten() else {
                 continue;
             };
-            let Ok(permit) = self.updates.reserve().await else {
+            if !self.report_status(drive, status).await {
                 return false;
-            };
-            permit.send(Update::Status {
-                bus: self.ix.get(),
-                drive,
-                status,
-                at: SystemTime::now(),
-            });
+            }
         }
+        true
+    }
+
+    /// Report `status` of `drive`; false when the gateway is stopping. A status is never
+    /// dropped: wait for room, then read the bus's index (a reload that moved it while this
+    /// task waited has its notice in the queue before this status).
+    async fn report_status(&self, drive: DriveIx, status: DriveStatus) -> bool {
+        let Ok(permit) = self.updates.reserve().await else {
+            return false;
+        };
+        permit.send(Update::Status {
+            bus: self.ix.get(),
+            drive,
+            status,
+            at: SystemTime::now(),
+        });
         true
     }
 
@@ -950,18 +960,7 @@ impl Out<'_> {
         }
         self.metrics
             .drive_status(&self.bus.name, &name, status.state());
-        // A status is never dropped: wait for room, then read the bus's index (a reload that
-        // moved it while this task waited has its notice in the queue before this status).
-        let Ok(permit) = self.updates.reserve().await else {
-            return false;
-        };
-        permit.send(Update::Status {
-            bus: self.ix.get(),
-            drive,
-            status,
-            at: SystemTime::now(),
-        });
-        true
+        self.report_status(drive, status).await
     }
 
     /// Report a value; dropped (and logged) when the MQTT task is that far behind — the next

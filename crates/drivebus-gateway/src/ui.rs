@@ -577,6 +577,17 @@ fn reloaded() -> Response {
     )
 }
 
+/// Bus `bus` of the plant the request's generation names, as the current plant's (refused with
+/// 409 where a reload removed or restarted it, 400 for a generation that is no number).
+fn now_bus(
+    parts: &axum::http::request::Parts,
+    hub: &Hub,
+    bus: usize,
+) -> std::result::Result<usize, Box<Response>> {
+    let seen = generation_of(parts)?;
+    hub.resolve(seen, bus).map_err(|_| Box::new(reloaded()))
+}
+
 /// A drive a page names by `{bus}/{drive}` of the plant it shows, as indices of the current
 /// plant (a reload may have moved its bus; a bus it removed or restarted is refused with 409).
 #[derive(Debug, Clone, Copy)]
@@ -593,9 +604,7 @@ impl axum::extract::FromRequestParts<Arc<Hub>> for DriveAt {
             axum::extract::Path::<(usize, usize)>::from_request_parts(parts, hub)
                 .await
                 .map_err(IntoResponse::into_response)?;
-        let seen = generation_of(parts).map_err(|r| *r)?;
-        let bus = hub.resolve(seen, bus).map_err(|_| reloaded())?;
-        Ok(DriveAt(bus, drive))
+        Ok(DriveAt(now_bus(parts, hub, bus).map_err(|r| *r)?, drive))
     }
 }
 
@@ -614,9 +623,11 @@ impl axum::extract::FromRequestParts<Arc<Hub>> for PointAt {
             axum::extract::Path::<(usize, usize, usize)>::from_request_parts(parts, hub)
                 .await
                 .map_err(IntoResponse::into_response)?;
-        let seen = generation_of(parts).map_err(|r| *r)?;
-        let bus = hub.resolve(seen, bus).map_err(|_| reloaded())?;
-        Ok(PointAt(bus, drive, point))
+        Ok(PointAt(
+            now_bus(parts, hub, bus).map_err(|r| *r)?,
+            drive,
+            point,
+        ))
     }
 }
 

@@ -780,5 +780,4 @@ mod tests {
         let e = EchoCancel::new(Script::default(), true);
         assert_eq!(e.echo_watch(), None);
     }
-
 }

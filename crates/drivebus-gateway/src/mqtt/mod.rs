@@ -696,33 +696,19 @@ impl Task {
 
     /// The connection ends for one with other settings: a reload changed the broker, the
     /// credentials, or the gateway's topics. When the topics stay (`prefix` and `name`), every
-    /// value is published stale and the status `offline`, as at a stop; when they change, every
-    /// retained topic of the old ones is cleared (the gateway no longer publishes there). At
-    /// most [`SHUTDOWN_FLUSH`].
+    /// value is published stale and the status `offline`, as at a stop (the values stay known
+    /// for the next connection); when they change, every retained topic of the old ones is
+    /// cleared (the gateway no longer publishes there). At most [`SHUTDOWN_FLUSH`].
     async fn end_connection(&mut self, link_rx: &mut mpsc::Receiver<Link>, r: &Reconfig) {
         let (old, new) = (&self.plant.gateway, &r.plant.gateway);
         let same_topics = old.prefix == new.prefix && old.name == new.name;
-        let now = payload::millis(SystemTime::now());
-        let messages: Vec<(String, Vec<u8>)> = if same_topics {
-            let mut m: Vec<(String, Vec<u8>)> = self
-                .outbox
-                .stale_copies(now)
-                .into_iter()
-                .map(|(t, p)| (t, p.into_bytes()))
-                .collect();
-            m.push((
-                self.names.status.clone(),
-                payload::gateway_offline("reconfigured", Some(now)).into_bytes(),
-            ));
-            m
+        let messages = if same_topics {
+            self.farewell(Farewell::Stale {
+                reason: "reconfigured",
+                keep: true,
+            })
         } else {
-            let mut m: Vec<(String, Vec<u8>)> = self
-                .outbox
-                .topics()
-                .map(|t| (t.to_owned(), Vec::new()))
-                .collect();
-            m.push((self.names.status.clone(), Vec::new()));
-            m
+            self.farewell(Farewell::Clear)
         };
         tracing::info!(
             broker = %self.broker,
@@ -730,8 +716,48 @@ impl Task {
             "MQTT: the reloaded config connects otherwise: {} the old connection's topics",
             if same_topics { "marking stale" } else { "clearing" }
         );
+        self.leave(link_rx, messages).await;
+    }
+
+    /// The retained messages that end this connection's topics ([`Farewell`]).
+    fn farewell(&mut self, how: Farewell) -> Vec<(String, Vec<u8>)> {
+        let now = payload::millis(SystemTime::now());
+        let (mut m, status): (Vec<(String, Vec<u8>)>, Vec<u8>) = match how {
+            Farewell::Stale { reason, keep } => {
+                let stale = if keep {
+                    self.outbox.stale_copies(now)
+                } else {
+                    self.outbox.stopping(now)
+                };
+                (
+                    stale
+                        .into_iter()
+                        .map(|(t, p)| (t, p.into_bytes()))
+                        .collect(),
+                    payload::gateway_offline(reason, Some(now)).into_bytes(),
+                )
+            }
+            Farewell::Clear => (
+                self.outbox
+                    .topics()
+                    .map(|t| (t.to_owned(), Vec::new()))
+                    .collect(),
+                Vec::new(),
+            ),
+        };
+        m.push((self.names.status.clone(), status));
+        m
+    }
+
+    /// Publish `messages` (retained) and disconnect, while connected, waiting at most
+    /// [`SHUTDOWN_FLUSH`] for both to go out; whether they did.
+    async fn leave(
+        &mut self,
+        link_rx: &mut mpsc::Receiver<Link>,
+        messages: Vec<(String, Vec<u8>)>,
+    ) -> bool {
         if !self.connected {
-            return;
+            return false;
         }
         let deadline = Instant::now() + SHUTDOWN_FLUSH;
         let client = self.client.clone();
@@ -742,9 +768,18 @@ impl Task {
             client.disconnect().await
         };
         match tokio::time::timeout_at(deadline, handed).await {
-            Ok(Ok(())) => wait_disconnect(link_rx, deadline).await,
-            Ok(Err(e)) => tracing::warn!(error = %e, "MQTT: cannot end the old connection cleanly"),
-            Err(_) => tracing::warn!("MQTT: the old connection did not end in time"),
+            Ok(Ok(())) => {
+                wait_disconnect(link_rx, deadline).await;
+                true
+            }
+            Ok(Err(e)) => {
+                tracing::warn!(error = %e, "cannot publish the last messages and disconnect");
+                false
+            }
+            Err(_) => {
+                tracing::warn!("the broker did not take the last messages in time");
+                false
+            }
         }
     }
 
@@ -1013,66 +1048,38 @@ impl Task {
         if !self.connected {
             return;
         }
-        let deadline = Instant::now() + SHUTDOWN_FLUSH;
-        let now = payload::millis(SystemTime::now());
-        let messages: Vec<(String, Vec<u8>)> = match end {
+        let messages = match end {
             // Every value published, retained as stale: after the stop no consumer takes one
             // for a current value.
-            End::Stop => {
-                let mut m: Vec<(String, Vec<u8>)> = self
-                    .outbox
-                    .stopping(now)
-                    .into_iter()
-                    .map(|(t, p)| (t, p.into_bytes()))
-                    .collect();
-                m.push((
-                    self.names.status.clone(),
-                    payload::gateway_offline("stopped", Some(now)).into_bytes(),
-                ));
-                m
-            }
-            End::Clear => {
-                let mut m: Vec<(String, Vec<u8>)> = self
-                    .outbox
-                    .topics()
-                    .map(|t| (t.to_owned(), Vec::new()))
-                    .collect();
-                m.push((self.names.status.clone(), Vec::new()));
-                m
-            }
-        };
-        let count = messages.len();
-        let handed = async {
-            for (topic, p) in messages {
-                self.client
-                    .publish(topic, QoS::AtLeastOnce, true, p)
-                    .await?;
-            }
-            self.client.disconnect().await
+            End::Stop => self.farewell(Farewell::Stale {
+                reason: "stopped",
+                keep: false,
+            }),
+            End::Clear => self.farewell(Farewell::Clear),
         };
         tracing::info!(
-            messages = count,
+            messages = messages.len(),
             "{}",
             match end {
                 End::Stop => "stopping: the values as stale, then offline",
                 End::Clear => "the reloaded config has no JSON topics: clearing them",
             }
         );
-        match tokio::time::timeout_at(deadline, handed).await {
-            Ok(Ok(())) => {}
-            Ok(Err(e)) => {
-                tracing::warn!(error = %e, "cannot publish offline at shutdown");
-                return;
-            }
-            Err(_) => {
-                tracing::warn!("the broker did not take offline in time at shutdown");
-                return;
-            }
+        if self.leave(link_rx, messages).await {
+            tracing::info!("disconnected from the broker");
         }
-        wait_disconnect(link_rx, deadline).await;
-        tracing::info!("disconnected from the broker");
         metrics_connected(&self.metrics, false);
     }
+}
+
+/// How a connection's topics are left ([`Task::farewell`]).
+#[derive(Debug, Clone, Copy)]
+enum Farewell {
+    /// Every value published stale and the status `offline` with `reason`; `keep`: the values
+    /// stay known as they were (for a next connection), else they are kept as stale.
+    Stale { reason: &'static str, keep: bool },
+    /// Every retained topic cleared, the status too.
+    Clear,
 }
 
 /// Wait (until `deadline`) for the client to have sent its DISCONNECT.
