@@ -15,6 +15,8 @@
 //! | `drivebus_sets_total` | `outcome` ([`SET_OUTCOMES`]) |
 //! | `drivebus_build_info` | `version` |
 //! | `drivebus_runtime_tasks` | |
+//! | `drivebus_config_generation` | |
+//! | `drivebus_config_reloads_total` | `outcome` (`applied`, `unchanged`, `refused`) |
 //!
 //! Label values are the config's bus and drive names and fixed lists: nothing a drive or the
 //! broker sends can add a series. An unknown rejection reason or `set` outcome is counted as
@@ -116,6 +118,9 @@ pub const SET_OUTCOMES: [&str; 19] = [
     "other",
 ];
 
+/// The `outcome` label of `drivebus_config_reloads_total`.
+pub const RELOAD_OUTCOMES: [&str; 3] = ["applied", "unchanged", "refused"];
+
 /// The `kind` label of `drivebus_mqtt_published_total` counted without a lookup in the
 /// family (another `&'static str` kind is counted too, through the family).
 pub const PUBLISH_KINDS: [&str; 7] = [
@@ -194,6 +199,10 @@ pub struct Metrics {
     per_bus: PerBus,
     /// The tokio runtime's alive tasks, read at each exposition.
     runtime_tasks: Gauge,
+    /// The running config's generation (1 at the start).
+    generation: Gauge,
+    /// Reloads by outcome: applied, unchanged, refused.
+    reloads: [Counter; 3],
     transactions: Family<Labels, Counter>,
     latency: Family<Labels, Histogram, fn() -> Histogram>,
     broker: Gauge,
@@ -293,6 +302,11 @@ impl Metrics {
         let sets = Family::<Labels, Counter>::default();
         let table = table(plant, &per_bus, &transactions, &latency);
         let runtime_tasks = Gauge::default();
+        let generation = Gauge::default();
+        generation.set(1);
+        let reload_family = Family::<Labels, Counter>::default();
+        let reloads = RELOAD_OUTCOMES
+            .map(|o| reload_family.get_or_create_owned(&vec![("outcome", o.to_owned())]));
         let published = PUBLISH_KINDS
             .iter()
             .map(|k| published_family.get_or_create_owned(&vec![("kind", (*k).to_owned())]))
@@ -359,11 +373,23 @@ impl Metrics {
             "Tasks alive on the tokio runtime at the scrape (not those of its LocalSet)",
             runtime_tasks.clone(),
         );
+        registry.register(
+            "drivebus_config_generation",
+            "The running config's generation: 1 at the start, one more at each reload that took effect",
+            generation.clone(),
+        );
+        registry.register(
+            "drivebus_config_reloads",
+            "Reloads of the config (SIGHUP) by outcome",
+            reload_family,
+        );
         Self {
             registry,
             table: RwLock::new(table),
             per_bus,
             runtime_tasks,
+            generation,
+            reloads,
             transactions,
             latency,
             broker,
@@ -636,6 +662,16 @@ impl Metrics {
         if let Some(c) = self.sets.get(i) {
             c.inc();
         }
+    }
+
+    /// A reload's outcome (`applied`, `unchanged` or `refused`, [`RELOAD_OUTCOMES`]) and the
+    /// generation running after it.
+    pub fn reload(&self, outcome: &str, generation: u64) {
+        if let Some(c) = position(&RELOAD_OUTCOMES, outcome).and_then(|i| self.reloads.get(i)) {
+            c.inc();
+        }
+        self.generation
+            .set(i64::try_from(generation).unwrap_or(i64::MAX));
     }
 
     /// The text exposition (OpenMetrics, [`CONTENT_TYPE`]); empty if it cannot be written.

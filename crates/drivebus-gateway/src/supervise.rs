@@ -415,6 +415,7 @@ impl Running {
             let why = "the config came from standard input: nothing to read again; restart \
                        the gateway to change it";
             tracing::warn!("SIGHUP: {why}");
+            self.metrics.reload("refused", self.generation);
             self.config
                 .send_modify(|c| c.last_reload = Some((at, Some(why.to_owned()))));
             return;
@@ -428,6 +429,7 @@ impl Running {
             Ok(Some(p)) => {
                 self.commit(p).await;
                 let generation = self.generation;
+                self.metrics.reload("applied", generation);
                 self.config.send_modify(|c| {
                     c.generation = generation;
                     c.loaded = millis(SystemTime::now());
@@ -436,11 +438,13 @@ impl Running {
             }
             Ok(None) => {
                 tracing::info!("the config is unchanged: nothing to do");
+                self.metrics.reload("unchanged", self.generation);
                 self.config
                     .send_modify(|c| c.last_reload = Some((at, None)));
             }
             Err(e) => {
                 tracing::error!(error = %e, "the reloaded config was refused: the running config stays as it is");
+                self.metrics.reload("refused", self.generation);
                 self.config
                     .send_modify(|c| c.last_reload = Some((at, Some(e.to_string()))));
             }

@@ -303,10 +303,16 @@ async fn issue22_sighup_reloads_the_config_and_keeps_what_did_not_change() {
         left.is_empty(),
         "retained topics of the removed bus: {left:?}"
     );
-    // Nor does /metrics have its series.
+    // Nor does /metrics have its series; it counts the reload.
     let text = scrape(port);
     assert!(!text.contains("bus=\"gone\""), "{text}");
     assert!(text.contains("bus=\"fresh\""), "{text}");
+    assert_eq!(metric(&text, "drivebus_config_generation "), 2.0, "{text}");
+    assert_eq!(
+        metric(&text, "drivebus_config_reloads_total{outcome=\"applied\"}"),
+        1.0,
+        "{text}"
+    );
 
     // A broken config changes nothing and says why, on the status topic and in the log.
     gw.write_config(&format!(
@@ -329,6 +335,13 @@ async fn issue22_sighup_reloads_the_config_and_keeps_what_did_not_change() {
         "{}",
         gw.log()
     );
+    let text = scrape(port);
+    assert_eq!(
+        metric(&text, "drivebus_config_reloads_total{outcome=\"refused\"}"),
+        1.0,
+        "{text}"
+    );
+    assert_eq!(metric(&text, "drivebus_config_generation "), 2.0, "{text}");
     // Still polling both buses, nothing cleared.
     let mut after = TestClient::connect(
         broker.client_options("after", None),
