@@ -417,6 +417,33 @@ async fn issue22_sighup_reloads_with_the_drives_running_a_closed_terminal_stops_
     assert!(gw.running(), "{}", gw.log());
     assert!(!gw.log().contains("stop sent"), "{}", gw.log());
     assert!(gw.log().contains("the config is unchanged"), "{}", gw.log());
+    // A changed bus (a point added) is restarted on the same port: the drive whose process
+    // data the new config carries on gets no stop, and runs on.
+    gw.write_config(&format!(
+        "{config}[[bus.drive.param]]\nparam = \"P130\"\nname = \"ramp\"\nperiod = \"1s\"\n"
+    ));
+    gw.signal("HUP");
+    c.next("drivebus/gw/status", "generation 2", |v| {
+        v["config"]["generation"] == 2
+    })
+    .await;
+    c.next("drivebus/gw/ml/d1/ramp", "the new point", |_| true)
+        .await;
+    let after = now_ms();
+    let pd = c
+        .next(
+            "drivebus/gw/ml/d1/pd",
+            "process data after the restart",
+            |v| v["ts"].as_u64().is_some_and(|t| t > after),
+        )
+        .await;
+    assert_eq!(pd["in"][0].as_u64().unwrap() >> 8, 4, "enabled: {pd}");
+    let log = gw.log();
+    assert!(!log.contains("stop sent in the process data"), "{log}");
+    assert!(
+        log.contains("no stop sent: the reloaded config carries on its process data"),
+        "{log}"
+    );
     let status = gw.terminate();
     assert!(status.success(), "{status:?}");
     assert!(!enabled(&sim), "the stop at SIGTERM");
