@@ -378,6 +378,14 @@ def cmd_report(args):
     print(f"run: {length:.0f} s, {len(rows)} samples every {args.interval} s")
     flat(v, rows, "rss_kb", "memory flat (VmRSS)", "kB", 1.0)
     flat(v, rows, "fds", "descriptors flat (/proc/PID/fd)", "fds", 1.0)
+    # The curve: VmRSS at the end of every tenth of the run (a leak climbs on steadily, a
+    # warm-up flattens out).
+    tenths = []
+    for i in range(1, 11):
+        upto = [r for r in rows if float(r["elapsed_s"]) <= length * i / 10 and r.get("rss_kb")]
+        if upto:
+            tenths.append(upto[-1]["rss_kb"])
+    print(f"info  VmRSS (kB) at each tenth of the run: {' '.join(tenths)}")
     ints = lambda k: [int(r[k]) for r in rows if r.get(k, "").lstrip("-").isdigit()]  # noqa: E731
     for key, what in (("threads", "threads"), ("tasks", "runtime tasks (drivebus_runtime_tasks)")):
         xs = ints(key)
@@ -413,10 +421,13 @@ def cmd_report(args):
     for rs in by_id.values():
         o = rs[0]["outcome"] if rs[0]["outcome"] != "refused" else f"refused:{rs[0]['reason']}"
         outcomes[o] = outcomes.get(o, 0) + 1
+    # The gateway's own count (drivebus_sets_total) at the last sample, taken after the tail.
+    counted = next((int(r["sets"]) for r in reversed(rows) if r.get("sets", "").isdigit()), -1)
     v.check(
-        not missing and not duplicates and not unexpected,
+        not missing and not duplicates and not unexpected and counted == len(acked),
         "every set answered exactly once",
-        f"{len(acked)} sent (taken by the broker), {len(acked) - len(missing)} answered, "
+        f"{len(acked)} sent (taken by the broker), {counted} counted by the gateway "
+        f"(drivebus_sets_total), {len(acked) - len(missing)} answered, "
         f"{len(missing)} missing, {len(duplicates)} duplicate, {len(unexpected)} unasked-for; "
         f"{redelivered} redelivered copies to the observer (dup flag) not counted; "
         f"outcomes {json.dumps(dict(sorted(outcomes.items())))}"
