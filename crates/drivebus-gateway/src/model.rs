@@ -1,7 +1,7 @@
 //! What flows between the gateway's tasks: bus tasks report [`Update`]s to the MQTT task, the
 //! MQTT task hands [`SetRequest`]s to a bus task and gets a [`SetOutcome`] back.
 //!
-//! Drives and points are named by their indices in the [`Plant`](super::config::Plant)
+//! Drives and points are named by their indices in the [`Plant`]
 //! (`bus`, `drive`, `point`), so nothing is allocated per value on the way.
 
 use std::sync::Arc;

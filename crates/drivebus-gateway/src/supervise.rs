@@ -6,11 +6,11 @@
 //! the buses (the drives they control get their stop) and then the publishers; SIGHUP reads the
 //! config again ([`Source`]) and, when all of it checks, puts it into effect:
 //!
-//! 1. **Check everything first** ([`Running::prepare`]): the config file, the broker
+//! 1. **Check everything first** (`Running::prepare`): the config file, the broker
 //!    connections' files where their settings changed, the page's certificate, key and users,
 //!    the listeners of a page or `/metrics` that moved. Anything that fails leaves the running
 //!    config as it is, says why in the log and on the gateway's status topic.
-//! 2. **Buses** ([`Running::commit`]): a bus whose settings did not change keeps running: its
+//! 2. **Buses** (`Running::commit`): a bus whose settings did not change keeps running: its
 //!    port stays open, no poll is missed, its writes waiting stay. A bus that changed or went
 //!    is stopped (the drives it controls over process data get their stop unless the new config
 //!    carries their process data on on the same line), then the new ones start.
@@ -271,7 +271,7 @@ struct Running {
     announce: watch::Sender<u64>,
 }
 
-/// What a reload found to do, all of it checked and prepared ([`Running::prepare`]).
+/// What a reload found to do, all of it checked and prepared (`Running::prepare`).
 struct Prepared {
     plant: Arc<Plant>,
     /// `None`: keep as it is; `Some(None)`: stop; `Some(Some(m))`: a new connection.
