@@ -385,12 +385,13 @@ def cmd_report(args):
     flat(v, rows, "fds", "descriptors flat (/proc/PID/fd)", "fds", 1.0)
     # The curve: VmRSS at the end of every tenth of the run (a leak climbs on steadily, a
     # warm-up flattens out).
-    tenths = []
-    for i in range(1, 11):
-        upto = [r for r in rows if float(r["elapsed_s"]) <= length * i / 10 and r.get("rss_kb")]
-        if upto:
-            tenths.append(upto[-1]["rss_kb"])
-    print(f"info  VmRSS (kB) at each tenth of the run: {' '.join(tenths)}")
+    for key, what in (("rss_kb", "VmRSS"), ("rss_anon_kb", "RssAnon"), ("rss_file_kb", "RssFile")):
+        tenths = []
+        for i in range(1, 11):
+            upto = [r for r in rows if float(r["elapsed_s"]) <= length * i / 10 and r.get(key)]
+            if upto:
+                tenths.append(upto[-1][key])
+        print(f"info  {what} (kB) at each tenth of the run: {' '.join(tenths)}")
     ints = lambda k: [int(r[k]) for r in rows if r.get(k, "").lstrip("-").isdigit()]  # noqa: E731
     for key, what in (("threads", "threads"), ("tasks", "runtime tasks (drivebus_runtime_tasks)")):
         xs = ints(key)
