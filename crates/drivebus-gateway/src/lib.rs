@@ -40,6 +40,7 @@ pub mod schedule;
 pub mod sparkplug;
 pub mod supervise;
 pub mod task;
+pub mod tasks;
 pub mod ui;
 
 pub mod error;

@@ -199,6 +199,8 @@ pub struct Metrics {
     per_bus: PerBus,
     /// The tokio runtime's alive tasks, read at each exposition.
     runtime_tasks: Gauge,
+    /// The gateway's own tasks alive ([`crate::tasks`]).
+    local_tasks: Arc<AtomicUsize>,
     /// The running config's generation (1 at the start).
     generation: Gauge,
     /// Reloads by outcome: applied, unchanged, refused.
@@ -370,7 +372,7 @@ impl Metrics {
         );
         registry.register(
             "drivebus_runtime_tasks",
-            "Tasks alive on the tokio runtime at the scrape (not those of its LocalSet)",
+            "Tasks alive at the scrape: the tokio runtime's and the gateway's own on its LocalSet",
             runtime_tasks.clone(),
         );
         registry.register(
@@ -388,6 +390,7 @@ impl Metrics {
             table: RwLock::new(table),
             per_bus,
             runtime_tasks,
+            local_tasks: Arc::new(AtomicUsize::new(0)),
             generation,
             reloads,
             transactions,
@@ -664,6 +667,11 @@ impl Metrics {
         }
     }
 
+    /// The counter of the gateway's own tasks ([`crate::tasks::count_on_this_thread`]).
+    pub fn local_task_count(&self) -> Arc<AtomicUsize> {
+        self.local_tasks.clone()
+    }
+
     /// A reload's outcome (`applied`, `unchanged` or `refused`, [`RELOAD_OUTCOMES`]) and the
     /// generation running after it.
     pub fn reload(&self, outcome: &str, generation: u64) {
@@ -686,8 +694,9 @@ impl Metrics {
     pub fn try_encode(&self) -> Result<String, std::fmt::Error> {
         if let Ok(rt) = tokio::runtime::Handle::try_current() {
             let alive = rt.metrics().num_alive_tasks();
+            let own = self.local_tasks.load(Ordering::Relaxed);
             self.runtime_tasks
-                .set(i64::try_from(alive).unwrap_or(i64::MAX));
+                .set(i64::try_from(alive.saturating_add(own)).unwrap_or(i64::MAX));
         }
         let mut out = String::with_capacity(self.last_size.load(Ordering::Relaxed) + 1024);
         text::encode(&mut out, &self.registry)?;

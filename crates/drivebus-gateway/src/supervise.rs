@@ -136,7 +136,7 @@ fn bus_run(
 
 /// Start the task of `ctx` into `run`.
 fn spawn_bus(run: &mut BusRun, ctx: BusContext) {
-    run.task = Some(tokio::task::spawn_local(families::run_bus(ctx)));
+    run.task = Some(crate::tasks::spawn_local(families::run_bus(ctx)));
 }
 
 /// A publisher task (the JSON topics, the Sparkplug node).
@@ -333,7 +333,7 @@ fn serve_page(
     log_page(&listener, &security);
     // The page's connections (live event streams) never end by themselves, so the gateway does
     // not wait for them at the stop.
-    AbortOnDrop(tokio::task::spawn_local(async move {
+    AbortOnDrop(crate::tasks::spawn_local(async move {
         if let Err(e) = ui::serve_with(listener, hub, security, std::future::pending()).await {
             tracing::error!(error = %e, "the page stopped");
         }
@@ -343,7 +343,7 @@ fn serve_page(
 /// A hub for `plant` whose page's jobs run on this thread.
 fn new_hub(plant: &Arc<Plant>, asks: Vec<mpsc::Sender<Ask>>) -> Arc<ui::Hub> {
     let (jobs, worker) = ui::drive::jobs();
-    tokio::task::spawn_local(worker.run());
+    crate::tasks::spawn_local(worker.run());
     ui::Hub::serving(plant.clone(), asks, Some(jobs))
 }
 
@@ -361,7 +361,7 @@ fn start_json(
         let r = end_rx.wait_for(Option::is_some).await;
         r.ok().and_then(|e| *e).unwrap_or(End::Stop)
     };
-    let task = tokio::task::spawn_local(m.run(rx, sets, metrics.clone(), config, shutdown));
+    let task = crate::tasks::spawn_local(m.run(rx, sets, metrics.clone(), config, shutdown));
     (
         Publisher {
             fingerprint,
@@ -384,11 +384,11 @@ fn start_spb(
     // The node's stop is a flag.
     let (stop_tx, stop_rx) = watch::channel(false);
     let mut end_rx2: watch::Receiver<Option<bool>> = end_rx;
-    tokio::task::spawn_local(async move {
+    crate::tasks::spawn_local(async move {
         let _ = end_rx2.wait_for(Option::is_some).await;
         let _ = stop_tx.send(true);
     });
-    let task = tokio::task::spawn_local(s.run(rx, sets, metrics.clone(), stop_rx));
+    let task = crate::tasks::spawn_local(s.run(rx, sets, metrics.clone(), stop_rx));
     (
         Publisher {
             fingerprint,
@@ -681,7 +681,7 @@ impl Running {
                 tracing::info!("/metrics is no longer served");
             }
             Some(Some((addr, listener))) => {
-                let server = AbortOnDrop(tokio::task::spawn_local(metrics::serve(
+                let server = AbortOnDrop(crate::tasks::spawn_local(metrics::serve(
                     listener,
                     self.metrics.clone(),
                 )));
@@ -840,6 +840,7 @@ pub async fn serve_source(plant: Plant, mut source: Source) -> Result<()> {
     let terminal = Terminal::at_start();
     let plant = Arc::new(plant);
     let metrics = Arc::new(Metrics::new(&plant));
+    crate::tasks::count_on_this_thread(metrics.local_task_count());
     // Prepared before anything else starts, so that a bad certificate or password file is
     // an error before a bus is opened.
     let json = if plant.publishes_json() {
@@ -880,7 +881,7 @@ pub async fn serve_source(plant: Plant, mut source: Source) -> Result<()> {
     let metrics_server = metrics_listener.map(|(addr, listener)| {
         (
             addr,
-            AbortOnDrop(tokio::task::spawn_local(metrics::serve(
+            AbortOnDrop(crate::tasks::spawn_local(metrics::serve(
                 listener,
                 metrics.clone(),
             ))),
@@ -910,7 +911,7 @@ pub async fn serve_source(plant: Plant, mut source: Source) -> Result<()> {
         p
     });
     let (changes, changes_rx) = mpsc::unbounded_channel();
-    tokio::task::spawn_local(fanout(updates_rx, outs, changes_rx));
+    crate::tasks::spawn_local(fanout(updates_rx, outs, changes_rx));
     let mut running = Running {
         plant,
         generation: 1,

@@ -274,7 +274,7 @@ fn start(
 ) -> (AsyncClient, mpsc::Receiver<Link>, AbortOnDrop) {
     let (client, eventloop) = AsyncClient::new(options, CLIENT_QUEUE);
     let (link_tx, link_rx) = mpsc::channel(256);
-    let driver = AbortOnDrop(tokio::task::spawn_local(drive(
+    let driver = AbortOnDrop(crate::tasks::spawn_local(drive(
         eventloop,
         link_tx,
         client_id.to_owned(),
@@ -309,7 +309,7 @@ pub(crate) fn hand_set(
     };
     match tx.try_send(req) {
         Ok(()) => {
-            tokio::task::spawn_local(async move {
+            crate::tasks::spawn_local(async move {
                 let outcome = match tokio::time::timeout(max_age + ANSWER_GRACE, answer).await {
                     Ok(Ok(o)) => o,
                     Ok(Err(_)) => SetOutcome::Refused {

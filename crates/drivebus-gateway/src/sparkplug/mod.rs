@@ -339,7 +339,7 @@ fn start(
         group = %sp.group_id, node = %sp.edge_node_id, bd_seq = first.get(),
         file = ?spb.store.path(), "Sparkplug edge node"
     );
-    let driver = AbortOnDrop(tokio::task::spawn_local(drive(
+    let driver = AbortOnDrop(crate::tasks::spawn_local(drive(
         eventloop,
         link_tx,
         spb.store.clone(),

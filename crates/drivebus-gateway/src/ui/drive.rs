@@ -54,7 +54,7 @@ impl Worker {
     /// Take jobs until every [`Jobs`] is dropped. Must run on a `LocalSet`.
     pub async fn run(mut self) {
         while let Some(job) = self.0.recv().await {
-            tokio::task::spawn_local(job());
+            crate::tasks::spawn_local(job());
         }
     }
 }
