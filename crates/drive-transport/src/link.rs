@@ -75,6 +75,15 @@
 //!
 //! A dropped character is not also flipped. [`FaultStats`] counts what was injected.
 //!
+//! # An echoing adapter
+//!
+//! With [`LinkConfig::echo`] the first end of the [`pair`] hears its own characters, as a master
+//! on a two-wire RS-485 adapter whose receiver stays on while it sends: each character it
+//! writes also arrives at its own receiver, at the instant the other end gets it. What happens
+//! on the wire happens to both copies (a flip, an inserted character); a drop is the far
+//! receiver's alone, so the echo keeps the character. The echo is queued with what the other
+//! end sends, in order of arrival.
+//!
 //! The random draws come from drivebus's one seeded generator, [`drive_core::SplitMix64`]; the
 //! two directions of a link use independent streams derived from the seed.
 //!
@@ -232,6 +241,9 @@ pub struct LinkConfig {
     pub faults: FaultConfig,
     /// Characters that may be in flight or unread per direction before writes wait.
     pub capacity: usize,
+    /// The first end of the pair hears what it writes (see [An echoing
+    /// adapter](self#an-echoing-adapter)).
+    pub echo: bool,
 }
 
 impl Default for LinkConfig {
@@ -254,6 +266,7 @@ impl LinkConfig {
             timing: true,
             faults: FaultConfig::none(),
             capacity: 4096,
+            echo: false,
         }
     }
 
@@ -268,6 +281,11 @@ impl LinkConfig {
     /// The same configuration with these random faults.
     pub fn with_faults(self, faults: FaultConfig) -> Self {
         LinkConfig { faults, ..self }
+    }
+
+    /// The same configuration with the first end's echo on ([`LinkConfig::echo`]).
+    pub fn with_echo(self) -> Self {
+        LinkConfig { echo: true, ..self }
     }
 
     /// Wire time of one character, whether or not timing is on.
@@ -288,7 +306,9 @@ impl LinkConfig {
 /// With timing on (or with delay faults), the ends must be used within a tokio runtime with
 /// the time driver enabled.
 pub fn pair(config: LinkConfig) -> (LinkEnd, LinkEnd) {
-    let a_to_b = Arc::new(Mutex::new(Pipe::new(&config, config.faults.seed)));
+    let mut a_to_b = Pipe::new(&config, config.faults.seed);
+    a_to_b.echo = config.echo.then(Vec::new);
+    let a_to_b = Arc::new(Mutex::new(a_to_b));
     let b_to_a = Arc::new(Mutex::new(Pipe::new(
         &config,
         config.faults.seed ^ 0xD1B5_4A32_D192_ED03,
@@ -333,6 +353,9 @@ struct Pipe {
     tx_waker: Option<Waker>,
     tx_closed: bool,
     rx_closed: bool,
+    /// With the writer's echo on: the characters it will hear, gathered by `transmit` until
+    /// the write moves them to its own receiving direction.
+    echo: Option<Vec<Slot>>,
 }
 
 impl Pipe {
@@ -358,6 +381,7 @@ impl Pipe {
             tx_waker: None,
             tx_closed: false,
             rx_closed: false,
+            echo: None,
         }
     }
 
@@ -432,10 +456,15 @@ impl Pipe {
             self.stats.delayed += 1;
         }
         let at = self.schedule(f.gap, now, start);
+        let ch = apply_flip(byte, f.flip_mask, self.parity, self.frame_len);
+        if let Some(echo) = &mut self.echo {
+            // The drop is the far receiver's: the echo hears the character as the wire has it.
+            let ch = if f.drop { WireChar::new(byte) } else { ch };
+            echo.push(Slot { ch, at });
+        }
         if f.drop {
             self.stats.dropped += 1;
         } else {
-            let ch = apply_flip(byte, f.flip_mask, self.parity, self.frame_len);
             if f.flip_mask != 0 {
                 self.stats.flipped += 1;
                 if !ch.parity_ok {
@@ -447,10 +476,14 @@ impl Pipe {
         if let Some(extra) = f.insert {
             self.stats.inserted += 1;
             let at = self.schedule(Duration::ZERO, now, start);
-            self.queue.push_back(Slot {
+            let slot = Slot {
                 ch: WireChar::new(extra),
                 at,
-            });
+            };
+            self.queue.push_back(slot);
+            if let Some(echo) = &mut self.echo {
+                echo.push(slot);
+            }
         }
     }
 }
@@ -712,11 +745,37 @@ impl LinkEnd {
             tx.transmit(byte, &mut now, start);
         }
         let waker = tx.rx_waker.take();
+        let echo = tx.echo.as_mut().map(std::mem::take);
         drop(tx);
         if let Some(waker) = waker {
             waker.wake();
         }
+        if let Some(echo) = echo {
+            self.hear(echo);
+        }
         Poll::Ready(Ok(n))
+    }
+
+    /// Queues this end's echo in its receiving direction, each character behind those that
+    /// arrive no later than it does.
+    fn hear(&mut self, echo: Vec<Slot>) {
+        let mut rx = lock(&self.rx);
+        for slot in echo {
+            let behind = match slot.at {
+                None => rx.queue.len(),
+                Some(at) => rx
+                    .queue
+                    .iter()
+                    .rposition(|q| q.at.is_none_or(|q| q <= at))
+                    .map_or(0, |i| i + 1),
+            };
+            rx.queue.insert(behind, slot);
+        }
+        let waker = rx.rx_waker.take();
+        drop(rx);
+        if let Some(waker) = waker {
+            waker.wake();
+        }
     }
 }
 
