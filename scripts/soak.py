@@ -413,17 +413,28 @@ def cmd_report(args):
     for r in results:
         by_id.setdefault(json.dumps(r["id"]), []).append(r)
     missing = [i for i in acked if json.dumps(i) not in by_id]
-    redelivered, duplicates, unexpected = 0, [], []
+    # When the gateway's connection was down (drivebus_broker_connected 0, sampled every 2 s;
+    # the broker's outages last 5 s or more).
+    outages = [int(r["time"]) for r in rows if r.get("broker_connected") == "0"]
+    redelivered, republished, duplicates, unexpected = 0, 0, [], []
     for key, rs in by_id.items():
         if json.loads(key) not in acked:
             unexpected.append(rs[0])
             continue
-        # A copy the broker re-sent to the observer (dup flag, same payload) is the
-        # observer's QoS 1, not a second answer.
         first, again = rs[0], rs[1:]
         for r in again:
-            if r["dup"] and r["payload"] == first["payload"]:
+            if r["payload"] != first["payload"]:
+                # Another answer to the same set: executed or answered twice.
+                duplicates.append(r)
+            elif r["dup"]:
+                # The broker re-sent its copy to the observer (dup flag): the observer's QoS 1.
                 redelivered += 1
+            elif any(first["arrived"] < t < r["arrived"] for t in outages):
+                # The same result (its `ts` too) published again after the gateway's connection
+                # died before the broker's PUBACK came (QoS 1: gateway.md, "a result the broker
+                # had not acknowledged ... is published again"); the broker passes it on as a
+                # new message, without the dup flag.
+                republished += 1
             else:
                 duplicates.append(r)
     outcomes = {}
@@ -438,7 +449,9 @@ def cmd_report(args):
         f"{len(acked)} sent (taken by the broker), {counted} counted by the gateway "
         f"(drivebus_sets_total), {len(acked) - len(missing)} answered, "
         f"{len(missing)} missing, {len(duplicates)} duplicate, {len(unexpected)} unasked-for; "
-        f"{redelivered} redelivered copies to the observer (dup flag) not counted; "
+        f"{redelivered} redelivered copies to the observer (dup flag) and {republished} "
+        f"published again after a lost connection (same payload and ts, unacknowledged "
+        f"when the connection died) not counted; "
         f"outcomes {json.dumps(dict(sorted(outcomes.items())))}"
         + (f"; {len(unacked)} not taken by the broker, not counted" if unacked else ""),
     )
