@@ -761,6 +761,11 @@ fn issue7_man_pages_render_as_roff() {
         assert!(page.contains(section), "{section}: {page}");
     }
     assert!(page.contains("drivectl\\-ports(1)"), "{page}");
+    // The NAME line says what the tool does, not its name twice (`drivectl - drivectl: …`).
+    assert!(
+        page.contains(".SH NAME\ndrivectl \\- talk to SEW, NORD and Bonfiglioli"),
+        "{page}"
+    );
 
     // One command's page, named after its path, with its options and examples.
     let o = drivectl(&["man", "params"]);
