@@ -22,14 +22,16 @@
 )]
 
 mod common;
+#[path = "common/gateway.rs"]
+mod gateway;
 #[path = "../../drivebus-gateway/tests/common/mosquitto.rs"]
 mod mosquitto;
 
 use std::path::PathBuf;
-use std::process::{Child, Command, Stdio};
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
 use common::{PtySim, ok_json};
+use gateway::Gateway;
 use mosquitto::{BrokerOptions, Mosquitto, TestClient};
 use rumqttc::Publish;
 use serde_json::{Value, json};
@@ -188,83 +190,6 @@ impl Drop for Relay {
     }
 }
 
-/// A running `drivectl gateway`; killed when dropped (its log printed if the test failed).
-struct Gateway {
-    child: Option<Child>,
-    dir: PathBuf,
-}
-
-impl Gateway {
-    fn start(config: &str) -> Gateway {
-        static SEQ: std::sync::atomic::AtomicU32 = std::sync::atomic::AtomicU32::new(0);
-        let dir = std::env::temp_dir().join(format!(
-            "drivebus-bridge-gw-{}-{}",
-            std::process::id(),
-            SEQ.fetch_add(1, std::sync::atomic::Ordering::Relaxed)
-        ));
-        let _ = std::fs::remove_dir_all(&dir);
-        std::fs::create_dir_all(&dir).unwrap();
-        std::fs::write(dir.join("plant.toml"), config).unwrap();
-        let log = std::fs::File::create(dir.join("gateway.log")).unwrap();
-        let child = Command::new(env!("CARGO_BIN_EXE_drivectl"))
-            .arg("gateway")
-            .arg("--config")
-            .arg(dir.join("plant.toml"))
-            .env("DRIVECTL_STATE_DIR", dir.join("state"))
-            .stdout(Stdio::null())
-            .stderr(log)
-            .spawn()
-            .expect("drivectl gateway starts");
-        Gateway {
-            child: Some(child),
-            dir,
-        }
-    }
-
-    fn log(&self) -> String {
-        std::fs::read_to_string(self.dir.join("gateway.log")).unwrap_or_default()
-    }
-
-    /// SIGTERM and wait for the exit (10 s at most).
-    fn terminate(&mut self) -> std::process::ExitStatus {
-        let mut child = self.child.take().expect("running");
-        let sent = Command::new("kill")
-            .arg("-TERM")
-            .arg(child.id().to_string())
-            .status()
-            .unwrap();
-        assert!(sent.success(), "kill -TERM {}", child.id());
-        let deadline = std::time::Instant::now() + Duration::from_secs(10);
-        loop {
-            if let Some(s) = child.try_wait().unwrap() {
-                return s;
-            }
-            if std::time::Instant::now() > deadline {
-                let _ = child.kill();
-                panic!(
-                    "the gateway did not stop within 10 s of SIGTERM:\n{}",
-                    self.log()
-                );
-            }
-            std::thread::sleep(Duration::from_millis(20));
-        }
-    }
-}
-
-impl Drop for Gateway {
-    fn drop(&mut self) {
-        if let Some(mut c) = self.child.take() {
-            let _ = c.kill();
-            let _ = c.wait();
-        }
-        if std::thread::panicking() {
-            eprintln!("gateway log ({}):\n{}", self.dir.display(), self.log());
-        } else {
-            let _ = std::fs::remove_dir_all(&self.dir);
-        }
-    }
-}
-
 /// Prints the end of both brokers' logs if the test fails (dropped before the brokers, which
 /// remove their directories).
 struct BrokerLogs(Vec<(&'static str, PathBuf)>);
@@ -376,6 +301,24 @@ impl Inbox {
 
     async fn publish(&self, topic: &str, payload: Value) {
         self.client.publish(topic, payload.to_string(), false).await;
+    }
+
+    /// Publish a `set` of `value` (with `ts` now and `id`) to the test point and wait for its
+    /// result, which comes back here: the result's payload.
+    async fn set(&mut self, value: f64, id: &str) -> Value {
+        let since = self.mark();
+        self.publish(
+            &set_topic(VALUE),
+            json!({"value": value, "ts": now_ms(), "id": id}),
+        )
+        .await;
+        self.wait_json(
+            &format!("the result of set {id}"),
+            &result_topic(VALUE),
+            since,
+            |r| r["id"] == id,
+        )
+        .await
     }
 
     /// Publish retained (what a `set` must never be).
@@ -621,7 +564,7 @@ impl Bridged {
             MAX_SET_AGE.as_secs(),
             sim.path
         );
-        let gw = Gateway::start(&config);
+        let gw = Gateway::start(&config, &[]);
         local
             .wait_json("the first value", VALUE, 0, |v| {
                 v["raw"].as_i64() == Some(factory)
@@ -674,16 +617,7 @@ async fn bridged_cabinet_broker_values_out_sets_in_and_an_outage() {
     // 2. A set published at the plant broker (with ts, not retained) is executed, and its
     // result comes back there.
     let since = b.dash.mark();
-    b.op.publish(
-        &set_topic(VALUE),
-        json!({"value": 3.5, "ts": now_ms(), "id": "plant-1"}),
-    )
-    .await;
-    let r =
-        b.op.wait_json("the result of set plant-1", &result_topic(VALUE), 0, |r| {
-            r["id"] == "plant-1"
-        })
-        .await;
+    let r = b.op.set(3.5, "plant-1").await;
     assert_eq!(
         (&r["ok"], &r["outcome"], &r["raw"]),
         (&json!(true), &json!("written"), &json!(3500)),
@@ -728,21 +662,7 @@ async fn bridged_cabinet_broker_values_out_sets_in_and_an_outage() {
     // The gateway keeps working at the cabinet broker: a set there is executed, the value and
     // the bus's figures keep coming.
     let since = b.local.mark();
-    b.local
-        .publish(
-            &set_topic(VALUE),
-            json!({"value": 4.2, "ts": now_ms(), "id": "cabinet-1"}),
-        )
-        .await;
-    let r = b
-        .local
-        .wait_json(
-            "the result of set cabinet-1",
-            &result_topic(VALUE),
-            since,
-            |r| r["id"] == "cabinet-1",
-        )
-        .await;
+    let r = b.local.set(4.2, "cabinet-1").await;
     assert_eq!((&r["ok"], &r["raw"]), (&json!(true), &json!(4200)), "{r}");
     b.local
         .wait_json("the value written by cabinet-1", VALUE, since, |v| {
@@ -872,15 +792,7 @@ async fn bridged_cabinet_broker_values_out_sets_in_and_an_outage() {
     let mut want = Vec::new();
     for (i, value) in [5.0, 5.1, 5.2, 5.3, 5.4, 5.5].into_iter().enumerate() {
         let id = format!("shared-{i}");
-        let since = b.op.mark();
-        b.op.publish(
-            &set_topic(VALUE),
-            json!({"value": value, "ts": now_ms(), "id": id}),
-        )
-        .await;
-        let r =
-            b.op.wait_json("a result", &result_topic(VALUE), since, |r| r["id"] == id)
-                .await;
+        let r = b.op.set(value, &id).await;
         assert_eq!(r["ok"], true, "{r}");
         want.push(r["raw"].as_i64().unwrap());
     }
@@ -980,22 +892,7 @@ async fn a_retained_set_at_the_plant_broker_is_not_executed_again_at_each_bridge
         "{first}"
     );
     // Someone at the cabinet sets another value.
-    let since = b.local.mark();
-    b.local
-        .publish(
-            &set_topic(VALUE),
-            json!({"value": 3.0, "ts": now_ms(), "id": "local"}),
-        )
-        .await;
-    let r = b
-        .local
-        .wait_json(
-            "the result of the local set",
-            &result_topic(VALUE),
-            since,
-            |r| r["id"] == "local",
-        )
-        .await;
+    let r = b.local.set(3.0, "local").await;
     assert_eq!(r["raw"], 3000, "{r}");
 
     // The bridge reconnects. Once the plant broker has acknowledged the bridge's subscription,

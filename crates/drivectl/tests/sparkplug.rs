@@ -19,6 +19,8 @@
 )]
 
 mod common;
+#[path = "common/gateway.rs"]
+mod gateway;
 #[path = "../../drivebus-gateway/tests/common/mosquitto.rs"]
 mod mosquitto;
 #[path = "common/spb_host.rs"]
@@ -26,11 +28,12 @@ mod spb_host;
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, ExitStatus, Stdio};
+use std::process::Command;
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
 use common::{PtySim, ok_json};
+use gateway::{Gateway, signal};
 use mosquitto::{BrokerOptions, Mosquitto};
 use serde_json::{Value, json};
 use spb_host::{Metric, Msg, SpbHost};
@@ -80,111 +83,6 @@ fn new_dir(what: &str) -> PathBuf {
 
 fn temp_dir(what: &str) -> TempDir {
     TempDir(new_dir(what))
-}
-
-/// `drivectl gateway --config plant.toml` as a process, with its own `DRIVECTL_STATE_DIR`
-/// (where it keeps bdSeq); killed when dropped, its log printed if the test fails.
-struct Gateway {
-    child: Option<Child>,
-    /// Its config file and log.
-    dir: PathBuf,
-    state: PathBuf,
-}
-
-impl Gateway {
-    fn start(config: &str, state: &Path) -> Gateway {
-        let dir = new_dir("gw");
-        std::fs::write(dir.join("plant.toml"), config).unwrap();
-        let mut gw = Gateway {
-            child: None,
-            dir,
-            state: state.to_owned(),
-        };
-        gw.spawn();
-        gw
-    }
-
-    fn spawn(&mut self) {
-        assert!(self.child.is_none(), "the gateway runs already");
-        let log = std::fs::OpenOptions::new()
-            .create(true)
-            .append(true)
-            .open(self.dir.join("gateway.log"))
-            .unwrap();
-        let child = Command::new(env!("CARGO_BIN_EXE_drivectl"))
-            .arg("gateway")
-            .arg("--config")
-            .arg(self.dir.join("plant.toml"))
-            .env("DRIVECTL_STATE_DIR", &self.state)
-            .stdin(Stdio::null())
-            .stdout(Stdio::null())
-            .stderr(log)
-            .spawn()
-            .expect("drivectl gateway starts");
-        self.child = Some(child);
-    }
-
-    /// Panics with the log if the gateway has exited (`what`: what it should have done).
-    fn assert_running(&mut self, what: &str) {
-        if let Some(child) = self.child.as_mut()
-            && let Some(status) = child.try_wait().unwrap()
-        {
-            self.child = None;
-            panic!(
-                "the gateway exited ({status}) before {what}:\n{}",
-                self.log()
-            );
-        }
-    }
-
-    fn log(&self) -> String {
-        std::fs::read_to_string(self.dir.join("gateway.log")).unwrap_or_default()
-    }
-
-    /// Send `sig` and wait for the exit (10 s at most).
-    fn stop_with(&mut self, sig: &str) -> ExitStatus {
-        let mut child = self.child.take().expect("running");
-        signal(child.id(), sig);
-        let deadline = Instant::now() + Duration::from_secs(10);
-        loop {
-            if let Some(s) = child.try_wait().unwrap() {
-                return s;
-            }
-            if Instant::now() > deadline {
-                let _ = child.kill();
-                let _ = child.wait();
-                panic!(
-                    "the gateway did not exit within 10 s of SIG{sig}:\n{}",
-                    self.log()
-                );
-            }
-            std::thread::sleep(Duration::from_millis(20));
-        }
-    }
-}
-
-impl Drop for Gateway {
-    fn drop(&mut self) {
-        if let Some(mut c) = self.child.take() {
-            let _ = c.kill();
-            let _ = c.wait();
-        }
-        if std::thread::panicking() {
-            eprintln!("gateway log ({}):\n{}", self.dir.display(), self.log());
-        } else {
-            let _ = std::fs::remove_dir_all(&self.dir);
-        }
-    }
-}
-
-fn signal(pid: u32, sig: &str) {
-    let ok = Command::new("kill")
-        .arg(format!("-{sig}"))
-        .arg(pid.to_string())
-        .status()
-        .unwrap()
-        .success();
-    assert!(ok, "kill -{sig} {pid}");
 }
 
 /// A broker, the host on it, and two simulated MOVIDRIVEs (addresses 1 and 2) on one pty;
@@ -334,7 +232,7 @@ fn births_carry_the_simulators_values_and_the_tables_properties() {
     let ramp2 = read_raw(&sim, 2, "P130");
     let state = temp_dir("state");
     let start = now_ms();
-    let mut gw = Gateway::start(&config(&broker, &sim, ""), &state);
+    let mut gw = Gateway::start_with_state(&config(&broker, &sim, ""), state.to_path_buf());
     let (n, d1, d2) = births(&mut host, &mut gw);
 
     // NBIRTH: seq 0, bdSeq 0 for a new state directory, the node's own metrics.
@@ -470,7 +368,7 @@ fn ddata_follows_a_changed_value_by_alias_only() {
         return;
     };
     let state = temp_dir("state");
-    let mut gw = Gateway::start(&config(&broker, &sim, ""), &state);
+    let mut gw = Gateway::start_with_state(&config(&broker, &sim, ""), state.to_path_buf());
     let (_, d1, _) = births(&mut host, &mut gw);
     let alias = d1.get("ramp").alias.unwrap();
 
@@ -525,7 +423,7 @@ fn a_dcmd_is_written_and_read_back_and_a_refused_one_writes_nothing() {
     let p131 = read_raw(&sim, 1, "P131");
     let ramp2 = read_raw(&sim, 2, "P130");
     let state = temp_dir("state");
-    let mut gw = Gateway::start(&config(&broker, &sim, ""), &state);
+    let mut gw = Gateway::start_with_state(&config(&broker, &sim, ""), state.to_path_buf());
     let (_, d1, _) = births(&mut host, &mut gw);
     let ramp_alias = d1.get("ramp").alias.unwrap();
     let offset_alias = d1.get("offset").alias.unwrap();
@@ -647,7 +545,7 @@ fn a_rebirth_request_is_answered_with_every_birth() {
         return;
     };
     let state = temp_dir("state");
-    let mut gw = Gateway::start(&config(&broker, &sim, ""), &state);
+    let mut gw = Gateway::start_with_state(&config(&broker, &sim, ""), state.to_path_buf());
     let (n, d1, _) = births(&mut host, &mut gw);
     host.mark();
     host.rebirth(NODE);
@@ -674,7 +572,7 @@ fn ndeath_carries_the_births_bdseq_which_increases_across_restarts() {
         return;
     };
     let state = temp_dir("state");
-    let mut gw = Gateway::start(&config(&broker, &sim, ""), &state);
+    let mut gw = Gateway::start_with_state(&config(&broker, &sim, ""), state.to_path_buf());
     let (n, _, _) = births(&mut host, &mut gw);
     let first = bd_seq(&n);
 
@@ -684,7 +582,7 @@ fn ndeath_carries_the_births_bdseq_which_increases_across_restarts() {
     assert_eq!(bd_seq(&death), first, "NDEATH at a clean stop");
 
     host.mark();
-    gw.spawn();
+    gw.spawn(&[]);
     let (n, _, _) = births(&mut host, &mut gw);
     let second = bd_seq(&n);
     assert_eq!(second, (first + 1) % 256, "bdSeq across a restart");
@@ -695,7 +593,7 @@ fn ndeath_carries_the_births_bdseq_which_increases_across_restarts() {
     assert_eq!(bd_seq(&will), second, "the will of the killed gateway");
 
     host.mark();
-    gw.spawn();
+    gw.spawn(&[]);
     let (n, _, _) = births(&mut host, &mut gw);
     assert_eq!(bd_seq(&n), (second + 1) % 256, "bdSeq after a kill");
     drop(gw);
@@ -711,7 +609,7 @@ fn a_reload_kills_a_removed_drive_and_is_born_again_with_a_new_one() {
         return;
     };
     let state = temp_dir("state");
-    let mut gw = Gateway::start(&config(&broker, &sim, ""), &state);
+    let mut gw = Gateway::start_with_state(&config(&broker, &sim, ""), state.to_path_buf());
     let (n, _, _) = births(&mut host, &mut gw);
     host.mark();
     // d2 goes (its bus `ml` changes: d1 is restarted with it); a simulated bus with `fan` comes.
@@ -724,7 +622,7 @@ fn a_reload_kills_a_removed_drive_and_is_born_again_with_a_new_one() {
            [[bus.drive]]\nname = \"fan\"\naddress = 1\n\
            [[bus.drive.param]]\nparam = \"241\"\nname = \"frequency\"\nperiod = \"200ms\"\n";
     std::fs::write(gw.dir.join("plant.toml"), two).unwrap();
-    signal(gw.child.as_ref().unwrap().id(), "HUP");
+    gw.signal("HUP");
     let d2 = host.expect_kind("DDEATH", NODE, Some("d2"), WAIT);
     assert!(d2.seq.is_some());
     let again = host.expect_kind("NBIRTH", NODE, None, BIRTH);
@@ -761,7 +659,7 @@ fn a_drive_that_stops_answering_gets_ddeath_and_dbirth_when_it_answers() {
         return;
     };
     let state = temp_dir("state");
-    let mut gw = Gateway::start(&config(&broker, &sim, ""), &state);
+    let mut gw = Gateway::start_with_state(&config(&broker, &sim, ""), state.to_path_buf());
     births(&mut host, &mut gw);
 
     host.mark();
@@ -793,9 +691,9 @@ fn with_a_primary_host_the_node_waits_for_it_and_follows_it_offline() {
         return;
     };
     let state = temp_dir("state");
-    let mut gw = Gateway::start(
+    let mut gw = Gateway::start_with_state(
         &config(&broker, &sim, "primary_host_id = \"scada\""),
-        &state,
+        state.to_path_buf(),
     );
     // Connected and waiting: the broker logs its subscription to the host's STATE.
     let log = broker.dir.join("mosquitto.log");
@@ -856,7 +754,8 @@ fn json_false_publishes_sparkplug_only() {
         &["drivebus/#"],
     ));
     let state = temp_dir("state");
-    let mut gw = Gateway::start(&config(&broker, &sim, "json = false"), &state);
+    let mut gw =
+        Gateway::start_with_state(&config(&broker, &sim, "json = false"), state.to_path_buf());
     births(&mut host, &mut gw);
     let seen = rt.block_on(json_client.collect(Duration::from_secs(2)));
     let points: Vec<&str> = seen

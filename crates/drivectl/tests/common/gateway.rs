@@ -28,25 +28,15 @@ static SEQ: std::sync::atomic::AtomicU32 = std::sync::atomic::AtomicU32::new(0);
 impl Gateway {
     /// Write `config` and start `drivectl gateway --config … <extra>`; its log goes to a file.
     pub fn start(config: &str, extra: &[&str]) -> Gateway {
-        let dir = std::env::temp_dir().join(format!(
-            "drivebus-gw-{}-{}",
-            std::process::id(),
-            SEQ.fetch_add(1, std::sync::atomic::Ordering::Relaxed)
-        ));
-        let _ = std::fs::remove_dir_all(&dir);
-        std::fs::create_dir_all(&dir).unwrap();
-        let mut gw = Gateway {
-            child: None,
-            dir,
-            state: None,
-        };
-        gw.write_config(config);
-        gw.spawn(extra);
-        gw
+        Gateway::launch(config, extra, None)
     }
 
     /// [`Gateway::start`] with `state` as its `DRIVECTL_STATE_DIR`.
     pub fn start_with_state(config: &str, state: PathBuf) -> Gateway {
+        Gateway::launch(config, &[], Some(state))
+    }
+
+    fn launch(config: &str, extra: &[&str], state: Option<PathBuf>) -> Gateway {
         let dir = std::env::temp_dir().join(format!(
             "drivebus-gw-{}-{}",
             std::process::id(),
@@ -57,10 +47,10 @@ impl Gateway {
         let mut gw = Gateway {
             child: None,
             dir,
-            state: Some(state),
+            state,
         };
         gw.write_config(config);
-        gw.spawn(&[]);
+        gw.spawn(extra);
         gw
     }
 
@@ -68,8 +58,15 @@ impl Gateway {
         std::fs::write(self.dir.join("plant.toml"), config).unwrap();
     }
 
+    /// Start the process (again): its log is appended to, so that a restart keeps the
+    /// earlier run's lines above the new ones.
     pub fn spawn(&mut self, extra: &[&str]) {
-        let log = std::fs::File::create(self.dir.join("gateway.log")).unwrap();
+        assert!(self.child.is_none(), "the gateway runs already");
+        let log = std::fs::OpenOptions::new()
+            .create(true)
+            .append(true)
+            .open(self.dir.join("gateway.log"))
+            .unwrap();
         let state = self.state.clone().unwrap_or_else(|| self.dir.join("state"));
         let child = Command::new(env!("CARGO_BIN_EXE_drivectl"))
             .arg("gateway")
@@ -77,6 +74,7 @@ impl Gateway {
             .arg(self.dir.join("plant.toml"))
             .args(extra)
             .env("DRIVECTL_STATE_DIR", state)
+            .stdin(Stdio::null())
             .stdout(Stdio::null())
             .stderr(log)
             .spawn()
@@ -88,24 +86,26 @@ impl Gateway {
         std::fs::read_to_string(self.dir.join("gateway.log")).unwrap_or_default()
     }
 
-    /// SIGTERM (systemd's stop) and wait for the exit (5 s at most); the exit status.
+    /// SIGTERM (systemd's stop) and wait for the exit (10 s at most); the exit status.
     pub fn terminate(&mut self) -> std::process::ExitStatus {
         self.stop_with("TERM")
     }
 
-    /// Send `sig` and wait for the exit (5 s at most); the exit status.
+    /// Send `sig` and wait for the exit (10 s at most: the drives' stop may take that); the
+    /// exit status.
     pub fn stop_with(&mut self, sig: &str) -> std::process::ExitStatus {
         let mut child = self.child.take().expect("running");
         signal(child.id(), sig);
-        let deadline = Instant::now() + Duration::from_secs(5);
+        let deadline = Instant::now() + Duration::from_secs(10);
         loop {
             if let Some(s) = child.try_wait().unwrap() {
                 return s;
             }
             if Instant::now() > deadline {
                 let _ = child.kill();
+                let _ = child.wait();
                 panic!(
-                    "the gateway did not stop within 5 s of SIG{sig}:\n{}",
+                    "the gateway did not stop within 10 s of SIG{sig}:\n{}",
                     self.log()
                 );
             }
@@ -155,6 +155,19 @@ impl Gateway {
     /// Send `sig` (`HUP`, …) without waiting for anything.
     pub fn signal(&self, sig: &str) {
         signal(self.pid().expect("running"), sig);
+    }
+
+    /// Panics with the log if the gateway has exited (`what`: what it should have done first).
+    pub fn assert_running(&mut self, what: &str) {
+        if let Some(child) = self.child.as_mut()
+            && let Some(status) = child.try_wait().unwrap()
+        {
+            self.child = None;
+            panic!(
+                "the gateway exited ({status}) before {what}:\n{}",
+                self.log()
+            );
+        }
     }
 
     /// Whether it still runs.
