@@ -16,7 +16,7 @@ mod common;
 use std::process::{Command, Output, Stdio};
 use std::time::Duration;
 
-use common::{PtySim, ok_json, stderr};
+use common::{PtySim, ok_json, signal, stderr};
 
 /// A program that is not drivectl: it opens the pty (without drivectl's exclusive mode, so
 /// drivectl can open it meanwhile), writes `frame` and closes it without reading, so the
@@ -262,16 +262,6 @@ fn kill_mid_poll(sim: &PtySim, watch: &mut Command) {
     signal(sim.pid(), "CONT");
     // The simulator answers the orphaned request into the port.
     std::thread::sleep(Duration::from_millis(150));
-}
-
-fn signal(pid: u32, sig: &str) {
-    let ok = Command::new("kill")
-        .arg(format!("-{sig}"))
-        .arg(pid.to_string())
-        .status()
-        .unwrap()
-        .success();
-    assert!(ok, "kill -{sig} {pid}");
 }
 
 #[test]

@@ -14,6 +14,9 @@ use std::path::PathBuf;
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
+/// Every test that runs a gateway has `mod common;` too.
+pub use crate::common::signal;
+
 /// A running `drivectl gateway`; killed when dropped.
 pub struct Gateway {
     child: Option<Child>,
@@ -126,16 +129,6 @@ impl Drop for Gateway {
             eprintln!("gateway log ({}):\n{}", self.dir.display(), self.log());
         }
     }
-}
-
-pub fn signal(pid: u32, sig: &str) {
-    let ok = Command::new("kill")
-        .arg(format!("-{sig}"))
-        .arg(pid.to_string())
-        .status()
-        .unwrap()
-        .success();
-    assert!(ok, "kill -{sig} {pid}");
 }
 
 /// The `state` of the gateway's status payload (`{"state":"online","config":…}`).

@@ -109,3 +109,14 @@ pub fn stderr_json(o: &Output) -> Vec<serde_json::Value> {
         .map(|l| serde_json::from_str(l).unwrap_or_else(|e| panic!("stderr not JSON: {l}: {e}")))
         .collect()
 }
+
+/// Send `sig` (`TERM`, `HUP`, `STOP`, …) to `pid`; panics if `kill` fails.
+pub fn signal(pid: u32, sig: &str) {
+    let ok = Command::new("kill")
+        .arg(format!("-{sig}"))
+        .arg(pid.to_string())
+        .status()
+        .unwrap()
+        .success();
+    assert!(ok, "kill -{sig} {pid}");
+}
