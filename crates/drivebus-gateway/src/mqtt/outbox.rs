@@ -55,8 +55,8 @@ struct Slot {
     raw: Option<i64>,
     /// The input words last published (process data).
     words: Option<Vec<u16>>,
-    /// Its payload says the value is stale (the drive stopped answering, or the gateway
-    /// stopped): the next read publishes it fresh, changed or not.
+    /// Its payload says it is stale (a value or process data: the drive stopped answering;
+    /// any topic: the gateway stopped): the next update publishes it fresh, changed or not.
     stale: bool,
 }
 
@@ -241,7 +241,8 @@ impl Outbox {
                 let Some(s) = self.slots.get_mut(ix) else {
                     return false;
                 };
-                if s.words.as_deref() != Some(words.as_slice()) || due(s) {
+                if s.words.as_deref() != Some(words.as_slice()) || s.stale || due(s) {
+                    s.stale = false;
                     s.payload = Some(payload::process_data(&words, out, payload::millis(at)));
                     s.words = Some(words);
                     self.mark(ix);
@@ -260,6 +261,7 @@ impl Outbox {
                 let Some(s) = self.slots.get_mut(ix) else {
                     return false;
                 };
+                s.stale = false;
                 s.payload = Some(payload::status(&status, payload::millis(at)));
                 let timed_out = status == DriveStatus::Timeout;
                 if let Some(st) = self.statuses.get_mut(bus).and_then(|b| b.get_mut(drive)) {
@@ -267,14 +269,14 @@ impl Outbox {
                 }
                 self.mark(ix);
                 if timed_out {
-                    // Its retained values are republished as stale, so that no consumer takes
-                    // a value read before the drive went quiet for a current one.
+                    // Its retained values and process data are republished as stale, so that
+                    // no consumer takes what was read before the drive went quiet for current.
                     let n = plant
                         .buses
                         .get(bus)
                         .and_then(|b| b.drives.get(drive))
                         .map_or(0, |d| d.points.len());
-                    for point in ix + 2..ix + 2 + n {
+                    for point in ix + 1..ix + 2 + n {
                         self.make_stale(point, payload::millis(at));
                     }
                 }
@@ -288,6 +290,7 @@ impl Outbox {
                     return false;
                 };
                 let ts = payload::millis(std::time::SystemTime::now());
+                s.stale = false;
                 s.payload = Some(payload::figures(&figures, ts));
                 self.mark(ix);
                 true
@@ -392,13 +395,14 @@ impl Outbox {
             .filter(|t| !t.is_empty())
     }
 
-    /// Every value published and still fresh, as a stale copy since `since` (ms), without
-    /// changing what is kept: for a connection that ends while the values stay current (the
-    /// next connection publishes them as they are).
+    /// Every retained topic published and still fresh (values, process data, drive statuses,
+    /// bus figures), as a stale copy since `since` (ms), without changing what is kept: for a
+    /// connection that ends while the gateway runs on (the next connection publishes them as
+    /// they are).
     pub fn stale_copies(&self, since: u64) -> Vec<(String, String)> {
         self.slots
             .iter()
-            .filter(|s| s.kind == Kind::Value && s.published.is_some() && !s.stale)
+            .filter(|s| s.published.is_some() && !s.stale)
             .filter_map(|s| {
                 Some((
                     s.topic.clone(),
@@ -408,12 +412,12 @@ impl Outbox {
             .collect()
     }
 
-    /// Republish value slot `ix` as stale since `since` (ms), if it has a fresh value.
+    /// Republish slot `ix` as stale since `since` (ms), if it has a fresh payload.
     fn make_stale(&mut self, ix: usize, since: u64) {
         let Some(s) = self.slots.get_mut(ix) else {
             return;
         };
-        if s.stale || s.kind != Kind::Value {
+        if s.stale {
             return;
         }
         if let Some(p) = s.payload.as_deref().and_then(|p| payload::stale(p, since)) {
@@ -423,9 +427,9 @@ impl Outbox {
         }
     }
 
-    /// The gateway is stopping: every value it has published, as stale since `since` (ms), to
-    /// publish before `offline` (a consumer reading only a value topic sees that it is no
-    /// longer kept current).
+    /// The gateway is stopping: every retained topic it has published (values, process data,
+    /// drive statuses, bus figures), as stale since `since` (ms), to publish before `offline`
+    /// (a consumer reading only one of those topics sees that it is no longer kept current).
     pub fn stopping(&mut self, since: u64) -> Vec<(String, String)> {
         let mut out = Vec::new();
         for ix in 0..self.slots.len() {
@@ -595,6 +599,8 @@ mod tests {
     use super::*;
     use std::time::SystemTime;
 
+    use crate::model::BusFigures;
+
     fn plant() -> Plant {
         Plant::parse(
             "[gateway]\nname = \"gw\"\nbroker = \"mqtt://h\"\nheartbeat = \"10s\"\n\
@@ -681,14 +687,108 @@ mod tests {
         // A fault is no timeout: the drive answers, its values are read and current.
         o.update(status(DriveStatus::Fault("F07".into()), 8000), t, &p);
         assert_eq!(drain(&mut o, t).len(), 1, "the status only");
-        // The stop: every value published so far, stale (P700 stayed stale from before).
+        // The stop: every topic published so far, stale (P700 stayed stale from before; the
+        // drive's status too, see the next test).
         let stop = o.stopping(9000);
         let topics: Vec<&str> = stop.iter().map(|(t, _)| t.as_str()).collect();
-        assert_eq!(topics, ["drivebus/gw/b/d/P130"]);
-        assert_eq!(json(&stop[0].1)["stale_since"], 9000);
+        assert_eq!(topics, ["drivebus/gw/b/d/status", "drivebus/gw/b/d/P130"]);
+        assert_eq!(json(&stop[1].1)["stale_since"], 9000);
         assert!(
             drain(&mut o, t).is_empty(),
             "handed by the caller, not queued"
+        );
+    }
+
+    /// Issue 22, item 3: not only the values. A drive's process data (its input words) go
+    /// stale with its values at a timeout and are published fresh at the next cycle, unchanged
+    /// or not; at the stop every retained topic the gateway published says stale: the values,
+    /// the process data, the drive's status and the bus's figures (a status `online` or a bus
+    /// utilisation read weeks after the gateway stopped is no more current than a value).
+    #[tokio::test(start_paused = true)]
+    async fn process_data_statuses_and_figures_say_stale_too() {
+        let p = plant();
+        let mut o = Outbox::new(&p);
+        let t = Instant::now();
+        let pd = |words: Vec<u16>| Update::ProcessData {
+            bus: 0,
+            drive: 0,
+            words,
+            at: SystemTime::UNIX_EPOCH + Duration::from_millis(1234),
+        };
+        o.update(status(DriveStatus::Online, 1000), t, &p);
+        o.update(pd(vec![7, 1500]), t, &p);
+        o.update(value(0, 2000), t, &p);
+        o.update(
+            Update::Figures {
+                bus: 0,
+                figures: BusFigures::default(),
+            },
+            t,
+            &p,
+        );
+        assert_eq!(drain(&mut o, t).len(), 4);
+        o.update(status(DriveStatus::Timeout, 5000), t, &p);
+        let out = drain(&mut o, t);
+        let topics: Vec<&str> = out.iter().map(|(t, _, _)| t.as_str()).collect();
+        assert_eq!(
+            topics,
+            [
+                "drivebus/gw/b/d/status",
+                "drivebus/gw/b/d/pd",
+                "drivebus/gw/b/d/P130"
+            ]
+        );
+        assert_eq!(
+            json(&out[1].1),
+            serde_json::json!({"in": [7, 1500], "out": [6, 1500], "ts": 1234,
+                               "stale": true, "stale_since": 5000})
+        );
+        // The drive's status says timeout: that is current, not stale.
+        assert_eq!(json(&out[0].1).get("stale"), None);
+        // Back: the same words are published fresh at once (not at the heartbeat).
+        o.update(status(DriveStatus::Online, 7000), t, &p);
+        o.update(pd(vec![7, 1500]), t, &p);
+        let out = drain(&mut o, t);
+        assert_eq!(out.len(), 2, "{out:?}");
+        assert_eq!(out[1].0, "drivebus/gw/b/d/pd");
+        assert_eq!(json(&out[1].1).get("stale"), None);
+        // The stop: every topic published and fresh, stale since the stop (P130 was already).
+        let stop = o.stopping(9000);
+        let topics: Vec<&str> = stop.iter().map(|(t, _)| t.as_str()).collect();
+        assert_eq!(
+            topics,
+            [
+                "drivebus/gw/b/status",
+                "drivebus/gw/b/d/status",
+                "drivebus/gw/b/d/pd"
+            ]
+        );
+        for (topic, payload) in &stop {
+            let v = json(payload);
+            assert_eq!(
+                (&v["stale"], &v["stale_since"]),
+                (&serde_json::json!(true), &serde_json::json!(9000)),
+                "{topic}: {v}"
+            );
+        }
+        assert_eq!(
+            json(&stop[1].1)["state"],
+            "online",
+            "what it was, marked stale"
+        );
+        // A connection that ends while the gateway runs on (a reload to another broker): the
+        // same topics as stale copies, what is kept unchanged.
+        let mut o = Outbox::new(&p);
+        o.update(status(DriveStatus::Online, 1000), t, &p);
+        o.update(pd(vec![7, 1500]), t, &p);
+        drain(&mut o, t);
+        let copies = o.stale_copies(9000);
+        let topics: Vec<&str> = copies.iter().map(|(t, _)| t.as_str()).collect();
+        assert_eq!(topics, ["drivebus/gw/b/d/status", "drivebus/gw/b/d/pd"]);
+        assert!(
+            o.stale_copies(9500)
+                .iter()
+                .all(|(_, p)| json(p)["stale_since"] == 9500)
         );
     }
 

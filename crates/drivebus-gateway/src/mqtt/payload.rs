@@ -77,8 +77,9 @@ pub fn value_json(t: &Target, raw: i64, ts: u64, device: &Device) -> Value {
     Value::Object(m)
 }
 
-/// A value payload marked stale since `since` (ms): `"stale": true, "stale_since": …` added,
-/// the value, its unit, raw value and read time (`ts`) kept. `None` if it is not a value's JSON.
+/// A retained payload (a value, process data, a drive's status, a bus's figures) marked stale
+/// since `since` (ms): `"stale": true, "stale_since": …` added, everything else (the value,
+/// its unit, raw value and read time `ts`) kept. `None` if it is not a JSON object.
 pub fn stale(payload: &str, since: u64) -> Option<String> {
     let mut v: Value = serde_json::from_str(payload).ok()?;
     let m = v.as_object_mut()?;
