@@ -53,7 +53,8 @@ pub(crate) const ANSWER_GRACE: Duration = Duration::from_secs(60);
 /// How the JSON publisher ends.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum End {
-    /// The gateway stops: every value published stale, the status `offline`.
+    /// The gateway stops: every retained topic published stale (values, process data, the
+    /// drives' statuses, the buses' figures), the status `offline`.
     Stop,
     /// A reloaded config publishes no JSON topics any more: every retained topic the gateway
     /// published is cleared, its status too.
@@ -696,8 +697,8 @@ impl Task {
 
     /// The connection ends for one with other settings: a reload changed the broker, the
     /// credentials, or the gateway's topics. When the topics stay (`prefix` and `name`), every
-    /// value is published stale and the status `offline`, as at a stop (the values stay known
-    /// for the next connection); when they change, every retained topic of the old ones is
+    /// retained topic is published stale and the status `offline`, as at a stop (what they
+    /// hold stays known for the next connection); when they change, every retained topic of the old ones is
     /// cleared (the gateway no longer publishes there). At most [`SHUTDOWN_FLUSH`].
     async fn end_connection(&mut self, link_rx: &mut mpsc::Receiver<Link>, r: &Reconfig) {
         let (old, new) = (&self.plant.gateway, &r.plant.gateway);
