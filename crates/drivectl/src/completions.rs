@@ -91,12 +91,6 @@ pub fn man(args: &ManArgs, cmd: Command) -> Result<()> {
     }
     // Built, a subcommand's display name is the whole command path (drivectl-movilink-read,
     // as git's pages are named) and its usage starts with `drivectl movilink read`.
-    // The top page's NAME line is `drivectl - <about>`: the about of `--help` starts with the
-    // name itself (the package's description), so the page says what the tool does instead.
-    if path.len() == 1 {
-        page = page
-            .about("talk to SEW, NORD and Bonfiglioli frequency inverters over their own buses");
-    }
     let mut buf = Vec::new();
     clap_mangen::Man::new(page)
         .section("1")

@@ -27,12 +27,14 @@ mod ui;
 use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 use std::process::ExitCode;
 
+// The doc comment is the first line of `--help` and the man page's NAME line (`drivectl -
+// Talk to …`); the package's description (`drivectl: the drivebus command-line tool`) would
+// say the name twice there.
 /// Talk to SEW, NORD and Bonfiglioli frequency inverters over their own buses.
 #[derive(Debug, Parser)]
 #[command(
     name = "drivectl",
     version,
-    about,
     propagate_version = true,
     after_help = examples::ROOT
 )]

@@ -763,7 +763,7 @@ fn issue7_man_pages_render_as_roff() {
     assert!(page.contains("drivectl\\-ports(1)"), "{page}");
     // The NAME line says what the tool does, not its name twice (`drivectl - drivectl: …`).
     assert!(
-        page.contains(".SH NAME\ndrivectl \\- talk to SEW, NORD and Bonfiglioli"),
+        page.contains(".SH NAME\ndrivectl \\- Talk to SEW, NORD and Bonfiglioli"),
         "{page}"
     );
 
