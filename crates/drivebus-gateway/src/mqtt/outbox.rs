@@ -276,8 +276,9 @@ impl Outbox {
                         .get(bus)
                         .and_then(|b| b.drives.get(drive))
                         .map_or(0, |d| d.points.len());
-                    for point in ix + 1..ix + 2 + n {
-                        self.make_stale(point, payload::millis(at));
+                    // Its slots after the status: process data, then each point.
+                    for slot in ix + 1..ix + 2 + n {
+                        self.make_stale(slot, payload::millis(at));
                     }
                 }
                 true
