@@ -23,7 +23,7 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
 use common::PtySim;
-use gateway::{Gateway, free_port, metric, scrape};
+use gateway::{Gateway, free_port, free_ports, metric, scrape};
 use mosquitto::{BrokerOptions, Mosquitto, TestClient};
 use serde_json::{Value, json};
 
@@ -553,14 +553,7 @@ async fn issue22_a_reload_moves_broker_name_page_and_metrics_without_a_restart()
     let bus = "[[bus]]\nname = \"ml\"\nprotocol = \"movilink\"\nsimulate = true\n\
                [[bus.drive]]\nname = \"d1\"\naddress = 1\n\
                [[bus.drive.param]]\nparam = \"P130\"\nname = \"ramp\"\nperiod = \"200ms\"\n";
-    // Three distinct ports: each listener is held until all three are chosen (three calls of
-    // `free_port` in a row may be given the same port twice).
-    let held: Vec<std::net::TcpListener> = (0..3)
-        .map(|_| std::net::TcpListener::bind("127.0.0.1:0").unwrap())
-        .collect();
-    let port_of = |i: usize| held[i].local_addr().unwrap().port();
-    let (m1, m2, page) = (port_of(0), port_of(1), port_of(2));
-    drop(held);
+    let [m1, m2, page] = free_ports();
     let config = |broker: &Mosquitto, name: &str, metrics: u16, ui: &str| {
         format!(
             "[gateway]\nname = \"{name}\"\nbroker = \"{}\"\nmetrics = \"127.0.0.1:{metrics}\"\n{ui}{bus}",

@@ -180,6 +180,14 @@ pub fn free_port() -> u16 {
         .port()
 }
 
+/// `N` distinct free ports on 127.0.0.1: each listener is held until all are chosen (`N`
+/// calls of [`free_port`] in a row may be given one port twice).
+pub fn free_ports<const N: usize>() -> [u16; N] {
+    let held: [std::net::TcpListener; N] =
+        std::array::from_fn(|_| std::net::TcpListener::bind("127.0.0.1:0").unwrap());
+    held.map(|l| l.local_addr().unwrap().port())
+}
+
 /// `GET /metrics` on 127.0.0.1:`port`.
 pub fn scrape(port: u16) -> String {
     use std::io::{Read as _, Write as _};
